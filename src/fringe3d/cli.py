@@ -1,0 +1,91 @@
+"""The ``fringe3d`` command.
+
+Each sub-command lives in its own module under :mod:`fringe3d.commands` and exposes
+``register(app)``; this file only discovers and wires them, so adding a command never
+touches another's code.
+
+Exit codes (documented in ``fringe3d --help``):
+  0 success · 1 unexpected internal error · 2 bad input or usage (the message says what was
+  wrong and what was expected) · 3 an output could not be written.
+"""
+from __future__ import annotations
+
+import importlib
+import pkgutil
+import sys
+
+import typer
+
+from fringe3d import commands
+from fringe3d.io.console import err_console
+
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_WRITE = 0, 1, 2, 3
+
+app = typer.Typer(
+    name="fringe3d",
+    help=(
+        "Superfast, high-accuracy 3D shape measurement with digital fringe projection, "
+        "and a virtual camera-projector rig with ground truth.\n\n"
+        "Exit codes: 0 ok, 1 internal error, 2 bad input or usage, 3 output not writable.\n\n"
+        "Example: fringe3d demo -o demo-out"
+    ),
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    context_settings={"help_option_names": ["-h", "--help"]},
+)
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", help="Print the fringe3d version and exit."),
+) -> None:
+    """Superfast, high-accuracy 3D shape measurement with digital fringe projection."""
+    if version:
+        from fringe3d import __version__
+        typer.echo(__version__)
+        raise typer.Exit()
+
+
+def _register_all() -> None:
+    for mod in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
+        if mod.name.startswith("_"):
+            continue
+        module = importlib.import_module(f"fringe3d.commands.{mod.name}")
+        register = getattr(module, "register", None)
+        if register is not None:
+            register(app)
+
+
+_register_all()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: run the app, turning known error types into clear messages and exit codes."""
+    try:
+        app(args=argv, standalone_mode=False)
+    except SystemExit as e:  # typer/click exit
+        return int(e.code or 0)
+    except (ValueError, FileNotFoundError, KeyError) as e:
+        err_console.print(f"[bold red]error:[/] {e}")
+        return EXIT_BAD_INPUT
+    except PermissionError as e:
+        err_console.print(f"[bold red]cannot write output:[/] {e}")
+        return EXIT_WRITE
+    except OSError as e:
+        err_console.print(f"[bold red]I/O error:[/] {e}")
+        return EXIT_WRITE
+    except Exception as e:  # click usage errors and the rest
+        import click
+        if isinstance(e, click.exceptions.ClickException):
+            e.show()
+            return EXIT_BAD_INPUT
+        if isinstance(e, click.exceptions.Abort):
+            err_console.print("aborted")
+            return EXIT_INTERNAL
+        raise
+    return EXIT_OK
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,37 @@
+"""The virtual lab: each dissertation result reproduced in simulation.
+
+Every experiment is a module here defining
+
+* ``NAME``: the command-line name (e.g. ``"unwrap-noise"``),
+* ``SUMMARY``: one line for ``fringe3d experiment --list``,
+* ``run(quick: bool = False, seed: int = 0) -> dict``: does the work (seeded, repeatable)
+  and returns a JSON-friendly dict with at least ``"tables"``: a list of
+  ``{"title": str, "columns": [...], "rows": [[...], ...]}`` and ``"dissertation"``: the
+  dissertation's own figure(s) for comparison, and ``"goals"``: ``{name: bool}``.
+
+``fringe3d experiment NAME`` prints the tables; ``--json`` prints the dict.
+"""
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from types import ModuleType
+
+
+def available() -> dict[str, ModuleType]:
+    """Map experiment names to their modules."""
+    out: dict[str, ModuleType] = {}
+    for mod in pkgutil.iter_modules(__path__):
+        if mod.name.startswith("_"):
+            continue
+        m = importlib.import_module(f"{__name__}.{mod.name}")
+        if hasattr(m, "NAME") and hasattr(m, "run"):
+            out[m.NAME] = m
+    return dict(sorted(out.items()))
+
+
+def get(name: str) -> ModuleType:
+    exps = available()
+    if name not in exps:
+        raise ValueError(f"unknown experiment {name!r}; available: {', '.join(exps) or '(none)'}")
+    return exps[name]

@@ -1,0 +1,102 @@
+"""Console output shared by the sub-commands: rich tables, progress bars, JSON, --quiet."""
+from __future__ import annotations
+
+import json
+import math
+from contextlib import contextmanager
+from typing import Iterable, Iterator
+
+import numpy as np
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+console = Console()
+err_console = Console(stderr=True)
+
+
+class _Settings:
+    quiet: bool = False
+
+
+settings = _Settings()
+
+
+def set_quiet(quiet: bool) -> None:
+    """Silence progress bars and informational output (tables still print unless ``--json``)."""
+    settings.quiet = quiet
+
+
+@contextmanager
+def progress_bar(description: str, total: int | None, enabled: bool = True) -> Iterator:
+    """A rich progress bar on stderr; yields ``advance(n=1)``. Disabled when quiet."""
+    if settings.quiet or not enabled:
+        yield lambda n=1: None
+        return
+    prog = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                    TimeElapsedColumn(), TimeRemainingColumn(), console=err_console, transient=True)
+    with prog:
+        task = prog.add_task(description, total=total)
+        yield lambda n=1: prog.advance(task, n)
+
+
+def track(items: Iterable, description: str, total: int | None = None) -> Iterator:
+    """Iterate with a progress bar (on stderr, silenced by --quiet)."""
+    items = list(items) if total is None else items
+    n = total if total is not None else len(items)
+    with progress_bar(description, n) as advance:
+        for it in items:
+            yield it
+            advance()
+
+
+def info(msg: str) -> None:
+    if not settings.quiet:
+        err_console.print(msg)
+
+
+def warn(msg: str) -> None:
+    err_console.print(f"[yellow]warning:[/] {msg}")
+
+
+def to_jsonable(obj):
+    """Convert numpy scalars/arrays and non-finite floats into JSON-friendly values."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        f = float(obj)
+        return f if math.isfinite(f) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    return obj
+
+
+def print_json(obj) -> None:
+    """Print one JSON object on stdout (machine output for ``--json``)."""
+    print(json.dumps(to_jsonable(obj), indent=1))
+
+
+def make_table(title: str, columns: list[str], rows: list[list]) -> Table:
+    t = Table(title=title, title_justify="left")
+    for c in columns:
+        t.add_column(str(c), justify="right" if c not in columns[:1] else "left")
+    for r in rows:
+        t.add_row(*[_fmt(v) for v in r])
+    return t
+
+
+def _fmt(v) -> str:
+    if isinstance(v, (float, np.floating)):
+        if not math.isfinite(v):
+            return "—"
+        a = abs(v)
+        if a != 0 and (a < 1e-3 or a >= 1e5):
+            return f"{v:.3g}"
+        return f"{v:.4g}"
+    return str(v)
