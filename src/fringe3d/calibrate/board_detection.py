@@ -1,0 +1,197 @@
+"""Circle-grid calibration boards and sub-pixel centre detection (ch. 2.2.5 step 2, ch. 3.3).
+
+Board coordinates: the board plane is ``z = 0``, the first circle (top-left, OpenCV order:
+row by row, left to right) is the origin, ``x`` along a row, ``y`` down the columns (mm).
+OpenCV's ``findCirclesGrid`` finds and orders the circles; a ``SimpleBlobDetector`` sized to
+the expected circle area keeps it from locking onto noise or fringe remnants, and each centre
+is then refined to sub-pixel accuracy by an intensity-weighted centroid over the blob.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+
+@dataclass(frozen=True)
+class CircleBoard:
+    """A planar circle-grid target.
+
+    Attributes
+    ----------
+    cols, rows : int
+        Circles per row and number of rows (OpenCV ``patternSize = (cols, rows)``).
+    spacing : float
+        Centre-to-centre distance in mm (for asymmetric grids: the distance between
+        neighbouring circles of one row is ``2*spacing``, rows are offset by ``spacing``).
+    radius : float
+        Circle radius in mm.
+    asymmetric : bool
+        OpenCV asymmetric grid layout.
+    dark_circles : bool
+        True for dark circles on a bright board, False for bright circles on a dark board.
+    """
+
+    cols: int = 9
+    rows: int = 9
+    spacing: float = 10.0
+    radius: float = 2.5
+    asymmetric: bool = False
+    dark_circles: bool = True
+
+    def __post_init__(self):
+        if self.cols < 2 or self.rows < 2:
+            raise ValueError(f"a circle board needs at least 2x2 circles, got {self.cols}x{self.rows}")
+        if not (0 < 2 * self.radius < self.spacing * (2 if self.asymmetric else 1) + 1e-12):
+            raise ValueError(f"circle radius {self.radius} mm does not fit the spacing {self.spacing} mm")
+
+    @property
+    def pattern_size(self) -> tuple[int, int]:
+        return (self.cols, self.rows)
+
+    @property
+    def count(self) -> int:
+        return self.cols * self.rows
+
+    def object_points(self) -> np.ndarray:
+        """``(rows*cols, 3)`` float64 circle centres in board coordinates (mm), OpenCV order."""
+        j, i = np.meshgrid(np.arange(self.cols), np.arange(self.rows))
+        if self.asymmetric:
+            x = (2 * j + (i % 2)) * self.spacing
+        else:
+            x = j * self.spacing
+        y = i * self.spacing
+        return np.stack([x.ravel(), y.ravel(), np.zeros(self.count)], axis=-1).astype(float)
+
+    def corner_indices(self) -> dict[str, int]:
+        """Indices of the four corner circles A (top-left), B (top-right), C (bottom-right),
+        D (bottom-left) used for the diagonal-length check of ch. 3.4."""
+        c, r = self.cols, self.rows
+        return {"A": 0, "B": c - 1, "C": r * c - 1, "D": (r - 1) * c}
+
+    def to_dict(self) -> dict:
+        return {"cols": self.cols, "rows": self.rows, "spacing": self.spacing, "radius": self.radius,
+                "asymmetric": self.asymmetric, "dark_circles": self.dark_circles}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "CircleBoard":
+        known = {"cols", "rows", "spacing", "radius", "asymmetric", "dark_circles"}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ValueError(f"board: unknown field(s) {unknown}; allowed {sorted(known)}")
+        return cls(**d)
+
+
+def to_uint8(image: np.ndarray) -> np.ndarray:
+    """Scale an image (any dtype) to uint8 with its 0.5-99.5 percentile range."""
+    img = np.asarray(image)
+    if img.ndim != 2:
+        raise ValueError(f"expected a 2-D grey image, got shape {img.shape}")
+    if img.dtype == np.uint8:
+        return img
+    f = img.astype(np.float64)
+    lo, hi = np.nanpercentile(f, [0.5, 99.5])
+    if not hi > lo:
+        raise ValueError("board image has no contrast (all pixels equal)")
+    return np.clip((f - lo) * (255.0 / (hi - lo)), 0, 255).astype(np.uint8)
+
+
+def blob_detector(board: CircleBoard, expected_radius_px: tuple[float, float]) -> cv2.SimpleBlobDetector:
+    """A ``SimpleBlobDetector`` accepting blobs whose radius lies in ``expected_radius_px``
+    (min, max in pixels), of the board's circle polarity."""
+    p = cv2.SimpleBlobDetector_Params()
+    rmin, rmax = expected_radius_px
+    p.filterByArea = True
+    p.minArea = float(max(np.pi * rmin ** 2, 4.0))
+    p.maxArea = float(np.pi * rmax ** 2)
+    p.filterByColor = True
+    p.blobColor = 0 if board.dark_circles else 255
+    p.filterByCircularity = True
+    p.minCircularity = 0.5
+    p.filterByConvexity = True
+    p.minConvexity = 0.8
+    p.filterByInertia = True
+    p.minInertiaRatio = 0.15
+    p.minThreshold = 20
+    p.maxThreshold = 235
+    p.thresholdStep = 10
+    p.minDistBetweenBlobs = max(1.0, rmin)
+    return cv2.SimpleBlobDetector_create(p)
+
+
+def detect_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, float] | None = None,
+                 refine: bool = True) -> np.ndarray | None:
+    """Find the board's circle centres in a white-illuminated image.
+
+    Parameters
+    ----------
+    image : (H, W) array, any dtype
+        Board image (the "white" frame of a calibration pose).
+    board : CircleBoard
+    radius_px : (min, max) or None
+        Expected circle radius range in pixels; None derives it from the image size and the
+        board's circle count (radius between 1/6 and 1.2 of the largest spacing that fits).
+    refine : bool
+        Refine each centre by an intensity-weighted centroid (sub-pixel).
+
+    Returns
+    -------
+    (rows*cols, 2) float64 pixel centres ``(u, v)`` in OpenCV order, or None if the board
+    was not found.
+    """
+    img8 = to_uint8(image)
+    h, w = img8.shape
+    if radius_px is None:
+        span = max(board.cols * (2 if board.asymmetric else 1), board.rows)
+        s_max = min(h, w) / max(span - 1, 1)
+        ratio = board.radius / board.spacing
+        radius_px = (1.5, max(3.0, 1.3 * ratio * s_max * (2 if board.asymmetric else 1)))
+    flags = cv2.CALIB_CB_ASYMMETRIC_GRID if board.asymmetric else cv2.CALIB_CB_SYMMETRIC_GRID
+    det = blob_detector(board, radius_px)
+    found, centres = cv2.findCirclesGrid(img8, board.pattern_size, flags=flags, blobDetector=det)
+    if not found or centres is None:
+        found, centres = cv2.findCirclesGrid(img8, board.pattern_size,
+                                             flags=flags | cv2.CALIB_CB_CLUSTERING, blobDetector=det)
+        if not found or centres is None:
+            return None
+    uv = np.asarray(centres, dtype=np.float64).reshape(-1, 2)  # OpenCV 4: (N,1,2); 5: may be (N,2)
+    if uv.shape[0] != board.count:
+        return None
+    if refine:
+        uv = refine_centres(np.asarray(image, dtype=np.float64), uv, board)
+    return uv
+
+
+def refine_centres(image: np.ndarray, uv: np.ndarray, board: CircleBoard) -> np.ndarray:
+    """Intensity-weighted centroids of each circle around the initial centres ``uv (N, 2)``.
+
+    The window radius is 0.45 of the distance to the nearest neighbouring centre. Weights are
+    the darkness (dark circles) or brightness above the local background, clipped at zero, so
+    the background plate contributes nothing; the local background and circle levels come from
+    the window's 10th/90th percentiles. Returns ``(N, 2)`` float64.
+    """
+    h, w = image.shape
+    d = np.linalg.norm(uv[:, None] - uv[None], axis=-1)
+    np.fill_diagonal(d, np.inf)
+    out = uv.copy()
+    for k, (u, v) in enumerate(uv):
+        r = 0.45 * d[k].min()
+        u0, u1 = int(max(np.floor(u - r), 0)), int(min(np.ceil(u + r), w - 1))
+        v0, v1 = int(max(np.floor(v - r), 0)), int(min(np.ceil(v + r), h - 1))
+        patch = image[v0:v1 + 1, u0:u1 + 1]
+        vv, uu = np.mgrid[v0:v1 + 1, u0:u1 + 1]
+        inside = (uu - u) ** 2 + (vv - v) ** 2 <= r * r
+        vals = patch[inside]
+        if vals.size < 9:
+            continue
+        lo, hi = np.percentile(vals, [10, 90])
+        if not hi > lo:
+            continue
+        wgt = (hi - vals) if board.dark_circles else (vals - lo)
+        wgt = np.clip(wgt - 0.05 * (hi - lo), 0, None)  # background (flat) gets no weight
+        s = wgt.sum()
+        if s <= 0:
+            continue
+        out[k] = [(wgt * uu[inside]).sum() / s, (wgt * vv[inside]).sum() / s]
+    return out

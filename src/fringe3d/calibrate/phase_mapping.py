@@ -1,0 +1,90 @@
+"""The projector "captures" the board through absolute phase (ch. 2.2.4-2.2.5, Eq. 2.27-2.34).
+
+A fringe direction at angle ``alpha`` encodes the projector fringe coordinate
+``w = v_p cos(alpha) + u_p sin(alpha)`` as absolute phase ``Phi = 2 pi w / T`` (manifest
+convention). Sampling two such phase maps at a camera circle centre (bilinear interpolation,
+because the centre is sub-pixel) gives two linear equations in ``(u_p, v_p)``; for
+vertical/horizontal fringes they are simply ``u_p = Phi_v T / 2pi`` and ``v_p = Phi_h T / 2pi``
+(Eq. 2.30-2.31); for the optimal-angle pair ``alpha_opt -/+ pi/4`` solving them is the axis
+rotation of Eq. (2.32)-(2.34). The defocus OTF is real and symmetric (Eq. 2.26-2.29), so the
+phase - and with it this mapping - does not depend on how defocused the projector is.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def bilinear_sample(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Bilinear interpolation of ``image (H, W)`` at sub-pixel points ``uv (N, 2)`` = (column, row).
+
+    Returns ``(N,)`` float64; NaN where the point is outside the image or any of its four
+    neighbours is NaN (invalid phase).
+    """
+    img = np.asarray(image, dtype=np.float64)
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    h, w = img.shape
+    u, v = uv[:, 0], uv[:, 1]
+    ok = (u >= 0) & (v >= 0) & (u <= w - 1) & (v <= h - 1) & np.isfinite(u) & np.isfinite(v)
+    u0 = np.clip(np.floor(np.where(ok, u, 0)).astype(int), 0, max(w - 2, 0))
+    v0 = np.clip(np.floor(np.where(ok, v, 0)).astype(int), 0, max(h - 2, 0))
+    fu = np.where(ok, u, 0) - u0
+    fv = np.where(ok, v, 0) - v0
+    u1 = np.minimum(u0 + 1, w - 1)
+    v1 = np.minimum(v0 + 1, h - 1)
+    val = (img[v0, u0] * (1 - fu) * (1 - fv) + img[v0, u1] * fu * (1 - fv)
+           + img[v1, u0] * (1 - fu) * fv + img[v1, u1] * fu * fv)
+    return np.where(ok, val, np.nan)
+
+
+@dataclass(frozen=True)
+class FringeDirection:
+    """One decoded fringe direction: absolute phase map (radians), its fringe angle
+    ``alpha`` (radians, manifest convention), its period ``T`` (projector pixels), an
+    optional modulation map and validity mask (H, W)."""
+
+    phase: np.ndarray
+    angle: float
+    period: float
+    modulation: np.ndarray | None = None
+    mask: np.ndarray | None = None
+
+
+def fringe_coordinates(direction: FringeDirection, uv: np.ndarray, min_modulation: float = 0.0) -> np.ndarray:
+    """Projector fringe coordinate ``w = Phi T / 2pi`` sampled at camera points ``uv (N, 2)``.
+
+    NaN where the phase is invalid (NaN or masked at any of the 4 neighbours) or where the
+    bilinearly sampled modulation is below ``min_modulation`` (same units as the map).
+    """
+    phase = np.asarray(direction.phase, dtype=np.float64)
+    if direction.mask is not None:
+        phase = np.where(np.asarray(direction.mask, bool), phase, np.nan)
+    w = bilinear_sample(phase, uv) * direction.period / (2 * np.pi)
+    if direction.modulation is not None and min_modulation > 0:
+        mod = bilinear_sample(direction.modulation, uv)
+        w = np.where(mod >= min_modulation, w, np.nan)
+    return w
+
+
+def projector_points(directions: list[FringeDirection], uv: np.ndarray, min_modulation: float = 0.0) -> np.ndarray:
+    """Projector pixel coordinates ``(u_p, v_p)`` of camera points ``uv (N, 2)``.
+
+    Eq. (2.30)-(2.31) for vertical (alpha = pi/2) and horizontal (alpha = 0) fringes, and the
+    rotation of Eq. (2.32)-(2.34) for any two non-parallel angles (e.g. alpha_opt -/+ pi/4):
+    each direction gives ``w_k = v_p cos(alpha_k) + u_p sin(alpha_k)``; the 2x2 (or least
+    squares, for more directions) system is solved per point. Returns ``(N, 2)`` float64 with
+    NaN rows where any direction is invalid.
+    """
+    if len(directions) < 2:
+        raise ValueError(f"projector mapping needs two fringe directions, got {len(directions)}")
+    shapes = {np.shape(d.phase) for d in directions}
+    if len(shapes) != 1:
+        raise ValueError(f"phase maps have different shapes {sorted(shapes)}; expected one camera size")
+    A = np.array([[np.sin(d.angle), np.cos(d.angle)] for d in directions])  # rows: (u_p, v_p) coeffs
+    if abs(np.linalg.det(A.T @ A)) < 1e-6:
+        raise ValueError("fringe directions are (nearly) parallel; need two different angles")
+    W = np.stack([fringe_coordinates(d, uv, min_modulation) for d in directions], axis=1)  # (N, k)
+    sol = W @ np.linalg.pinv(A).T
+    sol[~np.all(np.isfinite(W), axis=1)] = np.nan
+    return sol
