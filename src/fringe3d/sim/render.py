@@ -1,0 +1,367 @@
+"""The virtual rig's renderer: scene + rig + pattern set -> camera frames and ground truth.
+
+Per frame, at its own timestamp ``k / frame_rate`` (s):
+
+1. cast each camera pixel's ray (pinhole: through the centre; telecentric: parallel rays) and
+   take the first surface hit (``scene.intersect``);
+2. project the hit into the projector, ``(u_p, v_p) = projector.project(X)`` (Eq. 2.8-2.18);
+3. look up the pattern value there: analytically (``sinusoid_value``, ``ideal`` mode) or by
+   bilinear sampling of the projector image (``render_frame``) blurred by the defocus OTF
+   (Eq. 2.22-2.26, optionally growing with distance from the focal plane);
+4. shade: projector gamma, Lambertian cosine toward the projector centre, projector shadow
+   (a shadow ray toward the projector centre), ambient light, albedo / texture, exposure and
+   gain (see :mod:`fringe3d.sim.settings`);
+5. sense: camera blur, shot and read noise, quantisation (:mod:`fringe3d.sim.noise`).
+
+A static scene is cast once and reused for every frame; a moving scene is re-cast per frame
+(and per motion sub-sample when ``motion_samples > 1``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from fringe3d.io.console import progress_bar
+from fringe3d.optics.defocus import blur_pattern, defocus_size_at
+
+from .noise import sense
+from .settings import RenderSettings
+from .truth import Truth, direction_phase, directions_of
+
+#: Rays of a telecentric camera start this far (mm) before their min-norm origin.
+TELECENTRIC_BACKOFF = 1.0e4
+
+
+@dataclass
+class Geometry:
+    """Flattened per-pixel geometry of one instant (N = H*W pixels)."""
+
+    hit: np.ndarray          # (N,) bool
+    points: np.ndarray       # (N, 3) float64, NaN where no hit
+    depth: np.ndarray        # (N,) float64
+    normal: np.ndarray       # (N, 3) float64 (facing the camera)
+    object_id: np.ndarray    # (N,) int32
+    albedo: np.ndarray       # (N,) float64
+    material_uv: np.ndarray | None
+    up: np.ndarray           # (N,) float64
+    vp: np.ndarray           # (N,) float64
+    shade: np.ndarray        # (N,) cos(angle to the projector), 0 where unlit
+    lit: np.ndarray          # (N,) bool: inside the projector, facing it, not shadowed
+    proj_depth: np.ndarray   # (N,) distance along the projector axis (mm)
+    extras: dict
+
+
+# ----------------------------------------------------------------------------- rays
+def camera_rays(camera) -> tuple[np.ndarray, np.ndarray, float]:
+    """All pixel rays of ``camera``: ``(origins (N,3), unit dirs (N,3), depth_offset)``.
+
+    Pinhole: origins at the optical centre; depth is the camera-frame z, computed later.
+    Telecentric: parallel rays starting :data:`TELECENTRIC_BACKOFF` mm before their
+    min-norm origin; ``depth_offset`` is subtracted from the ray parameter to give depth.
+    """
+    uv = camera.pixel_grid().reshape(-1, 2)
+    if getattr(camera, "kind", "pinhole") == "telecentric":
+        origins, d = camera.rays(uv)
+        d = np.asarray(d, float) / np.linalg.norm(d)
+        origins = origins - TELECENTRIC_BACKOFF * d
+        return origins, np.broadcast_to(d, origins.shape).copy(), TELECENTRIC_BACKOFF
+    c, dirs = camera.rays(uv, normalize=True)
+    return np.broadcast_to(c, dirs.shape).copy(), dirs, 0.0
+
+
+def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = True) -> Geometry:
+    """Intersect the camera rays with the scene at ``time`` and map hits into the projector."""
+    h = scene.intersect(origins, dirs, time=time)
+    t = np.asarray(h.t, float)
+    hit = (np.asarray(h.object_id) >= 0) & np.isfinite(t)
+    n_pix = len(t)
+    pts = np.full((n_pix, 3), np.nan)
+    pts[hit] = origins[hit] + t[hit, None] * dirs[hit]
+    normal = np.zeros((n_pix, 3))
+    nrm = np.asarray(h.normal, float)[hit]
+    flip = np.einsum("ij,ij->i", nrm, dirs[hit]) > 0  # face the camera
+    nrm[flip] *= -1
+    normal[hit] = nrm
+    cam = rig.camera
+    if getattr(cam, "kind", "pinhole") == "telecentric":
+        depth = np.where(hit, t - depth_offset, np.nan)
+    else:
+        depth = np.full(n_pix, np.nan)
+        depth[hit] = cam.to_device(pts[hit])[:, 2]
+    proj = rig.projector
+    up = np.full(n_pix, np.nan)
+    vp = np.full(n_pix, np.nan)
+    pdepth = np.full(n_pix, np.nan)
+    shade = np.zeros(n_pix)
+    lit = np.zeros(n_pix, bool)
+    idx = np.flatnonzero(hit)
+    if idx.size:
+        X = pts[idx]
+        Xp = proj.to_device(X)
+        pdepth[idx] = Xp[:, 2]
+        uvp = proj.project(X)
+        up[idx], vp[idx] = uvp[:, 0], uvp[:, 1]
+        to_p = proj.center - X
+        dist = np.linalg.norm(to_p, axis=1)
+        L = to_p / dist[:, None]
+        cos = np.einsum("ij,ij->i", normal[idx], L)
+        inside = ((Xp[:, 2] > 0) & (uvp[:, 0] >= -0.5) & (uvp[:, 0] <= proj.width - 0.5)
+                  & (uvp[:, 1] >= -0.5) & (uvp[:, 1] <= proj.height - 0.5) & (cos > 0))
+        if shadows and inside.any():
+            j = np.flatnonzero(inside)
+            eps = 1e-6 * dist[j, None] + 1e-9
+            o = X[j] + eps * normal[idx][j] + eps * L[j]
+            sh = scene.intersect(o, L[j], time=time)
+            blocked = (np.asarray(sh.object_id) >= 0) & (np.asarray(sh.t) < dist[j] * (1 - 1e-6))
+            inside[j[blocked]] = False
+        lit[idx] = inside
+        shade[idx] = np.where(inside, cos, 0.0)
+    muv = getattr(h, "material_uv", None)
+    extras = {}
+    fn = getattr(scene, "truth_fields", None)
+    if callable(fn):
+        extras = {k: np.asarray(v) for k, v in fn(pts, h, time).items()}
+    return Geometry(hit=hit, points=pts, depth=depth, normal=normal,
+                    object_id=np.where(hit, np.asarray(h.object_id), -1).astype(np.int32),
+                    albedo=np.where(hit, np.asarray(h.albedo, float), 0.0),
+                    material_uv=None if muv is None else np.asarray(muv, float),
+                    up=up, vp=vp, shade=shade, lit=lit, proj_depth=pdepth, extras=extras)
+
+
+# ----------------------------------------------------------------------------- sampling
+@numba.njit(cache=True, parallel=False)
+def bilinear(image, u, v, out):
+    """Bilinear sample of ``image`` (H, W) at float coordinates (u column, v row), edge-clamped.
+
+    Writes ``out[i]``; NaN coordinates give 0.
+    """
+    H, W = image.shape
+    for i in range(u.shape[0]):
+        x = u[i]
+        y = v[i]
+        if not (x == x and y == y):  # NaN
+            out[i] = 0.0
+            continue
+        x = min(max(x, 0.0), W - 1.0)
+        y = min(max(y, 0.0), H - 1.0)
+        x0 = min(int(x), W - 2) if W > 1 else 0
+        y0 = min(int(y), H - 2) if H > 1 else 0
+        fx = x - x0
+        fy = y - y0
+        x1 = min(x0 + 1, W - 1)
+        y1 = min(y0 + 1, H - 1)
+        out[i] = ((1 - fy) * ((1 - fx) * image[y0, x0] + fx * image[y0, x1])
+                  + fy * ((1 - fx) * image[y1, x0] + fx * image[y1, x1]))
+    return out
+
+
+def sample(image: np.ndarray, up: np.ndarray, vp: np.ndarray) -> np.ndarray:
+    """Bilinear sample of a projector image at projector coordinates (pixels)."""
+    out = np.empty(up.shape[0])
+    return bilinear(np.ascontiguousarray(image, dtype=np.float64), np.ascontiguousarray(up, float),
+                    np.ascontiguousarray(vp, float), out)
+
+
+class PatternSampler:
+    """Pattern values at projector coordinates for one pattern set and render settings.
+
+    Caches the (blurred) projector image of each distinct frame spec.
+    """
+
+    def __init__(self, patterns, settings: RenderSettings):
+        self.patterns = patterns
+        self.settings = settings
+        self._cache: dict = {}
+
+    def _image(self, spec, size: float) -> np.ndarray:
+        key = (spec, round(float(size), 6))
+        if key not in self._cache:
+            from fringe3d.patterns.render import render_frame
+            img = render_frame(spec, self.patterns.width, self.patterns.height).astype(np.float64)
+            if self.settings.defocus != "none" and size > 0:
+                img = blur_pattern(img, self.settings.defocus, size)
+            if len(self._cache) > 64:
+                self._cache.clear()
+            self._cache[key] = img
+        return self._cache[key]
+
+    def values(self, spec, geo: Geometry) -> np.ndarray:
+        """Pattern value in [0, 1] (before gamma) at every lit pixel of ``geo``; 0 elsewhere."""
+        s = self.settings
+        out = np.zeros(geo.lit.shape[0])
+        idx = np.flatnonzero(geo.lit)
+        if not idx.size:
+            return out
+        up, vp = geo.up[idx], geo.vp[idx]
+        if s.ideal:
+            from fringe3d.patterns.render import sinusoid_value
+            out[idx] = sinusoid_value(spec, up, vp, self.patterns.width, self.patterns.height)
+            return out
+        if s.defocus == "none" or s.focus_distance is None or s.defocus_growth == 0:
+            out[idx] = sample(self._image(spec, s.defocus_size), up, vp)
+            return out
+        sizes = defocus_size_at(geo.proj_depth[idx], s.defocus_size, s.focus_distance, s.defocus_growth)
+        lo, hi = float(sizes.min()), float(sizes.max())
+        n = int(min(8, max(2, np.ceil((hi - lo) / 0.25) + 1)))
+        levels = np.linspace(lo, hi, n) if hi > lo else np.array([lo, lo])
+        samples = np.stack([sample(self._image(spec, z), up, vp) for z in levels])
+        pos = np.interp(sizes, levels, np.arange(len(levels)))
+        i0 = np.minimum(pos.astype(int), len(levels) - 2)
+        f = pos - i0
+        r = np.arange(idx.size)
+        out[idx] = (1 - f) * samples[i0, r] + f * samples[i0 + 1, r]
+        return out
+
+
+# ----------------------------------------------------------------------------- render
+def frame_times(n_frames: int, settings: RenderSettings, start: float = 0.0) -> np.ndarray:
+    """Capture time (s) of each frame, ``start + k / frame_rate``."""
+    return start + np.arange(n_frames) / settings.frame_rate
+
+
+def is_static(scene) -> bool:
+    """Whether ``scene`` does not change with time (its ``static`` attribute; default True)."""
+    s = getattr(scene, "static", None)
+    if callable(s):
+        s = s()
+    if s is None:
+        s = not bool(getattr(scene, "moving", False))
+    return bool(s)
+
+
+def irradiance(geo: Geometry, pattern: np.ndarray, settings: RenderSettings,
+               scene_ambient: float = 0.0) -> np.ndarray:
+    """Noise-free camera signal (full-scale units) of each pixel, see :mod:`.settings`.
+
+    Ambient light is ``settings.ambient + scene_ambient * settings.brightness`` (a scene's
+    ambient level is relative to the projector's full white).
+    """
+    s = settings
+    proj = s.brightness * geo.shade * np.power(np.clip(pattern, 0.0, 1.0), s.gamma)
+    ambient = s.ambient + scene_ambient * s.brightness
+    return s.gain * s.exposure_fraction * geo.albedo * (ambient + proj) * geo.hit
+
+
+def render(scene, rig, patterns, settings: RenderSettings | None = None, times=None,
+           progress: bool = True) -> tuple[np.ndarray, Truth]:
+    """Render a capture: one camera frame per pattern frame (in projection order).
+
+    Parameters
+    ----------
+    scene : object with ``intersect(origins (N,3), dirs (N,3), time) -> Hit``
+    rig : fringe3d.optics.Rig
+    patterns : PatternSet
+        Its width/height must equal the projector's.
+    settings : RenderSettings
+    times : array_like (F,), optional
+        Capture time of each frame (s). Default ``k / frame_rate``; pass more times than
+        pattern frames to render a repeating sequence (frame ``k`` shows pattern ``k % P``).
+    progress : bool
+        Show a progress bar.
+
+    Returns
+    -------
+    frames : (F, H, W) uint8 / uint16 / float32
+    truth : Truth
+        Per pixel; per frame (leading F axis) when the scene moves.
+    """
+    s = settings or RenderSettings()
+    check_inputs(rig, patterns)
+    n_pat = len(patterns.frames)
+    times = frame_times(n_pat, s) if times is None else np.asarray(times, float).ravel()
+    if times.size == 0:
+        raise ValueError("nothing to render: no frame times given")
+    if not np.all(np.isfinite(times)):
+        raise ValueError("frame times must be finite numbers of seconds")
+    cam = rig.camera
+    H, W = cam.height, cam.width
+    origins, dirs, off = camera_rays(cam)
+    static = is_static(scene)
+    amb = float(getattr(scene, "ambient", 0.0) or 0.0)
+    sampler = PatternSampler(patterns, s)
+    dirs_info = directions_of(patterns)
+    geos: list[Geometry] = []
+    frames = []
+    geo0 = cast(scene, rig, origins, dirs, off, float(times[0]), s.shadows) if static else None
+    if geo0 is not None:
+        check_visible(geo0, scene)
+    with progress_bar("rendering", len(times), enabled=progress) as advance:
+        for k, tk in enumerate(times):
+            spec = patterns.frames[k % n_pat]
+            if static:
+                geo = geo0
+                img = irradiance(geo, sampler.values(spec, geo), s, amb)
+            else:
+                sub = motion_subtimes(float(tk), s)
+                img = np.zeros(H * W)
+                for j, ts in enumerate(sub):
+                    g = cast(scene, rig, origins, dirs, off, ts, s.shadows)
+                    if j == len(sub) // 2:
+                        geo = g
+                    img += irradiance(g, sampler.values(spec, g), s, amb) / len(sub)
+                if k == 0:
+                    check_visible(geo, scene)
+                geos.append(geo)
+            frames.append(sense(img.reshape(H, W), s, k))
+            advance()
+    truth = make_truth(geos if not static else [geo0], (H, W), dirs_info, times, static, rig)
+    return np.stack(frames), truth
+
+
+def motion_subtimes(t: float, s: RenderSettings) -> list[float]:
+    """Sample times within frame ``t``'s exposure (only ``t`` itself when ``motion_samples=1``)."""
+    if s.motion_samples <= 1:
+        return [t]
+    exp = s.exposure if s.exposure is not None else 1.0 / s.frame_rate
+    return [t + (j + 0.5) / s.motion_samples * exp for j in range(s.motion_samples)]
+
+
+def check_inputs(rig, patterns) -> None:
+    proj = rig.projector
+    if (patterns.width, patterns.height) != (proj.width, proj.height):
+        raise ValueError(f"pattern set is {patterns.width}x{patterns.height} but the projector is "
+                         f"{proj.width}x{proj.height}; build the patterns for the projector's size")
+    if len(patterns.frames) == 0:
+        raise ValueError("pattern set has no frames")
+
+
+def check_visible(geo: Geometry, scene) -> None:
+    """Reject scenes the camera cannot see or the projector cannot light."""
+    if not geo.hit.any():
+        raise ValueError("no scene object is in the camera's view (is it behind the camera or outside "
+                         "its field of view?); place objects in front of the camera within the preset's "
+                         "working volume")
+    if not geo.lit.any():
+        raise ValueError("the scene is outside the projector's view: no visible surface point is lit by "
+                         "the projector; move the objects into the projector's field")
+
+
+def make_truth(geos: list[Geometry], shape, dirs_info, times, static: bool, rig) -> Truth:
+    """Assemble per-pixel :class:`Truth` from one (static) or F (moving) geometries."""
+    H, W = shape
+
+    def stack(name, dtype, trail=()):
+        arrs = [np.asarray(getattr(g, name)).reshape((H, W) + trail).astype(dtype) for g in geos]
+        return arrs[0] if static else np.stack(arrs)
+
+    phase = {}
+    for d, (angle, period) in dirs_info.items():
+        per = [direction_phase(g.up, g.vp, angle, period).reshape(H, W).astype(np.float32) for g in geos]
+        phase[d] = per[0] if static else np.stack(per)
+    muv = None
+    if all(g.material_uv is not None for g in geos):
+        muv = stack("material_uv", np.float32, (2,))
+    extras = {}
+    for name in geos[0].extras:
+        arrs = [np.asarray(g.extras[name]).reshape((H, W) + np.shape(g.extras[name])[1:]) for g in geos]
+        extras[name] = arrs[0] if static else np.stack(arrs)
+    xyz = stack("points", np.float32, (3,))
+    meta = {"per_frame": not static, "times": [float(t) for t in times],
+            "fringe": {d: {"angle": a, "period": p} for d, (a, p) in dirs_info.items()},
+            "camera": rig.camera.kind, "frame": "camera" if rig.camera.kind == "pinhole" else "projector"}
+    return Truth(xyz=xyz, depth=stack("depth", np.float32), up=stack("up", np.float32),
+                 vp=stack("vp", np.float32), phase=phase, normal=stack("normal", np.float32, (3,)),
+                 object_id=stack("object_id", np.int32), mask=stack("lit", bool), hit=stack("hit", bool),
+                 material_uv=muv, extras=extras, meta=meta)

@@ -1,0 +1,151 @@
+"""Render settings: everything between the projector's DMD and the camera's pixel values.
+
+One frozen dataclass, :class:`RenderSettings`, validated on construction so a nonsensical
+frame rate, exposure or bit depth fails with a clear message before any rendering.
+
+Photometric model (per camera pixel, intensities in units of the camera's full scale):
+
+``I = gain * (exposure * frame_rate) * albedo * (ambient + brightness * cos(theta) * P**gamma)``
+
+with ``P`` in [0, 1] the (defocused) projector pattern value, ``theta`` the angle between the
+surface normal and the direction to the projector centre (Lambertian), ``P = 0`` in projector
+shadow or outside the projector's image. Then optional camera blur, shot noise (Poisson on
+``I * full_well`` electrons), read noise (Gaussian, sigma in full-scale units), and
+quantisation to ``bit_depth`` bits with saturation (``bit_depth=None`` keeps float32).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields, replace
+
+from fringe3d.optics.defocus import MODELS
+
+BIT_DEPTHS = (8, 10, 12, 16)
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """Settings of the virtual rig's photometry and timing.
+
+    Attributes
+    ----------
+    ideal : bool
+        Evaluate phase-shifted sinusoids analytically at the exact projector coordinate
+        (``patterns.render.sinusoid_value``) instead of sampling the pixelated, defocused
+        projector image. Non-sinusoid frames still use the projector image.
+    defocus : str
+        ``"none"``, ``"gaussian"`` or ``"hopkins"`` (see :mod:`fringe3d.optics.defocus`).
+    defocus_size : float
+        Gaussian sigma or Hopkins omega/lambda, projector pixels, at the focal plane.
+    focus_distance : float | None
+        Projector focal-plane distance (mm, along the projector axis); ``None`` = uniform blur.
+    defocus_growth : float
+        Extra defocus size per mm away from the focal plane (pixels/mm).
+    gamma : float
+        Projector gamma (output = input ** gamma); 1 = linear.
+    ambient : float
+        Ambient light (full-scale units, before albedo).
+    brightness : float
+        Projector white on an albedo-1 surface at normal incidence (full-scale units).
+    gain : float
+        Camera gain (multiplies the signal).
+    frame_rate : float
+        Frames per second (Hz); frame k is captured at time ``k / frame_rate`` (s).
+    exposure : float | None
+        Exposure time (s), 0 < exposure <= 1/frame_rate; ``None`` = the full frame period.
+    motion_samples : int
+        Sub-frame samples averaged over the exposure of a moving scene (motion blur); 1 = none.
+    shot_noise : bool
+        Poisson photon noise with ``full_well`` electrons at full scale.
+    full_well : float
+        Electrons at full scale.
+    read_noise : float
+        Gaussian read noise sigma (full-scale units, e.g. 0.01 = 1%).
+    bit_depth : int | None
+        8, 10, 12 or 16 (uint8 / uint16 frames with saturation), or ``None`` for float32.
+    camera_blur : float
+        Gaussian camera blur sigma (camera pixels); 0 = none.
+    shadows : bool
+        Cast shadow rays toward the projector (projector occlusion).
+    seed : int
+        Seed of the noise generator (same seed, same frames).
+    """
+
+    ideal: bool = False
+    defocus: str = "none"
+    defocus_size: float = 0.0
+    focus_distance: float | None = None
+    defocus_growth: float = 0.0
+    gamma: float = 1.0
+    ambient: float = 0.05
+    brightness: float = 0.8
+    gain: float = 1.0
+    frame_rate: float = 100.0
+    exposure: float | None = None
+    motion_samples: int = 1
+    shot_noise: bool = False
+    full_well: float = 10000.0
+    read_noise: float = 0.0
+    bit_depth: int | None = 8
+    camera_blur: float = 0.0
+    shadows: bool = True
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.defocus not in MODELS:
+            raise ValueError(f"unknown defocus model {self.defocus!r}; expected one of {MODELS}")
+        _finite_nonneg("defocus_size (pixels)", self.defocus_size)
+        _finite_nonneg("defocus_growth (pixels/mm)", self.defocus_growth)
+        if not (math.isfinite(self.gamma) and self.gamma > 0):
+            raise ValueError(f"projector gamma must be a positive number, got {self.gamma}")
+        for name in ("ambient", "brightness", "gain", "read_noise", "camera_blur"):
+            _finite_nonneg(name, getattr(self, name))
+        if not (math.isfinite(self.frame_rate) and self.frame_rate > 0):
+            raise ValueError(f"frame rate must be a positive number of frames per second (Hz), got {self.frame_rate}")
+        if self.frame_rate > 1e6:
+            raise ValueError(f"frame rate {self.frame_rate:g} Hz is beyond any camera; expected <= 1e6 Hz")
+        if self.exposure is not None:
+            if not (math.isfinite(self.exposure) and self.exposure > 0):
+                raise ValueError(f"exposure must be a positive time in seconds, got {self.exposure}")
+            if self.exposure > 1.0 / self.frame_rate * (1 + 1e-9):
+                raise ValueError(f"exposure {self.exposure:g} s is longer than the frame period "
+                                 f"1/{self.frame_rate:g} Hz = {1 / self.frame_rate:g} s")
+        if self.motion_samples < 1:
+            raise ValueError(f"motion_samples must be >= 1, got {self.motion_samples}")
+        if not (self.full_well > 0):
+            raise ValueError(f"full_well must be a positive number of electrons, got {self.full_well}")
+        if self.bit_depth is not None and self.bit_depth not in BIT_DEPTHS:
+            raise ValueError(f"bit_depth must be one of {BIT_DEPTHS} or None (float32), got {self.bit_depth}")
+
+    @property
+    def exposure_fraction(self) -> float:
+        """Exposure as a fraction of the frame period (1 when ``exposure`` is None)."""
+        return 1.0 if self.exposure is None else self.exposure * self.frame_rate
+
+    @property
+    def noiseless(self) -> bool:
+        return not self.shot_noise and self.read_noise == 0
+
+    def replace(self, **changes) -> "RenderSettings":
+        """A copy with some fields changed (validated)."""
+        unknown = set(changes) - {f.name for f in fields(self)}
+        if unknown:
+            raise ValueError(f"unknown render setting(s) {sorted(unknown)}; "
+                             f"valid: {sorted(f.name for f in fields(self))}")
+        return replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "RenderSettings":
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - names)
+        if unknown:
+            raise ValueError(f"render settings: unknown field(s) {unknown}; valid: {sorted(names)}")
+        return cls(**d)
+
+
+def _finite_nonneg(name: str, value: float) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")

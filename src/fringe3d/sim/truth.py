@@ -1,0 +1,146 @@
+"""Ground truth of a rendered capture, per camera pixel (and per frame for moving scenes).
+
+Saved as ``truth/truth.npz`` (arrays) + ``truth/truth.json`` (metadata: shapes, units,
+per-direction fringe angle and period, frame times, whether the scene moves).
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fringe3d.io.atomic import atomic_path, atomic_write_text
+
+TRUTH_FORMAT = "fringe3d-truth"
+ARRAY_FIELDS = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit", "material_uv")
+
+
+@dataclass(eq=False)
+class Truth:
+    """Per-pixel ground truth.
+
+    Shapes are ``(H, W, ...)`` for a static scene, ``(F, H, W, ...)`` for a moving one
+    (``per_frame=True``; index ``F`` follows the capture's frames).
+
+    Attributes
+    ----------
+    xyz : float32 (..., H, W, 3)
+        Surface point, mm, world frame (= camera frame for pinhole rigs, projector frame for
+        telecentric rigs); NaN where no surface.
+    depth : float32 (..., H, W)
+        Camera-frame z (pinhole, mm) or distance along the telecentric viewing direction.
+    up, vp : float32 (..., H, W)
+        Projector column / row (pixels) of the surface point, Eq. (2.8) through the projector.
+    phase : dict[str, float32 (..., H, W)]
+        Absolute phase per fringe direction, ``Phi = 2 pi w / T`` with
+        ``w = vp cos(alpha) + up sin(alpha)`` and ``T`` that direction's narrowest period.
+    normal : float32 (..., H, W, 3)
+        Unit surface normal (facing the camera).
+    object_id : int32 (..., H, W)
+        Scene object index, -1 where no hit.
+    mask : bool (..., H, W)
+        Valid: hit, inside the projector image, facing and lit by the projector (not shadowed).
+    hit : bool (..., H, W)
+        The camera ray hit a surface.
+    material_uv : float32 (..., H, W, 2) or None
+        Scene material coordinates (e.g. the wing's flat-sheet coordinates, mm).
+    extras : dict[str, ndarray]
+        Scene-specific fields (e.g. analytic curvature), same leading shape.
+    meta : dict
+        ``angles``, ``periods`` (per direction), ``times`` (s), ``per_frame``, ``rig`` kind...
+    """
+
+    xyz: np.ndarray
+    depth: np.ndarray
+    up: np.ndarray
+    vp: np.ndarray
+    phase: dict
+    normal: np.ndarray
+    object_id: np.ndarray
+    mask: np.ndarray
+    hit: np.ndarray
+    material_uv: np.ndarray | None = None
+    extras: dict = field(default_factory=dict)
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def per_frame(self) -> bool:
+        return bool(self.meta.get("per_frame", False))
+
+    def frame(self, k: int) -> "Truth":
+        """The truth at frame ``k`` (the same object for a static scene)."""
+        if not self.per_frame:
+            return self
+        def pick(a):
+            return None if a is None else a[k]
+        return Truth(xyz=self.xyz[k], depth=self.depth[k], up=self.up[k], vp=self.vp[k],
+                     phase={d: p[k] for d, p in self.phase.items()}, normal=self.normal[k],
+                     object_id=self.object_id[k], mask=self.mask[k], hit=self.hit[k],
+                     material_uv=pick(self.material_uv), extras={n: a[k] for n, a in self.extras.items()},
+                     meta={**self.meta, "per_frame": False, "frame": k})
+
+    # -- files ------------------------------------------------------------------------
+    def save(self, folder) -> Path:
+        """Write ``folder/truth.npz`` and ``folder/truth.json`` atomically; returns the folder."""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        arrays = {n: getattr(self, n) for n in ARRAY_FIELDS if getattr(self, n) is not None}
+        arrays.update({f"phase_{d}": p for d, p in self.phase.items()})
+        arrays.update({f"extra_{n}": a for n, a in self.extras.items()})
+        with atomic_path(folder / "truth.npz") as tmp:
+            with open(tmp, "wb") as fh:
+                np.savez_compressed(fh, **arrays)
+        meta = {"format": TRUTH_FORMAT, "version": 1, **self.meta,
+                "directions": list(self.phase), "extras": list(self.extras),
+                "shape": list(self.depth.shape),
+                "units": {"xyz": "mm", "depth": "mm", "up": "projector px", "vp": "projector px",
+                          "phase": "rad"}}
+        from fringe3d.io.console import to_jsonable
+        atomic_write_text(folder / "truth.json", json.dumps(to_jsonable(meta), indent=1))
+        return folder
+
+    @classmethod
+    def load(cls, folder) -> "Truth":
+        """Read a truth bundle written by :meth:`save` (``folder`` may be a capture folder)."""
+        folder = Path(folder)
+        if (folder / "truth").is_dir():
+            folder = folder / "truth"
+        npz, js = folder / "truth.npz", folder / "truth.json"
+        for p in (npz, js):
+            if not p.exists():
+                raise FileNotFoundError(f"no ground-truth file {p} (expected truth.npz and truth.json)")
+        try:
+            meta = json.loads(js.read_text())
+        except json.JSONDecodeError as e:
+            raise ValueError(f"{js} is not valid JSON: {e}") from None
+        with np.load(npz) as z:
+            data = {k: z[k] for k in z.files}
+        missing = [n for n in ARRAY_FIELDS if n != "material_uv" and n not in data]
+        if missing:
+            raise ValueError(f"{npz}: missing array(s) {missing}")
+        phase = {d: data[f"phase_{d}"] for d in meta.get("directions", [])}
+        extras = {n: data[f"extra_{n}"] for n in meta.get("extras", [])}
+        for k in ("format", "version", "directions", "extras", "shape", "units"):
+            meta.pop(k, None)
+        return cls(xyz=data["xyz"], depth=data["depth"], up=data["up"], vp=data["vp"], phase=phase,
+                   normal=data["normal"], object_id=data["object_id"], mask=data["mask"], hit=data["hit"],
+                   material_uv=data.get("material_uv"), extras=extras, meta=meta)
+
+
+def direction_phase(up: np.ndarray, vp: np.ndarray, angle: float, period: float) -> np.ndarray:
+    """Absolute phase of a fringe direction, ``Phi = 2 pi (vp cos a + up sin a) / T`` (Eq. 2.1-2.2)."""
+    w = vp * np.cos(angle) + up * np.sin(angle)
+    return (2.0 * np.pi / period) * w
+
+
+def directions_of(patterns) -> dict[str, tuple[float, float]]:
+    """``{direction: (angle, narrowest period)}`` over the phase frames of a pattern set."""
+    out: dict[str, tuple[float, float]] = {}
+    for f in patterns.frames:
+        if f.role != "phase" or not f.direction:
+            continue
+        if f.direction not in out or f.period < out[f.direction][1]:
+            out[f.direction] = (f.angle, f.period)
+    return out
