@@ -1,0 +1,335 @@
+"""Pattern-set builders: each returns a :class:`PatternSet` with its frames and unwrapping plans.
+
+Conventions every builder follows (the decoder relies on them):
+
+* Directions: ``"v"`` = vertical stripes, angle pi/2, phase encodes the projector column
+  ``u_p``; ``"h"`` = horizontal stripes, angle 0, encodes ``v_p``; any other label needs an
+  explicit ``angle`` (radians, taken modulo pi).
+* Phase frames: ``kind`` in sinusoid/square/bayer/floyd_steinberg/area_modulated/pwm,
+  ``role="phase"``, ``period`` T (px, any positive float), ``steps`` N, ``step`` k,
+  ``shift = 2*pi*k/N`` (also for N = 3), ``group = f"{direction}/T{T:g}"``. Intensity
+  ``1/2(1 + cos(2 pi w / T + shift))``, ``w = v cos(angle) + u sin(angle)`` (Eq. 2.1-2.2), so the
+  N-step phase (Eq. 2.4) equals ``Phi = 2 pi w / T`` modulo 2 pi.
+* Single-frame FTP: ``steps=1, step=0, shift=0``; modified FTP: ``steps=2`` with shifts 0 and pi.
+  Which phase algorithm applies is in the plan's ``options["phase"]``: ``"psp"`` (N-step least
+  squares), ``"ftp"``, ``"modified_ftp"``, ``"none"`` (no phase frames), or for the hybrid
+  set ``"ftp+psp"``.
+* Code frames: ``kind="gray_code"`` or ``"binary_code"``, ``role="code"``, ``period`` = stripe
+  width = the period they unwrap, ``bit`` (0 = MSB) of ``bits``, an ``inverse=True`` copy right
+  after each bit, ``group = f"{direction}/gray"`` (or ``/binary``). The decoded codeword ``c``
+  gives the fringe order ``k = c + options["order_offset"]`` of ``Phi = (phi mod 2pi) + 2 pi k``;
+  the offset is 0 whenever ``angle`` is in [0, pi/2].
+* Reference frames: the white frame has ``kind="white", role="texture", direction=""``.
+* Every plan's ``options["w_range"] = [w_min, w_max]``: the fringe coordinates the projector
+  covers, so unwrapping knows where the unambiguous window starts (w_min < 0 only for angles
+  above pi/2).
+"""
+from __future__ import annotations
+
+import math
+
+from fringe3d.patterns.manifest import DirectionPlan, FrameSpec, PatternSet
+from fringe3d.patterns.render import BINARY_PHASE_KINDS, PHASE_KINDS, code_origin, w_range
+
+#: Default projector resolution (pixels). 800 x 600 keeps the 18/21/144 heterodyne set
+#: (equivalent period 1008 px) unambiguous in both directions.
+DEFAULT_WIDTH = 800
+DEFAULT_HEIGHT = 600
+DIRECTION_ANGLES = {"v": math.pi / 2, "h": 0.0}
+
+
+# -- helpers -----------------------------------------------------------------------
+def direction_angle(direction: str, angle: float | None = None) -> float:
+    """Fringe angle in [0, pi) for ``direction`` (``angle`` in radians overrides)."""
+    if angle is None:
+        if direction not in DIRECTION_ANGLES:
+            raise ValueError(f"direction {direction!r} needs an explicit angle; "
+                             f"known directions are {sorted(DIRECTION_ANGLES)}")
+        return DIRECTION_ANGLES[direction]
+    a = math.fmod(float(angle), math.pi)
+    if a < 0:
+        a += math.pi
+    if a >= math.pi - 1e-12:
+        a = 0.0
+    return a
+
+
+def _bit_depth(kind: str, bit_depth: int | None) -> int:
+    if kind not in PHASE_KINDS:
+        raise ValueError(f"phase pattern kind must be one of {PHASE_KINDS}, got {kind!r}")
+    if bit_depth is None:
+        return 1 if kind in BINARY_PHASE_KINDS else 8
+    if bit_depth == 1 and kind not in BINARY_PHASE_KINDS:
+        raise ValueError(f"1-bit output needs a binary kind {BINARY_PHASE_KINDS}, got {kind!r}")
+    return bit_depth
+
+
+def group_name(direction: str, period: float) -> str:
+    return f"{direction}/T{period:g}"
+
+
+def phase_frames(period: float, steps: int, direction: str, angle: float, kind: str = "sinusoid",
+                 shifts: list[float] | None = None) -> tuple[FrameSpec, ...]:
+    """N phase-shifted frames ``shift_k = 2 pi k / N`` (or the given ``shifts``)."""
+    if not period > 0:
+        raise ValueError(f"fringe period must be positive, got {period}")
+    if steps < 1:
+        raise ValueError(f"phase-shift steps must be >= 1, got {steps}")
+    if shifts is None:
+        shifts = [2.0 * math.pi * k / steps for k in range(steps)]
+    return tuple(FrameSpec(kind=kind, role="phase", direction=direction, angle=angle, period=float(period),
+                           shift=float(s), step=k, steps=steps, group=group_name(direction, period))
+                 for k, s in enumerate(shifts))
+
+
+def _w_range(angle: float, width: int, height: int) -> list[float]:
+    lo, hi = w_range(angle, width, height)
+    return [lo, hi]
+
+
+def _check_size(width: int, height: int) -> None:
+    if int(width) != width or int(height) != height or width <= 0 or height <= 0:
+        raise ValueError(f"projector size must be positive integers, got {width}x{height}")
+
+
+def beat_period(t1: float, t2: float) -> float:
+    """Equivalent (beat) period ``t1*t2/|t2 - t1|`` of two phase maps (heterodyne)."""
+    if t1 == t2:
+        raise ValueError(f"heterodyne needs distinct periods, got {t1} twice")
+    return t1 * t2 / abs(t2 - t1)
+
+
+# -- builders ----------------------------------------------------------------------
+def phase_shift(period: float, steps: int = 3, direction: str = "v", angle: float | None = None,
+                kind: str = "sinusoid", width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
+                bit_depth: int | None = None) -> PatternSet:
+    """One N-step phase-shifted set (Eq. 2.2); plan method ``"none"`` (wrapped phase only)."""
+    _check_size(width, height)
+    if steps < 3:
+        raise ValueError(f"N-step phase shifting needs N >= 3, got {steps}")
+    a = direction_angle(direction, angle)
+    frames = phase_frames(period, steps, direction, a, kind)
+    plan = DirectionPlan(direction, a, "none", (float(period),),
+                         {"phase": "psp", "w_range": _w_range(a, width, height)})
+    return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
+                      f"phase-shift-{steps}step-T{period:g}-{direction}")
+
+
+def three_frequency(direction: str = "v", periods=(18.0, 21.0, 144.0), steps=(9, 3, 3),
+                    angle: float | None = None, kind: str = "sinusoid", width: int = DEFAULT_WIDTH,
+                    height: int = DEFAULT_HEIGHT, bit_depth: int | None = None) -> PatternSet:
+    """Three-frequency heterodyne set: 9-step T=18 + 3-step T=21 + 3-step T=144 (15 frames).
+
+    T1, T2 beat to ``T12 = T1 T2/(T2-T1)`` (126), T12 and T3 to ``T123`` (1008), which must
+    span the projector's fringe coordinates. Plan ``"heterodyne"``, ``periods`` as given
+    (narrowest first), ``options["beats"] = [[T1, T2, T12], [T12, T3, T123]]``.
+    """
+    _check_size(width, height)
+    if len(periods) != 3 or len(steps) != 3:
+        raise ValueError(f"three-frequency needs 3 periods and 3 step counts, got {periods}, {steps}")
+    a = direction_angle(direction, angle)
+    t1, t2, t3 = (float(t) for t in periods)
+    t12 = beat_period(t1, t2)
+    t123 = beat_period(t12, t3)
+    lo, hi = w_range(a, width, height)
+    if hi - lo >= t123:
+        raise ValueError(f"three-frequency periods {periods} beat to {t123:g} px, but the projector "
+                         f"spans {hi - lo:g} px along the fringe coordinate; choose periods with a "
+                         f"larger equivalent period or a smaller projector")
+    frames = sum((phase_frames(t, n, direction, a, kind) for t, n in zip((t1, t2, t3), steps)), ())
+    plan = DirectionPlan(direction, a, "heterodyne", (t1, t2, t3),
+                         {"phase": "psp", "steps": list(steps), "beats": [[t1, t2, t12], [t12, t3, t123]],
+                          "w_range": [lo, hi]})
+    return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
+                      f"three-frequency-{t1:g}-{t2:g}-{t3:g}-{direction}")
+
+
+def hierarchical(periods, steps, direction: str = "v", angle: float | None = None, kind: str = "sinusoid",
+                 width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
+                 bit_depth: int | None = None) -> PatternSet:
+    """Hierarchical multi-frequency set: the coarsest period covers the projector (single
+    fringe, absolute phase) and each phase unwraps the next narrower one (SPEC §4).
+
+    ``steps`` is one count or one per period. Frames in the given order; plan periods sorted
+    narrowest first.
+    """
+    _check_size(width, height)
+    periods = [float(t) for t in periods]
+    steps = [int(steps)] * len(periods) if isinstance(steps, int) else [int(n) for n in steps]
+    if len(periods) < 2 or len(steps) != len(periods):
+        raise ValueError(f"hierarchical needs >= 2 periods and one step count each, got {periods}, {steps}")
+    if any(n < 3 for n in steps):
+        raise ValueError(f"hierarchical unwrapping uses N-step phases with N >= 3, got steps {steps}")
+    a = direction_angle(direction, angle)
+    lo, hi = w_range(a, width, height)
+    if max(periods) <= hi - lo:
+        raise ValueError(f"the coarsest period {max(periods):g} px must exceed the projector's span "
+                         f"{hi - lo:g} px along the fringe coordinate to give absolute phase")
+    frames = sum((phase_frames(t, n, direction, a, kind) for t, n in zip(periods, steps)), ())
+    plan = DirectionPlan(direction, a, "hierarchical", tuple(sorted(periods)),
+                         {"phase": "psp", "w_range": [lo, hi]})
+    return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
+                      "hierarchical-" + "-".join(f"{t:g}" for t in periods) + f"-{direction}")
+
+
+def _code_frames(period: float, direction: str, a: float, width: int, height: int, code: str,
+                 inverse: bool) -> tuple[tuple[FrameSpec, ...], dict]:
+    if code not in ("gray", "binary"):
+        raise ValueError(f"code must be 'gray' or 'binary', got {code!r}")
+    if not period > 0:
+        raise ValueError(f"code stripe period must be positive, got {period}")
+    from fringe3d.patterns.codes import bits_needed
+    w0, stripes = code_origin(a, width, height, float(period))
+    bits = bits_needed(stripes)
+    kind = "gray_code" if code == "gray" else "binary_code"
+    group = f"{direction}/{code}"
+    frames = []
+    for b in range(bits):
+        for inv in ((False, True) if inverse else (False,)):
+            frames.append(FrameSpec(kind=kind, role="code", direction=direction, angle=a, period=float(period),
+                                    bit=b, bits=bits, inverse=inv, group=group))
+    opts = {"code": code, "code_group": group, "bits": bits, "inverse": inverse,
+            "order_offset": int(round(w0 / period)), "w_range": _w_range(a, width, height)}
+    return tuple(frames), opts
+
+
+def gray_code(period: float, direction: str = "v", angle: float | None = None, width: int = DEFAULT_WIDTH,
+              height: int = DEFAULT_HEIGHT, code: str = "gray", inverse: bool = True) -> PatternSet:
+    """Gray-code (or simple binary, ``code="binary"``) stripes of width ``period`` with inverse frames.
+
+    Codeword c labels stripe ``[w0 + c T, w0 + (c+1) T)``; enough bits to cover the projector.
+    Plan method ``"gray_code"``/``"binary_code"`` with ``options["phase"] = "none"`` (stripe
+    index only); combine with phase frames via :func:`psp_with_gray_code`. 1-bit set.
+    """
+    _check_size(width, height)
+    a = direction_angle(direction, angle)
+    frames, opts = _code_frames(period, direction, a, width, height, code, inverse)
+    plan = DirectionPlan(direction, a, f"{code}_code", (float(period),), {"phase": "none", **opts})
+    return PatternSet(width, height, frames, (plan,), 1, f"{code}-code-T{period:g}-{direction}")
+
+
+def binary_code(period: float, direction: str = "v", **kw) -> PatternSet:
+    """Simple binary code stripes with inverse frames (see :func:`gray_code`)."""
+    return gray_code(period, direction, code="binary", **kw)
+
+
+def psp_with_gray_code(period: float, steps: int = 3, direction: str = "v", angle: float | None = None,
+                       kind: str = "sinusoid", width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
+                       code: str = "gray", inverse: bool = True, bit_depth: int | None = None) -> PatternSet:
+    """N-step phase frames followed by code frames of the same period (plan ``"gray_code"``)."""
+    ps = phase_shift(period, steps, direction, angle, kind, width, height, bit_depth)
+    a = ps.plans[0].angle
+    cframes, opts = _code_frames(period, direction, a, width, height, code, inverse)
+    plan = DirectionPlan(direction, a, f"{code}_code", (float(period),), {"phase": "psp", **opts})
+    return PatternSet(width, height, ps.frames + cframes, (plan,), ps.bit_depth,
+                      f"psp-{steps}step-{code}-T{period:g}-{direction}")
+
+
+def ftp(period: float, direction: str = "v", angle: float | None = None, kind: str = "sinusoid",
+        width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT, method: str = "none",
+        bit_depth: int | None = None) -> PatternSet:
+    """Single-frame Fourier-transform profilometry set (Eq. 4.1-4.4); ``options["phase"]="ftp"``.
+
+    ``method`` is the unwrapping the plan names (``"none"`` = wrapped phase only, or
+    ``"spatial"``, ``"geometric"``, ``"histogram"``).
+    """
+    _check_size(width, height)
+    a = direction_angle(direction, angle)
+    frames = phase_frames(period, 1, direction, a, kind, shifts=[0.0])
+    plan = DirectionPlan(direction, a, method, (float(period),),
+                         {"phase": "ftp", "w_range": _w_range(a, width, height)})
+    return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth), f"ftp-T{period:g}-{direction}")
+
+
+def modified_ftp(period: float, direction: str = "v", angle: float | None = None, kind: str = "sinusoid",
+                 width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT, method: str = "none",
+                 bit_depth: int | None = None) -> PatternSet:
+    """π-shifted pair for modified FTP (Eq. 4.5-4.7, 6.1-6.6); ``options["phase"]="modified_ftp"``."""
+    _check_size(width, height)
+    a = direction_angle(direction, angle)
+    frames = phase_frames(period, 2, direction, a, kind, shifts=[0.0, math.pi])
+    plan = DirectionPlan(direction, a, method, (float(period),),
+                         {"phase": "modified_ftp", "w_range": _w_range(a, width, height)})
+    return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
+                      f"modified-ftp-T{period:g}-{direction}")
+
+
+def two_frequency(high_period: float, low_period: float, direction: str = "v", angle: float | None = None,
+                  kind: str = "sinusoid", width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
+                  bit_depth: int | None = None) -> PatternSet:
+    """Enhanced two-frequency PSP (ch. 5.3): 3-step low frequency then 3-step high frequency.
+
+    Plan ``"two_frequency_geometric"``, periods ``(high, low)``: the low phase is unwrapped by
+    the geometric constraint (Eq. 4.21) and then unwraps the high phase. 6 frames.
+    """
+    _check_size(width, height)
+    if not low_period > high_period:
+        raise ValueError(f"low_period ({low_period}) must exceed high_period ({high_period})")
+    a = direction_angle(direction, angle)
+    frames = phase_frames(low_period, 3, direction, a, kind) + phase_frames(high_period, 3, direction, a, kind)
+    plan = DirectionPlan(direction, a, "two_frequency_geometric", (float(high_period), float(low_period)),
+                         {"phase": "psp", "w_range": _w_range(a, width, height)})
+    return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
+                      f"two-frequency-{high_period:g}-{low_period:g}-{direction}")
+
+
+def hybrid(high_period: float, low_period: float, direction: str = "v", angle: float | None = None,
+           kind: str = "sinusoid", width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
+           bit_depth: int | None = None) -> PatternSet:
+    """Hybrid FTP + PSP (ch. 5.2.5): 3-step low-frequency frames, then one high-frequency frame.
+
+    Plan ``"hybrid"``, periods ``(high, low)``, ``options["phase"] = "ftp+psp"``: FTP on the
+    last (high) frame, 3-step PSP + geometric constraint on the low group (Eq. 5.13-5.15).
+    """
+    _check_size(width, height)
+    if not low_period > high_period:
+        raise ValueError(f"low_period ({low_period}) must exceed high_period ({high_period})")
+    a = direction_angle(direction, angle)
+    frames = phase_frames(low_period, 3, direction, a, kind) + phase_frames(high_period, 1, direction, a, kind,
+                                                                            shifts=[0.0])
+    plan = DirectionPlan(direction, a, "hybrid", (float(high_period), float(low_period)),
+                         {"phase": "ftp+psp", "high_group": group_name(direction, high_period),
+                          "low_group": group_name(direction, low_period), "w_range": _w_range(a, width, height)})
+    return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
+                      f"hybrid-{high_period:g}-{low_period:g}-{direction}")
+
+
+def white_frame() -> FrameSpec:
+    """All-on reference frame (board image / texture)."""
+    return FrameSpec(kind="white", role="texture")
+
+
+def calibration(width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT, directions=("v", "h"),
+                periods=(18.0, 21.0, 144.0), steps=(9, 3, 3), kind: str = "sinusoid",
+                bit_depth: int | None = None) -> PatternSet:
+    """Calibration sequence per board pose (ch. 2.2.4): white frame + the 15-frame
+    three-frequency set for each direction (31 frames for ``("v", "h")``)."""
+    _check_size(width, height)
+    frames = [white_frame()]
+    plans = []
+    for d in directions:
+        ps = three_frequency(d, periods, steps, kind=kind, width=width, height=height, bit_depth=bit_depth)
+        frames += ps.frames
+        plans += ps.plans
+    return PatternSet(width, height, tuple(frames), tuple(plans), _bit_depth(kind, bit_depth),
+                      "calibration-" + "".join(directions))
+
+
+def optimal_angle_calibration(alpha_opt: float, width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
+                              periods=(18.0, 21.0, 144.0), steps=(9, 3, 3), kind: str = "sinusoid",
+                              bit_depth: int | None = None) -> PatternSet:
+    """Optimal-angle calibration (Eq. 2.32-2.34): white + 15 frames at ``alpha_opt - pi/4``
+    (direction ``"a1"``) + 15 at ``alpha_opt + pi/4`` (``"a2"``), angles taken modulo pi.
+    31 frames; each plan carries ``options["alpha_opt"]``."""
+    _check_size(width, height)
+    frames = [white_frame()]
+    plans = []
+    for d, off in (("a1", -math.pi / 4), ("a2", math.pi / 4)):
+        ps = three_frequency(d, periods, steps, angle=direction_angle(d, alpha_opt + off), kind=kind,
+                             width=width, height=height, bit_depth=bit_depth)
+        frames += ps.frames
+        p = ps.plans[0]
+        plans.append(DirectionPlan(p.direction, p.angle, p.method, p.periods,
+                                   {**p.options, "alpha_opt": float(alpha_opt)}))
+    return PatternSet(width, height, tuple(frames), tuple(plans), _bit_depth(kind, bit_depth),
+                      f"optimal-angle-calibration-{math.degrees(alpha_opt):g}deg")
