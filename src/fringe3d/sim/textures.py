@@ -1,0 +1,87 @@
+"""Surface textures: albedo factors looked up in an object's material coordinates.
+
+A texture is a callable ``texture(uv (N, 2) float) -> (N,) float`` in [0, 1] that multiplies the
+object's base albedo. ``uv`` are the object's material coordinates (mm on planes, boards, meshes
+and wings; radians (longitude, latitude) on spheres). Every texture also has ``to_dict()`` so that
+scene files can store it; :func:`texture_from_dict` reads it back.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Checker:
+    """Checkerboard of square cells of side ``period`` (material units); dark cells have
+    factor ``1 - contrast``."""
+
+    period: float = 10.0
+    contrast: float = 0.5
+
+    def __call__(self, uv: np.ndarray) -> np.ndarray:
+        cells = np.floor(uv[:, 0] / self.period) + np.floor(uv[:, 1] / self.period)
+        odd = np.mod(cells, 2) == 1
+        return np.where(odd, 1.0 - self.contrast, 1.0)
+
+    def to_dict(self) -> dict:
+        return {"type": "checker", **asdict(self)}
+
+
+@dataclass(frozen=True)
+class Stripes:
+    """Smooth sinusoidal stripes along material ``u``: ``1 - contrast*(1+cos(2πu/period))/2``."""
+
+    period: float = 10.0
+    contrast: float = 0.5
+
+    def __call__(self, uv: np.ndarray) -> np.ndarray:
+        return 1.0 - self.contrast * 0.5 * (1 + np.cos(2 * np.pi * uv[:, 0] / self.period))
+
+    def to_dict(self) -> dict:
+        return {"type": "stripes", **asdict(self)}
+
+
+@dataclass(frozen=True)
+class Blotches:
+    """Smooth random-looking print: a seeded sum of ``n`` sinusoids in (u, v) with wavelengths
+    around ``scale`` (material units), mapped to factors in ``[1 - contrast, 1]``."""
+
+    scale: float = 20.0
+    contrast: float = 0.4
+    seed: int = 0
+    n: int = 6
+
+    def __call__(self, uv: np.ndarray) -> np.ndarray:
+        rng = np.random.default_rng(self.seed)
+        ang = rng.uniform(0, np.pi, self.n)
+        k = 2 * np.pi / (self.scale * rng.uniform(0.6, 1.6, self.n))
+        ph = rng.uniform(0, 2 * np.pi, self.n)
+        s = np.zeros(len(uv))
+        for a, kk, p in zip(ang, k, ph):
+            s += np.cos(kk * (uv[:, 0] * np.cos(a) + uv[:, 1] * np.sin(a)) + p)
+        s = 0.5 * (1 + s / self.n)  # in [0, 1]
+        return 1.0 - self.contrast * s
+
+    def to_dict(self) -> dict:
+        return {"type": "blotches", **asdict(self)}
+
+
+TEXTURES = {"checker": Checker, "stripes": Stripes, "blotches": Blotches}
+
+
+def texture_from_dict(d: dict | None, where: str = "texture"):
+    """Build a texture from ``{"type": name, ...fields}``; ``None`` gives ``None``."""
+    if d is None:
+        return None
+    if not isinstance(d, dict) or "type" not in d:
+        raise ValueError(f"{where}: expected an object with a 'type' field, one of {sorted(TEXTURES)}")
+    kind = d["type"]
+    if kind not in TEXTURES:
+        raise ValueError(f"{where}.type: unknown texture {kind!r}; expected one of {sorted(TEXTURES)}")
+    fields = {k: v for k, v in d.items() if k != "type"}
+    try:
+        return TEXTURES[kind](**fields)
+    except TypeError as e:
+        raise ValueError(f"{where}: bad field for texture {kind!r}: {e}") from None

@@ -1,0 +1,154 @@
+"""Ray casting of the analytic scene primitives against closed forms."""
+import numpy as np
+import pytest
+
+from fringe3d.sim.scenes import Box, Hit, Plane, Scene, Sphere
+from fringe3d.sim.textures import Checker
+
+
+def _random_dirs(rng, n, spread=0.3):
+    d = np.column_stack([rng.uniform(-spread, spread, (n, 2)), np.ones(n)])
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def test_sphere_hits_match_geometric_closed_form():
+    rng = np.random.default_rng(1)
+    c, r = np.array([10.0, -5.0, 300.0]), 40.0
+    o = np.array([1.0, 2.0, -3.0])
+    d = _random_dirs(rng, 5000)
+    h = Sphere(c, r).intersect(o, d)
+    # closed form: distance p from the centre to the ray line, t = (c-o)·d - sqrt(r² - p²)
+    w = c - o
+    along = d @ w
+    p2 = w @ w - along**2
+    expect_hit = p2 < r * r
+    assert expect_hit.sum() > 500 and (~expect_hit).sum() > 500
+    np.testing.assert_array_equal(h.mask, expect_hit)
+    t_true = along[expect_hit] - np.sqrt(r * r - p2[expect_hit])
+    np.testing.assert_allclose(h.t[expect_hit], t_true, rtol=0, atol=1e-9)
+    X = o + h.t[expect_hit, None] * d[expect_hit]
+    np.testing.assert_allclose(h.normal[expect_hit], (X - c) / r, atol=1e-9)
+    assert np.all(np.einsum("ij,ij->i", h.normal[expect_hit], d[expect_hit]) < 0)
+    assert np.all(np.isinf(h.t[~expect_hit])) and np.all(h.object_id[~expect_hit] == -1)
+    assert np.all(np.isnan(h.normal[~expect_hit])) and np.all(np.isnan(h.material_uv[~expect_hit]))
+
+
+def test_sphere_hit_from_inside_returns_exit_with_normal_facing_ray():
+    h = Sphere((0, 0, 0), 10.0).intersect(np.zeros(3), np.array([[0.0, 0, 2.0]]))
+    assert h.t[0] == pytest.approx(5.0)  # non-unit direction: t is the ray parameter
+    np.testing.assert_allclose(h.normal[0], [0, 0, -1])
+
+
+def test_plane_hits_match_closed_form_and_respect_size():
+    rng = np.random.default_rng(2)
+    p, n = np.array([0.0, 0.0, 250.0]), np.array([0.2, -0.1, -1.0])
+    n_unit = n / np.linalg.norm(n)
+    o = np.zeros(3)
+    d = _random_dirs(rng, 2000) * rng.uniform(0.5, 2.0, (2000, 1))
+    h = Plane(p, n, albedo=0.7).intersect(o, d)
+    t_true = (p - o) @ n_unit / (d @ n_unit)
+    np.testing.assert_allclose(h.t, t_true, rtol=1e-12)
+    X = h.points(o, d)
+    np.testing.assert_allclose((X - p) @ n_unit, 0, atol=1e-9)
+    np.testing.assert_allclose(np.abs(h.normal @ n_unit), 1, atol=1e-12)
+    np.testing.assert_allclose(h.albedo, 0.7)
+    # finite plane: hits exactly where |u| <= w/2 and |v| <= h/2 in the plane's axes
+    fin = Plane(p, n, size=(60, 30), u_axis=(1, 0, 0))
+    hf = fin.intersect(o, d)
+    uv = np.column_stack([(X - p) @ fin.e1, (X - p) @ fin.e2])
+    inside = (np.abs(uv[:, 0]) <= 30) & (np.abs(uv[:, 1]) <= 15)
+    assert 100 < inside.sum() < 1900
+    np.testing.assert_array_equal(hf.mask, inside)
+    np.testing.assert_allclose(hf.material_uv[inside], uv[inside], atol=1e-9)
+
+
+def test_plane_behind_origin_or_parallel_is_missed():
+    pl = Plane((0, 0, -10), (0, 0, 1))
+    h = pl.intersect(np.zeros(3), np.array([[0, 0, 1.0], [1.0, 0, 0]]))
+    assert not h.mask.any()
+
+
+def test_box_front_face_and_rotated_face_distance():
+    box = Box((0, 0, 200), (40, 20, 10))
+    h = box.intersect(np.zeros(3), np.array([[0, 0, 1.0], [0.05, 0.02, 1.0], [0.3, 0, 1.0]]))
+    np.testing.assert_allclose(h.t[:2], 195.0)
+    np.testing.assert_allclose(h.normal[:2], [[0, 0, -1]] * 2)
+    assert not h.mask[2]
+    # rotated 30° about y: the ray along z meets the tilted front face at 200 - 5/cos(30°)
+    rot = Box((0, 0, 200), (40, 20, 10), R=(0, np.radians(30), 0))
+    h = rot.intersect(np.zeros(3), np.array([[0, 0, 1.0]]))
+    assert h.t[0] == pytest.approx(200 - 5 / np.cos(np.radians(30)), abs=1e-9)
+    np.testing.assert_allclose(h.normal[0], [-np.sin(np.radians(30)), 0, -np.cos(np.radians(30))], atol=1e-12)
+
+
+def test_scene_keeps_nearest_hit_and_numbers_objects():
+    scene = Scene([Plane((0, 0, 300), (0, 0, 1), albedo=0.5), Sphere((0, 0, 250), 20, albedo=0.9)])
+    d = np.array([[0, 0, 1.0], [0.2, 0, 1.0], [0, 0, -1.0]])
+    h = scene.intersect(np.zeros(3), d)
+    np.testing.assert_array_equal(h.object_id, [1, 0, -1])
+    assert h.t[0] == pytest.approx(230.0)
+    assert h.t[1] == pytest.approx(300.0)
+    np.testing.assert_allclose(h.albedo, [0.9, 0.5, 0.0])
+
+
+def test_per_ray_origins_parallel_rays_hit_sphere_at_closed_form_depth():
+    # telecentric case: parallel rays from a grid of origins
+    xy = np.stack(np.meshgrid(np.linspace(-30, 30, 41), np.linspace(-30, 30, 41)), -1).reshape(-1, 2)
+    o = np.column_stack([xy, np.full(len(xy), -100.0)])
+    d = np.tile([0, 0, 1.0], (len(xy), 1))
+    h = Sphere((0, 0, 0), 20).intersect(o, d)
+    rho2 = np.sum(xy**2, axis=1)
+    inside = rho2 < 400
+    np.testing.assert_array_equal(h.mask, inside)
+    np.testing.assert_allclose(h.t[inside], 100 - np.sqrt(400 - rho2[inside]), atol=1e-9)
+
+
+def test_moving_sphere_is_hit_at_its_closed_form_centre():
+    v, a = np.array([100.0, 0, 0]), np.array([0, 9806.65, 0])
+    s = Sphere((0, 0, 300), 20, velocity=v, acceleration=a)
+    for time in (0.0, 0.01, 0.05):
+        c = np.array([0, 0, 300.0]) + v * time + 0.5 * a * time**2
+        h = s.intersect(np.zeros(3), (c / np.linalg.norm(c))[None], time=time)
+        assert h.t[0] == pytest.approx(np.linalg.norm(c) - 20, abs=1e-9)
+
+
+def test_spinning_sphere_texture_turns_with_the_ball():
+    s0 = Sphere((0, 0, 300), 20, texture=Checker(period=0.5), spin=(0, 2 * np.pi, 0))
+    d = np.array([[0.01, 0.02, 1.0]])
+    uv0 = s0.intersect(np.zeros(3), d, time=0.0).material_uv[0]
+    uv_q = s0.intersect(np.zeros(3), d, time=0.125).material_uv[0]  # 45° later
+    uv_full = s0.intersect(np.zeros(3), d, time=1.0).material_uv[0]  # one full turn
+    assert abs(uv_q[0] - uv0[0]) == pytest.approx(np.pi / 4, abs=0.05)
+    np.testing.assert_allclose(uv_full, uv0, atol=1e-9)
+
+
+def test_textured_albedo_is_base_times_texture():
+    pl = Plane((0, 0, 100), (0, 0, -1), albedo=0.8, texture=Checker(period=10, contrast=0.5), u_axis=(1, 0, 0))
+    h = pl.intersect(np.zeros(3), np.array([[0.05, 0.05, 1.0], [0.15, 0.05, 1.0]]))
+    # uv = (5, ±5) and (15, ±5): cells differ in parity -> albedos 0.8 and 0.4
+    assert sorted(h.albedo.round(12)) == [0.4, 0.8]
+
+
+@pytest.mark.parametrize("origins,dirs", [(np.zeros(2), np.ones((4, 3))), (np.zeros((3, 3)), np.ones((4, 3))),
+                                          (np.zeros(3), np.ones((4, 2))), (np.zeros(3), np.ones(3))])
+def test_bad_ray_shapes_raise(origins, dirs):
+    with pytest.raises(ValueError, match="shape"):
+        Sphere((0, 0, 0), 1).intersect(origins, dirs)
+
+
+def test_bad_primitive_parameters_raise():
+    with pytest.raises(ValueError, match="radius"):
+        Sphere((0, 0, 0), -1)
+    with pytest.raises(ValueError, match="albedo"):
+        Plane((0, 0, 0), (0, 0, 1), albedo=1.5)
+    with pytest.raises(ValueError, match="normal"):
+        Plane((0, 0, 0), (0, 0, 0))
+    with pytest.raises(ValueError, match="size"):
+        Box((0, 0, 0), (1, -1, 1))
+    with pytest.raises(ValueError, match="at least one"):
+        Scene([])
+
+
+def test_miss_hit_has_documented_fill_values():
+    h = Hit.miss(3)
+    assert h.object_id.dtype == np.int32 and not h.mask.any() and np.all(np.isinf(h.t))
