@@ -1,0 +1,322 @@
+"""Triangulation: camera pixel + projector coordinate -> 3D point, Eq. (2.37)-(2.38).
+
+Two paths, same geometry:
+
+* :func:`triangulate` - the least-squares solution of Eq. (2.37): two camera rows plus one
+  projector row per known projector coordinate (``u_p`` from vertical fringes, ``v_p`` from
+  horizontal fringes, or both), ``X = (H^T H)^{-1} H^T b``. Camera distortion is removed by
+  undistorting the pixel; projector distortion is handled by iterating (predict the unknown
+  projector coordinate, undistort the pair, solve again). Pinhole and telecentric (Eq. 3.3)
+  cameras.
+* :class:`Triangulator` - the fast closed form for one projector coordinate. Every camera
+  pixel defines a ray ``X = O + s*D`` (undistorted, precomputed once per rig); the projector
+  row ``w * (P3 . X~) = Q . X~`` then gives ``s = (Q.O~ - w P3.O~) / (w P3.D - Q.D)``, a ratio
+  of two affine functions of ``w``, evaluated by a numba kernel straight into an organized
+  ``(H, W, 3)`` float32 point map. It ignores projector lens distortion (it says so).
+
+Projector coordinate along a fringe direction of angle ``alpha`` (manifest convention):
+``w = v_p*cos(alpha) + u_p*sin(alpha)``; vertical fringes (alpha = pi/2) give ``w = u_p``.
+Units: mm and pixels. Invalid pixels are NaN.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from fringe3d.io.console import warn
+
+ANGLE_UP = math.pi / 2  # vertical fringes: w = u_p
+ANGLE_VP = 0.0          # horizontal fringes: w = v_p
+
+
+# ----------------------------------------------------------------------------- helpers
+def projector_row(P: np.ndarray, angle: float) -> np.ndarray:
+    """Row ``Q = cos(alpha)*P[1] + sin(alpha)*P[0]`` of a (3, 4) projection matrix, so that a
+    world point with homogeneous ``X~`` has fringe coordinate ``w = Q.X~ / P[2].X~``."""
+    return math.cos(angle) * P[1] + math.sin(angle) * P[0]
+
+
+def check_map(a, shape, name: str) -> np.ndarray | None:
+    """Return ``a`` as an array of camera ``shape`` (H, W), or raise a clear ValueError."""
+    if a is None:
+        return None
+    a = np.asarray(a)
+    if a.shape != tuple(shape):
+        raise ValueError(f"{name} has shape {a.shape} but the calibration's camera is "
+                         f"{shape[1]}x{shape[0]} (expected an array of shape {tuple(shape)}): "
+                         "calibration and capture sizes disagree")
+    return a
+
+
+def camera_shape(rig) -> tuple[int, int]:
+    """(H, W) of the rig's camera."""
+    return (rig.camera.height, rig.camera.width)
+
+
+def camera_rays(rig) -> tuple[np.ndarray, np.ndarray]:
+    """Undistorted camera rays ``X = O + s*D`` for every pixel, world frame.
+
+    Returns ``(O, D)``: pinhole cameras give ``O (3,)`` (the centre) and ``D (H, W, 3)`` with
+    device depth ``z = 1`` (so ``s`` is the depth along the camera axis); telecentric cameras
+    give ``O (H, W, 3)`` and the common unit direction ``D (3,)``.
+    """
+    cam = rig.camera
+    return cam.rays(cam.pixel_grid())
+
+
+# ----------------------------------------------------------------------------- least squares
+def triangulate(rig, up=None, vp=None, mask=None, *, iterations: int = 8) -> np.ndarray:
+    """Least-squares triangulation of Eq. (2.37)-(2.38) for every camera pixel.
+
+    Parameters
+    ----------
+    rig : fringe3d.optics.Rig
+        Pinhole or telecentric camera plus a pinhole projector.
+    up, vp : (H, W) float arrays, optional
+        Projector column ``u_p`` (from vertical fringes) and/or row ``v_p`` (horizontal fringes),
+        projector pixels; NaN where unknown. At least one is required; with both the system is
+        over-determined (4 rows) and solved in least squares.
+    mask : (H, W) bool, optional
+        Pixels to reconstruct (default: where the given coordinates are finite).
+    iterations : int
+        Fixed-point iterations for projector lens distortion (unused without it).
+
+    Returns
+    -------
+    (H, W, 3) float32
+        World coordinates in mm (camera frame for pinhole rigs, projector frame for telecentric
+        rigs); NaN where invalid (masked, unknown coordinate, or behind a pinhole camera).
+    """
+    if up is None and vp is None:
+        raise ValueError("triangulate needs at least one projector coordinate: up (from vertical "
+                         "fringes) and/or vp (from horizontal fringes)")
+    shape = camera_shape(rig)
+    up = check_map(up, shape, "up")
+    vp = check_map(vp, shape, "vp")
+    mask = check_map(mask, shape, "mask")
+    valid = np.ones(shape, bool) if mask is None else mask.astype(bool)
+    for a in (up, vp):
+        if a is not None:
+            valid &= np.isfinite(a)
+    out = np.full(shape + (3,), np.nan, np.float32)
+    if not valid.any():
+        return out
+    cam_rows, cam_rhs = _camera_rows(rig, valid)
+    proj = rig.projector
+    up_v = None if up is None else up[valid].astype(float)
+    vp_v = None if vp is None else vp[valid].astype(float)
+    X = _solve(cam_rows, cam_rhs, proj.P, _undistorted_proj(proj, up_v, vp_v, None))
+    if proj.dist.any():
+        for _ in range(iterations):
+            X_new = _solve(cam_rows, cam_rhs, proj.P, _undistorted_proj(proj, up_v, vp_v, X))
+            step = np.nanmax(np.abs(X_new - X), initial=0.0)
+            X = X_new
+            if step < 1e-9:
+                break
+    if not rig.telecentric:
+        depth = rig.camera.to_device(X)[:, 2]
+        X[~(depth > 0)] = np.nan
+    out[valid] = X
+    return out
+
+
+def _camera_rows(rig, valid):
+    """Two camera rows per valid pixel: ``(N, 2, 3)`` coefficients and ``(N, 2)`` right sides."""
+    cam = rig.camera
+    v, u = np.nonzero(valid)
+    uv = np.stack([u, v], axis=-1).astype(float)
+    if rig.telecentric:  # Eq. (3.3): M[:, :3] X = uv - M[:, 3]
+        M = cam.M
+        A = np.broadcast_to(M[:, :3], (len(u), 2, 3))
+        return A, uv - M[:, 3]
+    # undistorted pixel coordinates, then the rows of M_c = K [R | t] (Eq. 2.38)
+    xy = cam.pixels_to_normalized(uv)
+    uvu = cam.normalized_to_pixels(xy)
+    return _rows(cam.P, uvu[:, 0], uvu[:, 1])
+
+
+def _rows(P, u, v):
+    """Rows ``u P3 - P1`` and ``v P3 - P2`` of Eq. (2.38) as ``(N, 2, 3)`` and ``(N, 2)``."""
+    A = np.stack([u[:, None] * P[2, :3] - P[0, :3], v[:, None] * P[2, :3] - P[1, :3]], axis=1)
+    b = np.stack([P[0, 3] - u * P[2, 3], P[1, 3] - v * P[2, 3]], axis=1)
+    return A, b
+
+
+def _undistorted_proj(proj, up, vp, X):
+    """Undistorted projector pixel coordinates ``(up', vp')`` (either may be None).
+
+    Without projector distortion the measured coordinates are used as they are. With it, the
+    unknown coordinate is predicted from the current estimate ``X`` (None: first pass, use the
+    distorted values), then the pair is undistorted.
+    """
+    if not proj.dist.any() or X is None:
+        return up, vp
+    pred = proj.project(X)
+    u = up if up is not None else pred[:, 0]
+    v = vp if vp is not None else pred[:, 1]
+    uvu = proj.normalized_to_pixels(proj.pixels_to_normalized(np.stack([u, v], axis=-1)))
+    return (None if up is None else uvu[:, 0]), (None if vp is None else uvu[:, 1])
+
+
+def _solve(cam_A, cam_b, P, proj_uv):
+    up, vp = proj_uv
+    A_list, b_list = [cam_A], [cam_b]
+    n = cam_A.shape[0]
+    if up is not None:
+        A, b = _rows(P, up, np.zeros(n))
+        A_list.append(A[:, :1]), b_list.append(b[:, :1])
+    if vp is not None:
+        A, b = _rows(P, np.zeros(n), vp)
+        A_list.append(A[:, 1:]), b_list.append(b[:, 1:])
+    A = np.concatenate(A_list, axis=1)
+    b = np.concatenate(b_list, axis=1)
+    if A.shape[1] == 3:
+        return np.linalg.solve(A, b[..., None])[..., 0]
+    At = np.swapaxes(A, 1, 2)
+    return np.linalg.solve(At @ A, (At @ b[..., None]))[..., 0]  # Eq. (2.37)
+
+
+# ----------------------------------------------------------------------------- fast path
+@numba.njit(parallel=True, cache=True)
+def _central_kernel(w, mask, O, D, Q, P3, out):  # pragma: no cover - compiled
+    H, W = w.shape
+    qo = Q[0] * O[0] + Q[1] * O[1] + Q[2] * O[2] + Q[3]
+    po = P3[0] * O[0] + P3[1] * O[1] + P3[2] * O[2] + P3[3]
+    nan = np.float32(np.nan)
+    for i in numba.prange(H):
+        for j in range(W):
+            wij = np.float64(w[i, j])
+            dx = np.float64(D[i, j, 0])
+            dy = np.float64(D[i, j, 1])
+            dz = np.float64(D[i, j, 2])
+            den = wij * (P3[0] * dx + P3[1] * dy + P3[2] * dz) - (Q[0] * dx + Q[1] * dy + Q[2] * dz)
+            s = (qo - wij * po) / den
+            if mask[i, j] and s > 0.0 and math.isfinite(s):
+                out[i, j, 0] = O[0] + s * dx
+                out[i, j, 1] = O[1] + s * dy
+                out[i, j, 2] = O[2] + s * dz
+            else:
+                out[i, j, 0] = nan
+                out[i, j, 1] = nan
+                out[i, j, 2] = nan
+
+
+@numba.njit(parallel=True, cache=True)
+def _parallel_kernel(w, mask, O, D, Q, P3, out):  # pragma: no cover - compiled
+    H, W = w.shape
+    qd = Q[0] * D[0] + Q[1] * D[1] + Q[2] * D[2]
+    pd = P3[0] * D[0] + P3[1] * D[1] + P3[2] * D[2]
+    nan = np.float32(np.nan)
+    for i in numba.prange(H):
+        for j in range(W):
+            wij = np.float64(w[i, j])
+            ox = np.float64(O[i, j, 0])
+            oy = np.float64(O[i, j, 1])
+            oz = np.float64(O[i, j, 2])
+            num = (Q[0] * ox + Q[1] * oy + Q[2] * oz + Q[3]) - wij * (P3[0] * ox + P3[1] * oy + P3[2] * oz + P3[3])
+            s = num / (wij * pd - qd)
+            if mask[i, j] and math.isfinite(s):
+                out[i, j, 0] = ox + s * D[0]
+                out[i, j, 1] = oy + s * D[1]
+                out[i, j, 2] = oz + s * D[2]
+            else:
+                out[i, j, 0] = nan
+                out[i, j, 1] = nan
+                out[i, j, 2] = nan
+
+
+class Triangulator:
+    """Per-pixel closed-form triangulation with coefficients precomputed once per rig.
+
+    Parameters
+    ----------
+    rig : fringe3d.optics.Rig
+    angle : float
+        Fringe angle alpha (rad) of the direction that supplies ``w``: pi/2 (default) for
+        vertical fringes (``w = u_p``), 0 for horizontal fringes (``w = v_p``).
+    warn_distortion : bool
+        Warn (once, here) when the projector has lens distortion, which this path ignores.
+
+    Notes
+    -----
+    Pinhole camera: ``X = O + s*D`` with ``O`` the camera centre and ``D (H, W, 3)`` the
+    undistorted ray of each pixel (device depth 1), ``s = (a + b*w) / (c + e*w)`` with
+    ``a = Q.O~``, ``b = -P3.O~``, ``c = -Q.D``, ``e = P3.D`` (Eq. 2.37 solved along the ray).
+    Telecentric camera (Eq. 3.3): ``O (H, W, 3)`` per pixel, ``D`` the viewing direction.
+    Projector lens distortion is ignored here: use :func:`triangulate` (least squares,
+    iterated) when the projector has distortion.
+
+    Example
+    -------
+    >>> tri = Triangulator(rig)                       # doctest: +SKIP
+    >>> xyz = tri.points(up)                           # (H, W, 3) float32, NaN where invalid
+    """
+
+    def __init__(self, rig, angle: float = ANGLE_UP, warn_distortion: bool = True):
+        self.rig = rig
+        self.angle = float(angle)
+        self.shape = camera_shape(rig)
+        O, D = camera_rays(rig)
+        self.central = not rig.telecentric
+        if self.central:
+            self.O = np.asarray(O, np.float64)
+            self.D = np.ascontiguousarray(D, dtype=np.float32)
+        else:
+            self.O = np.ascontiguousarray(O, dtype=np.float32)
+            self.D = np.asarray(D, np.float64)
+        P = rig.projector.P
+        self.Q = np.ascontiguousarray(projector_row(P, self.angle), dtype=np.float64)
+        self.P3 = np.ascontiguousarray(P[2], dtype=np.float64)
+        self.ignores_distortion = bool(rig.projector.dist.any())
+        if self.ignores_distortion and warn_distortion:
+            warn("the projector has lens distortion, which the fast triangulation path ignores; "
+                 "use fringe3d.reconstruct.triangulate (least squares, iterated) for full accuracy")
+
+    def points(self, w, mask=None, out=None) -> np.ndarray:
+        """3D points from the projector coordinate ``w`` (H, W) (``u_p`` for vertical fringes).
+
+        Returns ``(H, W, 3)`` float32 in mm, NaN where ``w`` is NaN, ``mask`` is False, or the
+        point falls behind a pinhole camera. ``out`` may be a preallocated float32 array.
+        """
+        w = check_map(w, self.shape, "projector coordinate map")
+        if w.dtype not in (np.float32, np.float64):
+            w = w.astype(np.float32)
+        mask = np.ones(self.shape, bool) if mask is None else check_map(mask, self.shape, "mask").astype(bool)
+        if out is None:
+            out = np.empty(self.shape + (3,), np.float32)
+        kernel = _central_kernel if self.central else _parallel_kernel
+        kernel(np.ascontiguousarray(w), np.ascontiguousarray(mask), self.O, self.D, self.Q, self.P3, out)
+        return out
+
+    def points_from_phase(self, phase, period: float, mask=None, out=None) -> np.ndarray:
+        """3D points from the absolute phase ``Phi`` (rad) of fringes of ``period`` (projector
+        pixels): ``w = Phi*T/(2*pi)`` (Eq. 4.13), then :meth:`points`."""
+        if not period > 0:
+            raise ValueError(f"fringe period must be positive (projector pixels), got {period}")
+        phase = check_map(phase, self.shape, "absolute phase map")
+        return self.points(np.asarray(phase, np.float64) * (period / (2 * np.pi)), mask, out)
+
+    def coordinate_at_depth(self, z) -> np.ndarray:
+        """Projector coordinate ``w`` (H, W) of the point on each pixel's ray at world ``z``
+        (scalar or (H, W) map, mm); NaN where the ray does not reach ``z`` in front of a
+        pinhole camera. Used by the geometric constraint (Eq. 4.15-4.18, no distortion)."""
+        X = self.ray_points_at_z(z)
+        Xh = np.concatenate([X, np.ones(X.shape[:-1] + (1,))], axis=-1)
+        return (Xh @ self.Q) / (Xh @ self.P3)
+
+    def ray_points_at_z(self, z) -> np.ndarray:
+        """World points ``(H, W, 3)`` float64 where each pixel's ray meets the plane world-z = ``z``
+        (Eq. 4.15-4.17). NaN where the ray is parallel to the plane or, for a pinhole camera,
+        where the plane lies behind it."""
+        O = np.asarray(self.O, np.float64)
+        D = np.asarray(self.D, np.float64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (np.asarray(z, float) - O[..., 2]) / D[..., 2]
+            X = O + s[..., None] * D
+        bad = ~np.isfinite(s)
+        if self.central:
+            bad |= ~(s > 0)
+        X[bad] = np.nan
+        return X
