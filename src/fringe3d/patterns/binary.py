@@ -27,9 +27,25 @@ def _frac(theta: np.ndarray) -> np.ndarray:
     return np.mod(np.asarray(theta, dtype=np.float64) / TWO_PI, 1.0)
 
 
-def squared_binary(theta: np.ndarray) -> np.ndarray:
-    """1 where ``cos(theta) > 0`` (taken as ``(theta/2pi + 1/4) mod 1 < 1/2``), else 0."""
-    return (np.mod(_frac(theta) + 0.25, 1.0) < 0.5).astype(np.float32)
+def squared_binary(theta: np.ndarray, parity: np.ndarray | None = None) -> np.ndarray:
+    """1 where ``cos(theta) > 0``, else 0.
+
+    Pixels whose centre falls exactly on a stripe edge (``cos(theta) = 0``, which happens
+    whenever the half period is an even number of pixels) are ties. Without ``parity`` the
+    rising edge is on and the falling edge off (half-open, duty cycle exactly 1/2, but the
+    stripe's centre moves by half a pixel). With ``parity`` (0/1 per pixel, e.g. a
+    checkerboard) the tie pixels alternate, so each row keeps a 1/2 duty cycle and the
+    pattern's fundamental keeps the sinusoid's phase on average.
+    """
+    t = np.mod(_frac(theta) + 0.25, 1.0)
+    on = t < 0.5
+    if parity is not None:
+        eps = 1e-9
+        rising = (t < eps) | (t > 1.0 - eps)
+        falling = np.abs(t - 0.5) < eps
+        par = np.asarray(parity).astype(bool)
+        on = np.where(rising, ~par, np.where(falling, par, on))
+    return on.astype(np.float32)
 
 
 def _triangle(x: np.ndarray) -> np.ndarray:

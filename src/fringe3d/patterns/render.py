@@ -109,7 +109,7 @@ def render_frame(spec: FrameSpec, width: int, height: int, *, dither_size: int =
     if kind == "sinusoid":
         return (0.5 * (1.0 + np.cos(theta))).astype(np.float32)
     if kind == "square":
-        return binary.squared_binary(theta)
+        return binary.squared_binary(theta, parity=(u + v) % 2)
     if kind == "pwm":
         return binary.pulse_width_modulated(theta, pwm_pulses or binary.default_pwm_pulses(spec.period))
     if kind == "area_modulated":
