@@ -89,7 +89,7 @@ def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = T
         depth = np.where(hit, t - depth_offset, np.nan)
     else:
         depth = np.full(n_pix, np.nan)
-        depth[hit] = cam.to_device(pts[hit])[:, 2]
+        depth[hit] = pts[hit] @ cam.R[2] + cam.t[2]
     proj = rig.projector
     up = np.full(n_pix, np.nan)
     vp = np.full(n_pix, np.nan)
@@ -99,15 +99,15 @@ def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = T
     idx = np.flatnonzero(hit)
     if idx.size:
         X = pts[idx]
-        Xp = proj.to_device(X)
-        pdepth[idx] = Xp[:, 2]
+        zp = X @ proj.R[2] + proj.t[2]
+        pdepth[idx] = zp
         uvp = proj.project(X)
         up[idx], vp[idx] = uvp[:, 0], uvp[:, 1]
         to_p = proj.center - X
         dist = np.linalg.norm(to_p, axis=1)
         L = to_p / dist[:, None]
         cos = np.einsum("ij,ij->i", normal[idx], L)
-        inside = ((Xp[:, 2] > 0) & (uvp[:, 0] >= -0.5) & (uvp[:, 0] <= proj.width - 0.5)
+        inside = ((zp > 0) & (uvp[:, 0] >= -0.5) & (uvp[:, 0] <= proj.width - 0.5)
                   & (uvp[:, 1] >= -0.5) & (uvp[:, 1] <= proj.height - 0.5) & (cos > 0))
         if shadows and inside.any():
             j = np.flatnonzero(inside)
