@@ -1,0 +1,190 @@
+"""Circle-grid calibration board (ch. 2.2.4, ch. 3: dark circles on matte white).
+
+Board frame (mm): the board is the plane ``z_b = 0``; the first circle centre is the origin;
+``x_b`` runs along a grid row (columns), ``y_b`` down the rows. This is OpenCV's object-point
+frame, so the board's pose ``(R, t)`` (board → world, ``X = R @ x_b + t``) is what
+``cv2.solvePnP`` / ``cv2.calibrateCamera`` estimate when the world is the camera frame.
+
+Grid layouts, ``pattern_size = (cols, rows)`` as in ``cv2.findCirclesGrid``:
+
+* symmetric: centre ``(j s, i s, 0)`` for row ``i`` and column ``j``;
+* asymmetric (``cv2.CALIB_CB_ASYMMETRIC_GRID``): centre ``((2 j + i mod 2) s, i s, 0)``.
+
+Centres are listed row by row (``i`` outer, ``j`` inner), the order OpenCV reports them in
+for an unrotated board seen from the front.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .motion import STATIC, RigidMotion
+from .scenes import SceneObject, _albedo, _rotation, _vec3
+
+
+class CircleBoard(SceneObject):
+    """A matte white board with dark circles.
+
+    Parameters
+    ----------
+    cols, rows : int
+        Circles per row and number of rows (OpenCV ``pattern_size = (cols, rows)``).
+    spacing : float
+        Grid spacing ``s`` (mm): centre distance along a row (symmetric) / between rows.
+    radius : float
+        Circle radius (mm); must leave a gap between neighbours.
+    R, t : board → world rotation ((3, 3) or rotation vector) and translation (mm).
+    asymmetric : bool
+        OpenCV asymmetric grid layout.
+    margin : float
+        White border around the outermost circles (mm); default ``spacing``.
+    white, dark : float
+        Albedos of the board and of the circles, in [0, 1].
+    edge_width : float
+        Width (mm) of a linear albedo ramp centred on each circle's edge (0 = sharp). A ramp
+        about one pixel footprint wide anti-aliases single-sample renders without moving the
+        circle's centroid (the ramp is symmetric about the true radius).
+    """
+
+    def __init__(self, cols=9, rows=9, spacing=10.0, radius=None, R=None, t=(0.0, 0.0, 400.0),
+                 asymmetric=False, margin=None, white=0.9, dark=0.1, edge_width=0.0,
+                 motion: RigidMotion = STATIC):
+        self.cols, self.rows = int(cols), int(rows)
+        if self.cols < 2 or self.rows < 2:
+            raise ValueError(f"a circle grid needs at least 2x2 circles, got cols={cols}, rows={rows}")
+        self.spacing = float(spacing)
+        if not self.spacing > 0:
+            raise ValueError(f"board spacing must be > 0 mm, got {spacing}")
+        self.asymmetric = bool(asymmetric)
+        gap = self.spacing * (np.sqrt(2) if self.asymmetric else 1.0)  # nearest-centre distance
+        self.radius = float(radius) if radius is not None else 0.25 * self.spacing
+        if not 0 < self.radius < 0.5 * gap:
+            raise ValueError(f"board circle radius must be in (0, {0.5 * gap:g}) mm for spacing "
+                             f"{self.spacing:g}, got {self.radius}")
+        self.margin = self.spacing if margin is None else float(margin)
+        if self.margin < self.radius:
+            raise ValueError(f"board margin ({self.margin} mm) must be at least the circle radius")
+        self.white, self.dark = _albedo(white, "white"), _albedo(dark, "dark")
+        self.edge_width = float(edge_width)
+        if self.edge_width < 0 or self.edge_width > self.radius:
+            raise ValueError(f"edge_width must be in [0, radius] mm, got {edge_width}")
+        self.R = np.eye(3) if R is None else _rotation(R)
+        self.center = _vec3(t, "t")
+        self.motion = motion
+        self.albedo = self.white
+        self.texture = None
+        pts = self.object_points()
+        self.extent = np.array([pts[:, 0].min() - self.margin, pts[:, 0].max() + self.margin,
+                                pts[:, 1].min() - self.margin, pts[:, 1].max() + self.margin])
+
+    # -- grid geometry -----------------------------------------------------------------------
+    @property
+    def t(self) -> np.ndarray:
+        return self.center
+
+    @property
+    def pattern_size(self) -> tuple[int, int]:
+        """``(cols, rows)`` for ``cv2.findCirclesGrid``."""
+        return (self.cols, self.rows)
+
+    @property
+    def cv_flags(self) -> int:
+        """``cv2.CALIB_CB_SYMMETRIC_GRID`` or ``cv2.CALIB_CB_ASYMMETRIC_GRID``."""
+        import cv2
+        return cv2.CALIB_CB_ASYMMETRIC_GRID if self.asymmetric else cv2.CALIB_CB_SYMMETRIC_GRID
+
+    def object_points(self) -> np.ndarray:
+        """Circle centres in the board frame, ``(rows*cols, 3)`` float64 mm, row by row."""
+        i, j = np.mgrid[0:self.rows, 0:self.cols]
+        x = (2 * j + (i % 2)) * self.spacing if self.asymmetric else j * self.spacing
+        return np.column_stack([x.ravel(), (i * self.spacing).ravel(), np.zeros(i.size)]).astype(float)
+
+    def circle_centers(self, time: float = 0.0) -> np.ndarray:
+        """True circle centres in world coordinates at ``time``, ``(rows*cols, 3)`` mm."""
+        return self.to_world(self.object_points(), time)
+
+    def grid(self) -> dict:
+        """Grid geometry for calibration code and scene files."""
+        return {"cols": self.cols, "rows": self.rows, "spacing": self.spacing, "radius": self.radius,
+                "asymmetric": self.asymmetric, "pattern_size": list(self.pattern_size)}
+
+    def bounding_sphere_body(self):
+        x0, x1, y0, y1 = self.extent
+        return np.array([(x0 + x1) / 2, (y0 + y1) / 2, 0.0]), 0.5 * float(np.hypot(x1 - x0, y1 - y0))
+
+    # -- albedo --------------------------------------------------------------------------------
+    def distance_to_nearest_centre(self, uv: np.ndarray) -> np.ndarray:
+        """Distance (mm) from board points ``uv`` (M, 2) to the nearest circle centre."""
+        s = self.spacing
+        best = np.full(len(uv), np.inf)
+        i0 = np.round(uv[:, 1] / s)
+        for di in (-1, 0, 1):
+            i = np.clip(i0 + di, 0, self.rows - 1)
+            if self.asymmetric:
+                shift = np.mod(i, 2)
+                j = np.clip(np.round((uv[:, 0] / s - shift) / 2), 0, self.cols - 1)
+                cx = (2 * j + shift) * s
+            else:
+                j = np.clip(np.round(uv[:, 0] / s), 0, self.cols - 1)
+                cx = j * s
+            best = np.minimum(best, np.hypot(uv[:, 0] - cx, uv[:, 1] - i * s))
+        return best
+
+    def albedo_at(self, uv: np.ndarray) -> np.ndarray:
+        """Albedo at board coordinates ``uv`` (M, 2) mm: ``dark`` inside circles, ``white`` out."""
+        dist = self.distance_to_nearest_centre(uv)
+        if self.edge_width > 0:
+            w = np.clip((dist - self.radius) / self.edge_width + 0.5, 0.0, 1.0)
+        else:
+            w = (dist > self.radius).astype(float)
+        return self.dark + (self.white - self.dark) * w
+
+    # -- ray casting -----------------------------------------------------------------------------
+    def intersect_body(self, o, d):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = -o[:, 2] / d[:, 2]
+        t = np.where(np.isfinite(t), t, np.inf)
+        p = o + np.where(np.isfinite(t), t, 0.0)[:, None] * d
+        x0, x1, y0, y1 = self.extent
+        inside = (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)
+        t = np.where(inside, t, np.inf)
+        n = np.zeros_like(d)
+        n[:, 2] = 1.0
+        return t, n, p[:, :2]
+
+    def describe(self) -> str:
+        kind = "asymmetric" if self.asymmetric else "symmetric"
+        return f"CircleBoard {self.cols}x{self.rows} {kind}, spacing {self.spacing:g} mm"
+
+
+def look_at_rotation(normal_towards, up=(0.0, -1.0, 0.0)) -> np.ndarray:
+    """Rotation (board → world) for a board facing a viewer.
+
+    ``normal_towards`` is the world direction
+    from the board towards the viewer; the board's ``z_b`` axis points away from the viewer
+    (as OpenCV's does for a board seen from the front), ``y_b`` points roughly along ``-up``.
+    """
+    z = -_vec3(normal_towards, "normal_towards")
+    z /= np.linalg.norm(z)
+    upv = _vec3(up, "up")
+    y = -(upv - (upv @ z) * z)
+    if np.linalg.norm(y) < 1e-9:
+        raise ValueError("up must not be parallel to the viewing direction")
+    y /= np.linalg.norm(y)
+    x = np.cross(y, z)
+    return np.column_stack([x, y, z])
+
+
+def board_facing(camera_center, board_center, tilt=(0.0, 0.0, 0.0), **board_kwargs) -> CircleBoard:
+    """A :class:`CircleBoard` whose grid centre sits at ``board_center`` (world mm), facing
+    ``camera_center`` and then tilted by the rotation vector ``tilt`` (rad, board axes).
+
+    Other keyword arguments go to :class:`CircleBoard` (``cols``, ``rows``, ``spacing``...).
+    """
+    from .motion import rotation_vector_to_matrix
+
+    bc = _vec3(board_center, "board_center")
+    R = look_at_rotation(_vec3(camera_center, "camera_center") - bc) @ rotation_vector_to_matrix(tilt)
+    probe = CircleBoard(R=R, t=bc, **board_kwargs)
+    mid = probe.object_points()[:, :2]
+    mid = np.array([(mid[:, 0].min() + mid[:, 0].max()) / 2, (mid[:, 1].min() + mid[:, 1].max()) / 2, 0.0])
+    return CircleBoard(R=R, t=bc - R @ mid, **board_kwargs)
