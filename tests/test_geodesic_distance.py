@@ -1,0 +1,119 @@
+"""Geodesic distance maps against closed forms (plane, cylinder, sphere) and potpourri3d."""
+import time
+
+import numpy as np
+import pytest
+
+from fringe3d.analyze.geodesic import (MARCH_OFFSETS, bezier_arc_length, bezier_geodesic, grid_geodesic,
+                                       heat_geodesic)
+
+
+def cylinder_map(h=128, w=160, radius=40.0, pitch=0.3, z0=300.0):
+    """Cylinder (axis along y) sampled on a camera-like grid; returns map and unrolled coords."""
+    v, u = np.mgrid[0:h, 0:w].astype(float)
+    y = (v - h / 2) * pitch
+    s = (u - w / 2) * pitch
+    pts = np.dstack([radius * np.sin(s / radius), y, z0 - radius * (1 - np.cos(s / radius))])
+    return pts, s, y
+
+
+def sphere_map(n=121, radius=30.0, z0=300.0):
+    """Upper cap of a sphere seen from the camera (orthographic grid), great-circle truth."""
+    v, u = np.mgrid[0:n, 0:n].astype(float)
+    x = (u - n // 2) * 0.3
+    y = (v - n // 2) * 0.3
+    r2 = x ** 2 + y ** 2
+    z = np.where(r2 < (0.8 * radius) ** 2, np.sqrt(np.maximum(radius ** 2 - r2, 0)), np.nan)
+    pts = np.dstack([x, y, z0 - z])
+    pts[~np.isfinite(z)] = np.nan
+    return pts
+
+
+def rel_error(d, truth, mask):
+    return np.abs(d[mask] - truth[mask]) / truth[mask]
+
+
+def test_march_offsets_are_the_32_primitive_directions_of_a_7x7_window():
+    assert len(MARCH_OFFSETS) == 32
+    assert np.abs(MARCH_OFFSETS).max() == 3
+    assert all(np.gcd(abs(a), abs(b)) == 1 for a, b in MARCH_OFFSETS)
+
+
+def test_bezier_arc_length_matches_closed_forms():
+    # collinear evenly spaced control points: the chord
+    assert bezier_arc_length([0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]) == pytest.approx(3.0, rel=1e-12)
+    # parabola-like Bézier (0,0)-(1,1)-(2,1)-(3,0): compare with dense polyline
+    P = np.array([[0, 0, 0], [1, 1, 0], [2, 1, 0], [3, 0, 0]], float)
+    t = np.linspace(0, 1, 200001)[:, None]
+    B = (1 - t) ** 3 * P[0] + 3 * (1 - t) ** 2 * t * P[1] + 3 * (1 - t) * t ** 2 * P[2] + t ** 3 * P[3]
+    ref = np.linalg.norm(np.diff(B, axis=0), axis=1).sum()
+    assert bezier_arc_length(*P) == pytest.approx(ref, rel=2e-4)
+
+
+def test_plane_distances_along_march_directions_are_exact():
+    v, u = np.mgrid[0:40, 0:50].astype(float)
+    pts = np.dstack([u * 0.5, v * 0.5, np.full_like(u, 200.0)])
+    d = bezier_geodesic(pts, (10, 10))
+    truth = 0.5 * np.hypot(u - 10, v - 10)
+    for di, dj in MARCH_OFFSETS:
+        r, c = 10 + 3 * di, 10 + 3 * dj
+        if 0 <= r < 40 and 0 <= c < 50:
+            assert d[r, c] == pytest.approx(truth[r, c], rel=1e-9)
+
+
+def test_bezier_dijkstra_beats_8_neighbour_and_heat_method_on_a_cylinder():
+    pts, s, y = cylinder_map()
+    src = (20, 30)
+    truth = np.hypot(s - s[30, 20], y - y[30, 20])  # unrolled Euclidean distance
+    far = truth > 5.0
+    bezier_geodesic(pts[:10, :10], (1, 1))  # compile
+    t0 = time.perf_counter(); d_bez = bezier_geodesic(pts, src); t_bez = time.perf_counter() - t0
+    d_8 = grid_geodesic(pts, src)
+    d_heat = heat_geodesic(pts, src)
+    e_bez, e_8, e_heat = (rel_error(d, truth, far) for d in (d_bez, d_8, d_heat))
+    # metrication bound of the 32-direction stencil: sec(atan(1/3)/2) − 1 ≈ 1.3 %
+    assert e_bez.max() < 0.0135
+    assert e_bez.mean() < 0.006
+    assert e_8.mean() > 5 * e_bez.mean()          # 8-neighbour: up to sec(22.5°) − 1 ≈ 8 %
+    assert e_8.max() == pytest.approx(1 / np.cos(np.pi / 8) - 1, rel=0.05)
+    assert e_heat.mean() > e_bez.mean()
+    assert t_bez < 5.0
+
+
+def test_bezier_dijkstra_on_a_sphere_matches_great_circle_distance():
+    R = 30.0
+    pts = sphere_map(radius=R)
+    c = 60
+    src = pts[c, c] - np.array([0, 0, 300.0])
+    d = bezier_geodesic(pts, (c, c))
+    q = pts - np.array([0, 0, 300.0])
+    truth = R * np.arccos(np.clip((q @ src) / R ** 2, -1, 1))
+    m = np.isfinite(truth) & (truth > 3) & np.isfinite(d)
+    e = rel_error(d, truth, m)
+    assert e.mean() < 0.008 and e.max() < 0.02
+
+
+def test_holes_block_the_front_instead_of_being_jumped():
+    v, u = np.mgrid[0:60, 0:60].astype(float)
+    pts = np.dstack([u, v, np.full_like(u, 100.0)])
+    pts[:50, 28:31] = np.nan  # a wall 3 px thick, open at the bottom (rows 50..59)
+    d = bezier_geodesic(pts, (10, 10))
+    assert np.isinf(d[:50, 28:31]).all()
+    # (u=50, v=10) must go around the wall through the gap: at least the detour length
+    detour = np.hypot(28 - 10, 50 - 10) + np.hypot(50 - 31, 50 - 10)
+    assert d[10, 50] >= 0.99 * detour
+    # an isolated island is unreachable
+    pts2 = pts.copy(); pts2[:, 28:31] = np.nan
+    d2 = bezier_geodesic(pts2, (10, 10))
+    assert np.isinf(d2[:, 40:]).all()
+
+
+def test_source_on_invalid_pixel_or_outside_is_rejected():
+    pts, _, _ = cylinder_map(20, 20)
+    pts[5, 5] = np.nan
+    with pytest.raises(ValueError, match="invalid"):
+        bezier_geodesic(pts, (5, 5))
+    with pytest.raises(ValueError, match="outside"):
+        bezier_geodesic(pts, (25, 3))
+    with pytest.raises(ValueError, match=r"\(H, W, 3\)"):
+        bezier_geodesic(pts[..., :2], (3, 3))
