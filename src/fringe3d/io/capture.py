@@ -1,0 +1,235 @@
+"""Capture folders: what a camera (or the simulator) recorded while the patterns were projected.
+
+Layout::
+
+    CAPTURE/
+      manifest.json        the projected PatternSet (a copy of the pattern folder's manifest)
+      frames/00000.png     captured frames in projection order, uint8 or uint16 PNG, or TIFF;
+      frames/00001.png     a sequence may hold several cycles of the manifest (F = m * len)
+      ...
+      capture.json         optional: frame_rate (Hz), bit_depth, camera [width, height], free metadata
+      truth/               optional: simulator ground truth (not read here)
+
+:func:`read_capture` checks everything a decoder relies on and says exactly what is wrong;
+:func:`write_capture` writes each file atomically.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fringe3d.io.atomic import atomic_write_text
+from fringe3d.io.console import progress_bar
+from fringe3d.io.images import IMAGE_SUFFIXES, read_image, write_image
+from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
+
+FRAMES_DIR = "frames"
+META_NAME = "capture.json"
+TRUTH_DIR = "truth"
+_FRAME_NAME = re.compile(r"^(\d+)\.(png|tif|tiff)$", re.IGNORECASE)
+
+
+@dataclass
+class Capture:
+    """A capture folder in memory.
+
+    Attributes
+    ----------
+    frames : (F, H, W) ndarray, uint8 / uint16 (or float32 from TIFF)
+        Frames in projection order; F is a multiple of ``len(patterns)``.
+    patterns : PatternSet
+    meta : dict
+        Contents of ``capture.json`` (empty if absent).
+    folder : Path or None
+    """
+
+    frames: np.ndarray
+    patterns: PatternSet
+    meta: dict = field(default_factory=dict)
+    folder: Path | None = None
+
+    @property
+    def cycles(self) -> int:
+        """Number of complete pattern cycles in the sequence."""
+        return len(self.frames) // len(self.patterns)
+
+    def cycle(self, i: int) -> np.ndarray:
+        """Frames of cycle ``i`` ``(len(patterns), H, W)``."""
+        n = len(self.patterns)
+        if not 0 <= i < self.cycles:
+            raise IndexError(f"cycle {i} out of range; the capture has {self.cycles} cycle(s)")
+        return self.frames[i * n:(i + 1) * n]
+
+    @property
+    def bit_depth(self) -> int:
+        """Camera bit depth: ``meta['bit_depth']`` or 8/16 from the frame dtype."""
+        if "bit_depth" in self.meta:
+            return int(self.meta["bit_depth"])
+        return 8 if self.frames.dtype == np.uint8 else 16
+
+    @property
+    def truth_dir(self) -> Path | None:
+        if self.folder is None:
+            return None
+        p = self.folder / TRUTH_DIR
+        return p if p.is_dir() else None
+
+
+def frame_count_error(n_frames: int, n_manifest: int) -> str | None:
+    """Message if ``n_frames`` is not a positive multiple of ``n_manifest``, else None."""
+    if n_manifest <= 0:
+        return "the manifest lists no frames"
+    if n_frames == 0:
+        return f"the capture holds no frames; expected {n_manifest} (or a multiple) for the manifest"
+    if n_frames % n_manifest:
+        return (f"the capture holds {n_frames} frames, which is not a multiple of the manifest's "
+                f"{n_manifest} frames (expected {n_manifest}, {2 * n_manifest}, ...)")
+    return None
+
+
+def list_frame_files(folder: str | os.PathLike) -> list[Path]:
+    """Frame files of a capture in projection order, rejecting anything else in ``frames/``."""
+    fdir = Path(folder) / FRAMES_DIR
+    if not fdir.is_dir():
+        raise FileNotFoundError(f"capture folder {folder} has no {FRAMES_DIR}/ folder with the captured frames")
+    numbered = []
+    for p in sorted(fdir.iterdir()):
+        if p.name.startswith("."):
+            continue
+        m = _FRAME_NAME.match(p.name)
+        if m is None:
+            what = "an image in an unsupported format" if p.suffix.lower() in IMAGE_SUFFIXES else "not a frame image"
+            raise ValueError(f"{p} is {what}; {FRAMES_DIR}/ may only hold numbered .png or .tif frames "
+                             f"(00000.png, 00001.png, ...)")
+        numbered.append((int(m.group(1)), p))
+    numbered.sort()
+    for expect, (num, p) in enumerate(numbered):
+        if num != expect:
+            raise ValueError(f"frame numbering has a gap or duplicate at {p.name}: expected frame {expect:05d}")
+    return [p for _, p in numbered]
+
+
+def read_meta(folder: str | os.PathLike) -> dict:
+    """``capture.json`` as a dict ({} if absent); checks the known fields' types."""
+    path = Path(folder) / META_NAME
+    if not path.exists():
+        return {}
+    try:
+        meta = json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path} is not valid JSON: {e}") from None
+    if not isinstance(meta, dict):
+        raise ValueError(f"{path} must hold a JSON object, got {type(meta).__name__}")
+    if "frame_rate" in meta and not (isinstance(meta["frame_rate"], (int, float)) and meta["frame_rate"] > 0):
+        raise ValueError(f"{path}: frame_rate must be a positive number (Hz), got {meta['frame_rate']!r}")
+    if "bit_depth" in meta and meta["bit_depth"] not in (1, 8, 10, 12, 14, 16):
+        raise ValueError(f"{path}: bit_depth must be one of 8, 10, 12, 14, 16, got {meta['bit_depth']!r}")
+    if "camera" in meta:
+        cam = meta["camera"]
+        if not (isinstance(cam, list) and len(cam) == 2 and all(isinstance(x, int) and x > 0 for x in cam)):
+            raise ValueError(f"{path}: camera must be [width, height] in pixels, got {cam!r}")
+    return meta
+
+
+def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Capture:
+    """Read and check a capture folder.
+
+    Parameters
+    ----------
+    folder : path
+    max_cycles : int, optional
+        Read only the first ``max_cycles`` pattern cycles.
+
+    Returns
+    -------
+    Capture with ``frames`` (F, H, W) in the files' dtype.
+
+    Raises
+    ------
+    FileNotFoundError
+        Missing folder, ``manifest.json`` or ``frames/``.
+    ValueError
+        Unknown manifest fields, a frame count that is not a multiple of the manifest's length,
+        frames of different shapes or dtypes, unreadable or non-image files, bad capture.json.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise FileNotFoundError(f"capture folder {folder} does not exist")
+    if not (folder / MANIFEST_NAME).is_file():
+        raise FileNotFoundError(f"capture folder {folder} has no {MANIFEST_NAME}; copy the pattern "
+                                f"manifest there (fringe3d patterns writes it next to the PNGs)")
+    patterns = PatternSet.load(folder / MANIFEST_NAME)
+    meta = read_meta(folder)
+    files = list_frame_files(folder)
+    msg = frame_count_error(len(files), len(patterns))
+    if msg:
+        raise ValueError(f"{folder}: {msg}")
+    if max_cycles is not None:
+        files = files[:max(1, max_cycles) * len(patterns)]
+    first = read_image(files[0])
+    frames = np.empty((len(files),) + first.shape, dtype=first.dtype)
+    frames[0] = first
+    with progress_bar(f"reading {len(files)} frames", len(files), enabled=len(files) > 60) as advance:
+        advance()
+        for i, p in enumerate(files[1:], start=1):
+            img = read_image(p)
+            if img.shape != first.shape:
+                raise ValueError(f"{p} has shape {img.shape} (H, W) but {files[0].name} has {first.shape}; "
+                                 f"all frames of a capture must have the same size")
+            if img.dtype != first.dtype:
+                raise ValueError(f"{p} is {img.dtype} but {files[0].name} is {first.dtype}; "
+                                 f"all frames of a capture must have the same bit depth")
+            frames[i] = img
+            advance()
+    if "camera" in meta and list(meta["camera"]) != [first.shape[1], first.shape[0]]:
+        raise ValueError(f"{folder / META_NAME} says the camera is {meta['camera'][0]}x{meta['camera'][1]} "
+                         f"but the frames are {first.shape[1]}x{first.shape[0]}")
+    return Capture(frames=frames, patterns=patterns, meta=meta, folder=folder)
+
+
+def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: PatternSet, meta: dict | None = None,
+                  fmt: str = "png") -> Path:
+    """Write a capture folder (each file atomically): frames, manifest copy, capture.json.
+
+    Parameters
+    ----------
+    frames : (F, H, W) uint8 or uint16 (PNG) or any dtype (``fmt="tif"``)
+        F must be a multiple of ``len(patterns)``.
+    meta : dict, optional
+        Extra metadata; ``camera`` and ``bit_depth`` are filled in when missing.
+    fmt : ``"png"`` or ``"tif"``
+    """
+    folder = Path(folder)
+    frames = np.asarray(frames)
+    if frames.ndim != 3:
+        raise ValueError(f"frames must be (F, H, W), got shape {frames.shape}")
+    msg = frame_count_error(len(frames), len(patterns))
+    if msg:
+        raise ValueError(msg)
+    if fmt not in ("png", "tif"):
+        raise ValueError(f"capture frame format must be 'png' or 'tif', got {fmt!r}")
+    if fmt == "png" and frames.dtype not in (np.uint8, np.uint16):
+        raise ValueError(f"PNG frames must be uint8 or uint16, got {frames.dtype}; use fmt='tif'")
+    fdir = folder / FRAMES_DIR
+    fdir.mkdir(parents=True, exist_ok=True)
+    for stale in fdir.iterdir():  # an older capture must not leave frames behind
+        m = _FRAME_NAME.match(stale.name)
+        if m and (int(m.group(1)) >= len(frames) or stale.suffix.lower() != f".{fmt}"):
+            stale.unlink()
+    with progress_bar(f"writing {len(frames)} frames", len(frames), enabled=len(frames) > 60) as advance:
+        for i, img in enumerate(frames):
+            write_image(fdir / f"{i:05d}.{fmt}", img)
+            advance()
+    patterns.save(folder / MANIFEST_NAME)
+    meta = dict(meta or {})
+    meta.setdefault("camera", [int(frames.shape[2]), int(frames.shape[1])])
+    if frames.dtype in (np.uint8, np.uint16):
+        meta.setdefault("bit_depth", 8 if frames.dtype == np.uint8 else 16)
+    from fringe3d.io.console import to_jsonable
+    atomic_write_text(folder / META_NAME, json.dumps(to_jsonable(meta), indent=1))
+    return folder
