@@ -2,18 +2,23 @@
 
 ``get(name) -> Preset`` for
 
-* ``macro``: 1280x1024 camera with an 8 mm lens (4.8 um pixels), 912x1140 DLP projector
-  (LightCrafter 4500 class, modelled with square pixels), camera-projector angle ~13 deg,
-  working volume ~250 x 150 x 200 mm (x, y, z) at 300-500 mm (ch. 2 out-of-focus calibration).
+* ``macro``: 1280x1024 camera with an 8 mm lens (4.8 um pixels), 800x600 DLP projector,
+  camera-projector angle ~13 deg, working volume ~250 x 150 x 200 mm (x, y, z) at 300-500 mm
+  (ch. 2 out-of-focus calibration).
 * ``well-designed``: the same devices, projector displaced (almost) purely horizontally so
   horizontal fringes are nearly blind to depth; the baseline is rotated 4 deg out of the
   horizontal so the optimal fringe angle is non-trivial but recoverable (ch. 2.2.5,
   300 x 250 x 500 mm volume).
-* ``microscope``: telecentric camera (1280x1024, 0.62x, ~10 x 8 mm field) and a pinhole
+* ``microscope``: telecentric camera (1280x1024, 0.48x, 12.8 x 10.2 mm field) and a pinhole
   projector with a long focal length, world = projector frame, ~5 mm depth (ch. 3).
 * ``high-speed``: binary defocusing at 2,000 Hz (valid range 1,500-5,000 Hz), Gaussian
   projector defocus, 640x512 camera (ch. 5).
 * ``tiny``: a 160x128 camera and 256x200 projector for fast tests.
+
+All projectors are 800x600 (SVGA DLP class, square pixels): the diagonal (1000 px) is shorter
+than the 1008 px equivalent period of the dissertation's 18/21/144 three-frequency set, so that
+set unwraps at every fringe angle (needed by optimal-angle calibration). The LightCrafter 4500's
+912x1140 diamond array would not.
 
 Each preset carries a rig, render settings, the working volume (mm, world frame) and the name
 of a default scene.
@@ -99,19 +104,19 @@ def _camera(f, width, height, dist=(0, 0, 0, 0, 0)) -> PinholeDevice:
 
 
 def _macro() -> Preset:
-    z0 = 400.0
+    z0 = 450.0
     angle = np.deg2rad(13.0)
     # baseline mostly horizontal with a small vertical part: both fringe directions see depth
     b = z0 * np.tan(angle)
     centre = np.array([b * np.cos(np.deg2rad(20)), -b * np.sin(np.deg2rad(20)), 0.0])
     cam = _camera(8.0 / 0.0048, 1280, 1024, dist=(-0.08, 0.1, 0.0, 0.0, 0.0))
-    proj = _projector(1100.0, 912, 1140, centre, (0, 0, z0))
+    proj = _projector(965.0, 800, 600, centre, (0, 0, z0))
     return Preset("macro", Rig(cam, proj),
                   RenderSettings(defocus="gaussian", defocus_size=1.0, ambient=0.05, brightness=0.8,
                                  frame_rate=120.0, read_noise=0.004, shot_noise=True, bit_depth=8),
-                  {"x": (-125.0, 125.0), "y": (-75.0, 75.0), "z": (300.0, 500.0)},
+                  {"x": (-125.0, 125.0), "y": (-75.0, 75.0), "z": (350.0, 550.0)},
                   scene="sphere", patterns="three-frequency",
-                  description="macro rig: 1280x1024 camera, 8 mm lens, 912x1140 DLP, ~13 deg, 250x150x200 mm")
+                  description="macro rig: 1280x1024 camera, 8 mm lens, 800x600 DLP, ~13 deg, 250x150x200 mm")
 
 
 def _well_designed() -> Preset:
@@ -121,7 +126,7 @@ def _well_designed() -> Preset:
     tilt = np.deg2rad(4.0)  # baseline rotated 4 deg out of the horizontal
     centre = np.array([b * np.cos(tilt), -b * np.sin(tilt), 0.0])
     cam = _camera(8.0 / 0.0048, 1280, 1024)
-    proj = _projector(1250.0, 912, 1140, centre, (0, 0, z0))
+    proj = _projector(1100.0, 800, 600, centre, (0, 0, z0))
     return Preset("well-designed", Rig(cam, proj),
                   RenderSettings(defocus="gaussian", defocus_size=1.0, ambient=0.05, brightness=0.8,
                                  frame_rate=120.0, read_noise=0.004, shot_noise=True, bit_depth=8),
@@ -134,12 +139,12 @@ def _well_designed() -> Preset:
 def _microscope() -> Preset:
     # world = projector frame; the projector looks along +z at a scene ~100 mm away
     z0 = 100.0
-    proj = PinholeDevice(K=intrinsics(7600.0, 7600.0, 455.5, 569.5), width=912, height=1140)
+    proj = PinholeDevice(K=intrinsics(6700.0, 6700.0, 399.5, 299.5), width=800, height=600)
     tilt = np.deg2rad(-25.0)  # camera axis tilted about y, looking at (0, 0, z0)
     Ry = np.array([[np.cos(tilt), 0, np.sin(tilt)], [0, 1, 0], [-np.sin(tilt), 0, np.cos(tilt)]])
     R = Ry.T  # world-to-camera
     pixel = 0.0048
-    mag = 0.62
+    mag = 0.48
     W, H = 1280, 1024
     s = mag / pixel
     # principal offset so that the volume centre lands on the image centre
@@ -151,7 +156,7 @@ def _microscope() -> Preset:
                                  frame_rate=100.0, read_noise=0.004, shot_noise=True, bit_depth=8),
                   {"x": (-5.0, 5.0), "y": (-4.0, 4.0), "z": (z0 - 2.5, z0 + 2.5)},
                   scene="plane", patterns="three-frequency",
-                  description="microscope: telecentric camera (0.62x), long-focal-length pinhole projector, 10x8x5 mm")
+                  description="microscope: telecentric camera (0.48x), long-focal-length pinhole projector, 10x8x5 mm")
 
 
 def _high_speed() -> Preset:
@@ -160,11 +165,11 @@ def _high_speed() -> Preset:
     b = z0 * np.tan(angle)
     centre = np.array([b, -0.15 * b, 0.0])
     cam = _camera(1000.0, 640, 512)
-    proj = _projector(1400.0, 912, 1140, centre, (0, 0, z0))
+    proj = _projector(1150.0, 800, 600, centre, (0, 0, z0))
     return Preset("high-speed", Rig(cam, proj),
                   RenderSettings(defocus="gaussian", defocus_size=3.5, ambient=0.05, brightness=0.8,
                                  frame_rate=2000.0, read_noise=0.006, shot_noise=True, bit_depth=8),
-                  {"x": (-100.0, 100.0), "y": (-80.0, 80.0), "z": (300.0, 500.0)},
+                  {"x": (-90.0, 90.0), "y": (-65.0, 65.0), "z": (300.0, 500.0)},
                   scene="falling-balls", patterns="two-frequency-binary",
                   description="high-speed rig: binary defocusing at 2,000 Hz (1,500-5,000 Hz), 640x512 camera",
                   extra={"frame_rate_range": (1500.0, 5000.0)})
@@ -180,7 +185,7 @@ def _tiny() -> Preset:
     return Preset("tiny", Rig(cam, proj),
                   RenderSettings(defocus="none", ambient=0.05, brightness=0.8, frame_rate=100.0,
                                  bit_depth=8),
-                  {"x": (-120.0, 120.0), "y": (-100.0, 100.0), "z": (300.0, 500.0)},
+                  {"x": (-100.0, 100.0), "y": (-80.0, 80.0), "z": (300.0, 500.0)},
                   scene="sphere", patterns="three-frequency",
                   description="tiny rig for fast tests: 160x128 camera, 256x200 projector")
 
