@@ -1,0 +1,123 @@
+"""``fringe3d patterns``: generate a pattern set and write it as PNGs plus ``manifest.json``."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import typer
+
+from fringe3d.io.console import console, info, print_json, progress_bar, set_quiet
+
+SETS = ("phase-shift", "three-frequency", "gray-code", "binary-code", "psp-gray", "ftp", "modified-ftp",
+        "two-frequency", "hybrid", "calibration", "optimal-angle")
+DEFAULT_PERIODS = {"three-frequency": "18,21,144", "calibration": "18,21,144", "optimal-angle": "18,21,144",
+                   "two-frequency": "18,144", "hybrid": "18,144"}
+DEFAULT_STEPS = {"three-frequency": "9,3,3", "calibration": "9,3,3", "optimal-angle": "9,3,3"}
+
+
+def _numbers(text: str, what: str, cast=float) -> list:
+    try:
+        return [cast(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ValueError(f"--{what} must be a number or a comma-separated list, got {text!r}") from None
+
+
+def build_set(set_name: str, period: str | None, steps: str | None, direction: str, angle_deg: float | None,
+              kind: str, width: int, height: int, bits: int | None):
+    """The :class:`PatternSet` the command-line options describe (see ``fringe3d patterns --help``)."""
+    from fringe3d.patterns import sets
+
+    if set_name not in SETS:
+        raise ValueError(f"unknown pattern set {set_name!r}; choose one of {', '.join(SETS)}")
+    periods = _numbers(period or DEFAULT_PERIODS.get(set_name, "18"), "period")
+    nsteps = _numbers(steps or DEFAULT_STEPS.get(set_name, "3"), "steps", int)
+    angle = None if angle_deg is None else math.radians(angle_deg)
+    common = dict(width=width, height=height)
+    phase = dict(kind=kind, bit_depth=bits, **common)
+    if set_name == "phase-shift":
+        return sets.phase_shift(periods[0], nsteps[0], direction, angle, **phase)
+    if set_name == "three-frequency":
+        return sets.three_frequency(direction, periods, nsteps, angle=angle, **phase)
+    if set_name in ("gray-code", "binary-code"):
+        return sets.gray_code(periods[0], direction, angle, code=set_name.split("-")[0], **common)
+    if set_name == "psp-gray":
+        return sets.psp_with_gray_code(periods[0], nsteps[0], direction, angle, **phase)
+    if set_name == "ftp":
+        return sets.ftp(periods[0], direction, angle, **phase)
+    if set_name == "modified-ftp":
+        return sets.modified_ftp(periods[0], direction, angle, **phase)
+    if set_name in ("two-frequency", "hybrid"):
+        if len(periods) != 2:
+            raise ValueError(f"--period for {set_name} is 'HIGH,LOW' (e.g. 18,144), got {period!r}")
+        build = sets.two_frequency if set_name == "two-frequency" else sets.hybrid
+        return build(periods[0], periods[1], direction, angle, **phase)
+    if set_name == "calibration":
+        dirs = ("v", "h") if direction in ("v", "vh", "both") else tuple(direction.split(","))
+        return sets.calibration(width, height, dirs, periods, nsteps, kind=kind, bit_depth=bits)
+    if angle is None:
+        raise ValueError("--set optimal-angle needs --angle: the optimal fringe angle alpha_opt in degrees")
+    return sets.optimal_angle_calibration(angle, width, height, periods, nsteps, kind=kind, bit_depth=bits)
+
+
+def write_pattern_folder(ps, out: Path, **render_options) -> list[Path]:
+    """Render ``ps`` and write ``out/00000.png ...`` plus ``out/manifest.json`` (atomically)."""
+    from fringe3d.io.images import write_image
+    from fringe3d.patterns.render import render_frame
+
+    import re
+    out.mkdir(parents=True, exist_ok=True)
+    for stale in out.glob("*.png"):  # a longer, older set must not leave frames behind
+        if re.fullmatch(r"\d{5}\.png", stale.name) and int(stale.stem) >= len(ps):
+            stale.unlink()
+    paths = []
+    with progress_bar(f"writing {len(ps)} patterns", len(ps), enabled=len(ps) > 4) as advance:
+        for i, spec in enumerate(ps.frames):
+            img = render_frame(spec, ps.width, ps.height, **render_options)
+            img8 = ((img >= 0.5) * 255 if ps.bit_depth == 1 else (img * 255.0).round()).astype("uint8")
+            paths.append(write_image(out / f"{i:05d}.png", img8))
+            advance()
+    ps.save(out / "manifest.json")
+    return paths
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("patterns")
+    def patterns(
+        output: Path = typer.Option(..., "-o", "--output", help="Folder to write 00000.png ... and manifest.json."),
+        set_name: str = typer.Option("three-frequency", "--set", help="Pattern set: " + ", ".join(SETS) + "."),
+        period: str = typer.Option(None, help="Fringe period(s) in projector pixels, comma-separated "
+                                              "(three-frequency: 18,21,144; two-frequency/hybrid: HIGH,LOW)."),
+        steps: str = typer.Option(None, help="Phase-shift steps, comma-separated per period (three-frequency: 9,3,3)."),
+        direction: str = typer.Option("v", help="Fringe direction: v (vertical stripes, encodes u_p), h (horizontal), "
+                                                "or a label used with --angle; calibration takes v,h."),
+        angle: float = typer.Option(None, help="Fringe angle in degrees (0 = horizontal stripes, 90 = vertical); "
+                                               "for optimal-angle: alpha_opt."),
+        kind: str = typer.Option("sinusoid", help="sinusoid, square, bayer, floyd_steinberg, area_modulated or pwm."),
+        width: int = typer.Option(800, help="Projector width in pixels."),
+        height: int = typer.Option(600, help="Projector height in pixels."),
+        bits: int = typer.Option(None, help="Output bit depth, 1 or 8 (default: 1 for binary kinds, else 8)."),
+        dither_size: int = typer.Option(8, help="Bayer matrix size for --kind bayer."),
+        json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
+    ) -> None:
+        """Generate a fringe pattern set and write it as a PNG sequence plus manifest.json.
+
+        Example: fringe3d patterns --set three-frequency --direction v --width 912 --height 570 -o pats
+        """
+        set_quiet(quiet or json_)
+        if bits is not None and bits not in (1, 8):
+            raise ValueError(f"--bits must be 1 or 8, got {bits}")
+        ps = build_set(set_name, period, steps, direction, angle, kind, width, height, bits)
+        paths = write_pattern_folder(ps, output, dither_size=dither_size)
+        summary = {"output": str(output), "name": ps.name, "frames": len(ps), "width": ps.width,
+                   "height": ps.height, "bit_depth": ps.bit_depth, "directions": ps.directions(),
+                   "plans": [{"direction": p.direction, "angle_deg": math.degrees(p.angle), "method": p.method,
+                              "periods": list(p.periods)} for p in ps.plans],
+                   "files": [p.name for p in paths] + ["manifest.json"]}
+        if json_:
+            print_json(summary)
+        elif not quiet:
+            console.print(f"wrote {len(ps)} patterns ({ps.name}, {ps.width}x{ps.height}, "
+                          f"{ps.bit_depth}-bit) and manifest.json to {output}")
+            for p in summary["plans"]:
+                info(f"  direction {p['direction']}: {p['method']} unwrapping, periods {p['periods']}")

@@ -1,0 +1,53 @@
+"""``fringe3d patterns``: files written, manifest, JSON summary, errors."""
+import json
+import math
+
+import numpy as np
+
+from fringe3d.cli import main
+from fringe3d.io.images import read_image
+from fringe3d.patterns import render_set
+from fringe3d.patterns.manifest import PatternSet
+
+
+def test_patterns_command_writes_pngs_matching_render_set_and_the_manifest(tmp_path):
+    out = tmp_path / "pats"
+    assert main(["patterns", "--set", "three-frequency", "--direction", "h", "--width", "64", "--height", "48",
+                 "-o", str(out), "-q"]) == 0
+    ps = PatternSet.load(out)
+    assert len(ps) == 15 and ps.plan("h").method == "heterodyne"
+    files = sorted(out.glob("*.png"))
+    assert [f.name for f in files] == [f"{i:05d}.png" for i in range(15)]
+    np.testing.assert_array_equal(np.stack([read_image(f) for f in files]), render_set(ps))
+
+
+def test_patterns_command_angle_in_degrees_and_one_bit_kind(tmp_path, capsys):
+    out = tmp_path / "p"
+    assert main(["patterns", "--set", "phase-shift", "--period", "20.5", "--steps", "4", "--direction", "d",
+                 "--angle", "30", "--kind", "bayer", "--width", "50", "--height", "40", "-o", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["frames"] == 4 and summary["bit_depth"] == 1
+    ps = PatternSet.load(out)
+    assert ps.frames[0].angle == math.radians(30) and ps.frames[0].period == 20.5
+    assert set(np.unique(read_image(out / "00002.png"))) <= {0, 255}
+
+
+def test_patterns_command_optimal_angle_needs_angle_and_writes_31(tmp_path, capsys):
+    assert main(["patterns", "--set", "optimal-angle", "-o", str(tmp_path / "x")]) == 2
+    assert "alpha_opt" in capsys.readouterr().err
+    assert main(["patterns", "--set", "optimal-angle", "--angle", "80", "--width", "60", "--height", "40",
+                 "-o", str(tmp_path / "y"), "-q"]) == 0
+    assert len(list((tmp_path / "y").glob("*.png"))) == 31
+
+
+def test_patterns_command_rejects_unknown_set_and_sinusoid_at_one_bit(tmp_path, capsys):
+    assert main(["patterns", "--set", "zebra", "-o", str(tmp_path)]) == 2
+    assert "unknown pattern set 'zebra'" in capsys.readouterr().err
+    assert main(["patterns", "--set", "ftp", "--bits", "1", "-o", str(tmp_path)]) == 2
+    assert "1-bit output needs a binary kind" in capsys.readouterr().err
+
+
+def test_rewriting_a_shorter_set_removes_stale_pngs(tmp_path):
+    assert main(["patterns", "--set", "three-frequency", "--width", "40", "--height", "30", "-o", str(tmp_path), "-q"]) == 0
+    assert main(["patterns", "--set", "ftp", "--width", "40", "--height", "30", "-o", str(tmp_path), "-q"]) == 0
+    assert [f.name for f in tmp_path.glob("*.png")] == ["00000.png"]
