@@ -43,7 +43,7 @@ class CircleBoard:
     def __post_init__(self):
         if self.cols < 2 or self.rows < 2:
             raise ValueError(f"a circle board needs at least 2x2 circles, got {self.cols}x{self.rows}")
-        if not (0 < 2 * self.radius < self.spacing * (2 if self.asymmetric else 1) + 1e-12):
+        if not (0 < 2 * self.radius < self.spacing * (np.sqrt(2) if self.asymmetric else 1)):
             raise ValueError(f"circle radius {self.radius} mm does not fit the spacing {self.spacing} mm")
 
     @property

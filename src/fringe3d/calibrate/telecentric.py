@@ -1,0 +1,158 @@
+"""Telecentric camera + pinhole projector calibration (dissertation ch. 3, Eq. 3.1-3.9).
+
+World frame = projector frame (projector ``[I|0]``). Steps (ch. 3.3):
+
+1. the projector sees the circle centres through absolute phase (periods 18 and 36 in the
+   dissertation, Eq. 3.7-3.8) and is calibrated like a camera (linear model);
+2. each board pose ``[R_t|t_t]`` (board -> world) comes from Levenberg-Marquardt on the
+   projector observations (Eq. 3.9, ``cv2.solvePnP`` iterative + ``solvePnPRefineLM``);
+3. the board points transformed to world give, with the camera's circle centres, the
+   camera's 2x4 affine matrix ``M_c`` in least squares (Eq. 3.3).
+
+Reconstruction (Eq. 3.3 + 3.4): the two affine camera rows and the projector's ``u_p`` row
+(or both projector rows) form a linear system per pixel for ``(x, y, z)``. An affine camera
+maps a circle's centroid to its image's centroid, so the camera centres carry no perspective
+bias; the projector observations are read at those centres, so they are unbiased too.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from fringe3d.optics import PinholeDevice, Rig, TelecentricCamera
+
+from .board_detection import CircleBoard
+from .camera import DeviceCalibration, calibrate_device
+from .stereo import PoseObservation
+
+
+@dataclass
+class TelecentricCalibration:
+    rig: Rig
+    projector: DeviceCalibration
+    camera_residuals: list[np.ndarray]          # per pose (N_i, 2) pixels
+    camera_per_pose_rms: np.ndarray             # pixels
+    camera_rms: float                           # pixels
+    board_to_world: list[tuple[np.ndarray, np.ndarray]]  # per pose (R (3,3), t (3,))
+    pose_names: list[str] = field(default_factory=list)
+
+    @property
+    def camera_scale(self) -> float:
+        """Camera pixels per mm in object space (mean norm of the rows of ``M[:, :3]``)."""
+        M = self.rig.camera.M
+        return float(np.mean(np.linalg.norm(M[:, :3], axis=1)))
+
+
+def fit_affine_camera(X: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Least-squares 2x4 affine camera ``uv = M [X; 1]`` (Eq. 3.3) from world points
+    ``X (N, 3)`` mm and pixels ``uv (N, 2)``; needs N >= 4 non-coplanar points."""
+    X = np.asarray(X, float).reshape(-1, 3)
+    uv = np.asarray(uv, float).reshape(-1, 2)
+    if len(X) < 4:
+        raise ValueError(f"affine camera fit needs at least 4 points, got {len(X)}")
+    A = np.hstack([X, np.ones((len(X), 1))])
+    if np.linalg.matrix_rank(A) < 4:
+        raise ValueError("affine camera fit needs board points spanning 3-D (poses at different tilts)")
+    M, *_ = np.linalg.lstsq(A, uv, rcond=None)
+    return M.T
+
+
+def board_pose_lm(obj: np.ndarray, uv: np.ndarray, K: np.ndarray, dist: np.ndarray, rvec0=None, tvec0=None):
+    """Board -> device pose by Levenberg-Marquardt reprojection minimisation, Eq. (3.9)."""
+    obj = np.asarray(obj, np.float64).reshape(-1, 3)
+    uv = np.asarray(uv, np.float64).reshape(-1, 2)
+    if rvec0 is None:
+        ok, rvec, tvec = cv2.solvePnP(obj, uv, K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
+        if not ok:
+            raise ValueError("solvePnP failed for a board pose")
+    else:
+        rvec, tvec = np.asarray(rvec0, np.float64).reshape(3, 1), np.asarray(tvec0, np.float64).reshape(3, 1)
+    crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-14)
+    rvec, tvec = cv2.solvePnPRefineLM(obj, uv, K, dist, rvec, tvec, criteria=crit)
+    R, _ = cv2.Rodrigues(rvec)
+    return R, np.asarray(tvec, np.float64).ravel()
+
+
+def calibrate_telecentric_rig(board: CircleBoard, poses: list[PoseObservation], camera_size, projector_size,
+                              projector_dist: str = "none", min_poses: int = 3,
+                              min_points: int = 6) -> TelecentricCalibration:
+    """Calibrate a telecentric camera + pinhole projector rig (ch. 3.3 steps 4-7).
+
+    ``poses`` carry the camera circle centres and the phase-mapped projector centres
+    (NaN rows = invalid phase). Returns the rig (world = projector frame) and residuals.
+    """
+    if len(poses) < min_poses:
+        raise ValueError(f"only {len(poses)} usable board pose(s); need at least {min_poses}")
+    obj = board.object_points()
+    keep = [np.all(np.isfinite(p.projector_uv), axis=1) for p in poses]
+    bad = [p.name for p, k in zip(poses, keep) if k.sum() < min_points]
+    if len(poses) - len(bad) < min_poses:
+        raise ValueError(f"phase is invalid at the circle centres in pose(s) {bad}; need {min_poses} good poses")
+    good = [i for i, k in enumerate(keep) if k.sum() >= min_points]
+    prj = calibrate_device([obj[keep[i]] for i in good], [poses[i].projector_uv[keep[i]] for i in good],
+                           projector_size, projector_dist, min_poses, "projector")
+    Xw, uvc, b2w = [], [], []
+    for k, i in enumerate(good):
+        R, t = board_pose_lm(obj[keep[i]], poses[i].projector_uv[keep[i]], prj.K, prj.dist,
+                             prj.rvecs[k], prj.tvecs[k])
+        b2w.append((R, t))
+        Xw.append(obj @ R.T + t)
+        uvc.append(np.asarray(poses[i].camera_uv, float))
+    M = fit_affine_camera(np.concatenate(Xw), np.concatenate(uvc))
+    cam = TelecentricCamera(M=M, width=int(camera_size[0]), height=int(camera_size[1]))
+    res = [u - cam.project(X) for X, u in zip(Xw, uvc)]
+    per = np.array([np.sqrt(np.mean(np.sum(r ** 2, 1))) for r in res])
+    allr = np.concatenate(res)
+    projector = PinholeDevice(K=prj.K, dist=prj.dist, width=int(projector_size[0]), height=int(projector_size[1]))
+    return TelecentricCalibration(rig=Rig(camera=cam, projector=projector), projector=prj, camera_residuals=res,
+                                  camera_per_pose_rms=per, camera_rms=float(np.sqrt(np.mean(np.sum(allr ** 2, 1)))),
+                                  board_to_world=b2w, pose_names=[poses[i].name for i in good])
+
+
+def triangulate_telecentric(camera: TelecentricCamera, projector: PinholeDevice, uv: np.ndarray,
+                            up: np.ndarray, vp: np.ndarray | None = None) -> np.ndarray:
+    """3-D points from a telecentric camera and a pinhole projector (Eq. 3.3-3.4).
+
+    Per point: the two affine rows ``M[r, :3] X = uv_r - M[r, 3]`` and the projector row(s)
+    ``(P[0] - u_p P[2]) [X; 1] = 0`` (and ``v_p`` likewise) - 3 equations solved exactly, or 4 in
+    least squares. Projector distortion is removed from ``(u_p, v_p)`` first when ``vp`` is
+    given (it needs both coordinates); with ``u_p`` alone the projector must be distortion-free.
+
+    uv : (..., 2) camera pixels; up, vp : (...) projector coordinates. Returns (..., 3) mm,
+    NaN where the inputs are NaN.
+    """
+    uv = np.asarray(uv, float)
+    up = np.asarray(up, float)
+    shape = up.shape
+    uv = uv.reshape(-1, 2)
+    up = up.ravel()
+    P = projector.P
+    if vp is not None:
+        vp = np.asarray(vp, float).ravel()
+        if np.any(projector.dist):
+            xy = projector.pixels_to_normalized(np.stack([up, vp], -1))
+            K = projector.K
+            up = K[0, 0] * xy[:, 0] + K[0, 1] * xy[:, 1] + K[0, 2]
+            vp = K[1, 1] * xy[:, 1] + K[1, 2]
+    elif np.any(projector.dist):
+        raise ValueError("a distorted projector needs both u_p and v_p for triangulation")
+    M = camera.M
+    rows = [np.broadcast_to(M[0], (len(up), 4)), np.broadcast_to(M[1], (len(up), 4))]
+    rhs = [uv[:, 0], uv[:, 1]]
+    rows.append(P[0][None] - up[:, None] * P[2][None])
+    rhs.append(np.zeros(len(up)))
+    if vp is not None:
+        rows.append(P[1][None] - vp[:, None] * P[2][None])
+        rhs.append(np.zeros(len(up)))
+    A = np.stack(rows, 1)  # (N, k, 4)
+    b = np.stack(rhs, 1)   # (N, k)
+    A3, b3 = A[..., :3], b - A[..., 3]
+    AtA = np.einsum("nki,nkj->nij", A3, A3)
+    Atb = np.einsum("nki,nk->ni", A3, b3)
+    ok = np.all(np.isfinite(Atb), 1) & np.all(np.isfinite(AtA), (1, 2))
+    X = np.full((len(up), 3), np.nan)
+    if ok.any():
+        X[ok] = np.linalg.solve(AtA[ok], Atb[ok][..., None])[..., 0]
+    return X.reshape(shape + (3,))
