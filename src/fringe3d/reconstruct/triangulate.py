@@ -26,6 +26,7 @@ import numba
 import numpy as np
 
 from fringe3d.io.console import warn
+from fringe3d.phase.kernels import fast_atan2
 
 ANGLE_UP = math.pi / 2  # vertical fringes: w = u_p
 ANGLE_VP = 0.0          # horizontal fringes: w = v_p
@@ -320,3 +321,102 @@ class Triangulator:
             bad |= ~(s > 0)
         X[bad] = np.nan
         return X
+
+
+# ----------------------------------------------------------------------------- fused 3-step pipeline
+_FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # fastmath without the no-NaN/no-inf assumptions
+
+
+@numba.njit(parallel=True, fastmath=_FAST, cache=True)
+def _three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out):  # pragma: no cover
+    """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> X (Eq. 2.37)."""
+    H = frames.shape[1]
+    W = frames.shape[2]
+    two_pi = 2.0 * math.pi
+    qo = Q[0] * O[0] + Q[1] * O[1] + Q[2] * O[2] + Q[3]
+    po = P3[0] * O[0] + P3[1] * O[1] + P3[2] * O[2] + P3[3]
+    nan = np.float32(np.nan)
+    i0, i1, i2 = idx[0], idx[1], idx[2]
+    for i in numba.prange(H):
+        for j in range(W):
+            a0 = np.float64(frames[i0, i, j])
+            a1 = np.float64(frames[i1, i, j])
+            a2 = np.float64(frames[i2, i, j])
+            b = coef[1, 0] * a0 + coef[1, 1] * a1 + coef[1, 2] * a2
+            c = coef[2, 0] * a0 + coef[2, 1] * a1 + coef[2, 2] * a2
+            phi = fast_atan2(-c, b)
+            sg = sign[i, j]
+            x = (np.float64(phi_min[i, j]) - phi) / two_pi
+            k = math.ceil(x) if sg > 0 else math.floor(x)
+            w = (phi + two_pi * k) * scale
+            dx = np.float64(D[i, j, 0])
+            dy = np.float64(D[i, j, 1])
+            dz = np.float64(D[i, j, 2])
+            den = w * (P3[0] * dx + P3[1] * dy + P3[2] * dz) - (Q[0] * dx + Q[1] * dy + Q[2] * dz)
+            s = (qo - w * po) / den
+            if (b * b + c * c) >= min_mod2 and sg != 0 and s > 0.0:
+                out[i, j, 0] = O[0] + s * dx
+                out[i, j, 1] = O[1] + s * dy
+                out[i, j, 2] = O[2] + s * dz
+            else:
+                out[i, j, 0] = nan
+                out[i, j, 1] = nan
+                out[i, j, 2] = nan
+
+
+class FastThreeStep:
+    """Superfast absolute 3D from three phase-shifted frames, one fused numba pass.
+
+    ``frames (3, H, W)`` (uint8/uint16/float) -> least-squares wrapped phase (Eq. 2.4 with the
+    given shifts) -> fringe order from the precomputed minimum phase map, ``k = ceil((Phi_min -
+    phi)/2pi)`` (Eq. 4.21; floor where the phase falls with depth) -> ``w = Phi*T/2pi``
+    (Eq. 4.13) -> point along the undistorted camera ray (closed form of Eq. 2.37). Nothing but
+    the ``(H, W, 3)`` float32 output is written. Pinhole cameras only; projector distortion is
+    ignored (as in :class:`Triangulator`).
+
+    Parameters
+    ----------
+    triangulator : Triangulator
+        For the fringe direction's angle.
+    minimum_phase : fringe3d.unwrap.geometric.MinimumPhase
+        Same rig, period and angle.
+    shifts : 3 floats, rad
+        Phase shift of each frame (default ``-2pi/3, 0, 2pi/3``, Eq. 1.1-1.3).
+    min_modulation : float
+        Pixels whose modulation ``I''`` (frames' units) is below this are NaN.
+    """
+
+    def __init__(self, triangulator: Triangulator, minimum_phase, shifts=(-2 * math.pi / 3, 0.0, 2 * math.pi / 3),
+                 min_modulation: float = 0.0):
+        if not triangulator.central:
+            raise ValueError("FastThreeStep supports pinhole cameras; use Triangulator for telecentric rigs")
+        if abs(triangulator.angle - minimum_phase.angle) > 1e-12 or minimum_phase.shape != triangulator.shape:
+            raise ValueError("the triangulator and the minimum phase map must share the fringe angle and camera size")
+        from fringe3d.phase.psp import lsq_coefficients
+        self.tri = triangulator
+        self.mp = minimum_phase
+        self.coef = np.ascontiguousarray(lsq_coefficients(shifts))
+        if self.coef.shape[1] != 3:
+            raise ValueError(f"FastThreeStep needs exactly 3 phase shifts, got {self.coef.shape[1]}")
+        self.min_mod2 = float(min_modulation) ** 2
+        self.phi_min = np.ascontiguousarray(minimum_phase.phi_min, np.float32)
+        self.sign = np.ascontiguousarray(minimum_phase.sign, np.int8)
+        self.scale = minimum_phase.period / (2 * math.pi)
+
+    def points(self, frames, index=(0, 1, 2), out=None) -> np.ndarray:
+        """``(H, W, 3)`` float32 points (mm, NaN invalid) from ``frames[index]`` of an
+        ``(F, H, W)`` stack; ``out`` may be a preallocated float32 array."""
+        frames = np.asarray(frames)
+        H, W = self.tri.shape
+        if frames.ndim != 3 or frames.shape[1:] != (H, W):
+            raise ValueError(f"frames must be an (F, {H}, {W}) stack for this rig's camera, got {frames.shape}: "
+                             "calibration and capture sizes disagree" if frames.ndim == 3 else
+                             f"frames must be an (F, H, W) stack, got shape {frames.shape}")
+        idx = np.asarray(index, np.int64)
+        if idx.shape != (3,) or idx.min() < 0 or idx.max() >= frames.shape[0]:
+            raise ValueError(f"index must name 3 frames of the {frames.shape[0]}-frame stack, got {list(index)}")
+        if out is None:
+            out = np.empty((H, W, 3), np.float32)
+        _three_step_kernel(frames, idx, self.coef, self.min_mod2, self.phi_min, self.sign, self.scale,
+                           self.tri.O, self.tri.D, self.tri.Q, self.tri.P3, out)
+        return out

@@ -20,6 +20,7 @@ Telecentric rigs (world = projector frame) use ``z`` of the projector frame.
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -230,3 +231,81 @@ def propose_z_min(reference, margin: float = 5.0, percentile: float = 0.0) -> fl
         raise ValueError(f"margin must be >= 0 mm, got {margin}")
     zmin = float(np.percentile(z, percentile)) if percentile > 0 else float(z.min())
     return zmin - float(margin)
+
+
+# ----------------------------------------------------------------------------- decoder hooks
+_MP_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # rig -> {(z_min, T, angle): MinimumPhase}
+
+
+def cached_minimum_phase(rig, z_min: float, period: float, angle: float) -> MinimumPhase:
+    """:func:`minimum_phase`, computed once per rig object / z_min / period / angle (sequences
+    decode thousands of cycles with the same rig)."""
+    per_rig = _MP_CACHE.setdefault(rig, {})
+    key = (float(z_min), float(period), float(angle))
+    if key not in per_rig:
+        per_rig[key] = minimum_phase(rig, z_min, period, angle)
+    return per_rig[key]
+
+
+def _context_geometry(ctx, method: str):
+    """(rig, z_min) for a geometric unwrapper, with clear errors when the decoder lacks them."""
+    if ctx.rig is None:
+        raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs the calibrated rig "
+                         "(pass rig=... to decode, or --calibration on the command line)")
+    z_min = ctx.z_min if ctx.z_min is not None else ctx.plan.options.get("z_min")
+    if z_min is None:
+        raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs z_min, the nearest depth of the "
+                         "measurement volume in mm (pass z_min=... / --z-min, or set it in the plan's options)")
+    H, W = ctx.frames.shape[1:]
+    if (ctx.rig.camera.height, ctx.rig.camera.width) != (H, W):
+        raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is "
+                         f"{ctx.rig.camera.width}x{ctx.rig.camera.height}: calibration and capture sizes disagree")
+    return ctx.rig, float(z_min)
+
+
+def _warn_range(ctx, rig, mp, mask) -> None:
+    z_max = ctx.plan.options.get("z_max", ctx.options.get("z_max"))
+    if z_max is not None:
+        check_depth_range(rig, mp, float(z_max), mask)
+
+
+def _register() -> None:
+    from fringe3d.unwrap.registry import register
+
+    @register("geometric")
+    def unwrap_geometric(ctx):
+        """Plan ``method="geometric"``: the plan's (single) period unwrapped by Eq. (4.21)."""
+        rig, z_min = _context_geometry(ctx, "geometric")
+        groups = ctx.groups_for_plan()
+        if len(groups) != 1:
+            raise ValueError(f"direction {ctx.direction!r}: method 'geometric' unwraps one phase group, the plan "
+                             f"names periods {[g.period for g in groups]}")
+        g = groups[0]
+        mp = cached_minimum_phase(rig, z_min, g.period, g.angle)
+        Phi, mask = geometric_unwrap(ctx.group_phase(g).phase, mp, ctx.group_mask(g))
+        _warn_range(ctx, rig, mp, mask)
+        return Phi, mask
+
+    @register("two_frequency_geometric")
+    def unwrap_two_frequency_geometric(ctx):
+        """Plan ``method="two_frequency_geometric"``, periods ``(T_high, T_low)`` (ch. 5.3): the
+        low-frequency phase is unwrapped by the geometric constraint, then unwraps the high one
+        hierarchically, ``k = round((T_l/T_h * Phi_l - phi_h)/2pi)`` (Eq. 1.5)."""
+        rig, z_min = _context_geometry(ctx, "two_frequency_geometric")
+        groups = ctx.groups_for_plan()
+        if len(groups) != 2:
+            raise ValueError(f"direction {ctx.direction!r}: method 'two_frequency_geometric' needs two phase groups "
+                             f"(high, low frequency), the plan names periods {[g.period for g in groups]}")
+        hi, lo = sorted(groups, key=lambda g: g.period)
+        mp = cached_minimum_phase(rig, z_min, lo.period, lo.angle)
+        Phi_l, mask_l = geometric_unwrap(ctx.group_phase(lo).phase, mp, ctx.group_mask(lo))
+        _warn_range(ctx, rig, mp, mask_l)
+        phi_h = ctx.group_phase(hi).phase.astype(np.float64)
+        k = np.round((Phi_l * (lo.period / hi.period) - phi_h) / TWO_PI)
+        Phi = (phi_h + TWO_PI * k).astype(np.float32)
+        mask = mask_l & ctx.group_mask(hi) & np.isfinite(Phi)
+        Phi[~mask] = np.nan
+        return Phi, mask
+
+
+_register()
