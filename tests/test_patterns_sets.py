@@ -98,3 +98,14 @@ def test_manifest_json_round_trip(tmp_path):
     ps = sets.calibration(400, 300).concat(sets.psp_with_gray_code(20, 3, "v", width=400, height=300), name="x")
     path = ps.save(tmp_path)
     assert PatternSet.load(path) == ps
+
+
+def test_half_period_code_refines_the_full_period_gray_code_by_one_bit():
+    from fringe3d.patterns import codes, render_frame
+    full = sets.psp_with_gray_code(20, 3, "v", width=320, height=8)
+    half = sets.psp_with_gray_code(20, 3, "v", width=320, height=8, code_period=10)
+    nf, nh = full.plan("v").options["bits"], half.plan("v").options["bits"]
+    assert nh == nf + 1 and half.plan("v").options["code_period"] == 10
+    bits = np.stack([render_frame(f, 320, 8) for f in half.frames if f.role == "code" and not f.inverse])
+    word = codes.decode_bits(bits.astype(np.uint8), gray=True)
+    np.testing.assert_array_equal(word[0], np.arange(320) // 10)

@@ -215,11 +215,20 @@ def binary_code(period: float, direction: str = "v", **kw) -> PatternSet:
 
 def psp_with_gray_code(period: float, steps: int = 3, direction: str = "v", angle: float | None = None,
                        kind: str = "sinusoid", width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
-                       code: str = "gray", inverse: bool = True, bit_depth: int | None = None) -> PatternSet:
-    """N-step phase frames followed by code frames of the same period (plan ``"gray_code"``)."""
+                       code: str = "gray", inverse: bool = True, bit_depth: int | None = None,
+                       code_period: float | None = None) -> PatternSet:
+    """N-step phase frames followed by code frames (plan ``"gray_code"``).
+
+    By default the code stripes are one phase period wide (``k`` = codeword). With
+    ``code_period = period / 2`` the code resolves half periods (one more bit): a decoder that
+    rounds against the stripe centre then tolerates stripe edges misplaced by up to T/4
+    (complementary Gray code). Code frames carry the stripe width in ``period``.
+    """
     ps = phase_shift(period, steps, direction, angle, kind, width, height, bit_depth)
     a = ps.plans[0].angle
-    cframes, opts = _code_frames(period, direction, a, width, height, code, inverse)
+    cp = float(period if code_period is None else code_period)
+    cframes, opts = _code_frames(cp, direction, a, width, height, code, inverse)
+    opts["code_period"] = cp
     plan = DirectionPlan(direction, a, f"{code}_code", (float(period),), {"phase": "psp", **opts})
     return PatternSet(width, height, ps.frames + cframes, (plan,), ps.bit_depth,
                       f"psp-{steps}step-{code}-T{period:g}-{direction}")
