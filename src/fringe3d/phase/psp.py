@@ -1,0 +1,159 @@
+"""Phase-shifting profilometry: wrapped phase, average intensity and modulation.
+
+Model (Eq. 2.3, manifest convention): ``I_k = A + B cos(phi + delta_k)``, k = 0..N-1.
+
+* Equal shifts ``delta_k = 2 pi k / N`` (Eq. 2.4, sign derived):
+  ``phi = atan2(-sum_k I_k sin delta_k, sum_k I_k cos delta_k)``, ``A = mean_k I_k``,
+  ``B = (2/N) |sum_k I_k exp(-i delta_k)|``. (Expanding ``cos(phi + delta)`` gives
+  ``sum I_k cos delta_k = (N/2) B cos phi`` and ``sum I_k sin delta_k = -(N/2) B sin phi``.)
+* Arbitrary shifts: least squares of ``I_k = a + b cos delta_k + c sin delta_k``,
+  ``phi = atan2(-c, b)``, ``B = hypot(b, c)``; identical to Eq. (2.4) for equal shifts.
+* 3-step (Eq. 1.1-1.4, shifts -2pi/3, 0, +2pi/3): ``phi = atan2(sqrt(3)(I1 - I3), 2 I2 - I1 - I3)``.
+
+Phase noise floor for N equal steps and Gaussian intensity noise sigma:
+``sigma_phi = sqrt(2/N) sigma / B``.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple, Sequence
+
+import numpy as np
+
+from fringe3d.phase import kernels
+
+
+class PhaseResult(NamedTuple):
+    """Wrapped phase (rad, (-pi, pi]), average intensity A and modulation B, each (H, W) float32."""
+
+    phase: np.ndarray
+    average: np.ndarray
+    modulation: np.ndarray
+
+
+def default_shifts(n: int) -> np.ndarray:
+    """Equal shifts ``2 pi k / n`` (Eq. 2.4), float64 (n,)."""
+    return 2.0 * np.pi * np.arange(n) / n
+
+
+def lsq_coefficients(shifts: Sequence[float]) -> np.ndarray:
+    """(3, N) float64 matrix P with ``(a, b, c) = P @ I`` for ``I_k = a + b cos d_k + c sin d_k``.
+
+    Raises ``ValueError`` when fewer than 3 shifts are given or the shifts cannot separate
+    A, B and phi (e.g. two distinct shifts only).
+    """
+    d = np.asarray(shifts, dtype=np.float64).ravel()
+    if d.size < 3:
+        raise ValueError(f"phase shifting needs at least 3 frames, got {d.size} (shifts {d.tolist()})")
+    design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1)
+    if np.linalg.matrix_rank(design, tol=1e-9) < 3:
+        raise ValueError(f"phase shifts {np.round(d, 6).tolist()} rad cannot separate average, "
+                         "modulation and phase; expected at least 3 distinct shifts modulo 2pi")
+    return np.linalg.pinv(design)
+
+
+def _as_stack(frames) -> np.ndarray:
+    if isinstance(frames, (list, tuple)):
+        shapes = {np.shape(f) for f in frames}
+        if len(shapes) != 1:
+            raise ValueError(f"frames have different shapes {sorted(shapes)}; expected one (H, W) shape")
+        frames = np.stack([np.asarray(f) for f in frames])
+    frames = np.asarray(frames)
+    if frames.ndim != 3:
+        raise ValueError(f"frames must be an (N, H, W) stack, got shape {frames.shape}")
+    if frames.dtype.kind not in "uif":
+        raise ValueError(f"frames must be integer or float images, got dtype {frames.dtype}")
+    return frames
+
+
+def wrapped_phase(frames, shifts=None, index=None, saturation_level: float | None = None,
+                  return_saturated: bool = False):
+    """N-step least-squares wrapped phase, average and modulation (Eq. 2.4), fused numba kernel.
+
+    Parameters
+    ----------
+    frames : (F, H, W) uint8, uint16 or float array (or a list of (H, W) arrays)
+        Camera frames; read in place, never converted to a full-size float copy.
+    shifts : (N,) float, optional
+        Phase shift of each used frame in rad; default ``2 pi k / N``.
+    index : (N,) int, optional
+        Which frames of ``frames`` to use (default all); lets the decoder pick one group out
+        of a whole capture without copying it.
+    saturation_level : float, optional
+        Flag pixels where any used frame is >= this value (returned when ``return_saturated``).
+
+    Returns
+    -------
+    PhaseResult(phase, average, modulation), each (H, W) float32; phase in (-pi, pi] rad,
+    average and modulation in the frames' units. With ``return_saturated`` also an (H, W)
+    bool saturation map.
+
+    Example
+    -------
+    >>> import numpy as np
+    >>> d = 2 * np.pi * np.arange(4) / 4
+    >>> f = np.stack([100 + 50 * np.cos(0.3 + dk) * np.ones((2, 2)) for dk in d])
+    >>> float(wrapped_phase(f).phase[0, 0])  # doctest: +ELLIPSIS
+    0.3...
+    """
+    frames = _as_stack(frames)
+    idx = np.arange(frames.shape[0]) if index is None else np.asarray(index, dtype=np.int64)
+    if idx.size and (idx.min() < 0 or idx.max() >= frames.shape[0]):
+        raise ValueError(f"frame index {idx.tolist()} out of range for {frames.shape[0]} frames")
+    d = default_shifts(idx.size) if shifts is None else np.asarray(shifts, dtype=np.float64)
+    if d.size != idx.size:
+        raise ValueError(f"got {d.size} phase shifts for {idx.size} frames; expected one shift per frame")
+    coef = lsq_coefficients(d)
+    h, w = frames.shape[1:]
+    phase = np.empty((h, w), np.float32)
+    average = np.empty((h, w), np.float32)
+    modulation = np.empty((h, w), np.float32)
+    saturated = np.zeros((h, w), np.bool_)
+    sat = math.inf if saturation_level is None else float(saturation_level)
+    kernels.psp_kernel(frames, idx.astype(np.int64), coef, sat, phase, average, modulation, saturated)
+    result = PhaseResult(phase, average, modulation)
+    return (result, saturated) if return_saturated else result
+
+
+def wrapped_phase_reference(frames, shifts=None) -> PhaseResult:
+    """Plain-NumPy reference of :func:`wrapped_phase` (float64 math, float32 output).
+
+    Equal shifts use the literal sums of Eq. (2.4); other shifts solve the least-squares
+    system with ``numpy.linalg.lstsq``.
+    """
+    f = _as_stack(frames).astype(np.float64)
+    n = f.shape[0]
+    d = default_shifts(n) if shifts is None else np.asarray(shifts, dtype=np.float64)
+    if d.size != n:
+        raise ValueError(f"got {d.size} phase shifts for {n} frames; expected one shift per frame")
+    if n < 3:
+        raise ValueError(f"phase shifting needs at least 3 frames, got {n}")
+    rel = np.sort(np.mod(d - d[0] + 1e-12, 2 * np.pi) - 1e-12)
+    if np.allclose(rel, default_shifts(n), atol=1e-9):  # N equally spaced shifts, any order
+        num = -np.tensordot(np.sin(d), f, axes=1)
+        den = np.tensordot(np.cos(d), f, axes=1)
+        phase = np.arctan2(num, den)
+        average = f.mean(axis=0)
+        modulation = (2.0 / n) * np.abs(np.tensordot(np.exp(-1j * d), f, axes=1))
+    else:
+        design = np.stack([np.ones(n), np.cos(d), np.sin(d)], axis=1)
+        sol, *_ = np.linalg.lstsq(design, f.reshape(n, -1), rcond=None)
+        a, b, c = (s.reshape(f.shape[1:]) for s in sol)
+        phase, average, modulation = np.arctan2(-c, b), a, np.hypot(b, c)
+    return PhaseResult(phase.astype(np.float32), average.astype(np.float32), modulation.astype(np.float32))
+
+
+def three_step(i1, i2, i3) -> np.ndarray:
+    """3-step wrapped phase, Eq. (1.4), for shifts -2pi/3, 0, +2pi/3 (Eq. 1.1-1.3).
+
+    ``phi = atan2(sqrt(3) (I1 - I3), 2 I2 - I1 - I3)``; inputs (H, W) any real dtype,
+    output (H, W) float64 rad in (-pi, pi]. A manifest whose 3-step set uses shifts
+    0, 2pi/3, 4pi/3 is the same formula with the frames taken in the order (I3, I1, I2);
+    :func:`wrapped_phase` with the manifest's shifts handles any order.
+    """
+    a = np.asarray(i1, dtype=np.float64)
+    b = np.asarray(i2, dtype=np.float64)
+    c = np.asarray(i3, dtype=np.float64)
+    if not (a.shape == b.shape == c.shape):
+        raise ValueError(f"three_step needs frames of one shape, got {a.shape}, {b.shape}, {c.shape}")
+    return np.arctan2(math.sqrt(3.0) * (a - c), 2.0 * b - a - c)

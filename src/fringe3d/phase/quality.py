@@ -1,0 +1,113 @@
+"""Which pixels carry a trustworthy phase: modulation threshold, saturation, dark frames.
+
+A pixel is valid when its fringe modulation B (Eq. 2.3) reaches ``min_modulation`` and none
+of its frames sits at the sensor's maximum code (a clipped sinusoid biases the phase). Whole
+frames that are dark or largely saturated are reported with a :class:`FrameQualityWarning`
+(the decoder masks the affected pixels instead of returning NaN everywhere silently).
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+#: Default modulation threshold as a fraction of the full scale.
+DEFAULT_MIN_MODULATION_FRACTION = 0.02
+#: A frame counts as dark when its brightest pixel is below this fraction of the full scale.
+DARK_FRACTION = 0.02
+#: Warn when more than this fraction of a frame's pixels are saturated.
+SATURATED_WARN_FRACTION = 0.05
+
+
+class FrameQualityWarning(UserWarning):
+    """Frames that are all dark or heavily saturated (their pixels are masked)."""
+
+
+def full_scale(frames: np.ndarray, bit_depth: int | None = None) -> float:
+    """The value a fully exposed pixel reaches: ``2**bit_depth - 1`` for integer frames
+    (bit depth defaults to the dtype's: 8 for uint8, 16 for uint16); for float frames
+    ``2**bit_depth - 1`` when given, else 1.0 (frames are taken as normalised to [0, 1])."""
+    if bit_depth is not None:
+        if not 1 <= int(bit_depth) <= 32:
+            raise ValueError(f"bit_depth must be between 1 and 32, got {bit_depth}")
+        return float(2 ** int(bit_depth) - 1)
+    if frames.dtype.kind in "ui":
+        return float(np.iinfo(frames.dtype).max)
+    return 1.0
+
+
+def saturation_level(frames: np.ndarray, bit_depth: int | None = None) -> float:
+    """Value at or above which a pixel counts as saturated; ``inf`` (no check) for float frames
+    without a stated bit depth."""
+    if frames.dtype.kind == "f" and bit_depth is None:
+        return float("inf")
+    return full_scale(frames, bit_depth)
+
+
+def default_min_modulation(frames: np.ndarray, bit_depth: int | None = None) -> float:
+    """2 % of :func:`full_scale` (5.1 counts for 8-bit frames)."""
+    return DEFAULT_MIN_MODULATION_FRACTION * full_scale(frames, bit_depth)
+
+
+def validity_mask(average: np.ndarray, modulation: np.ndarray, frames: np.ndarray | None = None,
+                  bit_depth: int | None = None, min_modulation: float | None = None,
+                  saturated: np.ndarray | None = None, index=None) -> np.ndarray:
+    """(H, W) bool: modulation >= ``min_modulation`` and not saturated, finite average.
+
+    Parameters
+    ----------
+    average, modulation : (H, W) float arrays (frames' units).
+    frames : (F, H, W) array, optional
+        Used for the saturation test (any frame of ``index``, default all, at the max code of
+        ``bit_depth``) and for the default threshold.
+    saturated : (H, W) bool, optional
+        A precomputed saturation map (e.g. from :func:`fringe3d.phase.psp.wrapped_phase`).
+    min_modulation : float, optional
+        Default :func:`default_min_modulation` (or 2 % of 1.0 without frames).
+    """
+    modulation = np.asarray(modulation)
+    average = np.asarray(average)
+    if modulation.shape != average.shape:
+        raise ValueError(f"average {average.shape} and modulation {modulation.shape} must have one shape")
+    if min_modulation is None:
+        min_modulation = (default_min_modulation(frames, bit_depth) if frames is not None
+                          else DEFAULT_MIN_MODULATION_FRACTION)
+    mask = (modulation >= min_modulation) & np.isfinite(average) & np.isfinite(modulation)
+    if saturated is not None:
+        mask &= ~np.asarray(saturated, dtype=bool)
+    elif frames is not None:
+        level = saturation_level(frames, bit_depth)
+        if np.isfinite(level):
+            sel = frames if index is None else frames[np.asarray(index)]
+            mask &= ~(sel >= level).any(axis=0)
+    return mask
+
+
+def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = "frames") -> dict:
+    """Warn (:class:`FrameQualityWarning`) about all-dark or heavily saturated frames.
+
+    Returns ``{"dark": [frame indices], "saturated": [frame indices], "saturated_fraction":
+    [...]}``. Dark: brightest pixel < 2 % of full scale. Saturated: more than 5 % of pixels at
+    the maximum code. The pixels themselves are masked by :func:`validity_mask` (dark frames
+    give no modulation), so results stay usable where the data allow.
+    """
+    fs = full_scale(frames, bit_depth)
+    level = saturation_level(frames, bit_depth)
+    # per-frame statistics on a strided subsample (cheap on large frames)
+    step = max(1, int(np.sqrt(frames.shape[1] * frames.shape[2] / 65536)))
+    sub = frames[:, ::step, ::step]
+    peak = sub.reshape(sub.shape[0], -1).max(axis=1)
+    dark = [int(i) for i in np.flatnonzero(peak < DARK_FRACTION * fs)]
+    sat_frac = ((sub >= level).reshape(sub.shape[0], -1).mean(axis=1) if np.isfinite(level)
+                else np.zeros(sub.shape[0]))
+    sat = [int(i) for i in np.flatnonzero(sat_frac > SATURATED_WARN_FRACTION)]
+    if dark:
+        msg = (f"all frames are dark (max < {DARK_FRACTION:.0%} of full scale {fs:g})" if len(dark) == len(peak)
+               else f"{len(dark)} dark frame(s) (max < {DARK_FRACTION:.0%} of full scale {fs:g}): {dark}")
+        warnings.warn(f"{where}: {msg}; affected pixels are masked", FrameQualityWarning, stacklevel=3)
+    if sat:
+        worst = float(sat_frac.max())
+        warnings.warn(f"{where}: {len(sat)} frame(s) with more than {SATURATED_WARN_FRACTION:.0%} saturated "
+                      f"pixels (worst {worst:.0%} at level {level:g}): {sat}; saturated pixels are masked",
+                      FrameQualityWarning, stacklevel=3)
+    return {"dark": dark, "saturated": sat, "saturated_fraction": [float(x) for x in sat_frac]}

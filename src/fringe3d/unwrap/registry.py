@@ -1,0 +1,208 @@
+"""Registry of unwrapping methods the decoder can run, keyed by ``DirectionPlan.method``.
+
+An unwrapper is ``fn(ctx: DecodeContext) -> (Phi, mask)`` or ``(Phi, mask, extras)``:
+``Phi`` (H, W) absolute phase of the plan's narrowest period (rad), ``mask`` (H, W) bool,
+``extras`` an optional dict that may override the decoder's ``"wrapped"``, ``"modulation"``
+or ``"period"`` for that direction (e.g. an FTP-based method). Register one with::
+
+    from fringe3d.unwrap.registry import register
+
+    @register("geometric")
+    def unwrap_geometric(ctx):
+        pr = ctx.group_phase(ctx.group_for_period(ctx.plan.periods[0]))
+        ...
+        return Phi, mask
+
+Modules under :mod:`fringe3d.unwrap` are imported on the first lookup of a name that is not
+registered yet, so a new method needs no edit to the decoder or to this file.
+"""
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from fringe3d.patterns.manifest import DirectionPlan, PatternSet
+
+UNWRAPPERS: dict[str, Callable] = {}
+
+
+def register(name: str) -> Callable:
+    """Decorator: make ``fn(ctx)`` the unwrapper for plans whose ``method`` is ``name``."""
+    def deco(fn: Callable) -> Callable:
+        UNWRAPPERS[name] = fn
+        return fn
+    return deco
+
+
+def _import_unwrap_modules() -> dict[str, str]:
+    """Import every module of :mod:`fringe3d.unwrap` (they register on import); returns the
+    import errors by module name."""
+    import fringe3d.unwrap as pkg
+    failed = {}
+    for mod in pkgutil.iter_modules(pkg.__path__):
+        if mod.name.startswith("_") or mod.name == "registry":
+            continue
+        try:
+            importlib.import_module(f"fringe3d.unwrap.{mod.name}")
+        except Exception as e:  # a broken optional module must not hide the others
+            failed[mod.name] = f"{type(e).__name__}: {e}"
+    return failed
+
+
+def get_unwrapper(name: str) -> Callable:
+    """The unwrapper registered for ``name``; ``ValueError`` naming the registered ones if none."""
+    failed = {}
+    if name not in UNWRAPPERS:
+        failed = _import_unwrap_modules()
+    if name not in UNWRAPPERS:
+        extra = f" (modules that failed to import: {failed})" if failed else ""
+        raise ValueError(f"no unwrapper registered for method {name!r}; registered methods: "
+                         f"{sorted(UNWRAPPERS)}{extra}")
+    return UNWRAPPERS[name]
+
+
+@dataclass(frozen=True)
+class PhaseGroup:
+    """The frames of one phase group of a direction: label, period (px), fringe angle (rad),
+    frame indices and shifts (rad) in step order, and the frame kind."""
+
+    name: str
+    period: float
+    angle: float
+    indices: tuple[int, ...]
+    shifts: tuple[float, ...]
+    kind: str
+
+
+@dataclass
+class DecodeContext:
+    """Everything an unwrapper may need for one fringe direction.
+
+    Attributes: ``frames`` (F, H, W) camera frames of one cycle (any real dtype),
+    ``patterns`` the :class:`PatternSet`, ``direction``, ``plan`` (:class:`DirectionPlan`),
+    ``rig`` (:class:`fringe3d.optics.Rig` or None), ``z_min`` (mm or None), ``options`` (dict
+    of decoder keyword options), ``bit_depth`` (None: the dtype's), ``min_modulation``
+    (frames' units). Wrapped phases are computed once per group and cached.
+    """
+
+    frames: np.ndarray
+    patterns: PatternSet
+    direction: str
+    plan: DirectionPlan
+    rig: Any = None
+    z_min: float | None = None
+    options: dict = field(default_factory=dict)
+    bit_depth: int | None = None
+    min_modulation: float = 0.0
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    # -- groups ------------------------------------------------------------------------
+    def phase_groups(self) -> list[PhaseGroup]:
+        """Phase groups of this direction in manifest order (see :func:`phase_groups`)."""
+        return phase_groups(self.patterns, self.direction)
+
+    def group_for_period(self, period: float) -> PhaseGroup:
+        """The phase group of this direction with the given period (``ValueError`` if none)."""
+        groups = self.phase_groups()
+        for g in groups:
+            if abs(g.period - float(period)) <= 1e-9 * max(1.0, abs(period)):
+                return g
+        raise ValueError(f"direction {self.direction!r}: plan names period {period:g} px but the manifest's "
+                         f"phase groups have periods {[g.period for g in groups]}")
+
+    def groups_for_plan(self) -> list[PhaseGroup]:
+        """Groups matching ``plan.periods`` in that order (narrowest first)."""
+        if not self.plan.periods:
+            return self.phase_groups()
+        return [self.group_for_period(p) for p in self.plan.periods]
+
+    # -- phase and quality ---------------------------------------------------------------
+    def group_phase(self, group: PhaseGroup):
+        """Wrapped phase of a group, cached: :class:`fringe3d.phase.psp.PhaseResult`.
+
+        3 or more steps: least-squares phase shifting (Eq. 2.4). 2 steps shifted by pi:
+        modified FTP (Eq. 4.5-4.7). 1 step: FTP (Eq. 4.1-4.4). Options ``ftp_window`` and
+        ``ftp_border`` are passed to FTP.
+        """
+        if group.name not in self._cache:
+            self._cache[group.name] = _group_phase(self, group)
+        return self._cache[group.name][0]
+
+    def group_saturated(self, group: PhaseGroup) -> np.ndarray:
+        """(H, W) bool: a frame of the group is at the saturation level."""
+        self.group_phase(group)
+        return self._cache[group.name][1]
+
+    def group_mask(self, group: PhaseGroup) -> np.ndarray:
+        """(H, W) bool validity of one group: modulation >= min_modulation and not saturated."""
+        pr = self.group_phase(group)
+        return (pr.modulation >= self.min_modulation) & ~self.group_saturated(group)
+
+    def w_range(self) -> tuple[float, float]:
+        """(w_min, w_max) projector fringe coordinates: the plan's ``options["w_range"]`` if
+        given, else the extent of ``w`` over the projector for the plan's angle."""
+        wr = self.plan.options.get("w_range")
+        if wr is not None:
+            return float(wr[0]), float(wr[1])
+        from fringe3d.unwrap.temporal import fringe_extent
+        return fringe_extent(self.patterns.width, self.patterns.height, self.plan.angle)
+
+
+def phase_groups(ps: PatternSet, direction: str) -> list[PhaseGroup]:
+    """Phase groups of ``direction``, frames sorted by step, checked for completeness.
+
+    Raises ``ValueError`` when a group mixes periods or angles, repeats a step, or has fewer
+    frames than its ``steps`` declares.
+    """
+    out = []
+    for name in ps.groups(direction=direction, role="phase"):
+        idx = [i for i in ps.indices(group=name) if ps.frames[i].role == "phase"]
+        specs = [ps.frames[i] for i in idx]
+        periods = {s.period for s in specs}
+        angles = {s.angle for s in specs}
+        if len(periods) != 1 or len(angles) != 1:
+            raise ValueError(f"phase group {name!r} mixes periods {sorted(periods)} or angles {sorted(angles)}; "
+                             "expected one period and angle per group")
+        steps = specs[0].steps or len(specs)
+        got = sorted(s.step for s in specs)
+        if len(specs) != steps or got != list(range(steps)):
+            missing = sorted(set(range(steps)) - set(got))
+            raise ValueError(f"phase group {name!r} declares {steps} steps but the manifest holds steps {got}"
+                             + (f" (missing {missing})" if missing else "") + "; expected steps 0.."
+                             f"{steps - 1} once each")
+        order = sorted(range(len(idx)), key=lambda q: specs[q].step)
+        out.append(PhaseGroup(name=name, period=float(specs[0].period), angle=float(specs[0].angle),
+                              indices=tuple(idx[q] for q in order), shifts=tuple(specs[q].shift for q in order),
+                              kind=specs[0].kind))
+    return out
+
+
+def _group_phase(ctx: DecodeContext, group: PhaseGroup):
+    from fringe3d.phase import quality
+    from fringe3d.phase.psp import PhaseResult, wrapped_phase
+    level = quality.saturation_level(ctx.frames, ctx.bit_depth)
+    n = len(group.indices)
+    if n >= 3:
+        return wrapped_phase(ctx.frames, shifts=group.shifts, index=group.indices, saturation_level=level,
+                             return_saturated=True)
+    from fringe3d.phase import ftp
+    sel = ctx.frames[list(group.indices)]
+    saturated = (sel >= level).any(axis=0) if np.isfinite(level) else np.zeros(sel.shape[1:], bool)
+    kw = {k[4:]: v for k, v in ctx.options.items() if k in ("ftp_window", "ftp_radius")}
+    if n == 2:
+        d = (group.shifts[1] - group.shifts[0]) % (2 * np.pi)
+        if abs(d - np.pi) > 1e-6:
+            raise ValueError(f"phase group {group.name!r} has 2 frames shifted by {d:.4f} rad; a 2-frame group must "
+                             "be a pi-shifted pair (modified FTP)")
+        i1, i2 = sel[0].astype(np.float64), sel[1].astype(np.float64)
+        phase, mod = ftp.modified_ftp_phase(i1, i2, angle=group.angle, **kw)
+        average = 0.5 * (i1 + i2)
+    else:
+        r = ftp.ftp_analysis(sel[0].astype(np.float64), angle=group.angle, **kw)
+        phase, mod, average = r.phase, r.modulation, r.average
+    phase = np.angle(np.exp(1j * (phase - group.shifts[0])))  # frame k has phase phi + shift
+    return PhaseResult(phase.astype(np.float32), np.asarray(average, np.float32), mod.astype(np.float32)), saturated

@@ -1,0 +1,413 @@
+"""Temporal phase unwrapping: hierarchical multi-frequency, heterodyne, Gray code + phase.
+
+All methods produce ``Phi = phi + 2 pi k`` (Eq. 1.5) pixel by pixel, from the wrapped phase
+of the narrowest period and extra frames; fused numba kernels in
+:mod:`fringe3d.phase.kernels`, plain-NumPy references here (``*_reference``).
+
+Conventions: wrapped phases in (-pi, pi]; absolute phase ``Phi = 2 pi w / T`` with ``w`` the
+projector fringe coordinate (manifest). The coarsest (or final beat) phase is taken as
+absolute in a window ``[lower, lower + 2 pi)``; :func:`coarse_window` centres the projector's
+coordinate range in that window so noise at the pattern edges does not wrap.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from typing import NamedTuple, Sequence
+
+import numpy as np
+
+from fringe3d.phase import kernels
+
+TWO_PI = 2.0 * math.pi
+
+
+class Unwrapped(NamedTuple):
+    """Absolute phase (H, W) float32 rad and fringe order (H, W) int32 of the narrowest period."""
+
+    phase: np.ndarray
+    order: np.ndarray
+
+
+class UnwrapRangeWarning(UserWarning):
+    """The coarsest (equivalent) period is shorter than the projector's coordinate range."""
+
+
+def fringe_extent(width: int, height: int, angle: float) -> tuple[float, float]:
+    """(w_min, w_max) of ``w = v cos(angle) + u sin(angle)`` over a width x height projector."""
+    c, s = math.cos(angle), math.sin(angle)
+    corners = [0.0, (height - 1) * c, (width - 1) * s, (height - 1) * c + (width - 1) * s]
+    return min(corners), max(corners)
+
+
+def coarse_window(period: float, w_range: tuple[float, float] | None) -> float:
+    """Start (rad) of the window ``[lower, lower + 2 pi)`` in which the coarsest phase is absolute.
+
+    ``w_range=None``: 0 (window [0, 2 pi)). Otherwise the range is centred in the period; if
+    the range is wider than ``period`` a :class:`UnwrapRangeWarning` is issued and the window
+    starts at ``w_min`` (coordinates beyond ``w_min + period`` alias).
+    """
+    if w_range is None:
+        return 0.0
+    w0, w1 = float(w_range[0]), float(w_range[1])
+    span = w1 - w0
+    if span >= period:
+        warnings.warn(f"coarsest equivalent period {period:g} px is shorter than the projector's fringe "
+                      f"coordinate range {span + 1:g} px; absolute phase aliases beyond w = {w0 + period:g}",
+                      UnwrapRangeWarning, stacklevel=3)
+        return TWO_PI * (w0 - 0.5) / period
+    return TWO_PI * (w0 - 0.5 * (period - span)) / period
+
+
+def _stack(phases: Sequence[np.ndarray]) -> np.ndarray:
+    shapes = {np.shape(p) for p in phases}
+    if len(shapes) != 1:
+        raise ValueError(f"wrapped phases have different shapes {sorted(shapes)}; expected one (H, W) shape")
+    st = np.stack([np.asarray(p, dtype=np.float32) for p in phases])
+    if st.ndim != 3:
+        raise ValueError(f"each wrapped phase must be (H, W), got {st.shape[1:]}")
+    return st
+
+
+def _periods(periods: Sequence[float], n: int, minimum: int) -> np.ndarray:
+    p = np.asarray(periods, dtype=np.float64)
+    if p.size != n:
+        raise ValueError(f"got {p.size} periods for {n} wrapped phases; expected one period per phase")
+    if n < minimum:
+        raise ValueError(f"need at least {minimum} wrapped phases, got {n}")
+    if np.any(p <= 0):
+        raise ValueError(f"periods must be positive, got {p.tolist()}")
+    return p
+
+
+# -- hierarchical -------------------------------------------------------------------------
+def hierarchical(phases: Sequence[np.ndarray], periods: Sequence[float],
+                 w_range: tuple[float, float] | None = None) -> Unwrapped:
+    """Hierarchical multi-frequency unwrapping: each coarser absolute phase unwraps the next
+    finer one, ``k = round(((T_low/T_high) Phi_low - phi_high) / 2 pi)`` (Eq. 1.5).
+
+    Parameters
+    ----------
+    phases : M wrapped phases (H, W), narrowest period first; the last (coarsest) must cover
+        the projector (period >= coordinate range) to be absolute.
+    periods : M periods in projector pixels, same order.
+    w_range : (w_min, w_max) projector fringe coordinates covered, see :func:`coarse_window`.
+
+    Returns :class:`Unwrapped` for the narrowest period. Exact while each level's error
+    ``|(T_low/T_high) dPhi_low - dphi_high| < pi``.
+    """
+    st = _stack(phases)
+    p = _periods(periods, st.shape[0], 1)
+    lower = coarse_window(p[-1], w_range)
+    order = np.empty(st.shape[1:], np.int32)
+    phase = np.empty(st.shape[1:], np.float32)
+    kernels.hierarchical_kernel(st, p, lower, order, phase)
+    return Unwrapped(phase, order)
+
+
+def hierarchical_reference(phases, periods, w_range=None) -> Unwrapped:
+    """Plain-NumPy reference of :func:`hierarchical`."""
+    st = _stack(phases).astype(np.float64)
+    p = _periods(periods, st.shape[0], 1)
+    lower = coarse_window(p[-1], w_range)
+    big = lower + np.mod(st[-1] - lower, TWO_PI)
+    k = np.floor((big - st[-1]) / TWO_PI + 0.5)
+    for q in range(st.shape[0] - 2, -1, -1):
+        k = np.floor((big * (p[q + 1] / p[q]) - st[q]) / TWO_PI + 0.5)
+        big = st[q] + TWO_PI * k
+    return Unwrapped(big.astype(np.float32), k.astype(np.int32))
+
+
+# -- heterodyne ---------------------------------------------------------------------------
+def beat_chain(periods: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """Equivalent periods and signs of the heterodyne chain.
+
+    ``beat(Ta, Tb) = Ta Tb / |Tb - Ta|``; the chain beats the first two periods, then that
+    beat with the third, and so on: (18, 21, 144) -> (126, 1008). Returns (beat_periods (M-1,),
+    signs (M-1,)) with sign +1 when the left period is the shorter one.
+    """
+    p = [float(x) for x in periods]
+    beats, signs = [], []
+    cur = p[0]
+    for nxt in p[1:]:
+        if abs(nxt - cur) < 1e-9 * max(nxt, cur):
+            raise ValueError(f"heterodyne needs distinct periods, got {cur:g} and {nxt:g} in {p}")
+        beats.append(cur * nxt / abs(nxt - cur))
+        signs.append(1.0 if cur < nxt else -1.0)
+        cur = beats[-1]
+    return np.array(beats), np.array(signs)
+
+
+def heterodyne(phases: Sequence[np.ndarray], periods: Sequence[float],
+               w_range: tuple[float, float] | None = None) -> Unwrapped:
+    """Multi-frequency heterodyne unwrapping (three-frequency 18/21/144 of the calibration set).
+
+    The wrapped phases (narrowest first) are beaten pairwise along :func:`beat_chain`
+    (18 & 21 -> 126, 126 & 144 -> 1008); the last beat, absolute when its period covers the
+    projector, unwraps the previous beat, which unwraps the narrowest phase. Returns
+    :class:`Unwrapped` for ``periods[0]``.
+    """
+    st = _stack(phases)
+    p = _periods(periods, st.shape[0], 2)
+    beats, signs = beat_chain(p)
+    lower = coarse_window(beats[-1], w_range)
+    order = np.empty(st.shape[1:], np.int32)
+    phase = np.empty(st.shape[1:], np.float32)
+    kernels.heterodyne_kernel(st, signs, beats, p, lower, order, phase)
+    return Unwrapped(phase, order)
+
+
+def heterodyne_reference(phases, periods, w_range=None) -> Unwrapped:
+    """Plain-NumPy reference of :func:`heterodyne`."""
+    st = _stack(phases).astype(np.float64)
+    p = _periods(periods, st.shape[0], 2)
+    beats, signs = beat_chain(p)
+    lower = coarse_window(beats[-1], w_range)
+    beat_phases = [np.mod(signs[0] * (st[0] - st[1]), TWO_PI)]
+    for q in range(1, len(beats)):
+        beat_phases.append(np.mod(signs[q] * (beat_phases[-1] - st[q + 1]), TWO_PI))
+    big = lower + np.mod(beat_phases[-1] - lower, TWO_PI)
+    for q in range(len(beats) - 2, -1, -1):
+        kq = np.floor((big * (beats[q + 1] / beats[q]) - beat_phases[q]) / TWO_PI + 0.5)
+        big = beat_phases[q] + TWO_PI * kq
+    k = np.floor((big * (beats[0] / p[0]) - st[0]) / TWO_PI + 0.5)
+    return Unwrapped((st[0] + TWO_PI * k).astype(np.float32), k.astype(np.int32))
+
+
+# -- Gray / binary code + phase -----------------------------------------------------------
+class CodeUnwrapped(NamedTuple):
+    """Absolute phase (float32, NaN on unused codewords), fringe order (int32), valid (bool)."""
+
+    phase: np.ndarray
+    order: np.ndarray
+    valid: np.ndarray
+
+
+def code_centers(code_images: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Lookup table raw codeword -> centre of the projector interval it covers.
+
+    code_images (B, ...) binary projector images of the code bits (most significant first,
+    values 0/1 or 0/255); w (...) the fringe coordinate of each projector pixel. Returns
+    (2**B,) float64 centres (px) ``(min w + max w) / 2`` per codeword, NaN for codewords no
+    projector pixel carries. Works for Gray and simple binary codes alike.
+    """
+    bits = np.asarray(code_images) > (0.5 * np.max(code_images) if np.max(code_images) > 0 else 0.5)
+    nb = bits.shape[0]
+    if nb > 24:
+        raise ValueError(f"a code with {nb} bits is not supported (at most 24)")
+    code = np.zeros(bits.shape[1:], np.int64)
+    for q in range(nb):
+        code = code * 2 + bits[q]
+    lo = np.full(2 ** nb, np.inf)
+    hi = np.full(2 ** nb, -np.inf)
+    np.minimum.at(lo, code.ravel(), np.asarray(w, np.float64).ravel())
+    np.maximum.at(hi, code.ravel(), np.asarray(w, np.float64).ravel())
+    centers = 0.5 * (lo + hi)
+    centers[~np.isfinite(centers)] = np.nan
+    return centers
+
+
+def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.ndarray, period: float,
+                    centers: np.ndarray, inverse_index: Sequence[int] | None = None,
+                    threshold: np.ndarray | None = None) -> CodeUnwrapped:
+    """Fringe order from Gray (or binary) code frames, made robust with the wrapped phase.
+
+    Each bit is 1 where the code frame is brighter than its inverse frame (``inverse_index``)
+    or, without inverse frames, than ``threshold`` (H, W) (e.g. the phase frames' average).
+    The codeword selects a projector interval of centre ``c`` (``centers``, see
+    :func:`code_centers`); ``k = round((2 pi c / T - phi) / 2 pi)``. Rounding against the
+    interval centre, instead of reading k straight from the code, means a code whose
+    codewords resolve half a fringe period (the complementary / half-period-shifted code)
+    gives the exact order even where camera-side stripe edges are misplaced by up to T/4;
+    a code resolving a whole period aligned with the phase wraps has no such margin.
+
+    frames (F, H, W) any real dtype; wrapped (H, W) rad. Returns :class:`CodeUnwrapped`.
+    """
+    frames = np.asarray(frames)
+    ci = np.asarray(code_index, dtype=np.int64)
+    if inverse_index is None:
+        ii = np.full(ci.size, -1, np.int64)
+        if threshold is None:
+            raise ValueError("gray_code_order needs inverse frames or a threshold image")
+    else:
+        ii = np.asarray(inverse_index, dtype=np.int64)
+        if ii.size != ci.size:
+            raise ValueError(f"{ci.size} code frames but {ii.size} inverse frames; expected one inverse per bit")
+    if centers.size != 2 ** ci.size:
+        raise ValueError(f"codeword table has {centers.size} entries, expected 2**{ci.size}")
+    thr = (np.zeros(frames.shape[1:], np.float32) if threshold is None
+           else np.ascontiguousarray(threshold, dtype=np.float32))
+    wr = np.ascontiguousarray(wrapped, dtype=np.float32)
+    if wr.shape != frames.shape[1:] or thr.shape != frames.shape[1:]:
+        raise ValueError(f"wrapped phase {wr.shape} / threshold {thr.shape} must match frames {frames.shape[1:]}")
+    order = np.empty(wr.shape, np.int32)
+    phase = np.empty(wr.shape, np.float32)
+    valid = np.empty(wr.shape, np.bool_)
+    kernels.code_order_kernel(frames, ci, ii, thr, wr, float(period), np.asarray(centers, np.float64),
+                              order, phase, valid)
+    return CodeUnwrapped(phase, order, valid)
+
+
+def gray_code_order_reference(frames, code_index, wrapped, period, centers, inverse_index=None,
+                              threshold=None) -> CodeUnwrapped:
+    """Plain-NumPy reference of :func:`gray_code_order`."""
+    f = np.asarray(frames, dtype=np.float64)
+    code = np.zeros(f.shape[1:], np.int64)
+    for q, i in enumerate(code_index):
+        t = f[inverse_index[q]] if inverse_index is not None else np.asarray(threshold, np.float64)
+        code = code * 2 + (f[i] > t)
+    c = np.asarray(centers)[code]
+    phi = np.asarray(wrapped, np.float64)
+    valid = np.isfinite(c)
+    k = np.floor((TWO_PI * np.where(valid, c, 0.0) / period - phi) / TWO_PI + 0.5)
+    phase = np.where(valid, phi + TWO_PI * k, np.nan)
+    return CodeUnwrapped(phase.astype(np.float32), np.where(valid, k, 0).astype(np.int32), valid)
+
+
+# -- fused three-frequency decode (the calibration set's hot path) ---------------------------
+class FusedResult(NamedTuple):
+    """Output of :func:`three_frequency_decode`, each (H, W): absolute phase float32 (NaN
+    where invalid), wrapped phase of the narrowest period float32, its modulation and average
+    float32, validity mask bool."""
+
+    phase: np.ndarray
+    wrapped: np.ndarray
+    modulation: np.ndarray
+    average: np.ndarray
+    mask: np.ndarray
+
+
+def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]], shifts: Sequence[Sequence[float]],
+                           periods: Sequence[float] = (18.0, 21.0, 144.0),
+                           w_range: tuple[float, float] | None = None, min_modulation: float = 0.0,
+                           saturation_level: float = math.inf) -> FusedResult:
+    """Three-frequency heterodyne decode of raw frames in one fused pass (numba).
+
+    Per pixel: the three least-squares wrapped phases (Eq. 2.4; e.g. 9 + 3 + 3 steps), the
+    beats (18 & 21 -> 126, 126 & 144 -> 1008), the absolute phase of the narrowest period,
+    its modulation and average, and the mask (every group's modulation >= ``min_modulation``
+    and no frame >= ``saturation_level``). No full-size intermediate arrays.
+
+    frames (F, H, W) uint8/uint16/float; ``indices[g]`` / ``shifts[g]`` the frame indices and
+    shifts (rad) of group g, narrowest period first. Equals :func:`heterodyne` applied to
+    :func:`fringe3d.phase.psp.wrapped_phase` results (tested).
+    """
+    from fringe3d.phase.psp import lsq_coefficients
+    frames = np.asarray(frames)
+    if frames.ndim != 3:
+        raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
+    if len(indices) != 3 or len(shifts) != 3 or len(periods) != 3:
+        raise ValueError("three_frequency_decode needs exactly three groups (indices, shifts, periods)")
+    idx = [np.asarray(i, dtype=np.int64) for i in indices]
+    for i in idx:
+        if i.size and (i.min() < 0 or i.max() >= frames.shape[0]):
+            raise ValueError(f"frame index {i.tolist()} out of range for {frames.shape[0]} frames")
+    coef = [lsq_coefficients(s) for s in shifts]
+    for i, c in zip(idx, coef):
+        if c.shape[1] != i.size:
+            raise ValueError(f"group has {i.size} frames but {c.shape[1]} shifts")
+    beats, signs = beat_chain(periods)
+    lower = coarse_window(beats[-1], w_range)
+    params = np.array([signs[0], signs[1], beats[1] / beats[0], beats[0] / periods[0], lower,
+                       float(min_modulation), float(saturation_level)])
+    h, w = frames.shape[1:]
+    out = FusedResult(np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.float32),
+                      np.empty((h, w), np.float32), np.empty((h, w), np.bool_))
+    kernels.three_frequency_kernel(frames, idx[0], coef[0], idx[1], coef[1], idx[2], coef[2], params,
+                                   out.phase, out.wrapped, out.modulation, out.average, out.mask)
+    return out
+
+
+# -- registered decoders for the manifest's temporal methods ----------------------------------
+from fringe3d.unwrap.registry import register  # noqa: E402  (registry has no temporal import)
+
+
+def _combined_mask(ctx, groups) -> np.ndarray:
+    mask = ctx.group_mask(groups[0])
+    for g in groups[1:]:
+        mask = mask & ctx.group_mask(g)
+    return mask
+
+
+@register("none")
+def _unwrap_none(ctx):
+    """No unwrapping: the wrapped phase of the narrowest group is returned as is."""
+    g = ctx.groups_for_plan()[0]
+    return ctx.group_phase(g).phase.copy(), ctx.group_mask(g)
+
+
+@register("hierarchical")
+def _unwrap_hierarchical(ctx):
+    groups = ctx.groups_for_plan()
+    phases = [ctx.group_phase(g).phase for g in groups]
+    res = hierarchical(phases, [g.period for g in groups], w_range=ctx.w_range())
+    return res.phase, _combined_mask(ctx, groups)
+
+
+@register("heterodyne")
+def _unwrap_heterodyne(ctx):
+    groups = ctx.groups_for_plan()
+    if len(groups) == 3 and all(len(g.indices) >= 3 for g in groups) and ctx.options.get("fused", True):
+        from fringe3d.phase import quality
+        r = three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
+                                   [g.period for g in groups], w_range=ctx.w_range(),
+                                   min_modulation=ctx.min_modulation,
+                                   saturation_level=quality.saturation_level(ctx.frames, ctx.bit_depth))
+        return r.phase, r.mask, {"wrapped": r.wrapped, "modulation": r.modulation, "average": r.average}
+    phases = [ctx.group_phase(g).phase for g in groups]
+    res = heterodyne(phases, [g.period for g in groups], w_range=ctx.w_range())
+    return res.phase, _combined_mask(ctx, groups)
+
+
+def _code_frames(ctx):
+    ps = ctx.patterns
+    code = [i for i, f in enumerate(ps.frames)
+            if f.direction == ctx.direction and f.role == "code" and f.kind in ("gray_code", "binary_code")]
+    direct = sorted((i for i in code if not ps.frames[i].inverse), key=lambda i: ps.frames[i].bit)
+    inverse = {ps.frames[i].bit: i for i in code if ps.frames[i].inverse}
+    if not direct:
+        raise ValueError(f"direction {ctx.direction!r} uses method {ctx.plan.method!r} but the manifest has no "
+                         "code frames (role 'code', kind 'gray_code' or 'binary_code') for it")
+    bits = [ps.frames[i].bit for i in direct]
+    if len(set(bits)) != len(bits):
+        raise ValueError(f"direction {ctx.direction!r}: code bits repeat {bits}; expected each bit once")
+    inv = [inverse.get(b) for b in bits] if inverse else None
+    if inv is not None and any(i is None for i in inv):
+        raise ValueError(f"direction {ctx.direction!r}: inverse code frames cover bits {sorted(inverse)} but the "
+                         f"code has bits {bits}; expected an inverse for every bit or none")
+    return direct, inv
+
+
+def _projector_code_centers(ctx, direct) -> np.ndarray:
+    key = ("code_centers", ctx.direction)
+    if key not in ctx._cache:
+        from fringe3d.patterns.render import render_frame
+        ps = ctx.patterns
+        images = np.stack([render_frame(ps.frames[i], ps.width, ps.height) for i in direct])
+        v, u = np.mgrid[0:ps.height, 0:ps.width]
+        w = v * math.cos(ctx.plan.angle) + u * math.sin(ctx.plan.angle)
+        ctx._cache[key] = code_centers(images, w)
+    return ctx._cache[key]
+
+
+@register("gray_code")
+def _unwrap_gray_code(ctx):
+    groups = ctx.groups_for_plan()
+    g = groups[0]
+    pr = ctx.group_phase(g)
+    direct, inv = _code_frames(ctx)
+    threshold = None
+    if inv is None:
+        ps = ctx.patterns
+        white = ps.indices(kind="white")
+        black = ps.indices(kind="black")
+        if white and black:
+            threshold = 0.5 * (ctx.frames[white[0]].astype(np.float32) + ctx.frames[black[0]].astype(np.float32))
+        else:
+            threshold = pr.average
+    centers = _projector_code_centers(ctx, direct)
+    res = gray_code_order(ctx.frames, direct, pr.phase, g.period, centers, inverse_index=inv, threshold=threshold)
+    return res.phase, _combined_mask(ctx, groups) & res.valid
+
+
+register("binary_code")(_unwrap_gray_code)
