@@ -1,0 +1,114 @@
+"""Anchor dots: find them in the texture image, check them against the point map, and turn
+them into geodesic distance maps (dissertation ch. 6.2: two black anchor dots per wing).
+
+Dark, compact blobs inside the bright (valid) surface are labelled with scikit-image; their
+intensity-weighted centroids are the sub-pixel anchor positions (u column, v row).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+from skimage import measure
+
+from fringe3d.analyze.geodesic import bezier_geodesic, check_point_map, grid_geodesic
+
+__all__ = ["find_anchor_dots", "check_anchor", "distance_maps", "pair_anchors"]
+
+
+def find_anchor_dots(texture: np.ndarray, count: int = 2, min_area: float = 4.0, max_area: float = 2000.0,
+                     darkness: float = 0.5, surface: np.ndarray | None = None) -> np.ndarray:
+    """Centroids (count, 2) (u, v) of the ``count`` largest dark blobs on the surface.
+
+    texture : (H, W) intensity image (any dtype). A blob is a connected set of pixels darker
+    than ``darkness`` × the median surface brightness, not touching the image border, with
+    ``min_area ≤ area ≤ max_area`` pixels and enclosed by surface (bright) pixels.
+    surface : optional (H, W) bool of surface pixels (default: pixels brighter than 25 % of the
+    99th percentile, with holes filled so the dots count as surface).
+    Raises ``ValueError`` if fewer than ``count`` blobs are found. Rows are ordered by u, then v.
+    """
+    img = np.asarray(texture, dtype=np.float64)
+    if img.ndim != 2:
+        raise ValueError(f"texture must be a 2D image; got shape {img.shape}")
+    if not np.isfinite(img).any():
+        raise ValueError("texture image has no finite pixels")
+    img = np.nan_to_num(img, nan=0.0)
+    if surface is None:
+        bright = img > 0.25 * np.percentile(img, 99)
+        surface = ndimage.binary_fill_holes(bright)
+    else:
+        surface = ndimage.binary_fill_holes(np.asarray(surface, bool))
+    if not surface.any():
+        raise ValueError("no surface found in the texture image (all dark?); expected a lit wing")
+    level = darkness * np.median(img[surface])
+    dark = (img < level) & surface
+    lab = measure.label(dark, connectivity=2)
+    blobs = []
+    h, w = img.shape
+    for reg in measure.regionprops(lab, intensity_image=level - img):
+        r0, c0, r1, c1 = reg.bbox
+        if r0 == 0 or c0 == 0 or r1 == h or c1 == w:
+            continue
+        if not (min_area <= reg.area <= max_area):
+            continue
+        cy, cx = reg.centroid_weighted
+        blobs.append((reg.area, cx, cy))
+    if len(blobs) < count:
+        raise ValueError(f"found {len(blobs)} anchor dot(s) in the texture image; expected {count} dark dots "
+                         f"of {min_area:g}–{max_area:g} px on the surface (pass --anchors u1,v1,u2,v2 instead)")
+    blobs.sort(key=lambda b: -b[0])
+    pts = np.array([[b[1], b[2]] for b in blobs[:count]])
+    return pts[np.lexsort((pts[:, 1], pts[:, 0]))]
+
+
+def pair_anchors(anchors: np.ndarray, points: np.ndarray) -> list[np.ndarray]:
+    """Group anchor dots into pairs lying on the same connected surface region (one per wing).
+
+    anchors (2k, 2) (u, v); points (H, W, 3). Returns a list of (2, 2) arrays. Raises
+    ``ValueError`` if a region does not hold exactly two anchors.
+    """
+    valid = np.isfinite(check_point_map(points)).all(axis=2)
+    lab = measure.label(ndimage.binary_closing(valid, iterations=3), connectivity=1)
+    groups: dict[int, list] = {}
+    for a in anchors:
+        u, v = int(round(a[0])), int(round(a[1]))
+        groups.setdefault(int(lab[v, u]), []).append(a)
+    if 0 in groups:
+        raise ValueError("an anchor dot lies outside every reconstructed surface region")
+    pairs = []
+    for key in sorted(groups, key=lambda k: min(p[0] for p in groups[k])):
+        g = groups[key]
+        if len(g) != 2:
+            raise ValueError(f"a surface region holds {len(g)} anchor dots; expected exactly two per wing")
+        pairs.append(np.array(g))
+    return pairs
+
+
+def check_anchor(points: np.ndarray, uv, radius: int = 1) -> None:
+    """Raise ``ValueError`` unless the pixel cell around ``uv`` lies on valid points."""
+    pts = check_point_map(points)
+    h, w, _ = pts.shape
+    u, v = float(uv[0]), float(uv[1])
+    if not (0 <= u <= w - 1 and 0 <= v <= h - 1):
+        raise ValueError(f"anchor (u={u:.1f}, v={v:.1f}) is outside the {w}×{h} frame")
+    r0, c0 = int(np.floor(v)), int(np.floor(u))
+    cell = pts[max(r0 - radius + 1, 0):r0 + radius + 1, max(c0 - radius + 1, 0):c0 + radius + 1]
+    if not np.isfinite(cell).all():
+        raise ValueError(f"anchor (u={u:.1f}, v={v:.1f}) lies on invalid (unreconstructed) pixels; "
+                         "expected anchors on the measured surface")
+
+
+def distance_maps(points: np.ndarray, anchors_uv: np.ndarray, method: str = "bezier",
+                  radius: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Geodesic distance maps (D1, D2), each (H, W) mm, from the two anchors (2, 2) (u, v).
+
+    method "bezier" (Eq. 6.7–6.8, marching window (2·radius+1)², 7×7 by default) or "grid"
+    (8-neighbour Dijkstra)."""
+    if method == "bezier":
+        fn = lambda p, a: bezier_geodesic(p, a, radius=radius)  # noqa: E731
+    elif method == "grid":
+        fn = grid_geodesic
+    else:
+        raise ValueError(f"unknown geodesic method {method!r}; expected 'bezier' or 'grid'")
+    for a in anchors_uv:
+        check_anchor(points, a)
+    return fn(points, anchors_uv[0]), fn(points, anchors_uv[1])

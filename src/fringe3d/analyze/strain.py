@@ -1,0 +1,345 @@
+"""Kirchhoff–Love bending strain of an inextensible membrane (dissertation ch. 6.4.3, Eq. 6.10–6.21).
+
+For an inextensible shell the membrane strain vanishes and the Green–Lagrange strain at the
+surface (θ³ = h/2) is ``E_αβ = (h/2)·κ_αβ`` (Eq. 6.11) with ``κ_αβ = b_αβ − B_αβ`` (Eq. 6.12),
+the change of the second fundamental form between the reference and the current frame.
+
+Local geometry (Eq. 6.13–6.21): around a (sub-pixel) point of an organized point map, the valid
+points of an ``N×N`` pixel window are expressed in a local frame aligned with their best-fit
+(tangent) plane and fitted with ``z = Aθ1² + Bθ2² + Cθ1θ2 + Dθ1 + Eθ2 + F``. Then
+``r_,1 = t1 + D·n0``, ``r_,2 = t2 + E·n0`` (tangents), ``n = r_,1 × r_,2 / |…|`` (Eq. 6.21),
+``r_,11 = 2A·n0``, ``r_,22 = 2B·n0``, ``r_,12 = C·n0`` and ``b_αβ = r_,αβ · n`` (Eq. 6.19–6.20).
+Working in the tangent-plane frame (rather than the dissertation's θ = world x, y) keeps the
+fit well conditioned on steep wing poses.
+
+Components are compared in the same *material* basis in both frames: an orthonormal tangent
+basis (e1, e2 = n × e1) whose e1 points from the point towards a material point (the first
+anchor), projected on the tangent plane — exact for rigid motion and within a second-order
+(curvature × distance)² angle for bending — or, when no target is given, the projection of the
+world x axis (the dissertation's θ = world x, y parametrization). The gradient of the Dijkstra
+distance map is *not* used: its direction snaps to the 32 marching directions (±9°). The
+normal is oriented towards the camera (n · r < 0). Units: points in mm, b and κ in 1/mm, E
+dimensionless (h in mm).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from fringe3d.analyze.geodesic import check_point_map
+
+__all__ = ["LocalShape", "local_shape", "bending_strain", "StrainResult", "principal_strains"]
+
+
+@dataclass
+class LocalShape:
+    """Local surface geometry at N points (all arrays have leading dimension N).
+
+    point (N,3) mm; normal (N,3) unit, towards the camera; e1, e2 (N,3) orthonormal tangent
+    basis; second_form (N,2,2) 1/mm in the (e1, e2) basis; residual (N,) RMS of the quadratic
+    fit (mm); count (N,) valid points used; ok (N,) bool (enough points, finite result).
+    """
+    point: np.ndarray
+    normal: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+    second_form: np.ndarray
+    residual: np.ndarray
+    count: np.ndarray
+    ok: np.ndarray
+
+
+@numba.njit(cache=True)
+def _local_shape_kernel(pts, valid, toward, has_toward, uv, half, min_count, out):
+    h, w = valid.shape
+    n = uv.shape[0]
+    for q in range(n):
+        out[q, :] = np.nan
+        u = uv[q, 0]
+        v = uv[q, 1]
+        if not (u >= 0.0 and v >= 0.0 and u <= w - 1 and v <= h - 1):
+            continue
+        # centre point: bilinear interpolation (requires its 4 corners valid)
+        r0 = min(int(np.floor(v)), h - 2)
+        c0 = min(int(np.floor(u)), w - 2)
+        fr = v - r0
+        fc = u - c0
+        if not (valid[r0, c0] and valid[r0 + 1, c0] and valid[r0, c0 + 1] and valid[r0 + 1, c0 + 1]):
+            continue
+        cen = np.empty(3)
+        for k in range(3):
+            cen[k] = ((1 - fr) * ((1 - fc) * pts[r0, c0, k] + fc * pts[r0, c0 + 1, k])
+                      + fr * ((1 - fc) * pts[r0 + 1, c0, k] + fc * pts[r0 + 1, c0 + 1, k]))
+        rc = int(np.round(v))
+        cc = int(np.round(u))
+        # pass 1: centroid and scatter for the local frame
+        cnt = 0
+        mean = np.zeros(3)
+        for r in range(max(rc - half, 0), min(rc + half + 1, h)):
+            for c in range(max(cc - half, 0), min(cc + half + 1, w)):
+                if valid[r, c]:
+                    cnt += 1
+                    for k in range(3):
+                        mean[k] += pts[r, c, k]
+        if cnt < min_count:
+            continue
+        mean /= cnt
+        cov = np.zeros((3, 3))
+        for r in range(max(rc - half, 0), min(rc + half + 1, h)):
+            for c in range(max(cc - half, 0), min(cc + half + 1, w)):
+                if valid[r, c]:
+                    for a in range(3):
+                        for b in range(3):
+                            cov[a, b] += (pts[r, c, a] - mean[a]) * (pts[r, c, b] - mean[b])
+        evals, evecs = np.linalg.eigh(cov)
+        n0 = evecs[:, 0].copy()
+        t1 = evecs[:, 2].copy()
+        t2 = np.cross(n0, t1)
+        # pass 2: least squares in (θ1, θ2, z) with origin at the centre point
+        ata = np.zeros((6, 6))
+        atz = np.zeros(6)
+        row = np.empty(6)
+        for r in range(max(rc - half, 0), min(rc + half + 1, h)):
+            for c in range(max(cc - half, 0), min(cc + half + 1, w)):
+                if valid[r, c]:
+                    dx = pts[r, c, 0] - cen[0]
+                    dy = pts[r, c, 1] - cen[1]
+                    dz = pts[r, c, 2] - cen[2]
+                    a1 = dx * t1[0] + dy * t1[1] + dz * t1[2]
+                    a2 = dx * t2[0] + dy * t2[1] + dz * t2[2]
+                    zz = dx * n0[0] + dy * n0[1] + dz * n0[2]
+                    row[0] = a1 * a1
+                    row[1] = a2 * a2
+                    row[2] = a1 * a2
+                    row[3] = a1
+                    row[4] = a2
+                    row[5] = 1.0
+                    for a in range(6):
+                        atz[a] += row[a] * zz
+                        for b in range(6):
+                            ata[a, b] += row[a] * row[b]
+        # scale columns for conditioning
+        scale = np.empty(6)
+        for a in range(6):
+            scale[a] = 1.0 / np.sqrt(ata[a, a]) if ata[a, a] > 0 else 1.0
+        for a in range(6):
+            atz[a] *= scale[a]
+            for b in range(6):
+                ata[a, b] *= scale[a] * scale[b]
+        coef = np.linalg.solve(ata, atz) * scale
+        A, B, C, D, E, F = coef[0], coef[1], coef[2], coef[3], coef[4], coef[5]
+        # residual RMS
+        ss = 0.0
+        for r in range(max(rc - half, 0), min(rc + half + 1, h)):
+            for c in range(max(cc - half, 0), min(cc + half + 1, w)):
+                if valid[r, c]:
+                    dx = pts[r, c, 0] - cen[0]
+                    dy = pts[r, c, 1] - cen[1]
+                    dz = pts[r, c, 2] - cen[2]
+                    a1 = dx * t1[0] + dy * t1[1] + dz * t1[2]
+                    a2 = dx * t2[0] + dy * t2[1] + dz * t2[2]
+                    zz = dx * n0[0] + dy * n0[1] + dz * n0[2]
+                    e = zz - (A * a1 * a1 + B * a2 * a2 + C * a1 * a2 + D * a1 + E * a2 + F)
+                    ss += e * e
+        # differential geometry at θ = 0 (Eq. 6.16–6.21)
+        r1 = t1 + D * n0
+        r2 = t2 + E * n0
+        nn = np.cross(r1, r2)
+        nn /= np.sqrt(nn[0] ** 2 + nn[1] ** 2 + nn[2] ** 2)
+        p = cen + F * n0
+        if nn[0] * p[0] + nn[1] * p[1] + nn[2] * p[2] > 0:  # orient towards the camera
+            nn = -nn
+        ndot = nn[0] * n0[0] + nn[1] * n0[1] + nn[2] * n0[2]
+        bc = np.empty((2, 2))
+        bc[0, 0] = 2 * A * ndot
+        bc[1, 1] = 2 * B * ndot
+        bc[0, 1] = C * ndot
+        bc[1, 0] = C * ndot
+        g = np.empty((2, 2))
+        g[0, 0] = r1 @ r1
+        g[0, 1] = r1 @ r2
+        g[1, 0] = g[0, 1]
+        g[1, 1] = r2 @ r2
+        ginv = np.linalg.inv(g)
+        # material direction e1
+        if has_toward:
+            e1 = toward[q] - p
+        else:
+            e1 = np.array([1.0, 0.0, 0.0])
+        e1 = e1 - (e1 @ nn) * nn
+        e1 /= np.sqrt(e1 @ e1)
+        e2 = np.cross(nn, e1)
+        # coordinates of e1, e2 in (r1, r2) and the second form in the orthonormal basis
+        c1 = np.empty(2)
+        c2 = np.empty(2)
+        c1[0] = ginv[0, 0] * (r1 @ e1) + ginv[0, 1] * (r2 @ e1)
+        c1[1] = ginv[1, 0] * (r1 @ e1) + ginv[1, 1] * (r2 @ e1)
+        c2[0] = ginv[0, 0] * (r1 @ e2) + ginv[0, 1] * (r2 @ e2)
+        c2[1] = ginv[1, 0] * (r1 @ e2) + ginv[1, 1] * (r2 @ e2)
+        ii11 = c1 @ (bc @ c1)
+        ii12 = c1 @ (bc @ c2)
+        ii22 = c2 @ (bc @ c2)
+        out[q, 0:3] = p
+        out[q, 3:6] = nn
+        out[q, 6:9] = e1
+        out[q, 9:12] = e2
+        out[q, 12] = ii11
+        out[q, 13] = ii12
+        out[q, 14] = ii22
+        out[q, 15] = np.sqrt(ss / cnt)
+        out[q, 16] = cnt
+
+
+def local_shape(points: np.ndarray, uv: np.ndarray, window: int = 11, toward: np.ndarray | None = None,
+                min_fraction: float = 0.5) -> LocalShape:
+    """Quadratic-fit surface geometry at sub-pixel positions ``uv`` (Eq. 6.13–6.21).
+
+    Parameters
+    ----------
+    points : (H, W, 3) float, mm, NaN invalid.
+    uv : (N, 2) float pixel positions (u column, v row).
+    window : odd int ≥ 3, side of the square pixel neighbourhood used for the fit.
+    toward : optional (3,) or (N, 3) mm, a material point (e.g. the first anchor) that e1
+        points to (projected on the tangent plane). Without it e1 is the world x axis projected
+        on the tangent plane.
+    min_fraction : fraction of the window that must be valid for a result.
+    """
+    if window < 3 or window % 2 == 0:
+        raise ValueError(f"window must be an odd integer ≥ 3 (pixels); got {window}")
+    pts = check_point_map(points)
+    valid = np.isfinite(pts).all(axis=2)
+    pts = np.where(valid[..., None], pts, 0.0)
+    uv = np.atleast_2d(np.asarray(uv, dtype=np.float64))
+    if uv.shape[1] != 2:
+        raise ValueError(f"uv must have shape (N, 2); got {uv.shape}")
+    has = toward is not None
+    tw = np.broadcast_to(np.asarray(toward if has else np.zeros(3), dtype=np.float64), (uv.shape[0], 3)).copy()
+    min_count = max(6, int(min_fraction * window * window))
+    out = np.empty((uv.shape[0], 17))
+    _local_shape_kernel(pts, valid, tw, has, uv, window // 2, min_count, out)
+    ii = np.empty((uv.shape[0], 2, 2))
+    ii[:, 0, 0], ii[:, 0, 1], ii[:, 1, 0], ii[:, 1, 1] = out[:, 12], out[:, 13], out[:, 13], out[:, 14]
+    ok = np.isfinite(out[:, :15]).all(axis=1)
+    cnt = np.nan_to_num(out[:, 16]).astype(np.int64)
+    return LocalShape(out[:, 0:3], out[:, 3:6], out[:, 6:9], out[:, 9:12], ii, out[:, 15], cnt, ok)
+
+
+def principal_strains(E: np.ndarray, e1: np.ndarray | None = None, e2: np.ndarray | None = None):
+    """Principal values (N,2) ascending, and directions of a symmetric 2×2 tensor field E (N,2,2).
+
+    Returns ``(values, directions2d (N,2,2) columns = eigenvectors in the (e1, e2) basis,
+    dominant (N,) = the eigenvalue of largest magnitude, directions3d (N,2,3) or None)``.
+    """
+    E = np.asarray(E, dtype=np.float64)
+    good = np.isfinite(E).all(axis=(1, 2))
+    vals = np.full(E.shape[:2], np.nan)
+    vecs = np.full(E.shape, np.nan)
+    if good.any():
+        vals[good], vecs[good] = np.linalg.eigh(E[good])
+    idx = np.where(np.abs(vals[:, 1]) >= np.abs(vals[:, 0]), 1, 0)
+    dominant = np.take_along_axis(vals, idx[:, None], axis=1)[:, 0]
+    d3 = None
+    if e1 is not None and e2 is not None:
+        d3 = vecs[:, 0, :, None] * e1[:, None, :] + vecs[:, 1, :, None] * e2[:, None, :]
+    return vals, vecs, dominant, d3
+
+
+@dataclass
+class StrainResult:
+    """Bending strain at N material points (Eq. 6.11–6.12).
+
+    E (N,2,2) Green–Lagrange strain in the material basis; kappa (N,2,2) 1/mm; principal (N,2);
+    dominant (N,); direction (N,2,3) principal directions in the current frame; ok (N,) bool.
+    """
+    E: np.ndarray
+    kappa: np.ndarray
+    principal: np.ndarray
+    dominant: np.ndarray
+    direction: np.ndarray
+    ok: np.ndarray
+    current: LocalShape
+    reference: LocalShape
+
+
+def bending_strain(reference: LocalShape, current: LocalShape, thickness: float) -> StrainResult:
+    """``E = (h/2)(b − B)`` (Eq. 6.11–6.12) from the reference (B) and current (b) local shapes
+    of the same material points. ``thickness`` h in mm (> 0)."""
+    if not (thickness > 0):
+        raise ValueError(f"thickness must be a positive number in mm; got {thickness}")
+    if reference.second_form.shape != current.second_form.shape:
+        raise ValueError("reference and current shapes must describe the same number of points")
+    kappa = current.second_form - reference.second_form
+    E = 0.5 * thickness * kappa
+    vals, _, dom, d3 = principal_strains(E, current.e1, current.e2)
+    ok = reference.ok & current.ok
+    return StrainResult(E, kappa, vals, dom, d3, ok, current, reference)
+
+
+# --- a whole sequence: track material points of one wing and compute their strain ---------------
+@dataclass
+class WingSequence:
+    """Tracking and strain of N material points of one wing over F frames.
+
+    ref_uv (N,2) reference pixel positions; d (N,2) reference geodesic distances to the anchors
+    (mm); uv (F,N,2); xyz (F,N,3) mm; E (F,N,2,2); principal (F,N,2); dominant (F,N);
+    residual (F,N) mm (tracking residual); ok (F,N) bool quality flag (tracked and fitted).
+    """
+    ref_uv: np.ndarray
+    d: np.ndarray
+    uv: np.ndarray
+    xyz: np.ndarray
+    E: np.ndarray
+    principal: np.ndarray
+    dominant: np.ndarray
+    residual: np.ndarray
+    ok: np.ndarray
+
+
+def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, window: int = 11,
+                  reference: int = 0, method: str = "bezier", radius: int = 3, progress=None) -> WingSequence:
+    """Track ``query_uv`` (N,2) of the reference frame through ``frames`` and compute strain.
+
+    frames : sequence of F point maps (H, W, 3) mm (or a callable i -> map, with ``len``).
+    anchors : (F, 2, 2) anchor pixel positions (u, v) of this wing on every frame.
+    method/radius: geodesic method (see :func:`fringe3d.analyze.anchors.distance_maps`).
+    Tracking: Eq. 6.9 (:func:`fringe3d.analyze.tracking.track_points`); strain: Eq. 6.11–6.21
+    with the direction towards anchor 1 as the material direction.
+    ``progress``: optional callable advanced once per frame.
+    """
+    from fringe3d.analyze.anchors import distance_maps
+    from fringe3d.analyze.tracking import sample_bilinear, side_of_line, track_points
+
+    anchors = np.asarray(anchors, dtype=np.float64)
+    nf = len(frames)
+    if anchors.shape != (nf, 2, 2):
+        raise ValueError(f"anchors must have shape (frames={nf}, 2, 2); got {anchors.shape}")
+    q = np.atleast_2d(np.asarray(query_uv, dtype=np.float64))
+    ref_pts = frames[reference]
+    R1, R2 = distance_maps(ref_pts, anchors[reference], method, radius)
+    d = np.stack([sample_bilinear(R1, q), sample_bilinear(R2, q)], axis=1)
+    side = side_of_line(q, *anchors[reference])
+    B = local_shape(ref_pts, q, window, toward=sample_bilinear(np.asarray(ref_pts, float), anchors[reference, :1])[0])
+    n = q.shape[0]
+    out = WingSequence(q, d, np.full((nf, n, 2), np.nan), np.full((nf, n, 3), np.nan),
+                       np.full((nf, n, 2, 2), np.nan), np.full((nf, n, 2), np.nan), np.full((nf, n), np.nan),
+                       np.full((nf, n), np.nan), np.zeros((nf, n), bool))
+    for f in range(nf):
+        pts = frames[f]
+        if f == reference:
+            D1, D2, uv = R1, R2, q.copy()
+            res, okt = np.zeros(n), np.isfinite(d).all(axis=1)
+        else:
+            D1, D2 = distance_maps(pts, anchors[f], method, radius)
+            tr = track_points(d[:, 0], d[:, 1], D1, D2, side, anchors[f])
+            uv, res, okt = tr.uv, tr.residual, tr.ok
+        cur = local_shape(pts, uv, window, toward=sample_bilinear(np.asarray(pts, float), anchors[f, :1])[0])
+        st = bending_strain(B, cur, thickness)
+        out.uv[f], out.residual[f] = uv, res
+        out.xyz[f] = sample_bilinear(np.asarray(pts, dtype=np.float64), uv)
+        out.E[f], out.principal[f], out.dominant[f] = st.E, st.principal, st.dominant
+        out.ok[f] = okt & st.ok & np.isfinite(out.xyz[f]).all(axis=1)
+        if progress is not None:
+            progress()
+    return out
