@@ -138,3 +138,66 @@ def histogram_unwrap(phi_r: np.ndarray, labels: np.ndarray, phi_ref: np.ndarray,
     k_e = fringe_order_difference(phi_r, phi_ref, scale)
     votes = mode_of_orders(k_e, labels, min_votes=min_votes)
     return apply_order_shift(phi_r, labels, votes), votes
+
+
+def minimum_phase_orders(phi_r: np.ndarray, labels: np.ndarray, mp, min_votes: int = 1):
+    """``k_s`` per object from the minimum phase map alone (single-group histogram unwrapping).
+
+    Each pixel's geometric-constraint order ``k_e = ceil[(Φ_min − Φ_r)/2π]`` (Eq. 4.21; ``floor``
+    where the phase falls with depth) is a vote; the mode fixes the object (Eq. 5.14). Unlike
+    pixel-wise Eq. (4.21) this tolerates the parts of an object beyond the depth range as long
+    as most of it lies within one period of ``z_min``.
+
+    Returns ``(phi_a (H, W) float32, votes)``.
+    """
+    from .geometric import fringe_order
+
+    k_e = fringe_order(np.asarray(phi_r, np.float64), mp).astype(np.float64)
+    votes = mode_of_orders(k_e, labels, min_votes=min_votes)
+    return apply_order_shift(phi_r, labels, votes), votes
+
+
+def _register() -> None:
+    from .registry import register
+
+    @register("histogram")
+    def unwrap_histogram(ctx):
+        """Plan ``method="histogram"`` (ch. 6): periods ``(T,)`` or ``(T, T_ref)``. The narrowest
+        group (FTP, modified FTP or phase shifting) is unwrapped spatially per object; each
+        object is shifted by the mode of its fringe-order difference to ``Φ_ref`` (the
+        ``T_ref`` group unwrapped by the geometric constraint) or, with one group, to ``Φ_min``.
+        Needs the rig and ``z_min``. Options: ``erode``, ``min_size``, ``min_ratio``."""
+        from .geometric import _context_geometry, cached_minimum_phase, geometric_unwrap
+        from .hybrid import carrier_from_minimum_phase, ftp_group_phase
+        from .segmentation import foreground_mask, segment_objects
+        from .spatial import unwrap_objects
+
+        rig, z_min = _context_geometry(ctx, "histogram")
+        groups = sorted(ctx.groups_for_plan(), key=lambda g: g.period)
+        if len(groups) not in (1, 2):
+            raise ValueError(f"direction {ctx.direction!r}: method 'histogram' takes one or two phase groups, "
+                             f"the plan names periods {[g.period for g in groups]}")
+        opts = {**ctx.plan.options, **ctx.options}
+        hi = groups[0]
+        mp_hi = cached_minimum_phase(rig, z_min, hi.period, hi.angle)
+        if len(hi.indices) < 3:  # FTP / modified FTP on the carrier the rig predicts
+            pr = ftp_group_phase(ctx.frames[list(hi.indices)], hi.shifts, carrier_from_minimum_phase(mp_hi.phi_min),
+                                 window=str(opts.get("ftp_window", "hanning")))
+        else:
+            pr = ctx.group_phase(hi)
+        fg = foreground_mask(pr.average, pr.modulation, float(opts.get("min_ratio", 0.15))) & ctx.group_mask(hi)
+        labels = segment_objects(fg, min_size=int(opts.get("min_size", 200)), erode=int(opts.get("erode", 2)))
+        phi_r, labels = unwrap_objects(pr.phase, labels=labels)
+        if len(groups) == 2:
+            lo = groups[1]
+            mp_lo = cached_minimum_phase(rig, z_min, lo.period, lo.angle)
+            prl = ctx.group_phase(lo)
+            fg_l = foreground_mask(prl.average, prl.modulation, float(opts.get("min_ratio", 0.15)))
+            phi_ref, _ = geometric_unwrap(prl.phase, mp_lo, fg_l & ctx.group_mask(lo), check=False)
+            phi_a, votes = histogram_unwrap(phi_r, labels, phi_ref, scale=lo.period / hi.period)
+        else:
+            phi_a, votes = minimum_phase_orders(phi_r, labels, mp_hi)
+        return phi_a, np.isfinite(phi_a), {"wrapped": pr.phase, "modulation": pr.modulation, "period": hi.period}
+
+
+_register()

@@ -23,7 +23,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .histogram import OrderVote, apply_order_shift, fringe_order_difference, mode_of_orders
-from .segmentation import match_objects, shift_image
+from .segmentation import foreground_mask, match_objects, segment_objects, shift_image
+from .spatial import unwrap_objects
+
+TWO_PI = 2.0 * np.pi
 
 
 @dataclass
@@ -55,6 +58,8 @@ class HybridResult:
     votes: dict[int, OrderVote]
     shifts: dict[int, tuple[float, float]] = field(default_factory=dict)
     unmatched: list[int] = field(default_factory=list)
+    coarse: np.ndarray | None = None
+    labels_low: np.ndarray | None = None
 
 
 def hybrid_phase(phi_r: np.ndarray, labels_r: np.ndarray, phi_e: np.ndarray,
@@ -134,3 +139,132 @@ def hybrid_phase(phi_r: np.ndarray, labels_r: np.ndarray, phi_e: np.ndarray,
     phase = apply_order_shift(phi_r, labels_r, votes)
     return HybridResult(phase=phase, relative=phi_r.astype(np.float32), labels=labels_r,
                         k_e=k_e, votes=votes, shifts=shifts, unmatched=unmatched)
+
+
+def carrier_from_minimum_phase(phi_min: np.ndarray, scale: float = 1.0) -> tuple[float, float]:
+    """FTP carrier ``(f_v, f_u)`` (cycles/pixel) predicted by the rig: the median gradient of
+    ``Φ_min`` (Eq. 4.19) times ``scale`` (= period of ``phi_min`` / FTP period), over 2π.
+
+    A fringe image alone cannot tell ``cos Φ`` from ``cos(−Φ)``, and on small objects against a
+    dark background the spectral peak search can lock onto the objects' own spectrum. The
+    calibrated rig knows both the carrier's frequency and which way the phase runs: centring the
+    band-pass window there makes the FTP phase grow like the absolute phase.
+    """
+    phi_min = np.asarray(phi_min, np.float64)
+    gv, gu = np.gradient(phi_min)
+    ok = np.isfinite(gv) & np.isfinite(gu)
+    if not ok.any():
+        raise ValueError("the minimum phase map has no finite values; cannot predict the FTP carrier")
+    return (float(np.median(gv[ok])) * scale / TWO_PI, float(np.median(gu[ok])) * scale / TWO_PI)
+
+
+def ftp_group_phase(images, shifts, carrier, window: str = "hanning"):
+    """FTP (one frame, Eq. 4.1–4.4) or modified FTP (π-shifted pair, Eq. 4.5–4.7) on a given
+    carrier; returns a ``PhaseResult`` whose wrapped phase is ``Φ`` (frame shift removed).
+
+    Parameters
+    ----------
+    images : (1 or 2, H, W) array
+    shifts : sequence of the frames' phase shifts (rad)
+    carrier : (f_v, f_u) cycles/pixel, e.g. :func:`carrier_from_minimum_phase`
+    window : ``"hanning"`` or ``"circular"`` (smoothed circular), see ``fringe3d.phase.ftp``
+    """
+    from fringe3d.phase import ftp
+    from fringe3d.phase.psp import PhaseResult
+
+    imgs = np.asarray(images, np.float64)
+    if imgs.ndim != 3 or imgs.shape[0] not in (1, 2):
+        raise ValueError(f"FTP takes one frame or a pi-shifted pair, got an array of shape {imgs.shape}")
+    if imgs.shape[0] == 1:
+        r = ftp.ftp_analysis(imgs[0], window=window, carrier=carrier)
+        phase, mod, avg = r.phase, r.modulation, r.average
+    else:
+        phase, mod = ftp.modified_ftp_phase(imgs[0], imgs[1], window=window, carrier=carrier)
+        avg = 0.5 * (imgs[0] + imgs[1])
+    phase = np.angle(np.exp(1j * (phase - float(shifts[0]))))
+    return PhaseResult(phase.astype(np.float32), np.asarray(avg, np.float32), np.asarray(mod, np.float32))
+
+
+def hybrid_unwrap(high, low, mp_low, period: float, period_low: float, *, erode: int = 2,
+                  min_size: int = 200, min_ratio: float = 0.15, max_shift: float | None = None,
+                  cross_motion: bool = False, seed: int | None = 0) -> HybridResult:
+    """The whole hybrid chain from wrapped phases (ch. 5.2.5, Fig. 5.4).
+
+    Parameters
+    ----------
+    high : PhaseResult-like (``phase``, ``average``, ``modulation``, each (H, W))
+        FTP of the high-frequency frame; ``phase`` is the wrapped ``Φ`` (shift removed, sign
+        as the absolute phase: see :func:`ftp_group_phase`).
+    low : PhaseResult-like
+        3-step phase of the low-frequency frames (Eq. 5.9).
+    mp_low : fringe3d.unwrap.geometric.MinimumPhase
+        ``Φ_min`` for ``period_low`` (Eq. 4.19).
+    period, period_low : float
+        ``T`` and ``T_l`` (projector pixels).
+    erode : int
+        Erosion (pixels) of each object mask before unwrapping: FTP is unreliable at the rim.
+    min_size : int
+        Smallest object (pixels).
+    min_ratio : float
+        Fringe-contrast threshold of :func:`fringe3d.unwrap.segmentation.foreground_mask`.
+    max_shift : float, optional
+        Largest object displacement between the captures (pixels).
+    cross_motion : bool
+        Also remove the phase change of motion across the fringes (``phi_min`` of
+        :func:`hybrid_phase`); off = the dissertation's Eq. (5.13).
+
+    Returns
+    -------
+    :class:`HybridResult` with ``coarse`` = ``Φ_e`` and ``labels_low``.
+    """
+    from .geometric import geometric_unwrap
+
+    fg_h = foreground_mask(high.average, high.modulation, min_ratio)
+    labels_r = segment_objects(fg_h, min_size=min_size, erode=erode)
+    phi_r, labels_r = unwrap_objects(high.phase, labels=labels_r, seed=seed)
+    fg_l = foreground_mask(low.average, low.modulation, min_ratio)
+    labels_e = segment_objects(fg_l, min_size=min_size, erode=erode)
+    phi_e, _ = geometric_unwrap(low.phase, mp_low, labels_e > 0, check=False)
+    res = hybrid_phase(phi_r, labels_r, phi_e, period, period_low, labels_e=labels_e,
+                       max_shift=max_shift, phi_min=mp_low.phi_min if cross_motion else None)
+    res.coarse = phi_e
+    res.labels_low = labels_e
+    return res
+
+
+def _register() -> None:
+    from .registry import register
+
+    @register("hybrid")
+    def unwrap_hybrid(ctx):
+        """Plan ``method="hybrid"``, periods ``(T, T_l)``: a 1-frame FTP group of period ``T`` and
+        a 3-step group of period ``T_l`` (ch. 5.2.5). Options (plan or decoder): ``ftp_window``, ``erode``,
+        ``min_size``, ``min_ratio``, ``max_shift``, ``cross_motion``. Returns ``Φ_a`` and extras
+        ``{"wrapped", "modulation", "period", "labels", "k_s"}``."""
+        from .geometric import _context_geometry, cached_minimum_phase
+
+        rig, z_min = _context_geometry(ctx, "hybrid")
+        groups = ctx.groups_for_plan()
+        if len(groups) != 2:
+            raise ValueError(f"direction {ctx.direction!r}: method 'hybrid' needs two phase groups (one FTP frame "
+                             f"of the high frequency, 3 phase-shifted low-frequency frames); the plan names "
+                             f"periods {[g.period for g in groups]}")
+        hi, lo = sorted(groups, key=lambda g: g.period)
+        if len(hi.indices) != 1 or len(lo.indices) < 3:
+            raise ValueError(f"direction {ctx.direction!r}: method 'hybrid' needs 1 high-frequency frame and >= 3 "
+                             f"low-frequency frames, the manifest has {len(hi.indices)} and {len(lo.indices)}")
+        opts = {**ctx.plan.options, **ctx.options}
+        mp = cached_minimum_phase(rig, z_min, lo.period, lo.angle)
+        carrier = carrier_from_minimum_phase(mp.phi_min, lo.period / hi.period)
+        high = ftp_group_phase(ctx.frames[list(hi.indices)], hi.shifts, carrier,
+                               window=str(opts.get("ftp_window", "hanning")))
+        res = hybrid_unwrap(high, ctx.group_phase(lo), mp, hi.period, lo.period,
+                            erode=int(opts.get("erode", 2)), min_size=int(opts.get("min_size", 200)),
+                            min_ratio=float(opts.get("min_ratio", 0.15)), max_shift=opts.get("max_shift"),
+                            cross_motion=bool(opts.get("cross_motion", False)))
+        mask = np.isfinite(res.phase)
+        return res.phase, mask, {"wrapped": high.phase, "modulation": high.modulation, "period": hi.period,
+                                 "labels": res.labels, "k_s": {l: v.k_s for l, v in res.votes.items()}}
+
+
+_register()

@@ -29,6 +29,44 @@ def _check_mask(mask, name: str = "mask") -> np.ndarray:
     return mask.astype(bool, copy=False)
 
 
+def foreground_mask(average: np.ndarray, modulation: np.ndarray | None = None,
+                    min_ratio: float = 0.15) -> np.ndarray:
+    """Pixels lit by the projector on an object, from the average intensity and modulation.
+
+    Otsu's threshold (``skimage.filters.threshold_otsu``) on the average intensity ``I'``
+    separates the objects from the dark background; with ``modulation`` the pixel must also
+    have ``I'' >= min_ratio * I'`` (fringes visible, not just ambient light).
+
+    Parameters
+    ----------
+    average, modulation : (H, W) float
+        ``I'`` and ``I''`` in the frames' units (e.g. ``PhaseResult.average / .modulation``).
+    min_ratio : float
+        Smallest accepted fringe contrast ``I''/I'``.
+
+    Returns
+    -------
+    (H, W) bool
+    """
+    from skimage.filters import threshold_otsu
+
+    average = np.asarray(average, np.float64)
+    if average.ndim != 2:
+        raise ValueError(f"average intensity must be a 2-D (H, W) array, got shape {average.shape}")
+    finite = np.isfinite(average)
+    if not finite.any() or np.ptp(average[finite]) <= 0:
+        raise ValueError("the average intensity is constant (all-dark or saturated frames?); "
+                         "cannot separate objects from the background")
+    mask = finite & (average > threshold_otsu(average[finite]))
+    if modulation is not None:
+        modulation = np.asarray(modulation, np.float64)
+        if modulation.shape != average.shape:
+            raise ValueError(f"modulation shape {modulation.shape} differs from average shape {average.shape}")
+        with np.errstate(invalid="ignore"):
+            mask &= modulation >= min_ratio * average
+    return mask
+
+
 def segment_objects(mask: np.ndarray, min_size: int = 64, connectivity: int = 1,
                     erode: int = 0) -> np.ndarray:
     """Label the connected valid regions of ``mask``; regions under ``min_size`` pixels are dropped.

@@ -72,3 +72,30 @@ def unwrap_objects(wrapped: np.ndarray, mask: np.ndarray | None = None,
         region = phi_r[sl]
         region[inside] = un[inside]
     return phi_r, labels
+
+
+def _register() -> None:
+    from .registry import register
+
+    @register("spatial")
+    def unwrap_spatial(ctx):
+        """Plan ``method="spatial"``: the narrowest group's wrapped phase unwrapped per object.
+
+        RELATIVE phase: each object is off by an unknown ``2π·k`` (Eq. 5.12); use ``"histogram"``,
+        ``"hybrid"`` or a temporal method for absolute 3D. Options: ``min_size``, ``erode``,
+        ``min_ratio``."""
+        from .segmentation import foreground_mask
+
+        groups = sorted(ctx.groups_for_plan(), key=lambda g: g.period)
+        if not groups:
+            raise ValueError(f"direction {ctx.direction!r}: method 'spatial' found no phase group")
+        g = groups[0]
+        opts = {**ctx.plan.options, **ctx.options}
+        pr = ctx.group_phase(g)
+        fg = foreground_mask(pr.average, pr.modulation, float(opts.get("min_ratio", 0.15))) & ctx.group_mask(g)
+        labels = segment_objects(fg, min_size=int(opts.get("min_size", 64)), erode=int(opts.get("erode", 0)))
+        phi_r, labels = unwrap_objects(pr.phase, labels=labels)
+        return phi_r, np.isfinite(phi_r), {"labels": labels}
+
+
+_register()
