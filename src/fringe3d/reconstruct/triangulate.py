@@ -182,30 +182,34 @@ def _solve(cam_A, cam_b, P, proj_uv):
 # ----------------------------------------------------------------------------- fast path
 @numba.njit(parallel=True, cache=True)
 def _central_kernel(w, mask, O, D, Q, P3, out):  # pragma: no cover - compiled
+    """Pinhole rays: O (3,) centre, D (3, H, W) ray planes; out (H, W, 3)."""
     H, W = w.shape
     qo = Q[0] * O[0] + Q[1] * O[1] + Q[2] * O[2] + Q[3]
     po = P3[0] * O[0] + P3[1] * O[1] + P3[2] * O[2] + P3[3]
-    nan = np.float32(np.nan)
     for i in numba.prange(H):
-        for j in range(W):
+        srow = np.empty(W, np.float64)
+        for j in range(W):  # contiguous planes: this loop vectorises
             wij = np.float64(w[i, j])
-            dx = np.float64(D[i, j, 0])
-            dy = np.float64(D[i, j, 1])
-            dz = np.float64(D[i, j, 2])
-            den = wij * (P3[0] * dx + P3[1] * dy + P3[2] * dz) - (Q[0] * dx + Q[1] * dy + Q[2] * dz)
-            s = (qo - wij * po) / den
-            if mask[i, j] and s > 0.0 and math.isfinite(s):
-                out[i, j, 0] = O[0] + s * dx
-                out[i, j, 1] = O[1] + s * dy
-                out[i, j, 2] = O[2] + s * dz
-            else:
-                out[i, j, 0] = nan
-                out[i, j, 1] = nan
-                out[i, j, 2] = nan
+            dx = np.float64(D[0, i, j])
+            dy = np.float64(D[1, i, j])
+            dz = np.float64(D[2, i, j])
+            s = (qo - wij * po) / (wij * (P3[0] * dx + P3[1] * dy + P3[2] * dz) - (Q[0] * dx + Q[1] * dy + Q[2] * dz))
+            srow[j] = s if (mask[i, j] and s > 0.0 and s < np.inf) else np.nan
+        _write_row(out, i, srow, O[0], O[1], O[2], D[0, i], D[1, i], D[2, i])
+
+
+@numba.njit(cache=True, inline="always")
+def _write_row(out, i, srow, ox, oy, oz, dx, dy, dz):  # pragma: no cover - compiled
+    for j in range(srow.shape[0]):
+        s = srow[j]
+        out[i, j, 0] = ox + s * dx[j]
+        out[i, j, 1] = oy + s * dy[j]
+        out[i, j, 2] = oz + s * dz[j]
 
 
 @numba.njit(parallel=True, cache=True)
 def _parallel_kernel(w, mask, O, D, Q, P3, out):  # pragma: no cover - compiled
+    """Telecentric rays: O (3, H, W) origin planes, D (3,) common direction; out (H, W, 3)."""
     H, W = w.shape
     qd = Q[0] * D[0] + Q[1] * D[1] + Q[2] * D[2]
     pd = P3[0] * D[0] + P3[1] * D[1] + P3[2] * D[2]
@@ -213,9 +217,9 @@ def _parallel_kernel(w, mask, O, D, Q, P3, out):  # pragma: no cover - compiled
     for i in numba.prange(H):
         for j in range(W):
             wij = np.float64(w[i, j])
-            ox = np.float64(O[i, j, 0])
-            oy = np.float64(O[i, j, 1])
-            oz = np.float64(O[i, j, 2])
+            ox = np.float64(O[0, i, j])
+            oy = np.float64(O[1, i, j])
+            oz = np.float64(O[2, i, j])
             num = (Q[0] * ox + Q[1] * oy + Q[2] * oz + Q[3]) - wij * (P3[0] * ox + P3[1] * oy + P3[2] * oz + P3[3])
             s = num / (wij * pd - qd)
             if mask[i, j] and math.isfinite(s):
@@ -261,11 +265,12 @@ class Triangulator:
         self.shape = camera_shape(rig)
         O, D = camera_rays(rig)
         self.central = not rig.telecentric
+        # per-pixel vectors are stored as (3, H, W) float32 planes so the kernels vectorise
         if self.central:
             self.O = np.asarray(O, np.float64)
-            self.D = np.ascontiguousarray(D, dtype=np.float32)
+            self.D_planes = np.ascontiguousarray(np.moveaxis(D, -1, 0), dtype=np.float32)
         else:
-            self.O = np.ascontiguousarray(O, dtype=np.float32)
+            self.O_planes = np.ascontiguousarray(np.moveaxis(O, -1, 0), dtype=np.float32)
             self.D = np.asarray(D, np.float64)
         P = rig.projector.P
         self.Q = np.ascontiguousarray(projector_row(P, self.angle), dtype=np.float64)
@@ -274,6 +279,13 @@ class Triangulator:
         if self.ignores_distortion and warn_distortion:
             warn("the projector has lens distortion, which the fast triangulation path ignores; "
                  "use fringe3d.reconstruct.triangulate (least squares, iterated) for full accuracy")
+
+    @property
+    def rays(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(O, D)`` as in :func:`camera_rays` (views of the stored planes)."""
+        if self.central:
+            return self.O, np.moveaxis(self.D_planes, 0, -1)
+        return np.moveaxis(self.O_planes, 0, -1), self.D
 
     def points(self, w, mask=None, out=None) -> np.ndarray:
         """3D points from the projector coordinate ``w`` (H, W) (``u_p`` for vertical fringes).
@@ -287,8 +299,10 @@ class Triangulator:
         mask = np.ones(self.shape, bool) if mask is None else check_map(mask, self.shape, "mask").astype(bool)
         if out is None:
             out = np.empty(self.shape + (3,), np.float32)
-        kernel = _central_kernel if self.central else _parallel_kernel
-        kernel(np.ascontiguousarray(w), np.ascontiguousarray(mask), self.O, self.D, self.Q, self.P3, out)
+        if self.central:
+            _central_kernel(np.ascontiguousarray(w), np.ascontiguousarray(mask), self.O, self.D_planes, self.Q, self.P3, out)
+        else:
+            _parallel_kernel(np.ascontiguousarray(w), np.ascontiguousarray(mask), self.O_planes, self.D, self.Q, self.P3, out)
         return out
 
     def points_from_phase(self, phase, period: float, mask=None, out=None) -> np.ndarray:
@@ -311,8 +325,7 @@ class Triangulator:
         """World points ``(H, W, 3)`` float64 where each pixel's ray meets the plane world-z = ``z``
         (Eq. 4.15-4.17). NaN where the ray is parallel to the plane or, for a pinhole camera,
         where the plane lies behind it."""
-        O = np.asarray(self.O, np.float64)
-        D = np.asarray(self.D, np.float64)
+        O, D = (np.asarray(a, np.float64) for a in self.rays)
         with np.errstate(divide="ignore", invalid="ignore"):
             s = (np.asarray(z, float) - O[..., 2]) / D[..., 2]
             X = O + s[..., None] * D
@@ -329,15 +342,19 @@ _FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # fastmath without the no
 
 @numba.njit(parallel=True, fastmath=_FAST, cache=True)
 def _three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out):  # pragma: no cover
-    """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> X (Eq. 2.37)."""
+    """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> X (Eq. 2.37).
+
+    Branch-free per pixel so the row loop vectorises: ``k = sg*ceil(sg*x)`` is ceil for a
+    rising and floor for a falling phase; invalid pixels carry ``s = NaN`` into the output.
+    """
     H = frames.shape[1]
     W = frames.shape[2]
     two_pi = 2.0 * math.pi
     qo = Q[0] * O[0] + Q[1] * O[1] + Q[2] * O[2] + Q[3]
     po = P3[0] * O[0] + P3[1] * O[1] + P3[2] * O[2] + P3[3]
-    nan = np.float32(np.nan)
     i0, i1, i2 = idx[0], idx[1], idx[2]
     for i in numba.prange(H):
+        srow = np.empty(W, np.float64)
         for j in range(W):
             a0 = np.float64(frames[i0, i, j])
             a1 = np.float64(frames[i1, i, j])
@@ -345,23 +362,16 @@ def _three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, 
             b = coef[1, 0] * a0 + coef[1, 1] * a1 + coef[1, 2] * a2
             c = coef[2, 0] * a0 + coef[2, 1] * a1 + coef[2, 2] * a2
             phi = fast_atan2(-c, b)
-            sg = sign[i, j]
-            x = (np.float64(phi_min[i, j]) - phi) / two_pi
-            k = math.ceil(x) if sg > 0 else math.floor(x)
-            w = (phi + two_pi * k) * scale
-            dx = np.float64(D[i, j, 0])
-            dy = np.float64(D[i, j, 1])
-            dz = np.float64(D[i, j, 2])
-            den = w * (P3[0] * dx + P3[1] * dy + P3[2] * dz) - (Q[0] * dx + Q[1] * dy + Q[2] * dz)
-            s = (qo - w * po) / den
-            if (b * b + c * c) >= min_mod2 and sg != 0 and s > 0.0:
-                out[i, j, 0] = O[0] + s * dx
-                out[i, j, 1] = O[1] + s * dy
-                out[i, j, 2] = O[2] + s * dz
-            else:
-                out[i, j, 0] = nan
-                out[i, j, 1] = nan
-                out[i, j, 2] = nan
+            sg = np.float64(sign[i, j])
+            x = (np.float64(phi_min[i, j]) - phi) * (1.0 / two_pi)
+            w = (phi + two_pi * (sg * math.ceil(sg * x))) * scale
+            dx = np.float64(D[0, i, j])
+            dy = np.float64(D[1, i, j])
+            dz = np.float64(D[2, i, j])
+            s = (qo - w * po) / (w * (P3[0] * dx + P3[1] * dy + P3[2] * dz) - (Q[0] * dx + Q[1] * dy + Q[2] * dz))
+            ok = ((b * b + c * c) >= min_mod2) & (sg != 0.0) & (s > 0.0)
+            srow[j] = s if ok else np.nan
+        _write_row(out, i, srow, O[0], O[1], O[2], D[0, i], D[1, i], D[2, i])
 
 
 class FastThreeStep:
@@ -418,5 +428,5 @@ class FastThreeStep:
         if out is None:
             out = np.empty((H, W, 3), np.float32)
         _three_step_kernel(frames, idx, self.coef, self.min_mod2, self.phi_min, self.sign, self.scale,
-                           self.tri.O, self.tri.D, self.tri.Q, self.tri.P3, out)
+                           self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, out)
         return out
