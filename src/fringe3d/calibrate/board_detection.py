@@ -164,12 +164,14 @@ def detect_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, 
 
 
 def refine_centres(image: np.ndarray, uv: np.ndarray, board: CircleBoard) -> np.ndarray:
-    """Intensity-weighted centroids of each circle around the initial centres ``uv (N, 2)``.
+    """Flat-field-normalised intensity-weighted centroids around the initial centres ``uv (N, 2)``.
 
-    The window radius is 0.45 of the distance to the nearest neighbouring centre. Weights are
-    the darkness (dark circles) or brightness above the local background, clipped at zero, so
-    the background plate contributes nothing; the local background and circle levels come from
-    the window's 10th/90th percentiles. Returns ``(N, 2)`` float64.
+    In a window of 0.45 times the distance to the nearest neighbouring centre, a plane
+    ``a + b u + c v`` fitted to the background pixels (the brighter 50 % for dark circles)
+    models the local illumination; the weight of a pixel is its relative darkness
+    ``1 - I / plane`` (or brightness ``I / plane - 1`` for bright circles) minus 3 % of the
+    circle's contrast, clipped at zero. Normalising by the fitted background keeps shading
+    gradients across the board from pulling the centroid. Returns ``(N, 2)`` float64.
     """
     h, w = image.shape
     d = np.linalg.norm(uv[:, None] - uv[None], axis=-1)
@@ -183,15 +185,23 @@ def refine_centres(image: np.ndarray, uv: np.ndarray, board: CircleBoard) -> np.
         vv, uu = np.mgrid[v0:v1 + 1, u0:u1 + 1]
         inside = (uu - u) ** 2 + (vv - v) ** 2 <= r * r
         vals = patch[inside]
-        if vals.size < 9:
+        if vals.size < 16:
             continue
-        lo, hi = np.percentile(vals, [10, 90])
-        if not hi > lo:
+        pu, pv = uu[inside].astype(float), vv[inside].astype(float)
+        med = np.median(vals)
+        bg = vals >= med if board.dark_circles else vals <= med
+        A = np.stack([np.ones(bg.sum()), pu[bg] - u, pv[bg] - v], 1)
+        coef, *_ = np.linalg.lstsq(A, vals[bg], rcond=None)
+        plane = coef[0] + coef[1] * (pu - u) + coef[2] * (pv - v)
+        if not np.all(plane > 0):
             continue
-        wgt = (hi - vals) if board.dark_circles else (vals - lo)
-        wgt = np.clip(wgt - 0.05 * (hi - lo), 0, None)  # background (flat) gets no weight
+        rel = (1 - vals / plane) if board.dark_circles else (vals / plane - 1)
+        contrast = np.percentile(rel, 95)
+        if not contrast > 0:
+            continue
+        wgt = np.clip(rel - 0.03 * contrast, 0, None)
         s = wgt.sum()
         if s <= 0:
             continue
-        out[k] = [(wgt * uu[inside]).sum() / s, (wgt * vv[inside]).sum() / s]
+        out[k] = [(wgt * pu).sum() / s, (wgt * pv).sum() / s]
     return out

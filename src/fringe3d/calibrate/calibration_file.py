@@ -1,0 +1,192 @@
+"""The calibration file: one versioned JSON holding the calibrated rig and how good it is.
+
+Layout (``format = "fringe3d-calibration"``, ``version = 1``)::
+
+    {"format", "version", "model": "pinhole" | "telecentric",
+     "rig": Rig.to_dict(),                   # so Rig.load("calib.json") works
+     "camera":    {"width", "height", "dist_model", "rms_px", "per_pose_rms_px"},
+     "projector": {"width", "height", "dist_model", "rms_px", "per_pose_rms_px"},
+     "board":     CircleBoard.to_dict(),
+     "periods":   {direction: period (projector px)},   # narrowest period per direction
+     "angles":    {direction: fringe angle (rad)},
+     "poses":     [{"name", "camera_rms_px", "projector_rms_px", "points"}],
+     "rms":       {"camera_px", "projector_px", ...},
+     "extra":     {...}}                      # free-form (e.g. alpha_opt, stereo rms)
+
+:func:`load_calibration` validates it and names any missing or invalid field;
+:func:`export_opencv_yaml` writes the same numbers as an OpenCV ``FileStorage`` YAML. All
+writes are atomic.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from fringe3d.io.atomic import atomic_path, atomic_write_text
+from fringe3d.io.console import to_jsonable
+from fringe3d.optics import Rig
+
+FORMAT = "fringe3d-calibration"
+VERSION = 1
+MODELS = ("pinhole", "telecentric")
+_DEVICE_FIELDS = {"width": int, "height": int, "dist_model": str, "rms_px": float, "per_pose_rms_px": list}
+_POSE_FIELDS = {"name": str, "camera_rms_px": float, "projector_rms_px": float, "points": int}
+
+
+@dataclass
+class Calibration:
+    """A calibrated rig plus its provenance and residual figures (see module doc)."""
+
+    model: str
+    rig: Rig
+    camera: dict
+    projector: dict
+    board: dict
+    periods: dict
+    angles: dict
+    poses: list
+    rms: dict
+    extra: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return to_jsonable({"format": FORMAT, "version": VERSION, "model": self.model, "rig": self.rig.to_dict(),
+                            "camera": self.camera, "projector": self.projector, "board": self.board,
+                            "periods": self.periods, "angles": self.angles, "poses": self.poses,
+                            "rms": self.rms, "extra": self.extra})
+
+    def save(self, path) -> Path:
+        """Write the JSON atomically; returns the path."""
+        path = Path(path)
+        atomic_write_text(path, json.dumps(self.to_dict(), indent=1, allow_nan=False))
+        return path
+
+    @classmethod
+    def from_dict(cls, d: dict, where: str = "calibration file") -> "Calibration":
+        validate(d, where)
+        rig = Rig.from_dict(d["rig"])
+        return cls(model=d["model"], rig=rig, camera=d["camera"], projector=d["projector"], board=d["board"],
+                   periods=d["periods"], angles=d["angles"], poses=d["poses"], rms=d["rms"],
+                   extra=d.get("extra", {}))
+
+    def export_opencv_yaml(self, path) -> Path:
+        return export_opencv_yaml(self, path)
+
+
+def _need(d: dict, key: str, typ, where: str):
+    if not isinstance(d, dict):
+        raise ValueError(f"{where}: expected an object, got {type(d).__name__}")
+    if key not in d:
+        raise ValueError(f"{where}: missing field {key!r}")
+    v = d[key]
+    ok = isinstance(v, typ) if typ is not float else (isinstance(v, (int, float)) and not isinstance(v, bool))
+    if typ is int:
+        ok = isinstance(v, int) and not isinstance(v, bool)
+    if not ok:
+        raise ValueError(f"{where}: field {key!r} must be {typ.__name__}, got {type(v).__name__} ({v!r})")
+    if typ is float and not math.isfinite(float(v)):
+        raise ValueError(f"{where}: field {key!r} must be finite, got {v!r}")
+    return v
+
+
+def validate(d: dict, where: str = "calibration file") -> None:
+    """Raise ``ValueError`` naming the first missing or invalid field of a calibration dict."""
+    if not isinstance(d, dict):
+        raise ValueError(f"{where}: expected a JSON object at the top level")
+    fmt = _need(d, "format", str, where)
+    if fmt != FORMAT:
+        raise ValueError(f"{where}: field 'format' is {fmt!r}, expected {FORMAT!r}")
+    ver = _need(d, "version", int, where)
+    if ver > VERSION or ver < 1:
+        raise ValueError(f"{where}: version {ver} is not supported (this fringe3d reads version {VERSION})")
+    model = _need(d, "model", str, where)
+    if model not in MODELS:
+        raise ValueError(f"{where}: field 'model' is {model!r}, expected one of {MODELS}")
+    _need(d, "rig", dict, where)
+    try:
+        rig = Rig.from_dict(d["rig"])
+    except (ValueError, TypeError) as e:
+        raise ValueError(f"{where}: invalid 'rig': {e}") from None
+    if rig.telecentric != (model == "telecentric"):
+        raise ValueError(f"{where}: model {model!r} does not match the rig's camera kind")
+    for dev in ("camera", "projector"):
+        sub = _need(d, dev, dict, where)
+        for k, typ in _DEVICE_FIELDS.items():
+            _need(sub, k, typ, f"{where}: {dev}")
+        rd = getattr(rig, dev)
+        if (sub["width"], sub["height"]) != (rd.width, rd.height):
+            raise ValueError(f"{where}: {dev} size {sub['width']}x{sub['height']} does not match the rig's "
+                             f"{rd.width}x{rd.height}")
+    board = _need(d, "board", dict, where)
+    for k in ("cols", "rows", "spacing"):
+        _need(board, k, float if k == "spacing" else int, f"{where}: board")
+    periods = _need(d, "periods", dict, where)
+    if not periods:
+        raise ValueError(f"{where}: field 'periods' is empty; expected the fringe period per direction")
+    for k, v in periods.items():
+        _need(periods, k, float, f"{where}: periods")
+        if not v > 0:
+            raise ValueError(f"{where}: periods[{k!r}] must be > 0, got {v}")
+    _need(d, "angles", dict, where)
+    poses = _need(d, "poses", list, where)
+    for i, p in enumerate(poses):
+        _need(p, "name", str, f"{where}: poses[{i}]")
+        _need(p, "points", int, f"{where}: poses[{i}]")
+    rms = _need(d, "rms", dict, where)
+    for k in ("camera_px", "projector_px"):
+        _need(rms, k, float, f"{where}: rms")
+
+
+def load_calibration(path) -> Calibration:
+    """Read and validate a calibration JSON (errors name the missing/invalid field)."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise FileNotFoundError(f"no calibration file at {path}") from None
+    except IsADirectoryError:
+        raise ValueError(f"{path} is a folder; expected a calibration JSON file") from None
+    try:
+        d = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path} is not valid JSON: {e}") from None
+    return Calibration.from_dict(d, where=str(path))
+
+
+def export_opencv_yaml(cal: Calibration, path) -> Path:
+    """Write the calibration as an OpenCV ``FileStorage`` YAML (atomic).
+
+    Nodes: ``model``, ``camera_K`` / ``camera_dist`` (pinhole) or ``camera_M`` (telecentric),
+    ``camera_size``, ``projector_K``, ``projector_dist``, ``projector_size``, ``R``, ``T``
+    (world -> projector), ``camera_rms``, ``projector_rms`` and ``period_<direction>``.
+    """
+    path = Path(path)
+    with atomic_path(path, suffix=".yaml") as tmp:
+        fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_FORMAT_YAML)
+        try:
+            fs.write("format", FORMAT)
+            fs.write("version", VERSION)
+            fs.write("model", cal.model)
+            cam, prj = cal.rig.camera, cal.rig.projector
+            if cal.model == "telecentric":
+                fs.write("camera_M", np.asarray(cam.M, np.float64))
+            else:
+                fs.write("camera_K", np.asarray(cam.K, np.float64))
+                fs.write("camera_dist", np.asarray(cam.dist, np.float64).reshape(1, -1))
+            fs.write("camera_size", np.array([[cam.width, cam.height]], np.int32))
+            fs.write("projector_K", np.asarray(prj.K, np.float64))
+            fs.write("projector_dist", np.asarray(prj.dist, np.float64).reshape(1, -1))
+            fs.write("projector_size", np.array([[prj.width, prj.height]], np.int32))
+            fs.write("R", np.asarray(prj.R, np.float64))
+            fs.write("T", np.asarray(prj.t, np.float64).reshape(3, 1))
+            fs.write("camera_rms", float(cal.rms["camera_px"]))
+            fs.write("projector_rms", float(cal.rms["projector_px"]))
+            for k, v in cal.periods.items():
+                fs.write(f"period_{k}", float(v))
+        finally:
+            fs.release()
+    return path

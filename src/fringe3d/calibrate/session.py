@@ -1,0 +1,237 @@
+"""A calibration session: board poses -> circle centres -> projector centres -> calibrated rig.
+
+A *pose folder* is a capture folder whose manifest is a calibration set (a white frame plus
+at least two fringe directions, e.g. ``patterns.sets.calibration`` or
+``optimal_angle_calibration``). A *session folder* holds pose folders (any names, sorted)
+and optionally ``session.json`` with the board (``{"board": CircleBoard.to_dict()}``) and
+the rig model (``"model": "pinhole" | "telecentric"``).
+
+:func:`observe_pose` turns one pose's frames into a :class:`PoseObservation`;
+:func:`calibrate_observations` runs the pinhole or telecentric calibration and wraps the
+result in a :class:`Calibration`; :func:`simulate_session` renders a session with the
+simulator (board at random poses inside a preset's working volume).
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fringe3d.io.console import progress_bar, warn
+from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
+
+from .board_detection import CircleBoard, detect_board
+from .calibration_file import Calibration
+from .phase_mapping import FringeDirection, projector_points
+from .stereo import PoseObservation, calibrate_pinhole_rig
+from .telecentric import calibrate_telecentric_rig
+
+SESSION_NAME = "session.json"
+
+
+@dataclass
+class PoseCapture:
+    """One board pose in memory: ``frames (F, H, W)`` in the order of ``patterns``."""
+
+    name: str
+    frames: np.ndarray
+    patterns: PatternSet
+
+
+# ----------------------------------------------------------------------------- folders
+def find_pose_folders(paths) -> tuple[list[Path], dict]:
+    """Expand CLI inputs into pose folders plus session metadata (``session.json``, or {}).
+
+    Each path is a pose folder (holds ``manifest.json``) or a session folder (holds pose
+    folders). Raises ``FileNotFoundError`` for missing paths and ``ValueError`` when a folder
+    holds no pose folders.
+    """
+    out: list[Path] = []
+    meta: dict = {}
+    for p in map(Path, paths):
+        if not p.exists():
+            raise FileNotFoundError(f"calibration input {p} does not exist")
+        if not p.is_dir():
+            raise ValueError(f"calibration input {p} is not a folder; expected a pose (capture) folder "
+                             "or a session folder of pose folders")
+        if (p / SESSION_NAME).is_file():
+            try:
+                meta = {**meta, **json.loads((p / SESSION_NAME).read_text())}
+            except json.JSONDecodeError as e:
+                raise ValueError(f"{p / SESSION_NAME} is not valid JSON: {e}") from None
+        if (p / MANIFEST_NAME).is_file():
+            out.append(p)
+            continue
+        subs = sorted(q for q in p.iterdir() if q.is_dir() and (q / MANIFEST_NAME).is_file())
+        if not subs:
+            raise ValueError(f"{p} holds neither a {MANIFEST_NAME} (pose folder) nor pose folders (session folder)")
+        out += subs
+    return out, meta
+
+
+def read_pose(folder: Path) -> PoseCapture:
+    from fringe3d.io.capture import read_capture
+    cap = read_capture(folder, max_cycles=1)
+    return PoseCapture(name=Path(folder).name, frames=cap.frames[: len(cap.patterns)], patterns=cap.patterns)
+
+
+# ----------------------------------------------------------------------------- one pose
+def check_calibration_set(ps: PatternSet, where: str) -> int:
+    """Index of the white frame; raises unless ``ps`` is a calibration set."""
+    white = ps.indices(kind="white")
+    if not white:
+        raise ValueError(f"{where}: the manifest has no white frame; a calibration pose needs a white "
+                         "(board image) frame plus two fringe directions (fringe3d patterns calibration)")
+    if len(ps.plans) < 2:
+        raise ValueError(f"{where}: the manifest has {len(ps.plans)} fringe direction(s); calibration needs two")
+    return white[0]
+
+
+def decode_directions(pose: PoseCapture) -> list[FringeDirection]:
+    """Absolute phase per direction from the decoder (``fringe3d.decode.decode``)."""
+    from fringe3d.decode import decode
+    dec = decode(pose.frames, pose.patterns)
+    out = []
+    for p in pose.patterns.plans:
+        d = p.direction
+        out.append(FringeDirection(phase=np.asarray(dec.phase[d]), angle=float(dec.angle[d]),
+                                   period=float(dec.period[d]), modulation=np.asarray(dec.modulation[d]),
+                                   mask=np.asarray(dec.mask[d])))
+    return out
+
+
+def observe_pose(pose: PoseCapture, board: CircleBoard, min_modulation_fraction: float = 0.1,
+                 directions: list[FringeDirection] | None = None) -> PoseObservation | None:
+    """Circle centres in the camera and, through phase, in the projector (Eq. 2.30-2.34).
+
+    Returns None (after a warning naming the pose) when the board is not found. Centres whose
+    bilinearly sampled modulation is below ``min_modulation_fraction`` times the 95th
+    percentile of the valid modulation are NaN in ``projector_uv``.
+    """
+    iw = check_calibration_set(pose.patterns, pose.name)
+    uv = detect_board(pose.frames[iw], board)
+    if uv is None:
+        warn(f"pose {pose.name}: the {board.cols}x{board.rows} circle board was not found in the white frame; "
+             "pose skipped")
+        return None
+    dirs = directions if directions is not None else decode_directions(pose)
+    mods = [d.modulation[np.isfinite(d.phase) & (d.mask if d.mask is not None else True)]
+            for d in dirs if d.modulation is not None]
+    thr = 0.0
+    if mods and all(m.size for m in mods):
+        thr = min_modulation_fraction * min(float(np.percentile(m, 95)) for m in mods)
+    puv = projector_points(dirs, uv, min_modulation=thr)
+    return PoseObservation(name=pose.name, camera_uv=uv, projector_uv=puv)
+
+
+# ----------------------------------------------------------------------------- whole session
+def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 0.1,
+                    progress: bool = True) -> tuple[list[PoseObservation], dict]:
+    """Observe every pose (an iterable of :class:`PoseCapture` or folders).
+
+    Checks that all poses have the same camera size and projector size. Returns the usable
+    observations and ``{"camera_size", "projector_size", "periods", "angles", "skipped"}``.
+    """
+    poses = list(poses)
+    obs: list[PoseObservation] = []
+    info: dict = {"skipped": []}
+    with progress_bar("calibration poses", len(poses), enabled=progress) as advance:
+        for p in poses:
+            pose = read_pose(p) if not isinstance(p, PoseCapture) else p
+            cam_size = (pose.frames.shape[2], pose.frames.shape[1])
+            prj_size = (pose.patterns.width, pose.patterns.height)
+            if "camera_size" not in info:
+                info.update(camera_size=cam_size, projector_size=prj_size, first=pose.name)
+            elif cam_size != info["camera_size"]:
+                raise ValueError(f"pose {pose.name} has {cam_size[0]}x{cam_size[1]} images but pose {info['first']} has "
+                                 f"{info['camera_size'][0]}x{info['camera_size'][1]}; all poses must come from one camera")
+            elif prj_size != info["projector_size"]:
+                raise ValueError(f"pose {pose.name} was projected at {prj_size[0]}x{prj_size[1]} but pose "
+                                 f"{info['first']} at {info['projector_size'][0]}x{info['projector_size'][1]}")
+            o = observe_pose(pose, board, min_modulation_fraction)
+            if o is None:
+                info["skipped"].append(pose.name)
+            else:
+                obs.append(o)
+                if "periods" not in info:
+                    info["periods"] = {pl.direction: float(min(pl.periods)) if pl.periods else float("nan")
+                                       for pl in pose.patterns.plans}
+                    info["angles"] = {pl.direction: float(pl.angle) for pl in pose.patterns.plans}
+                    alpha = [pl.options.get("alpha_opt") for pl in pose.patterns.plans if "alpha_opt" in pl.options]
+                    if alpha:
+                        info["alpha_opt"] = float(alpha[0])
+            advance()
+    if not poses:
+        raise ValueError("no calibration poses given")
+    return obs, info
+
+
+def calibrate_observations(obs: list[PoseObservation], info: dict, board: CircleBoard, model: str = "pinhole",
+                           camera_dist: str = "k1k2p", projector_dist: str = "none", min_poses: int = 3,
+                           correct_circle_bias: bool = True) -> tuple[Calibration, object]:
+    """Calibrate from observations; returns ``(Calibration, raw result)``.
+
+    ``model`` is ``"pinhole"`` (camera frame = world, ch. 2) or ``"telecentric"`` (projector
+    frame = world, ch. 3). Too few usable poses is a ``ValueError`` naming the skipped ones.
+    """
+    if len(obs) < min_poses:
+        skipped = info.get("skipped", [])
+        raise ValueError(f"only {len(obs)} usable board pose(s); need at least {min_poses}"
+                         + (f" (board not found in: {', '.join(skipped)})" if skipped else ""))
+    cam_size, prj_size = info["camera_size"], info["projector_size"]
+    if model == "pinhole":
+        res = calibrate_pinhole_rig(board, obs, cam_size, prj_size, camera_dist, projector_dist,
+                                    correct_circle_bias=correct_circle_bias, min_poses=min_poses)
+        prj_rms = {res.pose_names[i]: float(r) for i, r in zip(res.projector_poses, res.projector.per_pose_rms)}
+        poses = [{"name": n, "camera_rms_px": float(res.camera.per_pose_rms[i]),
+                  "projector_rms_px": prj_rms.get(n, float("nan")), "points": int(res.used_points[i].sum())}
+                 for i, n in enumerate(res.pose_names)]
+        rms = {"camera_px": res.camera.rms, "projector_px": res.projector.rms, "stereo_px": res.stereo_rms}
+        cam_d = {"width": cam_size[0], "height": cam_size[1], "dist_model": camera_dist, "rms_px": res.camera.rms,
+                 "per_pose_rms_px": list(map(float, res.camera.per_pose_rms))}
+        extra = {"circle_bias_corrected": bool(correct_circle_bias)}
+    elif model == "telecentric":
+        res = calibrate_telecentric_rig(board, obs, cam_size, prj_size, projector_dist, min_poses=min_poses)
+        poses = [{"name": n, "camera_rms_px": float(c), "projector_rms_px": float(p),
+                  "points": int(board.count)}
+                 for n, c, p in zip(res.pose_names, res.camera_per_pose_rms, res.projector.per_pose_rms)]
+        rms = {"camera_px": res.camera_rms, "projector_px": res.projector.rms,
+               "camera_um": 1000 * res.camera_rms / res.camera_scale}
+        cam_d = {"width": cam_size[0], "height": cam_size[1], "dist_model": "affine", "rms_px": res.camera_rms,
+                 "per_pose_rms_px": list(map(float, res.camera_per_pose_rms))}
+        extra = {"camera_pixels_per_mm": res.camera_scale}
+    else:
+        raise ValueError(f"unknown rig model {model!r}; expected 'pinhole' or 'telecentric'")
+    prj_d = {"width": prj_size[0], "height": prj_size[1], "dist_model": projector_dist, "rms_px": res.projector.rms,
+             "per_pose_rms_px": list(map(float, res.projector.per_pose_rms))}
+    if "alpha_opt" in info:
+        extra["alpha_opt"] = info["alpha_opt"]
+    extra["skipped_poses"] = list(info.get("skipped", []))
+    cal = Calibration(model=model, rig=res.rig, camera=cam_d, projector=prj_d, board=board.to_dict(),
+                      periods=info.get("periods", {}), angles=info.get("angles", {}), poses=poses, rms=rms,
+                      extra=extra)
+    return cal, res
+
+
+def calibrate_session(paths, board: CircleBoard | None = None, model: str | None = None, progress: bool = True,
+                      **kw) -> tuple[Calibration, object]:
+    """Folders in, :class:`Calibration` out (``board``/``model`` default to session.json)."""
+    folders, meta = find_pose_folders(paths)
+    if board is None:
+        if "board" not in meta:
+            raise ValueError("no board description: pass the board (cols, rows, spacing, radius) or put "
+                             f"{{\"board\": {{...}}}} in the session folder's {SESSION_NAME}")
+        board = CircleBoard.from_dict(meta["board"])
+    model = model or meta.get("model", "pinhole")
+    mmf = kw.pop("min_modulation_fraction", 0.1)
+    obs, info = observe_session(folders, board, mmf, progress)
+    return calibrate_observations(obs, info, board, model, **kw)
+
+
+def simulate_session(*args, **kwargs):
+    """Render a simulated calibration session; see
+    :func:`fringe3d.calibrate.simulated_session.simulate_session`."""
+    from .simulated_session import simulate_session as _simulate
+    return _simulate(*args, **kwargs)

@@ -1,0 +1,216 @@
+"""Simulated calibration sessions: the circle board at random poses, rendered by the simulator.
+
+:func:`simulate_session` picks board poses inside a preset's working volume (board fully
+visible to the camera and lit by the projector, facing both), renders the calibration
+pattern set for each pose with :func:`fringe3d.sim.render`, and returns the poses in memory
+(optionally also writing a session folder of capture folders plus ``session.json``).
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from fringe3d.io.atomic import atomic_write_text
+from fringe3d.io.console import progress_bar, to_jsonable
+from fringe3d.optics import PinholeDevice, Rig, TelecentricCamera
+
+from .board_detection import CircleBoard
+from .session import SESSION_NAME, PoseCapture
+
+
+@dataclass
+class SimulatedSession:
+    poses: list[PoseCapture]
+    board: CircleBoard
+    rig: Rig                       # the true rig
+    board_poses: list[tuple[np.ndarray, np.ndarray]]  # true board -> world (R, t)
+    model: str
+    folder: Path | None = None
+
+
+def scaled_camera(rig: Rig, factor: float) -> Rig:
+    """The rig with a camera of ``factor`` times the resolution (same field of view); used
+    by quick variants to render small images."""
+    if factor == 1:
+        return rig
+    cam = rig.camera
+    w, h = max(8, int(round(cam.width * factor))), max(8, int(round(cam.height * factor)))
+    sx, sy = w / cam.width, h / cam.height
+    if isinstance(cam, TelecentricCamera):
+        M = cam.M.copy()
+        M[0] *= sx
+        M[1] *= sy
+        M[0, 3] += 0.5 * sx - 0.5
+        M[1, 3] += 0.5 * sy - 0.5
+        return Rig(TelecentricCamera(M=M, width=w, height=h), rig.projector)
+    K = cam.K.copy()
+    K[0] *= sx
+    K[1] *= sy
+    K[0, 2] += 0.5 * sx - 0.5
+    K[1, 2] += 0.5 * sy - 0.5
+    return Rig(replace(cam, K=K, width=w, height=h), rig.projector)
+
+
+def default_board(rig: Rig, volume: dict, fraction: float = 0.5, cols: int = 9, rows: int = 9) -> CircleBoard:
+    """A board whose grid spans ``fraction`` of the smaller field of view (camera or
+    projector) at the near end of the working volume; spacing rounded to 0.1 mm."""
+    z = float(volume["z"][0]) if not rig.telecentric else float(np.mean(volume["z"]))
+    fovs = []
+    for dev in (rig.camera, rig.projector):
+        if isinstance(dev, TelecentricCamera):
+            s = float(np.mean(np.linalg.norm(dev.M[:, :3], axis=1)))
+            fovs.append(min(dev.width, dev.height) / s)
+        else:
+            depth = z if dev is rig.camera or rig.telecentric else z
+            fovs.append(min(dev.width / dev.K[0, 0], dev.height / dev.K[1, 1]) * depth)
+    fov = min(fovs)
+    spacing = max(round(fraction * fov / (max(cols, rows) - 1), 1), 0.1)
+    return CircleBoard(cols=cols, rows=rows, spacing=spacing, radius=0.25 * spacing)
+
+
+def _device_view(dev, X):
+    """Pixels of world points and whether the points are in front (pinhole)."""
+    uv = dev.project(X)
+    if isinstance(dev, TelecentricCamera):
+        return uv, np.ones(len(X), bool)
+    return uv, dev.to_device(X)[:, 2] > 0
+
+
+def _inside(dev, uv, front, margin):
+    return bool(np.all(front) and np.all(uv[:, 0] > margin * dev.width) and np.all(uv[:, 0] < (1 - margin) * dev.width - 1)
+                and np.all(uv[:, 1] > margin * dev.height) and np.all(uv[:, 1] < (1 - margin) * dev.height - 1))
+
+
+def _device_centre(dev, X):
+    if isinstance(dev, TelecentricCamera):
+        return X - 1e6 * dev.view_direction * np.sign(dev.view_direction @ (X - 0) + 1e-12)
+    return dev.center
+
+
+def sample_board_poses(rig: Rig, volume: dict, board: CircleBoard, n: int, rng: np.random.Generator,
+                       max_tilt_deg: float = 35.0, spin_deg: float = 15.0, margin: float = 0.04,
+                       max_tries: int = 20000) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``n`` board -> world poses with the whole board (incl. a one-spacing border) inside
+    both devices' images, facing both, centres spread over the working volume."""
+    obj = board.object_points()
+    ext = np.array([[obj[:, 0].min() - board.spacing, obj[:, 1].min() - board.spacing, 0],
+                    [obj[:, 0].max() + board.spacing, obj[:, 1].min() - board.spacing, 0],
+                    [obj[:, 0].max() + board.spacing, obj[:, 1].max() + board.spacing, 0],
+                    [obj[:, 0].min() - board.spacing, obj[:, 1].max() + board.spacing, 0]])
+    mid = obj.mean(0)
+    vx, vy, vz = (np.asarray(volume[k], float) for k in "xyz")
+    poses = []
+    for _ in range(max_tries):
+        if len(poses) == n:
+            break
+        k = len(poses)
+        # stratify depth over the volume so the poses span it
+        z = vz[0] + (k + rng.uniform(0.1, 0.9)) / n * (vz[1] - vz[0])
+        c = np.array([rng.uniform(*(0.5 * vx)), rng.uniform(*(0.5 * vy)), z])
+        tilt = np.deg2rad(max_tilt_deg) * np.sqrt(rng.uniform(0.15, 1.0))
+        az = rng.uniform(0, 2 * np.pi)
+        rv = np.array([np.cos(az) * tilt, np.sin(az) * tilt, np.deg2rad(rng.uniform(-spin_deg, spin_deg))])
+        R, _ = cv2.Rodrigues(rv)
+        t = c - R @ mid
+        X = ext @ R.T + t
+        ok = True
+        normal = R[:, 2]
+        for dev in (rig.camera, rig.projector):
+            uv, front = _device_view(dev, X)
+            if not _inside(dev, uv, front, margin):
+                ok = False
+                break
+            if isinstance(dev, TelecentricCamera):
+                cosang = abs(normal @ dev.view_direction)
+            else:
+                v = dev.center - c
+                cosang = abs(normal @ v) / np.linalg.norm(v)
+            if cosang < np.cos(np.deg2rad(60)):
+                ok = False
+                break
+        if ok:
+            poses.append((R, t))
+    if len(poses) < n:
+        raise ValueError(f"could place only {len(poses)} of {n} board poses inside the working volume; "
+                         "use a smaller board or fewer poses")
+    return poses
+
+
+def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: float | None = None,
+                     patterns=None, board: CircleBoard | None = None, camera_scale: float = 1.0,
+                     noise: bool = True, settings_overrides: dict | None = None, folder=None,
+                     dark_albedo: float = 0.35, progress: bool = True, max_tilt_deg: float = 35.0,
+                     edge_pixels: float = 2.0) -> SimulatedSession:
+    """Render a calibration session with the simulator.
+
+    Parameters
+    ----------
+    preset : preset name or ``fringe3d.sim.presets.Preset``
+    n_poses : number of board poses (>= 3; the dissertation's figures use >= 10)
+    seed : seeds the board poses and the sensor noise
+    defocus : projector defocus size (projector px, the preset's defocus model), None = preset's
+    patterns : PatternSet, default ``patterns.sets.calibration`` at the projector's size
+    board : CircleBoard, default :func:`default_board`
+    camera_scale : render with a camera of this fraction of the preset's resolution
+    noise : False renders noise-free frames (no shot / read noise; 16-bit quantisation)
+    settings_overrides : other ``RenderSettings`` fields
+    folder : if given, write ``folder/pose_XX`` capture folders and ``folder/session.json``
+    dark_albedo : albedo of the board's circles (the board is 0.9); a grey circle keeps
+        enough fringe modulation at the circle centres for phase mapping
+    edge_pixels : width of the circles' anti-aliasing albedo ramp, in camera pixels at the
+        board (the renderer casts one ray per pixel)
+    """
+    from fringe3d.patterns import sets
+    from fringe3d.sim import presets, render
+    from fringe3d.sim.board import CircleBoard as SceneBoard
+    from fringe3d.sim.scenes import Scene
+
+    p = presets.get(preset)
+    rig = scaled_camera(p.rig, camera_scale)
+    model = "telecentric" if rig.telecentric else "pinhole"
+    if board is None:
+        board = default_board(rig, p.volume)
+    if patterns is None:
+        patterns = sets.calibration(width=rig.projector.width, height=rig.projector.height)
+    if (patterns.width, patterns.height) != (rig.projector.width, rig.projector.height):
+        raise ValueError(f"pattern set is {patterns.width}x{patterns.height} but the projector is "
+                         f"{rig.projector.width}x{rig.projector.height}")
+    rng = np.random.default_rng(seed)
+    board_poses = sample_board_poses(rig, p.volume, board, n_poses, rng, max_tilt_deg=max_tilt_deg)
+    s = p.settings
+    over = dict(settings_overrides or {})
+    if defocus is not None:
+        over.setdefault("defocus", s.defocus if s.defocus != "none" else "gaussian")
+        over["defocus_size"] = float(defocus)
+    if not noise:
+        over.update(shot_noise=False, read_noise=0.0, bit_depth=16)
+    s = s.replace(**over)
+    poses = []
+    folder = Path(folder) if folder is not None else None
+    with progress_bar("rendering calibration poses", n_poses, enabled=progress) as advance:
+        for k, (R, t) in enumerate(board_poses):
+            z = (rig.camera.to_device(t)[2] if not rig.telecentric else None)
+            if rig.telecentric:
+                px_mm = 1.0 / float(np.mean(np.linalg.norm(rig.camera.M[:, :3], axis=1)))
+            else:
+                px_mm = z / rig.camera.K[0, 0]
+            edge = min(edge_pixels * px_mm, 0.9 * board.radius)
+            sb = SceneBoard(cols=board.cols, rows=board.rows, spacing=board.spacing, radius=board.radius,
+                            asymmetric=board.asymmetric, R=R, t=t, white=0.9, dark=dark_albedo, edge_width=edge)
+            frames, _ = render(Scene([sb]), rig, patterns, s.replace(seed=seed * 1000 + k), progress=False)
+            name = f"pose_{k:02d}"
+            poses.append(PoseCapture(name=name, frames=frames, patterns=patterns))
+            if folder is not None:
+                from fringe3d.io.capture import write_capture
+                write_capture(folder / name, frames, patterns,
+                              meta={"simulated": True, "preset": p.name, "board_R": R, "board_t": t})
+            advance()
+    if folder is not None:
+        meta = {"board": board.to_dict(), "model": model, "preset": p.name, "seed": seed,
+                "truth": {"rig": rig.to_dict(), "board_poses": [{"R": R, "t": t} for R, t in board_poses]}}
+        atomic_write_text(folder / SESSION_NAME, json.dumps(to_jsonable(meta), indent=1))
+    return SimulatedSession(poses=poses, board=board, rig=rig, board_poses=board_poses, model=model, folder=folder)
