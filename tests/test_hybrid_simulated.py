@@ -1,0 +1,74 @@
+"""Hybrid FTP+PSP (Eq. 5.13-5.15) on the simulator's free-falling balls, against its truth phase."""
+import numpy as np
+import pytest
+
+from fringe3d.reconstruct.motion import dissertation_sequence, hybrid_view, measure
+from fringe3d.sim import presets, render
+from fringe3d.sim.motion import GRAVITY_MM_S2
+from fringe3d.sim.scenes import Scene, Sphere
+from fringe3d.sim.textures import Blotches
+
+TWO_PI = 2 * np.pi
+
+
+@pytest.fixture(scope="module")
+def capture():
+    p = presets.get("high-speed")
+    rig = p.rig
+    ps6 = dissertation_sequence(rig.projector.width, rig.projector.height)
+    g = (0.0, GRAVITY_MM_S2, 0.0)
+    balls = [Sphere((-60, -30, 430), 20, velocity=(100, 3000, 0), acceleration=g, spin=(0, 0, 20),
+                    texture=Blotches(0.6, 0.3, seed=1)),
+             Sphere((10, 20, 470), 20, velocity=(0, 2500, 0), acceleration=g),
+             Sphere((75, -40, 395), 20, velocity=(-80, 2000, 0), acceleration=g, spin=(10, 0, 0))]
+    frames, truth = render(Scene(balls), rig, ps6, p.settings.replace(frame_rate=1500.0, seed=3), progress=False)
+    return rig, ps6, frames, truth
+
+
+def test_hybrid_gets_every_balls_fringe_order_from_simulated_frames(capture):
+    rig, ps6, frames, truth = capture
+    ps4, idx = hybrid_view(ps6)
+    m = measure(frames[idx], ps4, rig, z_min=340.0, erode=4)
+    t = truth.frame(idx[0])  # FTP frame I_h3
+    labels = m.extras["labels"]
+    assert len(m.extras["k_s"]) == 3
+    for ball in range(3):
+        own = (t.object_id == ball) & m.mask
+        assert own.sum() > 2000
+        err = m.phase[own] - t.phase["v"][own]
+        assert round(float(np.median(err)) / TWO_PI) == 0, "wrong fringe order k_s"
+        # every pixel of the ball is within a fraction of a fringe of the truth (no 2π slips)
+        assert np.mean(np.abs(err) < 1.5) > 0.995
+        assert np.sqrt(np.mean(err ** 2)) < 0.4
+    assert set(np.unique(labels[m.mask])) == set(m.extras["k_s"])
+
+
+def test_two_frequency_psp_suffers_motion_error_the_hybrid_avoids(capture):
+    rig, ps6, frames, truth = capture
+    ps4, idx = hybrid_view(ps6)
+    hyb = measure(frames[idx], ps4, rig, z_min=340.0, erode=4)
+    psp = measure(frames, ps6, rig, z_min=340.0)
+    t_h, t_p = truth.frame(idx[0]), truth.frame(1)
+    e_h = (hyb.phase - t_h.phase["v"])[(t_h.object_id >= 0) & hyb.mask]
+    e_p = (psp.phase - t_p.phase["v"])[(t_p.object_id >= 0) & psp.mask]
+    share_slip_h = np.mean(np.abs(e_h) > np.pi)
+    share_slip_p = np.mean(np.abs(e_p) > np.pi)
+    assert share_slip_h < 0.005 < share_slip_p
+
+
+def test_hybrid_view_selects_last_high_frame_and_low_set():
+    ps6 = dissertation_sequence(912, 1140)
+    ps4, idx = hybrid_view(ps6)
+    assert idx == [2, 3, 4, 5]
+    assert ps4.frames[0].kind == "square" and ps4.frames[0].shift == pytest.approx(4 * np.pi / 3)
+    assert [f.kind for f in ps4.frames[1:]] == ["bayer"] * 3
+    assert ps4.plans[0].method == "hybrid" and ps4.plans[0].periods == (18.0, 228.0)
+
+
+def test_hybrid_rejects_missing_rig_and_wrong_frame_count(capture):
+    rig, ps6, frames, truth = capture
+    ps4, idx = hybrid_view(ps6)
+    with pytest.raises(ValueError, match="rig"):
+        measure(frames[idx], ps4, None, z_min=340.0)
+    with pytest.raises(ValueError, match="expected 4 frames"):
+        measure(frames, ps4, rig, z_min=340.0)
