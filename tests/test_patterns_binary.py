@@ -37,21 +37,23 @@ def test_floyd_steinberg_keeps_the_mean_and_is_binary():
     assert abs(out.mean() - img.mean()) < 90 / 2000
 
 
-def test_floyd_steinberg_matches_a_plain_python_reference():
+@pytest.mark.parametrize("serpentine", [False, True])
+def test_floyd_steinberg_matches_a_plain_python_reference(serpentine):
     rng = np.random.default_rng(2)
     img = rng.random((9, 11))
     ref = img.copy()
     out = np.zeros_like(ref)
     h, w = ref.shape
     for i in range(h):
-        for j in range(w):
+        s = -1 if serpentine and i % 2 else 1
+        for j in (range(w - 1, -1, -1) if s < 0 else range(w)):
             new = 1.0 if ref[i, j] >= 0.5 else 0.0
             e = ref[i, j] - new
             out[i, j] = new
-            for di, dj, k in ((0, 1, 7), (1, -1, 3), (1, 0, 5), (1, 1, 1)):
+            for di, dj, k in ((0, s, 7), (1, -s, 3), (1, 0, 5), (1, s, 1)):
                 if 0 <= i + di < h and 0 <= j + dj < w:
                     ref[i + di, j + dj] += e * k / 16
-    np.testing.assert_array_equal(floyd_steinberg(img), out)
+    np.testing.assert_array_equal(floyd_steinberg(img, serpentine=serpentine), out)
 
 
 def test_gray_code_neighbouring_stripes_differ_in_exactly_one_bit():

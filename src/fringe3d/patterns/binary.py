@@ -23,8 +23,11 @@ TWO_PI = 2.0 * np.pi
 
 
 def _frac(theta: np.ndarray) -> np.ndarray:
-    """Position inside the period in [0, 1) for phase theta."""
-    return np.mod(np.asarray(theta, dtype=np.float64) / TWO_PI, 1.0)
+    """Position inside the period in [0, 1) for phase theta, rounded to 1e-9 so that pixels at
+    the same position in the period (e.g. a frame shifted by a whole number of pixels) get
+    bit-identical values and identical tie decisions."""
+    f = np.round(np.mod(np.asarray(theta, dtype=np.float64) / TWO_PI, 1.0), 9)
+    return np.where(f >= 1.0, 0.0, f)
 
 
 def squared_binary(theta: np.ndarray, parity: np.ndarray | None = None) -> np.ndarray:
@@ -62,14 +65,21 @@ def pulse_width_modulated(theta: np.ndarray, pulses: int) -> np.ndarray:
     """
     if pulses < 1:
         raise ValueError(f"PWM needs at least one pulse per period, got {pulses}")
-    s = 0.5 * (1.0 + np.cos(theta))
-    carrier = _triangle(pulses * _frac(theta) + 0.5)
-    return (s > 1.0 - carrier).astype(np.float32)
+    x = _frac(theta)
+    s = 0.5 * (1.0 + np.cos(TWO_PI * x))
+    carrier = _triangle(pulses * x + 0.5)
+    return (s > 1.0 - carrier + 1e-12).astype(np.float32)
 
 
 def default_pwm_pulses(period: float) -> int:
-    """Odd pulse count giving carrier periods of about 6 projector pixels (>= 3)."""
-    return max(3, 2 * int(round(period / 12.0)) + 1)
+    """Odd pulse count (>= 3) per fringe period: preferably one that splits the period into
+    whole carrier periods of 4-12 pixels (closest to 8), else carrier periods of about 8 px."""
+    best = None
+    for p in range(3, int(period // 4) + 1, 2):
+        c = period / p
+        if abs(c - round(c)) < 1e-9 and 4 <= c <= 12 and (best is None or abs(c - 8) < abs(period / best - 8)):
+            best = p
+    return best if best is not None else max(3, 2 * int(round(period / 16.0)) + 1)
 
 
 def area_modulated(theta: np.ndarray, along: np.ndarray, cell: int = 4) -> np.ndarray:

