@@ -119,15 +119,57 @@ def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = T
         lit[idx] = inside
         shade[idx] = np.where(inside, cos, 0.0)
     muv = getattr(h, "material_uv", None)
-    extras = {}
-    fn = getattr(scene, "truth_fields", None)
-    if callable(fn):
-        extras = {k: np.asarray(v) for k, v in fn(pts, h, time).items()}
+    extras = object_extras(scene, np.asarray(h.object_id), muv, time)
     return Geometry(hit=hit, points=pts, depth=depth, normal=normal,
                     object_id=np.where(hit, np.asarray(h.object_id), -1).astype(np.int32),
                     albedo=np.where(hit, np.asarray(h.albedo, float), 0.0),
                     material_uv=None if muv is None else np.asarray(muv, float),
                     up=up, vp=vp, shade=shade, lit=lit, proj_depth=pdepth, extras=extras)
+
+
+def object_extras(scene, object_id: np.ndarray, material_uv, time: float) -> dict:
+    """Scene-specific per-pixel truth (N, ...) from the objects that know it, NaN elsewhere.
+
+    An object may define ``truth_fields(uv (M, 2), time) -> {name: (M, ...)}``; a flapping
+    wing (``curvature_tensor`` / ``dominant_strain``, Eq. 6.11-6.20) gives ``curvature``
+    (second fundamental form b_ab in material coordinates, 1/mm, (M, 2, 2)) and ``strain``
+    (dominant bending strain, (M,)).
+    """
+    objects = getattr(scene, "objects", [scene])
+    out: dict = {}
+    if material_uv is None:
+        return out
+    n = len(object_id)
+    for i, ob in enumerate(objects):
+        sel = np.flatnonzero(object_id == i)
+        if not sel.size:
+            continue
+        uv = np.asarray(material_uv, float)[sel]
+        if callable(getattr(ob, "truth_fields", None)):
+            fields = ob.truth_fields(uv, time)
+        elif callable(getattr(ob, "curvature_tensor", None)) and callable(getattr(ob, "dominant_strain", None)):
+            fields = {"curvature": ob.curvature_tensor(uv, time), "strain": ob.dominant_strain(uv, time)}
+        else:
+            continue
+        for name, val in fields.items():
+            val = np.asarray(val, float)
+            if name not in out:
+                out[name] = np.full((n,) + val.shape[1:], np.nan)
+            out[name][sel] = val
+    return out
+
+
+def scene_meta(scene, rig, time: float) -> dict:
+    """Non-per-pixel truth: circle-board centres (world mm and camera pixels) per board object."""
+    meta = {}
+    for i, ob in enumerate(getattr(scene, "objects", [scene])):
+        fn = getattr(ob, "circle_centers", None)
+        if callable(fn):
+            X = np.asarray(fn(time), float)
+            meta[f"board_{i}_centres_xyz"] = X.tolist()
+            meta[f"board_{i}_centres_camera_px"] = rig.camera.project(X).tolist()
+            meta[f"board_{i}_centres_projector_px"] = rig.projector.project(X).tolist()
+    return meta
 
 
 # ----------------------------------------------------------------------------- sampling
@@ -307,6 +349,7 @@ def render(scene, rig, patterns, settings: RenderSettings | None = None, times=N
             frames.append(sense(img.reshape(H, W), s, k))
             advance()
     truth = make_truth(geos if not static else [geo0], (H, W), dirs_info, times, static, rig)
+    truth.meta.update(scene_meta(scene, rig, float(times[0])))
     return np.stack(frames), truth
 
 

@@ -101,7 +101,11 @@ def named_scene(name: str, preset):
     * ``spheres``: three isolated spheres at different depths, no background.
     * ``step``: a block on a plane (step height 20% of the depth range).
     * ``board``: a 9x9 circle-grid calibration board facing the camera.
-    Other names come from :mod:`fringe3d.sim.scenes` when it provides them.
+    * ``mesh``: a ~100k-triangle freeform relief (:func:`height_field_mesh`, Embree ray casting).
+    * ``sculpture``: the same kind of relief with a blotchy texture.
+    * ``falling-balls``: three textured, spinning balls in free fall (moving scene).
+    * ``wing``: the flapping isometric membrane (:class:`fringe3d.sim.wing.Wing`) with anchor and
+      marker dots (moving scene; truth carries material coordinates, curvature and strain).
     """
     from . import scenes as sc
     c = preset.center
@@ -129,13 +133,71 @@ def named_scene(name: str, preset):
         spacing = lateral / 12.0
         cam_c = getattr(preset.rig.camera, "center", c - view * 1000.0)
         return sc.Scene([board_facing(cam_c, c, cols=9, rows=9, spacing=spacing)], name="board")
-    builder = getattr(sc, "named_scene", None)
-    if builder is not None and name in SCENE_NAMES:
-        return builder(name, preset)
-    if name in SCENE_NAMES:
-        raise ValueError(f"scene {name!r} is not available yet in this build; available: sphere, plane, "
-                         f"spheres, step, board, or a scene file")
+    if name in ("mesh", "sculpture"):
+        from .mesh import Mesh
+        from .textures import Blotches
+        mesh = height_field_mesh(0.8 * size[0], 0.8 * size[1], 0.25 * size[2], triangles=100_000,
+                                 seed=1 if name == "sculpture" else 0)
+        texture = Blotches(scale=0.1 * lateral) if name == "sculpture" else None
+        R = _facing_rotation(view)
+        return sc.Scene([Mesh(mesh, center=c, R=R, texture=texture, albedo=0.9)], name=name)
+    if name == "falling-balls":
+        from .motion import falling
+        from .textures import Checker
+        r = 0.1 * lateral
+        fps = preset.settings.frame_rate
+        objs = []
+        for i, (dx, vy, spin) in enumerate(((-0.3, 0.0, 40.0), (0.0, -0.5, -60.0), (0.3, 0.3, 80.0))):
+            start = c + np.array([dx * size[0], -0.2 * size[1], 0.1 * (i - 1) * size[2]])
+            # initial speeds ~ a ball's diameter per 50 frames, plus gravity
+            v = np.array([0.0, vy * 2 * r * fps / 50.0, 0.0])
+            objs.append(sc.Sphere(start, r, texture=Checker(period=np.pi / 6, contrast=0.6),
+                                  motion=falling(velocity=v, spin=(0.0, 0.0, spin * np.pi / 180 * fps / 50.0))))
+        return sc.Scene(objs, name="falling-balls")
+    if name == "wing":
+        from .wing import Wing
+        span = min(150.0, 0.6 * float(size[0]))
+        chord = 70.0 / 150.0 * span
+        k = 1.0 / 60.0 * 150.0 / span
+        anchors = np.array([[0.2, 0.35], [0.75, 0.2]]) * [span, chord]
+        markers = np.array([[0.4, 0.3], [0.55, 0.45], [0.6, 0.2]]) * [span, chord]
+        return sc.Scene([Wing(span=span, chord=chord, root=c + np.array([-span / 2, chord / 2, 0.0]),
+                              kappa_amp=k, anchors=anchors, markers=markers, dot_radius=span / 75.0)],
+                        name="wing")
     raise ValueError(f"unknown scene {name!r}; expected a scene file (*.json) or one of: {', '.join(SCENE_NAMES)}")
+
+
+def height_field_mesh(width: float, height: float, relief: float, triangles: int = 100_000, seed: int = 0):
+    """A smooth freeform relief as a triangle mesh (body frame, mm): a grid over
+    ``width x height`` with ``z = -relief * (sum of Gaussian bumps)`` (bumps toward -z, i.e.
+    toward a camera looking along +z) and about ``triangles`` faces."""
+    import trimesh
+    n = max(2, int(round(np.sqrt(triangles / 2.0))) + 1)
+    x = np.linspace(-width / 2, width / 2, n)
+    y = np.linspace(-height / 2, height / 2, n)
+    X, Y = np.meshgrid(x, y)
+    rng = np.random.default_rng(seed)
+    Z = np.zeros_like(X)
+    for _ in range(7):
+        cx, cy = rng.uniform(-0.35, 0.35) * width, rng.uniform(-0.35, 0.35) * height
+        s = rng.uniform(0.1, 0.25) * min(width, height)
+        Z += rng.uniform(0.3, 1.0) * np.exp(-((X - cx) ** 2 + (Y - cy) ** 2) / (2 * s * s))
+    Z = -relief * Z / Z.max()
+    verts = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+    i = np.arange(n - 1)[:, None] * n + np.arange(n - 1)[None, :]
+    a, b, c_, d = i.ravel(), i.ravel() + 1, i.ravel() + n, i.ravel() + n + 1
+    faces = np.concatenate([np.column_stack([a, c_, b]), np.column_stack([b, c_, d])])
+    return trimesh.Trimesh(vertices=verts, faces=faces, process=False)
+
+
+def _facing_rotation(view) -> np.ndarray:
+    """Body -> world rotation taking body +z to the viewing direction ``view`` (so a body
+    relief toward -z faces the camera)."""
+    z = np.asarray(view, float) / np.linalg.norm(view)
+    x = np.cross([0.0, 1.0, 0.0], z)
+    x = x / np.linalg.norm(x) if np.linalg.norm(x) > 1e-9 else np.array([1.0, 0.0, 0.0])
+    y = np.cross(z, x)
+    return np.column_stack([x, y, z])
 
 
 def _view_direction(preset) -> np.ndarray:
@@ -319,5 +381,6 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
     summary = {"folder": str(folder), "preset": p.name, "scene": meta["scene"], "patterns": ps.name,
                "frames": int(frames), "frame_rate": s.frame_rate, "camera": [p.rig.camera.width, p.rig.camera.height],
                "valid_fraction": valid, "seed": s.seed, "seconds": round(time.perf_counter() - t0, 2)}
-    info(f"wrote {frames} frames + truth to {folder} ({valid:.0%} of pixels valid)")
+    if progress:
+        info(f"wrote {frames} frames + truth to {folder} ({valid:.0%} of pixels valid)")
     return summary
