@@ -1,0 +1,232 @@
+"""Least-squares shape fits for evaluating 3D measurements: plane, sphere, 3D circle.
+
+Each fit accepts an organized point map ``(H, W, 3)`` (NaN = invalid, optional ``mask``) or an
+``(N, 3)`` point list, in mm, and returns a result with the parameters, the RMS of the
+geometric residuals, the residuals themselves and, for organized input, a residual map
+``(H, W)`` (NaN where no point). The dissertation reports accuracy exactly this way: RMS of the
+difference between the measured points and the fitted ideal shape (sphere RMS, plane RMS).
+
+* Plane: total least squares (SVD of the centred points); residual = signed distance.
+* Sphere: algebraic (linear) initialisation, then geometric Levenberg-Marquardt on
+  ``|p - c| - r`` (``scipy.optimize.least_squares``); residual = radial distance.
+* Circle in 3D: plane fit, then an algebraic + geometric LM circle fit in that plane;
+  residual = in-plane radial distance (the out-of-plane part is the plane's residual).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+
+@dataclass
+class FitPoints:
+    """Valid points of a fit input: ``xyz (N, 3)`` float64, and where they came from
+    (``index``: flat indices into an organized map of ``shape``, or None for a list)."""
+
+    xyz: np.ndarray
+    shape: tuple | None = None
+    index: np.ndarray | None = None
+
+    def to_map(self, values: np.ndarray) -> np.ndarray | None:
+        """Scatter per-point ``values (N,)`` back into an ``(H, W)`` float32 map (NaN elsewhere)."""
+        if self.shape is None:
+            return None
+        out = np.full(int(np.prod(self.shape)), np.nan, np.float32)
+        out[self.index] = values
+        return out.reshape(self.shape)
+
+
+def collect_points(points, mask=None, minimum: int = 1, what: str = "fit") -> FitPoints:
+    """Validate and gather the finite points of ``points`` ((H, W, 3) or (N, 3)) under ``mask``.
+
+    Raises ValueError for a wrong shape, a mask of a different size, or fewer than ``minimum``
+    valid points (e.g. an empty mask).
+    """
+    P = np.asarray(points, dtype=np.float64)
+    if P.ndim < 2 or P.shape[-1] != 3:
+        raise ValueError(f"{what}: expected points of shape (H, W, 3) or (N, 3) in mm, got {P.shape}")
+    organized = P.ndim == 3
+    flat = P.reshape(-1, 3)
+    valid = np.all(np.isfinite(flat), axis=1)
+    if mask is not None:
+        m = np.asarray(mask, bool)
+        if m.shape != P.shape[:-1]:
+            raise ValueError(f"{what}: mask has shape {m.shape} but the points are {P.shape[:-1]}; "
+                             "expected one mask value per point")
+        valid &= m.ravel()
+    n = int(valid.sum())
+    if n < minimum:
+        raise ValueError(f"{what}: {n} valid points under the mask, need at least {minimum} "
+                         "(is the mask empty or the point map all NaN?)")
+    idx = np.flatnonzero(valid)
+    return FitPoints(flat[idx], P.shape[:-1] if organized else None, idx if organized else None)
+
+
+def _rms(r: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(r * r)))
+
+
+# ----------------------------------------------------------------------------- plane
+@dataclass
+class PlaneFit:
+    """Plane ``normal . x = offset`` (unit normal, mm).
+
+    Attributes: ``normal (3,)`` (oriented towards -z, i.e. facing a camera at the origin when
+    possible), ``offset`` (mm), ``centroid (3,)``, ``rms`` (mm), ``residuals (N,)`` signed
+    distances (mm), ``residual_map (H, W)`` or None, ``n_points``.
+    """
+
+    normal: np.ndarray
+    offset: float
+    centroid: np.ndarray
+    rms: float
+    residuals: np.ndarray
+    residual_map: np.ndarray | None = None
+    n_points: int = 0
+
+    def distance(self, xyz) -> np.ndarray:
+        """Signed distances of points ``(..., 3)`` to the plane (mm)."""
+        return np.asarray(xyz, float) @ self.normal - self.offset
+
+
+def fit_plane(points, mask=None) -> PlaneFit:
+    """Total-least-squares plane through the valid points (SVD of the centred cloud)."""
+    fp = collect_points(points, mask, 3, "plane fit")
+    c = fp.xyz.mean(axis=0)
+    _, sv, vt = np.linalg.svd(fp.xyz - c, full_matrices=False)
+    if sv[1] <= 1e-12 * max(sv[0], 1e-300):
+        raise ValueError("plane fit: the points are collinear (or identical); a plane needs a 2D spread of points")
+    n = vt[2]
+    if n[2] > 0:
+        n = -n
+    r = (fp.xyz - c) @ n
+    return PlaneFit(n, float(c @ n), c, _rms(r), r, fp.to_map(r), len(r))
+
+
+# ----------------------------------------------------------------------------- sphere
+@dataclass
+class SphereFit:
+    """Sphere: ``center (3,)`` mm, ``radius`` mm, ``rms`` of radial residuals (mm),
+    ``residuals (N,)`` = ``|p - c| - r``, ``residual_map (H, W)`` or None, ``n_points``,
+    ``algebraic`` the linear initial estimate ``(center, radius)``."""
+
+    center: np.ndarray
+    radius: float
+    rms: float
+    residuals: np.ndarray
+    residual_map: np.ndarray | None = None
+    n_points: int = 0
+    algebraic: tuple = field(default=None, repr=False)
+
+    @property
+    def diameter(self) -> float:
+        return 2.0 * self.radius
+
+
+def sphere_algebraic(xyz: np.ndarray) -> tuple[np.ndarray, float]:
+    """Linear sphere fit: ``|p|^2 = 2 c.p + (r^2 - |c|^2)`` in least squares (Kasa-type)."""
+    A = np.hstack([2 * xyz, np.ones((len(xyz), 1))])
+    b = np.sum(xyz * xyz, axis=1)
+    sol, *_ = np.linalg.lstsq(A, b, rcond=None)
+    c = sol[:3]
+    r2 = sol[3] + c @ c
+    if not r2 > 0:
+        raise ValueError("sphere fit: the points do not determine a sphere (degenerate algebraic fit)")
+    return c, float(np.sqrt(r2))
+
+
+def fit_sphere(points, mask=None, radius: float | None = None) -> SphereFit:
+    """Geometric least-squares sphere (Levenberg-Marquardt from the algebraic fit).
+
+    Parameters
+    ----------
+    points : (H, W, 3) or (N, 3) float, mm
+    mask : bool map, optional
+    radius : float, optional
+        Fix the radius (mm) and fit only the centre (e.g. VDI/VDE sphere spacing with a
+        calibrated sphere).
+    """
+    fp = collect_points(points, mask, 4, "sphere fit")
+    xyz = fp.xyz
+    c0, r0 = sphere_algebraic(xyz)
+    if radius is None:
+        def res(p):
+            return np.linalg.norm(xyz - p[:3], axis=1) - p[3]
+
+        sol = least_squares(res, np.r_[c0, r0], method="lm", xtol=1e-14, ftol=1e-14)
+        c, r = sol.x[:3], float(sol.x[3])
+    else:
+        if not radius > 0:
+            raise ValueError(f"sphere fit: a fixed radius must be positive (mm), got {radius}")
+
+        def res(p):
+            return np.linalg.norm(xyz - p, axis=1) - radius
+
+        sol = least_squares(res, c0, method="lm", xtol=1e-14, ftol=1e-14)
+        c, r = sol.x, float(radius)
+    resid = np.linalg.norm(xyz - c, axis=1) - r
+    return SphereFit(c, abs(r), _rms(resid), resid, fp.to_map(resid), len(resid), (c0, r0))
+
+
+# ----------------------------------------------------------------------------- circle
+@dataclass
+class CircleFit:
+    """A circle in 3D: ``center (3,)``, ``radius`` (mm), ``normal (3,)`` of its plane,
+    ``rms`` of the in-plane radial residuals (mm), ``residuals (N,)``, ``plane_rms`` (mm,
+    out-of-plane scatter), ``residual_map`` or None, ``n_points``, ``axes (2, 3)`` the in-plane
+    basis used for 2D coordinates."""
+
+    center: np.ndarray
+    radius: float
+    normal: np.ndarray
+    rms: float
+    residuals: np.ndarray
+    plane_rms: float
+    residual_map: np.ndarray | None = None
+    n_points: int = 0
+    axes: np.ndarray | None = field(default=None, repr=False)
+
+
+def circle_2d(xy: np.ndarray) -> tuple[np.ndarray, float]:
+    """Geometric 2D circle fit (algebraic init + LM): returns ``(center (2,), radius)``."""
+    A = np.hstack([2 * xy, np.ones((len(xy), 1))])
+    b = np.sum(xy * xy, axis=1)
+    sol, *_ = np.linalg.lstsq(A, b, rcond=None)
+    c0 = sol[:2]
+    r2 = sol[2] + c0 @ c0
+    if not r2 > 0:
+        raise ValueError("circle fit: the points do not determine a circle (degenerate algebraic fit)")
+
+    def res(p):
+        return np.linalg.norm(xy - p[:2], axis=1) - p[2]
+
+    s = least_squares(res, np.r_[c0, np.sqrt(r2)], method="lm", xtol=1e-14, ftol=1e-14)
+    return s.x[:2], float(abs(s.x[2]))
+
+
+def fit_circle(points, mask=None, normal=None) -> CircleFit:
+    """3D circle: best plane (or the given plane ``normal``), then a geometric circle fit of the
+    points projected into it. Use for cross sections of a sphere (a row or column of an
+    organized map lies in a plane through the camera centre)."""
+    fp = collect_points(points, mask, 3, "circle fit")
+    xyz = fp.xyz
+    c = xyz.mean(axis=0)
+    if normal is None:
+        pl = fit_plane(xyz)
+        n = pl.normal
+    else:
+        n = np.asarray(normal, float)
+        n = n / np.linalg.norm(n)
+    a1 = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
+    a1 /= np.linalg.norm(a1)
+    a2 = np.cross(n, a1)
+    d = xyz - c
+    xy = np.stack([d @ a1, d @ a2], axis=1)
+    c2, r = circle_2d(xy)
+    centre = c + c2[0] * a1 + c2[1] * a2
+    resid = np.linalg.norm(xy - c2, axis=1) - r
+    out_of_plane = d @ n
+    return CircleFit(centre, r, n, _rms(resid), resid, _rms(out_of_plane), fp.to_map(resid), len(resid),
+                     np.stack([a1, a2]))
