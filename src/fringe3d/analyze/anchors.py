@@ -12,19 +12,18 @@ from skimage import measure
 
 from fringe3d.analyze.geodesic import bezier_geodesic, check_point_map, grid_geodesic
 
-__all__ = ["find_anchor_dots", "check_anchor", "distance_maps", "pair_anchors"]
+__all__ = ["dark_dots", "find_anchor_dots", "check_anchor", "distance_maps", "pair_anchors"]
 
 
-def find_anchor_dots(texture: np.ndarray, count: int = 2, min_area: float = 4.0, max_area: float = 2000.0,
-                     darkness: float = 0.5, surface: np.ndarray | None = None) -> np.ndarray:
-    """Centroids (count, 2) (u, v) of the ``count`` largest dark blobs on the surface.
+def dark_dots(texture: np.ndarray, min_area: float = 4.0, max_area: float = 2000.0, darkness: float = 0.5,
+              surface: np.ndarray | None = None) -> np.ndarray:
+    """All dark dots on the surface: (K, 3) rows (u, v, area px), largest first.
 
-    texture : (H, W) intensity image (any dtype). A blob is a connected set of pixels darker
+    texture : (H, W) intensity image (any dtype). A dot is a connected set of pixels darker
     than ``darkness`` × the median surface brightness, not touching the image border, with
-    ``min_area ≤ area ≤ max_area`` pixels and enclosed by surface (bright) pixels.
-    surface : optional (H, W) bool of surface pixels (default: pixels brighter than 25 % of the
-    99th percentile, with holes filled so the dots count as surface).
-    Raises ``ValueError`` if fewer than ``count`` blobs are found. Rows are ordered by u, then v.
+    ``min_area ≤ area ≤ max_area`` pixels, enclosed by surface pixels. Centroids are
+    darkness-weighted (sub-pixel). surface : optional (H, W) bool of surface pixels (default:
+    pixels brighter than 25 % of the 99th percentile, holes filled so the dots count as surface).
     """
     img = np.asarray(texture, dtype=np.float64)
     if img.ndim != 2:
@@ -33,30 +32,36 @@ def find_anchor_dots(texture: np.ndarray, count: int = 2, min_area: float = 4.0,
         raise ValueError("texture image has no finite pixels")
     img = np.nan_to_num(img, nan=0.0)
     if surface is None:
-        bright = img > 0.25 * np.percentile(img, 99)
-        surface = ndimage.binary_fill_holes(bright)
+        surface = ndimage.binary_fill_holes(img > 0.25 * np.percentile(img, 99))
     else:
         surface = ndimage.binary_fill_holes(np.asarray(surface, bool))
     if not surface.any():
         raise ValueError("no surface found in the texture image (all dark?); expected a lit wing")
     level = darkness * np.median(img[surface])
-    dark = (img < level) & surface
-    lab = measure.label(dark, connectivity=2)
-    blobs = []
+    lab = measure.label((img < level) & surface, connectivity=2)
     h, w = img.shape
+    blobs = []
     for reg in measure.regionprops(lab, intensity_image=level - img):
         r0, c0, r1, c1 = reg.bbox
-        if r0 == 0 or c0 == 0 or r1 == h or c1 == w:
-            continue
-        if not (min_area <= reg.area <= max_area):
+        if r0 == 0 or c0 == 0 or r1 == h or c1 == w or not (min_area <= reg.area <= max_area):
             continue
         cy, cx = reg.centroid_weighted
-        blobs.append((reg.area, cx, cy))
+        blobs.append((cx, cy, reg.area))
+    blobs.sort(key=lambda b: -b[2])
+    return np.array(blobs, dtype=np.float64).reshape(-1, 3)
+
+
+def find_anchor_dots(texture: np.ndarray, count: int = 2, min_area: float = 4.0, max_area: float = 2000.0,
+                     darkness: float = 0.5, surface: np.ndarray | None = None) -> np.ndarray:
+    """Centroids (count, 2) (u, v) of the ``count`` largest dark dots (:func:`dark_dots`).
+
+    Raises ``ValueError`` if fewer than ``count`` dots are found. Rows are ordered by u, then v.
+    """
+    blobs = dark_dots(texture, min_area, max_area, darkness, surface)
     if len(blobs) < count:
         raise ValueError(f"found {len(blobs)} anchor dot(s) in the texture image; expected {count} dark dots "
                          f"of {min_area:g}–{max_area:g} px on the surface (pass --anchors u1,v1,u2,v2 instead)")
-    blobs.sort(key=lambda b: -b[0])
-    pts = np.array([[b[1], b[2]] for b in blobs[:count]])
+    pts = blobs[:count, :2]
     return pts[np.lexsort((pts[:, 1], pts[:, 0]))]
 
 

@@ -331,7 +331,10 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
             D1, D2, uv = R1, R2, q.copy()
             res, okt = np.zeros(n), np.isfinite(d).all(axis=1)
         else:
-            D1, D2 = distance_maps(pts, anchors[f], method, radius)
+            try:
+                D1, D2 = distance_maps(pts, anchors[f], method, radius)
+            except ValueError as e:
+                raise ValueError(f"frame {f}: {e}") from None
             tr = track_points(d[:, 0], d[:, 1], D1, D2, side, anchors[f])
             uv, res, okt = tr.uv, tr.residual, tr.ok
         cur = local_shape(pts, uv, window, toward=sample_bilinear(np.asarray(pts, float), anchors[f, :1])[0])

@@ -1,0 +1,122 @@
+"""``fringe3d strain``: outputs against the analytic wing, and every bad input rejected cleanly."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fringe3d.cli import main
+from fringe3d.experiments.flapping_wing import ANCHORS, AnalyticWing, camera, point_map
+
+TIMES = (0.0, 0.01, 0.02)
+H = 0.1
+
+
+def _wing():
+    return AnalyticWing(np.array([-75.0, -35.0, 560.0]), +1, curvature=lambda t: 1 / 500 + t * 0.2,
+                        flap=lambda t: np.deg2rad(600.0) * t)
+
+
+@pytest.fixture(scope="module")
+def sequence(tmp_path_factory):
+    """Three frames of a bending, flapping wing with textures carrying two dark anchor dots."""
+    folder = tmp_path_factory.mktemp("seq")
+    cam, wing = camera(320, 256, 500.0), _wing()
+    for i, t in enumerate(TIMES):
+        P, M, W = point_map([wing], cam, t)
+        tex = np.where(W >= 0, 200.0, 5.0)
+        for a in ANCHORS:
+            tex[np.hypot(M[..., 0] - a[0], M[..., 1] - a[1]) <= 3.0] = 20.0
+        np.save(folder / f"points_{i:05d}.npy", P.astype(np.float32))
+        np.save(folder / f"texture_{i:05d}.npy", tex)
+    anchors0 = np.array([cam.project(wing.world(*a, 0.0)) for a in ANCHORS])
+    return folder, anchors0, wing
+
+
+def test_strain_command_writes_csv_vtk_maps_and_matches_the_analytic_strain(sequence, tmp_path, capsys):
+    folder, anchors0, wing = sequence
+    out = tmp_path / "out"
+    arg = ",".join(f"{x:.3f}" for x in anchors0.ravel())
+    assert main(["strain", str(folder), "--anchors", arg, "-o", str(out), "--json", "--thickness", str(H),
+                 "--step", "6", "--window", "9"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["frames"] == 3 and summary["tracked_fraction"] > 0.95
+    for name in ["strain.csv", "strain.gif", "summary.json", "vtk/frame_00002.vtk", "maps/strain_00001.png"]:
+        assert (out / name).stat().st_size > 0
+    assert not list(out.rglob(".*.part*"))          # no temporary leftovers
+    data = np.genfromtxt(out / "strain.csv", delimiter=",", names=True)
+    ok = data["ok"] == 1
+    peak = abs(wing.bending_strain(TIMES[-1], 0, H))
+    err = data["E_dominant"] - np.array([wing.bending_strain(t, 0.0, H) for t in TIMES])[data["frame"].astype(int)]
+    assert np.sqrt(np.mean(err[ok] ** 2)) < 0.05 * peak      # goal: ≤ 5 % noise-free
+    assert np.abs(err[ok]).max() < 0.10 * peak              # worst points: fit windows at the wing edge
+    # tracked xyz of each reference pixel lies on the wing surface at its material point
+    vtk = (out / "vtk" / "frame_00002.vtk").read_text().splitlines()
+    n = int(vtk[4].split()[1])
+    assert n == int((data["frame"] == 2).sum())
+    assert "SCALARS E_dominant double 1" in vtk
+
+
+def test_auto_anchors_find_the_dots(sequence, tmp_path, capsys):
+    folder, _, _ = sequence
+    assert main(["strain", str(folder), "--anchors", "auto", "-o", str(tmp_path / "o"), "--json", "--no-figures",
+                 "--step", "8"]) == 0
+    assert json.loads(capsys.readouterr().out)["tracked_fraction"] > 0.95
+
+
+def _expect_error(args, out, capsys, text):
+    assert main(args) == 2
+    assert text in " ".join(capsys.readouterr().err.split())
+    assert not Path(out).exists()  # nothing half-written
+
+
+def test_anchor_on_invalid_pixels_is_rejected_and_nothing_written(sequence, tmp_path, capsys):
+    folder, _, _ = sequence
+    out = tmp_path / "o"
+    _expect_error(["strain", str(folder), "--anchors", "3,3,10,3", "-o", str(out)], out, capsys, "invalid")
+
+
+def test_anchors_not_found_without_dots(tmp_path, sequence, capsys):
+    folder, _, _ = sequence
+    bad = tmp_path / "nodots"
+    bad.mkdir()
+    for i in range(2):
+        P = np.load(folder / f"points_{i:05d}.npy")
+        np.save(bad / f"points_{i:05d}.npy", P)
+        np.save(bad / f"texture_{i:05d}.npy", np.where(np.isfinite(P[..., 0]), 200.0, 5.0))
+    out = tmp_path / "o"
+    _expect_error(["strain", str(bad), "--anchors", "auto", "-o", str(out)], out, capsys, "anchor dot")
+    # and no textures at all
+    for f in bad.glob("texture_*"):
+        f.unlink()
+    _expect_error(["strain", str(bad), "--anchors", "auto", "-o", str(out)], out, capsys, "texture")
+
+
+def test_frames_of_different_sizes_are_rejected(tmp_path, capsys):
+    np.save(tmp_path / "points_00000.npy", np.zeros((20, 30, 3), np.float32))
+    np.save(tmp_path / "points_00001.npy", np.zeros((20, 31, 3), np.float32))
+    out = tmp_path / "o"
+    _expect_error(["strain", str(tmp_path), "--anchors", "5,5,10,5", "-o", str(out)], out, capsys, "differ in size")
+
+
+def test_too_short_or_missing_or_malformed_sequences_are_rejected(tmp_path, capsys):
+    np.save(tmp_path / "points_00000.npy", np.zeros((20, 30, 3), np.float32))
+    out = tmp_path / "o"
+    _expect_error(["strain", str(tmp_path), "--anchors", "5,5,10,5", "-o", str(out)], out, capsys, "at least 2")
+    _expect_error(["strain", str(tmp_path / "nope"), "--anchors", "5,5,10,5", "-o", str(out)], out, capsys,
+                  "does not exist")
+    np.save(tmp_path / "stack.npy", np.zeros((3, 20, 30), np.float32))
+    _expect_error(["strain", str(tmp_path / "stack.npy"), "--anchors", "5,5,10,5", "-o", str(out)], out, capsys,
+                  "(frames, H, W, 3)")
+    _expect_error(["strain", str(tmp_path), "--anchors", "5,5,10", "-o", str(out)], out, capsys, "expected 4")
+
+
+def test_npz_stack_is_read_like_a_folder(sequence, tmp_path, capsys):
+    folder, anchors0, _ = sequence
+    pts = np.stack([np.load(folder / f"points_{i:05d}.npy") for i in range(3)])
+    tex = np.stack([np.load(folder / f"texture_{i:05d}.npy") for i in range(3)])
+    np.savez(tmp_path / "seq.npz", points=pts, texture=tex)
+    arg = ",".join(f"{x:.3f}" for x in anchors0.ravel())
+    assert main(["strain", str(tmp_path / "seq.npz"), "--anchors", arg, "-o", str(tmp_path / "o"), "--json",
+                 "--no-figures", "--step", "8"]) == 0
+    assert json.loads(capsys.readouterr().out)["tracked_fraction"] > 0.95
