@@ -140,6 +140,10 @@ def detect_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, 
     (rows*cols, 2) float64 pixel centres ``(u, v)`` in OpenCV order, or None if the board
     was not found.
     """
+    if np.ndim(image) != 2:
+        raise ValueError(f"board image must be a 2-D grey image, got shape {np.shape(image)}")
+    if not np.ptp(np.asarray(image)) > 0:
+        return None  # a flat frame holds no board
     img8 = to_uint8(image)
     h, w = img8.shape
     if radius_px is None:

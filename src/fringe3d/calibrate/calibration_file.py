@@ -4,8 +4,8 @@ Layout (``format = "fringe3d-calibration"``, ``version = 1``)::
 
     {"format", "version", "model": "pinhole" | "telecentric",
      "rig": Rig.to_dict(),                   # so Rig.load("calib.json") works
-     "camera":    {"width", "height", "dist_model", "rms_px", "per_pose_rms_px"},
-     "projector": {"width", "height", "dist_model", "rms_px", "per_pose_rms_px"},
+     "camera_stats":    {"width", "height", "dist_model", "rms_px", "per_pose_rms_px"},
+     "projector_stats": {"width", "height", "dist_model", "rms_px", "per_pose_rms_px"},
      "board":     CircleBoard.to_dict(),
      "periods":   {direction: period (projector px)},   # narrowest period per direction
      "angles":    {direction: fringe angle (rad)},
@@ -55,7 +55,7 @@ class Calibration:
 
     def to_dict(self) -> dict:
         return to_jsonable({"format": FORMAT, "version": VERSION, "model": self.model, "rig": self.rig.to_dict(),
-                            "camera": self.camera, "projector": self.projector, "board": self.board,
+                            "camera_stats": self.camera, "projector_stats": self.projector, "board": self.board,
                             "periods": self.periods, "angles": self.angles, "poses": self.poses,
                             "rms": self.rms, "extra": self.extra})
 
@@ -69,7 +69,8 @@ class Calibration:
     def from_dict(cls, d: dict, where: str = "calibration file") -> "Calibration":
         validate(d, where)
         rig = Rig.from_dict(d["rig"])
-        return cls(model=d["model"], rig=rig, camera=d["camera"], projector=d["projector"], board=d["board"],
+        return cls(model=d["model"], rig=rig, camera=d["camera_stats"],
+                   projector=d["projector_stats"], board=d["board"],
                    periods=d["periods"], angles=d["angles"], poses=d["poses"], rms=d["rms"],
                    extra=d.get("extra", {}))
 
@@ -114,9 +115,9 @@ def validate(d: dict, where: str = "calibration file") -> None:
     if rig.telecentric != (model == "telecentric"):
         raise ValueError(f"{where}: model {model!r} does not match the rig's camera kind")
     for dev in ("camera", "projector"):
-        sub = _need(d, dev, dict, where)
+        sub = _need(d, f"{dev}_stats", dict, where)
         for k, typ in _DEVICE_FIELDS.items():
-            _need(sub, k, typ, f"{where}: {dev}")
+            _need(sub, k, typ, f"{where}: {dev}_stats")
         rd = getattr(rig, dev)
         if (sub["width"], sub["height"]) != (rd.width, rd.height):
             raise ValueError(f"{where}: {dev} size {sub['width']}x{sub['height']} does not match the rig's "

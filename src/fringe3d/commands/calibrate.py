@@ -1,0 +1,95 @@
+"""``fringe3d calibrate``: calibrate a camera-projector rig from board pose captures."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from fringe3d.io.console import console, info, make_table, print_json, set_quiet
+
+
+def _board(cols, rows, spacing, radius, asymmetric, bright):
+    from fringe3d.calibrate.board_detection import CircleBoard
+    if spacing is None:
+        return None
+    return CircleBoard(cols=cols, rows=rows, spacing=spacing, radius=radius if radius else 0.25 * spacing,
+                       asymmetric=asymmetric, dark_circles=not bright)
+
+
+def run_calibration(inputs, output: Path, board=None, model=None, camera_dist="k1k2p", projector_dist="none",
+                    plot: Path | None = None, yaml: Path | None = None, min_modulation: float = 0.1,
+                    progress: bool = True) -> dict:
+    """Calibrate from pose/session folders; write JSON (+ optional PNG plot / OpenCV YAML).
+
+    Returns a JSON-friendly summary. Nothing is written unless the calibration succeeds.
+    """
+    from fringe3d.calibrate.plots import residual_plot
+    from fringe3d.calibrate.session import calibrate_session
+
+    cal, res = calibrate_session(inputs, board=board, model=model, progress=progress, camera_dist=camera_dist,
+                                 projector_dist=projector_dist, min_modulation_fraction=min_modulation)
+    cal.save(output)
+    written = {"calibration": str(output)}
+    if plot is not None:
+        if cal.model == "pinhole":
+            cam_r = res.camera.residuals
+            names = res.pose_names
+            prj_r = res.projector.residuals
+        else:
+            cam_r, prj_r, names = res.camera_residuals, res.projector.residuals, res.pose_names
+        residual_plot(plot, cam_r, prj_r, names, title=f"{output.name}: reprojection residuals")
+        written["plot"] = str(plot)
+    if yaml is not None:
+        cal.export_opencv_yaml(yaml)
+        written["yaml"] = str(yaml)
+    rig = cal.rig
+    summary = {"model": cal.model, "rms": cal.rms, "poses": cal.poses, "written": written,
+               "skipped_poses": cal.extra.get("skipped_poses", []), "periods": cal.periods,
+               "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}
+    return summary
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("calibrate")
+    def calibrate(
+        inputs: list[Path] = typer.Argument(..., help="Pose capture folders, or a session folder holding them."),
+        output: Path = typer.Option(Path("calib.json"), "-o", "--output", help="Calibration JSON to write."),
+        cols: int = typer.Option(9, help="Board circles per row."),
+        rows: int = typer.Option(9, help="Board rows of circles."),
+        spacing: float = typer.Option(None, help="Board circle spacing (mm); default from session.json."),
+        radius: float = typer.Option(None, help="Board circle radius (mm); default spacing/4."),
+        asymmetric: bool = typer.Option(False, help="OpenCV asymmetric circle grid."),
+        bright: bool = typer.Option(False, help="Bright circles on a dark board."),
+        model: str = typer.Option(None, help="'pinhole' (camera frame = world) or 'telecentric' (projector "
+                                             "frame = world); default from session.json or pinhole."),
+        camera_dist: str = typer.Option("k1k2p", help="Camera distortion: none, k1, k1k2, k1k2p, full."),
+        projector_dist: str = typer.Option("none", help="Projector distortion (linear model = none)."),
+        min_modulation: float = typer.Option(0.1, help="Reject centres whose modulation is below this "
+                                                       "fraction of the image's 95th percentile."),
+        plot: Path = typer.Option(None, help="Residual plot PNG (default: OUTPUT with .png)."),
+        no_plot: bool = typer.Option(False, "--no-plot", help="Do not write the residual plot."),
+        yaml: Path = typer.Option(None, help="Also export OpenCV FileStorage YAML here."),
+        json_: bool = typer.Option(False, "--json", help="Print the figures as one JSON object."),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
+    ) -> None:
+        """Calibrate camera and projector from circle-board poses through the phase domain
+        (works with a defocused projector), writing a versioned calibration JSON that
+        Rig.load reads.
+
+        Example: fringe3d calibrate session/ -o calib.json --yaml calib.yaml
+        """
+        set_quiet(quiet or json_)
+        board = _board(cols, rows, spacing, radius, asymmetric, bright)
+        plot_path = None if no_plot else (plot or output.with_suffix(".png"))
+        s = run_calibration(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
+                            min_modulation, progress=not (quiet or json_))
+        if json_:
+            print_json(s)
+            return
+        rows_ = [[p["name"], p["points"], p["camera_rms_px"], p["projector_rms_px"]] for p in s["poses"]]
+        console.print(make_table("per-pose reprojection RMS (px)", ["pose", "points", "camera", "projector"], rows_))
+        console.print(make_table("overall", ["figure", "value"], [[k, v] for k, v in s["rms"].items()]))
+        for name in s["skipped_poses"]:
+            console.print(f"skipped (board not found): {name}")
+        for k, v in s["written"].items():
+            info(f"wrote {k}: {v}")
