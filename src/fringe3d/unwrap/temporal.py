@@ -202,8 +202,9 @@ def code_centers(code_images: np.ndarray, w: np.ndarray) -> np.ndarray:
     hi = np.full(2 ** nb, -np.inf)
     np.minimum.at(lo, code.ravel(), np.asarray(w, np.float64).ravel())
     np.maximum.at(hi, code.ravel(), np.asarray(w, np.float64).ravel())
-    centers = 0.5 * (lo + hi)
-    centers[~np.isfinite(centers)] = np.nan
+    used = np.isfinite(lo)
+    centers = np.full(2 ** nb, np.nan)
+    centers[used] = 0.5 * (lo[used] + hi[used])
     return centers
 
 
@@ -379,13 +380,18 @@ def _code_frames(ctx):
 
 
 def _projector_code_centers(ctx, direct) -> np.ndarray:
+    """Codeword -> stripe centre table, from the projected code itself: the code frames are
+    evaluated (``fringe3d.patterns.render.sinusoid_value``) along the fringe coordinate
+    ``w`` over the projector's range, every 1/16 px."""
     key = ("code_centers", ctx.direction)
     if key not in ctx._cache:
-        from fringe3d.patterns.render import render_frame
+        from fringe3d.patterns.render import sinusoid_value
         ps = ctx.patterns
-        images = np.stack([render_frame(ps.frames[i], ps.width, ps.height) for i in direct])
-        v, u = np.mgrid[0:ps.height, 0:ps.width]
-        w = v * math.cos(ctx.plan.angle) + u * math.sin(ctx.plan.angle)
+        lo, hi = fringe_extent(ps.width, ps.height, ctx.plan.angle)
+        step = 1.0 / 16.0
+        w = np.arange(lo - 0.5, hi + 0.5, step) + 0.5 * step
+        u, v = w * math.sin(ctx.plan.angle), w * math.cos(ctx.plan.angle)
+        images = np.stack([sinusoid_value(ps.frames[i], u, v, ps.width, ps.height) for i in direct])
         ctx._cache[key] = code_centers(images, w)
     return ctx._cache[key]
 

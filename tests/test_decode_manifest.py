@@ -1,0 +1,190 @@
+"""The manifest-driven decoder on closed-form synthetic captures (truth: the projector
+coordinate each camera pixel sees)."""
+import math
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import tifffile
+
+from fringe3d.decode import Decoded, decode, decode_sequence
+from fringe3d.patterns import sets
+from fringe3d.patterns.render import sinusoid_value
+from fringe3d.phase.quality import FrameQualityWarning
+from fringe3d.unwrap import registry
+
+H, W = 96, 128
+A, B = 110.0, 80.0
+
+
+def projector_coords(shift=0.0):
+    """(u_p, v_p) seen by each camera pixel: an affine map over most of an 800x600 projector."""
+    v, u = np.mgrid[0:H, 0:W].astype(np.float64)
+    return 7.3 + 5.85 * u + 0.4 * v + shift, 9.1 + 6.1 * v - 0.3 * u
+
+
+def synthesize(ps, sigma=0.0, seed=0, dtype=np.uint8, shift=0.0):
+    """Camera frames: phase frames from the closed form A + B cos(2 pi w / T + delta); code and
+    white frames from the projected pattern value at the pixel's projector coordinate."""
+    rng = np.random.default_rng(seed)
+    up, vp = projector_coords(shift)
+    out = []
+    for f in ps.frames:
+        if f.role == "phase":
+            w = vp * math.cos(f.angle) + up * math.sin(f.angle)
+            img = A + B * np.cos(2 * np.pi * w / f.period + f.shift)
+        else:
+            img = A - B + 2 * B * sinusoid_value(f, np.rint(up), np.rint(vp), ps.width, ps.height)
+        out.append(img + (rng.normal(0, sigma, img.shape) if sigma else 0.0))
+    fr = np.stack(out)
+    return np.clip(np.round(fr), 0, 255).astype(np.uint8) if dtype == np.uint8 else fr.astype(dtype)
+
+
+def true_phase(ps, direction, shift=0.0):
+    plan = ps.plan(direction)
+    up, vp = projector_coords(shift)
+    w = vp * math.cos(plan.angle) + up * math.sin(plan.angle)
+    return 2 * np.pi * w / plan.periods[0]
+
+
+def order_errors(phase, truth):
+    return np.round((phase - truth) / (2 * np.pi))
+
+
+@pytest.mark.parametrize("fused", [True, False])
+def test_three_frequency_set_decodes_exact_absolute_phase(fused):
+    ps = sets.three_frequency("v")
+    d = decode(synthesize(ps, dtype=np.float64), ps, fused=fused)
+    truth = true_phase(ps, "v")
+    assert d.mask["v"].all()
+    assert np.abs(d.phase["v"] - truth).max() < 1e-4   # float32 output, phase up to 280 rad
+    assert d.period["v"] == 18.0 and d.method["v"] == "heterodyne"
+    assert np.allclose(d.modulation["v"], B, atol=1e-3) and np.allclose(d.average, A, atol=1e-3)
+
+
+def test_calibration_set_both_directions_uint8_with_noise_exact_orders():
+    ps = sets.calibration()
+    frames = synthesize(ps, sigma=3.0, seed=1)
+    d = decode(frames, ps)
+    for direction in ("v", "h"):
+        assert d.mask[direction].all()
+        assert not order_errors(d.phase[direction], true_phase(ps, direction)).any()
+    white = ps.indices(kind="white")[0]
+    assert np.array_equal(d.texture, frames[white].astype(np.float32))
+
+
+def test_hierarchical_set_exact_orders_with_noise():
+    ps = sets.hierarchical((16, 128, 1024), (4, 4, 4), "h")
+    d = decode(synthesize(ps, sigma=3.0, seed=2), ps)
+    assert d.mask["h"].all()
+    assert not order_errors(d.phase["h"], true_phase(ps, "h")).any()
+
+
+def test_phase_plus_half_period_gray_code_exact_orders_with_noise():
+    ps = sets.psp_with_gray_code(16, steps=4, direction="v", code_period=8)
+    d = decode(synthesize(ps, sigma=3.0, seed=3), ps)
+    assert d.mask["v"].all()
+    assert not order_errors(d.phase["v"], true_phase(ps, "v"))[d.mask["v"]].any()
+
+
+@pytest.mark.parametrize("builder", [sets.ftp, sets.modified_ftp])
+def test_ftp_sets_give_wrapped_phase(builder):
+    ps = builder(20.0, "v")
+    d = decode(synthesize(ps, dtype=np.float64), ps)
+    truth = true_phase(ps, "v")
+    err = np.angle(np.exp(1j * (d.wrapped["v"] - truth)))[32:-32, 32:-32]
+    assert np.abs(err).max() < 0.02
+
+
+def test_wrong_frame_count_names_both_numbers():
+    ps = sets.three_frequency("v")
+    frames = synthesize(ps)
+    with pytest.raises(ValueError, match=r"got 14 frames.*lists 15 frames"):
+        decode(frames[:14], ps)
+    with pytest.raises(ValueError, match="decode_sequence"):
+        decode(np.concatenate([frames, frames]), ps)
+
+
+def test_frames_of_different_shapes_are_rejected():
+    ps = sets.phase_shift(16, 3, "v")
+    frames = [np.zeros((H, W), np.uint8), np.zeros((H, W), np.uint8), np.zeros((H, W + 1), np.uint8)]
+    with pytest.raises(ValueError, match="different shapes"):
+        decode(frames, ps)
+
+
+def test_group_with_missing_step_is_rejected():
+    ps = sets.three_frequency("v")
+    broken = replace(ps, frames=ps.frames[:4] + ps.frames[5:])
+    with pytest.raises(ValueError, match=r"declares 9 steps.*missing \[4\]"):
+        decode(synthesize(broken), broken)
+
+
+def test_all_dark_frames_warn_and_mask_everything():
+    ps = sets.three_frequency("v")
+    frames = np.full((15, H, W), 2, np.uint8)
+    with pytest.warns(FrameQualityWarning, match="all frames are dark"):
+        d = decode(frames, ps)
+    assert not d.mask["v"].any() and np.isnan(d.phase["v"]).all()
+    assert d.info["frame_checks"]["dark"] == list(range(15))
+
+
+def test_saturated_frames_warn_and_saturated_pixels_are_masked():
+    ps = sets.three_frequency("v")
+    frames = synthesize(ps)
+    frames[3, :, : W // 2] = 255
+    with pytest.warns(FrameQualityWarning, match="saturated"):
+        d = decode(frames, ps)
+    assert not d.mask["v"][:, : W // 2].any()
+    assert d.mask["v"][:, W // 2:].all()
+
+
+def test_unregistered_method_error_names_method_and_registered_ones(monkeypatch):
+    ps = sets.three_frequency("v")
+    monkeypatch.delitem(registry.UNWRAPPERS, "heterodyne")
+    monkeypatch.setattr(registry, "_import_unwrap_modules", lambda: {})
+    with pytest.raises(ValueError, match=r"'heterodyne'.*registered methods: \[.*'hierarchical'"):
+        decode(synthesize(ps), ps)
+
+
+def test_registered_plugin_is_called_with_context(monkeypatch):
+    ps = sets.ftp(20.0, "v", method="spatial")
+    seen = {}
+
+    def fake(ctx):
+        seen["ctx"] = ctx
+        g = ctx.groups_for_plan()[0]
+        return ctx.group_phase(g).phase + 2 * np.pi, ctx.group_mask(g)
+
+    monkeypatch.setitem(registry.UNWRAPPERS, "spatial", fake)
+    d = decode(synthesize(ps, dtype=np.float64), ps, z_min=300.0, my_option=5)
+    ctx = seen["ctx"]
+    assert ctx.direction == "v" and ctx.z_min == 300.0 and ctx.options["my_option"] == 5
+    assert np.allclose(d.phase["v"] - d.wrapped["v"], 2 * np.pi, atol=1e-5)
+
+
+def test_save_writes_npz_and_float32_tiffs_that_load_back(tmp_path):
+    ps = sets.calibration()
+    d = decode(synthesize(ps, sigma=2.0), ps)
+    out = d.save(tmp_path / "dec")
+    back = Decoded.load(out)
+    for direction in ("v", "h"):
+        assert np.array_equal(back.phase[direction], d.phase[direction], equal_nan=True)
+        assert np.array_equal(back.mask[direction], d.mask[direction])
+        tif = tifffile.imread(out / f"phase_{direction}.tif")
+        assert tif.dtype == np.float32 and np.array_equal(tif, d.phase[direction], equal_nan=True)
+    assert back.period == d.period and back.angle == d.angle
+    assert not list(out.glob("*.part*"))
+    assert (out / "decoded.json").exists()
+
+
+def test_decode_sequence_yields_one_result_per_cycle():
+    ps = sets.three_frequency("v")
+    cycles = [synthesize(ps, shift=s, seed=s) for s in (0, 5, 10)]
+    frames = np.concatenate(cycles)
+    results = list(decode_sequence(frames, ps))
+    assert len(results) == 3
+    for s, d in zip((0, 5, 10), results):
+        assert not order_errors(d.phase["v"], true_phase(ps, "v", shift=s)).any()
+    with pytest.raises(ValueError, match="not a whole number of cycles"):
+        list(decode_sequence(frames[:-1], ps))
