@@ -70,10 +70,12 @@ def test_psp_with_gray_code_has_phase_then_code_frames_of_the_same_period():
     ps = sets.psp_with_gray_code(18, 4, "h", width=300, height=200)
     roles = [f.role for f in ps.frames]
     assert roles[:4] == ["phase"] * 4 and set(roles[4:]) == {"code"}
-    assert {f.period for f in ps.frames} == {18.0}
+    assert {f.period for f in ps.frames if f.role == "phase"} == {18.0}
     plan = ps.plan("h")
     assert plan.method == "gray_code" and plan.options["phase"] == "psp"
-    assert 2 ** plan.options["bits"] * 18 >= 200
+    assert plan.options["code_period"] == 9.0  # half-period (complementary) code by default
+    assert {f.period for f in ps.frames if f.role == "code"} == {9.0}
+    assert 2 ** plan.options["bits"] * 9 >= 200
 
 
 def test_hierarchical_requires_a_coarsest_period_covering_the_projector():
@@ -102,8 +104,8 @@ def test_manifest_json_round_trip(tmp_path):
 
 def test_half_period_code_refines_the_full_period_gray_code_by_one_bit():
     from fringe3d.patterns import codes, render_frame
-    full = sets.psp_with_gray_code(20, 3, "v", width=320, height=8)
-    half = sets.psp_with_gray_code(20, 3, "v", width=320, height=8, code_period=10)
+    full = sets.psp_with_gray_code(20, 3, "v", width=320, height=8, code_period=20)
+    half = sets.psp_with_gray_code(20, 3, "v", width=320, height=8)
     nf, nh = full.plan("v").options["bits"], half.plan("v").options["bits"]
     assert nh == nf + 1 and half.plan("v").options["code_period"] == 10
     bits = np.stack([render_frame(f, 320, 8) for f in half.frames if f.role == "code" and not f.inverse])

@@ -15,10 +15,12 @@ Conventions every builder follows (the decoder relies on them):
   squares), ``"ftp"``, ``"modified_ftp"``, ``"none"`` (no phase frames), or for the hybrid
   set ``"ftp+psp"``.
 * Code frames: ``kind="gray_code"`` or ``"binary_code"``, ``role="code"``, ``period`` = stripe
-  width = the period they unwrap, ``bit`` (0 = MSB) of ``bits``, an ``inverse=True`` copy right
-  after each bit, ``group = f"{direction}/gray"`` (or ``/binary``). The decoded codeword ``c``
-  gives the fringe order ``k = c + options["order_offset"]`` of ``Phi = (phi mod 2pi) + 2 pi k``;
-  the offset is 0 whenever ``angle`` is in [0, pi/2].
+  width, ``bit`` (0 = MSB) of ``bits``, an ``inverse=True`` copy right after each bit,
+  ``group = f"{direction}/gray"`` (or ``/binary``). Codeword ``c`` labels the stripe
+  ``[w0 + c*period, w0 + (c+1)*period)`` with ``w0 = options["order_offset"] * period``
+  (0 whenever ``angle`` is in [0, pi/2]). For :func:`gray_code` the stripe width is the fringe
+  period, so ``k = c + order_offset`` in ``Phi = (phi mod 2pi) + 2 pi k``; the plan's
+  ``options["code_period"]`` of :func:`psp_with_gray_code` says how wide its stripes are.
 * Reference frames: the white frame has ``kind="white", role="texture", direction=""``.
 * Every plan's ``options["w_range"] = [w_min, w_max]``: the fringe coordinates the projector
   covers, so unwrapping knows where the unambiguous window starts (w_min < 0 only for angles
@@ -219,14 +221,17 @@ def psp_with_gray_code(period: float, steps: int = 3, direction: str = "v", angl
                        code_period: float | None = None) -> PatternSet:
     """N-step phase frames followed by code frames (plan ``"gray_code"``).
 
-    By default the code stripes are one phase period wide (``k`` = codeword). With
-    ``code_period = period / 2`` the code resolves half periods (one more bit): a decoder that
-    rounds against the stripe centre then tolerates stripe edges misplaced by up to T/4
-    (complementary Gray code). Code frames carry the stripe width in ``period``.
+    ``code_period`` is the code's stripe width; the default ``period / 2`` resolves half
+    fringe periods (one bit more than a period-wide code, the complementary Gray code): a
+    decoder that rounds ``(2 pi c / T - phi) / 2 pi`` against the stripe centre ``c`` then
+    tolerates stripe edges misplaced by up to T/4. With ``code_period = period`` the codeword
+    is the fringe order itself, but its stripe edges coincide with phase 0 of every fringe,
+    so a pixel within phase noise of an edge can take the neighbouring order (measured in
+    ``fringe3d experiment unwrap-noise``). Code frames carry the stripe width in ``period``.
     """
     ps = phase_shift(period, steps, direction, angle, kind, width, height, bit_depth)
     a = ps.plans[0].angle
-    cp = float(period if code_period is None else code_period)
+    cp = float(period / 2.0 if code_period is None else code_period)
     cframes, opts = _code_frames(cp, direction, a, width, height, code, inverse)
     opts["code_period"] = cp
     plan = DirectionPlan(direction, a, f"{code}_code", (float(period),), {"phase": "psp", **opts})
