@@ -1,0 +1,126 @@
+"""A resumable, chunked, compressed store of point maps for long sequences (zarr).
+
+Layout (a zarr v3 group on disk)::
+
+    OUT.zarr/
+      points   (F, H, W, 3) float32, one chunk per frame, Blosc/zstd compressed, NaN fill
+      done     (F,) uint8: 1 once frame k is completely written
+      attrs    {"format": "fringe3d-point-store", "frames", "height", "width",
+                "completed", "meta": {...}}
+
+A frame is marked done only after its chunk has been written, so an interrupted run resumes
+by rewriting exactly the frames not marked done (:meth:`PointMapStore.pending`).
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+STORE_FORMAT = "fringe3d-point-store"
+
+
+class PointMapStore:
+    """Point maps of many frames in one zarr store.
+
+    Use :meth:`open` to create or resume. ``store.write(k, points)`` stores frame ``k`` and
+    marks it complete; ``store.pending()`` lists frames still to do; ``store.read(k)``.
+    """
+
+    def __init__(self, group, path: Path):
+        self.group = group
+        self.path = path
+        self.points = group["points"]
+        self.done_array = group["done"]
+        self._done = np.asarray(self.done_array[:], bool)
+
+    # -- creation / resumption --------------------------------------------------------
+    @classmethod
+    def open(cls, path: str | os.PathLike, frames: int, height: int, width: int, meta: dict | None = None,
+             overwrite: bool = False) -> "PointMapStore":
+        """Create a store for ``frames`` point maps of ``height x width``, or resume an existing one.
+
+        An existing store must hold the same number of frames and image size (else
+        ValueError, so a resumed run never mixes two different sequences).
+        """
+        import zarr
+        from zarr.codecs import BloscCodec
+
+        if frames <= 0 or height <= 0 or width <= 0:
+            raise ValueError(f"a point store needs positive frames, height and width, got {frames}, {height}, {width}")
+        path = Path(path)
+        if path.exists() and not overwrite:
+            try:
+                g = zarr.open_group(str(path), mode="r+")
+                attrs = dict(g.attrs)
+            except Exception as e:
+                raise ValueError(f"{path} exists but is not a fringe3d point store ({e}); choose another output "
+                                 "or remove it") from None
+            if attrs.get("format") != STORE_FORMAT:
+                raise ValueError(f"{path} exists but is not a fringe3d point store (format {attrs.get('format')!r})")
+            got = (attrs.get("frames"), attrs.get("height"), attrs.get("width"))
+            if got != (frames, height, width):
+                raise ValueError(f"{path} holds {got[0]} frames of {got[2]}x{got[1]}, but this run makes {frames} frames "
+                                 f"of {width}x{height}; use a new output folder to start over")
+            return cls(g, path)
+        g = zarr.open_group(str(path), mode="w")
+        g.create_array("points", shape=(frames, height, width, 3), chunks=(1, height, width, 3), dtype="float32",
+                       fill_value=np.nan, compressors=BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"))
+        g.create_array("done", shape=(frames,), chunks=(min(frames, 65536),), dtype="uint8", fill_value=0)
+        g.attrs.update({"format": STORE_FORMAT, "version": 1, "frames": frames, "height": height, "width": width,
+                        "completed": 0, "meta": meta or {}})
+        return cls(g, path)
+
+    @classmethod
+    def open_existing(cls, path: str | os.PathLike) -> "PointMapStore":
+        """Open a store for reading (FileNotFoundError / ValueError when it is not one)."""
+        import zarr
+        path = Path(path)
+        if not path.exists():
+            raise FileNotFoundError(f"no point store at {path}")
+        g = zarr.open_group(str(path), mode="r+")
+        if g.attrs.get("format") != STORE_FORMAT:
+            raise ValueError(f"{path} is not a fringe3d point store")
+        return cls(g, path)
+
+    # -- progress ------------------------------------------------------------------------
+    @property
+    def frames(self) -> int:
+        return int(self.points.shape[0])
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return tuple(self.points.shape[1:3])
+
+    @property
+    def meta(self) -> dict:
+        return dict(self.group.attrs.get("meta", {}))
+
+    def is_done(self, k: int) -> bool:
+        return bool(self._done[k])
+
+    def pending(self) -> list[int]:
+        """Frame indices not yet completely written."""
+        return [int(k) for k in np.flatnonzero(~self._done)]
+
+    @property
+    def completed(self) -> int:
+        return int(self._done.sum())
+
+    # -- data ---------------------------------------------------------------------------
+    def write(self, k: int, points: np.ndarray) -> None:
+        """Store frame ``k`` (``(H, W, 3)`` float32 mm) and then mark it complete."""
+        P = np.asarray(points, np.float32)
+        if P.shape != self.shape + (3,):
+            raise ValueError(f"point map of frame {k} has shape {P.shape}, the store holds {self.shape + (3,)}")
+        if not 0 <= k < self.frames:
+            raise ValueError(f"frame index {k} outside the store's 0..{self.frames - 1}")
+        self.points[k] = P
+        self.done_array[k] = 1
+        self._done[k] = True
+        self.group.attrs["completed"] = self.completed
+
+    def read(self, k: int) -> np.ndarray:
+        """Point map of frame ``k`` (``(H, W, 3)`` float32; all NaN if never written)."""
+        return np.asarray(self.points[k])
