@@ -1,0 +1,64 @@
+"""``fringe3d decode`` on a capture folder written by fringe3d.io.capture."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from fringe3d.cli import main
+from fringe3d.decode import Decoded
+from fringe3d.io.capture import write_capture
+from fringe3d.patterns import sets
+
+H, W = 64, 96
+
+
+def capture_frames(ps, shift=0.0):
+    v, u = np.mgrid[0:H, 0:W].astype(np.float64)
+    up = 12.0 + 7.9 * u + 0.2 * v + shift
+    out = [120 + 90 * np.cos(2 * np.pi * up / f.period + f.shift) for f in ps.frames]
+    return np.clip(np.round(out), 0, 255).astype(np.uint8), 2 * np.pi * up / ps.plans[0].periods[0]
+
+
+def test_decode_command_writes_phase_and_json_summary(tmp_path, capsys):
+    ps = sets.three_frequency("v")
+    frames, truth = capture_frames(ps)
+    write_capture(tmp_path / "cap", frames, ps, {"bit_depth": 8})
+    code = main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "out"), "--json"])
+    assert code == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["cycles"] == 1 and summary["results"][0]["directions"]["v"]["valid_fraction"] == 1.0
+    d = Decoded.load(tmp_path / "out")
+    assert not np.round((d.phase["v"] - truth) / (2 * math.pi)).any()
+    assert (tmp_path / "out" / "phase_v.tif").exists()
+
+
+def test_decode_command_sequence_writes_one_folder_per_cycle(tmp_path, capsys):
+    ps = sets.three_frequency("v")
+    cycles = [capture_frames(ps, shift=s) for s in (0.0, 3.0)]
+    write_capture(tmp_path / "cap", np.concatenate([c[0] for c in cycles]), ps)
+    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "out"), "--quiet"]) == 0
+    for i, (_, truth) in enumerate(cycles):
+        d = Decoded.load(tmp_path / "out" / f"cycle_{i:05d}")
+        assert not np.round((d.phase["v"] - truth) / (2 * math.pi)).any()
+
+
+def test_decode_command_bad_capture_exits_2(tmp_path, capsys):
+    assert main(["decode", str(tmp_path / "missing"), "-o", str(tmp_path / "out")]) == 2
+    assert "does not exist" in " ".join(capsys.readouterr().err.split())
+
+
+def test_decode_command_warns_on_dark_capture(tmp_path, capsys):
+    ps = sets.three_frequency("v")
+    write_capture(tmp_path / "cap", np.zeros((15, H, W), np.uint8), ps)
+    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "out"), "--json"]) == 0
+    captured = capsys.readouterr()
+    assert "dark" in captured.err
+    assert json.loads(captured.out)["results"][0]["directions"]["v"]["valid_fraction"] == 0.0
+
+
+def test_decode_help_has_example(capsys):
+    with pytest.raises(SystemExit):
+        from fringe3d.cli import app
+        app(["decode", "--help"])
+    assert "Example:" in capsys.readouterr().out
