@@ -151,10 +151,10 @@ def _finish_kernel(t, n, d, n_out, hit):
 
 def as_rays(origins, dirs) -> tuple[np.ndarray, np.ndarray]:
     """Validate rays: returns ``origins`` as (1, 3) or (N, 3) and ``dirs`` as (N, 3), float64."""
-    d = np.asarray(dirs, dtype=np.float64)
+    d = np.ascontiguousarray(dirs, dtype=np.float64)
     if d.ndim != 2 or d.shape[1] != 3:
         raise ValueError(f"ray directions must have shape (N, 3), got {d.shape}")
-    o = np.asarray(origins, dtype=np.float64)
+    o = np.ascontiguousarray(origins, dtype=np.float64)
     if o.shape == (3,):
         o = o[None, :]
     if o.ndim != 2 or o.shape[1] != 3 or o.shape[0] not in (1, d.shape[0]):
@@ -526,3 +526,29 @@ class Scene:
         for i, ob in enumerate(self.objects):
             best.merge_nearer(ob.intersect(o, d, time), i)
         return best
+
+    def truth_fields(self, points, hit: Hit, time: float = 0.0) -> dict:
+        """Extra per-ray ground truth from objects that provide ``truth_fields(uv, time)`` (the
+        wing: curvature, principal curvature/direction, bending strain). Returns
+        ``{name: (N, ...) float32}`` with NaN on rays that hit other objects or nothing; ``{}``
+        when no object provides extra truth."""
+        n = len(hit)
+        out: dict = {}
+        for i, ob in enumerate(self.objects):
+            fn = getattr(ob, "truth_fields", None)
+            if not callable(fn):
+                continue
+            rows = np.flatnonzero(hit.object_id == i)
+            fields = fn(hit.material_uv[rows], time) if rows.size else fn(np.zeros((1, 2)), time)
+            for name, val in fields.items():
+                if name not in out:
+                    out[name] = np.full((n,) + np.shape(val)[1:], np.nan, np.float32)
+                if rows.size:
+                    out[name][rows] = val
+        return out
+
+
+def named_scene(name: str, preset) -> "Scene":
+    """Scenes built inside a preset's working volume: see :mod:`fringe3d.sim.catalog`."""
+    from .catalog import named_scene as build
+    return build(name, preset)

@@ -254,6 +254,18 @@ class Wing(SceneObject):
         ev = np.linalg.eigvalsh(self.bending_strain(uv, time, time_ref, thickness))
         return np.where(np.abs(ev[:, 0]) > np.abs(ev[:, 1]), ev[:, 0], ev[:, 1])
 
+    def truth_fields(self, uv, time: float = 0.0) -> dict:
+        """Per-point truth for the renderer (float32): ``curvature`` (M, 3) material-frame
+        ``(b11, b12, b22)`` 1/mm, ``principal_curvature`` (M,) 1/mm, ``principal_direction``
+        (M, 3) world unit vector, ``dominant_strain`` (M,) w.r.t. the flat sheet (Eq. 6.11)."""
+        uv = np.asarray(uv, float).reshape(-1, 2)
+        b = self.curvature_tensor(uv, time)
+        k, _, dw = self.principal_curvature(uv, time)
+        return {"curvature": np.column_stack([b[:, 0, 0], b[:, 0, 1], b[:, 1, 1]]).astype(np.float32),
+                "principal_curvature": k.astype(np.float32),
+                "principal_direction": dw.astype(np.float32),
+                "dominant_strain": self.dominant_strain(uv, time).astype(np.float32)}
+
     # -- albedo ------------------------------------------------------------------------------
     def albedo_at(self, uv: np.ndarray) -> np.ndarray:
         a = super().albedo_at(uv)

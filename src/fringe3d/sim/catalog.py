@@ -1,0 +1,127 @@
+"""Ready-made scenes placed inside a rig preset's working volume.
+
+``named_scene(name, preset)`` for ``sculpture``, ``mesh``, ``falling-balls``, ``wing`` and
+``textured-spheres`` (the renderer's :mod:`fringe3d.sim.simulate` builds the simpler ones). Every
+builder takes the volume centre ``c``, its size and the camera's viewing direction from the
+preset, so the same name works for the macro, high-speed and tiny rigs.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .motion import GRAVITY_MM_S2, falling
+from .scenes import Plane, Scene, Sphere
+from .textures import Checker
+
+NAMES = ("sculpture", "mesh", "falling-balls", "wing", "textured-spheres")
+
+
+def _frame(preset):
+    """(centre (3,), size (3,), view (3,), down (3,)) from a preset: unit viewing direction and
+    the world direction of image-down (the camera's +y axis)."""
+    cam = preset.rig.camera
+    if getattr(cam, "kind", "pinhole") == "telecentric":
+        view = cam.view_direction
+        down = cam.M[1, :3] - (cam.M[1, :3] @ view) * view
+    else:
+        view, down = cam.R[2], cam.R[1]
+    down = down / np.linalg.norm(down)
+    return np.asarray(preset.center, float), np.asarray(preset.size, float), view, down
+
+
+def facing_rotation(view, down) -> np.ndarray:
+    """Body → world rotation whose body ``+z`` points back at the camera (``−view``), body
+    ``+x`` along image-right and body ``+y`` along image-up."""
+    z = -np.asarray(view, float)
+    y = -np.asarray(down, float)
+    x = np.cross(y, z)
+    return np.column_stack([x, y, z])
+
+
+def sculpture_scene(preset, seed: int = 0) -> Scene:
+    """The textured freeform relief, 60% of the lateral volume, relief 15% of the depth range."""
+    from .sculpture import sculpture
+
+    c, size, view, down = _frame(preset)
+    R = facing_rotation(view, down)
+    relief = 0.15 * size[2]
+    base = c + view * (0.5 * relief)
+    s = sculpture(center=base, size=(0.6 * size[0], 0.6 * size[1]), relief=relief, seed=seed, R=R)
+    return Scene([s], name="sculpture")
+
+
+def mesh_scene(preset, triangles: int = 100_000, seed: int = 0) -> Scene:
+    """The sculpture tessellated into a ~``triangles`` triangle mesh, ray-cast with Embree."""
+    from .mesh import Mesh
+    from .sculpture import sculpture
+
+    c, size, view, down = _frame(preset)
+    R = facing_rotation(view, down)
+    relief = 0.15 * size[2]
+    w, h = 0.6 * size[0], 0.6 * size[1]
+    s = sculpture(center=c + view * (0.5 * relief), size=(w, h), relief=relief, seed=seed, R=R)
+    step = float(np.sqrt(2 * w * h / triangles))
+    return Scene([Mesh(s.to_mesh(step), center=s.center, R=s.R, albedo=s.albedo)], name="mesh")
+
+
+def falling_balls_scene(preset, n: int = 3, seed: int = 0) -> Scene:
+    """``n`` isolated ping-pong-like balls (radius ≤ 20 mm) falling under gravity (image-down)
+    with different initial velocities and spins, each printed with a checker texture so their
+    motion is visible. Their centres follow ``c0 + v0 t + g t²/2`` exactly (ch. 5)."""
+    c, size, view, down = _frame(preset)
+    rng = np.random.default_rng(seed)
+    r = float(min(20.0, 0.15 * min(size[0], size[1])))
+    right = np.cross(down, view)
+    balls = []
+    for k in range(n):
+        fx = (k + 0.5) / n - 0.5
+        c0 = c + right * (0.75 * fx * size[0]) - down * (0.15 * size[1]) + view * (rng.uniform(-0.2, 0.2) * size[2])
+        v0 = down * rng.uniform(500.0, 1500.0) + right * rng.uniform(-150.0, 150.0)  # mm/s
+        spin = rng.normal(size=3)
+        spin *= rng.uniform(10.0, 30.0) / np.linalg.norm(spin)  # rad/s
+        balls.append(Sphere(c0, r, albedo=0.9, texture=Checker(period=np.pi / 6, contrast=0.5),
+                            motion=falling(velocity=v0, spin=spin, gravity=down * GRAVITY_MM_S2)))
+    return Scene(balls, name="falling-balls")
+
+
+def wing_scene(preset, frequency: float = 25.0, markers: bool = True) -> Scene:
+    """The flapping 150 × 70 mm membrane (scaled down to 60% of the lateral volume if needed)
+    with two dark anchor dots at the root corners and optional white marker dots (ch. 6)."""
+    from .wing import Wing
+
+    c, size, view, down = _frame(preset)
+    scale = min(1.0, 0.6 * size[0] / 150.0, 0.6 * size[1] / 70.0)
+    span, chord = 150.0 * scale, 70.0 * scale
+    R0 = facing_rotation(view, down)  # material x → image right, y → image up, normal → camera
+    right, up = R0[:, 0], R0[:, 1]
+    root = c - right * (0.5 * span) - up * (0.5 * chord)
+    anchors = [(0.04 * span, 0.1 * chord), (0.04 * span, 0.85 * chord)]
+    mk = [(0.3 * span, 0.5 * chord), (0.5 * span, 0.3 * chord), (0.5 * span, 0.65 * chord),
+          (0.7 * span, 0.45 * chord), (0.85 * span, 0.2 * chord)] if markers else []
+    wing = Wing(span=span, chord=chord, root=root, R0=R0, kappa_mean=0.0, kappa_amp=1.0 / (0.9 * chord),
+                frequency=frequency, flap_amplitude=np.radians(15), anchors=anchors, markers=mk,
+                dot_radius=0.03 * chord, kappa_phase=0.5)
+    return Scene([wing], name="wing")
+
+
+def textured_spheres_scene(preset) -> Scene:
+    """Three isolated checker-printed spheres at different depths in front of a matte plane."""
+    c, size, view, down = _frame(preset)
+    right = np.cross(down, view)
+    r = 0.12 * min(size[0], size[1])
+    objs = [Sphere(c + right * (dx * size[0]) + down * (dy * size[1]) + view * (dz * size[2]), r,
+                   albedo=0.9, texture=Checker(period=np.pi / 8, contrast=0.4))
+            for dx, dy, dz in ((-0.28, 0.1, -0.2), (0.0, -0.12, 0.0), (0.28, 0.08, 0.2))]
+    objs.append(Plane(c + view * (0.5 * size[2]), -view, albedo=0.7))
+    return Scene(objs, name="textured-spheres")
+
+
+_BUILDERS = {"sculpture": sculpture_scene, "mesh": mesh_scene, "falling-balls": falling_balls_scene,
+             "wing": wing_scene, "textured-spheres": textured_spheres_scene}
+
+
+def named_scene(name: str, preset) -> Scene:
+    """Build scene ``name`` (one of :data:`NAMES`) inside ``preset``'s working volume."""
+    if name not in _BUILDERS:
+        raise ValueError(f"unknown scene {name!r}; expected one of: {', '.join(NAMES)}")
+    return _BUILDERS[name](preset)
