@@ -1,0 +1,53 @@
+"""unwrap-noise experiment (quick variant) against closed-form truth."""
+import numpy as np
+import pytest
+
+from fringe3d.experiments import unwrap_noise
+
+
+@pytest.fixture(scope="module")
+def result():
+    return unwrap_noise.run(quick=True, seed=0)
+
+
+def test_no_order_errors_without_noise_for_the_robust_methods(result):
+    for m in ("hierarchical 18/144/1024", "heterodyne 18/21/144", "gray code + phase (T/2 stripes)"):
+        assert result["rates"][m][0] == 0.0
+
+
+def test_error_rate_is_non_decreasing_in_noise(result):
+    for m, r in result["rates"].items():
+        assert all(b >= a for a, b in zip(r, r[1:])), (m, r)
+    assert result["rates"]["heterodyne 18/21/144"][-1] > 0.1  # sigma = 32 grey levels really hurts
+
+
+def test_multi_frequency_rates_match_the_gaussian_tail_prediction(result):
+    # measured vs closed-form (N-step phase noise propagated through each level) where the rate is measurable
+    for m in ("hierarchical 18/144/1024", "heterodyne 18/21/144"):
+        for measured, predicted in zip(result["rates"][m], result["predicted"][m]):
+            if predicted > 0.01:
+                assert measured == pytest.approx(predicted, rel=0.25), (m, measured, predicted)
+            elif predicted < 1e-5:
+                assert measured < 1e-3
+
+
+def test_heterodyne_amplifies_noise_more_than_hierarchical_with_similar_ratios(result):
+    h, t = result["rates"]["hierarchical 18/144/1024"], result["rates"]["heterodyne 18/21/144"]
+    assert all(b >= a for a, b in zip(h, t))
+
+
+def test_half_period_gray_code_is_exact_at_every_noise_level_in_the_quick_run(result):
+    assert all(r == 0.0 for r in result["rates"]["gray code + phase (T/2 stripes)"])
+
+
+def test_period_wide_gray_code_fails_only_next_to_its_stripe_edges():
+    from fringe3d.decode import decode
+    from fringe3d.patterns.synthetic import frames_from_coordinates
+    ps = unwrap_noise.methods()["gray code + phase (T stripes)"]
+    sub, centre = unwrap_noise.phase_field(320, 16)
+    frames = frames_from_coordinates(ps, sub, np.full_like(sub, 300.0), unwrap_noise.A, unwrap_noise.B_GAIN)
+    d = decode(frames, ps, min_modulation=1.0)
+    wrong = np.abs(d.phase["v"] - 2 * np.pi * centre / 18) > np.pi
+    assert wrong.any()
+    dist = np.abs(centre - 18 * np.round(centre / 18))  # projector px to the nearest stripe edge
+    assert dist[wrong].max() <= unwrap_noise.SCALE / 2  # within half a camera pixel of an edge
