@@ -16,6 +16,7 @@ demo: $(STAMP)
 	$(VENV)/bin/fringe3d demo
 
 test: $(STAMP)
+	bash scripts/ensure-chromium.sh
 	$(VENV)/bin/python -m pytest -q
 
 bench: $(STAMP)

@@ -1,0 +1,136 @@
+"""One self-contained HTML page per results folder: no network needed to view it.
+
+Plotly's JavaScript bundle is inlined once; images are embedded as base64 data URIs.
+"""
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from fringe3d.io.atomic import atomic_write_text
+
+from .results import load_summary
+
+MAX_POINTS_3D = 40_000
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:2em auto;max-width:1100px;color:#222}
+h1{font-size:1.6em} h2{border-bottom:1px solid #ddd;padding-bottom:.2em;margin-top:1.6em}
+table{border-collapse:collapse;margin:.6em 0} th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right}
+th{background:#f3f3f3} td:first-child,th:first-child{text-align:left}
+.fig{max-width:100%;border:1px solid #eee} .plot3d{width:100%;height:520px}
+.muted{color:#777;font-size:.9em}
+"""
+
+
+def _fmt(v) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        if not math.isfinite(v):
+            return "—"
+        a = abs(v)
+        return f"{v:.3g}" if a and (a < 1e-3 or a >= 1e5) else f"{v:.4g}"
+    return html.escape(str(v))
+
+
+def _table(rows: list[list], header: list[str], cls: str = "") -> str:
+    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{_fmt(c)}</td>" for c in r) + "</tr>" for r in rows)
+    return f'<table class="{cls}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+def _img(folder: Path, name: str | None, alt: str) -> str:
+    if not name:
+        return ""
+    p = folder / name
+    if not p.exists():
+        return f'<p class="muted">figure {html.escape(name)} missing</p>'
+    data = base64.b64encode(p.read_bytes()).decode()
+    return f'<img class="fig" alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
+
+
+def _points_trace(points: np.ndarray, rng: np.random.Generator) -> dict:
+    """Subsample an organised H×W×3 map (NaN invalid) to a plotly scatter3d trace."""
+    pts = points.reshape(-1, 3)
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if len(pts) > MAX_POINTS_3D:
+        pts = pts[rng.choice(len(pts), MAX_POINTS_3D, replace=False)]
+    pts = pts.astype(np.float32)
+    return {"type": "scatter3d", "mode": "markers",
+            "x": np.round(pts[:, 0], 3).tolist(), "y": np.round(pts[:, 1], 3).tolist(),
+            "z": np.round(pts[:, 2], 3).tolist(),
+            "marker": {"size": 1.5, "color": np.round(pts[:, 2], 3).tolist(), "colorscale": "Viridis"}}
+
+
+def build_report(folder: str | Path) -> str:
+    """Return the HTML text of the report for a results folder (see :mod:`.results`)."""
+    import plotly.offline
+
+    folder = Path(folder)
+    s = load_summary(folder)
+    rng = np.random.default_rng(0)
+    parts = [f"<h1>{html.escape(s['title'])}</h1>"]
+    if s.get("subtitle"):
+        parts.append(f'<p class="muted">{html.escape(s["subtitle"])}</p>')
+
+    if s.get("accuracy"):
+        rows = [[a.get("quantity"), a.get("value"), a.get("unit", ""), a.get("truth", ""), a.get("dissertation", "")]
+                for a in s["accuracy"]]
+        parts.append("<h2>Accuracy</h2>" + _table(rows, ["quantity", "value", "unit", "truth", "dissertation"], "accuracy"))
+
+    cal = s.get("calibration")
+    if cal:
+        parts.append("<h2>Calibration</h2>")
+        figs = cal.get("figures", {})
+        if figs:
+            parts.append(_table([[k, v] for k, v in figs.items()], ["figure", "value"], "calibration"))
+        poses = cal.get("poses", [])
+        if poses:
+            keys = list(poses[0].keys())
+            parts.append(_table([[p.get(k) for k in keys] for p in poses], keys, "poses"))
+        parts.append(_img(folder, cal.get("residual_plot"), "calibration residuals"))
+
+    plots = []
+    for i, m in enumerate(s.get("measurements", [])):
+        parts.append(f"<h2>Measurement: {html.escape(m['name'])}</h2>")
+        if m.get("metrics"):
+            parts.append(_table([[k, v] for k, v in m["metrics"].items()], ["metric", "value"], "metrics"))
+        if m.get("points") and (folder / m["points"]).exists():
+            div = f"plot3d_{i}"
+            parts.append(f'<div id="{div}" class="plot3d"></div>')
+            trace = _points_trace(np.load(folder / m["points"]), rng)
+            layout = {"title": {"text": m["name"]}, "margin": {"l": 0, "r": 0, "t": 30, "b": 0},
+                      "scene": {"aspectmode": "data", "xaxis": {"title": {"text": "x (mm)"}},
+                                "yaxis": {"title": {"text": "y (mm)"}}, "zaxis": {"title": {"text": "z (mm)"}}}}
+            plots.append((div, trace, layout))
+        parts.append(_img(folder, m.get("error_map"), f"error map {m['name']}"))
+
+    if s.get("stages"):
+        rows = [[st["name"], st.get("seconds", float("nan"))] for st in s["stages"]]
+        parts.append("<h2>Time per stage</h2>" + _table(rows, ["stage", "seconds"], "stages"))
+
+    scripts = "".join(
+        f"Plotly.newPlot({json.dumps(div)}, [{json.dumps(tr)}], {json.dumps(lay)}, {{responsive: true}});"
+        for div, tr, lay in plots)
+    return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+            f"<title>{html.escape(s['title'])}</title><style>{_CSS}</style>"
+            f"<script type='text/javascript'>{plotly.offline.get_plotlyjs()}</script></head><body>"
+            + "\n".join(parts)
+            + f"<p class='muted'>fringe3d report · self-contained, no network needed</p>"
+            + f"<script>{scripts}</script></body></html>")
+
+
+def write_report(folder: str | Path, out: str | Path | None = None) -> Path:
+    """Build the report for ``folder`` and write it atomically (default ``folder/report.html``)."""
+    folder = Path(folder)
+    out = Path(out) if out else folder / "report.html"
+    atomic_write_text(out, build_report(folder))
+    return out
