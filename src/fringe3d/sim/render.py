@@ -54,10 +54,24 @@ class Geometry:
 
 
 # ----------------------------------------------------------------------------- rays
-def camera_rays(camera) -> tuple[np.ndarray, np.ndarray, float]:
-    """All pixel rays of ``camera``: ``(origins (N,3), unit dirs (N,3), depth_offset)``.
+_RAY_CACHE: list = []  # [(camera, rays)], most recent last; cameras are frozen dataclasses
 
-    Pinhole: origins at the optical centre; depth is the camera-frame z, computed later.
+
+def camera_rays(camera) -> tuple[np.ndarray, np.ndarray, float]:
+    """All pixel rays of ``camera`` (cached for the last few cameras; treat as read-only)."""
+    for cam, rays in _RAY_CACHE:
+        if cam is camera:
+            return rays
+    rays = _camera_rays(camera)
+    _RAY_CACHE.append((camera, rays))
+    del _RAY_CACHE[:-3]
+    return rays
+
+
+def _camera_rays(camera) -> tuple[np.ndarray, np.ndarray, float]:
+    """All pixel rays of ``camera``: ``(origins (1 or N, 3), unit dirs (N, 3), depth_offset)``.
+
+    Pinhole: one shared origin, the optical centre; depth is the camera-frame z.
     Telecentric: parallel rays starting :data:`TELECENTRIC_BACKOFF` mm before their
     min-norm origin; ``depth_offset`` is subtracted from the ray parameter to give depth.
     """
@@ -66,65 +80,186 @@ def camera_rays(camera) -> tuple[np.ndarray, np.ndarray, float]:
         origins, d = camera.rays(uv)
         d = np.asarray(d, float) / np.linalg.norm(d)
         origins = origins - TELECENTRIC_BACKOFF * d
-        return origins, np.broadcast_to(d, origins.shape).copy(), TELECENTRIC_BACKOFF
+        return np.ascontiguousarray(origins), np.ascontiguousarray(np.broadcast_to(d, origins.shape)), \
+            TELECENTRIC_BACKOFF
     c, dirs = camera.rays(uv, normalize=True)
-    return np.broadcast_to(c, dirs.shape).copy(), dirs, 0.0
+    return np.asarray(c, float).reshape(1, 3), np.ascontiguousarray(dirs), 0.0
+
+
+@numba.njit(cache=True)
+def _map_hits(o, d, t, oid, nrm, cam_r2, cam_t2, telecentric, depth_off, PR, Pt, K, dist, pc, W, H,
+              pts, depth, normal, up, vp, pdepth, cosine, inside, L, dist_p):  # pragma: no cover - compiled
+    """Per ray: hit point, camera depth, camera-facing normal, projector pixel (Brown distortion,
+    Eq. 2.12-2.16), projector-axis distance, unit direction and distance to the projector
+    centre, Lambert cosine, and whether the projector lights it (before shadows)."""
+    k1, k2, p1, p2, k3 = dist[0], dist[1], dist[2], dist[3], dist[4]
+    shared = o.shape[0] == 1
+    nan = np.nan
+    for i in range(d.shape[0]):
+        ti = t[i]
+        if oid[i] < 0 or not np.isfinite(ti):
+            for j in range(3):
+                pts[i, j] = nan
+                normal[i, j] = 0.0
+                L[i, j] = 0.0
+            depth[i] = nan
+            up[i] = nan
+            vp[i] = nan
+            pdepth[i] = nan
+            cosine[i] = 0.0
+            inside[i] = False
+            dist_p[i] = nan
+            continue
+        oi = 0 if shared else i
+        X0 = o[oi, 0] + ti * d[i, 0]
+        X1 = o[oi, 1] + ti * d[i, 1]
+        X2 = o[oi, 2] + ti * d[i, 2]
+        pts[i, 0] = X0
+        pts[i, 1] = X1
+        pts[i, 2] = X2
+        n0, n1, n2 = nrm[i, 0], nrm[i, 1], nrm[i, 2]
+        if n0 * d[i, 0] + n1 * d[i, 1] + n2 * d[i, 2] > 0:
+            n0, n1, n2 = -n0, -n1, -n2
+        normal[i, 0] = n0
+        normal[i, 1] = n1
+        normal[i, 2] = n2
+        if telecentric:
+            depth[i] = ti - depth_off
+        else:
+            depth[i] = cam_r2[0] * X0 + cam_r2[1] * X1 + cam_r2[2] * X2 + cam_t2
+        xp = PR[0, 0] * X0 + PR[0, 1] * X1 + PR[0, 2] * X2 + Pt[0]
+        yp = PR[1, 0] * X0 + PR[1, 1] * X1 + PR[1, 2] * X2 + Pt[1]
+        zp = PR[2, 0] * X0 + PR[2, 1] * X1 + PR[2, 2] * X2 + Pt[2]
+        pdepth[i] = zp
+        l0, l1, l2 = pc[0] - X0, pc[1] - X1, pc[2] - X2
+        r = np.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
+        l0 /= r
+        l1 /= r
+        l2 /= r
+        L[i, 0] = l0
+        L[i, 1] = l1
+        L[i, 2] = l2
+        dist_p[i] = r
+        c = n0 * l0 + n1 * l1 + n2 * l2
+        cosine[i] = c
+        if zp <= 0:
+            up[i] = nan
+            vp[i] = nan
+            inside[i] = False
+            continue
+        x = xp / zp
+        y = yp / zp
+        r2 = x * x + y * y
+        radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+        yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+        u = K[0, 0] * xd + K[0, 1] * yd + K[0, 2]
+        v = K[1, 1] * yd + K[1, 2]
+        up[i] = u
+        vp[i] = v
+        inside[i] = (u >= -0.5) and (u <= W - 0.5) and (v >= -0.5) and (v <= H - 0.5) and (c > 0)
+
+
+@numba.njit(cache=True)
+def _rays_near(o, d, centers, radii, out):  # pragma: no cover - compiled
+    """out[i] = ray i passes within its bounding radius of some object's centre (ahead of the origin)."""
+    shared = o.shape[0] == 1
+    for i in range(d.shape[0]):
+        oi = 0 if shared else i
+        hit = False
+        for k in range(centers.shape[0]):
+            w0 = centers[k, 0] - o[oi, 0]
+            w1 = centers[k, 1] - o[oi, 1]
+            w2 = centers[k, 2] - o[oi, 2]
+            along = w0 * d[i, 0] + w1 * d[i, 1] + w2 * d[i, 2]
+            dd = d[i, 0] * d[i, 0] + d[i, 1] * d[i, 1] + d[i, 2] * d[i, 2]
+            r2 = w0 * w0 + w1 * w1 + w2 * w2 - along * along / dd
+            rr = radii[k] * radii[k]
+            if r2 <= rr and (along > 0 or w0 * w0 + w1 * w1 + w2 * w2 <= rr):
+                hit = True
+                break
+        out[i] = hit
+    return out
+
+
+def intersect_culled(scene, origins, dirs, time: float):
+    """``scene.intersect`` on the rays that pass near some object's bounding sphere only.
+
+    Objects expose ``bounding_sphere(time) -> (centre, radius)``; when any is unbounded (an
+    infinite plane) or missing, every ray is cast. Returns a Hit-like object with full-length
+    ``t, normal, object_id, albedo, material_uv``.
+    """
+    ray_o = origins[0] if origins.shape[0] == 1 else origins
+    objects = getattr(scene, "objects", None)
+    spheres = []
+    for ob in objects or []:
+        fn = getattr(ob, "bounding_sphere", None)
+        if fn is None:
+            return scene.intersect(ray_o, dirs, time=time)
+        c, r = fn(time)
+        if not np.isfinite(r):
+            return scene.intersect(ray_o, dirs, time=time)
+        spheres.append((np.asarray(c, float), float(r) * (1 + 1e-9) + 1e-9))
+    if not spheres:
+        return scene.intersect(ray_o, dirs, time=time)
+    near = _rays_near(origins, dirs, np.array([c for c, _ in spheres]), np.array([r for _, r in spheres]),
+                      np.empty(dirs.shape[0], np.bool_))
+    n = dirs.shape[0]
+    if near.sum() > 0.8 * n:
+        return scene.intersect(ray_o, dirs, time=time)
+    idx = np.flatnonzero(near)
+    from types import SimpleNamespace
+    out = SimpleNamespace(t=np.full(n, np.inf), normal=np.full((n, 3), np.nan),
+                          object_id=np.full(n, -1, np.int32), albedo=np.zeros(n),
+                          material_uv=np.full((n, 2), np.nan))
+    if idx.size:
+        sub = scene.intersect(ray_o if origins.shape[0] == 1 else origins[idx], dirs[idx], time=time)
+        out.t[idx] = sub.t
+        out.normal[idx] = sub.normal
+        out.object_id[idx] = sub.object_id
+        out.albedo[idx] = sub.albedo
+        if getattr(sub, "material_uv", None) is not None:
+            out.material_uv[idx] = sub.material_uv
+    return out
 
 
 def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = True) -> Geometry:
-    """Intersect the camera rays with the scene at ``time`` and map hits into the projector."""
-    h = scene.intersect(origins, dirs, time=time)
-    t = np.asarray(h.t, float)
-    hit = (np.asarray(h.object_id) >= 0) & np.isfinite(t)
-    n_pix = len(t)
-    pts = np.full((n_pix, 3), np.nan)
-    pts[hit] = origins[hit] + t[hit, None] * dirs[hit]
-    normal = np.zeros((n_pix, 3))
-    nrm = np.asarray(h.normal, float)[hit]
-    flip = np.einsum("ij,ij->i", nrm, dirs[hit]) > 0  # face the camera
-    nrm[flip] *= -1
-    normal[hit] = nrm
-    cam = rig.camera
-    if getattr(cam, "kind", "pinhole") == "telecentric":
-        depth = np.where(hit, t - depth_offset, np.nan)
-    else:
-        depth = np.full(n_pix, np.nan)
-        depth[hit] = pts[hit] @ cam.R[2] + cam.t[2]
-    proj = rig.projector
-    up = np.full(n_pix, np.nan)
-    vp = np.full(n_pix, np.nan)
-    pdepth = np.full(n_pix, np.nan)
-    shade = np.zeros(n_pix)
-    lit = np.zeros(n_pix, bool)
-    idx = np.flatnonzero(hit)
-    if idx.size:
-        X = pts[idx]
-        zp = X @ proj.R[2] + proj.t[2]
-        pdepth[idx] = zp
-        uvp = proj.project(X)
-        up[idx], vp[idx] = uvp[:, 0], uvp[:, 1]
-        to_p = proj.center - X
-        dist = np.linalg.norm(to_p, axis=1)
-        L = to_p / dist[:, None]
-        cos = np.einsum("ij,ij->i", normal[idx], L)
-        inside = ((zp > 0) & (uvp[:, 0] >= -0.5) & (uvp[:, 0] <= proj.width - 0.5)
-                  & (uvp[:, 1] >= -0.5) & (uvp[:, 1] <= proj.height - 0.5) & (cos > 0))
-        if shadows and inside.any():
-            j = np.flatnonzero(inside)
-            eps = 1e-6 * dist[j, None] + 1e-9
-            o = X[j] + eps * normal[idx][j] + eps * L[j]
-            sh = scene.intersect(o, L[j], time=time)
-            blocked = (np.asarray(sh.object_id) >= 0) & (np.asarray(sh.t) < dist[j] * (1 - 1e-6))
-            inside[j[blocked]] = False
-        lit[idx] = inside
-        shade[idx] = np.where(inside, cos, 0.0)
+    """Intersect the camera rays with the scene at ``time`` and map hits into the projector.
+
+    ``origins`` is (1, 3) for a pinhole camera (shared centre) or (N, 3); ``dirs`` (N, 3) unit.
+    """
+    h = intersect_culled(scene, origins, dirs, time)
+    n_pix = dirs.shape[0]
+    oid = np.ascontiguousarray(h.object_id, dtype=np.int32)
+    cam, proj = rig.camera, rig.projector
+    tele = getattr(cam, "kind", "pinhole") == "telecentric"
+    cam_r2 = np.zeros(3) if tele else np.ascontiguousarray(cam.R[2], dtype=float)
+    cam_t2 = 0.0 if tele else float(cam.t[2])
+    pts = np.empty((n_pix, 3))
+    normal = np.empty((n_pix, 3))
+    L = np.empty((n_pix, 3))
+    depth, up, vp, pdepth, cosine, dist = (np.empty(n_pix) for _ in range(6))
+    inside = np.empty(n_pix, np.bool_)
+    _map_hits(origins, dirs, np.ascontiguousarray(h.t, dtype=float), oid,
+              np.ascontiguousarray(h.normal, dtype=float), cam_r2, cam_t2, tele, float(depth_offset),
+              np.ascontiguousarray(proj.R), np.ascontiguousarray(proj.t), np.ascontiguousarray(proj.K),
+              np.ascontiguousarray(proj.dist), np.ascontiguousarray(proj.center), float(proj.width),
+              float(proj.height), pts, depth, normal, up, vp, pdepth, cosine, inside, L, dist)
+    hit = oid >= 0
+    if shadows and inside.any():
+        j = np.flatnonzero(inside)
+        eps = (1e-6 * dist[j] + 1e-9)[:, None]
+        o = pts[j] + eps * (normal[j] + L[j])
+        sh = scene.intersect(o, L[j], time=time)
+        blocked = (np.asarray(sh.object_id) >= 0) & (np.asarray(sh.t) < dist[j] * (1 - 1e-6))
+        inside[j[blocked]] = False
+    shade = np.where(inside, cosine, 0.0)
     muv = getattr(h, "material_uv", None)
-    extras = object_extras(scene, np.asarray(h.object_id), muv, time)
-    return Geometry(hit=hit, points=pts, depth=depth, normal=normal,
-                    object_id=np.where(hit, np.asarray(h.object_id), -1).astype(np.int32),
+    extras = object_extras(scene, oid, muv, time)
+    return Geometry(hit=hit, points=pts, depth=depth, normal=normal, object_id=oid,
                     albedo=np.where(hit, np.asarray(h.albedo, float), 0.0),
                     material_uv=None if muv is None else np.asarray(muv, float),
-                    up=up, vp=vp, shade=shade, lit=lit, proj_depth=pdepth, extras=extras)
+                    up=up, vp=vp, shade=shade, lit=inside, proj_depth=pdepth, extras=extras)
 
 
 def object_extras(scene, object_id: np.ndarray, material_uv, time: float) -> dict:
