@@ -95,7 +95,7 @@ def test_validation_reports_object_behind_camera_and_outside_projector():
     assert all("objects[1]" in q for q in probs)
     assert any("behind the camera" in q for q in probs) and any("behind the projector" in q for q in probs)
     # visible to the camera (left edge of its view) but far outside the projector's (it looks right)
-    side = Scene([Sphere((-190, 0, 400), 15)])
+    side = Scene([Sphere((-140, 0, 400), 15)])
     probs = scene_problems(side, rig)
     assert len(probs) == 1 and "outside the projector's view" in probs[0]
     off = Scene([Sphere((0, 900, 400), 20), Sphere((0, 0, 400), 30)])
