@@ -78,8 +78,8 @@ def test_bad_simulate_arguments_exit_2_with_a_clear_message(tmp_path, capsys, ar
     ({"objects": [{"type": "cube", "center": [0, 0, 400]}]}, "objects[0].type: unknown object type 'cube'"),
     ({"objects": [{"type": "plane", "point": [0, 0, 400], "normal": "up"}]}, "objects[0].normal"),
     ({"objects": [{"type": "sphere", "center": [0, 0, 400], "radius": -1}]}, "objects[0]: sphere radius"),
-    ({"things": []}, "unknown field(s) ['things']"),
-    ({"objects": []}, "'objects' must be a non-empty list"),
+    ({"things": []}, "scene.json.things: unknown field"),
+    ({"objects": []}, "scene.json.objects: expected a non-empty list"),
 ])
 def test_invalid_scene_file_names_the_field(tmp_path, capsys, scene, message):
     f = tmp_path / "scene.json"

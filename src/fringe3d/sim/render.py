@@ -265,14 +265,12 @@ def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = T
 def object_extras(scene, object_id: np.ndarray, material_uv, time: float) -> dict:
     """Scene-specific per-pixel truth (N, ...) from the objects that know it, NaN elsewhere.
 
-    An object may define ``truth_fields(uv (M, 2), time) -> {name: (M, ...)}``; a flapping
-    wing (``curvature_tensor`` / ``dominant_strain``, Eq. 6.11-6.20) gives ``curvature``
-    (second fundamental form b_ab in material coordinates, 1/mm, (M, 2, 2)) and ``strain``
-    (dominant bending strain, (M,)).
+    An object may define ``truth_fields(uv (M, 2), time) -> {name: (M, ...)}`` (the flapping
+    wing: curvature, principal curvature and direction, dominant bending strain, Eq. 6.11-6.20).
     """
     objects = getattr(scene, "objects", [scene])
     out: dict = {}
-    if material_uv is None:
+    if material_uv is None or not any(callable(getattr(ob, "truth_fields", None)) for ob in objects):
         return out
     n = len(object_id)
     for i, ob in enumerate(objects):
@@ -280,12 +278,9 @@ def object_extras(scene, object_id: np.ndarray, material_uv, time: float) -> dic
         if not sel.size:
             continue
         uv = np.asarray(material_uv, float)[sel]
-        if callable(getattr(ob, "truth_fields", None)):
-            fields = ob.truth_fields(uv, time)
-        elif callable(getattr(ob, "curvature_tensor", None)) and callable(getattr(ob, "dominant_strain", None)):
-            fields = {"curvature": ob.curvature_tensor(uv, time), "strain": ob.dominant_strain(uv, time)}
-        else:
+        if not callable(getattr(ob, "truth_fields", None)):
             continue
+        fields = ob.truth_fields(uv, time)
         for name, val in fields.items():
             val = np.asarray(val, float)
             if name not in out:

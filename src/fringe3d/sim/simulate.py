@@ -5,14 +5,14 @@ a preset rig and writes exactly what a real capture holds (decoders cannot tell 
 difference), plus the ground truth and the true rig. The same is ``fringe3d simulate``.
 
 Scenes are given as a :class:`~fringe3d.sim.scenes.Scene`, a name (:data:`SCENE_NAMES`,
-built inside the preset's working volume) or a JSON scene file (see :func:`scene_from_dict`).
+built inside the preset's working volume) or a JSON scene file
+(:mod:`fringe3d.sim.scene_file`). Before rendering, :func:`fringe3d.sim.validate.check_scene`
+rejects objects behind the camera or projector, unseen by the camera or unlit by the projector.
 Pattern sets are a :class:`PatternSet`, a manifest file, or a name (:data:`PATTERN_NAMES`,
 built for the preset's projector).
 """
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +24,6 @@ from . import presets as _presets
 from .render import frame_times, render
 from .settings import RenderSettings
 
-SCENE_FORMAT = "fringe3d-scene"
 
 
 # ----------------------------------------------------------------------------- pattern sets
@@ -74,7 +73,8 @@ def make_patterns(spec, width: int, height: int) -> PatternSet:
 
 
 # ----------------------------------------------------------------------------- scenes
-SCENE_NAMES = ("sphere", "plane", "spheres", "step", "board", "sculpture", "mesh", "falling-balls", "wing")
+SCENE_NAMES = ("sphere", "plane", "spheres", "step", "board", "sculpture", "mesh", "falling-balls", "wing",
+               "textured-spheres")
 
 
 def make_scene(spec, preset):
@@ -101,11 +101,8 @@ def named_scene(name: str, preset):
     * ``spheres``: three isolated spheres at different depths, no background.
     * ``step``: a block on a plane (step height 20% of the depth range).
     * ``board``: a 9x9 circle-grid calibration board facing the camera.
-    * ``mesh``: a ~100k-triangle freeform relief (:func:`height_field_mesh`, Embree ray casting).
-    * ``sculpture``: the same kind of relief with a blotchy texture.
-    * ``falling-balls``: three textured, spinning balls in free fall (moving scene).
-    * ``wing``: the flapping isometric membrane (:class:`fringe3d.sim.wing.Wing`) with anchor and
-      marker dots (moving scene; truth carries material coordinates, curvature and strain).
+    * ``sculpture``, ``mesh`` (~100k triangles, Embree), ``falling-balls``, ``wing``,
+      ``textured-spheres``: from :mod:`fringe3d.sim.catalog`.
     """
     from . import scenes as sc
     c = preset.center
@@ -133,71 +130,10 @@ def named_scene(name: str, preset):
         spacing = lateral / 12.0
         cam_c = getattr(preset.rig.camera, "center", c - view * 1000.0)
         return sc.Scene([board_facing(cam_c, c, cols=9, rows=9, spacing=spacing)], name="board")
-    if name in ("mesh", "sculpture"):
-        from .mesh import Mesh
-        from .textures import Blotches
-        mesh = height_field_mesh(0.8 * size[0], 0.8 * size[1], 0.25 * size[2], triangles=100_000,
-                                 seed=1 if name == "sculpture" else 0)
-        texture = Blotches(scale=0.1 * lateral) if name == "sculpture" else None
-        R = _facing_rotation(view)
-        return sc.Scene([Mesh(mesh, center=c, R=R, texture=texture, albedo=0.9)], name=name)
-    if name == "falling-balls":
-        from .motion import falling
-        from .textures import Checker
-        r = 0.1 * lateral
-        fps = preset.settings.frame_rate
-        objs = []
-        for i, (dx, vy, spin) in enumerate(((-0.3, 0.0, 40.0), (0.0, -0.5, -60.0), (0.3, 0.3, 80.0))):
-            start = c + np.array([dx * size[0], -0.2 * size[1], 0.1 * (i - 1) * size[2]])
-            # initial speeds ~ a ball's diameter per 50 frames, plus gravity
-            v = np.array([0.0, vy * 2 * r * fps / 50.0, 0.0])
-            objs.append(sc.Sphere(start, r, texture=Checker(period=np.pi / 6, contrast=0.6),
-                                  motion=falling(velocity=v, spin=(0.0, 0.0, spin * np.pi / 180 * fps / 50.0))))
-        return sc.Scene(objs, name="falling-balls")
-    if name == "wing":
-        from .wing import Wing
-        span = min(150.0, 0.6 * float(size[0]))
-        chord = 70.0 / 150.0 * span
-        k = 1.0 / 60.0 * 150.0 / span
-        anchors = np.array([[0.2, 0.35], [0.75, 0.2]]) * [span, chord]
-        markers = np.array([[0.4, 0.3], [0.55, 0.45], [0.6, 0.2]]) * [span, chord]
-        return sc.Scene([Wing(span=span, chord=chord, root=c + np.array([-span / 2, chord / 2, 0.0]),
-                              kappa_amp=k, anchors=anchors, markers=markers, dot_radius=span / 75.0)],
-                        name="wing")
+    from .catalog import NAMES as CATALOG
+    if name in CATALOG:
+        return sc.named_scene(name, preset)
     raise ValueError(f"unknown scene {name!r}; expected a scene file (*.json) or one of: {', '.join(SCENE_NAMES)}")
-
-
-def height_field_mesh(width: float, height: float, relief: float, triangles: int = 100_000, seed: int = 0):
-    """A smooth freeform relief as a triangle mesh (body frame, mm): a grid over
-    ``width x height`` with ``z = -relief * (sum of Gaussian bumps)`` (bumps toward -z, i.e.
-    toward a camera looking along +z) and about ``triangles`` faces."""
-    import trimesh
-    n = max(2, int(round(np.sqrt(triangles / 2.0))) + 1)
-    x = np.linspace(-width / 2, width / 2, n)
-    y = np.linspace(-height / 2, height / 2, n)
-    X, Y = np.meshgrid(x, y)
-    rng = np.random.default_rng(seed)
-    Z = np.zeros_like(X)
-    for _ in range(7):
-        cx, cy = rng.uniform(-0.35, 0.35) * width, rng.uniform(-0.35, 0.35) * height
-        s = rng.uniform(0.1, 0.25) * min(width, height)
-        Z += rng.uniform(0.3, 1.0) * np.exp(-((X - cx) ** 2 + (Y - cy) ** 2) / (2 * s * s))
-    Z = -relief * Z / Z.max()
-    verts = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
-    i = np.arange(n - 1)[:, None] * n + np.arange(n - 1)[None, :]
-    a, b, c_, d = i.ravel(), i.ravel() + 1, i.ravel() + n, i.ravel() + n + 1
-    faces = np.concatenate([np.column_stack([a, c_, b]), np.column_stack([b, c_, d])])
-    return trimesh.Trimesh(vertices=verts, faces=faces, process=False)
-
-
-def _facing_rotation(view) -> np.ndarray:
-    """Body -> world rotation taking body +z to the viewing direction ``view`` (so a body
-    relief toward -z faces the camera)."""
-    z = np.asarray(view, float) / np.linalg.norm(view)
-    x = np.cross([0.0, 1.0, 0.0], z)
-    x = x / np.linalg.norm(x) if np.linalg.norm(x) > 1e-9 else np.array([1.0, 0.0, 0.0])
-    y = np.cross(z, x)
-    return np.column_stack([x, y, z])
 
 
 def _view_direction(preset) -> np.ndarray:
@@ -207,96 +143,10 @@ def _view_direction(preset) -> np.ndarray:
     return cam.R[2]
 
 
-# -- scene files ---------------------------------------------------------------------------------
-def _object_types():
-    from . import scenes as sc
-    from .board import CircleBoard
-    return {
-        "sphere": (sc.Sphere, {"center", "radius"}, {"albedo", "texture", "velocity", "acceleration", "spin", "t0", "R"}),
-        "plane": (sc.Plane, {"point", "normal"}, {"albedo", "texture", "u_axis", "size"}),
-        "box": (sc.Box, {"center", "size"}, {"R", "albedo", "texture"}),
-        "board": (CircleBoard, set(), {"cols", "rows", "spacing", "radius", "R", "t", "asymmetric", "margin",
-                                       "white", "dark", "edge_width"}),
-    }
-
-
-def scene_from_dict(d: dict, where: str = "scene file"):
-    """Build a Scene from ``{"objects": [{"type": "sphere", ...}, ...], "ambient": 0.0}``.
-
-    Object types and fields (mm, radians, albedo in [0, 1]):
-    ``sphere``: center, radius [albedo, texture, velocity, acceleration, spin, t0, R];
-    ``plane``: point, normal [albedo, texture, u_axis, size];
-    ``box``: center, size [R, albedo, texture];
-    ``board``: [cols, rows, spacing, radius, R, t, asymmetric, margin, white, dark, edge_width].
-    ``texture`` is ``{"type": "checker" | "stripes" | "blotches", ...}``.
-    Errors name the offending field, e.g. ``scene file: objects[1].radius: ...``.
-    """
-    from . import scenes as sc
-    from .textures import texture_from_dict
-    if not isinstance(d, dict):
-        raise ValueError(f"{where}: expected a JSON object with an 'objects' list")
-    allowed = {"format", "version", "name", "ambient", "objects"}
-    unknown = sorted(set(d) - allowed)
-    if unknown:
-        raise ValueError(f"{where}: unknown field(s) {unknown}; allowed: {sorted(allowed)}")
-    if d.get("format", SCENE_FORMAT) != SCENE_FORMAT:
-        raise ValueError(f"{where}: 'format' is {d['format']!r}, expected {SCENE_FORMAT!r}")
-    objs = d.get("objects")
-    if not isinstance(objs, list) or not objs:
-        raise ValueError(f"{where}: field 'objects' must be a non-empty list of objects")
-    types = _object_types()
-    built = []
-    for i, od in enumerate(objs):
-        at = f"{where}: objects[{i}]"
-        if not isinstance(od, dict) or "type" not in od:
-            raise ValueError(f"{at}: missing field 'type' (one of {sorted(types)})")
-        kind = od["type"]
-        if kind not in types:
-            raise ValueError(f"{at}.type: unknown object type {kind!r}; expected one of {sorted(types)}")
-        cls, required, optional = types[kind]
-        fields = {k: v for k, v in od.items() if k != "type"}
-        missing = sorted(required - set(fields))
-        if missing:
-            raise ValueError(f"{at}: missing field {missing[0]!r} for a {kind} (required: {sorted(required)})")
-        extra = sorted(set(fields) - required - optional)
-        if extra:
-            raise ValueError(f"{at}.{extra[0]}: unknown field for a {kind}; allowed: {sorted(required | optional)}")
-        if "texture" in fields:
-            fields["texture"] = texture_from_dict(fields["texture"], f"{at}.texture")
-        for k, v in fields.items():
-            if k != "texture" and not _json_number_like(v):
-                raise ValueError(f"{at}.{k}: expected a number or a list of numbers, got {v!r}")
-        try:
-            built.append(cls(**fields))
-        except (ValueError, TypeError) as e:
-            raise ValueError(f"{at}: {e}") from None
-    try:
-        ambient = float(d.get("ambient", 0.0))
-        return sc.Scene(built, ambient=ambient, name=str(d.get("name", "scene")))
-    except (ValueError, TypeError) as e:
-        raise ValueError(f"{where}.ambient: {e}") from None
-
-
-def _json_number_like(v) -> bool:
-    if isinstance(v, bool):
-        return True
-    if isinstance(v, (int, float)):
-        return math.isfinite(v)
-    if isinstance(v, list):
-        return all(_json_number_like(x) for x in v)
-    return False
-
-
 def load_scene(path):
-    """Read a JSON scene file (see :func:`scene_from_dict`)."""
-    path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"no scene file at {path}")
-    try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise ValueError(f"scene file {path} is not valid JSON: {e}") from None
-    return scene_from_dict(d, where=f"scene file {path.name}")
+    """Read a JSON scene file (:func:`fringe3d.sim.scene_file.load_scene`; errors name the field)."""
+    from .scene_file import load_scene as _load
+    return _load(path)
 
 
 # ----------------------------------------------------------------------------- capture
@@ -365,6 +215,8 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
         raise ValueError(f"frames must be a positive multiple of the pattern set's {len(ps)} frames, got {frames}")
     sc = make_scene(scene, p)
     times = frame_times(frames, s)
+    from .validate import check_scene
+    check_scene(sc, p.rig, times=sorted({float(times[0]), float(times[-1])}))
     imgs, truth = render(sc, p.rig, ps, s, times=times, progress=progress)
     folder = Path(folder)
     meta = {"frame_rate": s.frame_rate, "simulated": True, "preset": p.name,
