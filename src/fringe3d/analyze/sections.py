@@ -70,3 +70,44 @@ def sphere_sections(points, mask=None, sphere: SphereFit | None = None, min_poin
                              f"need {min_points}")
         out[axis] = Section(axis, i if axis == "row" else j, idx, line[idx], fit_circle(line[idx]))
     return out
+
+
+def segments(points, max_jump: float | None = None, min_size: int = 50) -> np.ndarray:
+    """Label the smooth surface pieces of an organized point map.
+
+    Neighbouring valid pixels (4-connectivity) belong to the same piece when their 3D distance
+    is below ``max_jump`` (mm; default 8x the median neighbour spacing), so a sphere in front
+    of a wall separates from it at its silhouette. Returns ``(H, W)`` int32 labels (0..n-1,
+    largest first; -1 for invalid pixels and pieces smaller than ``min_size``).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    P = np.asarray(points, float)
+    if P.ndim != 3 or P.shape[-1] != 3:
+        raise ValueError(f"segmentation needs an organized point map (H, W, 3), got {P.shape}")
+    H, W = P.shape[:2]
+    valid = np.all(np.isfinite(P), axis=-1)
+    idx = np.arange(H * W).reshape(H, W)
+    pairs, dists = [], []
+    for a, b in (((slice(None), slice(None, -1)), (slice(None), slice(1, None))),
+                 ((slice(None, -1), slice(None)), (slice(1, None), slice(None)))):
+        ok = valid[a] & valid[b]
+        d = np.linalg.norm(P[a] - P[b], axis=-1)
+        pairs.append(np.stack([idx[a][ok], idx[b][ok]], axis=1))
+        dists.append(d[ok])
+    pairs = np.concatenate(pairs)
+    dists = np.concatenate(dists)
+    labels = np.full(H * W, -1, np.int32)
+    if len(dists) == 0:
+        return labels.reshape(H, W)
+    jump = 8.0 * float(np.median(dists)) if max_jump is None else float(max_jump)
+    keep = dists < jump
+    g = coo_matrix((np.ones(int(keep.sum())), (pairs[keep, 0], pairs[keep, 1])), shape=(H * W, H * W))
+    _, comp = connected_components(g, directed=False)
+    comp = np.where(valid.ravel(), comp, -1)
+    ids, counts = np.unique(comp[comp >= 0], return_counts=True)
+    order = np.argsort(-counts)
+    for new, k in enumerate(o for o in order if counts[o] >= min_size):
+        labels[comp == ids[k]] = new
+    return labels.reshape(H, W)

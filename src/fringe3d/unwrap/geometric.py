@@ -159,11 +159,16 @@ def geometric_unwrap(wrapped: np.ndarray, mp: MinimumPhase, mask=None, check: bo
 def depth_limit(rig, mp: MinimumPhase) -> np.ndarray:
     """Largest depth (H, W) float32 (mm, world z) each pixel can measure with ``mp``: where
     ``|Phi - Phi_min|`` reaches 2*pi, one fringe period beyond ``z_min`` (ch. 4.4).
-    Computed with the linear projector model; NaN where undefined."""
+    Computed with the linear projector model; +inf where a whole period lies beyond the ray's
+    vanishing point (unlimited range), NaN where undefined."""
     tri = Triangulator(rig, angle=mp.angle, warn_distortion=False)
     w_lim = (mp.phi_min.astype(np.float64) / TWO_PI + mp.sign) * mp.period
     w_lim[mp.sign == 0] = np.nan
-    return tri.points(w_lim)[..., 2]
+    z = tri.points(w_lim)[..., 2]
+    # no solution in front of the camera: one period lies beyond the ray's vanishing point,
+    # so the whole ray beyond z_min is in range
+    z[np.isnan(z) & (mp.sign != 0)] = np.inf
+    return z
 
 
 def check_depth_range(rig, mp: MinimumPhase, z_max: float | np.ndarray, mask=None) -> dict:
@@ -171,14 +176,14 @@ def check_depth_range(rig, mp: MinimumPhase, z_max: float | np.ndarray, mask=Non
     constraint's valid range; returns ``{"ok", "share_beyond", "limit_min", "limit_median"}``."""
     lim = depth_limit(rig, mp)
     z = np.broadcast_to(np.asarray(z_max, float), lim.shape)
-    sel = np.isfinite(lim) & np.isfinite(z)
+    sel = ~np.isnan(lim) & np.isfinite(z)
     if mask is not None:
         sel &= check_map(mask, mp.shape, "mask").astype(bool)
     beyond = sel & (z >= lim)
     share = float(beyond.sum() / max(sel.sum(), 1))
     out = {"ok": share == 0.0, "share_beyond": share,
-           "limit_min": float(np.nanmin(lim[sel])) if sel.any() else float("nan"),
-           "limit_median": float(np.nanmedian(lim[sel])) if sel.any() else float("nan")}
+           "limit_min": float(np.min(lim[sel])) if sel.any() else float("nan"),
+           "limit_median": float(np.median(lim[sel])) if sel.any() else float("nan")}
     if not out["ok"]:
         warn(f"the scene reaches beyond the geometric constraint's depth range at {100 * share:.2f}% of the "
              f"pixels: with z_min = {mp.z_min:g} mm and period {mp.period:g} px the range ends at "

@@ -1,0 +1,123 @@
+"""``fringe3d reconstruct CAPTURE --calibration FILE -o OUT``: absolute 3D point maps."""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import typer
+
+from fringe3d.io.console import console, info, make_table, print_json, set_quiet
+
+METHODS = ("none", "geometric", "two_frequency_geometric", "hierarchical", "heterodyne", "gray_code",
+           "binary_code", "hybrid", "spatial", "histogram")
+
+
+def check_sizes(rig, frames: np.ndarray, calibration: Path) -> None:
+    """ValueError when the calibration's camera and the captured frames differ in size."""
+    H, W = frames.shape[1:]
+    if (rig.camera.height, rig.camera.width) != (H, W):
+        raise ValueError(f"the calibration {calibration} describes a {rig.camera.width}x{rig.camera.height} camera "
+                         f"but the capture's frames are {W}x{H}: calibration and capture sizes disagree "
+                         "(expected the calibration of the camera that recorded this capture)")
+
+
+def write_single(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool) -> dict:
+    """points.npy, depth.tif (float32 mm, NaN invalid) and optionally points.ply, all atomic."""
+    from fringe3d.io.atomic import atomic_path
+    from fringe3d.io.images import write_image
+    from fringe3d.reconstruct.depth import depth_map
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out / "points.npy") as tmp:
+        with open(tmp, "wb") as f:
+            np.save(f, points)
+    files = {"points": str(out / "points.npy"), "depth": str(write_image(out / "depth.tif", depth_map(points)))}
+    if texture is not None:
+        files["texture"] = str(write_image(out / "texture.tif", texture.astype(np.float32)))
+    if ply:
+        from fringe3d.io.pointcloud import write_ply
+        files["ply"] = str(write_ply(out / "points.ply", points, colors=texture))
+    return files
+
+
+def point_summary(points: np.ndarray) -> dict:
+    ok = np.isfinite(points[..., 0])
+    z = points[..., 2][ok]
+    return {"valid_share": float(ok.mean()), "valid_points": int(ok.sum()),
+            "depth_min": float(z.min()) if z.size else None, "depth_max": float(z.max()) if z.size else None}
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("reconstruct")
+    def reconstruct_cmd(
+        capture: Path = typer.Argument(..., help="Capture folder: manifest.json + frames/ (+ capture.json)."),
+        calibration: Path = typer.Option(..., "--calibration", "-c",
+                                         help="Calibration JSON (with a 'rig' entry) or rig JSON."),
+        out: Path = typer.Option(..., "--out", "-o", help="Output folder."),
+        method: str = typer.Option(None, "--method", "-m",
+                                   help=f"Unwrapping method for every direction (default: the manifest's plans). "
+                                        f"One of: {', '.join(METHODS)}."),
+        z_min: float = typer.Option(None, "--z-min", help="Nearest depth of the scene (mm), for geometric methods."),
+        ply: bool = typer.Option(False, "--ply", help="Also write PLY point clouds (coloured by the texture)."),
+        store: bool = typer.Option(True, "--store/--no-store", help="Sequences: write the zarr point store."),
+        window: int = typer.Option(None, "--window",
+                                   help="Sequences: a 3D frame every N captured frames (sliding window) instead of "
+                                        "one per pattern cycle."),
+        triangulation: str = typer.Option("auto", "--triangulation", help="auto, fast (closed form) or lsq (Eq. 2.37)."),
+        min_modulation: float = typer.Option(None, "--min-modulation", help="Modulation threshold (camera counts)."),
+        max_cycles: int = typer.Option(None, "--max-cycles", help="Use only the first N pattern cycles."),
+        json_: bool = typer.Option(False, "--json", help="Print one JSON summary."),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars or tables."),
+    ) -> None:
+        """Reconstruct absolute 3D point maps from a capture and a calibration.
+
+        One pattern cycle: OUT/points.npy ((H, W, 3) float32 mm, NaN invalid), OUT/depth.tif,
+        OUT/texture.tif (+ OUT/points.ply with --ply) and OUT/reconstruct.json. A sequence:
+        OUT/points.zarr (one point map per cycle or window; resumable) and/or OUT/ply/.
+
+        Example: fringe3d reconstruct sphere-capture --calibration calib.json -o sphere-3d --ply
+        """
+        from fringe3d.io.atomic import atomic_write_text
+        from fringe3d.io.capture import read_capture
+        from fringe3d.optics import Rig
+        from fringe3d.reconstruct.sequence import FrameReconstructor, reconstruct_sequence, with_method
+
+        set_quiet(quiet or json_)
+        t0 = time.perf_counter()
+        if method is not None and method not in METHODS:
+            raise ValueError(f"unknown --method {method!r}; expected one of {', '.join(METHODS)}")
+        if triangulation not in ("auto", "fast", "lsq"):
+            raise ValueError(f"--triangulation must be auto, fast or lsq, got {triangulation!r}")
+        rig = Rig.load(calibration)
+        cap = read_capture(capture, max_cycles=max_cycles)
+        check_sizes(rig, cap.frames, calibration)
+        ps = with_method(cap.patterns, method)
+        opts = {"bit_depth": cap.meta.get("bit_depth"), "min_modulation": min_modulation}
+        methods = {p.direction: p.method for p in ps.plans}
+        summary = {"capture": str(capture), "calibration": str(calibration), "out": str(out), "methods": methods,
+                   "z_min": z_min, "cycles": cap.cycles, "cycle_length": len(ps), "step": window,
+                   "shape": list(cap.frames.shape[1:])}
+        if cap.cycles == 1 and window is None:
+            rec = FrameReconstructor(ps, rig, z_min, triangulation=triangulation, **opts)
+            points, texture = rec(np.ascontiguousarray(cap.frames), with_texture=True)
+            summary["files"] = write_single(out, points, texture, ply)
+            summary.update(point_summary(points))
+            summary["path"] = rec.path
+        else:
+            seq = reconstruct_sequence(cap.frames, ps, rig, out, z_min=z_min, mode="window" if window else "cycle",
+                                       step=window, ply=ply, store=store, progress=not (quiet or json_),
+                                       triangulation=triangulation, **opts)
+            summary.update(seq)
+        summary["seconds"] = round(time.perf_counter() - t0, 3)
+        from fringe3d.io.console import to_jsonable
+        atomic_write_text(out / "reconstruct.json", json.dumps(to_jsonable(summary), indent=1))
+        if json_:
+            print_json(summary)
+            return
+        if quiet:
+            return
+        rows = [[k, v if not isinstance(v, (dict, list)) else json.dumps(to_jsonable(v))]
+                for k, v in summary.items() if k not in ("files",)]
+        console.print(make_table(f"reconstructed {capture} -> {out}", ["item", "value"], rows))
+        info(f"done in {summary['seconds']} s")

@@ -1,0 +1,248 @@
+"""High-speed sequences: many captured frames -> one 3D frame per pattern cycle or sliding window.
+
+A capture of ``F`` frames repeats the manifest's cycle of ``n`` patterns. Two ways to cut it:
+
+* ``mode="cycle"``: frames ``[c*n, (c+1)*n)`` -> 3D frame ``c`` (F/n 3D frames);
+* ``mode="window"``: every ``step`` frames a window of ``n`` consecutive frames (any phase of
+  the cycle) -> one 3D frame, ``(F - n)//step + 1`` 3D frames; the window's frames are
+  reordered into manifest order, which is what superfast systems do to reach one 3D frame per
+  captured frame.
+
+Each 3D frame is decoded by :func:`fringe3d.decode.decode` and triangulated
+(:func:`fringe3d.reconstruct.depth.points_from_decoded`); a single-direction 3-step manifest
+unwrapped by the geometric constraint takes the fused :class:`FastThreeStep` kernel instead.
+Outputs: a resumable zarr store (:class:`fringe3d.io.store.PointMapStore`) and/or one PLY per
+3D frame; an interrupted run picks up where it stopped.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fringe3d.io.console import progress_bar
+from fringe3d.patterns.manifest import DirectionPlan, PatternSet
+
+from .depth import points_from_decoded
+from .triangulate import FastThreeStep, Triangulator
+
+STORE_NAME = "points.zarr"
+PLY_DIR = "ply"
+
+#: What each unwrapping method needs from a direction: (minimum phase groups, code kind or None).
+METHOD_NEEDS = {
+    "none": (1, None), "geometric": (1, None), "spatial": (1, None), "histogram": (1, None),
+    "two_frequency_geometric": (2, None), "hierarchical": (2, None), "heterodyne": (2, None),
+    "hybrid": (2, None), "gray_code": (1, "gray_code"), "binary_code": (1, "binary_code"),
+}
+
+
+# ----------------------------------------------------------------------------- plans
+def _group_periods(ps: PatternSet, direction: str) -> list[float]:
+    from fringe3d.unwrap.registry import phase_groups
+    return [g.period for g in phase_groups(ps, direction)]
+
+
+def plan_for_method(ps: PatternSet, direction: str, method: str) -> DirectionPlan:
+    """A plan that unwraps ``direction`` of ``ps`` with ``method``, or a ValueError saying what
+    the manifest lacks ("a method the manifest cannot feed")."""
+    if method not in METHOD_NEEDS:
+        raise ValueError(f"unknown unwrapping method {method!r}; expected one of {sorted(METHOD_NEEDS)}")
+    for p in ps.plans:
+        if p.direction == direction and p.method == method:
+            return p
+    need_groups, code = METHOD_NEEDS[method]
+    periods = sorted(_group_periods(ps, direction))
+    label = ps.name or "unnamed set"
+    if len(periods) < need_groups:
+        raise ValueError(f"method {method!r} needs {need_groups} phase groups (fringe periods) in direction "
+                         f"{direction!r}, but the manifest ({label}) has {len(periods)} "
+                         f"(periods {periods}); choose a method the pattern set can feed")
+    if code and not ps.indices(kind=code, direction=direction):
+        raise ValueError(f"method {method!r} needs {code} frames for direction {direction!r}, but the manifest "
+                         f"({label}) has none; choose a method the pattern set can feed")
+    if method in ("two_frequency_geometric", "hybrid"):
+        chosen = (periods[0], periods[-1])
+    elif method in ("hierarchical", "heterodyne"):
+        chosen = tuple(periods)
+    else:
+        chosen = (periods[0],)
+    angle = ps.frames[ps.indices(direction=direction, role="phase")[0]].angle
+    return DirectionPlan(direction=direction, angle=angle, method=method, periods=chosen)
+
+
+def with_method(ps: PatternSet, method: str | None) -> PatternSet:
+    """``ps`` with every fringe direction's plan replaced by ``method`` (None: unchanged)."""
+    if method is None:
+        return ps
+    dirs = [d for d in ps.directions() if ps.groups(direction=d, role="phase")]
+    if not dirs:
+        raise ValueError(f"the manifest ({ps.name or 'unnamed set'}) has no phase frames; nothing to reconstruct")
+    return dataclasses.replace(ps, plans=tuple(plan_for_method(ps, d, method) for d in dirs))
+
+
+# ----------------------------------------------------------------------------- windows
+def window_starts(n_frames: int, cycle: int, mode: str = "cycle", step: int | None = None) -> list[int]:
+    """First frame of each 3D frame's window (see the module docstring)."""
+    if cycle <= 0:
+        raise ValueError("the manifest lists no frames")
+    if n_frames < cycle:
+        raise ValueError(f"the capture has {n_frames} frames, fewer than one cycle of the manifest's {cycle}")
+    if mode == "cycle":
+        if n_frames % cycle:
+            raise ValueError(f"{n_frames} frames are not a whole number of {cycle}-frame cycles")
+        return list(range(0, n_frames, cycle))
+    if mode == "window":
+        step = 1 if step is None else int(step)
+        if step < 1:
+            raise ValueError(f"window step must be >= 1 frame, got {step}")
+        return list(range(0, n_frames - cycle + 1, step))
+    raise ValueError(f"unknown sequence mode {mode!r}; expected 'cycle' or 'window'")
+
+
+def window_index(start: int, cycle: int) -> np.ndarray:
+    """Frame indices of the window starting at ``start``, in manifest order: pattern ``p`` is
+    the frame ``f`` in ``[start, start + cycle)`` with ``f % cycle == p``."""
+    f = np.arange(start, start + cycle)
+    out = np.empty(cycle, np.int64)
+    out[f % cycle] = f
+    return out
+
+
+# ----------------------------------------------------------------------------- one 3D frame
+class FrameReconstructor:
+    """Turns one cycle of frames (manifest order) into an ``(H, W, 3)`` float32 point map.
+
+    Built once per rig and manifest: the minimum phase map and ray coefficients are computed
+    once. ``fast=True`` takes the fused :class:`FastThreeStep` kernel when the manifest is one
+    3-step direction unwrapped by ``"geometric"`` and the projector has no distortion (it masks by
+    modulation only; saturation is not checked on that path).
+    """
+
+    def __init__(self, patterns: PatternSet, rig, z_min: float | None = None, triangulation: str = "auto",
+                 fast: bool = True, **decode_opts):
+        self.patterns = patterns
+        self.rig = rig
+        self.z_min = z_min
+        self.triangulation = triangulation
+        self.opts = decode_opts
+        self.fast = self._fast_path() if fast else None
+
+    @property
+    def path(self) -> str:
+        return "fused 3-step + geometric kernel" if self.fast is not None else "decode + triangulate"
+
+    def _fast_path(self):
+        ps = self.patterns
+        plans = ps.plans
+        if len(plans) != 1 or plans[0].method != "geometric" or self.z_min is None or self.rig.telecentric:
+            return None
+        if self.rig.projector.dist.any():
+            return None
+        from fringe3d.unwrap.registry import phase_groups
+        groups = phase_groups(ps, plans[0].direction)
+        if len(groups) != 1 or len(groups[0].indices) != 3 or len(ps) != 3:
+            return None
+        g = groups[0]
+        from fringe3d.unwrap.geometric import cached_minimum_phase
+        mp = cached_minimum_phase(self.rig, self.z_min, g.period, g.angle)
+        self._fast_index = np.asarray(g.indices, np.int64)
+        self._fast_min_mod = self.opts.get("min_modulation")
+        return FastThreeStep(Triangulator(self.rig, g.angle, warn_distortion=False), mp, g.shifts,
+                             min_modulation=0.0)
+
+    def __call__(self, frames: np.ndarray, with_texture: bool = False):
+        """Points ``(H, W, 3)`` float32 (and the texture ``(H, W)`` float32 in [0, 1] if asked)."""
+        from fringe3d.phase.quality import default_min_modulation, full_scale
+        if self.fast is not None:
+            mm = self._fast_min_mod
+            self.fast.min_mod2 = (default_min_modulation(frames, self.opts.get("bit_depth")) if mm is None else mm) ** 2
+            pts = self.fast.points(frames, index=self._fast_index)
+            if not with_texture:
+                return pts
+            tex = frames[self._fast_index].mean(axis=0, dtype=np.float32) / full_scale(frames, self.opts.get("bit_depth"))
+            return pts, np.clip(tex, 0, 1).astype(np.float32)
+        from fringe3d.decode import decode
+        dec = decode(frames, self.patterns, rig=self.rig, z_min=self.z_min, **self.opts)
+        pts = points_from_decoded(dec, self.rig, method=self.triangulation)
+        if not with_texture:
+            return pts
+        tex = np.asarray(dec.texture, np.float32) / full_scale(frames, self.opts.get("bit_depth"))
+        return pts, np.clip(np.nan_to_num(tex), 0, 1).astype(np.float32)
+
+
+# ----------------------------------------------------------------------------- sequences
+def ply_name(k: int) -> str:
+    return f"frame_{k:05d}.ply"
+
+
+def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig, out, z_min: float | None = None,
+                         mode: str = "cycle", step: int | None = None, ply: bool = False, store: bool = True,
+                         progress: bool = True, triangulation: str = "auto", fast: bool = True,
+                         **decode_opts) -> dict:
+    """Reconstruct every 3D frame of a sequence into ``out`` (resumable).
+
+    Parameters
+    ----------
+    frames : (F, H, W) array (may be a memory map), the capture in projection order
+    patterns : the manifest (its plans choose the unwrapping; see :func:`with_method`)
+    rig : the calibrated rig; z_min : mm, for geometric-constraint methods
+    out : output folder: ``points.zarr`` and/or ``ply/frame_00000.ply`` ...
+    mode, step : ``"cycle"`` or ``"window"`` (one 3D frame every ``step`` captured frames)
+    ply, store : which outputs to write (at least one)
+
+    Returns a summary dict (3D frames, done now / before, seconds, 3D frames per second, path).
+    """
+    if not (ply or store):
+        raise ValueError("nothing to write: ask for the point store and/or PLY files")
+    frames = np.asarray(frames) if not isinstance(frames, np.ndarray) else frames
+    if frames.ndim != 3:
+        raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
+    H, W = frames.shape[1:]
+    if (rig.camera.height, rig.camera.width) != (H, W):
+        raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is {rig.camera.width}x"
+                         f"{rig.camera.height}: calibration and capture sizes disagree")
+    n = len(patterns)
+    starts = window_starts(frames.shape[0], n, mode, step)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    meta = {"patterns": patterns.name, "mode": mode, "step": step, "z_min": z_min, "rig": rig.to_dict(),
+            "window_starts": [starts[0], starts[-1], len(starts)]}
+    st = None
+    if store:
+        from fringe3d.io.store import PointMapStore
+        st = PointMapStore.open(out / STORE_NAME, len(starts), H, W, meta=meta)
+    if ply:
+        (out / PLY_DIR).mkdir(exist_ok=True)
+
+    def done(k):
+        return (st is None or st.is_done(k)) and (not ply or (out / PLY_DIR / ply_name(k)).exists())
+
+    todo = [k for k in range(len(starts)) if not done(k)]
+    rec = FrameReconstructor(patterns, rig, z_min, triangulation=triangulation, fast=fast, **decode_opts)
+    t0 = time.perf_counter()
+    empty = 0
+    with progress_bar("reconstructing 3D frames", len(todo), enabled=progress and len(todo) > 1) as advance:
+        for k in todo:
+            cyc = np.ascontiguousarray(frames[window_index(starts[k], n)])
+            try:
+                pts, tex = rec(cyc, with_texture=True)
+            except ValueError as e:
+                if "mask is empty" not in str(e):
+                    raise
+                pts, tex = np.full((H, W, 3), np.nan, np.float32), None
+                empty += 1
+            if ply and np.isfinite(pts[..., 0]).any():
+                from fringe3d.io.pointcloud import write_ply
+                write_ply(out / PLY_DIR / ply_name(k), pts, colors=tex)
+            if st is not None:
+                st.write(k, pts)
+            advance()
+    dt = time.perf_counter() - t0
+    return {"out": str(out), "frames_3d": len(starts), "done_now": len(todo), "done_before": len(starts) - len(todo),
+            "empty_frames": empty, "seconds": round(dt, 3),
+            "frames_3d_per_s": (len(todo) / dt) if todo and dt > 0 else None, "path": rec.path, "mode": mode,
+            "store": str(out / STORE_NAME) if store else None, "ply_dir": str(out / PLY_DIR) if ply else None}
