@@ -40,7 +40,7 @@ def test_strain_command_writes_csv_vtk_maps_and_matches_the_analytic_strain(sequ
     assert main(["strain", str(folder), "--anchors", arg, "-o", str(out), "--json", "--thickness", str(H),
                  "--step", "6", "--window", "9"]) == 0
     summary = json.loads(capsys.readouterr().out)
-    assert summary["frames"] == 3 and summary["tracked_fraction"] > 0.95
+    assert summary["frames"] == 3 and summary["tracked_fraction"] > 0.85
     for name in ["strain.csv", "strain.gif", "summary.json", "vtk/frame_00002.vtk", "maps/strain_00001.png"]:
         assert (out / name).stat().st_size > 0
     assert not list(out.rglob(".*.part*"))          # no temporary leftovers
@@ -61,7 +61,7 @@ def test_auto_anchors_find_the_dots(sequence, tmp_path, capsys):
     folder, _, _ = sequence
     assert main(["strain", str(folder), "--anchors", "auto", "-o", str(tmp_path / "o"), "--json", "--no-figures",
                  "--step", "8"]) == 0
-    assert json.loads(capsys.readouterr().out)["tracked_fraction"] > 0.95
+    assert json.loads(capsys.readouterr().out)["tracked_fraction"] > 0.85
 
 
 def _expect_error(args, out, capsys, text):
@@ -119,4 +119,4 @@ def test_npz_stack_is_read_like_a_folder(sequence, tmp_path, capsys):
     arg = ",".join(f"{x:.3f}" for x in anchors0.ravel())
     assert main(["strain", str(tmp_path / "seq.npz"), "--anchors", arg, "-o", str(tmp_path / "o"), "--json",
                  "--no-figures", "--step", "8"]) == 0
-    assert json.loads(capsys.readouterr().out)["tracked_fraction"] > 0.95
+    assert json.loads(capsys.readouterr().out)["tracked_fraction"] > 0.85

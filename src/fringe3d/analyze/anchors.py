@@ -12,7 +12,7 @@ from skimage import measure
 
 from fringe3d.analyze.geodesic import bezier_geodesic, check_point_map, grid_geodesic
 
-__all__ = ["dark_dots", "find_anchor_dots", "check_anchor", "distance_maps", "pair_anchors"]
+__all__ = ["dark_dots", "fill_dot_holes", "find_anchor_dots", "check_anchor", "distance_maps", "pair_anchors"]
 
 
 def dark_dots(texture: np.ndarray, min_area: float = 4.0, max_area: float = 2000.0, darkness: float = 0.5,
@@ -117,3 +117,39 @@ def distance_maps(points: np.ndarray, anchors_uv: np.ndarray, method: str = "bez
     for a in anchors_uv:
         check_anchor(points, a)
     return fn(points, anchors_uv[0]), fn(points, anchors_uv[1])
+
+
+def fill_dot_holes(points: np.ndarray, anchors_uv: np.ndarray, max_radius: int = 8, ring: int = 5) -> np.ndarray:
+    """Fill the reconstruction holes left by dark anchor dots (low fringe modulation).
+
+    For each anchor, invalid pixels within ``max_radius`` px of it are filled with a quadratic
+    polynomial in (u, v) per coordinate, least-squares fitted to the valid pixels within
+    ``max_radius + ring`` px (the smooth membrane around the dot). Pixels already valid are not
+    touched. Raises ``ValueError`` if an anchor is outside the frame or the surrounding ring has
+    too few valid pixels (the anchor is not on the measured surface). Returns a float64 copy.
+    """
+    pts = check_point_map(points).copy()
+    h, w, _ = pts.shape
+    valid = np.isfinite(pts).all(axis=2)
+    R = max_radius + ring
+    for a in np.atleast_2d(anchors_uv):
+        u0, v0 = float(a[0]), float(a[1])
+        if not (0 <= u0 <= w - 1 and 0 <= v0 <= h - 1):
+            raise ValueError(f"anchor (u={u0:.1f}, v={v0:.1f}) is outside the {w}×{h} frame")
+        r0, r1 = max(int(v0) - R, 0), min(int(v0) + R + 2, h)
+        c0, c1 = max(int(u0) - R, 0), min(int(u0) + R + 2, w)
+        vv, uu = np.mgrid[r0:r1, c0:c1]
+        dist = np.hypot(uu - u0, vv - v0)
+        hole = (~valid[r0:r1, c0:c1]) & (dist <= max_radius)
+        if not hole.any():
+            continue
+        support = valid[r0:r1, c0:c1] & (dist <= R)
+        if support.sum() < 0.5 * np.pi * R * R * 0.5:
+            raise ValueError(f"anchor (u={u0:.1f}, v={v0:.1f}) lies on invalid (unreconstructed) pixels with too "
+                             "little measured surface around it; expected anchors on the measured surface")
+        x, y = (uu - u0) / R, (vv - v0) / R
+        A = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1).astype(float)
+        coef, *_ = np.linalg.lstsq(A[support], pts[r0:r1, c0:c1][support], rcond=None)
+        block = pts[r0:r1, c0:c1]
+        block[hole] = A[hole] @ coef
+    return pts

@@ -193,7 +193,7 @@ def _local_shape_kernel(pts, valid, toward, has_toward, uv, half, min_count, out
 
 
 def local_shape(points: np.ndarray, uv: np.ndarray, window: int = 11, toward: np.ndarray | None = None,
-                min_fraction: float = 0.5) -> LocalShape:
+                min_fraction: float = 0.75) -> LocalShape:
     """Quadratic-fit surface geometry at sub-pixel positions ``uv`` (Eq. 6.13–6.21).
 
     Parameters
@@ -298,17 +298,20 @@ class WingSequence:
 
 
 def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, window: int = 11,
-                  reference: int = 0, method: str = "bezier", radius: int = 3, progress=None) -> WingSequence:
+                  reference: int = 0, method: str = "bezier", radius: int = 3, fill_dots: int = 0,
+                  progress=None) -> WingSequence:
     """Track ``query_uv`` (N,2) of the reference frame through ``frames`` and compute strain.
 
     frames : sequence of F point maps (H, W, 3) mm (or a callable i -> map, with ``len``).
     anchors : (F, 2, 2) anchor pixel positions (u, v) of this wing on every frame.
+    fill_dots : if > 0, holes within this many pixels of each anchor (dark dots do not
+        reconstruct) are filled first (:func:`fringe3d.analyze.anchors.fill_dot_holes`).
     method/radius: geodesic method (see :func:`fringe3d.analyze.anchors.distance_maps`).
     Tracking: Eq. 6.9 (:func:`fringe3d.analyze.tracking.track_points`); strain: Eq. 6.11–6.21
-    with the direction towards anchor 1 as the material direction.
+    with the direction towards the farther anchor as the material direction.
     ``progress``: optional callable advanced once per frame.
     """
-    from fringe3d.analyze.anchors import distance_maps
+    from fringe3d.analyze.anchors import distance_maps, fill_dot_holes
     from fringe3d.analyze.tracking import sample_bilinear, side_of_line, track_points
 
     anchors = np.asarray(anchors, dtype=np.float64)
@@ -316,17 +319,30 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
     if anchors.shape != (nf, 2, 2):
         raise ValueError(f"anchors must have shape (frames={nf}, 2, 2); got {anchors.shape}")
     q = np.atleast_2d(np.asarray(query_uv, dtype=np.float64))
-    ref_pts = frames[reference]
+
+    def frame(i):
+        return fill_dot_holes(frames[i], anchors[i], fill_dots) if fill_dots > 0 else np.asarray(frames[i], float)
+
+    ref_pts = frame(reference)
     R1, R2 = distance_maps(ref_pts, anchors[reference], method, radius)
     d = np.stack([sample_bilinear(R1, q), sample_bilinear(R2, q)], axis=1)
     side = side_of_line(q, *anchors[reference])
-    B = local_shape(ref_pts, q, window, toward=sample_bilinear(np.asarray(ref_pts, float), anchors[reference, :1])[0])
+    # material direction: towards the farther anchor (well defined, same choice in every frame)
+    far = np.where(d[:, 0] >= d[:, 1], 0, 1)
+
+    def toward(pts, a):
+        return sample_bilinear(pts, a)[far]
+
+    B = local_shape(ref_pts, q, window, toward=toward(ref_pts, anchors[reference]))
     n = q.shape[0]
     out = WingSequence(q, d, np.full((nf, n, 2), np.nan), np.full((nf, n, 3), np.nan),
                        np.full((nf, n, 2, 2), np.nan), np.full((nf, n, 2), np.nan), np.full((nf, n), np.nan),
                        np.full((nf, n), np.nan), np.zeros((nf, n), bool))
     for f in range(nf):
-        pts = frames[f]
+        try:
+            pts = ref_pts if f == reference else frame(f)
+        except ValueError as e:
+            raise ValueError(f"frame {f}: {e}") from None
         if f == reference:
             D1, D2, uv = R1, R2, q.copy()
             res, okt = np.zeros(n), np.isfinite(d).all(axis=1)
@@ -337,7 +353,7 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
                 raise ValueError(f"frame {f}: {e}") from None
             tr = track_points(d[:, 0], d[:, 1], D1, D2, side, anchors[f])
             uv, res, okt = tr.uv, tr.residual, tr.ok
-        cur = local_shape(pts, uv, window, toward=sample_bilinear(np.asarray(pts, float), anchors[f, :1])[0])
+        cur = local_shape(pts, uv, window, toward=toward(pts, anchors[f]))
         st = bending_strain(B, cur, thickness)
         out.uv[f], out.residual[f] = uv, res
         out.xyz[f] = sample_bilinear(np.asarray(pts, dtype=np.float64), uv)

@@ -73,7 +73,7 @@ def _grad(D: np.ndarray, uv: np.ndarray, eps: float = 0.5):
 
 def track_points(d1: np.ndarray, d2: np.ndarray, D1: np.ndarray, D2: np.ndarray, side: np.ndarray,
                  anchors_uv: np.ndarray, iterations: int = 8, tolerance: float = 0.05,
-                 min_crossing: float = 0.1) -> TrackResult:
+                 min_crossing: float = 0.25) -> TrackResult:
     """Locate points with reference geodesic distances (d1, d2) on the current frame (Eq. 6.9).
 
     Parameters

@@ -144,29 +144,29 @@ def parse_anchors(text: str) -> list[np.ndarray] | None:
     return wings
 
 
-def follow_anchors(seq: PointSequence, start: list[np.ndarray], search: float = 20.0) -> np.ndarray:
-    """Anchor positions (F, wings, 2, 2). With textures, each frame's anchor is the dark dot
-    nearest its constant-velocity prediction (within ``search`` px, else the prediction); without
-    textures the given positions hold for every frame (anchors near the wing root barely move)."""
+def follow_anchors(texture, n_frames: int, start: list[np.ndarray], search: float = 20.0) -> np.ndarray:
+    """Anchor positions (F, wings, 2, 2) from the reference positions ``start``.
+
+    ``texture``: callable ``i -> (H, W)`` image, or None. With textures, each frame's anchor is
+    the dark dot nearest its constant-velocity prediction (within ``search`` px, else the
+    prediction); without, the given positions hold for every frame (anchors near the wing root
+    barely move)."""
     from fringe3d.analyze.anchors import dark_dots
 
-    nf = len(seq)
-    out = np.repeat(np.stack(start)[None], nf, axis=0)
-    if not seq.has_texture:
+    out = np.repeat(np.stack(start)[None], n_frames, axis=0)
+    if texture is None:
         return out
-    for f in range(1, nf):
+    for f in range(1, n_frames):
         try:
-            dots = dark_dots(seq.texture(f))[:, :2]
+            dots = dark_dots(texture(f))[:, :2]
         except ValueError:
             dots = np.empty((0, 2))
         for w in range(len(start)):
             for a in range(2):
-                prev = out[f - 1, w, a]
-                if f >= 2:
-                    prev = prev + (out[f - 1, w, a] - out[f - 2, w, a])
-                out[f, w, a] = prev
+                pred = out[f - 1, w, a] + ((out[f - 1, w, a] - out[f - 2, w, a]) if f >= 2 else 0.0)
+                out[f, w, a] = pred
                 if len(dots):
-                    d = np.linalg.norm(dots - prev, axis=1)
+                    d = np.linalg.norm(dots - pred, axis=1)
                     j = int(np.argmin(d))
                     if d[j] <= search:
                         out[f, w, a] = dots[j]
@@ -202,7 +202,7 @@ def query_grid(points: np.ndarray, anchors: np.ndarray, step: int, margin: int) 
 
 # --- the command ----------------------------------------------------------------------------------
 def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window: int = 11, step: int = 4,
-               wings: int = 1, radius: int = 3, reference: int = 0, figures: bool = True) -> dict:
+               wings: int = 1, radius: int = 3, reference: int = 0, figures: bool = True, fill_dots: int = 8) -> dict:
     """Everything ``fringe3d strain`` does; returns the JSON summary. Validates all inputs
     before any file is written."""
     from fringe3d.analyze.anchors import check_anchor
@@ -224,11 +224,13 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         raise ValueError(f"--reference {reference} is outside the sequence's {len(seq)} frames")
     if start is None:
         start = auto_anchors(seq, wings)
+    from fringe3d.analyze.anchors import fill_dot_holes
     ref = seq[reference]
     for a in start:
+        filled = fill_dot_holes(ref, a, fill_dots) if fill_dots > 0 else ref
         for x in a:
-            check_anchor(ref, x)
-    per_frame = follow_anchors(seq, start)
+            check_anchor(filled, x)
+    per_frame = follow_anchors(seq.texture if seq.has_texture else None, len(seq), start)
     maps = [seq[i] for i in range(len(seq))]  # loads and checks every frame's shape up front
     results = []
     with progress_bar("tracking + strain", total=len(seq) * len(start)) as advance:
@@ -237,7 +239,7 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
             if len(q) == 0:
                 raise ValueError(f"wing {w}: no surface pixels around the anchors to track")
             results.append(wing_sequence(maps, per_frame[:, w], q, thickness, window, reference, radius=radius,
-                                         progress=advance))
+                                         fill_dots=fill_dots, progress=advance))
     # outputs (each file atomic)
     out = Path(out)
     tables, frame_col, wing_col = [], [], []
@@ -288,6 +290,8 @@ def register(app: typer.Typer) -> None:
         wings: int = typer.Option(1, help="Number of wings (anchor pairs) for --anchors auto."),
         radius: int = typer.Option(3, help="Geodesic marching window half-size (3 = the dissertation's 7×7)."),
         reference: int = typer.Option(0, help="Index of the undeformed reference frame."),
+        fill_dots: int = typer.Option(8, "--fill-dots", help="Fill unreconstructed anchor-dot holes up to this "
+                                                             "radius (px) from the surrounding surface; 0 = off."),
         no_figures: bool = typer.Option(False, "--no-figures", help="Skip the PNG maps and the GIF."),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
@@ -299,7 +303,7 @@ def register(app: typer.Typer) -> None:
         """
         set_quiet(quiet or json_)
         summary = run_strain(sequence, anchors, out, thickness, window, step, wings, radius, reference,
-                             figures=not no_figures)
+                             figures=not no_figures, fill_dots=fill_dots)
         if json_:
             print_json(summary)
         elif not quiet:
