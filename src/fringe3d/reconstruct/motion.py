@@ -128,13 +128,13 @@ def sphere_residuals(points: np.ndarray, mask: np.ndarray | None = None) -> tupl
     """
     from fringe3d.analyze.fits import fit_sphere
 
-    P = np.asarray(points, np.float64).reshape(-1, 3)
-    ok = np.isfinite(P).all(axis=1)
+    P = np.asarray(points, np.float64)
+    ok = np.isfinite(P).all(axis=-1)
     if mask is not None:
-        ok &= np.asarray(mask, bool).ravel()
+        ok &= np.asarray(mask, bool)
     if ok.sum() < 4:
         raise ValueError(f"a sphere fit needs at least 4 valid points, got {int(ok.sum())}")
-    fit = fit_sphere(P[ok])
+    fit = fit_sphere(P, ok)
     return float(fit.rms), float(fit.radius), np.asarray(fit.center, float)
 
 

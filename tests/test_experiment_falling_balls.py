@@ -1,0 +1,27 @@
+"""`fringe3d experiment falling-balls --quick`: hybrid FTP+PSP vs two-frequency PSP on falling balls."""
+import pytest
+
+from fringe3d import experiments
+
+
+@pytest.fixture(scope="module")
+def result():
+    return experiments.get("falling-balls").run(quick=True, seed=0)
+
+
+def test_falling_balls_quick_meets_its_goals(result):
+    assert result["goals"] and all(result["goals"].values()), result["goals"]
+
+
+def test_falling_balls_figures_back_the_goals(result):
+    two = result["figures"]["two balls, realistic noise"]
+    assert len(two) == 2
+    for b in two:
+        assert b["k_error"] == 0
+        assert b["hybrid_rms"] <= 0.26
+        assert b["psp_rms"] >= 27 * b["hybrid_rms"]
+        assert 19.0 < b["hybrid_radius"] < 23.0  # a 40 mm ball, slightly flattened by FTP's low-pass
+        assert b["hybrid_points"] > 2000 and b["psp_points"] > 2000
+    many = result["figures"]["20 balls, realistic noise"]
+    assert len(many) >= 20 and all(b.get("k_error") == 0 for b in many)
+    assert result["dissertation"]["hybrid sphere RMS"] == "0.26 mm"
