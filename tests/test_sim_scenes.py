@@ -152,3 +152,26 @@ def test_bad_primitive_parameters_raise():
 def test_miss_hit_has_documented_fill_values():
     h = Hit.miss(3)
     assert h.object_id.dtype == np.int32 and not h.mask.any() and np.all(np.isinf(h.t))
+
+
+def test_step_block_on_plane_gives_exact_step_height():
+    # block of height 12 mm standing on a tilted base plane: hits on top vs base differ by 12 mm
+    n = np.array([0.1, -0.05, -1.0])
+    n /= np.linalg.norm(n)
+    base = np.array([0.0, 0.0, 420.0])
+    from fringe3d.sim.motion import rotation_vector_to_matrix
+    # rotate body z onto -n so the block's top face is parallel to the plane, facing the camera
+    axis = np.cross([0, 0, 1.0], -n)
+    R = rotation_vector_to_matrix(axis / np.linalg.norm(axis) * np.arccos(-n[2]))
+    block = Box(base + n * 6.0, (40, 30, 12), R=R)
+    scene = Scene([block, Plane(base, n)])
+    rng = np.random.default_rng(7)
+    d = _random_dirs(rng, 4000, spread=0.15)
+    h = scene.intersect(np.zeros(3), d)
+    X = h.points(np.zeros(3), d)
+    height = (X - base) @ n  # signed distance from the base plane towards the camera
+    top = h.object_id == 0
+    front = top & (np.abs(h.normal @ n - 1) < 1e-9)
+    assert front.sum() > 100 and (h.object_id == 1).sum() > 100
+    np.testing.assert_allclose(height[front], 12.0, atol=1e-9)
+    np.testing.assert_allclose(height[h.object_id == 1], 0.0, atol=1e-9)

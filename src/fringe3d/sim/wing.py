@@ -21,6 +21,7 @@ thickness ``h`` is ``E_αβ = (h/2) κ_αβ`` (Eq. 6.11) with ``κ_αβ = b_αβ
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from .motion import rotation_vector_to_matrix
@@ -33,6 +34,63 @@ def _rest_rotation() -> np.ndarray:
     """Default material → world rotation: span → +x, chord → −y (up in the image), sheet normal
     → −z (towards a camera at the origin looking along +z)."""
     return np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]])
+
+
+@numba.njit(cache=True)
+def _wing_kernel(o, d, R, c, k, a2, p2, s0, span, chord, rect, t_out, uv_out):
+    """Per ray: body-frame ray, κ-scaled ray-cylinder quadratic (plane as κ → 0), nearest root
+    whose material point lies inside the outline."""
+    shared = o.shape[0] == 1
+    for i in range(d.shape[0]):
+        j = 0 if shared else i
+        t_out[i] = np.inf
+        ux, uy, uz = o[j, 0] - c[0], o[j, 1] - c[1], o[j, 2] - c[2]
+        ob0 = ux * R[0, 0] + uy * R[1, 0] + uz * R[2, 0]  # (X - c) @ R
+        ob1 = ux * R[0, 1] + uy * R[1, 1] + uz * R[2, 1]
+        ob2 = ux * R[0, 2] + uy * R[1, 2] + uz * R[2, 2]
+        db0 = d[i, 0] * R[0, 0] + d[i, 1] * R[1, 0] + d[i, 2] * R[2, 0]
+        db1 = d[i, 0] * R[0, 1] + d[i, 1] * R[1, 1] + d[i, 2] * R[2, 1]
+        db2 = d[i, 0] * R[0, 2] + d[i, 1] * R[1, 2] + d[i, 2] * R[2, 2]
+        xi = ob0 * p2[0] + ob1 * p2[1] - s0
+        zeta = ob2
+        dxi = db0 * p2[0] + db1 * p2[1]
+        dz = db2
+        A = k * (dxi * dxi + dz * dz)
+        B = k * (xi * dxi + zeta * dz) - dz
+        C = k * (xi * xi + zeta * zeta) - 2 * zeta
+        r1, r2 = np.inf, np.inf
+        if abs(k) < 1e-12:
+            if B != 0.0:
+                r1 = -C / (2 * B)
+        else:
+            disc = B * B - A * C
+            if disc < 0:
+                continue
+            sq = np.sqrt(disc)
+            q = -(B + sq) if B >= 0 else -(B - sq)
+            if q == 0.0:
+                continue
+            r1, r2 = q / A, C / q
+            if r2 < r1:
+                r1, r2 = r2, r1
+        for t in (r1, r2):
+            if not (t > 1e-9 and t < np.inf):
+                continue
+            bx, by, bz = ob0 + t * db0, ob1 + t * db1, ob2 + t * db2
+            bp = bx * p2[0] + by * p2[1] - s0
+            sarc = bp if abs(k) < 1e-12 else np.arctan2(k * bp, 1 - k * bz) / k
+            w = bx * a2[0] + by * a2[1]
+            x = w * a2[0] + (sarc + s0) * p2[0]
+            y = w * a2[1] + (sarc + s0) * p2[1]
+            if x < 0 or x > span or y < 0:
+                continue
+            lim = chord if rect else chord * np.sqrt(max(0.0, 1 - (x / span) ** 4))
+            if y > lim:
+                continue
+            t_out[i] = t
+            uv_out[i, 0] = x
+            uv_out[i, 1] = y
+            break
 
 
 class Wing(SceneObject):
@@ -285,34 +343,10 @@ class Wing(SceneObject):
         o, d = as_rays(origins, dirs)
         R, c = self.pose(time)
         k = self.kappa(time)
-        ob, db = (o - c) @ R, d @ R
-        p3 = np.r_[self.p2, 0.0]
-        xi, zeta = ob @ p3 - self.s0, ob[:, 2]
-        dxi, dz = db @ p3, db[:, 2]
-        # κ-scaled quadratic  A t² + 2 B t + C = 0  (degenerates to the plane z_b = 0 as κ → 0)
-        A = k * (dxi * dxi + dz * dz)
-        B = k * (xi * dxi + zeta * dz) - dz
-        C = k * (xi * xi + zeta * zeta) - 2 * zeta
-        with np.errstate(invalid="ignore", divide="ignore"):
-            disc = B * B - A * C
-            sq = np.sqrt(np.where(disc >= 0, disc, np.nan))
-            q = -(B + np.where(B >= 0, sq, -sq))
-            roots = np.stack([q / A, C / q]) if abs(k) >= _EPS_K else np.stack([np.full_like(q, np.nan), -C / (2 * B)])
-        best_t = np.full(len(d), np.inf)
+        best_t = np.empty(len(d))
         best_uv = np.full((len(d), 2), np.nan)
-        for t in roots:
-            t = np.broadcast_to(t, best_t.shape)
-            ok = np.isfinite(t) & (t > 1e-9) & (t < best_t)
-            if not ok.any():
-                continue
-            idx = np.flatnonzero(ok)
-            pb = ob[idx] if len(ob) > 1 else ob
-            b = pb + t[idx, None] * db[idx]
-            uv = self._body_to_material(b, k)
-            good = self.contains(uv)
-            idx, uv = idx[good], uv[good]
-            best_t[idx] = t[idx]
-            best_uv[idx] = uv
+        _wing_kernel(o, d, np.ascontiguousarray(R), c, float(k), self.a2, self.p2, self.s0, self.span,
+                     self.chord, self.outline == "rectangle", best_t, best_uv)
         hit = np.isfinite(best_t)
         normal = np.full(d.shape, np.nan)
         if hit.any():
