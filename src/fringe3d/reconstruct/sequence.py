@@ -161,6 +161,9 @@ class FrameReconstructor:
             mm = self._fast_min_mod
             self.fast.min_mod2 = (default_min_modulation(frames, self.opts.get("bit_depth")) if mm is None else mm) ** 2
             pts = self.fast.points(frames, index=self._fast_index)
+            if not np.isfinite(pts[..., 0]).any():
+                raise ValueError("the decoded phase mask is empty: no pixel has enough fringe modulation "
+                                 "(check exposure, modulation threshold and that the scene is lit by the projector)")
             if not with_texture:
                 return pts
             tex = frames[self._fast_index].mean(axis=0, dtype=np.float32) / full_scale(frames, self.opts.get("bit_depth"))
