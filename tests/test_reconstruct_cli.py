@@ -84,9 +84,9 @@ def test_geometric_method_on_noisy_3step_capture_fast_path(noisy_capture, tmp_pa
     # the tiny rig (290 px focal lengths) turns ~0.01 rad phase noise into ~1 mm depth noise
     assert ev["truth"]["median_mm"] < 1.5
     assert abs(ev["sphere"]["size"]) < 0.5 and ev["sphere"]["rms"] < 1.5
-    # without truth, the sphere is found by segmentation and gives the same fit
+    # without truth, the sphere is found by segmentation (rim pixels may differ from the truth ids)
     code, stdout, err = run(["evaluate", str(out), "--sphere", "--json"], capsys)
-    assert json.loads(stdout)["sphere"]["diameter"] == pytest.approx(ev["sphere"]["diameter"], abs=1e-6)
+    assert json.loads(stdout)["sphere"]["diameter"] == pytest.approx(ev["sphere"]["diameter"], abs=0.1)
 
 
 def test_calibration_and_capture_sizes_disagree(noisy_capture, tmp_path, capsys):
