@@ -72,3 +72,22 @@ def test_hybrid_rejects_missing_rig_and_wrong_frame_count(capture):
         measure(frames[idx], ps4, None, z_min=340.0)
     with pytest.raises(ValueError, match="expected 4 frames"):
         measure(frames, ps4, rig, z_min=340.0)
+
+
+def test_hybrid_on_the_simulators_named_falling_balls_scene():
+    from fringe3d.sim.catalog import falling_balls_scene
+
+    p = presets.get("high-speed")
+    rig = p.rig
+    ps6 = dissertation_sequence(rig.projector.width, rig.projector.height)
+    ps4, idx = hybrid_view(ps6)
+    scene = falling_balls_scene(p, n=3, seed=0)  # checker-printed, spinning, isolated balls
+    frames, truth = render(scene, rig, ps6, p.settings.replace(frame_rate=1500.0, seed=0), progress=False)
+    m = measure(frames[idx], ps4, rig, z_min=p.volume["z"][0], erode=4)
+    t = truth.frame(idx[0])
+    for ball in range(3):
+        own = (t.object_id == ball) & m.mask
+        assert own.sum() > 1500
+        err = m.phase[own] - t.phase["v"][own]
+        assert round(float(np.median(err)) / TWO_PI) == 0
+        assert np.sqrt(np.mean(err ** 2)) < 0.4

@@ -82,8 +82,10 @@ def _register() -> None:
         """Plan ``method="spatial"``: the narrowest group's wrapped phase unwrapped per object.
 
         RELATIVE phase: each object is off by an unknown ``2π·k`` (Eq. 5.12); use ``"histogram"``,
-        ``"hybrid"`` or a temporal method for absolute 3D. Options: ``min_size``, ``erode``,
-        ``min_ratio``."""
+        ``"hybrid"`` or a temporal method for absolute 3D. For FTP groups, a rig and ``z_min``
+        (when given) fix the carrier and thus the phase's sign; without them the decoder's
+        carrier search decides it. Options: ``min_size``, ``erode``, ``min_ratio``,
+        ``ftp_window``."""
         from .segmentation import foreground_mask
 
         groups = sorted(ctx.groups_for_plan(), key=lambda g: g.period)
@@ -91,7 +93,17 @@ def _register() -> None:
             raise ValueError(f"direction {ctx.direction!r}: method 'spatial' found no phase group")
         g = groups[0]
         opts = {**ctx.plan.options, **ctx.options}
-        pr = ctx.group_phase(g)
+        z_min = ctx.z_min if ctx.z_min is not None else opts.get("z_min")
+        if len(g.indices) < 3 and ctx.rig is not None and z_min is not None:
+            from .geometric import _context_geometry, cached_minimum_phase
+            from .hybrid import carrier_from_minimum_phase, ftp_group_phase
+
+            rig, z_min = _context_geometry(ctx, "spatial")
+            mp = cached_minimum_phase(rig, z_min, g.period, g.angle)
+            pr = ftp_group_phase(ctx.frames[list(g.indices)], g.shifts, carrier_from_minimum_phase(mp.phi_min),
+                                 window=str(opts.get("ftp_window", "hanning")))
+        else:
+            pr = ctx.group_phase(g)
         fg = foreground_mask(pr.average, pr.modulation, float(opts.get("min_ratio", 0.15))) & ctx.group_mask(g)
         labels = segment_objects(fg, min_size=int(opts.get("min_size", 64)), erode=int(opts.get("erode", 0)))
         phi_r, labels = unwrap_objects(pr.phase, labels=labels)
