@@ -75,12 +75,11 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as e:
         err_console.print(f"[bold red]I/O error:[/] {e}")
         return EXIT_WRITE
-    except Exception as e:  # click usage errors and the rest
-        import click
-        if isinstance(e, click.exceptions.ClickException):
+    except Exception as e:  # usage errors of typer's (vendored) click, and the rest
+        if hasattr(e, "show") and hasattr(e, "exit_code"):  # ClickException / UsageError
             e.show()
             return EXIT_BAD_INPUT
-        if isinstance(e, click.exceptions.Abort):
+        if type(e).__name__ == "Abort":
             err_console.print("aborted")
             return EXIT_INTERNAL
         raise
