@@ -1,0 +1,120 @@
+"""Sequences: cycle / sliding-window 3D frames, store + PLY outputs, resuming after an interruption."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fringe3d.io.capture import read_capture
+from fringe3d.io.pointcloud import read_ply
+from fringe3d.io.store import PointMapStore
+from fringe3d.optics import Rig
+from fringe3d.patterns import sets
+from fringe3d.reconstruct import sequence
+from fringe3d.reconstruct.sequence import reconstruct_sequence, window_index, window_starts, with_method
+from fringe3d.sim import simulate_capture
+from fringe3d.sim.truth import Truth
+
+
+@pytest.fixture(scope="module")
+def seq_capture(tmp_path_factory):
+    """3 cycles of a noise-free 3-step T=64 capture of a static sphere before a wall."""
+    folder = tmp_path_factory.mktemp("seq") / "cap"
+    ps = sets.phase_shift(64, 3, "v", width=256, height=200)
+    simulate_capture(folder, preset="tiny", scene="sphere", patterns=ps, cycles=3, seed=5, progress=False,
+                     bit_depth=None, ideal=True)
+    cap = read_capture(folder)
+    return cap, Rig.load(folder / "rig.json"), Truth.load(folder)
+
+
+def test_window_index_puts_frames_in_manifest_order():
+    np.testing.assert_array_equal(window_index(0, 3), [0, 1, 2])
+    np.testing.assert_array_equal(window_index(1, 3), [3, 1, 2])
+    np.testing.assert_array_equal(window_index(5, 3), [6, 7, 5])
+    assert window_starts(9, 3) == [0, 3, 6]
+    assert window_starts(9, 3, "window") == list(range(7))
+    assert window_starts(10, 3, "window", step=3) == [0, 3, 6]
+    with pytest.raises(ValueError, match="whole number"):
+        window_starts(10, 3)
+    with pytest.raises(ValueError, match="mode"):
+        window_starts(9, 3, "bogus")
+
+
+def max_error(P, truth):
+    ok = np.isfinite(P[..., 0]) & truth.mask
+    assert ok.sum() > 0.99 * truth.mask.sum()
+    return float(np.max(np.linalg.norm(P[ok] - truth.xyz[ok], axis=-1)))
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_every_cycle_equals_truth_in_store_and_ply(seq_capture, tmp_path, fast):
+    cap, rig, truth = seq_capture
+    ps = with_method(cap.patterns, "geometric")
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, ply=True, progress=False, fast=fast)
+    assert res["frames_3d"] == 3 and res["done_now"] == 3
+    assert res["path"].startswith("fused") == fast
+    st = PointMapStore.open_existing(tmp_path / "points.zarr")
+    for k in range(3):
+        assert max_error(st.read(k), truth) < 1e-3
+        ply = read_ply(tmp_path / "ply" / sequence.ply_name(k))
+        assert len(ply.points) == np.isfinite(st.read(k)[..., 0]).sum() and ply.colors is not None
+
+
+def test_sliding_windows_give_one_3d_frame_per_captured_frame(seq_capture, tmp_path):
+    cap, rig, truth = seq_capture
+    ps = with_method(cap.patterns, "geometric")
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, mode="window", progress=False)
+    assert res["frames_3d"] == 9 - 3 + 1
+    st = PointMapStore.open_existing(tmp_path / "points.zarr")
+    for k in range(st.frames):  # windows starting mid-cycle are reordered correctly
+        assert max_error(st.read(k), truth) < 1e-3
+
+
+def test_interrupted_run_resumes_where_it_stopped(seq_capture, tmp_path, monkeypatch):
+    cap, rig, truth = seq_capture
+    ps = with_method(cap.patterns, "geometric")
+    real_call = sequence.FrameReconstructor.__call__
+    calls = {"n": 0}
+
+    def flaky(self, frames, with_texture=False):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt  # the user stops the run during the third 3D frame
+        return real_call(self, frames, with_texture)
+
+    monkeypatch.setattr(sequence.FrameReconstructor, "__call__", flaky)
+    with pytest.raises(KeyboardInterrupt):
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, mode="window", step=1, progress=False)
+    st = PointMapStore.open_existing(tmp_path / "points.zarr")
+    assert st.pending() == [2, 3, 4, 5, 6]
+    monkeypatch.setattr(sequence.FrameReconstructor, "__call__", real_call)
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, mode="window", step=1, progress=False)
+    assert res["done_before"] == 2 and res["done_now"] == 5
+    st = PointMapStore.open_existing(tmp_path / "points.zarr")
+    assert st.pending() == [] and all(max_error(st.read(k), truth) < 1e-3 for k in range(7))
+
+
+def test_sequence_bad_inputs(seq_capture, tmp_path):
+    cap, rig, truth = seq_capture
+    ps = with_method(cap.patterns, "geometric")
+    with pytest.raises(ValueError, match="nothing to write"):
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, ply=False, store=False)
+    with pytest.raises(ValueError, match="sizes disagree"):
+        reconstruct_sequence(cap.frames[:, :100], ps, rig, tmp_path, z_min=340.0)
+    reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, progress=False)
+    with pytest.raises(ValueError, match="new output folder"):  # a different sequence into the same store
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, mode="window", progress=False)
+
+
+def test_reconstruct_command_on_a_sequence_then_evaluate_a_frame(seq_capture, tmp_path, capsys):
+    import json
+
+    from fringe3d.cli import main
+    cap, rig, truth = seq_capture
+    out = tmp_path / "out"
+    code = main(["reconstruct", str(cap.folder), "-c", str(cap.folder / "rig.json"), "-o", str(out), "--method",
+                 "geometric", "--z-min", "340", "--window", "2", "--ply", "--json"])
+    res = json.loads(capsys.readouterr().out)
+    assert code == 0 and res["frames_3d"] == 4 and len(list((out / "ply").glob("*.ply"))) == 4
+    code = main(["evaluate", str(out), "--frame", "3", "--sphere", "--truth", str(cap.folder), "--json"])
+    ev = json.loads(capsys.readouterr().out)
+    assert code == 0 and ev["truth"]["max_mm"] < 1e-3 and abs(ev["sphere"]["size"]) < 1e-3
