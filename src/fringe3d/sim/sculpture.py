@@ -45,7 +45,7 @@ def _heights(x, y, bumps, ripples):
 
 
 @numba.njit(cache=True)
-def _cast(o, d, bumps, ripples, x0, x1, y0, y1, zlo, zhi, steps, spacing, t_out, n_out, uv_out):
+def _cast(o, d, bumps, ripples, x0, x1, y0, y1, zlo, zhi, steps, spacing, slope, t_out, n_out, uv_out):
     shared = o.shape[0] == 1
     for i in range(d.shape[0]):
         j = 0 if shared else i
@@ -67,18 +67,28 @@ def _cast(o, d, bumps, ripples, x0, x1, y0, y1, zlo, zhi, steps, spacing, t_out,
         if not ok or tf <= tn:
             continue
         # sample so that consecutive samples are at most `spacing` mm apart laterally
-        lateral = np.sqrt(dx * dx + dy * dy) * (tf - tn)
-        n_steps = min(max(4, int(lateral / spacing) + 1), steps)
-        dt = (tf - tn) / n_steps
+        # march: each step is the larger of a Lipschitz-safe step |g| / max|g'| (cannot skip a
+        # root) and the uniform sampling step (at most `spacing` mm laterally)
+        dxy = np.sqrt(dx * dx + dy * dy)
+        lip = abs(dz) + slope * dxy
+        n_steps = min(max(4, int(dxy * (tf - tn) / spacing) + 1), steps)
+        min_dt = (tf - tn) / n_steps
         ta = tn
         fz, _, _ = _f(ox + ta * dx, oy + ta * dy, bumps, ripples)
         ga = oz + ta * dz - fz
         found = False
-        for k in range(1, n_steps + 1):
-            tb = tn + k * dt
+        tb = ta
+        for _ in range(4 * steps):
+            if ga == 0.0:
+                tb = ta
+                found = True
+                break
+            if ta >= tf:
+                break
+            tb = min(ta + max(abs(ga) / lip, min_dt), tf)
             fz, _, _ = _f(ox + tb * dx, oy + tb * dy, bumps, ripples)
             gb = oz + tb * dz - fz
-            if ga == 0.0 or (ga < 0) != (gb < 0):
+            if (ga < 0) != (gb < 0) or gb == 0.0:
                 found = True
                 break
             ta, ga = tb, gb
@@ -155,11 +165,12 @@ class HeightField(SceneObject):
             raise ValueError(f"steps must be >= 4, got {steps}")
         widths = list(self.bumps[:, 3]) + [np.pi / max(np.hypot(kx, ky), 1e-9) for _, kx, ky, _ in self.ripples]
         self.spacing = 0.25 * min(widths) if widths else 1.0  # lateral sampling (mm) before refinement
-        self.z_range = self._slab()
+        self.z_range, self.slope = self._slab()
 
     def _slab(self):
-        """Enclosure (lo, hi) of f over the rectangle: the extremes on a grid of half the sampling
-        spacing, padded by max|∇f| × grid diagonal (f cannot exceed that between grid points)."""
+        """Enclosure ``((lo, hi), slope)`` of f over the rectangle: the extremes on a grid of half
+        the sampling spacing, padded by max|∇f| × grid diagonal, and a slope bound
+        (1.25 × the grid's max|∇f|) for Lipschitz-safe marching."""
         w, h = 0.5 * self.size
         step = 0.5 * self.spacing
         xs = np.linspace(-w, w, max(2, int(2 * w / step) + 2))
@@ -167,7 +178,8 @@ class HeightField(SceneObject):
         gx, gy = np.meshgrid(xs, ys)
         v = _heights(gx.ravel(), gy.ravel(), self.bumps, self.ripples)
         pad = np.hypot(v[:, 1], v[:, 2]).max() * np.hypot(xs[1] - xs[0], ys[1] - ys[0]) + 1e-6
-        return float(v[:, 0].min() - pad), float(v[:, 0].max() + pad)
+        slope = 1.25 * float(np.hypot(v[:, 1], v[:, 2]).max()) + 1e-9
+        return (float(v[:, 0].min() - pad), float(v[:, 0].max() + pad)), slope
 
     def height(self, xy) -> np.ndarray:
         """``f`` at body points ``xy`` (M, 2): returns (M, 3) columns ``(f, f_x, f_y)``."""
@@ -190,7 +202,7 @@ class HeightField(SceneObject):
         uv = np.full((len(d), 2), np.nan)
         w, h = 0.5 * self.size
         _cast(o, d, self.bumps, self.ripples, -w, w, -h, h, self.z_range[0], self.z_range[1],
-              self.steps, self.spacing, t, n, uv)
+              self.steps, self.spacing, self.slope, t, n, uv)
         return t, n, uv
 
     def to_mesh(self, step: float = 1.0):
