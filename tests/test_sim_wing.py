@@ -172,3 +172,11 @@ def test_wing_rejects_bad_parameters():
         Wing(outline="circle")
     with pytest.raises(ValueError, match="inside the wing outline"):
         Wing().geodesic_distance([0, 0], [200, 0])
+
+
+def test_bounding_sphere_encloses_the_bent_sheet():
+    w = Wing(outline="rectangle", kappa_mean=0.0, kappa_amp=np.pi / 70 * 0.99)  # almost a half tube
+    for t in (0.0, 0.01, 0.03):
+        c, r = w.bounding_sphere(t)
+        X = w.material_to_world(w.material_grid(0.5), t)
+        assert np.linalg.norm(X - c, axis=1).max() <= r

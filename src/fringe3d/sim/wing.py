@@ -333,9 +333,14 @@ class Wing(SceneObject):
         return a
 
     def bounding_sphere(self, time: float = 0.0):
-        pts = self.material_to_world(self._outline_samples(50), time)
+        """World (centre, radius) enclosing the sheet at ``time``: material samples every
+        ``step`` mm (grid + outline); every sheet point is within ``step`` of a sample (the map is
+        an isometry), so the radius is padded by ``step``."""
+        step = max(self.span, self.chord) / 20.0
+        uv = np.concatenate([self.material_grid(step), self._outline_samples(40)])
+        pts = self.material_to_world(uv, time)
         c = pts.mean(axis=0)
-        return c, float(np.linalg.norm(pts - c, axis=1).max())
+        return c, float(np.linalg.norm(pts - c, axis=1).max()) + step
 
     # -- ray casting ---------------------------------------------------------------------------
     def intersect(self, origins, dirs, time: float = 0.0) -> Hit:
