@@ -153,8 +153,11 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig, z_min, opts: dict) ->
         else:
             pr = ctx.group_phase(g)
             wrapped, modulation = extras.get("wrapped", pr.phase), extras.get("modulation", pr.modulation)
-        mask = np.asarray(mask, dtype=bool) & np.isfinite(phi)
-        phase = np.where(mask, phi, np.nan).astype(np.float32)
+        if extras.get("masked") and phi.dtype == np.float32:  # the unwrapper already set NaN exactly where mask is False
+            phase, mask = phi, mask
+        else:
+            mask = np.asarray(mask, dtype=bool) & np.isfinite(phi)
+            phase = np.where(mask, phi, np.nan).astype(np.float32)
         d = plan.direction
         out.phase[d], out.mask[d] = phase, mask
         out.wrapped[d] = np.asarray(wrapped, np.float32)

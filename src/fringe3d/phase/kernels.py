@@ -57,35 +57,59 @@ def _round(x):
     return math.floor(x + 0.5)
 
 
-@njit(cache=True, parallel=True)
+#: Rows per parallel work item of the row-blocked kernels.
+ROW_BLOCK = 8
+#: Fast-math flags that allow vectorisation but keep NaN/inf semantics.
+FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH)
+def _accumulate_row(frames, index, coef, i, a, b, c, peak):
+    """a/b/c[j] += sum_k coef[:, k] * frames[index[k], i, j]; peak[j] = max(peak[j], frames).
+    One contiguous pass per frame row, so the loop vectorises over the columns j. The
+    buffers' dtype (float32 or float64) sets the arithmetic precision."""
+    w = b.shape[0]
+    for k in range(index.shape[0]):
+        row = frames[index[k], i]
+        ca = coef[0, k]
+        cb = coef[1, k]
+        cc = coef[2, k]
+        for j in range(w):
+            x = row[j]
+            a[j] += ca * x
+            b[j] += cb * x
+            c[j] += cc * x
+            peak[j] = max(peak[j], x)
+
+
+@njit(cache=True, parallel=True, fastmath=FASTMATH)
 def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, saturated):
     """Least-squares N-step phase (Eq. 2.4) for frames ``frames[index]``.
 
-    frames (F, H, W) any real dtype; index (N,) int64; coef (3, N) float64 pseudo-inverse;
-    sat_level: a pixel is flagged saturated when any of its N values >= sat_level (pass
-    ``inf`` to disable). Outputs (H, W): phase float32 rad in (-pi, pi], average and
-    modulation float32 in the frames' units, saturated bool (or-ed in, not overwritten).
+    frames (F, H, W) any real dtype; index (N,) int64; coef (3, N) float64 pseudo-inverse
+    (float64 arithmetic); sat_level: a pixel is flagged saturated when any of its N values
+    >= sat_level (pass ``inf`` to disable). Outputs (H, W): phase float32 rad in (-pi, pi],
+    average and modulation float32 in the frames' units, saturated bool (or-ed in).
     """
-    n = index.shape[0]
     h = frames.shape[1]
     w = frames.shape[2]
-    for i in prange(h):
-        for j in range(w):
-            a = 0.0
-            b = 0.0
-            c = 0.0
-            sat = False
-            for k in range(n):
-                v = np.float64(frames[index[k], i, j])
-                a += coef[0, k] * v
-                b += coef[1, k] * v
-                c += coef[2, k] * v
-                sat = sat or (v >= sat_level)
-            phase[i, j] = fast_atan2(-c, b)
-            average[i, j] = a
-            modulation[i, j] = math.sqrt(b * b + c * c)
-            if sat:
-                saturated[i, j] = True
+    nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
+    for blk in prange(nblk):
+        a = np.empty(w)
+        b = np.empty(w)
+        c = np.empty(w)
+        peak = np.empty(w)
+        for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
+            a[:] = 0.0
+            b[:] = 0.0
+            c[:] = 0.0
+            peak[:] = -np.inf
+            _accumulate_row(frames, index, coef, i, a, b, c, peak)
+            for j in range(w):
+                phase[i, j] = fast_atan2(-c[j], b[j])
+                average[i, j] = a[j]
+                modulation[i, j] = math.sqrt(b[j] * b[j] + c[j] * c[j])
+                saturated[i, j] = saturated[i, j] or (peak[j] >= sat_level)
 
 
 @njit(cache=True, parallel=True)
@@ -153,77 +177,110 @@ def heterodyne_kernel(wrapped, signs, beat_periods, periods, lower, order_out, p
             phase_out[i, j] = phi + TWO_PI * k
 
 
-@njit(cache=True, parallel=True)
+_F2PI = np.float32(TWO_PI)
+_FINV2PI = np.float32(1.0 / TWO_PI)
+_FHALF = np.float32(0.5)
+_FPI = np.float32(math.pi)
+_FHALFPI = np.float32(0.5 * math.pi)
+_FZERO = np.float32(0.0)
+_FB = (np.float32(_A0), np.float32(_A1), np.float32(_A2), np.float32(_A3), np.float32(_A4), np.float32(_A5),
+       np.float32(_A6), np.float32(_A7))
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH)
+def fast_atan2_f32(y, x):
+    """float32 version of :func:`fast_atan2` (|error| < 3e-7 rad)."""
+    ax = abs(x)
+    ay = abs(y)
+    mx = max(ax, ay)
+    mn = min(ax, ay)
+    a = mn / mx if mx > _FZERO else _FZERO
+    s = a * a
+    r = a * (_FB[0] + s * (_FB[1] + s * (_FB[2] + s * (_FB[3] + s * (_FB[4] + s * (_FB[5] + s * (_FB[6]
+                                                                                          + s * _FB[7])))))))
+    r = (_FHALFPI - r) if ay > ax else r
+    r = (_FPI - r) if x < _FZERO else r
+    return -r if y < _FZERO else r
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH)
+def _mod_2pi_f32(x):
+    return x - _F2PI * math.floor(x * _FINV2PI)
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH)
+def _round_f32(x):
+    return math.floor(x + _FHALF)
+
+
+@njit(cache=True, parallel=True, fastmath=FASTMATH)
 def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params,
                            phase, wrapped, modulation, average, mask):
     """Fused three-frequency heterodyne decode: wrapped phases of the three groups, the two
-    beats, absolute phase, modulation, average and validity mask in one pass per pixel.
+    beats, absolute phase, modulation, average and validity mask in one pass per pixel
+    (float32 arithmetic; rows in parallel, columns vectorised).
 
     frames (F, H, W) uint8/uint16/float; idx_g (N_g,) int64 frame indices and coef_g (3, N_g)
-    least-squares coefficients of group g (narrowest period first). ``params`` float64
+    float32 least-squares coefficients of group g (narrowest period first). ``params`` float32
     ``(s12, s123, r_top, r_mid, lower, min_modulation, sat_level)``: beat signs, period
     ratios ``r_top = T123/T12`` and ``r_mid = T12/T1``, the start of the absolute window of
-    the final beat (rad), the modulation threshold and the saturation level. Outputs (H, W): absolute phase float32 (NaN
-    where invalid), wrapped phase of group 1 float32, its modulation and average float32, mask
-    bool (modulation of every group >= min_modulation and no frame >= sat_level).
+    the final beat (rad), the modulation threshold and the saturation level. Outputs (H, W):
+    absolute phase float32 (NaN where invalid), wrapped phase of group 1 float32, its
+    modulation and average float32, mask bool (modulation of every group >= min_modulation
+    and no frame >= sat_level).
     """
     s12 = params[0]
     s123 = params[1]
     r_top = params[2]
     r_mid = params[3]
     lower = params[4]
-    min_mod = params[5]
+    min_mod2 = params[5] * params[5]
     sat_level = params[6]
-    n1 = idx1.shape[0]
-    n2 = idx2.shape[0]
-    n3 = idx3.shape[0]
     h = frames.shape[1]
     w = frames.shape[2]
     nan = np.float32(np.nan)
-    for i in prange(h):
-        for j in range(w):
-            sat = False
-            a1 = 0.0
-            b1 = 0.0
-            c1 = 0.0
-            for k in range(n1):
-                v = np.float64(frames[idx1[k], i, j])
-                a1 += coef1[0, k] * v
-                b1 += coef1[1, k] * v
-                c1 += coef1[2, k] * v
-                sat = sat or (v >= sat_level)
-            b2 = 0.0
-            c2 = 0.0
-            for k in range(n2):
-                v = np.float64(frames[idx2[k], i, j])
-                b2 += coef2[1, k] * v
-                c2 += coef2[2, k] * v
-                sat = sat or (v >= sat_level)
-            b3 = 0.0
-            c3 = 0.0
-            for k in range(n3):
-                v = np.float64(frames[idx3[k], i, j])
-                b3 += coef3[1, k] * v
-                c3 += coef3[2, k] * v
-                sat = sat or (v >= sat_level)
-            m1 = b1 * b1 + c1 * c1
-            m2 = b2 * b2 + c2 * c2
-            m3 = b3 * b3 + c3 * c3
-            p1 = fast_atan2(-c1, b1)
-            p2 = fast_atan2(-c2, b2)
-            p3 = fast_atan2(-c3, b3)
-            b12 = (s12 * (p1 - p2)) % TWO_PI
-            b123 = (s123 * (b12 - p3)) % TWO_PI
-            big = lower + (b123 - lower) % TWO_PI
-            big = b12 + TWO_PI * _round((big * r_top - b12) / TWO_PI)
-            absolute = p1 + TWO_PI * _round((big * r_mid - p1) / TWO_PI)
-            mm = min(m1, min(m2, m3))
-            ok = (mm >= min_mod * min_mod) and not sat
-            wrapped[i, j] = p1
-            modulation[i, j] = math.sqrt(m1)
-            average[i, j] = a1
-            mask[i, j] = ok
-            phase[i, j] = absolute if ok else nan
+    nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
+    for blk in prange(nblk):
+        a1 = np.empty(w, np.float32)
+        b1 = np.empty(w, np.float32)
+        c1 = np.empty(w, np.float32)
+        a2 = np.empty(w, np.float32)
+        b2 = np.empty(w, np.float32)
+        c2 = np.empty(w, np.float32)
+        b3 = np.empty(w, np.float32)
+        c3 = np.empty(w, np.float32)
+        peak = np.empty(w, np.float32)
+        for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
+            a1[:] = 0
+            b1[:] = 0
+            c1[:] = 0
+            a2[:] = 0
+            b2[:] = 0
+            c2[:] = 0
+            b3[:] = 0
+            c3[:] = 0
+            peak[:] = -np.inf
+            _accumulate_row(frames, idx1, coef1, i, a1, b1, c1, peak)
+            _accumulate_row(frames, idx2, coef2, i, a2, b2, c2, peak)
+            _accumulate_row(frames, idx3, coef3, i, a2, b3, c3, peak)  # a of groups 2, 3 unused
+            for j in range(w):
+                m1 = b1[j] * b1[j] + c1[j] * c1[j]
+                m2 = b2[j] * b2[j] + c2[j] * c2[j]
+                m3 = b3[j] * b3[j] + c3[j] * c3[j]
+                p1 = fast_atan2_f32(-c1[j], b1[j])
+                p2 = fast_atan2_f32(-c2[j], b2[j])
+                p3 = fast_atan2_f32(-c3[j], b3[j])
+                x12 = _mod_2pi_f32(s12 * (p1 - p2))
+                x123 = _mod_2pi_f32(s123 * (x12 - p3))
+                big = lower + _mod_2pi_f32(x123 - lower)
+                big = x12 + _F2PI * _round_f32((big * r_top - x12) * _FINV2PI)
+                absolute = p1 + _F2PI * _round_f32((big * r_mid - p1) * _FINV2PI)
+                ok = (min(m1, min(m2, m3)) >= min_mod2) and (peak[j] < sat_level)
+                wrapped[i, j] = p1
+                modulation[i, j] = math.sqrt(m1)
+                average[i, j] = a1[j]
+                mask[i, j] = ok
+                phase[i, j] = absolute if ok else nan
 
 
 @njit(cache=True, parallel=True)

@@ -2,8 +2,9 @@
 
 An unwrapper is ``fn(ctx: DecodeContext) -> (Phi, mask)`` or ``(Phi, mask, extras)``:
 ``Phi`` (H, W) absolute phase of the plan's narrowest period (rad), ``mask`` (H, W) bool,
-``extras`` an optional dict that may override the decoder's ``"wrapped"``, ``"modulation"``
-or ``"period"`` for that direction (e.g. an FTP-based method). Register one with::
+``extras`` an optional dict that may override the decoder's ``"wrapped"``, ``"modulation"``,
+``"average"`` or ``"period"`` for that direction (e.g. an FTP-based method); ``"masked": True``
+says ``Phi`` is float32 and already NaN exactly where ``mask`` is False. Register one with::
 
     from fringe3d.unwrap.registry import register
 

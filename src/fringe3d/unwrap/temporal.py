@@ -303,14 +303,14 @@ def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]],
     for i in idx:
         if i.size and (i.min() < 0 or i.max() >= frames.shape[0]):
             raise ValueError(f"frame index {i.tolist()} out of range for {frames.shape[0]} frames")
-    coef = [lsq_coefficients(s) for s in shifts]
+    coef = [lsq_coefficients(s).astype(np.float32) for s in shifts]
     for i, c in zip(idx, coef):
         if c.shape[1] != i.size:
             raise ValueError(f"group has {i.size} frames but {c.shape[1]} shifts")
     beats, signs = beat_chain(periods)
     lower = coarse_window(beats[-1], w_range)
     params = np.array([signs[0], signs[1], beats[1] / beats[0], beats[0] / periods[0], lower,
-                       float(min_modulation), float(saturation_level)])
+                       float(min_modulation), min(float(saturation_level), 3e38)], dtype=np.float32)
     h, w = frames.shape[1:]
     out = FusedResult(np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.float32),
                       np.empty((h, w), np.float32), np.empty((h, w), np.bool_))
@@ -354,7 +354,8 @@ def _unwrap_heterodyne(ctx):
                                    [g.period for g in groups], w_range=ctx.w_range(),
                                    min_modulation=ctx.min_modulation,
                                    saturation_level=quality.saturation_level(ctx.frames, ctx.bit_depth))
-        return r.phase, r.mask, {"wrapped": r.wrapped, "modulation": r.modulation, "average": r.average}
+        return r.phase, r.mask, {"wrapped": r.wrapped, "modulation": r.modulation, "average": r.average,
+                                 "masked": True}
     phases = [ctx.group_phase(g).phase for g in groups]
     res = heterodyne(phases, [g.period for g in groups], w_range=ctx.w_range())
     return res.phase, _combined_mask(ctx, groups)
