@@ -125,3 +125,58 @@ def test_propose_z_min_from_reference_plane():
     assert propose_z_min(X[..., 2], margin=0.0) == pytest.approx(np.nanmin(X[..., 2]))
     with pytest.raises(ValueError, match="no valid depth"):
         propose_z_min(np.full((4, 4), np.nan))
+
+
+def frames_for(ps, up, vp):
+    """Noise-free frames of a pattern set for exact projector coordinates (manifest model)."""
+    out = []
+    for f in ps.frames:
+        w = vp * np.cos(f.angle) + up * np.sin(f.angle)
+        out.append(0.1 + 0.4 * (1 + np.cos(2 * np.pi * w / f.period + f.shift)))
+    return np.nan_to_num(np.stack(out), nan=0.1).astype(np.float32)
+
+
+def test_decoder_runs_geometric_and_two_frequency_geometric_plans():
+    from dataclasses import replace
+
+    from fringe3d.decode import decode
+    from fringe3d.patterns import sets
+    from fringe3d.patterns.manifest import DirectionPlan
+    from fringe3d.reconstruct import points_from_decoded
+
+    rig = small_rig()
+    O, D = rig.camera.rays(rig.camera.pixel_grid())
+    X = intersect_sphere(O, D, np.array([0.0, 0.0, 300.0]), 40.0)
+    ok = np.isfinite(X[..., 0])
+    uv = rig.projector.project(X)
+    one = sets.phase_shift(24, 3, "v", width=256, height=200)
+    one = replace(one, plans=(DirectionPlan("v", np.pi / 2, "geometric", (24.0,)),))
+    two = sets.two_frequency(18, 144, "v", width=256, height=200)
+    assert two.plans[0].method == "two_frequency_geometric"
+    for ps, z_min in ((one, 255.0), (two, 200.0)):
+        dec = decode(frames_for(ps, uv[..., 0], uv[..., 1]), ps, rig=rig, z_min=z_min, min_modulation=0.05)
+        T = dec.period["v"]
+        assert np.array_equal(dec.mask["v"], ok)
+        np.testing.assert_allclose(dec.phase["v"][ok], 2 * np.pi * uv[..., 0][ok] / T, atol=1e-3)
+        pts = points_from_decoded(dec, rig)
+        assert np.max(np.abs(pts[ok] - X[ok])) < 1e-3
+        with pytest.raises(ValueError, match="rig"):
+            decode(frames_for(ps, uv[..., 0], uv[..., 1]), ps, z_min=z_min)
+        with pytest.raises(ValueError, match="z_min"):
+            decode(frames_for(ps, uv[..., 0], uv[..., 1]), ps, rig=rig)
+
+
+def test_minimum_phase_for_a_telecentric_rig():
+    from test_triangulate import intersect_plane as plane_hit
+    from test_triangulate import telecentric_rig
+
+    rig = telecentric_rig()
+    O, D = rig.camera.rays(rig.camera.pixel_grid())
+    T = 36.0
+    mp = minimum_phase(rig, 99.0, T)
+    X0 = plane_hit(O, D, np.array([0, 0, 99.0]), np.array([0, 0, 1.0]))
+    np.testing.assert_allclose(mp.phi_min, true_phase(rig, X0, T), atol=1e-3)
+    X = plane_hit(O, D, np.array([0, 0, 100.0]), np.array([0.05, 0.02, 1.0]))
+    Phi = true_phase(rig, X, T)
+    got, _ = geometric_unwrap(wrap(Phi), mp)
+    assert np.max(np.abs(got - Phi)) < 1e-4
