@@ -51,3 +51,14 @@ def test_period_wide_gray_code_fails_only_next_to_its_stripe_edges():
     assert wrong.any()
     dist = np.abs(centre - 18 * np.round(centre / 18))  # projector px to the nearest stripe edge
     assert dist[wrong].max() <= unwrap_noise.SCALE / 2  # within half a camera pixel of an edge
+
+
+def test_experiment_command_prints_the_table_as_json(capsys):
+    import json
+
+    from fringe3d.cli import main
+    assert main(["experiment", "unwrap-noise", "--quick", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["experiment"] == "unwrap-noise" and out["quick"] is True
+    assert out["tables"][0]["columns"][:2] == ["sigma", "sigma/B"]
+    assert len(out["tables"][0]["rows"]) == len(unwrap_noise.QUICK_SIGMAS)
