@@ -25,3 +25,11 @@ def test_falling_balls_figures_back_the_goals(result):
     many = result["figures"]["20 balls, realistic noise"]
     assert len(many) >= 20 and all(b.get("k_error") == 0 for b in many)
     assert result["dissertation"]["hybrid sphere RMS"] == "0.26 mm"
+
+
+def test_thrown_balls_need_the_cross_motion_correction(result):
+    thrown = result["figures"]["thrown"]
+    assert thrown, "the quick run measures at least one sideways speed"
+    for r in thrown.values():
+        assert r["cross_motion"] == [0, 0]
+        assert any(e != 0 for e in r["eq_5_13"])  # Eq. (5.13) as printed slips a fringe at 3 m/s sideways
