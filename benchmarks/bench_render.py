@@ -14,7 +14,7 @@ renderer); wall-clock and CPU seconds are both reported (the machine may be shar
 Scenes: ``mesh`` is a ~100k-triangle freeform relief (trimesh + Embree via embreex);
 ``sphere`` is an analytic sphere in front of a plane (numba kernels). Render settings are the
 macro preset's (Gaussian defocus, shot + read noise, 8-bit), projector image sampled
-bilinearly. Every run checks the truth: a valid fraction above 20% and finite phases.
+bilinearly. Every run checks the truth: a valid fraction above 5% and finite phases.
 
 Example: python benchmarks/bench_render.py --repeat 3 --json
 """
@@ -36,7 +36,10 @@ from fringe3d.sim.simulate import named_scene
 
 
 def scenes(preset, moving: bool):
-    """The two benchmark scenes; ``moving`` gives every object a slow rigid motion."""
+    """The two benchmark scenes; ``moving`` gives every object a slow rigid motion.
+
+    ``mesh``: the catalogue's sculpture tessellated into ~100k triangles (13% of the image);
+    ``sphere``: a 90 mm sphere before a plane filling the image."""
     motion = RigidMotion(velocity=(0.0, 10.0, 0.0)) if moving else None
     mesh_scene = named_scene("mesh", preset)
     ob = mesh_scene.objects[0]
@@ -58,7 +61,7 @@ def time_render(scene, preset, ps, repeat: int) -> tuple[float, float]:
         best_cpu = min(best_cpu, time.process_time() - c0)
     mask = truth.mask if not truth.per_frame else truth.mask[0]
     assert frames.shape == (len(ps), 1024, 1280)
-    assert mask.mean() > 0.2, f"valid fraction {mask.mean():.2f}"
+    assert mask.mean() > 0.05, f"valid fraction {mask.mean():.2f}"
     ph = truth.phase["v"] if not truth.per_frame else truth.phase["v"][0]
     assert np.isfinite(ph[mask]).all()
     return best, best_cpu

@@ -284,3 +284,13 @@ def test_pattern_size_must_match_the_projector():
 def test_nonsensical_settings_are_rejected(changes, match):
     with pytest.raises(ValueError, match=match):
         RenderSettings(**changes)
+
+
+@pytest.mark.parametrize("electrons", [3.0, 50.0, 200.0, 5000.0])
+def test_shot_noise_has_poisson_mean_and_variance(electrons):
+    from fringe3d.sim.noise import shot_noise
+    well = 10000.0
+    img = np.full(400_000, electrons / well)
+    counts = shot_noise(img, well, np.random.default_rng(0)) * well
+    assert counts.mean() == pytest.approx(electrons, rel=0.01)
+    assert counts.var() == pytest.approx(electrons, rel=0.02)

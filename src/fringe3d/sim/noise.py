@@ -20,8 +20,8 @@ def frame_rng(seed: int, index: int) -> np.random.Generator:
 def sense(image: np.ndarray, settings: RenderSettings, index: int) -> np.ndarray:
     """Turn a noiseless irradiance image (H, W) float into camera output.
 
-    Applies, in order: Gaussian camera blur (``camera_blur`` px), Poisson shot noise
-    (``full_well`` electrons at full scale), Gaussian read noise (``read_noise`` full-scale
+    Applies, in order: Gaussian camera blur (``camera_blur`` px), shot noise
+    (:func:`shot_noise`, ``full_well`` electrons at full scale), Gaussian read noise (``read_noise`` full-scale
     sigma), then quantisation to ``bit_depth`` bits with clipping to [0, 2^b - 1]
     (uint8 for 8 bits, uint16 otherwise). ``bit_depth=None`` returns float32 (no clipping).
     """
@@ -30,10 +30,31 @@ def sense(image: np.ndarray, settings: RenderSettings, index: int) -> np.ndarray
         img = gaussian_filter(img, settings.camera_blur, mode="nearest")
     rng = frame_rng(settings.seed, index)
     if settings.shot_noise:
-        img = rng.poisson(np.clip(img, 0, None) * settings.full_well) / settings.full_well
+        img = shot_noise(img, settings.full_well, rng)
     if settings.read_noise > 0:
-        img = img + rng.normal(0.0, settings.read_noise, img.shape)
+        img = img + settings.read_noise * rng.standard_normal(img.shape, dtype=np.float32)
     return quantize(img, settings.bit_depth)
+
+
+#: Above this many electrons the Poisson draw is replaced by its normal limit N(lam, lam).
+POISSON_NORMAL_LIMIT = 100.0
+
+
+def shot_noise(img: np.ndarray, full_well: float, rng: np.random.Generator) -> np.ndarray:
+    """Photon shot noise on full-scale intensities: ``Poisson(I * full_well) / full_well``.
+
+    Pixels with ``lam = I * full_well >= 100`` electrons draw from the normal limit
+    ``N(lam, lam)`` (same mean and variance; skewness 1/sqrt(lam) <= 10%), which is several
+    times faster on megapixel frames; fewer electrons draw an exact Poisson count (none for
+    ``lam = 0``).
+    """
+    lam = np.clip(img, 0, None) * full_well
+    big = lam >= POISSON_NORMAL_LIMIT
+    out = lam + np.sqrt(lam) * rng.standard_normal(lam.shape, dtype=np.float32) * big
+    small = np.flatnonzero(~big & (lam > 0))
+    if small.size:
+        out.flat[small] = rng.poisson(lam.flat[small])
+    return out / full_well
 
 
 def quantize(img: np.ndarray, bit_depth: int | None) -> np.ndarray:

@@ -90,8 +90,7 @@ class Truth:
         arrays.update({f"phase_{d}": p for d, p in self.phase.items()})
         arrays.update({f"extra_{n}": a for n, a in self.extras.items()})
         with atomic_path(folder / "truth.npz") as tmp:
-            with open(tmp, "wb") as fh:
-                np.savez_compressed(fh, **arrays)
+            write_npz(tmp, arrays)
         meta = {"format": TRUTH_FORMAT, "version": 1, **self.meta,
                 "directions": list(self.phase), "extras": list(self.extras),
                 "shape": list(self.depth.shape),
@@ -127,6 +126,15 @@ class Truth:
         return cls(xyz=data["xyz"], depth=data["depth"], up=data["up"], vp=data["vp"], phase=phase,
                    normal=data["normal"], object_id=data["object_id"], mask=data["mask"], hit=data["hit"],
                    material_uv=data.get("material_uv"), extras=extras, meta=meta)
+
+
+def write_npz(path, arrays: dict, level: int = 1) -> None:
+    """``np.savez_compressed`` with a fast deflate level (truth maps are large and smooth)."""
+    import zipfile
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=level) as zf:
+        for name, arr in arrays.items():
+            with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
+                np.lib.format.write_array(fh, np.asanyarray(arr), allow_pickle=False)
 
 
 def direction_phase(up: np.ndarray, vp: np.ndarray, angle: float, period: float) -> np.ndarray:
