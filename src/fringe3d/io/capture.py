@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import os
 import re
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -136,6 +137,14 @@ def read_meta(folder: str | os.PathLike) -> dict:
     return meta
 
 
+def _read_or_error(path: Path):
+    """read_image, returning the exception instead of raising (so errors surface in file order)."""
+    try:
+        return read_image(path)
+    except (ValueError, FileNotFoundError) as e:
+        return e
+
+
 def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Capture:
     """Read and check a capture folder.
 
@@ -174,10 +183,13 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
     first = read_image(files[0])
     frames = np.empty((len(files),) + first.shape, dtype=first.dtype)
     frames[0] = first
-    with progress_bar(f"reading {len(files)} frames", len(files), enabled=len(files) > 60) as advance:
+    # decoders (OpenCV, tifffile) release the GIL: read in a few threads, check in file order
+    with progress_bar(f"reading {len(files)} frames", len(files), enabled=len(files) > 60) as advance, \
+            ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
         advance()
-        for i, p in enumerate(files[1:], start=1):
-            img = read_image(p)
+        for i, (p, img) in enumerate(zip(files[1:], pool.map(_read_or_error, files[1:])), start=1):
+            if isinstance(img, Exception):
+                raise img
             if img.shape != first.shape:
                 raise ValueError(f"{p} has shape {img.shape} (H, W) but {files[0].name} has {first.shape}; "
                                  f"all frames of a capture must have the same size")
@@ -221,9 +233,9 @@ def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: Patte
         m = _FRAME_NAME.match(stale.name)
         if m and (int(m.group(1)) >= len(frames) or stale.suffix.lower() != f".{fmt}"):
             stale.unlink()
-    with progress_bar(f"writing {len(frames)} frames", len(frames), enabled=len(frames) > 60) as advance:
-        for i, img in enumerate(frames):
-            write_image(fdir / f"{i:05d}.{fmt}", img)
+    with progress_bar(f"writing {len(frames)} frames", len(frames), enabled=len(frames) > 60) as advance, \
+            ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
+        for _ in pool.map(lambda i: write_image(fdir / f"{i:05d}.{fmt}", frames[i]), range(len(frames))):
             advance()
     patterns.save(folder / MANIFEST_NAME)
     meta = dict(meta or {})
