@@ -126,24 +126,27 @@ def rigid_to_body(x, R, c=None):
 
 
 @numba.njit(cache=True)
-def _finish_kernel(t, n, d, n_out, hit):
-    """Mark hits, normalise normals and turn them to face the ray."""
+def _finish_kernel(t, n, d, uv, t_out, n_out, id_out, uv_out, hit):
+    """Mark hits, copy t and uv, normalise normals and turn them to face the ray."""
     count = 0
     for i in range(t.shape[0]):
         ti = t[i]
+        hit[i] = False
         if not (ti > 1e-9 and ti < np.inf):
-            hit[i] = False
             continue
         nx, ny, nz = n[i, 0], n[i, 1], n[i, 2]
         nn = np.sqrt(nx * nx + ny * ny + nz * nz)
         if not nn > 0:
-            hit[i] = False
             continue
         if nx * d[i, 0] + ny * d[i, 1] + nz * d[i, 2] > 0:
             nn = -nn
         n_out[i, 0] = nx / nn
         n_out[i, 1] = ny / nn
         n_out[i, 2] = nz / nn
+        t_out[i] = ti
+        id_out[i] = 0
+        uv_out[i, 0] = uv[i, 0]
+        uv_out[i, 1] = uv[i, 1]
         hit[i] = True
         count += 1
     return count
@@ -247,15 +250,13 @@ class SceneObject:
     def _finish(self, t, normal, uv, d) -> Hit:
         """Assemble a Hit: misses get the miss values, normals are unit and face the ray."""
         h = Hit.miss(len(d))
-        hit = np.empty(len(d), bool)
-        count = _finish_kernel(t, np.ascontiguousarray(normal), d, h.normal, hit)
-        if count == 0:
-            return h
-        h.t[hit] = t[hit]
-        h.object_id[hit] = 0
-        if uv is not None:
-            h.material_uv[hit] = uv[hit]
-        h.albedo[hit] = self.albedo_at(h.material_uv[hit])
+        hit = np.empty(len(d), np.bool_)
+        uv = h.material_uv if uv is None else np.ascontiguousarray(uv, dtype=np.float64)
+        count = _finish_kernel(np.ascontiguousarray(t, dtype=np.float64), np.ascontiguousarray(normal), d,
+                               uv, h.t, h.normal, h.object_id, h.material_uv, hit)
+        if count:
+            idx = np.flatnonzero(hit)
+            h.albedo[idx] = self.albedo_at(h.material_uv[idx])
         return h
 
     def describe(self) -> str:
