@@ -91,3 +91,14 @@ def test_hybrid_on_the_simulators_named_falling_balls_scene():
         err = m.phase[own] - t.phase["v"][own]
         assert round(float(np.median(err)) / TWO_PI) == 0
         assert np.sqrt(np.mean(err ** 2)) < 0.4
+
+
+def test_hybrid_plan_on_a_set_without_a_single_ftp_frame_is_rejected(capture):
+    from dataclasses import replace as dc_replace
+
+    from fringe3d.patterns.manifest import DirectionPlan
+
+    rig, ps6, frames, truth = capture
+    bad = dc_replace(ps6, plans=(DirectionPlan("v", ps6.plans[0].angle, "hybrid", (18.0, 228.0)),))
+    with pytest.raises(ValueError, match="1 high-frequency frame"):
+        measure(frames, bad, rig, z_min=340.0)

@@ -81,3 +81,19 @@ def test_bad_input_is_rejected_with_clear_message():
         unwrap_objects(np.zeros((4, 4)), np.ones((3, 4), bool))
     with pytest.raises(ValueError, match="min_size"):
         segment_objects(np.ones((4, 4), bool), min_size=0)
+
+
+def test_foreground_mask_separates_lit_objects_and_rejects_flat_frames():
+    from fringe3d.unwrap.segmentation import foreground_mask
+
+    avg = np.full((50, 60), 5.0)
+    avg[10:30, 10:30] = 120.0
+    mod = np.zeros_like(avg)
+    mod[10:30, 10:30] = 60.0
+    mod[10:30, 10:15] = 5.0  # lit but no fringes (contrast 5/120 < 0.15)
+    m = foreground_mask(avg, mod)
+    assert m[20, 20] and not m[40, 40] and not m[20, 12]
+    with pytest.raises(ValueError, match="constant"):
+        foreground_mask(np.zeros((8, 8)))
+    with pytest.raises(ValueError, match="modulation shape"):
+        foreground_mask(avg, mod[:10])
