@@ -153,3 +153,42 @@ def test_scene_truth_fields_carry_wing_curvature_only_on_wing_pixels():
     assert np.isnan(tf["principal_curvature"][~on]).all()
     np.testing.assert_allclose(tf["dominant_strain"][on], 0.5 * w.thickness * w.kappa(0.003), rtol=1e-6)
     assert tf["curvature"].shape == (len(d), 3) and tf["principal_direction"].shape == (len(d), 3)
+
+
+def test_scene_save_load_round_trip_casts_identically(tmp_path):
+    from fringe3d.sim.board import CircleBoard
+    from fringe3d.sim.mesh import Mesh
+    from fringe3d.sim.motion import RigidMotion
+    from fringe3d.sim.scene_file import save_scene
+    from fringe3d.sim.scenes import Box
+    from fringe3d.sim.sculpture import sculpture
+    from fringe3d.sim.textures import Blotches, Checker
+    trimesh.creation.icosphere(2, radius=10).export(tmp_path / "ball.stl")
+    scene = Scene([
+        Plane((0, 0, 520), (0.1, 0, -1), albedo=0.7, texture=Checker(8.0), size=(400, 300)),
+        Sphere((30, 10, 430), 25, texture=Checker(0.4), velocity=(0, 500, 0), spin=(1, 2, 3)),
+        Box((-60, 30, 470), (20, 25, 10), R=(0.1, 0.2, 0.3), motion=RigidMotion(velocity=(5, 0, 0))),
+        CircleBoard(cols=4, rows=3, spacing=12, t=(-40, -60, 480), asymmetric=True, edge_width=0.5),
+        sculpture(center=(60, -50, 490), size=(50, 40), relief=10, seed=3),
+        Mesh(tmp_path / "ball.stl", center=(-20, -20, 400), texture=Blotches(5.0)),
+        Wing(root=(-75, 60, 450), anchors=[(5, 5)], markers=[(50, 30)], kappa_mean=0.01),
+    ], ambient=0.05, name="round-trip")
+    path = save_scene(scene, tmp_path / "scene.json")
+    back = load_scene(path)
+    assert back.name == "round-trip" and back.ambient == 0.05 and len(back) == len(scene)
+    cam = PinholeDevice(intrinsics(150, 150, 79.5, 63.5), 160, 128)
+    o, d = cam.rays(cam.pixel_grid().reshape(-1, 2))
+    for t in (0.0, 0.004):
+        a, b = scene.intersect(o, d, t), back.intersect(o, d, t)
+        assert len(np.unique(a.object_id)) >= 7
+        np.testing.assert_array_equal(a.object_id, b.object_id)
+        np.testing.assert_allclose(a.t[a.mask], b.t[b.mask], rtol=1e-12)
+        np.testing.assert_allclose(a.albedo, b.albedo, atol=1e-12)
+
+
+def test_in_memory_mesh_cannot_be_saved(tmp_path):
+    from fringe3d.sim.mesh import Mesh
+    from fringe3d.sim.scene_file import save_scene
+    with pytest.raises(ValueError, match="built in memory"):
+        save_scene(Scene([Mesh(trimesh.creation.box())]), tmp_path / "x.json")
+    assert not (tmp_path / "x.json").exists()

@@ -107,6 +107,15 @@ class CircleBoard(SceneObject):
         return {"cols": self.cols, "rows": self.rows, "spacing": self.spacing, "radius": self.radius,
                 "asymmetric": self.asymmetric, "pattern_size": list(self.pattern_size)}
 
+    def to_dict(self) -> dict:
+        d = {"type": "board", "cols": self.cols, "rows": self.rows, "spacing": self.spacing,
+             "radius": self.radius, "R": self.R.tolist(), "t": self.center.tolist(),
+             "asymmetric": self.asymmetric, "margin": self.margin, "white": self.white, "dark": self.dark,
+             "edge_width": self.edge_width}
+        if not self.motion.is_static:
+            d["motion"] = self.motion.to_dict()
+        return d
+
     def bounding_sphere_body(self):
         x0, x1, y0, y1 = self.extent
         return np.array([(x0 + x1) / 2, (y0 + y1) / 2, 0.0]), 0.5 * float(np.hypot(x1 - x0, y1 - y0))

@@ -91,7 +91,7 @@ class Mesh(SceneObject):
     def __init__(self, mesh, center=(0.0, 0.0, 0.0), R=None, scale=1.0, smooth=False, albedo=1.0,
                  texture=None, motion: RigidMotion = STATIC):
         if isinstance(mesh, (str, Path)):
-            self.source = str(mesh)
+            self.source = str(Path(mesh).resolve())
             mesh = load_mesh(mesh)
         else:
             self.source = None
@@ -100,6 +100,7 @@ class Mesh(SceneObject):
         scale = float(scale)
         if not scale > 0:
             raise ValueError(f"mesh scale must be > 0, got {scale}")
+        self.scale = scale
         if scale != 1.0:
             mesh = mesh.copy()
             mesh.apply_scale(scale)
@@ -120,6 +121,13 @@ class Mesh(SceneObject):
     @property
     def n_faces(self) -> int:
         return len(self.mesh.faces)
+
+    def to_dict(self) -> dict:
+        if self.source is None:
+            raise ValueError("a mesh built in memory cannot be saved to a scene file; export it "
+                             "(mesh.mesh.export('file.ply')) and load it with Mesh('file.ply')")
+        return {"type": "mesh", "path": self.source, "center": self.center.tolist(), "R": self.R.tolist(),
+                "scale": self.scale, "smooth": self.smooth, **self._style_dict()}
 
     def bounding_sphere_body(self):
         lo, hi = self.mesh.bounds

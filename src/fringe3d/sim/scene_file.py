@@ -219,6 +219,15 @@ def scene_from_dict(d, where: str = "scene", base: Path | None = None):
     return Scene(built, ambient=float(ambient), name=name)
 
 
+def save_scene(scene, path):
+    """Write ``scene`` as a JSON scene file (atomic). Every object must support ``to_dict()``;
+    meshes must come from a file (their path is stored as given)."""
+    from fringe3d.io.atomic import atomic_write_text
+    path = Path(path)
+    atomic_write_text(path, json.dumps(scene.to_dict(), indent=1))
+    return path
+
+
 def load_scene(path):
     """Read a JSON scene file; relative mesh paths are resolved next to it."""
     path = Path(path)

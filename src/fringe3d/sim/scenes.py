@@ -262,6 +262,21 @@ class SceneObject:
     def describe(self) -> str:
         return type(self).__name__
 
+    def _style_dict(self, motion: bool = True) -> dict:
+        """Scene-file fields shared by most objects: albedo, texture and (non-static) motion."""
+        d = {"albedo": self.albedo}
+        if self.texture is not None:
+            if not hasattr(self.texture, "to_dict"):
+                raise ValueError(f"{self.describe()}: its texture {self.texture!r} cannot be saved to a scene file")
+            d["texture"] = self.texture.to_dict()
+        if motion and not self.motion.is_static:
+            d["motion"] = self.motion.to_dict()
+        return d
+
+    def to_dict(self) -> dict:
+        """Scene-file entry (see :mod:`fringe3d.sim.scene_file`)."""
+        raise ValueError(f"{self.describe()} cannot be saved to a scene file")
+
 
 # --------------------------------------------------------------------------------------------
 # Numba kernels for the analytic primitives (one pass over the rays, no temporaries)
@@ -373,6 +388,13 @@ class Plane(SceneObject):
         r = np.inf if self.size is None else 0.5 * float(np.hypot(*self.size))
         return np.zeros(3), r
 
+    def to_dict(self) -> dict:
+        d = {"type": "plane", "point": self.point.tolist(), "normal": self.normal.tolist(),
+             "u_axis": self.e1.tolist()}
+        if self.size is not None:
+            d["size"] = self.size.tolist()
+        return {**d, **self._style_dict()}
+
     def intersect(self, origins, dirs, time: float = 0.0) -> Hit:
         o, d = as_rays(origins, dirs)
         R, c = self.pose(time)
@@ -413,6 +435,15 @@ class Sphere(SceneObject):
     def bounding_sphere_body(self):
         return np.zeros(3), self.radius
 
+    def to_dict(self) -> dict:
+        m = self.motion
+        d = {"type": "sphere", "center": self.center.tolist(), "radius": self.radius, "R": self.R.tolist(),
+             **self._style_dict(motion=False)}
+        if not m.is_static:
+            d.update(velocity=m.velocity.tolist(), acceleration=m.acceleration.tolist(),
+                     spin=m.angular_velocity.tolist(), t0=m.t0)
+        return d
+
     def intersect(self, origins, dirs, time: float = 0.0) -> Hit:
         o, d = as_rays(origins, dirs)
         R, c = self.pose(time)
@@ -445,6 +476,10 @@ class Box(SceneObject):
 
     def bounding_sphere_body(self):
         return np.zeros(3), 0.5 * float(np.linalg.norm(self.size))
+
+    def to_dict(self) -> dict:
+        return {"type": "box", "center": self.center.tolist(), "size": self.size.tolist(), "R": self.R.tolist(),
+                **self._style_dict()}
 
     def intersect_body(self, o, d):
         """Slab method in the body frame (numba)."""
@@ -520,6 +555,11 @@ class Scene:
     def moving(self) -> bool:
         """True if any object moves or deforms over time (render each frame at its time)."""
         return any(getattr(ob, "moving", False) for ob in self.objects)
+
+    def to_dict(self) -> dict:
+        """The scene as a scene-file dictionary (:func:`fringe3d.sim.scene_file.save_scene`)."""
+        return {"format": "fringe3d-scene", "version": 1, "name": self.name, "ambient": self.ambient,
+                "objects": [ob.to_dict() for ob in self.objects]}
 
     def intersect(self, origins, dirs, time: float = 0.0) -> Hit:
         o, d = as_rays(origins, dirs)

@@ -191,6 +191,11 @@ class HeightField(SceneObject):
         xy = np.asarray(xy, float).reshape(-1, 2)
         return self.to_world(np.column_stack([xy, self.height(xy)[:, 0]]), time)
 
+    def to_dict(self) -> dict:
+        return {"type": "heightfield", "size": self.size.tolist(), "bumps": self.bumps.tolist(),
+                "ripples": self.ripples.tolist(), "center": self.center.tolist(), "R": self.R.tolist(),
+                "steps": self.steps, **self._style_dict()}
+
     def bounding_sphere_body(self):
         zc = 0.5 * sum(self.z_range)
         half = np.r_[0.5 * self.size, 0.5 * (self.z_range[1] - self.z_range[0])]

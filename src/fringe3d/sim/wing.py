@@ -312,6 +312,16 @@ class Wing(SceneObject):
         ev = np.linalg.eigvalsh(self.bending_strain(uv, time, time_ref, thickness))
         return np.where(np.abs(ev[:, 0]) > np.abs(ev[:, 1]), ev[:, 0], ev[:, 1])
 
+    def to_dict(self) -> dict:
+        d = {"type": "wing", "span": self.span, "chord": self.chord, "outline": self.outline,
+             "root": self.root.tolist(), "R0": self.R0.tolist(), "kappa_mean": self.kappa_mean,
+             "kappa_amp": self.kappa_amp, "frequency": self.frequency, "flap_amplitude": self.flap_amplitude,
+             "kappa_phase": self.kappa_phase, "flap_phase": self.flap_phase, "bend_angle": self.beta,
+             "bend_offset": self.s0, "thickness": self.thickness, "anchors": self.anchors.tolist(),
+             "markers": self.markers.tolist(), "dot_radius": self.dot_radius,
+             "anchor_albedo": self.anchor_albedo, "marker_albedo": self.marker_albedo}
+        return {**d, **self._style_dict(motion=False)}
+
     def truth_fields(self, uv, time: float = 0.0) -> dict:
         """Per-point truth for the renderer (float32): ``curvature`` (M, 3) material-frame
         ``(b11, b12, b22)`` 1/mm, ``principal_curvature`` (M,) 1/mm, ``principal_direction``
