@@ -21,6 +21,7 @@ Units: mm and pixels. Invalid pixels are NaN.
 from __future__ import annotations
 
 import math
+import weakref
 
 import numba
 import numpy as np
@@ -56,6 +57,20 @@ def camera_shape(rig) -> tuple[int, int]:
     return (rig.camera.height, rig.camera.width)
 
 
+_UNDISTORTED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # camera -> (H, W, 2) normalised
+
+
+def camera_normalized(camera) -> np.ndarray:
+    """Undistorted normalised coordinates ``(H, W, 2)`` float64 of every pixel centre of a pinhole
+    camera (Eq. 2.12-2.16 inverted), computed once per camera object and cached."""
+    xy = _UNDISTORTED.get(camera)
+    if xy is None:
+        xy = camera.pixels_to_normalized(camera.pixel_grid())
+        xy.setflags(write=False)
+        _UNDISTORTED[camera] = xy
+    return xy
+
+
 def camera_rays(rig) -> tuple[np.ndarray, np.ndarray]:
     """Undistorted camera rays ``X = O + s*D`` for every pixel, world frame.
 
@@ -64,7 +79,11 @@ def camera_rays(rig) -> tuple[np.ndarray, np.ndarray]:
     give ``O (H, W, 3)`` and the common unit direction ``D (3,)``.
     """
     cam = rig.camera
-    return cam.rays(cam.pixel_grid())
+    if rig.telecentric:
+        return cam.rays(cam.pixel_grid())
+    xy = camera_normalized(cam)
+    d_dev = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
+    return cam.center, d_dev @ cam.R
 
 
 # ----------------------------------------------------------------------------- least squares
@@ -89,6 +108,12 @@ def triangulate(rig, up=None, vp=None, mask=None, *, iterations: int = 8) -> np.
     (H, W, 3) float32
         World coordinates in mm (camera frame for pinhole rigs, projector frame for telecentric
         rigs); NaN where invalid (masked, unknown coordinate, or behind a pinhole camera).
+
+    Notes
+    -----
+    Camera rows use undistorted pixel coordinates (cached per camera); each pixel's 3x3 (one
+    projector coordinate) or 4x3 (both) system is solved by a numba kernel - exactly for 3 rows,
+    by the normal equations ``(H^T H)^{-1} H^T b`` of Eq. (2.37) for 4.
     """
     if up is None and vp is None:
         raise ValueError("triangulate needs at least one projector coordinate: up (from vertical "
@@ -101,82 +126,106 @@ def triangulate(rig, up=None, vp=None, mask=None, *, iterations: int = 8) -> np.
     for a in (up, vp):
         if a is not None:
             valid &= np.isfinite(a)
-    out = np.full(shape + (3,), np.nan, np.float32)
-    if not valid.any():
-        return out
-    cam_rows, cam_rhs = _camera_rows(rig, valid)
+    cu, cv, Pc = _camera_coordinates(rig)
     proj = rig.projector
-    up_v = None if up is None else up[valid].astype(float)
-    vp_v = None if vp is None else vp[valid].astype(float)
-    X = _solve(cam_rows, cam_rhs, proj.P, _undistorted_proj(proj, up_v, vp_v, None))
-    if proj.dist.any():
+    nan_map = np.full(shape, np.nan)
+    up_m = nan_map if up is None else np.asarray(up, np.float64)
+    vp_m = nan_map if vp is None else np.asarray(vp, np.float64)
+    out = np.empty(shape + (3,), np.float32)
+    flags = (up is not None, vp is not None, not rig.telecentric)
+    _lsq_kernel(cu, cv, valid, Pc, proj.P, up_m, vp_m, *flags, out)
+    if proj.dist.any() and valid.any():
         for _ in range(iterations):
-            X_new = _solve(cam_rows, cam_rhs, proj.P, _undistorted_proj(proj, up_v, vp_v, X))
-            step = np.nanmax(np.abs(X_new - X), initial=0.0)
-            X = X_new
-            if step < 1e-9:
+            prev = out.copy()
+            uu, vv = _undistorted_proj(proj, up_m, vp_m, out.astype(np.float64))
+            _lsq_kernel(cu, cv, valid, Pc, proj.P, uu, vv, *flags, out)
+            with np.errstate(invalid="ignore"):
+                step = np.nanmax(np.abs(out - prev), initial=0.0)
+            if step < 1e-6:
                 break
-    if not rig.telecentric:
-        depth = rig.camera.to_device(X)[:, 2]
-        X[~(depth > 0)] = np.nan
-    out[valid] = X
     return out
 
 
-def _camera_rows(rig, valid):
-    """Two camera rows per valid pixel: ``(N, 2, 3)`` coefficients and ``(N, 2)`` right sides."""
+def _camera_coordinates(rig):
+    """Undistorted camera pixel coordinates ``(cu, cv)`` (H, W) float64 and the (3, 4) matrix
+    whose rows give the camera equations ``u*P3 - P1``, ``v*P3 - P2`` (Eq. 2.38). A telecentric
+    camera uses its affine ``M`` with ``P3 = [0, 0, 0, 1]`` (Eq. 3.3)."""
     cam = rig.camera
-    v, u = np.nonzero(valid)
-    uv = np.stack([u, v], axis=-1).astype(float)
-    if rig.telecentric:  # Eq. (3.3): M[:, :3] X = uv - M[:, 3]
-        M = cam.M
-        A = np.broadcast_to(M[:, :3], (len(u), 2, 3))
-        return A, uv - M[:, 3]
-    # undistorted pixel coordinates, then the rows of M_c = K [R | t] (Eq. 2.38)
-    xy = cam.pixels_to_normalized(uv)
-    uvu = cam.normalized_to_pixels(xy)
-    return _rows(cam.P, uvu[:, 0], uvu[:, 1])
+    if rig.telecentric:
+        v, u = np.mgrid[0:cam.height, 0:cam.width].astype(np.float64)
+        return u, v, np.vstack([cam.M, [0.0, 0.0, 0.0, 1.0]])
+    uvu = cam.normalized_to_pixels(camera_normalized(cam))
+    return np.ascontiguousarray(uvu[..., 0]), np.ascontiguousarray(uvu[..., 1]), cam.P
 
 
-def _rows(P, u, v):
-    """Rows ``u P3 - P1`` and ``v P3 - P2`` of Eq. (2.38) as ``(N, 2, 3)`` and ``(N, 2)``."""
-    A = np.stack([u[:, None] * P[2, :3] - P[0, :3], v[:, None] * P[2, :3] - P[1, :3]], axis=1)
-    b = np.stack([P[0, 3] - u * P[2, 3], P[1, 3] - v * P[2, 3]], axis=1)
-    return A, b
+@numba.njit(parallel=True, cache=True)
+def _lsq_kernel(cu, cv, valid, Pc, Pp, up, vp, use_up, use_vp, check_front, out):  # pragma: no cover
+    H, W = cu.shape
+    nan = np.float32(np.nan)
+    for i in numba.prange(H):
+        A = np.empty((4, 3))
+        b = np.empty(4)
+        for j in range(W):
+            out[i, j, 0] = nan
+            out[i, j, 1] = nan
+            out[i, j, 2] = nan
+            if not valid[i, j]:
+                continue
+            n = 0
+            for r, (x, P, k) in enumerate(((cu[i, j], Pc, 0), (cv[i, j], Pc, 1), (up[i, j], Pp, 0),
+                                           (vp[i, j], Pp, 1))):
+                if (r == 2 and not use_up) or (r == 3 and not use_vp):
+                    continue
+                for c in range(3):
+                    A[n, c] = x * P[2, c] - P[k, c]
+                b[n] = P[k, 3] - x * P[2, 3]
+                n += 1
+            if n == 3:
+                X0, X1, X2, ok = _solve3(A[0, 0], A[0, 1], A[0, 2], A[1, 0], A[1, 1], A[1, 2],
+                                         A[2, 0], A[2, 1], A[2, 2], b[0], b[1], b[2])
+            else:  # normal equations, Eq. (2.37)
+                M = np.zeros((3, 3))
+                v = np.zeros(3)
+                for r in range(n):
+                    for c in range(3):
+                        v[c] += A[r, c] * b[r]
+                        for d in range(3):
+                            M[c, d] += A[r, c] * A[r, d]
+                X0, X1, X2, ok = _solve3(M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2],
+                                         M[2, 0], M[2, 1], M[2, 2], v[0], v[1], v[2])
+            if not ok:
+                continue
+            if check_front and not (Pc[2, 0] * X0 + Pc[2, 1] * X1 + Pc[2, 2] * X2 + Pc[2, 3] > 0.0):
+                continue  # behind the pinhole camera
+            out[i, j, 0] = X0
+            out[i, j, 1] = X1
+            out[i, j, 2] = X2
+
+
+@numba.njit(cache=True, inline="always")
+def _solve3(a, b, c, d, e, f, g, h, k, r0, r1, r2):  # pragma: no cover - compiled
+    """Solve the 3x3 system [[a b c] [d e f] [g h k]] x = r by Cramer's rule."""
+    c0 = e * k - f * h
+    c1 = f * g - d * k
+    c2 = d * h - e * g
+    det = a * c0 + b * c1 + c * c2
+    if det == 0.0 or not math.isfinite(det):
+        return 0.0, 0.0, 0.0, False
+    x0 = (r0 * c0 + b * (f * r2 - r1 * k) + c * (r1 * h - e * r2)) / det
+    x1 = (a * (r1 * k - f * r2) + r0 * c1 + c * (d * r2 - r1 * g)) / det
+    x2 = (a * (e * r2 - r1 * h) + b * (r1 * g - d * r2) + r0 * c2) / det
+    return x0, x1, x2, True
 
 
 def _undistorted_proj(proj, up, vp, X):
-    """Undistorted projector pixel coordinates ``(up', vp')`` (either may be None).
-
-    Without projector distortion the measured coordinates are used as they are. With it, the
-    unknown coordinate is predicted from the current estimate ``X`` (None: first pass, use the
-    distorted values), then the pair is undistorted.
-    """
-    if not proj.dist.any() or X is None:
-        return up, vp
+    """Undistorted projector pixel coordinates ``(up', vp')`` (H, W) from the measured ones and
+    the current estimate ``X`` (H, W, 3): the unknown coordinate is predicted by projecting
+    ``X`` (with distortion), then the pair is undistorted."""
     pred = proj.project(X)
-    u = up if up is not None else pred[:, 0]
-    v = vp if vp is not None else pred[:, 1]
+    u = np.where(np.isfinite(up), up, pred[..., 0])
+    v = np.where(np.isfinite(vp), vp, pred[..., 1])
     uvu = proj.normalized_to_pixels(proj.pixels_to_normalized(np.stack([u, v], axis=-1)))
-    return (None if up is None else uvu[:, 0]), (None if vp is None else uvu[:, 1])
-
-
-def _solve(cam_A, cam_b, P, proj_uv):
-    up, vp = proj_uv
-    A_list, b_list = [cam_A], [cam_b]
-    n = cam_A.shape[0]
-    if up is not None:
-        A, b = _rows(P, up, np.zeros(n))
-        A_list.append(A[:, :1]), b_list.append(b[:, :1])
-    if vp is not None:
-        A, b = _rows(P, np.zeros(n), vp)
-        A_list.append(A[:, 1:]), b_list.append(b[:, 1:])
-    A = np.concatenate(A_list, axis=1)
-    b = np.concatenate(b_list, axis=1)
-    if A.shape[1] == 3:
-        return np.linalg.solve(A, b[..., None])[..., 0]
-    At = np.swapaxes(A, 1, 2)
-    return np.linalg.solve(At @ A, (At @ b[..., None]))[..., 0]  # Eq. (2.37)
+    return np.ascontiguousarray(uvu[..., 0]), np.ascontiguousarray(uvu[..., 1])
 
 
 # ----------------------------------------------------------------------------- fast path
