@@ -143,7 +143,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig, z_min, opts: dict) ->
                             options=dict(opts), bit_depth=bit_depth, min_modulation=min_mod)
         if not ctx.phase_groups():
             raise ValueError(f"direction {plan.direction!r} has an unwrapping plan ({plan.method}) but no phase frames "
-                             "in the manifest")
+                             "in the manifest; the decoder needs phase-shifted or FTP frames (a code-only set "
+                             "gives no phase: combine it with phase frames, e.g. psp_with_gray_code)")
         result = get_unwrapper(plan.method)(ctx)
         phi, mask = result[0], result[1]
         extras = result[2] if len(result) > 2 else {}

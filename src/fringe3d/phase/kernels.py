@@ -66,10 +66,28 @@ FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 @njit(cache=True, inline="always", fastmath=FASTMATH)
 def _accumulate_row(frames, index, coef, i, a, b, c, peak):
     """a/b/c[j] += sum_k coef[:, k] * frames[index[k], i, j]; peak[j] = max(peak[j], frames).
-    One contiguous pass per frame row, so the loop vectorises over the columns j. The
-    buffers' dtype (float32 or float64) sets the arithmetic precision."""
+    Contiguous passes over the columns j (so they vectorise), three frames per pass to cut
+    the buffer loads/stores. The buffers' dtype (float32 or float64) sets the precision."""
     w = b.shape[0]
-    for k in range(index.shape[0]):
+    n = index.shape[0]
+    k = 0
+    while k + 3 <= n:
+        r0 = frames[index[k], i]
+        r1 = frames[index[k + 1], i]
+        r2 = frames[index[k + 2], i]
+        a0, a1, a2 = coef[0, k], coef[0, k + 1], coef[0, k + 2]
+        b0, b1, b2 = coef[1, k], coef[1, k + 1], coef[1, k + 2]
+        c0, c1, c2 = coef[2, k], coef[2, k + 1], coef[2, k + 2]
+        for j in range(w):
+            x0 = r0[j]
+            x1 = r1[j]
+            x2 = r2[j]
+            a[j] += a0 * x0 + a1 * x1 + a2 * x2
+            b[j] += b0 * x0 + b1 * x1 + b2 * x2
+            c[j] += c0 * x0 + c1 * x1 + c2 * x2
+            peak[j] = max(peak[j], max(x0, max(x1, x2)))
+        k += 3
+    while k < n:
         row = frames[index[k], i]
         ca = coef[0, k]
         cb = coef[1, k]
@@ -80,6 +98,7 @@ def _accumulate_row(frames, index, coef, i, a, b, c, peak):
             b[j] += cb * x
             c[j] += cc * x
             peak[j] = max(peak[j], x)
+        k += 1
 
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)

@@ -8,6 +8,11 @@ Conventions: wrapped phases in (-pi, pi]; absolute phase ``Phi = 2 pi w / T`` wi
 projector fringe coordinate (manifest). The coarsest (or final beat) phase is taken as
 absolute in a window ``[lower, lower + 2 pi)``; :func:`coarse_window` centres the projector's
 coordinate range in that window so noise at the pattern edges does not wrap.
+
+Tested noise levels (tests/test_unwrap_temporal.py, closed-form frames A=120, B=80 counts,
+Gaussian noise sigma): exact fringe order on 100 % of pixels for heterodyne 18/21/144
+(9/3/3 steps) and hierarchical 16/96/1024 (4 steps each) at sigma = 4 (sigma/B = 0.05), and
+for 4-step phase + half-period Gray code at sigma = 2 with code edges misplaced by T/8.
 """
 from __future__ import annotations
 
