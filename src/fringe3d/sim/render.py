@@ -411,7 +411,10 @@ def irradiance(geo: Geometry, pattern: np.ndarray, settings: RenderSettings,
     ambient level is relative to the projector's full white).
     """
     s = settings
-    proj = s.brightness * geo.shade * np.power(np.clip(pattern, 0.0, 1.0), s.gamma)
+    # No clipping for gamma = 1: the FFT defocus model is band-limited, so a blurred binary
+    # pattern can overshoot [0, 1] by a few percent (Gibbs) while its harmonics follow the OTF.
+    shaped = pattern if s.gamma == 1.0 else np.power(np.clip(pattern, 0.0, None), s.gamma)
+    proj = s.brightness * geo.shade * shaped
     ambient = s.ambient + scene_ambient * s.brightness
     return s.gain * s.exposure_fraction * geo.albedo * (ambient + proj) * geo.hit
 
