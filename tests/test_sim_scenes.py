@@ -175,3 +175,30 @@ def test_step_block_on_plane_gives_exact_step_height():
     assert front.sum() > 100 and (h.object_id == 1).sum() > 100
     np.testing.assert_allclose(height[front], 12.0, atol=1e-9)
     np.testing.assert_allclose(height[h.object_id == 1], 0.0, atol=1e-9)
+
+
+def test_rotation_vector_matches_cv2_rodrigues_and_motion_is_closed_form():
+    import cv2
+    from fringe3d.sim.motion import RigidMotion, rotation_vector_to_matrix
+    for w in ([0.3, -0.2, 0.5], [0.0, 0.0, 2.5], [1e-9, 0, 0]):
+        np.testing.assert_allclose(rotation_vector_to_matrix(w), cv2.Rodrigues(np.array(w))[0], atol=1e-12)
+    m = RigidMotion(velocity=(1.0, 2.0, 3.0), acceleration=(0, 10.0, 0), angular_velocity=(0, 0, np.pi), t0=0.5)
+    np.testing.assert_allclose(m.offset(1.5), [1.0, 2.0 + 5.0, 3.0])
+    np.testing.assert_allclose(m.velocity_at(1.5), [1.0, 12.0, 3.0])
+    np.testing.assert_allclose(m.rotation(1.5), np.diag([-1.0, -1.0, 1.0]), atol=1e-12)
+
+
+def test_textures_stay_in_range_and_round_trip_through_dicts():
+    from fringe3d.sim.textures import Blotches, Checker, Stripes, texture_from_dict
+    uv = np.random.default_rng(0).uniform(-100, 100, (5000, 2))
+    for tex in (Checker(7.0, 0.3), Stripes(5.0, 0.6), Blotches(12.0, 0.4, seed=3)):
+        f = tex(uv)
+        assert f.min() >= 1 - tex.contrast - 1e-12 and f.max() <= 1 + 1e-12
+        assert f.max() - f.min() > 0.5 * tex.contrast
+        np.testing.assert_array_equal(texture_from_dict(tex.to_dict())(uv), f)
+    # stripes follow their closed form
+    np.testing.assert_allclose(Stripes(5.0, 0.6)(uv), 1 - 0.3 * (1 + np.cos(2 * np.pi * uv[:, 0] / 5.0)))
+    with pytest.raises(ValueError, match="unknown texture"):
+        texture_from_dict({"type": "tartan"})
+    with pytest.raises(ValueError, match="bad field"):
+        texture_from_dict({"type": "checker", "size": 3})
