@@ -144,7 +144,7 @@ def parse_anchors(text: str) -> list[np.ndarray] | None:
     return wings
 
 
-def follow_anchors(texture, n_frames: int, start: list[np.ndarray], search: float = 20.0) -> np.ndarray:
+def follow_anchors(texture, n_frames: int, start: list[np.ndarray], search: float = 40.0) -> np.ndarray:
     """Anchor positions (F, wings, 2, 2) from the reference positions ``start``.
 
     ``texture``: callable ``i -> (H, W)`` image, or None. With textures, each frame's anchor is
