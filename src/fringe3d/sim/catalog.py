@@ -66,8 +66,10 @@ def mesh_scene(preset, triangles: int = 100_000, seed: int = 0) -> Scene:
 
 def falling_balls_scene(preset, n: int = 3, seed: int = 0) -> Scene:
     """``n`` isolated ping-pong-like balls (radius ≤ 20 mm) falling under gravity (image-down)
-    with different initial velocities and spins, each printed with a checker texture so their
-    motion is visible. Their centres follow ``c0 + v0 t + g t²/2`` exactly (ch. 5)."""
+    with different initial velocities (0.5–1.5 m/s, scaled down in volumes under 150 mm) and
+    spins, each printed with a checker texture so their motion is visible. Their centres follow
+    ``c0 + v0 t + g t²/2`` exactly (ch. 5). In the microscope volume they leave the view within
+    a few tens of milliseconds (:func:`fringe3d.sim.validate.scene_problems` says so)."""
     c, size, view, down = _frame(preset)
     rng = np.random.default_rng(seed)
     r = float(min(20.0, 0.15 * min(size[0], size[1])))
@@ -76,7 +78,8 @@ def falling_balls_scene(preset, n: int = 3, seed: int = 0) -> Scene:
     for k in range(n):
         fx = (k + 0.5) / n - 0.5
         c0 = c + right * (0.75 * fx * size[0]) - down * (0.15 * size[1]) + view * (rng.uniform(-0.2, 0.2) * size[2])
-        v0 = down * rng.uniform(500.0, 1500.0) + right * rng.uniform(-150.0, 150.0)  # mm/s
+        speed = min(1.0, min(size[0], size[1]) / 150.0)  # slower in small volumes
+        v0 = speed * (down * rng.uniform(500.0, 1500.0) + right * rng.uniform(-150.0, 150.0))  # mm/s
         spin = rng.normal(size=3)
         spin *= rng.uniform(10.0, 30.0) / np.linalg.norm(spin)  # rad/s
         balls.append(Sphere(c0, r, albedo=0.9, texture=Checker(period=np.pi / 6, contrast=0.5),
