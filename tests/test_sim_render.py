@@ -199,18 +199,21 @@ def test_defocus_grows_with_distance_from_the_focal_plane():
 
 # --------------------------------------------------------------------------- geometry truth
 def test_truth_xyz_projects_to_pixel_centres_and_projector_coordinates():
-    _, truth = render(sphere_scene(), TINY.rig, n_step(3, 18), CLEAN, progress=False)
+    """Through a distorted camera: truth xyz -> camera model = pixel centres (< 1e-6 px),
+    -> projector model = truth (u_p, v_p); sphere hits lie on the sphere."""
+    cam = TINY.rig.camera
+    distorted = PinholeDevice(K=cam.K, width=cam.width, height=cam.height, dist=(-0.08, 0.1, 1e-3, -1e-3, 0.0))
+    rig = Rig(distorted, TINY.rig.projector)
+    _, truth = render(sphere_scene(), rig, n_step(3, 18), CLEAN, progress=False)
     m = truth.hit
-    X = truth.xyz[m].astype(float)
-    uv = TINY.rig.camera.project(X)
-    grid = TINY.rig.camera.pixel_grid()[m]
-    assert np.abs(uv - grid).max() < 1e-3  # xyz is stored as float32 (mm at ~400 mm)
-    uvp = TINY.rig.projector.project(X)
-    assert np.abs(uvp[:, 0] - truth.up[m]).max() < 1e-2
+    X = truth.xyz[m]
+    uv = rig.camera.project(X)
+    assert np.abs(uv - rig.camera.pixel_grid()[m]).max() < 1e-6
+    uvp = rig.projector.project(X)
+    assert np.abs(uvp[:, 0] - truth.up[m]).max() < 1e-9 and np.abs(uvp[:, 1] - truth.vp[m]).max() < 1e-9
     on_sphere = truth.object_id[m] == 0
-    r = np.linalg.norm(X[on_sphere] - [0, 0, 400], axis=1)
-    assert np.abs(r - 60).max() < 1e-3
-    assert np.allclose(truth.depth[m], truth.xyz[m][:, 2])
+    assert np.abs(np.linalg.norm(X[on_sphere] - [0, 0, 400], axis=1) - 60).max() < 1e-9
+    assert np.allclose(truth.depth[m], X[:, 2])
 
 
 def test_shadow_of_a_sphere_on_a_plane_matches_the_segment_test():

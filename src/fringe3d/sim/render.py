@@ -533,11 +533,11 @@ def make_truth(geos: list[Geometry], shape, dirs_info, times, static: bool, rig)
     for name in geos[0].extras:
         arrs = [np.asarray(g.extras[name]).reshape((H, W) + np.shape(g.extras[name])[1:]) for g in geos]
         extras[name] = arrs[0] if static else np.stack(arrs)
-    xyz = stack("points", np.float32, (3,))
+    xyz = stack("points", np.float64, (3,))  # float64: reprojects to pixel centres < 1e-6 px
     meta = {"per_frame": not static, "times": [float(t) for t in times],
             "fringe": {d: {"angle": a, "period": p} for d, (a, p) in dirs_info.items()},
             "camera": rig.camera.kind, "frame": "camera" if rig.camera.kind == "pinhole" else "projector"}
-    return Truth(xyz=xyz, depth=stack("depth", np.float32), up=stack("up", np.float32),
-                 vp=stack("vp", np.float32), phase=phase, normal=stack("normal", np.float32, (3,)),
+    return Truth(xyz=xyz, depth=stack("depth", np.float64), up=stack("up", np.float64),
+                 vp=stack("vp", np.float64), phase=phase, normal=stack("normal", np.float32, (3,)),
                  object_id=stack("object_id", np.int32), mask=stack("lit", bool), hit=stack("hit", bool),
                  material_uv=muv, extras=extras, meta=meta)

@@ -26,12 +26,12 @@ class Truth:
 
     Attributes
     ----------
-    xyz : float32 (..., H, W, 3)
+    xyz : float64 (..., H, W, 3)
         Surface point, mm, world frame (= camera frame for pinhole rigs, projector frame for
         telecentric rigs); NaN where no surface.
-    depth : float32 (..., H, W)
+    depth : float64 (..., H, W)
         Camera-frame z (pinhole, mm) or distance along the telecentric viewing direction.
-    up, vp : float32 (..., H, W)
+    up, vp : float64 (..., H, W)
         Projector column / row (pixels) of the surface point, Eq. (2.8) through the projector.
     phase : dict[str, float32 (..., H, W)]
         Absolute phase per fringe direction, ``Phi = 2 pi w / T`` with
