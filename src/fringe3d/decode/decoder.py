@@ -20,10 +20,6 @@ from fringe3d.phase import quality
 from fringe3d.unwrap import temporal  # noqa: F401  (registers the temporal methods)
 from fringe3d.unwrap.registry import DecodeContext, get_unwrapper, phase_groups
 
-#: Keyword options :func:`decode` understands (others are passed to unwrappers via ctx.options).
-OPTIONS = ("bit_depth", "min_modulation", "fused", "ftp_window", "ftp_radius")
-
-
 def as_frame_stack(frames) -> np.ndarray:
     """(F, H, W) array from an array or a list of (H, W) images, with clear errors."""
     if isinstance(frames, (list, tuple)):
@@ -91,6 +87,9 @@ def decode(frames, patterns: PatternSet, rig=None, z_min: float | None = None, *
         Modulation threshold (frames' units); default 2 % of full scale.
     fused : bool
         Use the fused three-frequency kernel when the plan allows (default True).
+    ftp_window, ftp_radius :
+        Band-pass window (``"hanning"``/``"circular"``) and radius for FTP groups.
+    Other keyword options reach the unwrappers as ``ctx.options``.
 
     Returns
     -------

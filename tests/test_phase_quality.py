@@ -1,0 +1,45 @@
+"""Validity mask: modulation threshold, saturation at the bit depth's max code, dark frames."""
+import warnings
+
+import numpy as np
+import pytest
+
+from fringe3d.phase.quality import (FrameQualityWarning, check_frames, default_min_modulation, full_scale,
+                                    saturation_level, validity_mask)
+
+
+def test_full_scale_and_saturation_level_follow_bit_depth():
+    assert full_scale(np.zeros(1, np.uint8)) == 255
+    assert full_scale(np.zeros(1, np.uint16)) == 65535
+    assert full_scale(np.zeros(1, np.uint16), bit_depth=12) == 4095
+    assert saturation_level(np.zeros(1, np.float32)) == np.inf
+    assert saturation_level(np.zeros(1, np.float32), bit_depth=10) == 1023
+    assert default_min_modulation(np.zeros(1, np.uint8)) == pytest.approx(5.1)
+
+
+def test_validity_mask_applies_modulation_threshold_and_saturation():
+    frames = np.full((3, 4, 5), 100, np.uint16)
+    frames[2, 1, 1] = 4095                       # at the 12-bit max code
+    frames[0, 2, 2] = 4000                       # bright but not saturated
+    average = np.full((4, 5), 100.0)
+    modulation = np.full((4, 5), 50.0)
+    modulation[3, 4] = 4.0
+    mask = validity_mask(average, modulation, frames, bit_depth=12, min_modulation=5.0)
+    expected = np.ones((4, 5), bool)
+    expected[1, 1] = False
+    expected[3, 4] = False
+    assert np.array_equal(mask, expected)
+
+
+def test_check_frames_reports_dark_and_saturated_frames():
+    frames = np.full((4, 64, 64), 120, np.uint8)
+    frames[1] = 1
+    frames[3, :32] = 255
+    with pytest.warns(FrameQualityWarning) as rec:
+        out = check_frames(frames)
+    assert out["dark"] == [1] and out["saturated"] == [3]
+    assert out["saturated_fraction"][3] == pytest.approx(0.5)
+    assert len(rec) == 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_frames(np.full((4, 64, 64), 120, np.uint8))   # healthy frames: no warning
