@@ -131,7 +131,8 @@ class Wing(SceneObject):
         self.frequency = float(frequency)
         if self.frequency < 0:
             raise ValueError(f"wing frequency must be >= 0 Hz, got {frequency}")
-        self.flap_amplitude, self.kappa_phase, self.flap_phase = float(flap_amplitude), float(kappa_phase), float(flap_phase)
+        self.flap_amplitude = float(flap_amplitude)
+        self.kappa_phase, self.flap_phase = float(kappa_phase), float(flap_phase)
         self.beta, self.s0 = float(bend_angle), float(bend_offset)
         self.a2 = np.array([np.cos(self.beta), np.sin(self.beta)])
         self.p2 = np.array([-np.sin(self.beta), np.cos(self.beta)])
@@ -143,7 +144,8 @@ class Wing(SceneObject):
         self.anchors = np.asarray(anchors, float).reshape(-1, 2)
         self.markers = np.asarray(markers, float).reshape(-1, 2)
         self.dot_radius = float(dot_radius)
-        self.anchor_albedo, self.marker_albedo = _albedo(anchor_albedo, "anchor_albedo"), _albedo(marker_albedo, "marker_albedo")
+        self.anchor_albedo = _albedo(anchor_albedo, "anchor_albedo")
+        self.marker_albedo = _albedo(marker_albedo, "marker_albedo")
         for name, pts in (("anchors", self.anchors), ("markers", self.markers)):
             if len(pts) and not self.contains(pts).all():
                 raise ValueError(f"wing {name} must lie inside the outline, got {pts.tolist()}")
