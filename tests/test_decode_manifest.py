@@ -188,3 +188,15 @@ def test_decode_sequence_yields_one_result_per_cycle():
         assert not order_errors(d.phase["v"], true_phase(ps, "v", shift=s)).any()
     with pytest.raises(ValueError, match="not a whole number of cycles"):
         list(decode_sequence(frames[:-1], ps))
+
+
+@pytest.mark.parametrize("angle", [0.7, 2.4])
+def test_oblique_fringe_angle_decodes_exact_orders_including_negative_w(angle):
+    """Angles above pi/2 give negative fringe coordinates; the absolute window still covers them."""
+    ps = sets.three_frequency("a1", angle=angle)   # 800 x 600: fringe span < 1008 px
+    d = decode(synthesize(ps, sigma=3.0, seed=4), ps)
+    truth = true_phase(ps, "a1")
+    if angle > math.pi / 2:
+        assert truth.min() < 0
+    assert d.mask["a1"].all()
+    assert not order_errors(d.phase["a1"], truth).any()
