@@ -154,3 +154,16 @@ def test_read_image_converts_colour_to_grey(tmp_path):
     cv2.imwrite(str(tmp_path / "c.png"), bgr)
     grey = read_image(tmp_path / "c.png")
     assert grey.shape == (5, 6) and abs(int(grey[0, 0]) - round(0.299 * 200)) <= 1
+
+
+def test_failed_image_write_leaves_no_file(tmp_path):
+    with pytest.raises(ValueError, match="PNG holds uint8 or uint16"):
+        write_image(tmp_path / "x.png", np.zeros((4, 4), np.float64))
+    with pytest.raises(ValueError, match="unsupported image suffix"):
+        write_image(tmp_path / "x.jpg2", np.zeros((4, 4), np.uint8))
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_missing_image_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        read_image(tmp_path / "nope.png")
