@@ -118,11 +118,11 @@ def ftp_analysis(image: np.ndarray, window: str = "hanning", carrier=None, angle
     img = np.asarray(image, dtype=np.float64)
     if img.ndim != 2:
         raise ValueError(f"FTP needs one (H, W) image, got shape {img.shape}")
-    spec = sfft.fft2(img)
+    spec = sfft.fft2(img, workers=-1)
     if carrier is None:
         carrier = detect_carrier(img, angle=angle, spectrum=spec)  # DC is outside dc_radius
     win = bandpass_window(img.shape, carrier, window, radius)
-    analytic = sfft.ifft2(spec * win)
+    analytic = sfft.ifft2(spec * win, workers=-1)
     return FTPResult(np.angle(analytic), 2.0 * np.abs(analytic), img - 2.0 * analytic.real,
                      (float(carrier[0]), float(carrier[1])))
 
