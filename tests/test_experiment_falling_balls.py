@@ -33,3 +33,9 @@ def test_thrown_balls_need_the_cross_motion_correction(result):
     for r in thrown.values():
         assert r["cross_motion"] == [0, 0]
         assert any(e != 0 for e in r["eq_5_13"])  # Eq. (5.13) as printed slips a fringe at 3 m/s sideways
+
+
+def test_every_ball_fully_in_view_keeps_its_order_over_consecutive_cycles(result):
+    seq = result["figures"]["sequence"]
+    assert seq["cycles"] >= 2 and seq["ball_cycles"] >= 20 * seq["cycles"] - 10
+    assert seq["right"] == seq["ball_cycles"] and seq["lost"] == 0
