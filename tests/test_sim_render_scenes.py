@@ -133,3 +133,19 @@ def test_static_scene_is_cast_once_and_moving_scene_every_frame(monkeypatch):
     r.render(Scene([Sphere((0.0, 0.0, 400.0), 40.0, velocity=(10.0, 0, 0))]), TINY.rig, n_step(4, 18), CLEAN,
              progress=False)
     assert len(calls) == 4
+
+
+@pytest.mark.parametrize("name", ["mesh", "falling-balls", "wing"])
+def test_ray_culling_gives_the_same_hits_as_casting_every_ray(name):
+    import importlib
+    r = importlib.import_module("fringe3d.sim.render")
+    scene = named_scene(name, TINY)
+    o, d, _ = r.camera_rays(TINY.rig.camera)
+    for time in (0.0, 0.004):
+        culled = r.intersect_culled(scene, o, d, time)
+        full = scene.intersect(o[0], d, time)
+        assert np.array_equal(culled.object_id, full.object_id)
+        hit = full.object_id >= 0
+        assert hit.any()
+        assert np.array_equal(culled.t[hit], full.t[hit])
+        assert np.array_equal(culled.albedo, full.albedo)

@@ -161,8 +161,10 @@ def _map_hits(o, d, t, oid, nrm, cam_r2, cam_t2, telecentric, depth_off, PR, Pt,
 
 
 @numba.njit(cache=True)
-def _rays_near(o, d, centers, radii, out):  # pragma: no cover - compiled
-    """out[i] = ray i passes within its bounding radius of some object's centre (ahead of the origin)."""
+def _rays_near(o, d, centers, radii, boxR, lo, hi, out):  # pragma: no cover - compiled
+    """out[i] = ray i may hit some object: it passes within the object's bounding sphere
+    (``radii[k] > 0``) or through its oriented bounding box (``radii[k] < 0``: body-frame
+    box ``lo..hi`` posed by ``boxR[k]`` (body -> world) about ``centers[k]``)."""
     shared = o.shape[0] == 1
     for i in range(d.shape[0]):
         oi = 0 if shared else i
@@ -171,39 +173,77 @@ def _rays_near(o, d, centers, radii, out):  # pragma: no cover - compiled
             w0 = centers[k, 0] - o[oi, 0]
             w1 = centers[k, 1] - o[oi, 1]
             w2 = centers[k, 2] - o[oi, 2]
-            along = w0 * d[i, 0] + w1 * d[i, 1] + w2 * d[i, 2]
-            dd = d[i, 0] * d[i, 0] + d[i, 1] * d[i, 1] + d[i, 2] * d[i, 2]
-            r2 = w0 * w0 + w1 * w1 + w2 * w2 - along * along / dd
-            rr = radii[k] * radii[k]
-            if r2 <= rr and (along > 0 or w0 * w0 + w1 * w1 + w2 * w2 <= rr):
+            if radii[k] > 0:
+                along = w0 * d[i, 0] + w1 * d[i, 1] + w2 * d[i, 2]
+                dd = d[i, 0] * d[i, 0] + d[i, 1] * d[i, 1] + d[i, 2] * d[i, 2]
+                r2 = w0 * w0 + w1 * w1 + w2 * w2 - along * along / dd
+                rr = radii[k] * radii[k]
+                if r2 <= rr and (along > 0 or w0 * w0 + w1 * w1 + w2 * w2 <= rr):
+                    hit = True
+                    break
+                continue
+            tmin = 0.0
+            tmax = np.inf
+            for a in range(3):  # slab test in the body frame
+                ob = -(boxR[k, 0, a] * w0 + boxR[k, 1, a] * w1 + boxR[k, 2, a] * w2)
+                db = boxR[k, 0, a] * d[i, 0] + boxR[k, 1, a] * d[i, 1] + boxR[k, 2, a] * d[i, 2]
+                if abs(db) < 1e-300:
+                    if ob < lo[k, a] or ob > hi[k, a]:
+                        tmax = -1.0
+                    continue
+                t1 = (lo[k, a] - ob) / db
+                t2 = (hi[k, a] - ob) / db
+                if t1 > t2:
+                    t1, t2 = t2, t1
+                tmin = max(tmin, t1)
+                tmax = min(tmax, t2)
+            if tmax >= tmin:
                 hit = True
                 break
         out[i] = hit
     return out
 
 
-def intersect_culled(scene, origins, dirs, time: float):
-    """``scene.intersect`` on the rays that pass near some object's bounding sphere only.
+def _bounds(ob, time: float):
+    """(centre, radius, R, lo, hi) of an object's culling volume: an oriented box for meshes
+    (body-frame ``mesh.bounds``, radius -1), else its bounding sphere (R, lo, hi unused);
+    None when the object is unbounded or does not say."""
+    mesh = getattr(ob, "mesh", None)
+    if mesh is not None and hasattr(mesh, "bounds") and callable(getattr(ob, "pose", None)):
+        R, c = ob.pose(time)
+        lo, hi = np.asarray(mesh.bounds, float)
+        pad = 1e-6 * (1.0 + np.abs(hi - lo).max())
+        return np.asarray(c, float), -1.0, np.asarray(R, float), lo - pad, hi + pad
+    fn = getattr(ob, "bounding_sphere", None)
+    if fn is None:
+        return None
+    c, r = fn(time)
+    if not np.isfinite(r):
+        return None
+    return np.asarray(c, float), float(r) * (1 + 1e-9) + 1e-9, np.eye(3), np.zeros(3), np.zeros(3)
 
-    Objects expose ``bounding_sphere(time) -> (centre, radius)``; when any is unbounded (an
-    infinite plane) or missing, every ray is cast. Returns a Hit-like object with full-length
+
+def intersect_culled(scene, origins, dirs, time: float):
+    """``scene.intersect`` on the rays that may hit some object only.
+
+    Culling volumes: oriented bounding boxes for meshes, bounding spheres
+    (``bounding_sphere(time)``) for the rest; when any object is unbounded (an infinite plane)
+    or says nothing, every ray is cast. Returns a Hit-like object with full-length
     ``t, normal, object_id, albedo, material_uv``.
     """
     ray_o = origins[0] if origins.shape[0] == 1 else origins
     objects = getattr(scene, "objects", None)
     spheres = []
     for ob in objects or []:
-        fn = getattr(ob, "bounding_sphere", None)
-        if fn is None:
+        b = _bounds(ob, time)
+        if b is None:
             return scene.intersect(ray_o, dirs, time=time)
-        c, r = fn(time)
-        if not np.isfinite(r):
-            return scene.intersect(ray_o, dirs, time=time)
-        spheres.append((np.asarray(c, float), float(r) * (1 + 1e-9) + 1e-9))
+        spheres.append(b)
     if not spheres:
         return scene.intersect(ray_o, dirs, time=time)
-    near = _rays_near(origins, dirs, np.array([c for c, _ in spheres]), np.array([r for _, r in spheres]),
-                      np.empty(dirs.shape[0], np.bool_))
+    cols = list(zip(*spheres))
+    near = _rays_near(origins, dirs, np.array(cols[0]), np.array(cols[1]), np.array(cols[2]),
+                      np.array(cols[3]), np.array(cols[4]), np.empty(dirs.shape[0], np.bool_))
     n = dirs.shape[0]
     if near.sum() > 0.8 * n:
         return scene.intersect(ray_o, dirs, time=time)
