@@ -141,3 +141,17 @@ def test_rig_load_accepts_calibration_file(noisy_capture, tmp_path):
     rig = Rig.load(noisy_capture / "rig.json")
     (tmp_path / "calib.json").write_text(json.dumps({"format": "fringe3d-calibration", "rig": rig.to_dict()}))
     assert Rig.load(tmp_path / "calib.json").camera.width == rig.camera.width
+
+
+def test_z_min_proposed_from_a_reference_measurement(ideal_capture, tmp_path, capsys):
+    ref = tmp_path / "ref"
+    code, _, err = run(["reconstruct", str(ideal_capture), "-c", str(ideal_capture / "rig.json"), "-o", str(ref),
+                        "--z-min", "300", "-q"], capsys)
+    assert code == 0, err
+    out = tmp_path / "again"
+    code, stdout, err = run(["reconstruct", str(ideal_capture), "-c", str(ideal_capture / "rig.json"), "-o", str(out),
+                             "--z-min-from", str(ref), "--z-margin", "10", "--json"], capsys)
+    assert code == 0, err
+    nearest = float(np.nanmin(np.load(ref / "points.npy")[..., 2]))
+    assert json.loads(stdout)["z_min"] == pytest.approx(nearest - 10.0, abs=1e-4)
+    np.testing.assert_allclose(np.load(out / "points.npy"), np.load(ref / "points.npy"), atol=1e-4, equal_nan=True)

@@ -48,6 +48,16 @@ def point_summary(points: np.ndarray) -> dict:
             "depth_min": float(z.min()) if z.size else None, "depth_max": float(z.max()) if z.size else None}
 
 
+def reference_z_min(path: Path, margin: float) -> float:
+    """z_min proposed from a reference point map (``.npy`` or a folder holding ``points.npy``)."""
+    from fringe3d.unwrap.geometric import propose_z_min
+    path = Path(path)
+    f = path / "points.npy" if path.is_dir() else path
+    if not f.exists():
+        raise FileNotFoundError(f"no reference point map at {f} (expected a .npy point map or a reconstruct folder)")
+    return propose_z_min(np.load(f), margin=margin)
+
+
 def register(app: typer.Typer) -> None:
     @app.command("reconstruct")
     def reconstruct_cmd(
@@ -59,6 +69,10 @@ def register(app: typer.Typer) -> None:
                                    help=f"Unwrapping method for every direction (default: the manifest's plans). "
                                         f"One of: {', '.join(METHODS)}."),
         z_min: float = typer.Option(None, "--z-min", help="Nearest depth of the scene (mm), for geometric methods."),
+        z_min_from: Path = typer.Option(None, "--z-min-from",
+                                        help="Propose z_min from a reference measurement (points.npy or a reconstruct "
+                                             "output folder): its nearest depth minus --z-margin."),
+        z_margin: float = typer.Option(5.0, "--z-margin", help="Margin (mm) below the reference's nearest depth."),
         ply: bool = typer.Option(False, "--ply", help="Also write PLY point clouds (coloured by the texture)."),
         store: bool = typer.Option(True, "--store/--no-store", help="Sequences: write the zarr point store."),
         window: int = typer.Option(None, "--window",
@@ -89,6 +103,11 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"unknown --method {method!r}; expected one of {', '.join(METHODS)}")
         if triangulation not in ("auto", "fast", "lsq"):
             raise ValueError(f"--triangulation must be auto, fast or lsq, got {triangulation!r}")
+        if z_min_from is not None:
+            if z_min is not None:
+                raise ValueError("give either --z-min or --z-min-from, not both")
+            z_min = reference_z_min(z_min_from, z_margin)
+            info(f"z_min = {z_min:.3f} mm from {z_min_from} (nearest depth - {z_margin:g} mm)")
         rig = Rig.load(calibration)
         cap = read_capture(capture, max_cycles=max_cycles)
         check_sizes(rig, cap.frames, calibration)

@@ -362,14 +362,6 @@ class Triangulator:
         phase = check_map(phase, self.shape, "absolute phase map")
         return self.points(np.asarray(phase, np.float64) * (period / (2 * np.pi)), mask, out)
 
-    def coordinate_at_depth(self, z) -> np.ndarray:
-        """Projector coordinate ``w`` (H, W) of the point on each pixel's ray at world ``z``
-        (scalar or (H, W) map, mm); NaN where the ray does not reach ``z`` in front of a
-        pinhole camera. Used by the geometric constraint (Eq. 4.15-4.18, no distortion)."""
-        X = self.ray_points_at_z(z)
-        Xh = np.concatenate([X, np.ones(X.shape[:-1] + (1,))], axis=-1)
-        return (Xh @ self.Q) / (Xh @ self.P3)
-
     def ray_points_at_z(self, z) -> np.ndarray:
         """World points ``(H, W, 3)`` float64 where each pixel's ray meets the plane world-z = ``z``
         (Eq. 4.15-4.17). NaN where the ray is parallel to the plane or, for a pinhole camera,
