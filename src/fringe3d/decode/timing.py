@@ -1,7 +1,7 @@
 """Quick timing of the decode hot paths at 1280 x 1024 (not a test; the full comparison with
 peers lives in ``benchmarks/``).
 
-Run: ``.venv/bin/python -m fringe3d.decode.timing [--repeat 20]``. Prints ms per call (best of ``repeat``)
+Run: ``.venv/bin/python -m fringe3d.decode.timing [--repeat 20] [--threads 1]``. Prints ms per call (best of ``repeat``)
 for the fused 15-frame three-frequency decode, the 3-step wrapped phase, and the
 unavoidable-work bound (copying the input bytes + numpy.arctan2 over the output pixels).
 """
@@ -67,7 +67,11 @@ def run(repeat: int = 20, height: int = 1024, width: int = 1280, seed: int = 0) 
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeat", type=int, default=20)
+    p.add_argument("--threads", type=int, default=None, help="numba threads (default: all cores)")
     a = p.parse_args(argv)
+    if a.threads:
+        import numba
+        numba.set_num_threads(a.threads)
     r = run(a.repeat)
     for k, val in r.items():
         print(f"{k}: {val if isinstance(val, list) else round(val, 2)}")
