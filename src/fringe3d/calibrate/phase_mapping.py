@@ -88,3 +88,21 @@ def projector_points(directions: list[FringeDirection], uv: np.ndarray, min_modu
     sol = W @ np.linalg.pinv(A).T
     sol[~np.all(np.isfinite(W), axis=1)] = np.nan
     return sol
+
+
+def projector_maps(directions: list[FringeDirection]) -> tuple[np.ndarray, np.ndarray]:
+    """Per-pixel projector coordinates ``(u_p, v_p)`` (each (H, W) float64, NaN invalid) from
+    two or more fringe directions: the per-pixel form of :func:`projector_points` (Eq. 2.30-2.34)."""
+    if len(directions) < 2:
+        raise ValueError(f"projector maps need two fringe directions, got {len(directions)}")
+    A = np.array([[np.sin(d.angle), np.cos(d.angle)] for d in directions])
+    Ainv = np.linalg.pinv(A)  # (2, k)
+    ws = []
+    for d in directions:
+        ph = np.asarray(d.phase, np.float64)
+        if d.mask is not None:
+            ph = np.where(np.asarray(d.mask, bool), ph, np.nan)
+        ws.append(ph * d.period / (2 * np.pi))
+    W = np.stack(ws, -1)  # (H, W, k)
+    sol = W @ Ainv.T
+    return sol[..., 0], sol[..., 1]

@@ -30,6 +30,7 @@ class SimulatedSession:
     board_poses: list[tuple[np.ndarray, np.ndarray]]  # true board -> world (R, t)
     model: str
     folder: Path | None = None
+    settings: object = None        # the RenderSettings used
 
 
 def scaled_camera(rig: Rig, factor: float) -> Rig:
@@ -140,6 +141,31 @@ def sample_board_poses(rig: Rig, volume: dict, board: CircleBoard, n: int, rng: 
     return poses
 
 
+def render_board_poses(rig: Rig, settings, board: CircleBoard, board_poses, patterns, seed: int = 0,
+                       dark_albedo: float = 0.35, edge_pixels: float = 2.0, progress: bool = True,
+                       names: list[str] | None = None) -> list[PoseCapture]:
+    """Render the board at each ``(R, t)`` (board -> world) with ``patterns``; one
+    :class:`PoseCapture` per pose (noise seeded by ``seed`` and the pose index)."""
+    from fringe3d.sim import render
+    from fringe3d.sim.board import CircleBoard as SceneBoard
+    from fringe3d.sim.scenes import Scene
+
+    out = []
+    with progress_bar("rendering board poses", len(board_poses), enabled=progress) as advance:
+        for k, (R, t) in enumerate(board_poses):
+            if rig.telecentric:
+                px_mm = 1.0 / float(np.mean(np.linalg.norm(rig.camera.M[:, :3], axis=1)))
+            else:
+                px_mm = rig.camera.to_device(t)[2] / rig.camera.K[0, 0]
+            edge = min(edge_pixels * px_mm, 0.9 * board.radius)
+            sb = SceneBoard(cols=board.cols, rows=board.rows, spacing=board.spacing, radius=board.radius,
+                            asymmetric=board.asymmetric, R=R, t=t, white=0.9, dark=dark_albedo, edge_width=edge)
+            frames, _ = render(Scene([sb]), rig, patterns, settings.replace(seed=seed * 1000 + k), progress=False)
+            out.append(PoseCapture(name=names[k] if names else f"pose_{k:02d}", frames=frames, patterns=patterns))
+            advance()
+    return out
+
+
 def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: float | None = None,
                      patterns=None, board: CircleBoard | None = None, camera_scale: float = 1.0,
                      noise: bool = True, settings_overrides: dict | None = None, folder=None,
@@ -165,9 +191,7 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
         board (the renderer casts one ray per pixel)
     """
     from fringe3d.patterns import sets
-    from fringe3d.sim import presets, render
-    from fringe3d.sim.board import CircleBoard as SceneBoard
-    from fringe3d.sim.scenes import Scene
+    from fringe3d.sim import presets
 
     p = presets.get(preset)
     rig = scaled_camera(p.rig, camera_scale)
@@ -189,28 +213,17 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
     if not noise:
         over.update(shot_noise=False, read_noise=0.0, bit_depth=16)
     s = s.replace(**over)
-    poses = []
     folder = Path(folder) if folder is not None else None
-    with progress_bar("rendering calibration poses", n_poses, enabled=progress) as advance:
-        for k, (R, t) in enumerate(board_poses):
-            z = (rig.camera.to_device(t)[2] if not rig.telecentric else None)
-            if rig.telecentric:
-                px_mm = 1.0 / float(np.mean(np.linalg.norm(rig.camera.M[:, :3], axis=1)))
-            else:
-                px_mm = z / rig.camera.K[0, 0]
-            edge = min(edge_pixels * px_mm, 0.9 * board.radius)
-            sb = SceneBoard(cols=board.cols, rows=board.rows, spacing=board.spacing, radius=board.radius,
-                            asymmetric=board.asymmetric, R=R, t=t, white=0.9, dark=dark_albedo, edge_width=edge)
-            frames, _ = render(Scene([sb]), rig, patterns, s.replace(seed=seed * 1000 + k), progress=False)
-            name = f"pose_{k:02d}"
-            poses.append(PoseCapture(name=name, frames=frames, patterns=patterns))
-            if folder is not None:
-                from fringe3d.io.capture import write_capture
-                write_capture(folder / name, frames, patterns,
-                              meta={"simulated": True, "preset": p.name, "board_R": R, "board_t": t})
-            advance()
+    poses = render_board_poses(rig, s, board, board_poses, patterns, seed=seed, dark_albedo=dark_albedo,
+                               edge_pixels=edge_pixels, progress=progress)
+    if folder is not None:
+        from fringe3d.io.capture import write_capture
+        for pose, (R, t) in zip(poses, board_poses):
+            write_capture(folder / pose.name, pose.frames, patterns,
+                          meta={"simulated": True, "preset": p.name, "board_R": R, "board_t": t})
     if folder is not None:
         meta = {"board": board.to_dict(), "model": model, "preset": p.name, "seed": seed,
                 "truth": {"rig": rig.to_dict(), "board_poses": [{"R": R, "t": t} for R, t in board_poses]}}
         atomic_write_text(folder / SESSION_NAME, json.dumps(to_jsonable(meta), indent=1))
-    return SimulatedSession(poses=poses, board=board, rig=rig, board_poses=board_poses, model=model, folder=folder)
+    return SimulatedSession(poses=poses, board=board, rig=rig, board_poses=board_poses, model=model, folder=folder,
+                            settings=s)
