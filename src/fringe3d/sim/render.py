@@ -480,7 +480,9 @@ def render(scene, rig, patterns, settings: RenderSettings | None = None, times=N
     -------
     frames : (F, H, W) uint8 / uint16 / float32
     truth : Truth
-        Per pixel; per frame (leading F axis) when the scene moves.
+        Per pixel; per frame (leading F axis) when the scene moves, taken at the frame's
+        timestamp (at the middle motion sub-sample when ``motion_samples > 1``, see
+        ``truth.meta["truth_times"]``).
     """
     s = settings or RenderSettings()
     check_inputs(rig, patterns)
@@ -498,6 +500,7 @@ def render(scene, rig, patterns, settings: RenderSettings | None = None, times=N
     sampler = PatternSampler(patterns, s)
     dirs_info = directions_of(patterns)
     geos: list[Geometry] = []
+    truth_times: list[float] = []
     frames = []
     geo0 = cast(scene, rig, origins, dirs, off, float(times[0]), s.shadows) if static else None
     if geo0 is not None:
@@ -513,16 +516,19 @@ def render(scene, rig, patterns, settings: RenderSettings | None = None, times=N
                 img = np.zeros(H * W)
                 for j, ts in enumerate(sub):
                     g = cast(scene, rig, origins, dirs, off, ts, s.shadows)
-                    if j == len(sub) // 2:
-                        geo = g
+                    if j == len(sub) // 2:  # truth at the middle sub-sample of the exposure
+                        geo, t_truth = g, ts
                     img += irradiance(g, sampler.values(spec, g), s, amb) / len(sub)
                 if k == 0:
                     check_visible(geo, scene)
                 geos.append(geo)
+                truth_times.append(t_truth)
             frames.append(sense(img.reshape(H, W), s, k))
             advance()
     truth = make_truth(geos if not static else [geo0], (H, W), dirs_info, times, static, rig)
     truth.meta.update(scene_meta(scene, rig, float(times[0])))
+    if not static:
+        truth.meta["truth_times"] = truth_times  # differs from ``times`` when motion_samples > 1
     return np.stack(frames), truth
 
 
