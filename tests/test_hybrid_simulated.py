@@ -102,3 +102,16 @@ def test_hybrid_plan_on_a_set_without_a_single_ftp_frame_is_rejected(capture):
     bad = dc_replace(ps6, plans=(DirectionPlan("v", ps6.plans[0].angle, "hybrid", (18.0, 228.0)),))
     with pytest.raises(ValueError, match="1 high-frequency frame"):
         measure(frames, bad, rig, z_min=340.0)
+
+
+def test_saturated_pixels_of_the_ftp_frame_are_left_out(capture):
+    rig, ps6, frames, truth = capture
+    ps4, idx = hybrid_view(ps6)
+    f4 = frames[idx].copy()
+    t = truth.frame(idx[0])
+    v, u = np.argwhere(t.object_id == 1).mean(axis=0).astype(int)
+    f4[0, v - 5:v + 5, u - 5:u + 5] = 255  # a specular glint on ball 1 in I_h3
+    m = measure(f4, ps4, rig, z_min=340.0, erode=0)
+    assert not m.mask[v - 5:v + 5, u - 5:u + 5].any()
+    own = (t.object_id == 1) & m.mask
+    assert round(float(np.median(m.phase[own] - t.phase["v"][own])) / TWO_PI) == 0

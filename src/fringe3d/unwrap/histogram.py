@@ -168,7 +168,7 @@ def _register() -> None:
         ``T_ref`` group unwrapped by the geometric constraint) or, with one group, to ``Φ_min``.
         Needs the rig and ``z_min``. Options: ``erode``, ``min_size``, ``min_ratio``."""
         from .geometric import _context_geometry, cached_minimum_phase, geometric_unwrap
-        from .hybrid import carrier_from_minimum_phase, ftp_group_phase
+        from .hybrid import carrier_from_minimum_phase, ftp_group_phase, not_saturated
         from .segmentation import foreground_mask, segment_objects
         from .spatial import unwrap_objects
 
@@ -183,9 +183,11 @@ def _register() -> None:
         if len(hi.indices) < 3:  # FTP / modified FTP on the carrier the rig predicts
             pr = ftp_group_phase(ctx.frames[list(hi.indices)], hi.shifts, carrier_from_minimum_phase(mp_hi.phi_min),
                                  window=str(opts.get("ftp_window", "hanning")))
+            valid = not_saturated(ctx, hi.indices)
         else:
             pr = ctx.group_phase(hi)
-        fg = foreground_mask(pr.average, pr.modulation, float(opts.get("min_ratio", 0.15))) & ctx.group_mask(hi)
+            valid = ctx.group_mask(hi)
+        fg = foreground_mask(pr.average, pr.modulation, float(opts.get("min_ratio", 0.15))) & valid
         labels = segment_objects(fg, min_size=int(opts.get("min_size", 200)), erode=int(opts.get("erode", 2)))
         phi_r, labels = unwrap_objects(pr.phase, labels=labels)
         if len(groups) == 2:

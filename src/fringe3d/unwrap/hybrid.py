@@ -187,7 +187,8 @@ def ftp_group_phase(images, shifts, carrier, window: str = "hanning"):
 
 def hybrid_unwrap(high, low, mp_low, period: float, period_low: float, *, erode: int = 2,
                   min_size: int = 200, min_ratio: float = 0.15, max_shift: float | None = None,
-                  cross_motion: bool = False, seed: int | None = 0) -> HybridResult:
+                  cross_motion: bool = False, seed: int | None = 0, valid_high: np.ndarray | None = None,
+                  valid_low: np.ndarray | None = None) -> HybridResult:
     """The whole hybrid chain from wrapped phases (ch. 5.2.5, Fig. 5.4).
 
     Parameters
@@ -212,6 +213,8 @@ def hybrid_unwrap(high, low, mp_low, period: float, period_low: float, *, erode:
     cross_motion : bool
         Also remove the phase change of motion across the fringes (``phi_min`` of
         :func:`hybrid_phase`); off = the dissertation's Eq. (5.13).
+    valid_high, valid_low : (H, W) bool, optional
+        Extra validity (e.g. not saturated) of the high / low frames.
 
     Returns
     -------
@@ -220,9 +223,13 @@ def hybrid_unwrap(high, low, mp_low, period: float, period_low: float, *, erode:
     from .geometric import geometric_unwrap
 
     fg_h = foreground_mask(high.average, high.modulation, min_ratio)
+    if valid_high is not None:
+        fg_h &= np.asarray(valid_high, bool)
     labels_r = segment_objects(fg_h, min_size=min_size, erode=erode)
     phi_r, labels_r = unwrap_objects(high.phase, labels=labels_r, seed=seed)
     fg_l = foreground_mask(low.average, low.modulation, min_ratio)
+    if valid_low is not None:
+        fg_l &= np.asarray(valid_low, bool)
     labels_e = segment_objects(fg_l, min_size=min_size, erode=erode)
     phi_e, _ = geometric_unwrap(low.phase, mp_low, labels_e > 0, check=False)
     res = hybrid_phase(phi_r, labels_r, phi_e, period, period_low, labels_e=labels_e,
@@ -230,6 +237,16 @@ def hybrid_unwrap(high, low, mp_low, period: float, period_low: float, *, erode:
     res.coarse = phi_e
     res.labels_low = labels_e
     return res
+
+
+def not_saturated(ctx, indices) -> np.ndarray:
+    """(H, W) bool: no frame of ``indices`` reaches the sensor's saturation level."""
+    from fringe3d.phase.quality import saturation_level
+
+    level = saturation_level(ctx.frames, ctx.bit_depth)
+    if not np.isfinite(level):
+        return np.ones(ctx.frames.shape[1:], bool)
+    return ~(ctx.frames[list(indices)] >= level).any(axis=0)
 
 
 def _register() -> None:
@@ -261,7 +278,8 @@ def _register() -> None:
         res = hybrid_unwrap(high, ctx.group_phase(lo), mp, hi.period, lo.period,
                             erode=int(opts.get("erode", 2)), min_size=int(opts.get("min_size", 200)),
                             min_ratio=float(opts.get("min_ratio", 0.15)), max_shift=opts.get("max_shift"),
-                            cross_motion=bool(opts.get("cross_motion", False)))
+                            cross_motion=bool(opts.get("cross_motion", False)),
+                            valid_high=not_saturated(ctx, hi.indices), valid_low=ctx.group_mask(lo))
         mask = np.isfinite(res.phase)
         return res.phase, mask, {"wrapped": high.phase, "modulation": high.modulation, "period": hi.period,
                                  "labels": res.labels, "k_s": {l: v.k_s for l, v in res.votes.items()}}

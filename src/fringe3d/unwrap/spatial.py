@@ -96,15 +96,17 @@ def _register() -> None:
         z_min = ctx.z_min if ctx.z_min is not None else opts.get("z_min")
         if len(g.indices) < 3 and ctx.rig is not None and z_min is not None:
             from .geometric import _context_geometry, cached_minimum_phase
-            from .hybrid import carrier_from_minimum_phase, ftp_group_phase
+            from .hybrid import carrier_from_minimum_phase, ftp_group_phase, not_saturated
 
             rig, z_min = _context_geometry(ctx, "spatial")
             mp = cached_minimum_phase(rig, z_min, g.period, g.angle)
             pr = ftp_group_phase(ctx.frames[list(g.indices)], g.shifts, carrier_from_minimum_phase(mp.phi_min),
                                  window=str(opts.get("ftp_window", "hanning")))
+            valid = not_saturated(ctx, g.indices)
         else:
             pr = ctx.group_phase(g)
-        fg = foreground_mask(pr.average, pr.modulation, float(opts.get("min_ratio", 0.15))) & ctx.group_mask(g)
+            valid = ctx.group_mask(g)
+        fg = foreground_mask(pr.average, pr.modulation, float(opts.get("min_ratio", 0.15))) & valid
         labels = segment_objects(fg, min_size=int(opts.get("min_size", 64)), erode=int(opts.get("erode", 0)))
         phi_r, labels = unwrap_objects(pr.phase, labels=labels)
         return phi_r, np.isfinite(phi_r), {"labels": labels}
