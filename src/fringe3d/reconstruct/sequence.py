@@ -71,7 +71,9 @@ def plan_for_method(ps: PatternSet, direction: str, method: str) -> DirectionPla
     else:
         chosen = (periods[0],)
     angle = ps.frames[ps.indices(direction=direction, role="phase")[0]].angle
-    return DirectionPlan(direction=direction, angle=angle, method=method, periods=chosen)
+    old = [p for p in ps.plans if p.direction == direction]
+    options = dict(old[0].options) if old else {}  # keep e.g. the phase method and w_range
+    return DirectionPlan(direction=direction, angle=angle, method=method, periods=chosen, options=options)
 
 
 def with_method(ps: PatternSet, method: str | None) -> PatternSet:
