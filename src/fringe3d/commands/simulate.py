@@ -14,7 +14,8 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(..., "--out", "-o", help="Output capture folder."),
         preset: str = typer.Option("tiny", help="Rig preset: macro, well-designed, microscope, high-speed, tiny."),
         scene: str = typer.Option(None, help="Scene name (sphere, plane, spheres, step, board, sculpture, mesh, "
-                                             "falling-balls, wing) or a JSON scene file; default: the preset's."),
+                                             "falling-balls, wing, textured-spheres) or a JSON scene file; "
+                                             "default: the preset's."),
         patterns: str = typer.Option(None, help="Pattern set name (three-frequency, two-frequency, hybrid, ftp, "
                                                 "...) or a manifest.json; default: the preset's."),
         frames: int = typer.Option(None, help="Total frames (a multiple of the pattern count); default one cycle."),
