@@ -120,3 +120,17 @@ def test_npz_stack_is_read_like_a_folder(sequence, tmp_path, capsys):
     assert main(["strain", str(tmp_path / "seq.npz"), "--anchors", arg, "-o", str(tmp_path / "o"), "--json",
                  "--no-figures", "--step", "8"]) == 0
     assert json.loads(capsys.readouterr().out)["tracked_fraction"] > 0.85
+
+
+def test_zarr_store_is_read_like_a_folder(sequence, tmp_path, capsys):
+    import zarr
+
+    folder, anchors0, _ = sequence
+    g = zarr.open_group(str(tmp_path / "seq.zarr"), mode="w")
+    pts = np.stack([np.load(folder / f"points_{i:05d}.npy") for i in range(3)])
+    tex = np.stack([np.load(folder / f"texture_{i:05d}.npy") for i in range(3)])
+    g.create_array("points", shape=pts.shape, dtype="f4")[:] = pts
+    g.create_array("texture", shape=tex.shape, dtype="f8")[:] = tex
+    assert main(["strain", str(tmp_path / "seq.zarr"), "--anchors", "auto", "-o", str(tmp_path / "o"), "--json",
+                 "--no-figures", "--step", "8"]) == 0
+    assert json.loads(capsys.readouterr().out)["tracked_fraction"] > 0.85
