@@ -194,16 +194,69 @@ def _group_phase(ctx: DecodeContext, group: PhaseGroup):
     sel = ctx.frames[list(group.indices)]
     saturated = (sel >= level).any(axis=0) if np.isfinite(level) else np.zeros(sel.shape[1:], bool)
     kw = {k[4:]: v for k, v in ctx.options.items() if k in ("ftp_window", "ftp_radius")}
+    lobe = ftp_lobe_angle(ctx, group)
     if n == 2:
         d = (group.shifts[1] - group.shifts[0]) % (2 * np.pi)
         if abs(d - np.pi) > 1e-6:
             raise ValueError(f"phase group {group.name!r} has 2 frames shifted by {d:.4f} rad; a 2-frame group must "
                              "be a pi-shifted pair (modified FTP)")
         i1, i2 = sel[0].astype(np.float64), sel[1].astype(np.float64)
-        phase, mod = ftp.modified_ftp_phase(i1, i2, angle=group.angle, **kw)
+        phase, mod = ftp.modified_ftp_phase(i1, i2, angle=lobe, **kw)
         average = 0.5 * (i1 + i2)
     else:
-        r = ftp.ftp_analysis(sel[0].astype(np.float64), angle=group.angle, **kw)
+        r = ftp.ftp_analysis(sel[0].astype(np.float64), angle=lobe, **kw)
         phase, mod, average = r.phase, r.modulation, r.average
     phase = np.angle(np.exp(1j * (phase - group.shifts[0])))  # frame k has phase phi + shift
     return PhaseResult(phase.astype(np.float32), np.asarray(average, np.float32), mod.astype(np.float32)), saturated
+
+
+def ftp_lobe_angle(ctx: DecodeContext, group: PhaseGroup) -> float:
+    """Camera-image direction (rad, ``cos`` along rows v, ``sin`` along columns u) in which the
+    absolute phase of ``group`` increases; FTP keeps the spectral lobe on that side.
+
+    A single fringe image cannot tell phi from -phi. With a rig, the direction is the camera
+    gradient of the projector fringe coordinate ``w`` at the image centre, on a point at depth
+    ``z_min`` (or where the camera and projector axes pass closest). Without a rig the camera
+    is assumed to see the projector unmirrored (direction = the fringe angle). The decoder
+    option ``ftp_sign=-1`` flips the result (e.g. a mirrored rig without calibration).
+    """
+    angle = group.angle
+    if ctx.rig is not None:
+        try:
+            angle = _camera_fringe_direction(ctx.rig, group.angle, ctx.frames.shape[1:], ctx.z_min)
+        except Exception as e:  # an unusual rig model: fall back to the unmirrored assumption
+            import warnings
+            warnings.warn(f"could not orient FTP from the rig ({type(e).__name__}: {e}); assuming an "
+                          "unmirrored view (decode option ftp_sign=-1 flips it)", UserWarning, stacklevel=3)
+    if ctx.options.get("ftp_sign", 1) < 0:
+        angle += np.pi
+    return float(angle)
+
+
+def _camera_fringe_direction(rig, angle: float, shape, z_min) -> float:
+    h, w = shape
+    uv = np.array([[0.5 * (w - 1), 0.5 * (h - 1)], [0.5 * (w - 1) + 1.0, 0.5 * (h - 1)],
+                   [0.5 * (w - 1), 0.5 * (h - 1) + 1.0]])
+    origins, dirs = rig.camera.rays(uv)
+    origins = np.broadcast_to(np.asarray(origins, float), (3, 3))
+    dirs = np.broadcast_to(np.asarray(dirs, float), (3, 3))
+    if z_min is not None:
+        s = float(z_min)
+    else:  # where the camera's central ray passes closest to the projector's optical axis
+        proj = rig.projector
+        c1 = np.asarray(proj.center, float)
+        a1 = np.asarray(proj.R, float)[2]
+        d0 = dirs[0]
+        w0 = origins[0] - c1
+        a, b, c = d0 @ d0, d0 @ a1, a1 @ a1
+        den = a * c - b * b
+        s = (b * (a1 @ w0) - c * (d0 @ w0)) / den if abs(den) > 1e-12 else 1000.0
+        if not s > 0:
+            s = 1000.0
+    pts = origins + s * dirs
+    up = np.asarray(rig.projector.project(pts), float)
+    wp = up[:, 1] * np.cos(angle) + up[:, 0] * np.sin(angle)
+    gu, gv = wp[1] - wp[0], wp[2] - wp[0]
+    if not (np.isfinite(gu) and np.isfinite(gv)) or gu == gv == 0:
+        raise ValueError("the projector coordinate does not change across the camera image centre")
+    return float(np.arctan2(gu, gv))
