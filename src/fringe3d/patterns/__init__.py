@@ -10,5 +10,7 @@ Typical use::
 from fringe3d.patterns.manifest import DirectionPlan, FrameSpec, PatternSet
 from fringe3d.patterns.render import render_frame, render_set, sinusoid_value
 from fringe3d.patterns import sets
+from fringe3d.patterns.synthetic import frames_from_coordinates
 
-__all__ = ["DirectionPlan", "FrameSpec", "PatternSet", "render_frame", "render_set", "sinusoid_value", "sets"]
+__all__ = ["DirectionPlan", "FrameSpec", "PatternSet", "render_frame", "render_set", "sinusoid_value", "sets",
+           "frames_from_coordinates"]
