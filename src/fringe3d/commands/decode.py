@@ -28,6 +28,11 @@ def register(app: typer.Typer) -> None:
                                              help="Modulation threshold in camera counts (default 2% of full scale)."),
         bit_depth: int = typer.Option(None, "--bit-depth", help="Camera bit depth (default capture.json or the PNG dtype)."),
         max_cycles: int = typer.Option(None, "--max-cycles", help="Decode only the first N pattern cycles."),
+        ftp_window: str = typer.Option(None, "--ftp-window",
+                                       help="FTP band-pass window: hanning or circular (default hanning; circular "
+                                            "for modified FTP)."),
+        ftp_flip: bool = typer.Option(False, "--ftp-flip",
+                                      help="Flip the FTP phase sign (a mirrored view decoded without --rig)."),
         json_: bool = typer.Option(False, "--json", help="Print one JSON summary instead of a table."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars or tables."),
     ) -> None:
@@ -45,7 +50,9 @@ def register(app: typer.Typer) -> None:
         t0 = time.perf_counter()
         cap = read_capture(capture, max_cycles=max_cycles)
         bits = bit_depth if bit_depth is not None else cap.meta.get("bit_depth")
-        opts = {"bit_depth": bits, "min_modulation": min_modulation}
+        opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1}
+        if ftp_window is not None:
+            opts["ftp_window"] = ftp_window
         rig_obj = _load_rig(rig)
         n = cap.cycles
         results = []
