@@ -118,3 +118,18 @@ def test_reconstruct_command_on_a_sequence_then_evaluate_a_frame(seq_capture, tm
     code = main(["evaluate", str(out), "--frame", "3", "--sphere", "--truth", str(cap.folder), "--json"])
     ev = json.loads(capsys.readouterr().out)
     assert code == 0 and ev["truth"]["max_mm"] < 1e-3 and abs(ev["sphere"]["size"]) < 1e-3
+
+
+def test_fast_path_warns_when_the_scene_leaves_the_depth_range(seq_capture, capsys):
+    from fringe3d.reconstruct.sequence import FrameReconstructor
+    cap, rig, truth = seq_capture
+    ps = with_method(cap.patterns, "geometric")
+    n = len(ps)
+    ok = FrameReconstructor(ps, rig, 340.0)
+    ok(cap.frames[:n])
+    assert "depth" not in capsys.readouterr().err
+    # z_min far too close: the sphere and the wall lie beyond one period (T = 64 px)
+    bad = FrameReconstructor(ps, rig, 120.0)
+    assert bad.fast is not None
+    bad(cap.frames[:n])
+    assert "depth-range limit" in capsys.readouterr().err.replace("\n", " ")

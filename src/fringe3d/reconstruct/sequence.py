@@ -131,6 +131,7 @@ class FrameReconstructor:
         self.z_min = z_min
         self.triangulation = triangulation
         self.opts = decode_opts
+        self._range_checked = False
         self.fast = self._fast_path() if fast else None
 
     @property
@@ -163,9 +164,16 @@ class FrameReconstructor:
             mm = self._fast_min_mod
             self.fast.min_mod2 = (default_min_modulation(frames, self.opts.get("bit_depth")) if mm is None else mm) ** 2
             pts = self.fast.points(frames, index=self._fast_index)
-            if not np.isfinite(pts[..., 0]).any():
+            valid = np.isfinite(pts[..., 0])
+            if not valid.any():
                 raise ValueError("the decoded phase mask is empty: no pixel has enough fringe modulation "
                                  "(check exposure, modulation threshold and that the scene is lit by the projector)")
+            if not self._range_checked:  # once: the depth-range warning the decode path gives
+                from fringe3d.unwrap.geometric import check_wrap_around, fringe_coordinate
+                mp = self.fast.mp
+                w = fringe_coordinate(self.rig, np.where(valid[..., None], pts, 0.0).astype(np.float64), mp.angle)
+                check_wrap_around(np.where(valid, w * (2 * math.pi / mp.period), np.nan), mp, valid)
+                self._range_checked = True
             if not with_texture:
                 return pts
             tex = frames[self._fast_index].mean(axis=0, dtype=np.float32) / full_scale(frames, self.opts.get("bit_depth"))
