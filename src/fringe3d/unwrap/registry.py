@@ -127,7 +127,7 @@ class DecodeContext:
 
         3 or more steps: least-squares phase shifting (Eq. 2.4). 2 steps shifted by pi:
         modified FTP (Eq. 4.5-4.7). 1 step: FTP (Eq. 4.1-4.4). Options ``ftp_window`` and
-        ``ftp_border`` are passed to FTP.
+        ``ftp_radius`` are passed to FTP; the lobe sign follows :func:`ftp_lobe_angle`.
         """
         if group.name not in self._cache:
             self._cache[group.name] = _group_phase(self, group)
