@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from fringe3d.phase.ftp import BORDER_PX, NONINTEGER_BORDER_ERROR, detect_carrier, ftp_phase, modified_ftp_phase
+from fringe3d.phase.ftp import BORDER_1E4_PX, BORDER_PX, NONINTEGER_BORDER_ERROR, detect_carrier, ftp_phase, modified_ftp_phase
 
 H, W = 128, 160
 V, U = np.mgrid[0:H, 0:W].astype(np.float64)
@@ -50,6 +50,18 @@ def test_ftp_error_away_from_border_for_non_integer_periods(window):
         err = np.abs(wrap(phase - phi))
         assert err[b:H - b, b:W - b].max() < NONINTEGER_BORDER_ERROR[window]
         assert err.max() > NONINTEGER_BORDER_ERROR[window]     # the border really is worse
+
+
+def test_hanning_ftp_below_1e_4_rad_beyond_stated_border_for_any_carrier():
+    h, w = 512, 640
+    v, u = np.mgrid[0:h, 0:w].astype(np.float64)
+    b = BORDER_1E4_PX
+    for period, angle in ((16.3, math.pi / 2), (17.7, 0.6), (20.0, 2.5), (25.1, 1.2)):
+        phi = 2 * np.pi * (v * math.cos(angle) + u * math.sin(angle)) / period
+        phase, _ = ftp_phase(100 + 60 * np.cos(phi), window="hanning", angle=angle)
+        err = np.abs(wrap(phase - phi))
+        assert err[b:h - b, b:w - b].max() < 1e-4
+        assert err[b // 4:h - b // 4, b // 4:w - b // 4].max() > 1e-4   # the border is needed
 
 
 def test_modified_ftp_removes_background_and_is_exact_for_whole_periods():
