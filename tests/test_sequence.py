@@ -133,3 +133,13 @@ def test_fast_path_warns_when_the_scene_leaves_the_depth_range(seq_capture, caps
     assert bad.fast is not None
     bad(cap.frames[:n])
     assert "depth-range limit" in capsys.readouterr().err.replace("\n", " ")
+
+
+def test_capture_frames_read_on_demand_match_the_capture(seq_capture):
+    from fringe3d.reconstruct.sequence import CaptureFrames
+    cap, rig, truth = seq_capture
+    lazy = CaptureFrames(cap.folder)
+    assert lazy.shape == cap.frames.shape and lazy.dtype == cap.frames.dtype
+    np.testing.assert_array_equal(lazy[[4, 0, 8]], cap.frames[[4, 0, 8]])
+    np.testing.assert_array_equal(lazy[3], cap.frames[3])
+    assert len(CaptureFrames(cap.folder, limit=3)) == 3

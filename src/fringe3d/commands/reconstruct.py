@@ -93,9 +93,10 @@ def register(app: typer.Typer) -> None:
         Example: fringe3d reconstruct sphere-capture --calibration calib.json -o sphere-3d --ply
         """
         from fringe3d.io.atomic import atomic_write_text
-        from fringe3d.io.capture import read_capture
+        from fringe3d.io.capture import list_frame_files, read_capture
         from fringe3d.optics import Rig
-        from fringe3d.reconstruct.sequence import FrameReconstructor, reconstruct_sequence, with_method
+        from fringe3d.reconstruct.sequence import (CaptureFrames, FrameReconstructor, reconstruct_sequence,
+                                                   with_method)
 
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
@@ -109,22 +110,25 @@ def register(app: typer.Typer) -> None:
             z_min = reference_z_min(z_min_from, z_margin)
             info(f"z_min = {z_min:.3f} mm from {z_min_from} (nearest depth - {z_margin:g} mm)")
         rig = Rig.load(calibration)
-        cap = read_capture(capture, max_cycles=max_cycles)
+        cap = read_capture(capture, max_cycles=1)  # checks the folder; the rest is read on demand
         check_sizes(rig, cap.frames, calibration)
+        n_files = len(list_frame_files(capture))
+        cycles = n_files // len(cap.patterns) if max_cycles is None else min(max_cycles, n_files // len(cap.patterns))
         ps = with_method(cap.patterns, method)
         opts = {"bit_depth": cap.meta.get("bit_depth"), "min_modulation": min_modulation}
         methods = {p.direction: p.method for p in ps.plans}
         summary = {"capture": str(capture), "calibration": str(calibration), "out": str(out), "methods": methods,
-                   "z_min": z_min, "cycles": cap.cycles, "cycle_length": len(ps), "step": window,
+                   "z_min": z_min, "cycles": cycles, "cycle_length": len(ps), "step": window,
                    "shape": list(cap.frames.shape[1:])}
-        if cap.cycles == 1 and window is None:
+        if cycles == 1 and window is None:
             rec = FrameReconstructor(ps, rig, z_min, triangulation=triangulation, **opts)
             points, texture = rec(np.ascontiguousarray(cap.frames), with_texture=True)
             summary["files"] = write_single(out, points, texture, ply)
             summary.update(point_summary(points))
             summary["path"] = rec.path
         else:
-            seq = reconstruct_sequence(cap.frames, ps, rig, out, z_min=z_min, mode="window" if window else "cycle",
+            frames = CaptureFrames(capture, limit=cycles * len(ps))
+            seq = reconstruct_sequence(frames, ps, rig, out, z_min=z_min, mode="window" if window else "cycle",
                                        step=window, ply=ply, store=store, progress=not (quiet or json_),
                                        triangulation=triangulation, **opts)
             summary.update(seq)

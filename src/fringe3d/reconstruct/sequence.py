@@ -188,6 +188,41 @@ class FrameReconstructor:
 
 
 # ----------------------------------------------------------------------------- sequences
+class CaptureFrames:
+    """The frames of a capture folder, read on demand: ``frames[idx]`` reads only those files.
+
+    Stands in for the ``(F, H, W)`` array of :func:`reconstruct_sequence` so a capture of
+    thousands of frames never has to fit in memory. ``limit`` keeps only the first frames.
+    """
+
+    def __init__(self, folder, limit: int | None = None):
+        from fringe3d.io.capture import list_frame_files
+        from fringe3d.io.images import read_image
+        self._read = read_image
+        self.files = list_frame_files(folder)[:limit]
+        if not self.files:
+            raise ValueError(f"capture folder {folder} holds no frames")
+        first = read_image(self.files[0])
+        self.shape = (len(self.files),) + first.shape
+        self.dtype = first.dtype
+        self.ndim = 3
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def _one(self, k: int) -> np.ndarray:
+        img = self._read(self.files[k])
+        if img.shape != self.shape[1:] or img.dtype != self.dtype:
+            raise ValueError(f"{self.files[k]} is {img.dtype} {img.shape} but {self.files[0].name} is "
+                             f"{self.dtype} {self.shape[1:]}; all frames of a capture must match")
+        return img
+
+    def __getitem__(self, idx):
+        if np.ndim(idx) == 0:
+            return self._one(int(idx))
+        return np.stack([self._one(int(k)) for k in np.asarray(idx).ravel()])
+
+
 def ply_name(k: int) -> str:
     return f"frame_{k:05d}.ply"
 
@@ -200,7 +235,7 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig, out, z_m
 
     Parameters
     ----------
-    frames : (F, H, W) array (may be a memory map), the capture in projection order
+    frames : (F, H, W) array (or a memory map, or :class:`CaptureFrames`), in projection order
     patterns : the manifest (its plans choose the unwrapping; see :func:`with_method`)
     rig : the calibrated rig; z_min : mm, for geometric-constraint methods
     out : output folder: ``points.zarr`` and/or ``ply/frame_00000.ply`` ...
@@ -211,8 +246,9 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig, out, z_m
     """
     if not (ply or store):
         raise ValueError("nothing to write: ask for the point store and/or PLY files")
-    frames = np.asarray(frames) if not isinstance(frames, np.ndarray) else frames
-    if frames.ndim != 3:
+    if not hasattr(frames, "shape"):
+        frames = np.asarray(frames)
+    if len(frames.shape) != 3:
         raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
     H, W = frames.shape[1:]
     if (rig.camera.height, rig.camera.width) != (H, W):
