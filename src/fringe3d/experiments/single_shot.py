@@ -68,7 +68,7 @@ def limit_scene(z_limit: float, span: float = 30.0):
                         size=(width / math.cos(tilt), 70.0))], name=f"sculpture+tilted-plane@{z_limit:g}")
 
 
-def _render(sc, rig, settings, quick: bool, seed: int):
+def _render(sc, rig, settings, seed: int):
     from fringe3d.patterns.sets import modified_ftp, psp_with_gray_code
     from fringe3d.sim import render
 
@@ -105,7 +105,7 @@ def _evaluate(res, truth, ref_pts):
 MARGIN = 0.25  # rad: pixels this close to the limit may land either side through phase noise
 
 
-def depth_limit_case(rig, settings, quick: bool, seed: int, z_limit: float) -> dict:
+def depth_limit_case(rig, settings, seed: int, z_limit: float) -> dict:
     """A tilted plane straddling the depth-range limit ``z_limit`` (see :func:`limit_scene`).
 
     Theory (Eq. 4.20–4.21): pixels whose true ``r = sign·(Φ − Φ_min)`` reaches 2π get an order
@@ -115,7 +115,7 @@ def depth_limit_case(rig, settings, quick: bool, seed: int, z_limit: float) -> d
     from fringe3d.reconstruct.single_shot import single_shot
     from fringe3d.unwrap.geometric import minimum_phase
 
-    f_pair, pair, _, _, truth = _render(limit_scene(z_limit), rig, settings, quick, seed)
+    f_pair, pair, _, _, truth = _render(limit_scene(z_limit), rig, settings, seed)
     res = single_shot(f_pair, rig, PERIOD, Z_MIN, method="modified_ftp", window="hanning")
     mp = minimum_phase(rig, Z_MIN, PERIOD)
     sel = res.mask & truth.mask
@@ -139,7 +139,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     from fringe3d.unwrap.geometric import depth_limit, minimum_phase
 
     rig, settings = _rig(quick)
-    f_pair, pair, f_ref, ref, truth = _render(scene(), rig, settings, quick, seed)
+    f_pair, pair, f_ref, ref, truth = _render(scene(), rig, settings, seed)
     ref_pts, dec = _reference_points(f_ref, ref, rig)
     rows, figures = [], {}
     variants = [("FTP", "ftp", "circular"), ("FTP", "ftp", "hanning"),
@@ -156,7 +156,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     mp = minimum_phase(rig, Z_MIN, PERIOD)
     lim = depth_limit(rig, mp)
     range_mm = float(np.nanmedian(lim[truth.mask]) - Z_MIN)
-    limit = depth_limit_case(rig, settings, quick, seed, z_limit=Z_MIN + range_mm)
+    limit = depth_limit_case(rig, settings, seed, z_limit=Z_MIN + range_mm)
     tables = [
         {"title": f"single-shot vs 3-step PSP + Gray code (T = {PERIOD:g} px, z_min = {Z_MIN:g} mm)",
          "columns": ["method", "window", "pixels", "correct order (%)", "RMS dz vs PSP (mm)",
