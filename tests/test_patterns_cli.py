@@ -51,3 +51,10 @@ def test_rewriting_a_shorter_set_removes_stale_pngs(tmp_path):
     assert main(["patterns", "--set", "three-frequency", "--width", "40", "--height", "30", "-o", str(tmp_path), "-q"]) == 0
     assert main(["patterns", "--set", "ftp", "--width", "40", "--height", "30", "-o", str(tmp_path), "-q"]) == 0
     assert [f.name for f in tmp_path.glob("*.png")] == ["00000.png"]
+
+
+def test_patterns_command_hierarchical_set(tmp_path):
+    assert main(["patterns", "--set", "hierarchical", "--period", "16,128,1024", "--steps", "4",
+                 "--width", "64", "--height", "48", "-o", str(tmp_path), "-q"]) == 0
+    ps = PatternSet.load(tmp_path)
+    assert ps.plan("v").method == "hierarchical" and len(ps) == 12

@@ -8,11 +8,12 @@ import typer
 
 from fringe3d.io.console import console, info, print_json, progress_bar, set_quiet
 
-SETS = ("phase-shift", "three-frequency", "gray-code", "binary-code", "psp-gray", "ftp", "modified-ftp",
+SETS = ("phase-shift", "three-frequency", "hierarchical", "gray-code", "binary-code", "psp-gray", "ftp", "modified-ftp",
         "two-frequency", "hybrid", "calibration", "optimal-angle")
 DEFAULT_PERIODS = {"three-frequency": "18,21,144", "calibration": "18,21,144", "optimal-angle": "18,21,144",
-                   "two-frequency": "18,144", "hybrid": "18,144"}
-DEFAULT_STEPS = {"three-frequency": "9,3,3", "calibration": "9,3,3", "optimal-angle": "9,3,3"}
+                   "two-frequency": "18,144", "hybrid": "18,144", "hierarchical": "18,144,1024"}
+DEFAULT_STEPS = {"three-frequency": "9,3,3", "calibration": "9,3,3", "optimal-angle": "9,3,3",
+                 "hierarchical": "9,3,3"}
 
 
 def _numbers(text: str, what: str, cast=float) -> list:
@@ -38,6 +39,8 @@ def build_set(set_name: str, period: str | None, steps: str | None, direction: s
         return sets.phase_shift(periods[0], nsteps[0], direction, angle, **phase)
     if set_name == "three-frequency":
         return sets.three_frequency(direction, periods, nsteps, angle=angle, **phase)
+    if set_name == "hierarchical":
+        return sets.hierarchical(periods, nsteps if len(nsteps) > 1 else nsteps[0], direction, angle, **phase)
     if set_name in ("gray-code", "binary-code"):
         return sets.gray_code(periods[0], direction, angle, code=set_name.split("-")[0], **common)
     if set_name == "psp-gray":
