@@ -123,3 +123,25 @@ def test_simulated_three_frequency_capture_decodes_to_the_truth_absolute_phase(t
         m = truth.mask & dec.mask[d]
         assert m.sum() > 0.95 * truth.mask.sum()
         assert np.abs(dec.phase[d][m] - truth.phase[d][m]).max() < 1e-3
+
+
+def test_moving_scene_capture_has_per_frame_truth_on_the_falling_balls(tmp_path):
+    from fringe3d.sim.scenes import named_scene
+    scene = named_scene("falling-balls", presets.get("tiny"))
+    simulate_capture(tmp_path / "c", "tiny", scene, "two-frequency", frame_rate=500.0, progress=False)
+    truth = Truth.load(tmp_path / "c")
+    assert truth.per_frame and truth.xyz.shape[0] == 6
+    for k in (0, 5):
+        tk = truth.frame(k)
+        for i, ball in enumerate(scene.objects):
+            m = tk.object_id == i
+            assert m.sum() > 10
+            r = np.linalg.norm(tk.xyz[m] - ball.center_at(k / 500.0), axis=1)
+            assert np.abs(r - ball.radius).max() < 1e-6  # on the ball at its closed-form position
+
+
+def test_twelve_bit_capture_is_written_as_uint16_with_its_bit_depth(tmp_path):
+    simulate_capture(tmp_path / "c", "tiny", "plane", "phase-shift", bit_depth=12, progress=False)
+    cap = read_capture(tmp_path / "c")
+    assert cap.frames.dtype == np.uint16 and cap.frames.max() <= 4095 and cap.frames.max() > 255
+    assert json.loads((tmp_path / "c" / "capture.json").read_text())["bit_depth"] == 12
