@@ -55,3 +55,13 @@ def test_phase_shift_set_decodes_to_the_wrapped_truth(coords, steps):
     d = decode(frames, ps)
     err = np.angle(np.exp(1j * (d.wrapped["x"] - _truth(u_p, v_p, 0.6, 17.3))))
     assert np.abs(err).max() < 1e-4
+
+
+@pytest.mark.parametrize("build", [sets.ftp, sets.modified_ftp])
+def test_ftp_sets_decode_to_the_wrapped_truth_away_from_borders(build):
+    v, u = np.mgrid[0:128, 0:160].astype(np.float64)
+    u_p, v_p = 20 + 2 * u, 15 + 2 * v  # T = 12 projector px = 6 camera px per fringe
+    ps = build(12)
+    d = decode(frames_from_coordinates(ps, u_p, v_p, dtype=np.uint8), ps)
+    err = np.angle(np.exp(1j * (d.wrapped["v"] - 2 * np.pi * u_p / 12)))[16:-16, 16:-16]  # 16 px border
+    assert np.sqrt(np.mean(err ** 2)) < 0.01
