@@ -77,3 +77,15 @@ def test_tiny_preset_is_small():
 def test_unknown_preset_lists_the_valid_ones():
     with pytest.raises(ValueError, match="unknown preset 'mega'.*macro.*well-designed.*microscope.*high-speed.*tiny"):
         presets.get("mega")
+
+
+@pytest.mark.parametrize("name", presets.NAMES)
+def test_default_scene_and_patterns_fit_each_preset(name):
+    from fringe3d.sim.simulate import make_patterns, make_scene
+    from fringe3d.sim.validate import scene_problems
+    p = presets.get(name)
+    proj = p.rig.projector
+    ps = make_patterns(p.patterns, proj.width, proj.height)
+    assert (ps.width, ps.height) == (proj.width, proj.height)
+    scene = make_scene(None, p)
+    assert scene_problems(scene, p.rig, times=(0.0, 5 / p.settings.frame_rate)) == []
