@@ -68,9 +68,23 @@ def measure(preset, radius: float, step_fraction: float, seed: int, progress: bo
     err_map = np.full(mask.shape, np.nan)
     err_map[mask] = np.where(good, dphi_all, np.nan)
     fraction, amp1, amp2 = periodic_part(err_map, t_ref.phase["v"].astype(float))
+    radial_map = np.full(mask.shape, np.nan)
+    radial_map[mask] = np.where(good, radial_all, np.nan)
     return {"phase_rms": float(np.sqrt(np.mean(dphi**2))), "rms_mm": float(np.sqrt(np.mean(radial**2))),
+            "section": cross_section(radial_map, err_map, preset.rig.camera.project(c_ref[None])[0]),
             "rms_all_mm": float(np.sqrt(np.mean(radial_all**2))), "amp_1x": amp1, "amp_2x": amp2,
             "periodic_fraction": fraction, "pixels": int(mask.sum()), "order_errors": int((~good).sum())}
+
+
+def cross_section(radial_map, phase_map, centre_px, samples: int = 25) -> list[list]:
+    """Rows ``[column, 3D error (mm), phase error (rad)]`` along the image row through the
+    sphere centre (Fig. 5.3 h-i), ``samples`` columns evenly across the sphere."""
+    row = int(round(centre_px[1]))
+    cols = np.flatnonzero(np.isfinite(radial_map[row]))
+    if cols.size == 0:
+        return []
+    pick = np.unique(np.linspace(cols[0], cols[-1], samples).round().astype(int))
+    return [[int(c), float(radial_map[row, c]), float(phase_map[row, c])] for c in pick]
 
 
 def periodic_part(err: np.ndarray, Phi: np.ndarray) -> tuple[float, float, float]:
@@ -126,7 +140,10 @@ def run(quick: bool = False, seed: int = 0) -> dict:
                     "columns": ["case", "pixels", "phase RMS (rad)", "1x-fringe amplitude (rad)",
                                 "2x-fringe amplitude (rad)", "periodic fraction", "3D RMS (mm)",
                                 "fringe-order errors", "3D RMS incl. order errors (mm)"],
-                    "rows": rows}],
+                    "rows": rows},
+                   {"title": "cross-section through the moving sphere's centre row (cf. Fig. 5.3 h-i)",
+                    "columns": ["image column", "3D error (mm)", "phase error (rad)"],
+                    "rows": moving["section"]}],
         "dissertation": {"motion": "sphere moves 2% of its diameter per frame (10% over six patterns)",
                          "result": "periodic structural error on the sphere surface (Fig. 5.3 h-i)"},
         "goals": {"moving RMS >= 5x static RMS": bool(ratio >= 5.0),
@@ -140,5 +157,6 @@ def run(quick: bool = False, seed: int = 0) -> dict:
                   "high-frequency frame; phase error against the truth phase at that frame; RMS and "
                   "periodic fraction over pixels with the right fringe order (order errors counted apart)",
                   f"render settings: {preset.name} preset without shot/read noise (motion is the only "
-                  f"error source, as in the dissertation's simulation): 8-bit, projector defocus; seed {seed}"],
+                  f"error source, as in the dissertation's simulation): {preset.settings.bit_depth}-bit, "
+                  f"projector defocus {preset.settings.defocus} {preset.settings.defocus_size:g} px; seed {seed}"],
     }
