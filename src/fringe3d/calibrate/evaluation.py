@@ -60,3 +60,25 @@ def robust_fit(fit_fn, pts: np.ndarray, mask: np.ndarray, k: float = 5.0, passes
         used = keep
         fit = fit_fn(pts, used)
     return fit, used, 1.0 - used.sum() / max(n0, 1)
+
+
+def rotation_angle_deg(Ra: np.ndarray, Rb: np.ndarray) -> float:
+    """Angle (degrees) of the rotation ``Ra Rb^T`` (robust near zero)."""
+    return float(np.degrees(2 * np.arcsin(min(1.0, np.linalg.norm(np.asarray(Ra) - np.asarray(Rb)) / (2 * np.sqrt(2))))))
+
+
+def compare_to_truth(est, true) -> dict:
+    """Calibrated vs true pinhole rig: relative focal-length errors, principal-point errors (px),
+    projector translation error (mm, max abs component and norm) and rotation error (deg)."""
+    out = {}
+    for name in ("camera", "projector"):
+        e, t = getattr(est, name), getattr(true, name)
+        if not hasattr(e, "K"):
+            continue
+        out[f"{name}_focal_rel_error"] = float(max(abs(e.K[0, 0] / t.K[0, 0] - 1), abs(e.K[1, 1] / t.K[1, 1] - 1)))
+        out[f"{name}_principal_point_error_px"] = float(np.abs(e.K[:2, 2] - t.K[:2, 2]).max())
+    if not est.telecentric:
+        out["translation_error_mm"] = float(np.abs(est.projector.t - true.projector.t).max())
+        out["translation_error_norm_mm"] = float(np.linalg.norm(est.projector.t - true.projector.t))
+        out["rotation_error_deg"] = rotation_angle_deg(est.projector.R, true.projector.R)
+    return out

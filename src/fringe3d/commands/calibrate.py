@@ -69,6 +69,14 @@ def register(app: typer.Typer) -> None:
         plot: Path = typer.Option(None, help="Residual plot PNG (default: OUTPUT with .png)."),
         no_plot: bool = typer.Option(False, "--no-plot", help="Do not write the residual plot."),
         yaml: Path = typer.Option(None, help="Also export OpenCV FileStorage YAML here."),
+        simulate: str = typer.Option(None, help="First render a simulated session with this preset (macro, "
+                                                "well-designed, microscope, tiny) into the single input folder, "
+                                                "then calibrate it and compare with the true rig."),
+        poses: int = typer.Option(12, help="--simulate: number of board poses."),
+        seed: int = typer.Option(0, help="--simulate: random seed (poses and noise)."),
+        noise_free: bool = typer.Option(False, "--noise-free", help="--simulate: no sensor noise, 16-bit frames."),
+        defocus: float = typer.Option(None, help="--simulate: projector defocus (projector px)."),
+        camera_scale: float = typer.Option(1.0, help="--simulate: camera resolution factor (e.g. 0.5)."),
         json_: bool = typer.Option(False, "--json", help="Print the figures as one JSON object."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
     ) -> None:
@@ -77,18 +85,36 @@ def register(app: typer.Typer) -> None:
         Rig.load reads.
 
         Example: fringe3d calibrate session/ -o calib.json --yaml calib.yaml
+
+        Example (simulated): fringe3d calibrate sim-session/ --simulate macro --poses 12 --noise-free -o calib.json
         """
         set_quiet(quiet or json_)
         board = _board(cols, rows, spacing, radius, asymmetric, bright)
+        truth = None
+        if simulate:
+            from fringe3d.calibrate.session import simulate_session
+            if len(inputs) != 1:
+                raise ValueError("--simulate writes one session folder: give exactly one input folder")
+            ss = simulate_session(simulate, n_poses=poses, seed=seed, defocus=defocus, board=board,
+                                  camera_scale=camera_scale, noise=not noise_free, folder=inputs[0],
+                                  progress=not (quiet or json_))
+            truth = ss.rig
         plot_path = None if no_plot else (plot or output.with_suffix(".png"))
         s = run_calibration(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
                             min_modulation, progress=not (quiet or json_))
+        if truth is not None:
+            from fringe3d.calibrate.calibration_file import load_calibration
+            from fringe3d.calibrate.evaluation import compare_to_truth
+            s["truth_comparison"] = compare_to_truth(load_calibration(output).rig, truth)
         if json_:
             print_json(s)
             return
         rows_ = [[p["name"], p["points"], p["camera_rms_px"], p["projector_rms_px"]] for p in s["poses"]]
         console.print(make_table("per-pose reprojection RMS (px)", ["pose", "points", "camera", "projector"], rows_))
         console.print(make_table("overall", ["figure", "value"], [[k, v] for k, v in s["rms"].items()]))
+        if "truth_comparison" in s:
+            console.print(make_table("calibrated vs true rig", ["figure", "error"],
+                                     [[k, v] for k, v in s["truth_comparison"].items()]))
         for name in s["skipped_poses"]:
             console.print(f"skipped (board not found): {name}")
         for k, v in s["written"].items():
