@@ -499,7 +499,7 @@ def render(scene, rig, patterns, settings: RenderSettings | None = None, times=N
     amb = float(getattr(scene, "ambient", 0.0) or 0.0)
     sampler = PatternSampler(patterns, s)
     dirs_info = directions_of(patterns)
-    geos: list[Geometry] = []
+    geos: list[dict] = []  # per-frame truth of a moving scene
     truth_times: list[float] = []
     frames = []
     geo0 = cast(scene, rig, origins, dirs, off, float(times[0]), s.shadows) if static else None
@@ -521,11 +521,13 @@ def render(scene, rig, patterns, settings: RenderSettings | None = None, times=N
                     img += irradiance(g, sampler.values(spec, g), s, amb) / len(sub)
                 if k == 0:
                     check_visible(geo, scene)
-                geos.append(geo)
+                geos.append(frame_truth(geo, (H, W), dirs_info))
                 truth_times.append(t_truth)
             frames.append(sense(img.reshape(H, W), s, k))
             advance()
-    truth = make_truth(geos if not static else [geo0], (H, W), dirs_info, times, static, rig)
+    if static:
+        geos = [frame_truth(geo0, (H, W), dirs_info)]
+    truth = make_truth(geos, dirs_info, times, static, rig)
     truth.meta.update(scene_meta(scene, rig, float(times[0])))
     if not static:
         truth.meta["truth_times"] = truth_times  # differs from ``times`` when motion_samples > 1
@@ -560,30 +562,37 @@ def check_visible(geo: Geometry, scene) -> None:
                          "the projector; move the objects into the projector's field")
 
 
-def make_truth(geos: list[Geometry], shape, dirs_info, times, static: bool, rig) -> Truth:
-    """Assemble per-pixel :class:`Truth` from one (static) or F (moving) geometries."""
+def frame_truth(geo: Geometry, shape, dirs_info) -> dict:
+    """One instant's per-pixel truth as compact (H, W, ...) arrays (the Geometry is dropped)."""
     H, W = shape
 
-    def stack(name, dtype, trail=()):
-        arrs = [np.asarray(getattr(g, name)).reshape((H, W) + trail).astype(dtype) for g in geos]
+    def grid(a, dtype, trail=()):
+        return np.asarray(a).reshape((H, W) + trail).astype(dtype)
+
+    out = {"xyz": grid(geo.points, np.float64, (3,)),  # float64: reprojects to pixel centres < 1e-6 px
+           "depth": grid(geo.depth, np.float64), "up": grid(geo.up, np.float64), "vp": grid(geo.vp, np.float64),
+           "normal": grid(geo.normal, np.float32, (3,)), "object_id": grid(geo.object_id, np.int32),
+           "mask": grid(geo.lit, bool), "hit": grid(geo.hit, bool),
+           "material_uv": None if geo.material_uv is None else grid(geo.material_uv, np.float32, (2,)),
+           "phase": {d: grid(direction_phase(geo.up, geo.vp, a, p), np.float32) for d, (a, p) in dirs_info.items()},
+           "extras": {n: np.asarray(v).reshape((H, W) + np.shape(v)[1:]) for n, v in geo.extras.items()}}
+    return out
+
+
+def make_truth(frames: list[dict], dirs_info, times, static: bool, rig) -> Truth:
+    """Assemble :class:`Truth` from one (static) or F (moving) :func:`frame_truth` dicts."""
+    def pick(get):
+        arrs = [get(f) for f in frames]
         return arrs[0] if static else np.stack(arrs)
 
-    phase = {}
-    for d, (angle, period) in dirs_info.items():
-        per = [direction_phase(g.up, g.vp, angle, period).reshape(H, W).astype(np.float32) for g in geos]
-        phase[d] = per[0] if static else np.stack(per)
+    names = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit")
+    fields = {n: pick(lambda f, n=n: f[n]) for n in names}
     muv = None
-    if all(g.material_uv is not None for g in geos):
-        muv = stack("material_uv", np.float32, (2,))
-    extras = {}
-    for name in geos[0].extras:
-        arrs = [np.asarray(g.extras[name]).reshape((H, W) + np.shape(g.extras[name])[1:]) for g in geos]
-        extras[name] = arrs[0] if static else np.stack(arrs)
-    xyz = stack("points", np.float64, (3,))  # float64: reprojects to pixel centres < 1e-6 px
+    if all(f["material_uv"] is not None for f in frames):
+        muv = pick(lambda f: f["material_uv"])
+    phase = {d: pick(lambda f, d=d: f["phase"][d]) for d in dirs_info}
+    extras = {n: pick(lambda f, n=n: f["extras"][n]) for n in frames[0]["extras"]}
     meta = {"per_frame": not static, "times": [float(t) for t in times],
             "fringe": {d: {"angle": a, "period": p} for d, (a, p) in dirs_info.items()},
             "camera": rig.camera.kind, "frame": "camera" if rig.camera.kind == "pinhole" else "projector"}
-    return Truth(xyz=xyz, depth=stack("depth", np.float64), up=stack("up", np.float64),
-                 vp=stack("vp", np.float64), phase=phase, normal=stack("normal", np.float32, (3,)),
-                 object_id=stack("object_id", np.int32), mask=stack("lit", bool), hit=stack("hit", bool),
-                 material_uv=muv, extras=extras, meta=meta)
+    return Truth(**fields, phase=phase, material_uv=muv, extras=extras, meta=meta)
