@@ -314,18 +314,18 @@ def object_extras(scene, object_id: np.ndarray, material_uv, time: float) -> dic
         return out
     n = len(object_id)
     for i, ob in enumerate(objects):
-        sel = np.flatnonzero(object_id == i)
-        if not sel.size:
-            continue
-        uv = np.asarray(material_uv, float)[sel]
         if not callable(getattr(ob, "truth_fields", None)):
             continue
+        sel = np.flatnonzero(object_id == i)
+        # an object out of view still declares its fields (all NaN), so every frame has them
+        uv = np.asarray(material_uv, float)[sel] if sel.size else np.zeros((1, 2))
         fields = ob.truth_fields(uv, time)
         for name, val in fields.items():
-            val = np.asarray(val, float)
+            val = np.asarray(val, np.float32)
             if name not in out:
-                out[name] = np.full((n,) + val.shape[1:], np.nan)
-            out[name][sel] = val
+                out[name] = np.full((n,) + val.shape[1:], np.nan, np.float32)
+            if sel.size:
+                out[name][sel] = val
     return out
 
 
@@ -499,7 +499,7 @@ def render(scene, rig, patterns, settings: RenderSettings | None = None, times=N
     amb = float(getattr(scene, "ambient", 0.0) or 0.0)
     sampler = PatternSampler(patterns, s)
     dirs_info = directions_of(patterns)
-    geos: list[dict] = []  # per-frame truth of a moving scene
+    per_frame = TruthFrames(len(times))  # per-frame truth of a moving scene
     truth_times: list[float] = []
     frames = []
     geo0 = cast(scene, rig, origins, dirs, off, float(times[0]), s.shadows) if static else None
@@ -521,13 +521,12 @@ def render(scene, rig, patterns, settings: RenderSettings | None = None, times=N
                     img += irradiance(g, sampler.values(spec, g), s, amb) / len(sub)
                 if k == 0:
                     check_visible(geo, scene)
-                geos.append(frame_truth(geo, (H, W), dirs_info))
+                per_frame.put(k, frame_truth(geo, (H, W), dirs_info))
                 truth_times.append(t_truth)
             frames.append(sense(img.reshape(H, W), s, k))
             advance()
-    if static:
-        geos = [frame_truth(geo0, (H, W), dirs_info)]
-    truth = make_truth(geos, dirs_info, times, static, rig)
+    truth = make_truth(frame_truth(geo0, (H, W), dirs_info) if static else per_frame, dirs_info, times,
+                       static, rig)
     truth.meta.update(scene_meta(scene, rig, float(times[0])))
     if not static:
         truth.meta["truth_times"] = truth_times  # differs from ``times`` when motion_samples > 1
@@ -579,20 +578,44 @@ def frame_truth(geo: Geometry, shape, dirs_info) -> dict:
     return out
 
 
-def make_truth(frames: list[dict], dirs_info, times, static: bool, rig) -> Truth:
-    """Assemble :class:`Truth` from one (static) or F (moving) :func:`frame_truth` dicts."""
-    def pick(get):
-        arrs = [get(f) for f in frames]
-        return arrs[0] if static else np.stack(arrs)
+class TruthFrames:
+    """Per-frame truth of F instants, filled frame by frame into preallocated (F, H, W, ...)
+    arrays (no per-frame copies kept, no final stacking)."""
 
+    def __init__(self, n_frames: int):
+        self.n = n_frames
+        self.data: dict | None = None
+
+    def put(self, k: int, ft: dict) -> None:
+        flat = _flatten(ft)
+        if self.data is None:
+            self.data = {key: None if v is None else np.empty((self.n,) + v.shape, v.dtype) for key, v in flat.items()}
+        for key, arr in self.data.items():
+            if arr is None:
+                continue
+            v = flat.get(key)
+            if v is None:  # a field this frame lacks
+                arr[k] = np.nan if arr.dtype.kind == "f" else 0
+            else:
+                arr[k] = v
+
+
+def _flatten(ft: dict) -> dict:
+    out = {k: v for k, v in ft.items() if k not in ("phase", "extras")}
+    out.update({("phase", d): v for d, v in ft["phase"].items()})
+    out.update({("extras", n): v for n, v in ft["extras"].items()})
+    return out
+
+
+def make_truth(frames: "dict | TruthFrames", dirs_info, times, static: bool, rig) -> Truth:
+    """Assemble :class:`Truth` from one :func:`frame_truth` dict (static scene) or the filled
+    :class:`TruthFrames` of a moving scene."""
+    data = _flatten(frames) if static else frames.data
     names = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit")
-    fields = {n: pick(lambda f, n=n: f[n]) for n in names}
-    muv = None
-    if all(f["material_uv"] is not None for f in frames):
-        muv = pick(lambda f: f["material_uv"])
-    phase = {d: pick(lambda f, d=d: f["phase"][d]) for d in dirs_info}
-    extras = {n: pick(lambda f, n=n: f["extras"][n]) for n in frames[0]["extras"]}
     meta = {"per_frame": not static, "times": [float(t) for t in times],
             "fringe": {d: {"angle": a, "period": p} for d, (a, p) in dirs_info.items()},
             "camera": rig.camera.kind, "frame": "camera" if rig.camera.kind == "pinhole" else "projector"}
-    return Truth(**fields, phase=phase, material_uv=muv, extras=extras, meta=meta)
+    return Truth(**{n: data[n] for n in names}, material_uv=data.get("material_uv"),
+                 phase={k[1]: v for k, v in data.items() if isinstance(k, tuple) and k[0] == "phase"},
+                 extras={k[1]: v for k, v in data.items() if isinstance(k, tuple) and k[0] == "extras"},
+                 meta=meta)
