@@ -134,3 +134,13 @@ def test_zarr_store_is_read_like_a_folder(sequence, tmp_path, capsys):
     assert main(["strain", str(tmp_path / "seq.zarr"), "--anchors", "auto", "-o", str(tmp_path / "o"), "--json",
                  "--no-figures", "--step", "8"]) == 0
     assert json.loads(capsys.readouterr().out)["tracked_fraction"] > 0.85
+
+
+def test_incomplete_reconstruction_store_is_rejected(tmp_path, capsys):
+    import zarr
+
+    g = zarr.open_group(str(tmp_path / "points.zarr"), mode="w")
+    g.create_array("points", shape=(3, 20, 30, 3), dtype="f4")[:] = np.ones((3, 20, 30, 3), np.float32)
+    g.create_array("done", shape=(3,), dtype="u1")[:] = np.array([1, 0, 1], np.uint8)
+    out = tmp_path / "o"
+    _expect_error(["strain", str(tmp_path), "--anchors", "5,5,10,5", "-o", str(out)], out, capsys, "incomplete")

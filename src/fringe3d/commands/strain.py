@@ -4,7 +4,9 @@ SEQUENCE is one of
 * a folder of per-frame point maps ``points_00000.npy`` … ((H, W, 3) float, mm, NaN invalid),
   optionally with textures ``texture_00000.npy`` / ``.png`` (for ``--anchors auto``);
 * a single ``.npy`` / ``.npz`` holding ``points`` (F, H, W, 3) (and optionally ``texture``);
-* a zarr store (folder) with arrays ``points`` (F, H, W, 3) and optionally ``texture`` (F, H, W).
+* a zarr store (folder) with arrays ``points`` (F, H, W, 3) and optionally ``texture`` (F, H, W)
+  and ``done`` (F,) completion flags (:class:`fringe3d.io.store.PointMapStore`), or a folder
+  holding such a ``points.zarr``.
 
 Outputs in OUT (each written atomically, and only after every input check has passed):
 ``strain.csv`` (all frames, wings and points), ``vtk/frame_00000.vtk`` (one legacy VTK polydata
@@ -65,6 +67,8 @@ def read_point_sequence(path: str | Path) -> PointSequence:
         raise FileNotFoundError(f"sequence {p} does not exist; expected a folder of points_*.npy, a .npy/.npz "
                                 "with 'points' (F, H, W, 3), or a zarr store")
     tex = None
+    if p.is_dir() and (p / "points.zarr").is_dir() and not list(p.glob("points_*.npy")):
+        p = p / "points.zarr"   # the output folder of ``fringe3d reconstruct`` sequences
     if p.is_file():
         if p.suffix == ".npz":
             z = np.load(p)
@@ -92,6 +96,11 @@ def read_point_sequence(path: str | Path) -> PointSequence:
                 raise ValueError(f"zarr store {p} has no 'points' array; found {sorted(store.keys())}")
             arr = store["points"]
             tex_arr = store["texture"] if "texture" in store else None
+            if "done" in store:
+                missing = np.flatnonzero(np.asarray(store["done"][:]) == 0)
+                if missing.size:
+                    raise ValueError(f"zarr store {p} is incomplete: frame(s) {missing[:10].tolist()} were never "
+                                     "written; finish (resume) the reconstruction first")
         if len(arr.shape) != 4:
             raise ValueError(f"zarr array in {p} has shape {arr.shape}; expected (frames, H, W, 3)")
         loaders = [lambda i=i: arr[i] for i in range(arr.shape[0])]
