@@ -28,7 +28,7 @@ from fringe3d.optics.defocus import blur_pattern, defocus_size_at
 
 from .noise import sense
 from .settings import RenderSettings
-from .truth import Truth, direction_phase, directions_of
+from .truth import Truth, TruthFrames, directions_of, frame_truth, make_truth
 
 #: Rays of a telecentric camera start this far (mm) before their min-norm origin.
 TELECENTRIC_BACKOFF = 1.0e4
@@ -559,63 +559,3 @@ def check_visible(geo: Geometry, scene) -> None:
     if not geo.lit.any():
         raise ValueError("the scene is outside the projector's view: no visible surface point is lit by "
                          "the projector; move the objects into the projector's field")
-
-
-def frame_truth(geo: Geometry, shape, dirs_info) -> dict:
-    """One instant's per-pixel truth as compact (H, W, ...) arrays (the Geometry is dropped)."""
-    H, W = shape
-
-    def grid(a, dtype, trail=()):
-        return np.asarray(a).reshape((H, W) + trail).astype(dtype)
-
-    out = {"xyz": grid(geo.points, np.float64, (3,)),  # float64: reprojects to pixel centres < 1e-6 px
-           "depth": grid(geo.depth, np.float64), "up": grid(geo.up, np.float64), "vp": grid(geo.vp, np.float64),
-           "normal": grid(geo.normal, np.float32, (3,)), "object_id": grid(geo.object_id, np.int32),
-           "mask": grid(geo.lit, bool), "hit": grid(geo.hit, bool),
-           "material_uv": None if geo.material_uv is None else grid(geo.material_uv, np.float32, (2,)),
-           "phase": {d: grid(direction_phase(geo.up, geo.vp, a, p), np.float32) for d, (a, p) in dirs_info.items()},
-           "extras": {n: np.asarray(v).reshape((H, W) + np.shape(v)[1:]) for n, v in geo.extras.items()}}
-    return out
-
-
-class TruthFrames:
-    """Per-frame truth of F instants, filled frame by frame into preallocated (F, H, W, ...)
-    arrays (no per-frame copies kept, no final stacking)."""
-
-    def __init__(self, n_frames: int):
-        self.n = n_frames
-        self.data: dict | None = None
-
-    def put(self, k: int, ft: dict) -> None:
-        flat = _flatten(ft)
-        if self.data is None:
-            self.data = {key: None if v is None else np.empty((self.n,) + v.shape, v.dtype) for key, v in flat.items()}
-        for key, arr in self.data.items():
-            if arr is None:
-                continue
-            v = flat.get(key)
-            if v is None:  # a field this frame lacks
-                arr[k] = np.nan if arr.dtype.kind == "f" else 0
-            else:
-                arr[k] = v
-
-
-def _flatten(ft: dict) -> dict:
-    out = {k: v for k, v in ft.items() if k not in ("phase", "extras")}
-    out.update({("phase", d): v for d, v in ft["phase"].items()})
-    out.update({("extras", n): v for n, v in ft["extras"].items()})
-    return out
-
-
-def make_truth(frames: "dict | TruthFrames", dirs_info, times, static: bool, rig) -> Truth:
-    """Assemble :class:`Truth` from one :func:`frame_truth` dict (static scene) or the filled
-    :class:`TruthFrames` of a moving scene."""
-    data = _flatten(frames) if static else frames.data
-    names = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit")
-    meta = {"per_frame": not static, "times": [float(t) for t in times],
-            "fringe": {d: {"angle": a, "period": p} for d, (a, p) in dirs_info.items()},
-            "camera": rig.camera.kind, "frame": "camera" if rig.camera.kind == "pinhole" else "projector"}
-    return Truth(**{n: data[n] for n in names}, material_uv=data.get("material_uv"),
-                 phase={k[1]: v for k, v in data.items() if isinstance(k, tuple) and k[0] == "phase"},
-                 extras={k[1]: v for k, v in data.items() if isinstance(k, tuple) and k[0] == "extras"},
-                 meta=meta)
