@@ -164,10 +164,62 @@ def _sift_down(heap, pos, key, i, n):
     pos[node] = i
 
 
+@numba.njit(cache=True, inline="always")
+def _step_length(pts, valid, r, c, o, offsets, bezier, gt, gw, cr, cc_, cw, p0, p1, p2, p3):
+    """Length (mm) of the step from node (r, c) along ``offsets[o]``: the Bézier arc length
+    (Eq. 6.8) or the chord; −1 when the end node or a control-point corner is invalid."""
+    h, w = valid.shape
+    rr = r + offsets[o, 0]
+    cc = c + offsets[o, 1]
+    if rr < 0 or cc < 0 or rr >= h or cc >= w or not valid[rr, cc] or not valid[r, c]:
+        return -1.0
+    if not bezier:
+        dx = pts[rr, cc, 0] - pts[r, c, 0]
+        dy = pts[rr, cc, 1] - pts[r, c, 1]
+        dz = pts[rr, cc, 2] - pts[r, c, 2]
+        return math.sqrt(dx * dx + dy * dy + dz * dz)
+    for q in range(4):
+        if not (valid[r + cr[o, 0, q], c + cc_[o, 0, q]] and valid[r + cr[o, 1, q], c + cc_[o, 1, q]]):
+            return -1.0
+    for k in range(3):
+        p0[k] = pts[r, c, k]
+        p3[k] = pts[rr, cc, k]
+        a = 0.0
+        b = 0.0
+        for q in range(4):
+            a += cw[o, 0, q] * pts[r + cr[o, 0, q], c + cc_[o, 0, q], k]
+            b += cw[o, 1, q] * pts[r + cr[o, 1, q], c + cc_[o, 1, q], k]
+        p1[k] = a
+        p2[k] = b
+    return _bezier_len(p0, p1, p2, p3, gt, gw)
+
+
+@numba.njit(cache=True, inline="always")
+def _virtual_source(la, lb, lc, da, db):
+    """Distance to x through the triangle (x, A, B) unfolded in the plane from its side lengths
+    la = |Ax|, lb = |Bx|, lc = |AB| (mm): the virtual source S lies at da from A and db from B
+    on the far side of AB; returns |Sx| if the segment S→x crosses AB, else inf."""
+    if lc <= 0.0:
+        return np.inf
+    xx = (la * la - lb * lb + lc * lc) / (2.0 * lc)
+    xy2 = la * la - xx * xx
+    sx = (da * da - db * db + lc * lc) / (2.0 * lc)
+    sy2 = da * da - sx * sx
+    if xy2 <= 0.0 or sy2 < 0.0:
+        return np.inf
+    xy = math.sqrt(xy2)
+    sy = -math.sqrt(sy2)
+    tx = sx + (xx - sx) * (-sy) / (xy - sy)
+    if tx < 0.0 or tx > lc:
+        return np.inf
+    return math.sqrt((xx - sx) ** 2 + (xy - sy) ** 2)
+
+
 @numba.njit(cache=True)
-def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_, cw):
+def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_, cw, nbr, lut, wavefront):
     h, w = valid.shape
     n = h * w
+    R = (lut.shape[0] - 1) // 2
     dist = np.full(n, np.inf)
     done = np.zeros(n, dtype=np.bool_)
     pos = np.full(n, -1, dtype=np.int64)   # -1 never queued, >= 0 heap slot
@@ -187,6 +239,7 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
     p0 = np.empty(3)
     p3 = np.empty(3)
     nofs = offsets.shape[0]
+    own = np.empty(nofs)
     while size > 0:
         node = heap[0]
         size -= 1
@@ -198,8 +251,9 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
         r = node // w
         c = node - r * w
         d0 = dist[node]
-        for k in range(3):
-            p0[k] = pts[r, c, k]
+        if wavefront:
+            for o in range(nofs):   # this node's step lengths, computed once (sides la and lc)
+                own[o] = _step_length(pts, valid, r, c, o, offsets, bezier, gt, gw, cr, cc_, cw, p0, p1, p2, p3)
         for o in range(nofs):
             dr = offsets[o, 0]
             dc = offsets[o, 1]
@@ -210,38 +264,60 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
             nb = rr * w + cc
             if done[nb] or not valid[rr, cc]:
                 continue
-            dx = pts[rr, cc, 0] - p0[0]
-            dy = pts[rr, cc, 1] - p0[1]
-            dz = pts[rr, cc, 2] - p0[2]
-            step = math.sqrt(dx * dx + dy * dy + dz * dz)
-            if d0 + step >= dist[nb]:
-                continue  # a curve is never shorter than its chord
-            if bezier:
-                ok = True
-                for q in range(4):
-                    if not (valid[r + cr[o, 0, q], c + cc_[o, 0, q]] and valid[r + cr[o, 1, q], c + cc_[o, 1, q]]):
-                        ok = False
-                if not ok:
-                    continue
-                for k in range(3):
-                    p3[k] = pts[rr, cc, k]
-                    a = 0.0
-                    b = 0.0
-                    for q in range(4):
-                        a += cw[o, 0, q] * pts[r + cr[o, 0, q], c + cc_[o, 0, q], k]
-                        b += cw[o, 1, q] * pts[r + cr[o, 1, q], c + cc_[o, 1, q], k]
-                    p1[k] = a
-                    p2[k] = b
-                step = _bezier_len(p0, p1, p2, p3, gt, gw)
-            nd = d0 + step
-            if nd < dist[nb]:
-                dist[nb] = nd
+            best = dist[nb]
+            if wavefront:
+                la = own[o]
+            else:
+                dx = pts[rr, cc, 0] - pts[r, c, 0]
+                dy = pts[rr, cc, 1] - pts[r, c, 1]
+                dz = pts[rr, cc, 2] - pts[r, c, 2]
+                if d0 + math.sqrt(dx * dx + dy * dy + dz * dz) >= best:
+                    continue  # a curve is never shorter than its chord
+                la = _step_length(pts, valid, r, c, o, offsets, bezier, gt, gw, cr, cc_, cw, p0, p1, p2, p3)
+            if la < 0.0:
+                continue
+            if d0 + la < best:
+                best = d0 + la
+            if wavefront:
+                # triangles (x, A, B) with B = x − b, b the angular neighbours of a (Farey pairs)
+                for e in range(2):
+                    ob = nbr[o, e]
+                    br = rr - offsets[ob, 0]
+                    bc = cc - offsets[ob, 1]
+                    if br < 0 or bc < 0 or br >= h or bc >= w or not done[br * w + bc]:
+                        continue
+                    oc = lut[br - r + R, bc - c + R]
+                    if oc < 0 or own[oc] < 0.0:
+                        continue
+                    lb = _step_length(pts, valid, br, bc, ob, offsets, bezier, gt, gw, cr, cc_, cw, p0, p1, p2, p3)
+                    if lb < 0.0:
+                        continue
+                    vs = _virtual_source(la, lb, own[oc], d0, dist[br * w + bc])
+                    if vs < best:
+                        best = vs
+            if best < dist[nb]:
+                dist[nb] = best
                 if pos[nb] < 0:
                     heap[size] = nb
                     pos[nb] = size
                     size += 1
                 _sift_up(heap, pos, dist, pos[nb])
     return dist.reshape(h, w)
+
+
+def _wavefront_tables(offsets: np.ndarray):
+    """Angular neighbours ``(n, 2)`` of every marching direction (consecutive directions of a
+    primitive stencil form unimodular "Farey" pairs, so the triangle (x, x − a, x − b) holds no
+    other grid node) and a lookup ``(2R+1, 2R+1)`` from an offset to its index (−1 if none)."""
+    n = offsets.shape[0]
+    order = np.argsort(np.arctan2(offsets[:, 0], offsets[:, 1]))
+    rank = np.empty(n, np.int64)
+    rank[order] = np.arange(n)
+    nbr = np.stack([order[(rank - 1) % n], order[(rank + 1) % n]], axis=1).astype(np.int64)
+    R = int(np.abs(offsets).max())
+    lut = np.full((2 * R + 1, 2 * R + 1), -1, np.int64)
+    lut[offsets[:, 0] + R, offsets[:, 1] + R] = np.arange(n)
+    return nbr, lut
 
 
 def _control_stencils(offsets: np.ndarray):
@@ -269,13 +345,16 @@ def _control_stencils(offsets: np.ndarray):
     return cr, cc, cw
 
 
-def seeds_from_pixel(points: np.ndarray, uv) -> tuple[np.ndarray, np.ndarray]:
+def seeds_from_pixel(points: np.ndarray, uv, radius: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """Seed nodes and start distances for a (sub-pixel) source at ``uv = (u, v)`` (column, row).
 
     The source point is the bilinear interpolation of the point map at ``uv``; the seeds are
-    the valid grid nodes of the surrounding 2×2 cell, each starting at its Euclidean distance
-    (mm) to the source (exact to second order in the cell size). Raises ``ValueError`` when the
-    source is outside the map or on invalid pixels.
+    the valid grid nodes of the surrounding 2×2 cell plus every valid node within ``radius``
+    pixels of ``uv``, each starting at its Euclidean (chord) distance (mm) to the source —
+    the geodesic up to (curvature × distance)² relative, ~1e-5 at 1 mm from the source on a
+    100 mm radius. Seeding a small disk exactly, instead of only the cell corners, keeps the
+    first steps' path-shape error (up to ~½ pixel absolute) out of every distance.
+    Raises ``ValueError`` when the source is outside the map or on invalid pixels.
     """
     pts = check_point_map(points)
     h, w, _ = pts.shape
@@ -288,27 +367,32 @@ def seeds_from_pixel(points: np.ndarray, uv) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"source pixel (u={u:.2f}, v={v:.2f}) lies on invalid (NaN) pixels of the point map; "
                          "expected a pixel inside the reconstructed surface")
     r0, c0 = int(math.floor(v)), int(math.floor(u))
+    rad = max(float(radius), 0.0)
+    k = int(math.ceil(rad)) + 1
     idx, d = [], []
-    for r in (r0, min(r0 + 1, h - 1)):
-        for c in (c0, min(c0 + 1, w - 1)):
-            if valid[r, c] and r * w + c not in idx:
+    for r in range(max(r0 - k, 0), min(r0 + k + 2, h)):
+        for c in range(max(c0 - k, 0), min(c0 + k + 2, w)):
+            corner = r in (r0, r0 + 1) and c in (c0, c0 + 1)
+            if valid[r, c] and (corner or math.hypot(r - v, c - u) <= rad):
                 idx.append(r * w + c)
                 d.append(float(np.linalg.norm(pts[r, c] - src)))
     return np.array(idx, dtype=np.int64), np.array(d, dtype=np.float64)
 
 
-def _run(points, source, offsets, bezier):
+def _run(points, source, offsets, bezier, wavefront=False, seed_radius=1.0):
     pts = check_point_map(points)
     valid = np.isfinite(pts).all(axis=2)
-    idx, d = seeds_from_pixel(pts, source)
+    idx, d = seeds_from_pixel(pts, source, seed_radius)
     pts = np.where(valid[..., None], pts, 0.0)
     cr, cc, cw = _control_stencils(offsets)
-    out = _dijkstra(pts, valid, idx, d, offsets, bezier, _GL_T, _GL_W, cr, cc, cw)
+    nbr, lut = _wavefront_tables(offsets)
+    out = _dijkstra(pts, valid, idx, d, offsets, bezier, _GL_T, _GL_W, cr, cc, cw, nbr, lut, bool(wavefront))
     out[~valid] = np.inf
     return out
 
 
-def bezier_geodesic(points: np.ndarray, source, radius: int = 3) -> np.ndarray:
+def bezier_geodesic(points: np.ndarray, source, radius: int = 3, wavefront: bool = True,
+                    seed_radius: float = 3.0) -> np.ndarray:
     """Geodesic distance map from ``source`` by the 7×7 Bézier Dijkstra (Eq. 6.7–6.8).
 
     Parameters
@@ -318,6 +402,16 @@ def bezier_geodesic(points: np.ndarray, source, radius: int = 3) -> np.ndarray:
     radius : half-size of the marching neighbourhood; 3 gives the dissertation's 7×7 window
         (32 directions). Larger windows lower the metrication error (worst case
         sec(atan(1/radius)/2) − 1) at proportional cost.
+    wavefront : also relax every node through the triangles (x, A, B) of two adjacent marching
+        directions whose far nodes A, B are settled: the triangle is unfolded from its three
+        Bézier side lengths and x gets the distance to the virtual source lying at D(A) from A
+        and D(B) from B (a point-source wavefront, exact on planes and developable surfaces up
+        to the Bézier length error). This removes the stencil's direction quantisation — with
+        edges only (``False``, the dissertation's scheme) every path is a chain of the 32
+        directions and the distance is overestimated by up to 1.3 % (0.49 % on average over
+        uniformly spread directions). Costs about 2× the edge-only run.
+    seed_radius : pixels around the sub-pixel source whose nodes start at their exact (chord)
+        distance to it (:func:`seeds_from_pixel`); 1 seeds only the source's cell.
 
     Returns
     -------
@@ -334,7 +428,8 @@ def bezier_geodesic(points: np.ndarray, source, radius: int = 3) -> np.ndarray:
     """
     if not (isinstance(radius, (int, np.integer)) and 1 <= radius <= 10):
         raise ValueError(f"radius must be an integer in 1..10 (pixels); got {radius!r}")
-    return _run(points, source, MARCH_OFFSETS if radius == 3 else _march_offsets(int(radius)), True)
+    return _run(points, source, MARCH_OFFSETS if radius == 3 else _march_offsets(int(radius)), True, wavefront,
+                seed_radius)
 
 
 def grid_geodesic(points: np.ndarray, source) -> np.ndarray:
