@@ -170,11 +170,13 @@ def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 
 
 def calibrate_observations(obs: list[PoseObservation], info: dict, board: CircleBoard, model: str = "pinhole",
                            camera_dist: str = "k1k2p", projector_dist: str = "none", min_poses: int = 3,
-                           correct_circle_bias: bool = True) -> tuple[Calibration, object]:
+                           correct_circle_bias: bool = True, telecentric_refine: bool = True) -> tuple[Calibration, object]:
     """Calibrate from observations; returns ``(Calibration, raw result)``.
 
     ``model`` is ``"pinhole"`` (camera frame = world, ch. 2) or ``"telecentric"`` (projector
     frame = world, ch. 3). Too few usable poses is a ``ValueError`` naming the skipped ones.
+    ``telecentric_refine`` adds a joint LM refinement to ch. 3's sequential steps
+    (``telecentric.refine_jointly``); False gives the dissertation's method exactly.
     """
     if len(obs) < min_poses:
         skipped = info.get("skipped", [])
@@ -193,15 +195,16 @@ def calibrate_observations(obs: list[PoseObservation], info: dict, board: Circle
                  "per_pose_rms_px": list(map(float, res.camera.per_pose_rms))}
         extra = {"circle_bias_corrected": bool(correct_circle_bias)}
     elif model == "telecentric":
-        res = calibrate_telecentric_rig(board, obs, cam_size, prj_size, projector_dist, min_poses=min_poses)
-        poses = [{"name": n, "camera_rms_px": float(c), "projector_rms_px": float(p),
-                  "points": int(board.count)}
-                 for n, c, p in zip(res.pose_names, res.camera_per_pose_rms, res.projector.per_pose_rms)]
+        res = calibrate_telecentric_rig(board, obs, cam_size, prj_size, projector_dist, min_poses=min_poses,
+                                        refine=telecentric_refine)
+        poses = [{"name": n, "camera_rms_px": float(c), "projector_rms_px": float(p), "points": int(u.sum())}
+                 for n, c, p, u in zip(res.pose_names, res.camera_per_pose_rms, res.projector.per_pose_rms,
+                                       res.used_points)]
         rms = {"camera_px": res.camera_rms, "projector_px": res.projector.rms,
                "camera_um": 1000 * res.camera_rms / res.camera_scale}
         cam_d = {"width": cam_size[0], "height": cam_size[1], "dist_model": "affine", "rms_px": res.camera_rms,
                  "per_pose_rms_px": list(map(float, res.camera_per_pose_rms))}
-        extra = {"camera_pixels_per_mm": res.camera_scale}
+        extra = {"camera_pixels_per_mm": res.camera_scale, "joint_refinement": bool(telecentric_refine)}
     else:
         raise ValueError(f"unknown rig model {model!r}; expected 'pinhole' or 'telecentric'")
     prj_d = {"width": prj_size[0], "height": prj_size[1], "dist_model": projector_dist, "rms_px": res.projector.rms,

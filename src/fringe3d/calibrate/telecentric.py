@@ -37,6 +37,7 @@ class TelecentricCalibration:
     camera_rms: float                           # pixels
     board_to_world: list[tuple[np.ndarray, np.ndarray]]  # per pose (R (3,3), t (3,))
     pose_names: list[str] = field(default_factory=list)
+    used_points: list[np.ndarray] = field(default_factory=list)  # per pose: bool (N,) valid projector points
 
     @property
     def camera_scale(self) -> float:
@@ -75,9 +76,48 @@ def board_pose_lm(obj: np.ndarray, uv: np.ndarray, K: np.ndarray, dist: np.ndarr
     return R, np.asarray(tvec, np.float64).ravel()
 
 
+def refine_jointly(obj, cam_uv, prj_uv, keep, K, M, b2w):
+    """Joint Levenberg-Marquardt refinement (beyond the dissertation's sequential steps):
+    board poses, the camera's affine ``M`` and the projector's ``fx, fy, cx, cy`` minimise the
+    camera and projector reprojection errors together. The sequential method fixes each
+    board pose from the projector alone; with a long-focal-length projector its depth is
+    weakly determined, and the tilted telecentric camera sees that error. Returns
+    ``(K, M, b2w)``."""
+    from scipy.optimize import least_squares
+    n = len(b2w)
+    x0 = [K[0, 0], K[1, 1], K[0, 2], K[1, 2], *M.ravel()]
+    for R, t in b2w:
+        x0 += [*cv2.Rodrigues(R)[0].ravel(), *t]
+    x0 = np.array(x0, float)
+    scale = np.abs(x0) * 1e-3 + 1e-6
+
+    def unpack(x):
+        Kx = np.array([[x[0], 0, x[2]], [0, x[1], x[3]], [0, 0, 1.0]])
+        Mx = x[4:12].reshape(2, 4)
+        poses = []
+        for i in range(n):
+            p = x[12 + 6 * i: 18 + 6 * i]
+            poses.append((cv2.Rodrigues(p[:3])[0], p[3:]))
+        return Kx, Mx, poses
+
+    def residuals(x):
+        Kx, Mx, poses = unpack(x)
+        out = []
+        for i, (R, t) in enumerate(poses):
+            Xw = obj @ R.T + t
+            out.append((Xw @ Mx[:, :3].T + Mx[:, 3] - cam_uv[i]).ravel())
+            xy = Xw[keep[i], :2] / Xw[keep[i], 2:3]
+            pp = xy @ Kx[:2, :2].T + Kx[:2, 2]
+            out.append((pp - prj_uv[i][keep[i]]).ravel())
+        return np.concatenate(out)
+
+    sol = least_squares(residuals, x0, method="lm", x_scale=scale, xtol=1e-12, ftol=1e-12, max_nfev=2000)
+    return unpack(sol.x)
+
+
 def calibrate_telecentric_rig(board: CircleBoard, poses: list[PoseObservation], camera_size, projector_size,
                               projector_dist: str = "none", min_poses: int = 3,
-                              min_points: int = 6) -> TelecentricCalibration:
+                              min_points: int = 6, refine: bool = False) -> TelecentricCalibration:
     """Calibrate a telecentric camera + pinhole projector rig (ch. 3.3 steps 4-7).
 
     ``poses`` carry the camera circle centres and the phase-mapped projector centres
@@ -101,6 +141,17 @@ def calibrate_telecentric_rig(board: CircleBoard, poses: list[PoseObservation], 
         Xw.append(obj @ R.T + t)
         uvc.append(np.asarray(poses[i].camera_uv, float))
     M = fit_affine_camera(np.concatenate(Xw), np.concatenate(uvc))
+    if refine:
+        if np.any(prj.dist):
+            raise ValueError("joint telecentric refinement supports the linear projector model only")
+        Kr, M, b2w = refine_jointly(obj, uvc, [poses[i].projector_uv for i in good], [keep[i] for i in good],
+                                    prj.K, M, b2w)
+        Xw = [obj @ R.T + t for R, t in b2w]
+        prj.K = Kr
+        pres = [poses[i].projector_uv[keep[i]] - prj_project(Kr, X[keep[i]]) for i, X in zip(good, Xw)]
+        prj.residuals = pres
+        prj.per_pose_rms = np.array([np.sqrt(np.mean(np.sum(r ** 2, 1))) for r in pres])
+        prj.rms = float(np.sqrt(np.mean(np.sum(np.concatenate(pres) ** 2, 1))))
     cam = TelecentricCamera(M=M, width=int(camera_size[0]), height=int(camera_size[1]))
     res = [u - cam.project(X) for X, u in zip(Xw, uvc)]
     per = np.array([np.sqrt(np.mean(np.sum(r ** 2, 1))) for r in res])
@@ -108,7 +159,14 @@ def calibrate_telecentric_rig(board: CircleBoard, poses: list[PoseObservation], 
     projector = PinholeDevice(K=prj.K, dist=prj.dist, width=int(projector_size[0]), height=int(projector_size[1]))
     return TelecentricCalibration(rig=Rig(camera=cam, projector=projector), projector=prj, camera_residuals=res,
                                   camera_per_pose_rms=per, camera_rms=float(np.sqrt(np.mean(np.sum(allr ** 2, 1)))),
-                                  board_to_world=b2w, pose_names=[poses[i].name for i in good])
+                                  board_to_world=b2w, pose_names=[poses[i].name for i in good],
+                                  used_points=[keep[i] for i in good])
+
+
+def prj_project(K, X):
+    """Distortion-free pinhole projection with the projector at the world origin."""
+    xy = X[:, :2] / X[:, 2:3]
+    return xy @ K[:2, :2].T + K[:2, 2]
 
 
 def triangulate_telecentric(camera: TelecentricCamera, projector: PinholeDevice, uv: np.ndarray,

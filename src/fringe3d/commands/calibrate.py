@@ -18,7 +18,7 @@ def _board(cols, rows, spacing, radius, asymmetric, bright):
 
 def run_calibration(inputs, output: Path, board=None, model=None, camera_dist="k1k2p", projector_dist="none",
                     plot: Path | None = None, yaml: Path | None = None, min_modulation: float = 0.1,
-                    progress: bool = True) -> dict:
+                    progress: bool = True, refine: bool = True) -> dict:
     """Calibrate from pose/session folders; write JSON (+ optional PNG plot / OpenCV YAML).
 
     Returns a JSON-friendly summary. Nothing is written unless the calibration succeeds.
@@ -27,7 +27,8 @@ def run_calibration(inputs, output: Path, board=None, model=None, camera_dist="k
     from fringe3d.calibrate.session import calibrate_session
 
     cal, res = calibrate_session(inputs, board=board, model=model, progress=progress, camera_dist=camera_dist,
-                                 projector_dist=projector_dist, min_modulation_fraction=min_modulation)
+                                 projector_dist=projector_dist, min_modulation_fraction=min_modulation,
+                                 telecentric_refine=refine)
     cal.save(output)
     written = {"calibration": str(output)}
     if plot is not None:
@@ -66,6 +67,8 @@ def register(app: typer.Typer) -> None:
         projector_dist: str = typer.Option("none", help="Projector distortion (linear model = none)."),
         min_modulation: float = typer.Option(0.1, help="Reject centres whose modulation is below this "
                                                        "fraction of the image's 95th percentile."),
+        no_refine: bool = typer.Option(False, "--no-refine", help="Telecentric rigs: skip the joint LM "
+                                                                   "refinement (the dissertation's sequential ch. 3 method)."),
         plot: Path = typer.Option(None, help="Residual plot PNG (default: OUTPUT with .png)."),
         no_plot: bool = typer.Option(False, "--no-plot", help="Do not write the residual plot."),
         yaml: Path = typer.Option(None, help="Also export OpenCV FileStorage YAML here."),
@@ -101,7 +104,7 @@ def register(app: typer.Typer) -> None:
             truth = ss.rig
         plot_path = None if no_plot else (plot or output.with_suffix(".png"))
         s = run_calibration(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
-                            min_modulation, progress=not (quiet or json_))
+                            min_modulation, progress=not (quiet or json_), refine=not no_refine)
         if truth is not None:
             from fringe3d.calibrate.calibration_file import load_calibration
             from fringe3d.calibrate.evaluation import compare_to_truth
