@@ -155,3 +155,22 @@ def test_z_min_proposed_from_a_reference_measurement(ideal_capture, tmp_path, ca
     nearest = float(np.nanmin(np.load(ref / "points.npy")[..., 2]))
     assert json.loads(stdout)["z_min"] == pytest.approx(nearest - 10.0, abs=1e-4)
     np.testing.assert_allclose(np.load(out / "points.npy"), np.load(ref / "points.npy"), atol=1e-4, equal_nan=True)
+
+
+def test_ball_bar_evaluation_on_noise_free_spheres(tmp_path, capsys):
+    cap = tmp_path / "spheres"
+    simulate_capture(cap, preset="tiny", scene="spheres", patterns="two-frequency", seed=1, progress=False,
+                     bit_depth=None, ideal=True)
+    out = tmp_path / "out"
+    code, _, err = run(["reconstruct", str(cap), "-c", str(cap / "rig.json"), "-o", str(out), "--z-min", "250", "-q"],
+                       capsys)
+    assert code == 0, err
+    code, stdout, err = run(["evaluate", str(out), "--ball-bar", "--truth", str(cap), "--json"], capsys)
+    assert code == 0, err
+    ev = json.loads(stdout)["ball_bar"]
+    assert abs(ev["error"]) < 1e-3 and ev["true_distance"] > 10.0
+    assert all(abs(s["size"]) < 1e-3 for s in ev["spheres"])
+    # without truth the two spheres are found by segmentation: the same distance
+    code, stdout, err = run(["evaluate", str(out), "--ball-bar", "--json"], capsys)
+    assert code == 0, err
+    assert json.loads(stdout)["ball_bar"]["distance"] == pytest.approx(ev["distance"], abs=1e-3)
