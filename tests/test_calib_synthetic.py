@@ -119,3 +119,22 @@ def test_phase_invalid_at_centres_is_an_error_naming_poses():
         o.projector_uv[:] = np.nan
     with pytest.raises(ValueError, match="phase is invalid at the circle centres.*pose01"):
         calibrate_pinhole_rig(BOARD, obs, CAM.size, PRJ.size)
+
+
+def test_projector_distortion_is_recovered_when_modelled():
+    global PRJ
+    saved = PRJ
+    try:
+        PRJ = PinholeDevice(K=saved.K, width=saved.width, height=saved.height, R=saved.R, t=saved.t,
+                            dist=[0.06, -0.1, 0, 0, 0])
+        obs = observations(board_poses(14), realistic_centres=False)
+        lin = calibrate_pinhole_rig(BOARD, obs, CAM.size, PRJ.size, camera_dist="k1k2", projector_dist="none",
+                                    correct_circle_bias=False)
+        dis = calibrate_pinhole_rig(BOARD, obs, CAM.size, PRJ.size, camera_dist="k1k2", projector_dist="k1k2",
+                                    correct_circle_bias=False)
+        assert lin.projector.rms > 0.02 and lin.projector.rms > 10 * dis.projector.rms  # linear model misfits
+        assert dis.projector.rms < 0.01
+        assert np.allclose(dis.rig.projector.dist[:2], [0.06, -0.1], atol=5e-3)
+        check_truth(dis, 1e-3, 0.1, 0.05, 0.01)
+    finally:
+        PRJ = saved
