@@ -126,3 +126,19 @@ def test_yaml_export_failure_leaves_no_partial_file(tiny_session, tmp_path):
     with pytest.raises(ValueError):
         export_opencv_yaml(cal, tmp_path / "c.yaml")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_pose_without_white_frame_is_rejected_by_name(tiny_session):
+    from dataclasses import replace
+    p = tiny_session.poses[0]
+    no_white = replace(p.patterns, frames=tuple(f if f.kind != "white" else replace(f, kind="black")
+                                                 for f in p.patterns.frames))
+    with pytest.raises(ValueError, match="pose_00: the manifest has no white frame"):
+        observe_session([PoseCapture("pose_00", p.frames, no_white)], tiny_session.board, progress=False)
+
+
+def test_missing_inputs_and_empty_folders_are_errors(tmp_path):
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        calibrate_session([tmp_path / "nope"], progress=False)
+    with pytest.raises(ValueError, match="neither a manifest.json"):
+        calibrate_session([tmp_path], progress=False)
