@@ -153,3 +153,31 @@ def test_unused_codewords_are_invalid_and_bad_inputs_raise():
         hierarchical([np.zeros((4, 4))] * 2, [16.0])
     with pytest.raises(ValueError, match="distinct periods"):
         heterodyne([np.zeros((4, 4))] * 2, [16.0, 16.0])
+
+
+def test_fused_three_frequency_masks_pixels_whose_orders_are_inconsistent():
+    """A pixel whose coarse (T=144) phase disagrees with the fine ones by ~half a fine period
+    at the 1008 -> 126 step is masked instead of getting a coin-toss fringe order."""
+    from fringe3d.unwrap.temporal import three_frequency_decode
+
+    h, w = 8, 64
+    up = np.tile(np.linspace(50.0, 700.0, w), (h, 1))
+    periods = (18.0, 21.0, 144.0)
+    steps = (9, 3, 3)
+    shifts = [2 * np.pi * np.arange(n) / n for n in steps]
+    frames, indices, k = [], [], 0
+    for T, sh in zip(periods, shifts):
+        phi = 2 * np.pi * up / T
+        if T == 144.0:
+            phi = phi.copy()
+            # corrupt one row's coarse phase by 0.45 rad: x8 (1008/126) it is 3.6 rad at the
+            # 126-period step, beyond pi, so without the check that row's order would be wrong
+            phi[3] += 0.45
+        indices.append(list(range(k, k + len(sh))))
+        k += len(sh)
+        frames += [100 + 80 * np.cos(phi + s) for s in sh]
+    res = three_frequency_decode(np.array(frames, np.float32), indices, shifts, periods)
+    good = np.delete(np.arange(h), 3)
+    assert res.mask[good].all()
+    assert np.allclose(res.phase[good] * 18 / (2 * np.pi), up[good], atol=1e-3)
+    assert not res.mask[3].any()

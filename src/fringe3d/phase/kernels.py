@@ -241,12 +241,16 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
 
     frames (F, H, W) uint8/uint16/float; idx_g (N_g,) int64 frame indices and coef_g (3, N_g)
     float32 least-squares coefficients of group g (narrowest period first). ``params`` float32
-    ``(s12, s123, r_top, r_mid, lower, min_modulation, sat_level)``: beat signs, period
-    ratios ``r_top = T123/T12`` and ``r_mid = T12/T1``, the start of the absolute window of
-    the final beat (rad), the modulation threshold and the saturation level. Outputs (H, W):
+    ``(s12, s123, r_top, r_mid, lower, min_modulation, sat_level, max_residual)``: beat
+    signs, period ratios ``r_top = T123/T12`` and ``r_mid = T12/T1``, the start of the
+    absolute window of the final beat (rad), the modulation threshold, the saturation level
+    and the largest accepted unwrapping residual (rad): at each of the two unwrapping steps
+    ``e = scaled coarse phase - fine phase - 2 pi k`` lies in [-pi, pi]; a consistent pixel
+    has ``|e|`` of a few noise sigmas, an inconsistent one (mixed silhouette pixel, glint)
+    near pi, where the fringe order is a coin toss, so it is masked. Outputs (H, W):
     absolute phase float32 (NaN where invalid), wrapped phase of group 1 float32, its
     modulation and average float32, mask bool (modulation of every group >= min_modulation
-    and no frame >= sat_level).
+    and no frame >= sat_level and both unwrapping residuals <= max_residual).
     """
     s12 = params[0]
     s123 = params[1]
@@ -255,6 +259,7 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
     lower = params[4]
     min_mod2 = params[5] * params[5]
     sat_level = params[6]
+    max_res = params[7]
     h = frames.shape[1]
     w = frames.shape[2]
     nan = np.float32(np.nan)
@@ -292,9 +297,14 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
                 x12 = _mod_2pi_f32(s12 * (p1 - p2))
                 x123 = _mod_2pi_f32(s123 * (x12 - p3))
                 big = lower + _mod_2pi_f32(x123 - lower)
-                big = x12 + _F2PI * _round_f32((big * r_top - x12) * _FINV2PI)
-                absolute = p1 + _F2PI * _round_f32((big * r_mid - p1) * _FINV2PI)
-                ok = (min(m1, min(m2, m3)) >= min_mod2) and (peak[j] < sat_level)
+                d1 = big * r_top - x12
+                k1 = _round_f32(d1 * _FINV2PI)
+                big = x12 + _F2PI * k1
+                d2 = big * r_mid - p1
+                k2 = _round_f32(d2 * _FINV2PI)
+                absolute = p1 + _F2PI * k2
+                consistent = (abs(d1 - _F2PI * k1) <= max_res) and (abs(d2 - _F2PI * k2) <= max_res)
+                ok = (min(m1, min(m2, m3)) >= min_mod2) and (peak[j] < sat_level) and consistent
                 wrapped[i, j] = p1
                 modulation[i, j] = math.sqrt(m1)
                 average[i, j] = a1[j]

@@ -286,13 +286,17 @@ class FusedResult(NamedTuple):
 def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]], shifts: Sequence[Sequence[float]],
                            periods: Sequence[float] = (18.0, 21.0, 144.0),
                            w_range: tuple[float, float] | None = None, min_modulation: float = 0.0,
-                           saturation_level: float = math.inf) -> FusedResult:
+                           saturation_level: float = math.inf,
+                           max_residual: float = 0.5 * math.pi) -> FusedResult:
     """Three-frequency heterodyne decode of raw frames in one fused pass (numba).
 
     Per pixel: the three least-squares wrapped phases (Eq. 2.4; e.g. 9 + 3 + 3 steps), the
     beats (18 & 21 -> 126, 126 & 144 -> 1008), the absolute phase of the narrowest period,
     its modulation and average, and the mask (every group's modulation >= ``min_modulation``
-    and no frame >= ``saturation_level``). No full-size intermediate arrays.
+    and no frame >= ``saturation_level``, and both unwrapping steps consistent: the scaled
+    coarse phase minus the fine phase lies within ``max_residual`` rad of a multiple of 2π;
+    near π the fringe order is a coin toss, as on mixed silhouette pixels). No full-size
+    intermediate arrays.
 
     frames (F, H, W) uint8/uint16/float; ``indices[g]`` / ``shifts[g]`` the frame indices and
     shifts (rad) of group g, narrowest period first. Equals :func:`heterodyne` applied to
@@ -315,7 +319,8 @@ def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]],
     beats, signs = beat_chain(periods)
     lower = coarse_window(beats[-1], w_range)
     params = np.array([signs[0], signs[1], beats[1] / beats[0], beats[0] / periods[0], lower,
-                       float(min_modulation), min(float(saturation_level), 3e38)], dtype=np.float32)
+                       float(min_modulation), min(float(saturation_level), 3e38), float(max_residual)],
+                      dtype=np.float32)
     h, w = frames.shape[1:]
     out = FusedResult(np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.float32),
                       np.empty((h, w), np.float32), np.empty((h, w), np.bool_))
