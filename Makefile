@@ -19,6 +19,10 @@ test: $(STAMP)
 	bash scripts/ensure-chromium.sh
 	$(VENV)/bin/python -m pytest -q
 
+# Peers (the non-commercial `fringes` package, OpenCV contrib's structured_light) live in a separate
+# venv so that opencv-contrib never shadows the package's opencv-python-headless.
+BENCH_VENV := .venv-bench
 bench: $(STAMP)
-	$(VENV)/bin/pip install --quiet -e '.[bench]'
-	$(VENV)/bin/python benchmarks/run_all.py
+	test -d $(BENCH_VENV) || $(PY) -m venv $(BENCH_VENV)
+	$(BENCH_VENV)/bin/pip install --quiet fringes "opencv-contrib-python-headless==$$($(VENV)/bin/python -c 'import cv2; print(cv2.__version__)').*"
+	FRINGE3D_BENCH_PYTHON=$(BENCH_VENV)/bin/python $(VENV)/bin/python benchmarks/run_all.py

@@ -19,3 +19,17 @@ def test_quickstart_runs_and_reaches_the_n_step_noise_floor():
     predicted = math.sqrt(2 / 9) * math.sqrt(2.0 ** 2 + 1 / 12) / 90
     assert abs(rms - predicted) < 0.1 * predicted
     assert order_err == 0.0 and valid == 100.0
+
+
+def test_readme_shows_exactly_the_quickstart_script():
+    readme = (EXAMPLE.parents[1] / "README.md").read_text()
+    body = EXAMPLE.read_text().split('"""', 2)[2].strip()
+    assert body in readme
+
+
+def test_readme_opens_with_the_two_setup_commands():
+    lines = [ln for ln in (EXAMPLE.parents[1] / "README.md").read_text().splitlines() if ln.strip()]
+    assert lines[1] == "```sh"
+    assert lines[2].startswith("make demo") and lines[3].startswith("make test") and lines[4] == "```"
+    ci = (EXAMPLE.parents[1] / ".ci" / "run").read_text()
+    assert "make test" in ci
