@@ -21,7 +21,8 @@ def load_points(result: Path, frame: int = 0) -> tuple[np.ndarray, dict]:
     if result.is_dir():
         js = result / "reconstruct.json"
         if js.exists():
-            info = json.loads(js.read_text())
+            from fringe3d.io.jsonfile import read_json
+            info = read_json(js, "reconstruction summary")
         if (result / "points.npy").exists():
             return _check_map(np.load(result / "points.npy"), result), info
         if (result / "points.zarr").exists():

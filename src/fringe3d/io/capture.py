@@ -120,12 +120,8 @@ def read_meta(folder: str | os.PathLike) -> dict:
     path = Path(folder) / META_NAME
     if not path.exists():
         return {}
-    try:
-        meta = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise ValueError(f"{path} is not valid JSON: {e}") from None
-    if not isinstance(meta, dict):
-        raise ValueError(f"{path} must hold a JSON object, got {type(meta).__name__}")
+    from fringe3d.io.jsonfile import read_json
+    meta = read_json(path, "capture metadata")
     if "frame_rate" in meta and not (isinstance(meta["frame_rate"], (int, float)) and meta["frame_rate"] > 0):
         raise ValueError(f"{path}: frame_rate must be a positive number (Hz), got {meta['frame_rate']!r}")
     if "bit_depth" in meta and meta["bit_depth"] not in (1, 8, 10, 12, 14, 16):

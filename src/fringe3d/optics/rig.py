@@ -76,13 +76,8 @@ class Rig:
 
     @classmethod
     def load(cls, path) -> "Rig":
-        path = Path(path)
-        try:
-            d = json.loads(path.read_text())
-        except FileNotFoundError:
-            raise FileNotFoundError(f"no rig file at {path}") from None
-        except json.JSONDecodeError as e:
-            raise ValueError(f"{path} is not valid JSON: {e}") from None
+        from fringe3d.io.jsonfile import read_json
+        d = read_json(path, "rig file")
         if "rig" in d and "camera" not in d:  # a calibration file embeds a rig
             d = d["rig"]
         return cls.from_dict(d)

@@ -250,13 +250,8 @@ class PatternSet:
         path = Path(path)
         if path.is_dir():
             path = path / MANIFEST_NAME
-        if not path.exists():
-            raise FileNotFoundError(f"no pattern manifest at {path}")
-        try:
-            d = json.loads(path.read_text())
-        except json.JSONDecodeError as e:
-            raise ValueError(f"{path} is not valid JSON: {e}") from None
-        return cls.from_dict(d)
+        from fringe3d.io.jsonfile import read_json
+        return cls.from_dict(read_json(path, "pattern manifest"))
 
 
 def _check_keys(d: dict, allowed: Iterable[str], required: Iterable[str], where: str) -> None:

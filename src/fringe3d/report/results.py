@@ -30,11 +30,9 @@ def load_summary(folder: str | Path) -> dict:
     if not path.exists():
         raise FileNotFoundError(f"{folder} has no {SUMMARY_NAME}: expected the output of `fringe3d demo` "
                                 "or a folder written by fringe3d.report.results.save_summary")
-    try:
-        summary = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise ValueError(f"{path} is not valid JSON: {e}") from None
-    if not isinstance(summary, dict) or "title" not in summary:
+    from fringe3d.io.jsonfile import read_json
+    summary = read_json(path, "results summary")
+    if "title" not in summary:
         raise ValueError(f"{path}: missing field 'title'")
     for m in summary.get("measurements", []):
         if "name" not in m:

@@ -231,10 +231,6 @@ def save_scene(scene, path):
 def load_scene(path):
     """Read a JSON scene file; relative mesh paths are resolved next to it."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no scene file at {path}")
-    try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise ValueError(f"scene file {path} is not valid JSON: {e}") from None
+    from fringe3d.io.jsonfile import read_json
+    d = read_json(path, "scene file", require_object=False)
     return scene_from_dict(d, where=f"{path.name}", base=path.parent)

@@ -110,10 +110,8 @@ class Truth:
         for p in (npz, js):
             if not p.exists():
                 raise FileNotFoundError(f"no ground-truth file {p} (expected truth.npz and truth.json)")
-        try:
-            meta = json.loads(js.read_text())
-        except json.JSONDecodeError as e:
-            raise ValueError(f"{js} is not valid JSON: {e}") from None
+        from fringe3d.io.jsonfile import read_json
+        meta = read_json(js, "ground-truth metadata")
         with np.load(npz) as z:
             data = {k: z[k] for k in z.files}
         missing = [n for n in ARRAY_FIELDS if n != "material_uv" and n not in data]
