@@ -50,6 +50,8 @@ def figures(cal, res, board, tests, shots, step, plane_meas, cam_pixel_um):
         P = corner_points(cal.rig, o, board)
         diag += [np.linalg.norm(P["A"] - P["C"]) - true_diag, np.linalg.norm(P["B"] - P["D"]) - true_diag]
     diag = 1000 * np.abs(np.array(diag))
+    n_diag = int(np.isfinite(diag).sum())  # a corner with invalid phase (NaN) gives no diagonal
+    diag = diag[np.isfinite(diag)] if n_diag else np.array([np.nan])
     D = np.array([corner_points(cal.rig, o, board)["D"] for o in shots])
     moved = np.linalg.norm(D[1:] - D[0], axis=1)
     step_err = 1000 * np.abs(moved - step * np.arange(1, len(D)))
@@ -59,7 +61,7 @@ def figures(cal, res, board, tests, shots, step, plane_meas, cam_pixel_um):
     return {"camera_px": cal.rms["camera_px"], "camera_um": cal.rms["camera_px"] * cam_pixel_um,
             "camera_object_um": 1000 * cal.rms["camera_px"] / res.camera_scale,
             "projector_px": cal.rms["projector_px"], "projector_um": cal.rms["projector_px"] * PROJECTOR_PITCH_UM,
-            "diagonal_error_um": float(np.mean(diag)), "diagonal_max_um": float(np.max(diag)),
+            "diagonal_error_um": float(np.mean(diag)), "diagonal_max_um": float(np.max(diag)), "diagonals": n_diag,
             "step_error_um": float(np.mean(step_err)), "plane_rms_um": 1000 * pfit.rms, "plane_dropped": dropped}
 
 
@@ -107,6 +109,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
               ("camera reprojection RMS (um, object)", "camera_object_um", "—"),
               ("projector reprojection RMS (px)", "projector_px", "—"),
               ("projector reprojection RMS (um, DMD)", "projector_um", 1.2),
+              ("board diagonals measured (2 per pose)", "diagonals", f"2 x {len(tests)} poses"),
               (f"board diagonal |error| mean over {len(tests)} poses (um)", "diagonal_error_um", 9.0),
               ("board diagonal |error| max (um)", "diagonal_max_um", 16.0),
               (f"50 um stage steps |error| mean over {n_steps - 1} steps (um)", "step_error_um", 1.7),
