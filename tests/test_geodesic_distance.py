@@ -61,13 +61,51 @@ def test_plane_distances_along_march_directions_are_exact():
             assert d[r, c] == pytest.approx(truth[r, c], rel=1e-9)
 
 
+def stencil_norm(dv, du):
+    """Closed form of the shortest chain of 7×7 marching steps on a unit-pitch plane: the norm
+    whose unit ball is the convex hull of the unit step directions a/|a| (facets between
+    angularly adjacent directions)."""
+    a = MARCH_OFFSETS[np.argsort(np.arctan2(MARCH_OFFSETS[:, 0], MARCH_OFFSETS[:, 1]))].astype(float)
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    b = np.roll(a, -1, axis=0)
+    normals = np.stack([np.linalg.solve(np.stack([p, q]), [1.0, 1.0]) for p, q in zip(a, b)])
+    return np.max(normals[:, 0, None, None] * dv + normals[:, 1, None, None] * du, axis=0)
+
+
+def test_edge_only_bezier_dijkstra_error_is_the_stencil_direction_quantisation():
+    v, u = np.mgrid[0:61, 0:61].astype(float)
+    pts = np.dstack([u * 0.5, v * 0.5, np.full_like(u, 200.0)])
+    d = bezier_geodesic(pts, (30, 30), wavefront=False)
+    expected = 0.5 * stencil_norm(v - 30, u - 30)
+    assert np.allclose(d, expected, rtol=1e-9, atol=1e-9)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = d / (0.5 * np.hypot(u - 30, v - 30)) - 1
+    disk = (np.hypot(u - 30, v - 30) > 5) & (np.hypot(u - 30, v - 30) < 30)
+    assert rel[disk].max() == pytest.approx(1 / np.cos(np.arctan(1 / 3) / 2) - 1, rel=0.05)   # 1.3 %
+    assert 0.004 < rel[disk].mean() < 0.006                   # ≈ Σφ³/(12 Σφ) = 0.49 % for uniform directions
+
+
+def test_wavefront_bezier_dijkstra_is_exact_on_a_cylinder_from_a_subpixel_source():
+    pts, s, y = cylinder_map()
+    src = (20.37, 30.61)
+    r0, c0, fr, fc = 30, 20, 0.61, 0.37
+    s0 = (1 - fc) * s[r0, c0] + fc * s[r0, c0 + 1]
+    y0 = (1 - fr) * y[r0, c0] + fr * y[r0 + 1, c0]
+    truth = np.hypot(s - s0, y - y0)
+    far = truth > 2.0
+    e = rel_error(bezier_geodesic(pts, src), truth, far)
+    assert e.mean() < 1e-4 and e.max() < 1e-3
+    e_edges = rel_error(bezier_geodesic(pts, src, wavefront=False), truth, far)
+    assert e_edges.mean() > 20 * e.mean()
+
+
 def test_bezier_dijkstra_beats_8_neighbour_and_heat_method_on_a_cylinder():
     pts, s, y = cylinder_map()
     src = (20, 30)
     truth = np.hypot(s - s[30, 20], y - y[30, 20])  # unrolled Euclidean distance
     far = truth > 5.0
-    bezier_geodesic(pts[:10, :10], (1, 1))  # compile
-    t0 = time.perf_counter(); d_bez = bezier_geodesic(pts, src); t_bez = time.perf_counter() - t0
+    bezier_geodesic(pts[:10, :10], (1, 1), wavefront=False)  # compile
+    t0 = time.perf_counter(); d_bez = bezier_geodesic(pts, src, wavefront=False); t_bez = time.perf_counter() - t0
     d_8 = grid_geodesic(pts, src)
     d_heat = heat_geodesic(pts, src)
     e_bez, e_8, e_heat = (rel_error(d, truth, far) for d in (d_bez, d_8, d_heat))
@@ -81,16 +119,19 @@ def test_bezier_dijkstra_beats_8_neighbour_and_heat_method_on_a_cylinder():
 
 
 def test_bezier_dijkstra_on_a_sphere_matches_great_circle_distance():
+    """Non-developable: the wavefront update is no longer exact but still beats the edge-only chain."""
     R = 30.0
     pts = sphere_map(radius=R)
     c = 60
     src = pts[c, c] - np.array([0, 0, 300.0])
-    d = bezier_geodesic(pts, (c, c))
     q = pts - np.array([0, 0, 300.0])
     truth = R * np.arccos(np.clip((q @ src) / R ** 2, -1, 1))
+    d_edges = bezier_geodesic(pts, (c, c), wavefront=False)
+    d = bezier_geodesic(pts, (c, c))
     m = np.isfinite(truth) & (truth > 3) & np.isfinite(d)
-    e = rel_error(d, truth, m)
-    assert e.mean() < 0.008 and e.max() < 0.02
+    e, e_edges = rel_error(d, truth, m), rel_error(d_edges, truth, m)
+    assert e_edges.mean() < 0.008 and e_edges.max() < 0.02
+    assert e.mean() < 0.002 and e.mean() < e_edges.mean() / 3
 
 
 def test_holes_block_the_front_instead_of_being_jumped():

@@ -106,14 +106,16 @@ def distance_maps(points: np.ndarray, anchors_uv: np.ndarray, method: str = "bez
                   radius: int = 3) -> tuple[np.ndarray, np.ndarray]:
     """Geodesic distance maps (D1, D2), each (H, W) mm, from the two anchors (2, 2) (u, v).
 
-    method "bezier" (Eq. 6.7–6.8, marching window (2·radius+1)², 7×7 by default) or "grid"
-    (8-neighbour Dijkstra)."""
-    if method == "bezier":
-        fn = lambda p, a: bezier_geodesic(p, a, radius=radius)  # noqa: E731
+    method "bezier" (Eq. 6.7–6.8, marching window (2·radius+1)², 7×7 by default, with the
+    virtual-source wavefront update), "bezier-edges" (the dissertation's edge-only scheme) or
+    "grid" (8-neighbour Dijkstra)."""
+    if method in ("bezier", "bezier-edges"):
+        wave = method == "bezier"
+        fn = lambda p, a: bezier_geodesic(p, a, radius=radius, wavefront=wave)  # noqa: E731
     elif method == "grid":
         fn = grid_geodesic
     else:
-        raise ValueError(f"unknown geodesic method {method!r}; expected 'bezier' or 'grid'")
+        raise ValueError(f"unknown geodesic method {method!r}; expected 'bezier', 'bezier-edges' or 'grid'")
     for a in anchors_uv:
         check_anchor(points, a)
     return fn(points, anchors_uv[0]), fn(points, anchors_uv[1])
