@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from .motion import STATIC, RigidMotion
@@ -111,11 +112,13 @@ class Mesh(SceneObject):
         self.albedo = _albedo(albedo)
         self.texture = texture
         self.motion = motion
-        self._tri = np.asarray(mesh.triangles, dtype=np.float64)  # (F, 3, 3)
-        self._fn = np.asarray(mesh.face_normals, dtype=np.float64)
-        self._vn = np.asarray(mesh.vertex_normals, dtype=np.float64) if smooth else None
+        self._tri = np.ascontiguousarray(mesh.triangles, dtype=np.float64)  # (F, 3, 3)
+        self._fn = np.ascontiguousarray(mesh.face_normals, dtype=np.float64)
+        self._vn = np.ascontiguousarray(mesh.vertex_normals, dtype=np.float64) if smooth else None
         uv = getattr(getattr(mesh, "visual", None), "uv", None)
-        self._uv = None if uv is None or len(uv) != len(mesh.vertices) else np.asarray(uv, float)
+        self._uv = None if uv is None or len(uv) != len(mesh.vertices) else np.ascontiguousarray(uv, float)
+        self._v0 = np.ascontiguousarray(self._tri[:, 0])
+        self._faces = np.ascontiguousarray(mesh.faces, dtype=np.int64)
         self._rays = _intersector(mesh)
 
     @property
@@ -138,43 +141,109 @@ class Mesh(SceneObject):
         o, d = as_rays(origins, dirs)
         R, c = self.pose(time)
         ob, db = rigid_to_body(o, R, c), rigid_to_body(d, R)
-        tri = self._rays.first(ob, db)
-        t = np.full(len(d), np.inf)
-        normal = np.full(d.shape, np.nan)
-        uv = np.full((len(d), 2), np.nan)
-        idx = np.flatnonzero(tri >= 0)
-        if idx.size:
-            f = tri[idx]
-            v0 = self._tri[f, 0]
-            n = self._fn[f]
-            oi = ob[idx] if len(ob) > 1 else ob
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ti = np.einsum("ij,ij->i", v0 - oi, n) / np.einsum("ij,ij->i", db[idx], n)
-            p = oi + ti[:, None] * db[idx]
-            t[idx] = ti
-            if self.smooth or self._uv is not None:
-                bary = _barycentric(p, self._tri[f])
-                faces = self.mesh.faces[f]
-                if self.smooth:
-                    n = np.einsum("ij,ijk->ik", bary, self._vn[faces])
-                if self._uv is not None:
-                    uv[idx] = np.einsum("ij,ijk->ik", bary, self._uv[faces])
-            if self._uv is None:
-                uv[idx] = p[:, :2]
-            normal[idx] = n @ R.T
+        t, normal, uv = self._refine(ob, db, self._rays.first(ob, db), R)
         return self._finish(t, normal, uv, d)
+
+    def hit_distance(self, origins, dirs, time: float = 0.0) -> np.ndarray:
+        """Ray parameter (N,) of the first hit, ``inf`` where :meth:`intersect` reports a miss
+        (same double-precision ``t``; no normals, material coordinates or albedo)."""
+        o, d = as_rays(origins, dirs)
+        R, c = self.pose(time)
+        ob, db = rigid_to_body(o, R, c), rigid_to_body(d, R)
+        t = np.empty(len(d))
+        _plane_t_kernel(ob, db, np.ascontiguousarray(self._rays.first(ob, db), dtype=np.int64),
+                        self._v0, self._fn, t)
+        return t
+
+    def _refine(self, ob, db, tri, R):
+        """Double-precision ``t`` (N,), world normal (N, 3) and material uv (N, 2) of the
+        Embree triangles ``tri`` (N,) (-1 = miss: inf / NaN / NaN), in one numba pass."""
+        n = len(db)
+        t, normal, uv = np.empty(n), np.empty((n, 3)), np.empty((n, 2))
+        none3, none2 = np.empty((0, 3)), np.empty((0, 2))
+        _refine_kernel(ob, db, np.ascontiguousarray(tri, dtype=np.int64), self._tri, self._fn,
+                       self._faces, none3 if self._vn is None else self._vn,
+                       none2 if self._uv is None else self._uv, np.ascontiguousarray(R, dtype=np.float64),
+                       t, normal, uv)
+        return t, normal, uv
 
     def describe(self) -> str:
         return f"Mesh ({self.n_faces} triangles{', ' + self.source if self.source else ''})"
 
 
-def _barycentric(p, tri):
-    """Barycentric coordinates (M, 3) of points ``p`` (M, 3) in triangles ``tri`` (M, 3, 3)."""
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    v0, v1, v2 = b - a, c - a, p - a
-    d00, d01, d11 = (np.einsum("ij,ij->i", x, y) for x, y in ((v0, v0), (v0, v1), (v1, v1)))
-    d20, d21 = np.einsum("ij,ij->i", v2, v0), np.einsum("ij,ij->i", v2, v1)
-    den = d00 * d11 - d01 * d01
-    v = (d11 * d20 - d01 * d21) / den
-    w = (d00 * d21 - d01 * d20) / den
-    return np.column_stack([1 - v - w, v, w])
+@numba.njit(cache=True, error_model="numpy")
+def _plane_t_kernel(o, d, tri, v0, fn, t_out):  # pragma: no cover - compiled
+    """t_out[i]: ray i's parameter on the plane of triangle ``tri[i]`` (``(v0 - o) . n / (d . n)``),
+    ``inf`` for a miss (-1), a degenerate triangle (zero normal) or ``t <= 1e-9``."""
+    shared = o.shape[0] == 1
+    for i in range(d.shape[0]):
+        f = tri[i]
+        t_out[i] = np.inf
+        if f < 0:
+            continue
+        j = 0 if shared else i
+        n0, n1, n2 = fn[f, 0], fn[f, 1], fn[f, 2]
+        if not (n0 * n0 + n1 * n1 + n2 * n2) > 0:
+            continue
+        ti = (((v0[f, 0] - o[j, 0]) * n0 + (v0[f, 1] - o[j, 1]) * n1 + (v0[f, 2] - o[j, 2]) * n2)
+              / (d[i, 0] * n0 + d[i, 1] * n1 + d[i, 2] * n2))
+        if ti > 1e-9 and ti < np.inf:
+            t_out[i] = ti
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _refine_kernel(o, d, tri, tris, fn, faces, vn, uvv, R, t_out, n_out, uv_out):  # pragma: no cover
+    """Per ray, from its Embree triangle ``tri[i]`` (-1 = miss): ``t`` on the triangle's plane
+    (double precision), the hit's world normal (face normal, or barycentric-interpolated vertex
+    normals ``vn`` when given) and material uv (barycentric-interpolated vertex ``uvv`` when
+    given, else the body-frame ``(x, y)`` of the hit). Misses: inf / NaN / NaN."""
+    shared = o.shape[0] == 1
+    smooth = vn.shape[0] > 0
+    has_uv = uvv.shape[0] > 0
+    nan = np.nan
+    for i in range(d.shape[0]):
+        f = tri[i]
+        if f < 0:
+            t_out[i] = np.inf
+            n_out[i, 0] = nan
+            n_out[i, 1] = nan
+            n_out[i, 2] = nan
+            uv_out[i, 0] = nan
+            uv_out[i, 1] = nan
+            continue
+        j = 0 if shared else i
+        n0, n1, n2 = fn[f, 0], fn[f, 1], fn[f, 2]
+        ti = (((tris[f, 0, 0] - o[j, 0]) * n0 + (tris[f, 0, 1] - o[j, 1]) * n1
+               + (tris[f, 0, 2] - o[j, 2]) * n2) / (d[i, 0] * n0 + d[i, 1] * n1 + d[i, 2] * n2))
+        t_out[i] = ti
+        p0 = o[j, 0] + ti * d[i, 0]
+        p1 = o[j, 1] + ti * d[i, 1]
+        p2 = o[j, 2] + ti * d[i, 2]
+        if smooth or has_uv:  # barycentric coordinates of the hit in its triangle
+            a0, a1, a2 = tris[f, 0, 0], tris[f, 0, 1], tris[f, 0, 2]
+            e0 = (tris[f, 1, 0] - a0, tris[f, 1, 1] - a1, tris[f, 1, 2] - a2)
+            e1 = (tris[f, 2, 0] - a0, tris[f, 2, 1] - a1, tris[f, 2, 2] - a2)
+            e2 = (p0 - a0, p1 - a1, p2 - a2)
+            d00 = e0[0] * e0[0] + e0[1] * e0[1] + e0[2] * e0[2]
+            d01 = e0[0] * e1[0] + e0[1] * e1[1] + e0[2] * e1[2]
+            d11 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]
+            d20 = e2[0] * e0[0] + e2[1] * e0[1] + e2[2] * e0[2]
+            d21 = e2[0] * e1[0] + e2[1] * e1[1] + e2[2] * e1[2]
+            den = d00 * d11 - d01 * d01
+            bv = (d11 * d20 - d01 * d21) / den
+            bw = (d00 * d21 - d01 * d20) / den
+            bu = 1 - bv - bw
+            if smooth:
+                a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+                n0 = bu * vn[a, 0] + bv * vn[b, 0] + bw * vn[c, 0]
+                n1 = bu * vn[a, 1] + bv * vn[b, 1] + bw * vn[c, 1]
+                n2 = bu * vn[a, 2] + bv * vn[b, 2] + bw * vn[c, 2]
+            if has_uv:
+                a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+                uv_out[i, 0] = bu * uvv[a, 0] + bv * uvv[b, 0] + bw * uvv[c, 0]
+                uv_out[i, 1] = bu * uvv[a, 1] + bv * uvv[b, 1] + bw * uvv[c, 1]
+        if not has_uv:
+            uv_out[i, 0] = p0
+            uv_out[i, 1] = p1
+        for k in range(3):  # body -> world: R @ n
+            n_out[i, k] = R[k, 0] * n0 + R[k, 1] * n1 + R[k, 2] * n2

@@ -263,6 +263,49 @@ def intersect_culled(scene, origins, dirs, time: float):
     return out
 
 
+@numba.njit(cache=True)
+def _shadow_rays(inside, pts, normal, L, dist, idx, o, d, tmax):  # pragma: no cover - compiled
+    """Shadow rays of the pixels ``inside`` marks: pixel index, origin (the hit point nudged
+    by ``1e-6 * dist + 1e-9`` mm along normal + L, off its own surface), unit direction L to
+    the projector centre, and the blocking range ``t < dist * (1 - 1e-6)``."""
+    m = 0
+    for i in range(inside.shape[0]):
+        if not inside[i]:
+            continue
+        eps = 1e-6 * dist[i] + 1e-9
+        for k in range(3):
+            o[m, k] = pts[i, k] + eps * (normal[i, k] + L[i, k])
+            d[m, k] = L[i, k]
+        tmax[m] = dist[i] * (1 - 1e-6)
+        idx[m] = i
+        m += 1
+
+
+def occluded(scene, origins, dirs, tmax, time: float) -> np.ndarray:
+    """bool (M,): something in ``scene`` lies on ray ``m`` before ``tmax[m]`` (its first hit
+    has ``t < tmax``), for shadow rays.
+
+    A :class:`~fringe3d.sim.scenes.Scene` asks each object for its first-hit distance only
+    (``hit_distance`` when the object has it: no normals, material coordinates or albedo);
+    any other scene is cast in full with ``scene.intersect``.
+    """
+    from .scenes import Scene
+
+    if not isinstance(scene, Scene):
+        h = scene.intersect(origins, dirs, time=time)
+        return (np.asarray(h.object_id) >= 0) & (np.asarray(h.t) < tmax)
+    blocked = np.zeros(len(dirs), np.bool_)
+    for ob in scene.objects:
+        fn = getattr(ob, "hit_distance", None)
+        if callable(fn):
+            t = fn(origins, dirs, time)
+        else:
+            h = ob.intersect(origins, dirs, time)
+            t = np.where(np.asarray(h.object_id) >= 0, h.t, np.inf)
+        blocked |= t < tmax
+    return blocked
+
+
 def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = True) -> Geometry:
     """Intersect the camera rays with the scene at ``time`` and map hits into the projector.
 
@@ -286,13 +329,12 @@ def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = T
               np.ascontiguousarray(proj.dist), np.ascontiguousarray(proj.center), float(proj.width),
               float(proj.height), pts, depth, normal, up, vp, pdepth, cosine, inside, L, dist)
     hit = oid >= 0
-    if shadows and inside.any():
-        j = np.flatnonzero(inside)
-        eps = (1e-6 * dist[j] + 1e-9)[:, None]
-        o = pts[j] + eps * (normal[j] + L[j])
-        sh = scene.intersect(o, L[j], time=time)
-        blocked = (np.asarray(sh.object_id) >= 0) & (np.asarray(sh.t) < dist[j] * (1 - 1e-6))
-        inside[j[blocked]] = False
+    if shadows:
+        m = int(np.count_nonzero(inside))
+        if m:
+            j, o, d, tmax = np.empty(m, np.int64), np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
+            _shadow_rays(inside, pts, normal, L, dist, j, o, d, tmax)
+            inside[j[occluded(scene, o, d, tmax, time)]] = False
     shade = np.where(inside, cosine, 0.0)
     muv = getattr(h, "material_uv", None)
     extras = object_extras(scene, oid, muv, time)

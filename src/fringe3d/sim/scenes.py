@@ -240,6 +240,12 @@ class SceneObject:
         """Body-frame cast: returns (t (N,), body normal (N, 3), material uv (N, 2))."""
         raise NotImplementedError
 
+    def hit_distance(self, origins, dirs, time: float = 0.0) -> np.ndarray:
+        """Ray parameter (N,) of each ray's first hit, ``inf`` where it misses (shadow rays);
+        equal to ``intersect(...).t``. Subclasses may override it with a cheaper cast."""
+        h = self.intersect(origins, dirs, time)
+        return np.where(h.object_id >= 0, h.t, np.inf)
+
     def albedo_at(self, uv: np.ndarray) -> np.ndarray:
         """Albedo (M,) at material coordinates (M, 2): base albedo × texture factor."""
         a = np.full(len(uv), self.albedo)
@@ -407,6 +413,15 @@ class Plane(SceneObject):
         normal[:] = R[:, 2]
         return self._finish(t, normal, uv, d)
 
+    def hit_distance(self, origins, dirs, time: float = 0.0) -> np.ndarray:
+        o, d = as_rays(origins, dirs)
+        R, c = self.pose(time)
+        half = (np.inf, np.inf) if self.size is None else 0.5 * self.size
+        t = np.empty(len(d))
+        _plane_kernel(o, d, c, R[:, 2].copy(), R[:, 0].copy(), R[:, 1].copy(),
+                      float(half[0]), float(half[1]), t, np.empty((len(d), 2)))
+        return t
+
 
 class Sphere(SceneObject):
     """Sphere of ``radius`` (mm) about ``center``; may move (``velocity``, ``acceleration``) and
@@ -453,10 +468,16 @@ class Sphere(SceneObject):
         uv = np.full((len(d), 2), np.nan)
         idx = np.flatnonzero(np.isfinite(t))
         if idx.size:
-            nb = n[idx] @ R  # body-frame unit vector
+            nb = rigid_to_body(n[idx], R)  # body-frame unit vector (numba: no BLAS threads)
             uv[idx, 0] = np.arctan2(nb[:, 1], nb[:, 0])
             uv[idx, 1] = np.arcsin(np.clip(nb[:, 2], -1, 1))
         return self._finish(t, n, uv, d)
+
+    def hit_distance(self, origins, dirs, time: float = 0.0) -> np.ndarray:
+        o, d = as_rays(origins, dirs)
+        t = np.empty(len(d))
+        _sphere_kernel(o, d, self.pose(time)[1], self.radius, t, np.empty(d.shape))
+        return t
 
 
 class Box(SceneObject):
