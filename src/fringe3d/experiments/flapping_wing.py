@@ -220,7 +220,7 @@ def _measure(wing, preset, settings, ps, t_start, seed):
 
 def _geodesic_comparison(cam, wing, t: float) -> list[list]:
     """Relative error (vs the flat-sheet distance, exact for the isometric wing) and time of
-    the three geodesic methods on the wing's truth map, from anchor 1."""
+    the geodesic methods on the wing's truth map, from anchor 1 at its sub-pixel position."""
     import time
 
     from fringe3d.analyze.geodesic import bezier_geodesic, grid_geodesic, heat_geodesic
@@ -229,12 +229,14 @@ def _geodesic_comparison(cam, wing, t: float) -> list[list]:
     a_uv = cam.project(wing.material_to_world(SIM_ANCHORS[:1], t))[0]
     truth = np.hypot(M[..., 0] - SIM_ANCHORS[0, 0], M[..., 1] - SIM_ANCHORS[0, 1])
     far = np.isfinite(truth) & (truth > 10.0)
+    v, u = np.mgrid[0:12, 0:12].astype(float)
+    for wave in (True, False):   # compile outside the timing
+        bezier_geodesic(np.dstack([u, v, np.full_like(u, 100.0)]), (5, 5), wavefront=wave)
     rows = []
-    bezier_geodesic(P[:20, :20] if np.isfinite(P[:20, :20]).all() else P, a_uv)  # compile outside the timing
-    for name, fn in (("Bézier 7×7 Dijkstra (Eq. 6.7–6.8)", lambda: bezier_geodesic(P, a_uv)),
-                     ("Bézier 11×11 Dijkstra", lambda: bezier_geodesic(P, a_uv, radius=5)),
+    for name, fn in ((GEO_WAVE, lambda: bezier_geodesic(P, a_uv)),
+                     (GEO_EDGES, lambda: bezier_geodesic(P, a_uv, wavefront=False)),
                      ("8-neighbour Dijkstra", lambda: grid_geodesic(P, a_uv)),
-                     ("heat method (potpourri3d)", lambda: heat_geodesic(P, a_uv))):
+                     ("heat method (potpourri3d, source snapped to a pixel)", lambda: heat_geodesic(P, a_uv))):
         t0 = time.perf_counter()
         D = fn()
         dt = time.perf_counter() - t0
@@ -242,6 +244,28 @@ def _geodesic_comparison(cam, wing, t: float) -> list[list]:
         rel = np.abs(D[ok] - truth[ok]) / truth[ok]
         rows.append([name, 100 * rel.mean(), 100 * np.percentile(rel, 95), 100 * rel.max(), 1000 * dt])
     return rows
+
+
+GEO_WAVE = "Bézier 7×7 Dijkstra + wavefront (default)"
+GEO_EDGES = "Bézier 7×7 Dijkstra, edges only (Eq. 6.7–6.8 as published)"
+EDGE_MARGIN = 20   # px: modified-FTP phase is biased within ~20 px of the wing outline (measured)
+DOT_MARGIN = 8     # px: anchor-dot holes are filled within 8 px of each dot
+
+
+def interior_grid(valid: np.ndarray, anchors_uv: np.ndarray, window: int, step: int,
+                  edge_margin: int = EDGE_MARGIN, dot_margin: int = DOT_MARGIN):
+    """Grid points (K, 2) (u, v) every ``step`` px whose whole ``window`` fit lies ≥ edge_margin px
+    inside the valid surface and outside the filled anchor-dot disks; also the kept area fraction."""
+    from scipy import ndimage
+
+    inner = ndimage.binary_erosion(valid, iterations=edge_margin + window // 2)
+    vv, uu = np.mgrid[0:valid.shape[0]:step, 0:valid.shape[1]:step]
+    keep = inner[vv, uu]
+    g = np.stack([uu[keep], vv[keep]], axis=1).astype(float)
+    if len(g):
+        dd = np.min(np.linalg.norm(g[:, None] - np.asarray(anchors_uv)[None], axis=2), axis=1)
+        g = g[dd > dot_margin + window // 2]
+    return g, float(inner.sum() / max(valid.sum(), 1))
 
 
 def _marker_rows(label, err):
@@ -257,10 +281,38 @@ def _marker_rows(label, err):
     return rows
 
 
-def _track_markers(maps, anchors, q_markers, grid, radius, window, fill):
+def _track_markers(maps, anchors, q_markers, grid, window, fill, method="bezier"):
     from fringe3d.analyze.strain import wing_sequence
     q = np.vstack([q_markers, grid]) if grid is not None and len(grid) else q_markers
-    return wing_sequence(maps, anchors, q, THICKNESS, window, radius=radius, fill_dots=fill)
+    return wing_sequence(maps, anchors, q, THICKNESS, window, method=method, fill_dots=fill)
+
+
+def _reconstruct_side(wing, preset, settings, ps, starts, seed, advance=None):
+    """Render, decode and triangulate one burst per start time; anchors found in the first texture
+    (ordered like SIM_ANCHORS) and followed. Returns maps, textures, burst times, anchors (F,2,2)."""
+    from fringe3d.analyze.anchors import find_anchor_dots
+    from fringe3d.commands.strain import follow_anchors
+
+    cam = preset.rig.camera
+    maps, texs, t3 = [], [], []
+    for k, t0 in enumerate(starts):
+        P, tex, t = _measure(wing, preset, settings, ps, float(t0), seed + k)
+        maps.append(P.astype(np.float64)), texs.append(tex), t3.append(t)
+        if advance is not None:
+            advance()
+    t3 = np.array(t3)
+    a0 = find_anchor_dots(texs[0], count=2)
+    a_true0 = cam.project(wing.material_to_world(SIM_ANCHORS, t3[0]))
+    a0 = a0[[int(np.argmin(np.linalg.norm(a0 - x, axis=1))) for x in a_true0]]
+    anchors = follow_anchors(lambda i: texs[i], len(starts), [a0])[:, 0]
+    return maps, texs, t3, anchors
+
+
+def _strain_row(label, wing, maps, anchors, q_mark, grid, window, M_ref, t3, fill, area=None):
+    res = _track_markers(maps, anchors, q_mark, grid, window, fill)
+    rms, med, peak, n = _strain_vs_truth(wing, res, len(q_mark), M_ref, t3)
+    return [label, window, "" if area is None else round(100 * area), 1e6 * peak, 1e6 * rms, 100 * rms / peak,
+            100 * med / peak, n]
 
 
 def _strain_vs_truth(wing, res, n_markers, M_ref, times):
@@ -285,48 +337,41 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     """Simulate → reconstruct → track → strain for the ch. 6 flapping wing; see SUMMARY."""
     import dataclasses
 
-    from fringe3d.analyze.anchors import find_anchor_dots
-    from fringe3d.commands.strain import follow_anchors
+    from scipy import ndimage
+
+    from fringe3d.analyze.strain import local_shape, wing_sequence
     from fringe3d.io.console import progress_bar
     from fringe3d.sim import presets
 
     preset = presets.get("high-speed")
     settings = dataclasses.replace(preset.settings, frame_rate=FRAME_RATE, seed=seed)
+    quiet = dataclasses.replace(settings, read_noise=0.0, shot_noise=False)   # noise-free sensor, 8-bit
     cam = preset.rig.camera
     ps = ch6_patterns(preset.rig)
     n3d = 4 if quick else 16
     # full: one flapping cycle (40 ms) in 16 bursts; quick: the first quarter cycle (to peak flap)
     starts = np.arange(n3d) / (BEAT * 16)
     sides = [1] if quick else [1, -1]
-    window, radius, grid_step = 11, 3, (16 if quick else 8)
+    window, big, grid_step = 11, 31, (16 if quick else 8)
+    methods = (("bezier", GEO_WAVE), ("bezier-edges", GEO_EDGES))
     tables, notes, goals = [], [], {}
     recon_rows, truth_rows, strain_rows = {}, [], []
     track_rms_recon, track_rms_truth = {}, []
-    radii = [3] if quick else [3, 5]
-    with progress_bar("flapping wing", total=len(sides) * n3d * 2) as advance:
+    nf_starts = np.arange(4) / (BEAT * 8)        # noise-free strain: 4 bursts over half a cycle
+    with progress_bar("flapping wing", total=len(sides) * n3d * 2 + len(nf_starts)) as advance:
         for side in sides:
             wing = sim_wing(side)
             label = "right" if side > 0 else "left"
             # --- A: full chain (render the 5-image burst, decode, triangulate) ------------------
-            maps, texs, t3 = [], [], []
-            for k, t0 in enumerate(starts):
-                P, tex, t = _measure(wing, preset, settings, ps, float(t0), seed * 1000 + k)
-                maps.append(P.astype(np.float64)), texs.append(tex), t3.append(t)
-                advance()
-            t3 = np.array(t3)
-            a0 = find_anchor_dots(texs[0], count=2)
-            a_true0 = cam.project(wing.material_to_world(SIM_ANCHORS, t3[0]))
-            order = [int(np.argmin(np.linalg.norm(a0 - x, axis=1))) for x in a_true0]
-            a0 = a0[order]
-            anchors = follow_anchors(lambda i: texs[i], n3d, [a0])[:, 0]
+            maps, texs, t3, anchors = _reconstruct_side(wing, preset, settings, ps, starts, seed * 1000, advance)
             q_mark = cam.project(wing.material_to_world(SIM_MARKERS, t3[0]))
             truth_xyz = np.stack([wing.material_to_world(SIM_MARKERS, t) for t in t3])
-            for r_ in radii:
-                res = _track_markers(maps, anchors, q_mark, None, r_, window, fill=8)
+            for meth, _ in methods:
+                res = _track_markers(maps, anchors, q_mark, None, window, fill=8, method=meth)
                 err = res.xyz[:, :len(SIM_MARKERS)] - truth_xyz
                 err[~res.ok[:, :len(SIM_MARKERS)]] = np.nan
-                recon_rows.setdefault(r_, []).extend(_marker_rows(f"{label} marker", err))
-                track_rms_recon.setdefault(r_, []).append(np.sqrt(np.nanmean(err ** 2, axis=0)))
+                recon_rows.setdefault(meth, []).extend(_marker_rows(f"{label} marker", err))
+                track_rms_recon.setdefault(meth, []).append(np.sqrt(np.nanmean(err ** 2, axis=0)))
             # --- B: noise-free truth maps (ray cast, float64) -----------------------------------
             tmaps, M0 = [], None
             for t in t3:
@@ -335,35 +380,51 @@ def run(quick: bool = False, seed: int = 0) -> dict:
                 M0 = M if M0 is None else M0
                 advance()
             ta = np.stack([cam.project(wing.material_to_world(SIM_ANCHORS, t)) for t in t3])
-            valid0 = np.isfinite(tmaps[0]).all(axis=2)
-            from scipy import ndimage
-            inner = ndimage.binary_erosion(valid0, iterations=window)
+            inner = ndimage.binary_erosion(np.isfinite(tmaps[0]).all(axis=2), iterations=window)
             vv, uu = np.mgrid[0:cam.height:grid_step, 0:cam.width:grid_step]
-            keep = inner[vv, uu]
-            grid = np.stack([uu[keep], vv[keep]], axis=1).astype(float)
-            res_t = _track_markers(tmaps, ta, q_mark, grid, radius, window, fill=0)
+            grid = np.stack([uu[inner[vv, uu]], vv[inner[vv, uu]]], axis=1).astype(float)
+            res_t = _track_markers(tmaps, ta, q_mark, grid, window, fill=0)
             err_t = res_t.xyz[:, :len(SIM_MARKERS)] - truth_xyz
             truth_rows += _marker_rows(f"{label} marker", err_t)
             track_rms_truth.append(np.sqrt(np.nanmean(err_t ** 2, axis=0)))
             rms, med, peak, n = _strain_vs_truth(wing, res_t, len(SIM_MARKERS), M0, t3)
-            strain_rows.append([f"{label} wing, truth maps", 1e6 * peak, 1e6 * rms, 100 * rms / peak,
+            strain_rows.append([f"{label} wing, truth point maps", window, "", 1e6 * peak, 1e6 * rms, 100 * rms / peak,
                                 100 * med / peak, n])
-            # strain from the reconstructed maps on the same grid (realistic noise)
-            for win in ((window,) if quick else (window, 31)):
-                res_r = _track_markers(maps, anchors, q_mark, grid, radius, win, fill=8)
-                rms_r, med_r, _, n_r = _strain_vs_truth(wing, res_r, len(SIM_MARKERS), M0, t3)
-                strain_rows.append([f"{label} wing, reconstructed (fit window {win} px)", 1e6 * peak, 1e6 * rms_r,
-                                    100 * rms_r / peak, 100 * med_r / peak, n_r])
+            # --- C: strain from the reconstructed maps (realistic noise) ------------------------
+            valid0 = np.isfinite(maps[0]).all(axis=2)
+            strain_rows.append(_strain_row(f"{label} wing, realistic noise, all points (edge erosion {window} px)",
+                                           wing, maps, anchors, q_mark, grid, big, M0, t3, 8))
+            g_in, area = interior_grid(valid0, anchors[0], big, grid_step)
+            strain_rows.append(_strain_row(f"{label} wing, realistic noise, interior", wing, maps, anchors, q_mark,
+                                           g_in, big, M0, t3, 8, area))
+        # --- D: noise-free reconstruction (no read/shot noise; real pattern → decode → triangulate) --
+        wing = sim_wing(1)
+        nmaps, _, nt3, nanch = _reconstruct_side(wing, preset, quiet, ps, nf_starts, seed * 1000 + 500, advance)
+        nq = cam.project(wing.material_to_world(SIM_MARKERS, nt3[0]))
+        NM0 = truth_map(wing, cam, nt3[0])[1]
+        nvalid = np.isfinite(nmaps[0]).all(axis=2)
+        nf_rows = []
+        g_all = ndimage.binary_erosion(nvalid, iterations=window)
+        vv, uu = np.mgrid[0:cam.height:8, 0:cam.width:8]
+        g_all = np.stack([uu[g_all[vv, uu]], vv[g_all[vv, uu]]], axis=1).astype(float)
+        nf_rows.append(_strain_row(f"right wing, noise-free recon., all points (edge erosion {window} px)", wing,
+                                   nmaps, nanch, nq, g_all, big, NM0, nt3, 8))
+        for win in ((11, 31) if quick else (11, 21, 31, 41)):
+            g_in, area = interior_grid(nvalid, nanch[0], win, 8)
+            nf_rows.append(_strain_row("right wing, noise-free recon., interior", wing, nmaps, nanch, nq, g_in, win,
+                                       NM0, nt3, 8, area))
+        strain_rows += nf_rows
     cols6 = ["marker", "mean |ΔX| mm", "mean |ΔY| mm", "mean |ΔZ| mm", "RMS ΔX mm", "RMS ΔY mm", "RMS ΔZ mm", "frames"]
-    for r_ in radii:
+    for meth, name in methods:
         tables.append({"title": f"tracking error, simulate→reconstruct→track ({n3d} 3D frames 2.5 ms apart, 25 Hz "
-                                f"beat, geodesic window {2 * r_ + 1}×{2 * r_ + 1}) — cf. Table 6.1",
-                       "columns": cols6, "rows": recon_rows[r_]})
+                                f"beat; geodesics: {name}) — cf. Table 6.1",
+                       "columns": cols6, "rows": recon_rows[meth]})
     tables.append({"title": "tracking error on noise-free truth point maps (geodesic method only)",
                    "columns": cols6, "rows": truth_rows})
-    tables.append({"title": f"dominant bending strain vs the analytic wing (h = {THICKNESS} mm)",
-                   "columns": ["data", "peak |E| µε", "RMS error µε", "RMS error % of peak", "median |error| % of peak",
-                               "samples"], "rows": strain_rows})
+    tables.append({"title": f"dominant bending strain vs the analytic wing (h = {THICKNESS} mm); interior = fit window "
+                            f"≥ {EDGE_MARGIN} px inside the wing outline and clear of the {DOT_MARGIN} px filled dot disks",
+                   "columns": ["data", "fit window px", "interior % of wing", "peak |E| µε", "RMS error µε",
+                               "RMS error % of peak", "median |error| % of peak", "samples"], "rows": strain_rows})
     # --- rigid motion: constant curvature, flapping only -----------------------------------------
     rigid = sim_wing(1, kappa_amp=0.0)
     rigid.kappa_mean = 1 / 150.0
@@ -371,79 +432,77 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     rmaps = [truth_map(rigid, cam, t)[0] for t in rt]
     ra = np.stack([cam.project(rigid.material_to_world(SIM_ANCHORS, t)) for t in rt])
     rq = cam.project(rigid.material_to_world(SIM_MARKERS, rt[0]))
-    from fringe3d.analyze.strain import local_shape
     rtruth = [local_shape(m_, cam.project(rigid.material_to_world(SIM_MARKERS, t)), window,
                           toward=rigid.material_to_world(SIM_ANCHORS[1:], t)[0]) for m_, t in zip(rmaps, rt)]
     rigid_rows = [["exact material points (strain computation alone)",
                    float(max(np.abs(0.5 * THICKNESS * (x.second_form - rtruth[0].second_form)).max() for x in rtruth))]]
     rigid_max = {}
-    for r_ in radii:
-        rres = _track_markers(rmaps, ra, rq, None, r_, window, fill=0)
-        rigid_max[r_] = float(np.nanmax(np.abs(rres.E[:, rres.ok.all(axis=0)])))
-        rigid_rows.append([f"geodesic tracking, {2 * r_ + 1}×{2 * r_ + 1} window", rigid_max[r_]])
-    # --- noise floor: the same pose measured twice (independent noise) ---------------------------
+    for meth, name in methods:
+        rres = _track_markers(rmaps, ra, rq, None, window, fill=0, method=meth)
+        rigid_max[meth] = float(np.nanmax(np.abs(rres.E[:, rres.ok.all(axis=0)])))
+        rigid_rows.append([f"geodesic tracking ({name})", rigid_max[meth]])
+    # --- noise floor: the same pose measured twice (independent noise), interior points ----------
     wing = sim_wing(1)
     Pa, texa, ta_ = _measure(wing, preset, settings, ps, 0.01, seed * 1000 + 901)
     Pb, _, _ = _measure(wing, preset, settings, ps, 0.01, seed * 1000 + 902)
     aa = cam.project(wing.material_to_world(SIM_ANCHORS, ta_))
-    valid = np.isfinite(Pa).all(axis=2)
-    from scipy import ndimage
-    inner = ndimage.binary_erosion(valid, iterations=16)
-    vv, uu = np.mgrid[0:cam.height:grid_step, 0:cam.width:grid_step]
-    gq = np.stack([uu[inner[vv, uu]], vv[inner[vv, uu]]], axis=1).astype(float)
     floor_rows = []
     for win in ((11, 31) if quick else (11, 21, 31)):
-        from fringe3d.analyze.strain import wing_sequence
+        gq, _ = interior_grid(np.isfinite(Pa).all(axis=2), aa, win, 8)
         nres = wing_sequence([Pa.astype(float), Pb.astype(float)], np.stack([aa, aa]), gq, THICKNESS, win,
-                             radius=radius, fill_dots=8)
+                             fill_dots=8)
         okn = nres.ok[1]
         floor_rows.append([win, 1e6 * float(np.sqrt(np.mean(nres.dominant[1][okn] ** 2))), int(okn.sum())])
-    tables.append({"title": "strain noise floor: one pose measured twice with independent sensor noise",
+    tables.append({"title": "strain noise floor: one pose measured twice with independent sensor noise (interior)",
                    "columns": ["fit window px", "RMS dominant E µε", "points"], "rows": floor_rows})
+    geo_rows = _geodesic_comparison(cam, sim_wing(1), 0.01)
     tables.append({"title": f"geodesic distance from anchor 1 on the wing's truth map ({cam.width}×{cam.height}), "
                             "error vs the exact (flat-sheet) distance",
-                   "columns": ["method", "mean rel. error %", "95th pct %", "max %", "time ms"],
-                   "rows": _geodesic_comparison(cam, sim_wing(1), 0.01)})
+                   "columns": ["method", "mean rel. error %", "95th pct %", "max %", "time ms"], "rows": geo_rows})
     tables.append({"title": "rigid motion (constant curvature 1/150 mm, flapping only, truth maps)",
                    "columns": ["material points", "max |E| over markers and frames"], "rows": rigid_rows})
-    worst = {r_: float(np.nanmax(np.stack(v))) for r_, v in track_rms_recon.items()}
-    worst_recon = worst[3]
+    worst = {m: float(np.nanmax(np.stack(v))) for m, v in track_rms_recon.items()}
     worst_truth = float(np.nanmax(np.stack(track_rms_truth)))
-    bez = tables[-2]["rows"][0]
-    goals["geodesic mean relative error ≤ 0.5 % (Bézier 7×7)"] = bool(bez[1] <= 0.5)
-    for r_ in radii:
-        goals[f"tracking RMS ≤ 0.5 mm per axis (reconstructed, {2 * r_ + 1}×{2 * r_ + 1})"] = bool(worst[r_] <= 0.5)
-    goals["tracking RMS ≤ 1.24 mm per axis (dissertation's worst; 7×7)"] = bool(worst_recon <= 1.24)
-    truth_strain = [r for r in strain_rows if "truth maps" in r[0]]
-    goals["strain RMS error ≤ 5 % of peak (noise-free)"] = bool(all(r[3] <= 5.0 for r in truth_strain))
-    for r_ in radii:
-        goals[f"rigid motion |E| < 1e-6 (tracked, {2 * r_ + 1}×{2 * r_ + 1})"] = bool(rigid_max[r_] < 1e-6)
+    geo = {r[0]: r for r in geo_rows}
+    nf_best = [r for r in nf_rows if "interior" in r[0] and r[1] == big][0]
+    goals["geodesic mean relative error ≤ 0.5 % (Bézier 7×7 + wavefront)"] = bool(geo[GEO_WAVE][1] <= 0.5)
+    goals["tracking RMS ≤ 0.5 mm per axis (reconstructed, Bézier 7×7 + wavefront)"] = bool(worst["bezier"] <= 0.5)
+    goals["tracking RMS ≤ 1.24 mm per axis (dissertation's worst; edge-only 7×7)"] = bool(worst["bezier-edges"] <= 1.24)
+    goals["strain RMS error ≤ 5 % of peak, truth point maps"] = bool(
+        all(r[5] <= 5.0 for r in strain_rows if "truth point maps" in r[0]))
+    goals[f"strain RMS error ≤ 5 % of peak, noise-free reconstruction, interior, {big} px fit"] = bool(nf_best[5] <= 5.0)
+    goals["rigid motion |E| < 1e-6 (tracked, Bézier 7×7 + wavefront)"] = bool(rigid_max["bezier"] < 1e-6)
     notes += [
         f"simulated with the simulator's Wing scene (fringe3d.sim.wing) and the high-speed preset camera "
         f"({cam.width}×{cam.height}) at {FRAME_RATE:.0f} Hz; each 3D frame is a 5-image burst (3-step dithered "
         "T=380 for histogram unwrapping + π-shifted area-modulated T=24 pair for modified FTP), decoded by "
         "fringe3d.decode and triangulated by fringe3d.reconstruct",
-        "anchors: found as dark dots in the decoded texture, followed frame to frame; their unreconstructed "
-        "(dark) holes are filled from the surrounding surface. Markers are five material points (not painted: "
-        "bright dots disturb FTP); they start at their projected truth positions on the first frame and are "
-        "compared with the simulator's exact positions (the dissertation compared with extracted marker centres)",
-        f"worst per-axis tracking RMS (7×7): {worst_recon:.2f} mm reconstructed, {worst_truth:.2f} mm on truth maps",
-        "rigid-motion strain comes from tracking error: a point tracked 0.5 mm off on a 1/150 mm⁻¹ wing sees its "
-        "material basis turned by ~0.5/120 rad, i.e. ~1e-6 strain; the strain computation alone is exact",
-        "strain on reconstructed maps is dominated by systematic modified-FTP errors at the wing edges and around "
-        "the anchor dots (curvature errors ~1e-3 /mm); the repeatability (noise floor) is much smaller: bending "
-        "strain of a 0.1 mm membrane is only a few hundred µε",
+        "geodesics: the dissertation's edge-only 7×7 Bézier Dijkstra chains the 32 stencil directions, so it "
+        f"overestimates by up to 1.3 % ({geo[GEO_EDGES][1]:.2f} % mean here; 0.49 % is the expected mean for "
+        "uniformly spread directions) — direction quantisation, not Bézier step length or source rounding. The "
+        "default adds a virtual-source update over the triangles of adjacent stencil directions and seeds a 3 px "
+        f"disk around the sub-pixel anchor with exact distances: {geo[GEO_WAVE][1]:.4f} % mean",
+        f"worst per-axis tracking RMS: {worst['bezier']:.2f} mm reconstructed (wavefront), "
+        f"{worst['bezier-edges']:.2f} mm with edge-only geodesics, {worst_truth:.3f} mm on truth maps",
+        "anchors: found as dark dots in the decoded texture (darkness-weighted centroids), followed frame to "
+        "frame; their unreconstructed holes are filled from the surrounding surface. Markers are five material "
+        "points (not painted: bright dots disturb FTP), compared with the simulator's exact positions",
+        f"strain on reconstructed maps: modified FTP biases the surface within ~{EDGE_MARGIN} px of the wing outline "
+        "(0.4–0.6 mm RMS vs 0.03 mm inside), which wrecks curvature fits that reach there; 'interior' rows keep "
+        f"points whose fit window stays ≥ {EDGE_MARGIN} px inside the outline and off the filled dots — the "
+        "interior % column is the share of the wing that qualifies (small: edges + half the window)",
+        f"noise-free reconstruction = read and shot noise off (8-bit quantisation and the whole pattern → decode → "
+        f"triangulate chain kept), right wing, 4 bursts over half a cycle; goal judged at the {big} px window",
         "the 'left' wing is the simulator's wing rotated 180° about the image y axis (rendered separately: "
         "both 150 mm wings do not fit the preset's 180 mm-wide volume at once)" if len(sides) > 1 else
-        "quick: right wing only, 4 3D frames over the first quarter cycle, 7×7 geodesic window only",
+        "quick: right wing only, 4 3D frames over the first quarter cycle",
     ]
     return {"tables": tables, "goals": goals, "notes": notes,
             "dissertation": {"tracking mean diff (max)": "≈1.2 mm X/Y, 0.80 mm Z",
                              "tracking RMS diff (max)": "1.24 mm (left marker 5, Y)",
                              "wing": "150×70 mm, 25 Hz, 5,000 Hz capture"},
-            "figures": {"worst_tracking_rms_mm": {f"{2 * r_ + 1}x{2 * r_ + 1}": v for r_, v in worst.items()},
-                        "worst_tracking_rms_truth_mm": worst_truth,
-                        "rigid_max_abs_E": {f"{2 * r_ + 1}x{2 * r_ + 1}": v for r_, v in rigid_max.items()},
-                        "rigid_max_abs_E_exact_points": rigid_rows[0][1],
-                        "strain_rms_pct_truth": [r[3] for r in truth_strain],
-                        "geodesic_mean_rel_err_pct": {r[0]: r[1] for r in tables[-2]["rows"]}}}
+            "figures": {"worst_tracking_rms_mm": worst, "worst_tracking_rms_truth_mm": worst_truth,
+                        "rigid_max_abs_E": rigid_max, "rigid_max_abs_E_exact_points": rigid_rows[0][1],
+                        "strain_rms_pct_noise_free_interior": {int(r[1]): r[5] for r in nf_rows if "interior" in r[0]},
+                        "strain_rms_pct_truth": [r[5] for r in strain_rows if "truth point maps" in r[0]],
+                        "geodesic_mean_rel_err_pct": {r[0]: r[1] for r in geo_rows}}}
