@@ -10,8 +10,10 @@
     modulation); peers: OpenCV ``SinusoidalPattern.computePhaseMap`` (PSP) and ``fringes``
     ``decode(unwrap=False)``.
 
-Bound (same run): copying the input bytes (``frames.copy()``) plus NumPy's vectorised
-``np.arctan2`` over the output pixels (float32) - the work any decoder must do.
+Bound (same run): copying the input bytes (``np.copyto`` into a preallocated stack) plus NumPy's
+vectorised ``np.arctan2`` over the output pixels (float32 in and out) - the work any decoder must
+do; the same function (:func:`fringe3d.decode.timing.bound_times`) as ``python -m
+fringe3d.decode.timing``. ``--threads N`` sets numba's thread count (default: all cores).
 
 Peers run in a separate interpreter (``--peer-python``, default ``$FRINGE3D_BENCH_PYTHON``,
 else ``/tmp/benchvenv/bin/python`` if it exists, else this one) so that
@@ -69,14 +71,13 @@ def make_frames():
 
 
 def bound_time(frames: np.ndarray, repeat: int) -> float:
-    """Copy of the input bytes + np.arctan2 over the output pixels (float32), timed separately."""
-    y = np.random.default_rng(1).standard_normal((H, W)).astype(np.float32)
-    x = np.random.default_rng(2).standard_normal((H, W)).astype(np.float32)
-    out = np.empty((H, W), np.float32)
-    t_copy = median_time(lambda: frames.copy(), repeat, "copy")
-    t_atan = median_time(lambda: np.arctan2(y, x, out=out), repeat, "atan")
-    BEST[f"bound{len(frames)}"] = BEST["copy"] + BEST["atan"]
-    return t_copy + t_atan
+    """Copy of the input bytes + np.arctan2 over the output pixels (float32 in, float32 out),
+    the definition shared with ``python -m fringe3d.decode.timing``
+    (:func:`fringe3d.decode.timing.bound_times`); median returned, best kept in ``BEST``."""
+    from fringe3d.decode.timing import bound_times
+    b = bound_times(frames, repeat)
+    BEST[f"bound{len(frames)}"] = b["best"]
+    return b["median"]
 
 
 def ours(ps15, f15, ps3, f3, truth, repeat: int) -> dict:
@@ -179,7 +180,12 @@ def main(argv=None) -> dict:
     ap.add_argument("--peer-python", default=None, help="interpreter with fringes / opencv-contrib installed")
     ap.add_argument("--no-peers", action="store_true", help="time fringe3d and the bound only")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap.add_argument("--threads", type=int, default=None, help="numba threads (default: all cores)")
     args = ap.parse_args(argv)
+    import numba
+    if args.threads:
+        numba.set_num_threads(args.threads)
+    load_start = round(os.getloadavg()[0], 1)
     ps15, f15, ps3, f3, truth = make_frames()
     r = {"repeat": args.repeat, "size": [W, H]}
     r["ours"] = ours(ps15, f15, ps3, f3, truth, args.repeat)
@@ -187,9 +193,8 @@ def main(argv=None) -> dict:
     r["best_s"] = {"(a) bound": BEST["bound15"], "(a) decode": BEST["a_decode"], "(a) kernel": BEST["a_kernel"],
                    "(b) bound": BEST["bound3"], "(b) wrapped_phase": BEST["b"],
                    "(b) decode": BEST["b_decode"]}
-    import numba
     r["numba_threads"] = numba.get_num_threads()
-    r["load_average"] = round(os.getloadavg()[0], 1)
+    r["load_average"] = f"{load_start} -> {round(os.getloadavg()[0], 1)}"
     r["peers"] = ({"fringes": {"status": "not installed"}, "opencv": {"status": "not installed"}} if args.no_peers
                   else peers(f3, args.repeat, peer_python(args.peer_python)))
     print(json.dumps(r, indent=1) if args.json else table(r))

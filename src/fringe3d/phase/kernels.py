@@ -224,12 +224,54 @@ def fast_atan2_f32(y, x):
 
 @njit(cache=True, inline="always", fastmath=FASTMATH)
 def _mod_2pi_f32(x):
-    return x - _F2PI * math.floor(x * _FINV2PI)
+    # np.floor keeps float32 (math.floor returns int64, which would promote the products to float64
+    # and stop the loop vectorising in float32)
+    return x - _F2PI * np.floor(x * _FINV2PI)
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH)
 def _round_f32(x):
-    return math.floor(x + _FHALF)
+    return np.floor(x + _FHALF)
+
+
+#: Columns per chunk in :func:`three_frequency_kernel`: the chunk's nine running sums
+#: (9 x 256 x 4 bytes) stay in the L1 cache while the frames stream through.
+COL_CHUNK = 256
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH)
+def _accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak):
+    """:func:`_accumulate_row` over columns ``j0 .. j0 + n - 1`` of row ``i`` into ``a/b/c/peak[:n]``."""
+    nf = index.shape[0]
+    k = 0
+    while k + 3 <= nf:
+        r0 = frames[index[k], i, j0:j0 + n]
+        r1 = frames[index[k + 1], i, j0:j0 + n]
+        r2 = frames[index[k + 2], i, j0:j0 + n]
+        a0, a1, a2 = coef[0, k], coef[0, k + 1], coef[0, k + 2]
+        b0, b1, b2 = coef[1, k], coef[1, k + 1], coef[1, k + 2]
+        c0, c1, c2 = coef[2, k], coef[2, k + 1], coef[2, k + 2]
+        for j in range(n):
+            x0 = np.float32(r0[j])
+            x1 = np.float32(r1[j])
+            x2 = np.float32(r2[j])
+            a[j] += a0 * x0 + a1 * x1 + a2 * x2
+            b[j] += b0 * x0 + b1 * x1 + b2 * x2
+            c[j] += c0 * x0 + c1 * x1 + c2 * x2
+            peak[j] = max(peak[j], max(x0, max(x1, x2)))
+        k += 3
+    while k < nf:
+        row = frames[index[k], i, j0:j0 + n]
+        ca = coef[0, k]
+        cb = coef[1, k]
+        cc = coef[2, k]
+        for j in range(n):
+            x = np.float32(row[j])
+            a[j] += ca * x
+            b[j] += cb * x
+            c[j] += cc * x
+            peak[j] = max(peak[j], x)
+        k += 1
 
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
@@ -265,51 +307,45 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
     nan = np.float32(np.nan)
     nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
     for blk in prange(nblk):
-        a1 = np.empty(w, np.float32)
-        b1 = np.empty(w, np.float32)
-        c1 = np.empty(w, np.float32)
-        a2 = np.empty(w, np.float32)
-        b2 = np.empty(w, np.float32)
-        c2 = np.empty(w, np.float32)
-        b3 = np.empty(w, np.float32)
-        c3 = np.empty(w, np.float32)
-        peak = np.empty(w, np.float32)
+        acc = np.empty((9, COL_CHUNK), np.float32)
+        a1, b1, c1, a2, b2, c2, b3, c3, peak = acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], acc[6], acc[7], acc[8]
         for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
-            a1[:] = 0
-            b1[:] = 0
-            c1[:] = 0
-            a2[:] = 0
-            b2[:] = 0
-            c2[:] = 0
-            b3[:] = 0
-            c3[:] = 0
-            peak[:] = -np.inf
-            _accumulate_row(frames, idx1, coef1, i, a1, b1, c1, peak)
-            _accumulate_row(frames, idx2, coef2, i, a2, b2, c2, peak)
-            _accumulate_row(frames, idx3, coef3, i, a2, b3, c3, peak)  # a of groups 2, 3 unused
-            for j in range(w):
-                m1 = b1[j] * b1[j] + c1[j] * c1[j]
-                m2 = b2[j] * b2[j] + c2[j] * c2[j]
-                m3 = b3[j] * b3[j] + c3[j] * c3[j]
-                p1 = fast_atan2_f32(-c1[j], b1[j])
-                p2 = fast_atan2_f32(-c2[j], b2[j])
-                p3 = fast_atan2_f32(-c3[j], b3[j])
-                x12 = _mod_2pi_f32(s12 * (p1 - p2))
-                x123 = _mod_2pi_f32(s123 * (x12 - p3))
-                big = lower + _mod_2pi_f32(x123 - lower)
-                d1 = big * r_top - x12
-                k1 = _round_f32(d1 * _FINV2PI)
-                big = x12 + _F2PI * k1
-                d2 = big * r_mid - p1
-                k2 = _round_f32(d2 * _FINV2PI)
-                absolute = p1 + _F2PI * k2
-                consistent = (abs(d1 - _F2PI * k1) <= max_res) and (abs(d2 - _F2PI * k2) <= max_res)
-                ok = (min(m1, min(m2, m3)) >= min_mod2) and (peak[j] < sat_level) and consistent
-                wrapped[i, j] = p1
-                modulation[i, j] = math.sqrt(m1)
-                average[i, j] = a1[j]
-                mask[i, j] = ok
-                phase[i, j] = absolute if ok else nan
+            for j0 in range(0, w, COL_CHUNK):
+                n = min(COL_CHUNK, w - j0)
+                acc[:8] = 0
+                peak[:] = -np.inf
+                _accumulate_chunk(frames, idx1, coef1, i, j0, n, a1, b1, c1, peak)
+                _accumulate_chunk(frames, idx2, coef2, i, j0, n, a2, b2, c2, peak)
+                _accumulate_chunk(frames, idx3, coef3, i, j0, n, a2, b3, c3, peak)  # a of groups 2, 3 unused
+                ph = phase[i, j0:j0 + n]
+                wr = wrapped[i, j0:j0 + n]
+                mo = modulation[i, j0:j0 + n]
+                av = average[i, j0:j0 + n]
+                ma = mask[i, j0:j0 + n]
+                for j in range(n):
+                    m1 = b1[j] * b1[j] + c1[j] * c1[j]
+                    m2 = b2[j] * b2[j] + c2[j] * c2[j]
+                    m3 = b3[j] * b3[j] + c3[j] * c3[j]
+                    p1 = fast_atan2_f32(-c1[j], b1[j])
+                    p2 = fast_atan2_f32(-c2[j], b2[j])
+                    p3 = fast_atan2_f32(-c3[j], b3[j])
+                    x12 = _mod_2pi_f32(s12 * (p1 - p2))
+                    x123 = _mod_2pi_f32(s123 * (x12 - p3))
+                    big = lower + _mod_2pi_f32(x123 - lower)
+                    d1 = big * r_top - x12
+                    k1 = _round_f32(d1 * _FINV2PI)
+                    big = x12 + _F2PI * k1
+                    d2 = big * r_mid - p1
+                    k2 = _round_f32(d2 * _FINV2PI)
+                    absolute = p1 + _F2PI * k2
+                    # non-short-circuit '&' so the loop stays branch-free (vectorised)
+                    consistent = (abs(d1 - _F2PI * k1) <= max_res) & (abs(d2 - _F2PI * k2) <= max_res)
+                    ok = (min(m1, min(m2, m3)) >= min_mod2) & (peak[j] < sat_level) & consistent
+                    wr[j] = p1
+                    mo[j] = math.sqrt(m1)
+                    av[j] = a1[j]
+                    ma[j] = ok
+                    ph[j] = absolute if ok else nan
 
 
 @njit(cache=True, parallel=True)
@@ -350,3 +386,4 @@ def code_order_kernel(frames, code_idx, inverse_idx, threshold, wrapped, period,
                 valid_out[i, j] = True
                 order_out[i, j] = np.int32(k)
                 phase_out[i, j] = phi + TWO_PI * k
+
