@@ -142,7 +142,7 @@ class Mesh(SceneObject):
         R, c = self.pose(time)
         ob, db = rigid_to_body(o, R, c), rigid_to_body(d, R)
         t, normal, uv = self._refine(ob, db, self._rays.first(ob, db), R)
-        return self._finish(t, normal, uv, d)
+        return self._finish(t, normal, uv, d, reuse=True)
 
     def hit_distance(self, origins, dirs, time: float = 0.0) -> np.ndarray:
         """Ray parameter (N,) of the first hit, ``inf`` where :meth:`intersect` reports a miss

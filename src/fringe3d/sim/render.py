@@ -306,10 +306,31 @@ def occluded(scene, origins, dirs, tmax, time: float) -> np.ndarray:
     return blocked
 
 
-def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = True) -> Geometry:
+def _buffer(work: dict | None, name: str, shape, dtype=np.float64) -> np.ndarray:
+    """``np.empty(shape, dtype)``, or the array kept under ``name`` in ``work`` (reused from an
+    earlier frame when the shape and dtype match; fresh megapixel arrays cost page faults)."""
+    if work is None:
+        return np.empty(shape, dtype)
+    a = work.get(name)
+    if a is None or a.shape != tuple(shape) or a.dtype != dtype:
+        a = work[name] = np.empty(shape, dtype)
+    return a
+
+
+def _where(mask, values, out):
+    """``np.where(mask, values, 0.0)`` written into ``out``."""
+    out.fill(0.0)
+    np.copyto(out, values, where=mask)
+    return out
+
+
+def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = True,
+         work: dict | None = None) -> Geometry:
     """Intersect the camera rays with the scene at ``time`` and map hits into the projector.
 
     ``origins`` is (1, 3) for a pinhole camera (shared centre) or (N, 3); ``dirs`` (N, 3) unit.
+    ``work``: a dict of buffers to write the Geometry's per-pixel arrays into (reused across
+    calls with the same dict, so an earlier Geometry cast with it is overwritten).
     """
     h = intersect_culled(scene, origins, dirs, time)
     n_pix = dirs.shape[0]
@@ -318,11 +339,10 @@ def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = T
     tele = getattr(cam, "kind", "pinhole") == "telecentric"
     cam_r2 = np.zeros(3) if tele else np.ascontiguousarray(cam.R[2], dtype=float)
     cam_t2 = 0.0 if tele else float(cam.t[2])
-    pts = np.empty((n_pix, 3))
-    normal = np.empty((n_pix, 3))
-    L = np.empty((n_pix, 3))
-    depth, up, vp, pdepth, cosine, dist = (np.empty(n_pix) for _ in range(6))
-    inside = np.empty(n_pix, np.bool_)
+    pts, normal, L = (_buffer(work, k, (n_pix, 3)) for k in ("points", "normal", "L"))
+    depth, up, vp, pdepth, cosine, dist = (_buffer(work, k, (n_pix,)) for k in
+                                           ("depth", "up", "vp", "proj_depth", "cosine", "dist"))
+    inside = _buffer(work, "inside", (n_pix,), np.bool_)
     _map_hits(origins, dirs, np.ascontiguousarray(h.t, dtype=float), oid,
               np.ascontiguousarray(h.normal, dtype=float), cam_r2, cam_t2, tele, float(depth_offset),
               np.ascontiguousarray(proj.R), np.ascontiguousarray(proj.t), np.ascontiguousarray(proj.K),
@@ -335,11 +355,11 @@ def cast(scene, rig, origins, dirs, depth_offset, time: float, shadows: bool = T
             j, o, d, tmax = np.empty(m, np.int64), np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
             _shadow_rays(inside, pts, normal, L, dist, j, o, d, tmax)
             inside[j[occluded(scene, o, d, tmax, time)]] = False
-    shade = np.where(inside, cosine, 0.0)
+    shade = _where(inside, cosine, _buffer(work, "shade", (n_pix,)))
     muv = getattr(h, "material_uv", None)
     extras = object_extras(scene, oid, muv, time)
     return Geometry(hit=hit, points=pts, depth=depth, normal=normal, object_id=oid,
-                    albedo=np.where(hit, np.asarray(h.albedo, float), 0.0),
+                    albedo=_where(hit, np.asarray(h.albedo, float), _buffer(work, "albedo", (n_pix,))),
                     material_uv=None if muv is None else np.asarray(muv, float),
                     up=up, vp=vp, shade=shade, lit=inside, proj_depth=pdepth, extras=extras)
 
@@ -542,6 +562,7 @@ def render(scene, rig, patterns, settings: RenderSettings | None = None, times=N
     sampler = PatternSampler(patterns, s)
     dirs_info = directions_of(patterns)
     per_frame = TruthFrames(len(times))  # per-frame truth of a moving scene
+    work = [{} for _ in range(max(1, s.motion_samples))]  # a moving scene's cast buffers
     truth_times: list[float] = []
     frames = []
     geo0 = cast(scene, rig, origins, dirs, off, float(times[0]), s.shadows) if static else None
@@ -556,8 +577,8 @@ def render(scene, rig, patterns, settings: RenderSettings | None = None, times=N
             else:
                 sub = motion_subtimes(float(tk), s)
                 img = np.zeros(H * W)
-                for j, ts in enumerate(sub):
-                    g = cast(scene, rig, origins, dirs, off, ts, s.shadows)
+                for j, ts in enumerate(sub):  # buffers reused per sub-sample index across frames
+                    g = cast(scene, rig, origins, dirs, off, ts, s.shadows, work=work[j])
                     if j == len(sub) // 2:  # truth at the middle sub-sample of the exposure
                         geo, t_truth = g, ts
                     img += irradiance(g, sampler.values(spec, g), s, amb) / len(sub)

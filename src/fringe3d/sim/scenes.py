@@ -127,16 +127,23 @@ def rigid_to_body(x, R, c=None):
 
 @numba.njit(cache=True)
 def _finish_kernel(t, n, d, uv, t_out, n_out, id_out, uv_out, hit):
-    """Mark hits, copy t and uv, normalise normals and turn them to face the ray."""
+    """Mark hits, copy t and uv, normalise normals and turn them to face the ray; misses get
+    t = inf, normal = uv = NaN, id = -1. Outputs may be the inputs (row i is read first)."""
     count = 0
+    nan = np.nan
     for i in range(t.shape[0]):
         ti = t[i]
-        hit[i] = False
-        if not (ti > 1e-9 and ti < np.inf):
-            continue
         nx, ny, nz = n[i, 0], n[i, 1], n[i, 2]
         nn = np.sqrt(nx * nx + ny * ny + nz * nz)
-        if not nn > 0:
+        if not (ti > 1e-9 and ti < np.inf) or not nn > 0:
+            hit[i] = False
+            t_out[i] = np.inf
+            n_out[i, 0] = nan
+            n_out[i, 1] = nan
+            n_out[i, 2] = nan
+            id_out[i] = -1
+            uv_out[i, 0] = nan
+            uv_out[i, 1] = nan
             continue
         if nx * d[i, 0] + ny * d[i, 1] + nz * d[i, 2] > 0:
             nn = -nn
@@ -253,13 +260,23 @@ class SceneObject:
             a *= np.clip(self.texture(uv), 0.0, 1.0)
         return a
 
-    def _finish(self, t, normal, uv, d) -> Hit:
-        """Assemble a Hit: misses get the miss values, normals are unit and face the ray."""
-        h = Hit.miss(len(d))
-        hit = np.empty(len(d), np.bool_)
-        uv = h.material_uv if uv is None else np.ascontiguousarray(uv, dtype=np.float64)
-        count = _finish_kernel(np.ascontiguousarray(t, dtype=np.float64), np.ascontiguousarray(normal), d,
-                               uv, h.t, h.normal, h.object_id, h.material_uv, hit)
+    def _finish(self, t, normal, uv, d, reuse: bool = False) -> Hit:
+        """Assemble a Hit: misses get the miss values, normals are unit and face the ray.
+
+        ``reuse=True`` lets the Hit take over ``t``, ``normal`` and ``uv`` (fresh float64
+        arrays the caller will not use again) instead of copying them."""
+        n = len(d)
+        t = np.ascontiguousarray(t, dtype=np.float64)
+        normal = np.ascontiguousarray(normal, dtype=np.float64)
+        uv = np.full((n, 2), np.nan) if uv is None else np.ascontiguousarray(uv, dtype=np.float64)
+        if reuse:
+            t_out, n_out, uv_out = t, normal, uv
+        else:
+            t_out, n_out, uv_out = np.empty(n), np.empty((n, 3)), np.empty((n, 2))
+        oid = np.empty(n, np.int32)
+        hit = np.empty(n, np.bool_)
+        count = _finish_kernel(t, normal, d, uv, t_out, n_out, oid, uv_out, hit)
+        h = Hit(t=t_out, normal=n_out, object_id=oid, albedo=np.zeros(n), material_uv=uv_out)
         if count:
             idx = np.flatnonzero(hit)
             h.albedo[idx] = self.albedo_at(h.material_uv[idx])
@@ -411,7 +428,7 @@ class Plane(SceneObject):
                       float(half[0]), float(half[1]), t, uv)
         normal = np.empty_like(d)
         normal[:] = R[:, 2]
-        return self._finish(t, normal, uv, d)
+        return self._finish(t, normal, uv, d, reuse=True)
 
     def hit_distance(self, origins, dirs, time: float = 0.0) -> np.ndarray:
         o, d = as_rays(origins, dirs)
@@ -471,7 +488,7 @@ class Sphere(SceneObject):
             nb = rigid_to_body(n[idx], R)  # body-frame unit vector (numba: no BLAS threads)
             uv[idx, 0] = np.arctan2(nb[:, 1], nb[:, 0])
             uv[idx, 1] = np.arcsin(np.clip(nb[:, 2], -1, 1))
-        return self._finish(t, n, uv, d)
+        return self._finish(t, n, uv, d, reuse=True)
 
     def hit_distance(self, origins, dirs, time: float = 0.0) -> np.ndarray:
         o, d = as_rays(origins, dirs)
@@ -584,9 +601,16 @@ class Scene:
 
     def intersect(self, origins, dirs, time: float = 0.0) -> Hit:
         o, d = as_rays(origins, dirs)
-        best = Hit.miss(len(d))
+        best = None
         for i, ob in enumerate(self.objects):
-            best.merge_nearer(ob.intersect(o, d, time), i)
+            h = ob.intersect(o, d, time)
+            if best is None and _is_fresh_hit(h, len(d)):
+                best = h  # the first object's own record, relabelled (object 0): no copy
+                best.object_id[best.object_id >= 0] = 0
+                continue
+            if best is None:
+                best = Hit.miss(len(d))
+            best.merge_nearer(h, i)
         return best
 
     def truth_fields(self, points, hit: Hit, time: float = 0.0) -> dict:
@@ -608,6 +632,17 @@ class Scene:
                 if rows.size:
                     out[name][rows] = val
         return out
+
+
+def _is_fresh_hit(h, n: int) -> bool:
+    """Whether ``h`` is a :class:`Hit` of ``n`` rays with writable arrays of the merge kernel's
+    dtypes (so :meth:`Scene.intersect` can keep it as its running nearest hit)."""
+    if not isinstance(h, Hit):
+        return False
+    want = ((h.t, np.float64, (n,)), (h.normal, np.float64, (n, 3)), (h.object_id, np.int32, (n,)),
+            (h.albedo, np.float64, (n,)), (h.material_uv, np.float64, (n, 2)))
+    return all(isinstance(a, np.ndarray) and a.dtype == dt and a.shape == sh and a.flags.writeable
+               and a.flags.c_contiguous and a.base is None for a, dt, sh in want)
 
 
 def named_scene(name: str, preset) -> "Scene":
