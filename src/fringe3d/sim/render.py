@@ -18,6 +18,7 @@ A static scene is cast once and reused for every frame; a moving scene is re-cas
 """
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numba
@@ -438,10 +439,39 @@ def sample(image: np.ndarray, up: np.ndarray, vp: np.ndarray) -> np.ndarray:
                     np.ascontiguousarray(vp, float), out)
 
 
+#: Blurred projector images shared by every render call: key -> read-only (H, W) float64.
+_IMAGE_CACHE: "OrderedDict[tuple, np.ndarray]" = OrderedDict()
+#: Most projector images kept in :data:`_IMAGE_CACHE` (about 8 MB each at 912 x 1140).
+IMAGE_CACHE_SIZE = 12
+
+
+def projector_image(spec, width: int, height: int, defocus: str, size: float) -> np.ndarray:
+    """The projector image of frame ``spec`` (``render_frame``) blurred by the defocus OTF of
+    ``size`` (Eq. 2.22-2.26), (height, width) float64, read-only.
+
+    Kept in a small least-recently-used cache across render calls (a pattern set rendered
+    again, e.g. a repeated capture or a benchmark, does not re-render and re-blur it)."""
+    key = (spec, int(width), int(height), str(defocus), round(float(size), 6))
+    img = _IMAGE_CACHE.get(key)
+    if img is not None:
+        _IMAGE_CACHE.move_to_end(key)
+        return img
+    from fringe3d.patterns.render import render_frame
+    img = render_frame(spec, width, height).astype(np.float64)
+    if defocus != "none" and size > 0:
+        img = blur_pattern(img, defocus, size)
+    img.setflags(write=False)
+    _IMAGE_CACHE[key] = img
+    while len(_IMAGE_CACHE) > IMAGE_CACHE_SIZE:
+        _IMAGE_CACHE.popitem(last=False)
+    return img
+
+
 class PatternSampler:
     """Pattern values at projector coordinates for one pattern set and render settings.
 
-    Caches the (blurred) projector image of each distinct frame spec.
+    Keeps the images it used (up to 64) and takes new ones from :func:`projector_image`
+    (cached across calls).
     """
 
     def __init__(self, patterns, settings: RenderSettings):
@@ -452,13 +482,10 @@ class PatternSampler:
     def _image(self, spec, size: float) -> np.ndarray:
         key = (spec, round(float(size), 6))
         if key not in self._cache:
-            from fringe3d.patterns.render import render_frame
-            img = render_frame(spec, self.patterns.width, self.patterns.height).astype(np.float64)
-            if self.settings.defocus != "none" and size > 0:
-                img = blur_pattern(img, self.settings.defocus, size)
             if len(self._cache) > 64:
                 self._cache.clear()
-            self._cache[key] = img
+            self._cache[key] = projector_image(spec, self.patterns.width, self.patterns.height,
+                                               self.settings.defocus, size)
         return self._cache[key]
 
     def values(self, spec, geo: Geometry) -> np.ndarray:
