@@ -129,3 +129,15 @@ def test_joint_refinement_lowers_camera_residual_and_keeps_truth():
         Xr = triangulate_telecentric(cal.rig.camera, cal.rig.projector, CAM.project(X), PRJ.project(X)[:, 0])
         err[name] = np.abs(dist(Xr) - dist(X)).max()  # mm over a 6 x 6 x 4 mm volume
     assert err["seq"] < 0.1 and err["ref"] < 0.005 and err["ref"] < err["seq"] / 5
+
+
+def test_point_triangulation_agrees_with_reconstruct_pixel_grid():
+    from fringe3d.reconstruct.triangulate import triangulate
+    cam = TelecentricCamera(M=CAM.M, width=64, height=48)
+    o, d = cam.rays(cam.pixel_grid())
+    P = o + ((200.0 - o[..., 2]) / d[2])[..., None] * d  # the plane z = 200 mm
+    pp = PRJ.project(P)
+    theirs = triangulate(Rig(cam, PRJ), up=pp[..., 0], vp=pp[..., 1])
+    ours = triangulate_telecentric(cam, PRJ, cam.pixel_grid(), pp[..., 0], pp[..., 1])
+    assert np.allclose(ours, P, atol=1e-8)
+    assert np.allclose(theirs, ours, atol=1e-4)  # float32 output of the reconstruct module

@@ -28,12 +28,9 @@ def render_and_decode(scene, rig, patterns, settings):
 def measure_points(rig, directions: list[FringeDirection]) -> np.ndarray:
     """(H, W, 3) float64 points (mm) from a calibrated rig and decoded directions: the two
     projector coordinates (any two fringe angles, Eq. 2.30-2.34) and least-squares
-    triangulation (Eq. 2.37 via ``reconstruct.triangulate``; telecentric rigs via
-    ``calibrate.telecentric.triangulate_telecentric``, Eq. 3.3-3.4)."""
-    up, vp = projector_maps(directions)
-    if rig.telecentric:
-        from .telecentric import triangulate_telecentric
-        return triangulate_telecentric(rig.camera, rig.projector, rig.camera.pixel_grid(), up, vp)
+    triangulation (``reconstruct.triangulate``: Eq. 2.37, and Eq. 3.3-3.4 for telecentric rigs;
+    ``calibrate.telecentric.triangulate_telecentric`` is the sub-pixel point version)."""
+    up, vp = (np.ascontiguousarray(a) for a in projector_maps(directions))
     from fringe3d.reconstruct.triangulate import triangulate
     return np.asarray(triangulate(rig, up=up, vp=vp), np.float64)
 

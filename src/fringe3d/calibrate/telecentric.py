@@ -57,7 +57,7 @@ def fit_affine_camera(X: np.ndarray, uv: np.ndarray) -> np.ndarray:
     if np.linalg.matrix_rank(A) < 4:
         raise ValueError("affine camera fit needs board points spanning 3-D (poses at different tilts)")
     M, *_ = np.linalg.lstsq(A, uv, rcond=None)
-    return M.T
+    return np.ascontiguousarray(M.T)
 
 
 def board_pose_lm(obj: np.ndarray, uv: np.ndarray, K: np.ndarray, dist: np.ndarray, rvec0=None, tvec0=None):
@@ -152,7 +152,7 @@ def calibrate_telecentric_rig(board: CircleBoard, poses: list[PoseObservation], 
         prj.residuals = pres
         prj.per_pose_rms = np.array([np.sqrt(np.mean(np.sum(r ** 2, 1))) for r in pres])
         prj.rms = float(np.sqrt(np.mean(np.sum(np.concatenate(pres) ** 2, 1))))
-    cam = TelecentricCamera(M=M, width=int(camera_size[0]), height=int(camera_size[1]))
+    cam = TelecentricCamera(M=np.ascontiguousarray(M), width=int(camera_size[0]), height=int(camera_size[1]))
     res = [u - cam.project(X) for X, u in zip(Xw, uvc)]
     per = np.array([np.sqrt(np.mean(np.sum(r ** 2, 1))) for r in res])
     allr = np.concatenate(res)
