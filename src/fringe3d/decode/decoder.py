@@ -176,5 +176,5 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig, z_min, opts: dict) ->
     if white:
         out.texture = frames[white[0]].astype(np.float32)
     else:
-        out.texture = (out.average + out.modulation[plans[0].direction]).astype(np.float32)
+        out.texture = np.add(out.average, out.modulation[plans[0].direction], dtype=np.float32)  # one pass
     return out

@@ -15,6 +15,7 @@ Phase noise floor for N equal steps and Gaussian intensity noise sigma:
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple, Sequence
 
@@ -40,16 +41,25 @@ def lsq_coefficients(shifts: Sequence[float]) -> np.ndarray:
     """(3, N) float64 matrix P with ``(a, b, c) = P @ I`` for ``I_k = a + b cos d_k + c sin d_k``.
 
     Raises ``ValueError`` when fewer than 3 shifts are given or the shifts cannot separate
-    A, B and phi (e.g. two distinct shifts only).
+    A, B and phi (e.g. two distinct shifts only). Results are cached per shift tuple (the
+    pseudo-inverse costs ~0.1 ms, which matters for per-frame decoding); a fresh copy is returned.
     """
     d = np.asarray(shifts, dtype=np.float64).ravel()
+    return _lsq_coefficients(tuple(d.tolist())).copy()
+
+
+@functools.lru_cache(maxsize=256)
+def _lsq_coefficients(d: tuple[float, ...]) -> np.ndarray:
+    d = np.array(d, dtype=np.float64)
     if d.size < 3:
         raise ValueError(f"phase shifting needs at least 3 frames, got {d.size} (shifts {d.tolist()})")
     design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1)
     if np.linalg.matrix_rank(design, tol=1e-9) < 3:
         raise ValueError(f"phase shifts {np.round(d, 6).tolist()} rad cannot separate average, "
                          "modulation and phase; expected at least 3 distinct shifts modulo 2pi")
-    return np.linalg.pinv(design)
+    p = np.linalg.pinv(design)
+    p.flags.writeable = False
+    return p
 
 
 def _as_stack(frames) -> np.ndarray:
