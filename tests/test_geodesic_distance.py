@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from fringe3d.analyze.geodesic import (MARCH_OFFSETS, bezier_arc_length, bezier_geodesic, grid_geodesic,
-                                       heat_geodesic)
+                                       heat_geodesic, heat_time_coefficient)
 
 
 def cylinder_map(h=128, w=160, radius=40.0, pitch=0.3, z0=300.0):
@@ -158,3 +158,14 @@ def test_source_on_invalid_pixel_or_outside_is_rejected():
         bezier_geodesic(pts, (25, 3))
     with pytest.raises(ValueError, match=r"\(H, W, 3\)"):
         bezier_geodesic(pts[..., :2], (3, 3))
+
+
+def test_heat_method_time_step_grows_with_the_map_so_the_far_field_survives():
+    # a long strip: with t = h² the heat is lost in round-off a few hundred edges from the source
+    pts, s, y = cylinder_map(h=40, w=1000, radius=300.0, pitch=0.1)
+    truth = np.hypot(s - s[20, 5], y - y[20, 5])
+    far = truth > 60.0                                          # > 600 edge lengths away
+    assert heat_time_coefficient(pts) == pytest.approx((1000 / 300) ** 2)
+    e_auto = rel_error(heat_geodesic(pts, (5, 20)), truth, far)
+    e_h2 = rel_error(heat_geodesic(pts, (5, 20), t_coef=1.0), truth, far)
+    assert e_h2.mean() > 0.25 and e_auto.mean() < 0.1

@@ -37,6 +37,7 @@ __all__ = [
     "bezier_geodesic",
     "grid_geodesic",
     "heat_geodesic",
+    "heat_time_coefficient",
     "check_point_map",
     "seeds_from_pixel",
 ]
@@ -462,9 +463,28 @@ def grid_mesh(points: np.ndarray) -> GridMesh:
     return GridMesh(pts[valid], np.concatenate([f1, f2]), index)
 
 
-def heat_geodesic(points: np.ndarray, source, mesh: GridMesh | None = None) -> np.ndarray:
+def heat_time_coefficient(points: np.ndarray, reach_edges: float = 300.0) -> float:
+    """Heat-method time step factor ``t = coef · h²`` for a point map: 1 (Crane et al.'s choice)
+    unless the valid region spans more than ``reach_edges`` pixels, then ``(span/reach_edges)²``.
+
+    With ``t = h²`` a single backward-Euler heat step decays roughly like ``exp(−r/√t)``, so
+    beyond a few hundred edge lengths from the source the heat is lost in round-off and the
+    normalised gradient is noise: measured on a 1400×48 px cylinder strip, mean error 1.3 % at
+    20–300 edges, 11 % at 300–600, 44–64 % beyond (and 33.5 % mean over a 1280×1024 map);
+    a longer step keeps the far field at the price of more smoothing near the source.
+    """
+    valid = np.isfinite(check_point_map(points)).all(axis=2)
+    rows, cols = np.nonzero(valid)
+    if rows.size == 0:
+        return 1.0
+    span = float(max(np.ptp(rows), np.ptp(cols)) + 1)
+    return max(1.0, (span / reach_edges) ** 2)
+
+
+def heat_geodesic(points: np.ndarray, source, mesh: GridMesh | None = None, t_coef: float | None = None) -> np.ndarray:
     """Heat-method geodesic distance (Crane et al. 2013) on the triangulated grid via
     ``potpourri3d.MeshHeatMethodDistanceSolver``; source snapped to the nearest valid pixel.
+    ``t_coef``: time step factor (``t = t_coef · h²``), default :func:`heat_time_coefficient`.
     Same output layout as :func:`bezier_geodesic`."""
     import potpourri3d as pp3d
 
@@ -473,7 +493,8 @@ def heat_geodesic(points: np.ndarray, source, mesh: GridMesh | None = None) -> n
     u, v = int(round(float(source[0]))), int(round(float(source[1])))
     if not (0 <= v < pts.shape[0] and 0 <= u < pts.shape[1]) or mesh.index[v, u] < 0:
         raise ValueError(f"source pixel (u={u}, v={v}) is outside the map or on an invalid pixel")
-    solver = pp3d.MeshHeatMethodDistanceSolver(mesh.vertices, mesh.faces)
+    coef = heat_time_coefficient(pts) if t_coef is None else float(t_coef)
+    solver = pp3d.MeshHeatMethodDistanceSolver(mesh.vertices, mesh.faces, t_coef=coef)
     dv = solver.compute_distance(int(mesh.index[v, u]))
     out = np.full(pts.shape[:2], np.inf)
     out[mesh.index >= 0] = dv
