@@ -308,26 +308,28 @@ def _reconstruct_side(wing, preset, settings, ps, starts, seed, advance=None):
     return maps, texs, t3, anchors
 
 
-def _strain_row(label, wing, maps, anchors, q_mark, grid, window, M_ref, t3, fill, area=None):
-    res = _track_markers(maps, anchors, q_mark, grid, window, fill)
-    rms, med, peak, n = _strain_vs_truth(wing, res, len(q_mark), M_ref, t3)
+def _strain_row(label, wing, res, sel, window, M_ref, t3, area=None):
+    """One strain-table row for the points ``sel`` (slice) of a tracked sequence ``res``."""
+    rms, med, peak, n = _strain_vs_truth(wing, res, sel, M_ref, t3)
     return [label, window, "" if area is None else round(100 * area), 1e6 * peak, 1e6 * rms, 100 * rms / peak,
             100 * med / peak, n]
 
 
-def _strain_vs_truth(wing, res, n_markers, M_ref, times):
-    """Dominant strain error of the dense grid against the analytic wing (truth maps)."""
+def _strain_vs_truth(wing, res, sel, M_ref, times):
+    """Dominant strain error of the points ``sel`` (slice, or int = first grid index after the
+    markers) against the analytic wing (truth maps)."""
     from fringe3d.analyze.tracking import sample_bilinear
-    m = sample_bilinear(M_ref, res.ref_uv[n_markers:])
+    sel = slice(sel, None) if isinstance(sel, int) else sel
+    m = sample_bilinear(M_ref, res.ref_uv[sel])
     ok_m = np.isfinite(m).all(axis=1)
     errs, peak = [], 0.0
     for f, t in enumerate(times):
-        good = res.ok[f, n_markers:] & ok_m
+        good = res.ok[f, sel] & ok_m
         if not good.any():
             continue
         mm = m[good]
         truth = _camera_sign(wing, mm, t) * wing.dominant_strain(mm, t, time_ref=times[0], thickness=THICKNESS)
-        errs.append(res.dominant[f, n_markers:][good] - truth)
+        errs.append(res.dominant[f, sel][good] - truth)
         peak = max(peak, float(np.abs(truth).max()))
     e = np.concatenate(errs)
     return float(np.sqrt(np.mean(e ** 2))), float(np.median(np.abs(e))), peak, int(e.size)
@@ -363,15 +365,25 @@ def run(quick: bool = False, seed: int = 0) -> dict:
             wing = sim_wing(side)
             label = "right" if side > 0 else "left"
             # --- A: full chain (render the 5-image burst, decode, triangulate) ------------------
-            maps, texs, t3, anchors = _reconstruct_side(wing, preset, settings, ps, starts, seed * 1000, advance)
+            maps, _, t3, anchors = _reconstruct_side(wing, preset, settings, ps, starts, seed * 1000, advance)
             q_mark = cam.project(wing.material_to_world(SIM_MARKERS, t3[0]))
             truth_xyz = np.stack([wing.material_to_world(SIM_MARKERS, t) for t in t3])
+            # one tracking pass per geodesic method: markers (+ for the default, the strain grids)
+            valid0 = np.isfinite(maps[0]).all(axis=2)
+            vv, uu = np.mgrid[0:cam.height:grid_step, 0:cam.width:grid_step]
+            g_all = ndimage.binary_erosion(valid0, iterations=window)
+            g_all = np.stack([uu[g_all[vv, uu]], vv[g_all[vv, uu]]], axis=1).astype(float)
+            g_in, area = interior_grid(valid0, anchors[0], big, grid_step)
+            nm, na = len(SIM_MARKERS), len(g_all)
             for meth, _ in methods:
-                res = _track_markers(maps, anchors, q_mark, None, window, fill=8, method=meth)
-                err = res.xyz[:, :len(SIM_MARKERS)] - truth_xyz
-                err[~res.ok[:, :len(SIM_MARKERS)]] = np.nan
+                grids = np.vstack([g_all, g_in]) if meth == "bezier" else None
+                res = _track_markers(maps, anchors, q_mark, grids, big, fill=8, method=meth)
+                err = res.xyz[:, :nm] - truth_xyz
+                err[~res.ok[:, :nm]] = np.nan
                 recon_rows.setdefault(meth, []).extend(_marker_rows(f"{label} marker", err))
                 track_rms_recon.setdefault(meth, []).append(np.sqrt(np.nanmean(err ** 2, axis=0)))
+                if meth == "bezier":
+                    res_r = res
             # --- B: noise-free truth maps (ray cast, float64) -----------------------------------
             tmaps, M0 = [], None
             for t in t3:
@@ -391,12 +403,10 @@ def run(quick: bool = False, seed: int = 0) -> dict:
             strain_rows.append([f"{label} wing, truth point maps", window, "", 1e6 * peak, 1e6 * rms, 100 * rms / peak,
                                 100 * med / peak, n])
             # --- C: strain from the reconstructed maps (realistic noise) ------------------------
-            valid0 = np.isfinite(maps[0]).all(axis=2)
             strain_rows.append(_strain_row(f"{label} wing, realistic noise, all points (edge erosion {window} px)",
-                                           wing, maps, anchors, q_mark, grid, big, M0, t3, 8))
-            g_in, area = interior_grid(valid0, anchors[0], big, grid_step)
-            strain_rows.append(_strain_row(f"{label} wing, realistic noise, interior", wing, maps, anchors, q_mark,
-                                           g_in, big, M0, t3, 8, area))
+                                           wing, res_r, slice(nm, nm + na), big, M0, t3))
+            strain_rows.append(_strain_row(f"{label} wing, realistic noise, interior", wing, res_r,
+                                           slice(nm + na, None), big, M0, t3, area))
         # --- D: noise-free reconstruction (no read/shot noise; real pattern → decode → triangulate) --
         wing = sim_wing(1)
         nmaps, _, nt3, nanch = _reconstruct_side(wing, preset, quiet, ps, nf_starts, seed * 1000 + 500, advance)
@@ -407,12 +417,15 @@ def run(quick: bool = False, seed: int = 0) -> dict:
         g_all = ndimage.binary_erosion(nvalid, iterations=window)
         vv, uu = np.mgrid[0:cam.height:8, 0:cam.width:8]
         g_all = np.stack([uu[g_all[vv, uu]], vv[g_all[vv, uu]]], axis=1).astype(float)
-        nf_rows.append(_strain_row(f"right wing, noise-free recon., all points (edge erosion {window} px)", wing,
-                                   nmaps, nanch, nq, g_all, big, NM0, nt3, 8))
         for win in ((11, 31) if quick else (11, 21, 31, 41)):
             g_in, area = interior_grid(nvalid, nanch[0], win, 8)
-            nf_rows.append(_strain_row("right wing, noise-free recon., interior", wing, nmaps, nanch, nq, g_in, win,
-                                       NM0, nt3, 8, area))
+            nres = _track_markers(nmaps, nanch, nq, np.vstack([g_all, g_in]), win, fill=8)
+            nm, na = len(nq), len(g_all)
+            if win == big:
+                nf_rows.append(_strain_row(f"right wing, noise-free recon., all points (edge erosion {window} px)",
+                                           wing, nres, slice(nm, nm + na), big, NM0, nt3))
+            nf_rows.append(_strain_row("right wing, noise-free recon., interior", wing, nres, slice(nm + na, None),
+                                       win, NM0, nt3, area))
         strain_rows += nf_rows
     cols6 = ["marker", "mean |ΔX| mm", "mean |ΔY| mm", "mean |ΔZ| mm", "RMS ΔX mm", "RMS ΔY mm", "RMS ΔZ mm", "frames"]
     for meth, name in methods:
@@ -443,7 +456,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
         rigid_rows.append([f"geodesic tracking ({name})", rigid_max[meth]])
     # --- noise floor: the same pose measured twice (independent noise), interior points ----------
     wing = sim_wing(1)
-    Pa, texa, ta_ = _measure(wing, preset, settings, ps, 0.01, seed * 1000 + 901)
+    Pa, _, ta_ = _measure(wing, preset, settings, ps, 0.01, seed * 1000 + 901)
     Pb, _, _ = _measure(wing, preset, settings, ps, 0.01, seed * 1000 + 902)
     aa = cam.project(wing.material_to_world(SIM_ANCHORS, ta_))
     floor_rows = []
