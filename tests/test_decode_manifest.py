@@ -200,3 +200,20 @@ def test_oblique_fringe_angle_decodes_exact_orders_including_negative_w(angle):
         assert truth.min() < 0
     assert d.mask["a1"].all()
     assert not order_errors(d.phase["a1"], truth).any()
+
+
+def test_max_residual_option_masks_exactly_the_pixels_with_large_unwrapping_residuals():
+    """Heavy noise (sigma 25 grey levels, B = 80): the default residual check (pi/2) masks pixels
+    that ``max_residual=pi`` (no check) keeps, and most order errors are among them."""
+    ps = sets.three_frequency("v")
+    frames = synthesize(ps, sigma=25.0, seed=3, dtype=np.float32)
+    truth = true_phase(ps, "v")
+    strict = decode(frames, ps, min_modulation=1.0)
+    loose = decode(frames, ps, min_modulation=1.0, max_residual=math.pi)
+    wrong_loose = loose.mask["v"] & (order_errors(loose.phase["v"], truth) != 0)
+    wrong_strict = strict.mask["v"] & (order_errors(strict.phase["v"], truth) != 0)
+    assert loose.mask["v"].all()          # only the residual check can mask here
+    assert not (strict.mask["v"] & ~loose.mask["v"]).any()
+    assert wrong_loose.sum() > 20 and wrong_strict.sum() < 0.5 * wrong_loose.sum()
+    kept = strict.mask["v"]
+    assert np.array_equal(strict.phase["v"][kept], loose.phase["v"][kept])

@@ -88,6 +88,31 @@ def test_fused_three_frequency_decode_equals_separate_steps():
     assert fused.mask.sum() == H * W - 2
 
 
+@pytest.mark.parametrize("steps", [(4, 5, 3), (7, 4, 6)])
+def test_fused_decode_with_step_counts_not_multiple_of_three_equals_separate_steps(steps):
+    """The fused kernel sums frames three at a time; groups of 4, 5 or 7 frames exercise its
+    1- and 2-frame tail passes (and uint16 frames its other input type)."""
+    rng = np.random.default_rng(11)
+    w = projector_w()
+    periods = (18, 21, 144)
+    frames = np.concatenate([fringes(w, t, n, 2.0, rng, a=2000.0, b=1500.0) for t, n in zip(periods, steps)])
+    frames16 = np.clip(np.round(frames), 0, 4095).astype(np.uint16)
+    ends = np.cumsum((0,) + steps)
+    idx = [list(range(ends[g], ends[g + 1])) for g in range(3)]
+    shifts = [default_shifts(n) for n in steps]
+    fused = three_frequency_decode(frames16, idx, shifts, periods, w_range=(0, 799), min_modulation=5.0,
+                                   saturation_level=4095)
+    phases = [wrapped_phase(frames16, index=i).phase for i in idx]
+    ref = heterodyne_reference(phases, periods, w_range=(0, 799))
+    first = wrapped_phase(frames16, index=idx[0])
+    assert fused.mask.all()
+    assert np.abs(fused.phase - ref.phase).max() < 1e-4
+    assert not order_errors(fused.phase, w, 18).any()
+    assert np.abs(fused.wrapped - first.phase).max() < 1e-5
+    assert np.allclose(fused.modulation, first.modulation, rtol=1e-5)
+    assert np.allclose(fused.average, first.average, rtol=1e-5)
+
+
 def test_coarse_window_centres_projector_range():
     lo = coarse_window(1008.0, (0.0, 799.0))
     w_lo = lo * 1008.0 / (2 * np.pi)

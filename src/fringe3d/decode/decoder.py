@@ -87,6 +87,9 @@ def decode(frames, patterns: PatternSet, rig=None, z_min: float | None = None, *
         Modulation threshold (frames' units); default 2 % of full scale.
     fused : bool
         Use the fused three-frequency kernel when the plan allows (default True).
+    max_residual : float
+        Fused three-frequency path: largest accepted unwrapping residual in rad (default pi/2;
+        pixels above it are masked as inconsistent; ``math.pi`` disables the check).
     ftp_window, ftp_radius :
         Band-pass window (``"hanning"``/``"circular"``) and radius for FTP groups.
     Other keyword options reach the unwrappers as ``ctx.options``.

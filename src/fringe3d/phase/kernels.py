@@ -256,38 +256,50 @@ COL_CHUNK = 256
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH)
-def _accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak):
-    """:func:`_accumulate_row` over columns ``j0 .. j0 + n - 1`` of row ``i`` into ``a/b/c/peak[:n]``."""
+def _accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, init, init_peak, with_a):
+    """Least-squares sums of one group over columns ``j0 .. j0 + n - 1`` of row ``i``:
+    ``a/b/c[j] (+)= sum_k coef[:, k] * frames[index[k], i, j0 + j]`` and the running
+    ``peak[j]`` (max over frames), float32. ``init``: the sums start at this group (the first
+    pass assigns instead of adding, no zeroing pass); ``init_peak``: likewise for ``peak``;
+    ``with_a=False`` skips the average sum. Contiguous passes over the columns (vectorised),
+    three frames per pass to cut the buffer loads and stores."""
     nf = index.shape[0]
     k = 0
-    while k + 3 <= nf:
+    while k < nf:
+        m = min(3, nf - k)  # frames in this pass: 3, or 1-2 at the end (their coefficients 0)
         r0 = frames[index[k], i, j0:j0 + n]
-        r1 = frames[index[k + 1], i, j0:j0 + n]
-        r2 = frames[index[k + 2], i, j0:j0 + n]
-        a0, a1, a2 = coef[0, k], coef[0, k + 1], coef[0, k + 2]
-        b0, b1, b2 = coef[1, k], coef[1, k + 1], coef[1, k + 2]
-        c0, c1, c2 = coef[2, k], coef[2, k + 1], coef[2, k + 2]
+        r1 = frames[index[k + 1 if m > 1 else k], i, j0:j0 + n]
+        r2 = frames[index[k + 2 if m > 2 else k], i, j0:j0 + n]
+        a0 = coef[0, k]
+        b0 = coef[1, k]
+        c0 = coef[2, k]
+        a1 = coef[0, k + 1] if m > 1 else np.float32(0)
+        b1 = coef[1, k + 1] if m > 1 else np.float32(0)
+        c1 = coef[2, k + 1] if m > 1 else np.float32(0)
+        a2 = coef[0, k + 2] if m > 2 else np.float32(0)
+        b2 = coef[1, k + 2] if m > 2 else np.float32(0)
+        c2 = coef[2, k + 2] if m > 2 else np.float32(0)
+        fresh = init and k == 0
+        fresh_peak = init_peak and k == 0
         for j in range(n):
             x0 = np.float32(r0[j])
             x1 = np.float32(r1[j])
             x2 = np.float32(r2[j])
-            a[j] += a0 * x0 + a1 * x1 + a2 * x2
-            b[j] += b0 * x0 + b1 * x1 + b2 * x2
-            c[j] += c0 * x0 + c1 * x1 + c2 * x2
-            peak[j] = max(peak[j], max(x0, max(x1, x2)))
-        k += 3
-    while k < nf:
-        row = frames[index[k], i, j0:j0 + n]
-        ca = coef[0, k]
-        cb = coef[1, k]
-        cc = coef[2, k]
-        for j in range(n):
-            x = np.float32(row[j])
-            a[j] += ca * x
-            b[j] += cb * x
-            c[j] += cc * x
-            peak[j] = max(peak[j], x)
-        k += 1
+            sb = b0 * x0 + b1 * x1 + b2 * x2
+            sc = c0 * x0 + c1 * x1 + c2 * x2
+            pk = max(x0, max(x1, x2))
+            if fresh:
+                b[j] = sb
+                c[j] = sc
+                if with_a:
+                    a[j] = a0 * x0 + a1 * x1 + a2 * x2
+            else:
+                b[j] += sb
+                c[j] += sc
+                if with_a:
+                    a[j] += a0 * x0 + a1 * x1 + a2 * x2
+            peak[j] = pk if fresh_peak else max(peak[j], pk)
+        k += m
 
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
@@ -323,16 +335,14 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
     nan = np.float32(np.nan)
     nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
     for blk in prange(nblk):
-        acc = np.empty((9, COL_CHUNK), np.float32)
+        acc = np.empty((9, COL_CHUNK), np.float32)  # a2 is a dummy: groups 2, 3 need no average
         a1, b1, c1, a2, b2, c2, b3, c3, peak = acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], acc[6], acc[7], acc[8]
         for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
             for j0 in range(0, w, COL_CHUNK):
                 n = min(COL_CHUNK, w - j0)
-                acc[:8] = 0
-                peak[:] = -np.inf
-                _accumulate_chunk(frames, idx1, coef1, i, j0, n, a1, b1, c1, peak)
-                _accumulate_chunk(frames, idx2, coef2, i, j0, n, a2, b2, c2, peak)
-                _accumulate_chunk(frames, idx3, coef3, i, j0, n, a2, b3, c3, peak)  # a of groups 2, 3 unused
+                _accumulate_chunk(frames, idx1, coef1, i, j0, n, a1, b1, c1, peak, True, True, True)
+                _accumulate_chunk(frames, idx2, coef2, i, j0, n, a2, b2, c2, peak, True, False, False)
+                _accumulate_chunk(frames, idx3, coef3, i, j0, n, a2, b3, c3, peak, True, False, False)
                 ph = phase[i, j0:j0 + n]
                 wr = wrapped[i, j0:j0 + n]
                 mo = modulation[i, j0:j0 + n]

@@ -363,7 +363,8 @@ def _unwrap_heterodyne(ctx):
         r = three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
                                    [g.period for g in groups], w_range=ctx.w_range(),
                                    min_modulation=ctx.min_modulation,
-                                   saturation_level=quality.saturation_level(ctx.frames, ctx.bit_depth))
+                                   saturation_level=quality.saturation_level(ctx.frames, ctx.bit_depth),
+                                   max_residual=float(ctx.options.get("max_residual", 0.5 * math.pi)))
         return r.phase, r.mask, {"wrapped": r.wrapped, "modulation": r.modulation, "average": r.average,
                                  "masked": True}
     phases = [ctx.group_phase(g).phase for g in groups]
