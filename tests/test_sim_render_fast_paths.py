@@ -142,3 +142,17 @@ def test_hit_record_fields_keep_their_dtypes():
     assert isinstance(h, Hit)
     assert h.t.dtype == np.float64 and h.object_id.dtype == np.int32 and h.material_uv.shape == (3, 2)
     np.testing.assert_allclose(h.t, 40.0)
+
+
+def test_per_object_culling_equals_the_full_scene_cast_with_an_unbounded_plane():
+    from fringe3d.sim.render import intersect_culled
+    scene = Scene(_objects())
+    rng = np.random.default_rng(5)
+    d = rng.normal(0.0, 0.3, (6000, 3)) + np.array([0.0, 0.0, 1.0])
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.array([[0.0, 0.0, -200.0]])
+    culled = intersect_culled(scene, o, d, 0.3)
+    full = scene.intersect(o[0], d, 0.3)
+    assert len(set(full.object_id.tolist())) == 7  # every object is seen, and some rays miss
+    for name in ("t", "normal", "object_id", "albedo", "material_uv"):
+        np.testing.assert_array_equal(getattr(culled, name), getattr(full, name), err_msg=name)

@@ -224,44 +224,64 @@ def _bounds(ob, time: float):
     return np.asarray(c, float), float(r) * (1 + 1e-9) + 1e-9, np.eye(3), np.zeros(3), np.zeros(3)
 
 
+def _near_rows(origins, dirs, bounds) -> np.ndarray | None:
+    """Rows (M,) of the rays that may hit the object with culling volume ``bounds`` (see
+    :func:`_bounds`); None when there is no volume or most rays pass it (cast them all)."""
+    if bounds is None:
+        return None
+    c, r, R, lo, hi = bounds
+    near = _rays_near(origins, dirs, c[None], np.array([r]), R[None], lo[None], hi[None],
+                      np.empty(dirs.shape[0], np.bool_))
+    idx = np.flatnonzero(near)
+    return None if idx.size > 0.8 * dirs.shape[0] else idx
+
+
+@numba.njit(cache=True)
+def _merge_rows(rows, t, n, oid, alb, uv, t2, n2, oid2, alb2, uv2, new_id):  # pragma: no cover
+    """Like ``Hit.merge_nearer`` for a subset: ray ``rows[r]`` takes row ``r`` of the second
+    record when that is a hit nearer than its current one."""
+    for r in range(rows.shape[0]):
+        i = rows[r]
+        if oid2[r] >= 0 and t2[r] < t[i]:
+            t[i] = t2[r]
+            oid[i] = new_id
+            alb[i] = alb2[r]
+            for k in range(3):
+                n[i, k] = n2[r, k]
+            uv[i, 0] = uv2[r, 0]
+            uv[i, 1] = uv2[r, 1]
+
+
 def intersect_culled(scene, origins, dirs, time: float):
-    """``scene.intersect`` on the rays that may hit some object only.
+    """``scene.intersect`` with each object cast only on the rays that may hit it.
 
     Culling volumes: oriented bounding boxes for meshes, bounding spheres
-    (``bounding_sphere(time)``) for the rest; when any object is unbounded (an infinite plane)
-    or says nothing, every ray is cast. Returns a Hit-like object with full-length
-    ``t, normal, object_id, albedo, material_uv``.
+    (``bounding_sphere(time)``) for the rest; unbounded objects (an infinite plane) or objects
+    that say nothing get every ray. Returns a Hit with full-length ``t, normal, object_id,
+    albedo, material_uv``, equal to ``scene.intersect`` (the volumes are conservative).
     """
+    from .scenes import Hit, Scene
+
     ray_o = origins[0] if origins.shape[0] == 1 else origins
-    objects = getattr(scene, "objects", None)
-    spheres = []
-    for ob in objects or []:
-        b = _bounds(ob, time)
-        if b is None:
-            return scene.intersect(ray_o, dirs, time=time)
-        spheres.append(b)
-    if not spheres:
+    if not isinstance(scene, Scene):
         return scene.intersect(ray_o, dirs, time=time)
-    cols = list(zip(*spheres))
-    near = _rays_near(origins, dirs, np.array(cols[0]), np.array(cols[1]), np.array(cols[2]),
-                      np.array(cols[3]), np.array(cols[4]), np.empty(dirs.shape[0], np.bool_))
+    bounds = [_bounds(ob, time) for ob in scene.objects]
+    if all(b is None for b in bounds):
+        return scene.intersect(ray_o, dirs, time=time)
     n = dirs.shape[0]
-    if near.sum() > 0.8 * n:
-        return scene.intersect(ray_o, dirs, time=time)
-    idx = np.flatnonzero(near)
-    from types import SimpleNamespace
-    out = SimpleNamespace(t=np.full(n, np.inf), normal=np.full((n, 3), np.nan),
-                          object_id=np.full(n, -1, np.int32), albedo=np.zeros(n),
-                          material_uv=np.full((n, 2), np.nan))
-    if idx.size:
-        sub = scene.intersect(ray_o if origins.shape[0] == 1 else origins[idx], dirs[idx], time=time)
-        out.t[idx] = sub.t
-        out.normal[idx] = sub.normal
-        out.object_id[idx] = sub.object_id
-        out.albedo[idx] = sub.albedo
-        if getattr(sub, "material_uv", None) is not None:
-            out.material_uv[idx] = sub.material_uv
-    return out
+    best = Hit.miss(n)
+    for i, (ob, b) in enumerate(zip(scene.objects, bounds)):
+        rows = _near_rows(origins, dirs, b)
+        if rows is None:
+            best.merge_nearer(ob.intersect(ray_o, dirs, time), i)
+        elif rows.size:
+            sub = ob.intersect(ray_o if origins.shape[0] == 1 else origins[rows], dirs[rows], time)
+            uv = sub.material_uv if sub.material_uv is not None else np.full((rows.size, 2), np.nan)
+            _merge_rows(rows, best.t, best.normal, best.object_id, best.albedo, best.material_uv,
+                        np.ascontiguousarray(sub.t, dtype=np.float64), np.ascontiguousarray(sub.normal, dtype=np.float64),
+                        np.ascontiguousarray(sub.object_id), np.ascontiguousarray(sub.albedo, dtype=np.float64),
+                        np.ascontiguousarray(uv, dtype=np.float64), np.int32(i))
+    return best
 
 
 @numba.njit(cache=True)
@@ -287,8 +307,8 @@ def occluded(scene, origins, dirs, tmax, time: float) -> np.ndarray:
     has ``t < tmax``), for shadow rays.
 
     A :class:`~fringe3d.sim.scenes.Scene` asks each object for its first-hit distance only
-    (``hit_distance`` when the object has it: no normals, material coordinates or albedo);
-    any other scene is cast in full with ``scene.intersect``.
+    (``hit_distance`` when the object has it: no normals, material coordinates or albedo)
+    on the rays near its culling volume; any other scene is cast in full with ``scene.intersect``.
     """
     from .scenes import Scene
 
@@ -296,14 +316,21 @@ def occluded(scene, origins, dirs, tmax, time: float) -> np.ndarray:
         h = scene.intersect(origins, dirs, time=time)
         return (np.asarray(h.object_id) >= 0) & (np.asarray(h.t) < tmax)
     blocked = np.zeros(len(dirs), np.bool_)
-    for ob in scene.objects:
+    for ob in scene.objects:  # each object on the rays near its culling volume only
+        rows = _near_rows(origins, dirs, _bounds(ob, time))
+        if rows is not None and not rows.size:
+            continue
+        o, d = (origins, dirs) if rows is None else (origins[rows], dirs[rows])
         fn = getattr(ob, "hit_distance", None)
         if callable(fn):
-            t = fn(origins, dirs, time)
+            t = fn(o, d, time)
         else:
-            h = ob.intersect(origins, dirs, time)
+            h = ob.intersect(o, d, time)
             t = np.where(np.asarray(h.object_id) >= 0, h.t, np.inf)
-        blocked |= t < tmax
+        if rows is None:
+            blocked |= t < tmax
+        else:
+            blocked[rows] |= t < tmax[rows]
     return blocked
 
 
