@@ -165,8 +165,19 @@ def _map_hits(o, d, t, oid, nrm, cam_r2, cam_t2, telecentric, depth_off, PR, Pt,
 def _rays_near(o, d, centers, radii, boxR, lo, hi, out):  # pragma: no cover - compiled
     """out[i] = ray i may hit some object: it passes within the object's bounding sphere
     (``radii[k] > 0``) or through its oriented bounding box (``radii[k] < 0``: body-frame
-    box ``lo..hi`` posed by ``boxR[k]`` (body -> world) about ``centers[k]``)."""
+    box ``lo..hi`` posed by ``boxR[k]`` (body -> world) about ``centers[k]``; rays missing
+    the box's circumscribed sphere are rejected before the slab test)."""
     shared = o.shape[0] == 1
+    nk = centers.shape[0]
+    bc = np.empty((nk, 3))  # world centre and squared radius of each box's circumscribed sphere
+    br2 = np.empty(nk)
+    for k in range(nk):
+        m0, m1, m2 = 0.5 * (lo[k, 0] + hi[k, 0]), 0.5 * (lo[k, 1] + hi[k, 1]), 0.5 * (lo[k, 2] + hi[k, 2])
+        for a in range(3):
+            bc[k, a] = centers[k, a] + boxR[k, a, 0] * m0 + boxR[k, a, 1] * m1 + boxR[k, a, 2] * m2
+        h0, h1, h2 = hi[k, 0] - lo[k, 0], hi[k, 1] - lo[k, 1], hi[k, 2] - lo[k, 2]
+        rad = 0.5 * np.sqrt(h0 * h0 + h1 * h1 + h2 * h2) * (1 + 1e-9) + 1e-9
+        br2[k] = rad * rad
     for i in range(d.shape[0]):
         oi = 0 if shared else i
         hit = False
@@ -183,6 +194,14 @@ def _rays_near(o, d, centers, radii, boxR, lo, hi, out):  # pragma: no cover - c
                     hit = True
                     break
                 continue
+            s0 = bc[k, 0] - o[oi, 0]
+            s1 = bc[k, 1] - o[oi, 1]
+            s2 = bc[k, 2] - o[oi, 2]
+            ss = s0 * s0 + s1 * s1 + s2 * s2
+            along = s0 * d[i, 0] + s1 * d[i, 1] + s2 * d[i, 2]
+            dd = d[i, 0] * d[i, 0] + d[i, 1] * d[i, 1] + d[i, 2] * d[i, 2]
+            if ss - along * along / dd > br2[k] or (along <= 0 and ss > br2[k]):
+                continue  # misses the circumscribed sphere, so the box too
             tmin = 0.0
             tmax = np.inf
             for a in range(3):  # slab test in the body frame
