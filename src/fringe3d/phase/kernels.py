@@ -67,46 +67,58 @@ def _round(x):
 
 #: Rows per parallel work item of the row-blocked kernels.
 ROW_BLOCK = 8
+#: Columns per chunk in the fused kernels: a chunk's running sums (up to 9 x 256 x 4 bytes, or
+#: 4 x 256 x 8) stay in the L1 cache while the frames stream through.
+COL_CHUNK = 256
 #: Fast-math flags that allow vectorisation but keep NaN/inf semantics.
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH)
-def _accumulate_row(frames, index, coef, i, a, b, c, peak):
-    """a/b/c[j] += sum_k coef[:, k] * frames[index[k], i, j]; peak[j] = max(peak[j], frames).
-    Contiguous passes over the columns j (so they vectorise), three frames per pass to cut
-    the buffer loads/stores. The buffers' dtype (float32 or float64) sets the precision."""
-    w = b.shape[0]
-    n = index.shape[0]
+def _accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, init, init_peak, with_a):
+    """Least-squares sums of one group over columns ``j0 .. j0 + n - 1`` of row ``i``:
+    ``a/b/c[j] (+)= sum_k coef[:, k] * frames[index[k], i, j0 + j]`` and the running
+    ``peak[j]`` (max over frames) in the buffers' dtype. ``init``: the sums start at this group (the first
+    pass assigns instead of adding, no zeroing pass); ``init_peak``: likewise for ``peak``;
+    ``with_a=False`` skips the average sum. Contiguous passes over the columns (vectorised),
+    three frames per pass to cut the buffer loads and stores."""
+    nf = index.shape[0]
     k = 0
-    while k + 3 <= n:
-        r0 = frames[index[k], i]
-        r1 = frames[index[k + 1], i]
-        r2 = frames[index[k + 2], i]
-        a0, a1, a2 = coef[0, k], coef[0, k + 1], coef[0, k + 2]
-        b0, b1, b2 = coef[1, k], coef[1, k + 1], coef[1, k + 2]
-        c0, c1, c2 = coef[2, k], coef[2, k + 1], coef[2, k + 2]
-        for j in range(w):
-            x0 = r0[j]
-            x1 = r1[j]
-            x2 = r2[j]
-            a[j] += a0 * x0 + a1 * x1 + a2 * x2
-            b[j] += b0 * x0 + b1 * x1 + b2 * x2
-            c[j] += c0 * x0 + c1 * x1 + c2 * x2
-            peak[j] = max(peak[j], max(x0, max(x1, x2)))
-        k += 3
-    while k < n:
-        row = frames[index[k], i]
-        ca = coef[0, k]
-        cb = coef[1, k]
-        cc = coef[2, k]
-        for j in range(w):
-            x = row[j]
-            a[j] += ca * x
-            b[j] += cb * x
-            c[j] += cc * x
-            peak[j] = max(peak[j], x)
-        k += 1
+    while k < nf:
+        m = min(3, nf - k)  # frames in this pass: 3, or 1-2 at the end (their coefficients 0)
+        r0 = frames[index[k], i, j0:j0 + n]
+        r1 = frames[index[k + 1 if m > 1 else k], i, j0:j0 + n]
+        r2 = frames[index[k + 2 if m > 2 else k], i, j0:j0 + n]
+        a0 = coef[0, k]
+        b0 = coef[1, k]
+        c0 = coef[2, k]
+        a1 = coef[0, k + 1] if m > 1 else coef.dtype.type(0)
+        b1 = coef[1, k + 1] if m > 1 else coef.dtype.type(0)
+        c1 = coef[2, k + 1] if m > 1 else coef.dtype.type(0)
+        a2 = coef[0, k + 2] if m > 2 else coef.dtype.type(0)
+        b2 = coef[1, k + 2] if m > 2 else coef.dtype.type(0)
+        c2 = coef[2, k + 2] if m > 2 else coef.dtype.type(0)
+        fresh = init and k == 0
+        fresh_peak = init_peak and k == 0
+        for j in range(n):
+            x0 = b.dtype.type(r0[j])  # the buffers' dtype (float32 or float64) sets the precision
+            x1 = b.dtype.type(r1[j])
+            x2 = b.dtype.type(r2[j])
+            sb = b0 * x0 + b1 * x1 + b2 * x2
+            sc = c0 * x0 + c1 * x1 + c2 * x2
+            pk = max(x0, max(x1, x2))
+            if fresh:
+                b[j] = sb
+                c[j] = sc
+                if with_a:
+                    a[j] = a0 * x0 + a1 * x1 + a2 * x2
+            else:
+                b[j] += sb
+                c[j] += sc
+                if with_a:
+                    a[j] += a0 * x0 + a1 * x1 + a2 * x2
+            peak[j] = pk if fresh_peak else max(peak[j], pk)
+        k += m
 
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
@@ -122,29 +134,25 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
     w = frames.shape[2]
     nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
     for blk in prange(nblk):
-        a = np.empty(w)
-        b = np.empty(w)
-        c = np.empty(w)
-        peak = np.empty(w)
+        acc = np.empty((4, COL_CHUNK))
+        a, b, c, peak = acc[0], acc[1], acc[2], acc[3]
         for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
-            a[:] = 0.0
-            b[:] = 0.0
-            c[:] = 0.0
-            peak[:] = -np.inf
-            _accumulate_row(frames, index, coef, i, a, b, c, peak)
-            ph = phase[i]
-            av = average[i]
-            mo = modulation[i]
-            sa = saturated[i]
-            for j in range(w):
-                # sums in float64 (exact for integer frames); atan2 and sqrt in float32 (error
-                # < 3e-7 rad after rounding b, c to float32: twice the SIMD lanes, no float64 divide)
-                bj = np.float32(b[j])
-                cj = np.float32(c[j])
-                ph[j] = fast_atan2_f32(-cj, bj)
-                av[j] = a[j]
-                mo[j] = math.sqrt(bj * bj + cj * cj)
-                sa[j] = sa[j] | (peak[j] >= sat_level)
+            for j0 in range(0, w, COL_CHUNK):
+                n = min(COL_CHUNK, w - j0)
+                _accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, True, True, True)
+                ph = phase[i, j0:j0 + n]
+                av = average[i, j0:j0 + n]
+                mo = modulation[i, j0:j0 + n]
+                sa = saturated[i, j0:j0 + n]
+                for j in range(n):
+                    # sums in float64 (exact for integer frames); atan2 and sqrt in float32 (error
+                    # < 3e-7 rad after rounding b, c to float32: twice the SIMD lanes, no float64 divide)
+                    bj = np.float32(b[j])
+                    cj = np.float32(c[j])
+                    ph[j] = fast_atan2_f32(-cj, bj)
+                    av[j] = a[j]
+                    mo[j] = math.sqrt(bj * bj + cj * cj)
+                    sa[j] = sa[j] | (peak[j] >= sat_level)
 
 
 @njit(cache=True, parallel=True)
@@ -248,58 +256,6 @@ def _mod_2pi_f32(x):
 @njit(cache=True, inline="always", fastmath=FASTMATH)
 def _round_f32(x):
     return np.floor(x + _FHALF)
-
-
-#: Columns per chunk in :func:`three_frequency_kernel`: the chunk's nine running sums
-#: (9 x 256 x 4 bytes) stay in the L1 cache while the frames stream through.
-COL_CHUNK = 256
-
-
-@njit(cache=True, inline="always", fastmath=FASTMATH)
-def _accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, init, init_peak, with_a):
-    """Least-squares sums of one group over columns ``j0 .. j0 + n - 1`` of row ``i``:
-    ``a/b/c[j] (+)= sum_k coef[:, k] * frames[index[k], i, j0 + j]`` and the running
-    ``peak[j]`` (max over frames), float32. ``init``: the sums start at this group (the first
-    pass assigns instead of adding, no zeroing pass); ``init_peak``: likewise for ``peak``;
-    ``with_a=False`` skips the average sum. Contiguous passes over the columns (vectorised),
-    three frames per pass to cut the buffer loads and stores."""
-    nf = index.shape[0]
-    k = 0
-    while k < nf:
-        m = min(3, nf - k)  # frames in this pass: 3, or 1-2 at the end (their coefficients 0)
-        r0 = frames[index[k], i, j0:j0 + n]
-        r1 = frames[index[k + 1 if m > 1 else k], i, j0:j0 + n]
-        r2 = frames[index[k + 2 if m > 2 else k], i, j0:j0 + n]
-        a0 = coef[0, k]
-        b0 = coef[1, k]
-        c0 = coef[2, k]
-        a1 = coef[0, k + 1] if m > 1 else np.float32(0)
-        b1 = coef[1, k + 1] if m > 1 else np.float32(0)
-        c1 = coef[2, k + 1] if m > 1 else np.float32(0)
-        a2 = coef[0, k + 2] if m > 2 else np.float32(0)
-        b2 = coef[1, k + 2] if m > 2 else np.float32(0)
-        c2 = coef[2, k + 2] if m > 2 else np.float32(0)
-        fresh = init and k == 0
-        fresh_peak = init_peak and k == 0
-        for j in range(n):
-            x0 = np.float32(r0[j])
-            x1 = np.float32(r1[j])
-            x2 = np.float32(r2[j])
-            sb = b0 * x0 + b1 * x1 + b2 * x2
-            sc = c0 * x0 + c1 * x1 + c2 * x2
-            pk = max(x0, max(x1, x2))
-            if fresh:
-                b[j] = sb
-                c[j] = sc
-                if with_a:
-                    a[j] = a0 * x0 + a1 * x1 + a2 * x2
-            else:
-                b[j] += sb
-                c[j] += sc
-                if with_a:
-                    a[j] += a0 * x0 + a1 * x1 + a2 * x2
-            peak[j] = pk if fresh_peak else max(peak[j], pk)
-        k += m
 
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
