@@ -277,7 +277,9 @@ class SceneObject:
         hit = np.empty(n, np.bool_)
         count = _finish_kernel(t, normal, d, uv, t_out, n_out, oid, uv_out, hit)
         h = Hit(t=t_out, normal=n_out, object_id=oid, albedo=np.zeros(n), material_uv=uv_out)
-        if count:
+        if count and self.texture is None and type(self).albedo_at is SceneObject.albedo_at:
+            np.copyto(h.albedo, self.albedo, where=hit)  # untextured: the base albedo everywhere
+        elif count:
             idx = np.flatnonzero(hit)
             h.albedo[idx] = self.albedo_at(h.material_uv[idx])
         return h
