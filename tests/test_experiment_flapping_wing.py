@@ -39,6 +39,17 @@ def test_tracking_error_per_marker_like_table_6_1(result):
     assert rms_recon.max() < 0.5                            # the goal, mm
 
 
+def test_tracking_budget_separates_surface_and_anchor_errors(result):
+    rows = {r[0]: np.array(r[1:4], float) for r in _table(result, "tracking error budget")["rows"]}
+    exact = rows["right wing: truth maps, exact anchors"]
+    assert exact.max() < 0.02                               # the geodesic tracking itself, mm
+    assert rows["right wing: truth maps, detected anchors"].max() < 0.3     # anchor centroids ≤ 0.2 px
+    recon = rows["right wing: reconstructed maps, detected anchors"]
+    np.testing.assert_allclose(recon, np.array(_table(result, "tracking error, simulate")["rows"])[:, 4:7]
+                               .astype(float).max(axis=0), rtol=1e-9)
+    assert rows["right wing: reconstructed maps, exact anchors"].max() > exact.max()
+
+
 def test_geodesic_comparison_orders_the_methods(result):
     rows = {r[0]: r for r in _table(result, "geodesic distance")["rows"]}
     wave = rows[flapping_wing.GEO_WAVE]
