@@ -61,6 +61,7 @@ def test_three_frequency_set_decodes_exact_absolute_phase(fused):
     assert np.abs(d.phase["v"] - truth).max() < 1e-4   # float32 output, phase up to 280 rad
     assert d.period["v"] == 18.0 and d.method["v"] == "heterodyne"
     assert np.allclose(d.modulation["v"], B, atol=1e-3) and np.allclose(d.average, A, atol=1e-3)
+    assert np.allclose(d.texture, A + B, atol=2e-3)   # no white frame: texture = A + B
 
 
 def test_calibration_set_both_directions_uint8_with_noise_exact_orders():

@@ -111,6 +111,7 @@ def test_fused_decode_with_step_counts_not_multiple_of_three_equals_separate_ste
     assert np.abs(fused.wrapped - first.phase).max() < 1e-5
     assert np.allclose(fused.modulation, first.modulation, rtol=1e-5)
     assert np.allclose(fused.average, first.average, rtol=1e-5)
+    assert np.allclose(fused.texture, first.average + first.modulation, rtol=1e-5)
 
 
 def test_coarse_window_centres_projector_range():

@@ -178,6 +178,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig, z_min, opts: dict) ->
     white = ps.indices(kind="white")
     if white:
         out.texture = frames[white[0]].astype(np.float32)
+    elif extras.get("texture") is not None:  # the fused kernel wrote average + modulation
+        out.texture = np.asarray(extras["texture"], np.float32)
     else:
         out.texture = np.add(out.average, out.modulation[plans[0].direction], dtype=np.float32)  # one pass
     return out

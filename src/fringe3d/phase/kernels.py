@@ -260,7 +260,7 @@ def _round_f32(x):
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
 def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params,
-                           phase, wrapped, modulation, average, mask):
+                           phase, wrapped, modulation, average, mask, texture):
     """Fused three-frequency heterodyne decode: wrapped phases of the three groups, the two
     beats, absolute phase, modulation, average and validity mask in one pass per pixel
     (float32 arithmetic; rows in parallel, columns vectorised).
@@ -276,7 +276,8 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
     near pi, where the fringe order is a coin toss, so it is masked. Outputs (H, W):
     absolute phase float32 (NaN where invalid), wrapped phase of group 1 float32, its
     modulation and average float32, mask bool (modulation of every group >= min_modulation
-    and no frame >= sat_level and both unwrapping residuals <= max_residual).
+    and no frame >= sat_level and both unwrapping residuals <= max_residual), texture float32
+    (average + modulation of group 1, the fringe-free intensity ``A + B``).
     """
     s12 = params[0]
     s123 = params[1]
@@ -304,6 +305,7 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
                 mo = modulation[i, j0:j0 + n]
                 av = average[i, j0:j0 + n]
                 ma = mask[i, j0:j0 + n]
+                tx = texture[i, j0:j0 + n]
                 for j in range(n):
                     m1 = b1[j] * b1[j] + c1[j] * c1[j]
                     m2 = b2[j] * b2[j] + c2[j] * c2[j]
@@ -323,9 +325,11 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
                     # non-short-circuit '&' so the loop stays branch-free (vectorised)
                     consistent = (abs(d1 - _F2PI * k1) <= max_res) & (abs(d2 - _F2PI * k2) <= max_res)
                     ok = (min(m1, min(m2, m3)) >= min_mod2) & (peak[j] < sat_level) & consistent
+                    bm = math.sqrt(m1)
                     wr[j] = p1
-                    mo[j] = math.sqrt(m1)
+                    mo[j] = bm
                     av[j] = a1[j]
+                    tx[j] = a1[j] + bm
                     ma[j] = ok
                     ph[j] = absolute if ok else nan
 

@@ -274,13 +274,14 @@ def gray_code_order_reference(frames, code_index, wrapped, period, centers, inve
 class FusedResult(NamedTuple):
     """Output of :func:`three_frequency_decode`, each (H, W): absolute phase float32 (NaN
     where invalid), wrapped phase of the narrowest period float32, its modulation and average
-    float32, validity mask bool."""
+    float32, validity mask bool, texture float32 (average + modulation)."""
 
     phase: np.ndarray
     wrapped: np.ndarray
     modulation: np.ndarray
     average: np.ndarray
     mask: np.ndarray
+    texture: np.ndarray
 
 
 def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]], shifts: Sequence[Sequence[float]],
@@ -323,9 +324,9 @@ def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]],
                       dtype=np.float32)
     h, w = frames.shape[1:]
     out = FusedResult(np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.float32),
-                      np.empty((h, w), np.float32), np.empty((h, w), np.bool_))
+                      np.empty((h, w), np.float32), np.empty((h, w), np.bool_), np.empty((h, w), np.float32))
     kernels.three_frequency_kernel(frames, idx[0], coef[0], idx[1], coef[1], idx[2], coef[2], params,
-                                   out.phase, out.wrapped, out.modulation, out.average, out.mask)
+                                   out.phase, out.wrapped, out.modulation, out.average, out.mask, out.texture)
     return out
 
 
@@ -366,7 +367,7 @@ def _unwrap_heterodyne(ctx):
                                    saturation_level=quality.saturation_level(ctx.frames, ctx.bit_depth),
                                    max_residual=float(ctx.options.get("max_residual", 0.5 * math.pi)))
         return r.phase, r.mask, {"wrapped": r.wrapped, "modulation": r.modulation, "average": r.average,
-                                 "masked": True}
+                                 "texture": r.texture, "masked": True}
     phases = [ctx.group_phase(g).phase for g in groups]
     res = heterodyne(phases, [g.period for g in groups], w_range=ctx.w_range())
     return res.phase, _combined_mask(ctx, groups)
