@@ -14,11 +14,19 @@ grid, in three flavours:
   "picks two more points" on the path without saying how; this is our reading, documented).
   The integral is evaluated by 5-point Gauss–Legendre quadrature. Steps whose four points
   (or the grid points used to interpolate them) are not all valid are skipped, so holes and
-  borders stop the front instead of being jumped over.
+  borders stop the front instead of being jumped over. Edge steps alone chain the 32
+  directions and overestimate by up to 1.3 % (≈0.5 % mean): direction quantisation. By
+  default each relaxation also unfolds the triangle (x, x − a, x − b) of two angularly
+  adjacent directions (a unimodular "Farey" pair) from its three Bézier side lengths and
+  takes the distance from the virtual source at D(x − a), D(x − b) (Novotni & Klein-style
+  wavefront update), and the nodes within 3 px of the sub-pixel source start at their exact
+  distance: ~1e-4 % mean error on developable surfaces. ``wavefront=False`` is the
+  dissertation's scheme as published.
 * :func:`grid_geodesic` — plain 8-neighbour Dijkstra with Euclidean step lengths (the classic
   baseline; metrication error up to ~8 %).
 * :func:`heat_geodesic` — the heat method of Crane et al. (2013) on the triangulated grid, via
-  the maintained ``potpourri3d`` library (for comparison of error and time).
+  the maintained ``potpourri3d`` library (for comparison of error and time); its time step
+  grows with the map (:func:`heat_time_coefficient`), else the heat underflows far away.
 
 All three return an ``(H, W)`` float64 map of distances in mm, ``inf`` where a node is
 unreachable or invalid.

@@ -306,7 +306,8 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
     anchors : (F, 2, 2) anchor pixel positions (u, v) of this wing on every frame.
     fill_dots : if > 0, holes within this many pixels of each anchor (dark dots do not
         reconstruct) are filled first (:func:`fringe3d.analyze.anchors.fill_dot_holes`).
-    method/radius: geodesic method (see :func:`fringe3d.analyze.anchors.distance_maps`).
+    method/radius: geodesic method ("bezier" with wavefront update, "bezier-edges", "grid"; see
+    :func:`fringe3d.analyze.anchors.distance_maps`).
     Tracking: Eq. 6.9 (:func:`fringe3d.analyze.tracking.track_points`); strain: Eq. 6.11–6.21
     with the direction towards the farther anchor as the material direction.
     ``progress``: optional callable advanced once per frame.
