@@ -24,8 +24,8 @@ import os
 # this when numba first starts its thread pool; a value set by the user is kept.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
-import numpy as np  # noqa: E402
-from numba import njit, prange  # noqa: E402
+import numpy as np
+from numba import njit, prange
 
 TWO_PI = 2.0 * math.pi
 
