@@ -135,22 +135,22 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig, z_min, opts: dict) ->
     for w in caught:  # re-issue so they point at the caller and are recorded in info
         warnings.warn(w.message, w.category, stacklevel=3)
     plans = _plans(ps)
-    for plan in plans:  # validate every group before any work
-        phase_groups(ps, plan.direction)
+    groups_of = {plan.direction: phase_groups(ps, plan.direction) for plan in plans}  # validate before any work
     out = Decoded(info={"frame_checks": checks, "warnings": [str(w.message) for w in caught],
                         "min_modulation": min_mod})
     first_ctx = None
     for plan in plans:
         ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig, z_min=z_min,
                             options=dict(opts), bit_depth=bit_depth, min_modulation=min_mod)
-        if not ctx.phase_groups():
+        if not groups_of[plan.direction]:
             raise ValueError(f"direction {plan.direction!r} has an unwrapping plan ({plan.method}) but no phase frames "
                              "in the manifest; the decoder needs phase-shifted or FTP frames (a code-only set "
                              "gives no phase: combine it with phase frames, e.g. psp_with_gray_code)")
         result = get_unwrapper(plan.method)(ctx)
         phi, mask = result[0], result[1]
         extras = result[2] if len(result) > 2 else {}
-        g = ctx.groups_for_plan()[0]
+        # narrowest group of the plan (= ctx.groups_for_plan()[0] without re-reading the manifest thrice)
+        g = ctx.group_for_period(plan.periods[0]) if plan.periods else groups_of[plan.direction][0]
         if "wrapped" in extras and "modulation" in extras:
             wrapped, modulation = extras["wrapped"], extras["modulation"]
         else:
