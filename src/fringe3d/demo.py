@@ -194,6 +194,10 @@ def _error_png(path: Path, err: np.ndarray, title: str) -> None:
 
     from fringe3d.io.atomic import atomic_path
 
+    rows, cols = np.nonzero(np.isfinite(err))
+    if rows.size:  # crop to the object, with a small margin
+        m = 8
+        err = err[max(rows.min() - m, 0):rows.max() + m + 1, max(cols.min() - m, 0):cols.max() + m + 1]
     fig, ax = plt.subplots(figsize=(6, 4.5), dpi=100)
     finite = err[np.isfinite(err)]
     vmax = float(np.percentile(finite, 99)) if finite.size else 1.0
