@@ -144,17 +144,9 @@ def validate(d: dict, where: str = "calibration file") -> None:
 
 def load_calibration(path) -> Calibration:
     """Read and validate a calibration JSON (errors name the missing/invalid field)."""
+    from fringe3d.io.jsonfile import read_json
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise FileNotFoundError(f"no calibration file at {path}") from None
-    except IsADirectoryError:
-        raise ValueError(f"{path} is a folder; expected a calibration JSON file") from None
-    try:
-        d = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise ValueError(f"{path} is not valid JSON: {e}") from None
+    d = read_json(path, "calibration file", require_object=False)
     return Calibration.from_dict(d, where=str(path))
 
 

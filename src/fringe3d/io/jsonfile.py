@@ -17,6 +17,8 @@ def read_json(path: str | os.PathLike, what: str = "JSON file", require_object: 
         text = path.read_text()
     except FileNotFoundError:
         raise FileNotFoundError(f"no {what} at {path}") from None
+    except IsADirectoryError:
+        raise ValueError(f"{path} is a folder; expected a {what}") from None
     except UnicodeDecodeError:
         raise ValueError(f"{what} {path} is not a text file") from None
     try:

@@ -168,9 +168,8 @@ def _register() -> None:
         ``T_ref`` group unwrapped by the geometric constraint) or, with one group, to ``Φ_min``.
         Needs the rig and ``z_min``. Options: ``erode``, ``min_size``, ``min_ratio``."""
         from .geometric import _context_geometry, cached_minimum_phase, geometric_unwrap
-        from .hybrid import carrier_from_minimum_phase, ftp_group_phase, not_saturated
-        from .segmentation import foreground_mask, segment_objects
-        from .spatial import unwrap_objects
+        from .segmentation import foreground_mask
+        from .spatial import unwrap_group_per_object
 
         rig, z_min = _context_geometry(ctx, "histogram")
         groups = sorted(ctx.groups_for_plan(), key=lambda g: g.period)
@@ -180,16 +179,7 @@ def _register() -> None:
         opts = {**ctx.plan.options, **ctx.options}
         hi = groups[0]
         mp_hi = cached_minimum_phase(rig, z_min, hi.period, hi.angle)
-        if len(hi.indices) < 3:  # FTP / modified FTP on the carrier the rig predicts
-            pr = ftp_group_phase(ctx.frames[list(hi.indices)], hi.shifts, carrier_from_minimum_phase(mp_hi.phi_min),
-                                 window=str(opts.get("ftp_window", "hanning")))
-            valid = not_saturated(ctx, hi.indices)
-        else:
-            pr = ctx.group_phase(hi)
-            valid = ctx.group_mask(hi)
-        fg = foreground_mask(pr.average, pr.modulation, float(opts.get("min_ratio", 0.15))) & valid
-        labels = segment_objects(fg, min_size=int(opts.get("min_size", 200)), erode=int(opts.get("erode", 2)))
-        phi_r, labels = unwrap_objects(pr.phase, labels=labels)
+        phi_r, labels, pr = unwrap_group_per_object(ctx, hi, mp_hi.phi_min, opts, min_size=200, erode=2)
         if len(groups) == 2:
             lo = groups[1]
             mp_lo = cached_minimum_phase(rig, z_min, lo.period, lo.angle)
