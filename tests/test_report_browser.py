@@ -69,3 +69,14 @@ def test_report_renders_3d_view_and_tables_without_console_errors(results_folder
     assert n_rows == 1
     assert has_gl > 0
     assert (results_folder / "report.png").stat().st_size > 10_000
+
+
+def test_report_shows_sequence_goals_and_tables(results_folder: Path):
+    from fringe3d.report.results import load_summary
+    s = load_summary(results_folder)
+    s["sequences"] = {"falling-balls": {"goals": {"hybrid RMS <= 0.26 mm": True},
+                                        "tables": [{"title": "per ball", "columns": ["ball", "RMS (mm)"],
+                                                    "rows": [[0, 0.22]]}], "seconds": 1.0}}
+    save_summary(results_folder, s)
+    html = write_report(results_folder).read_text()
+    assert "Sequence: falling-balls" in html and "hybrid RMS &lt;= 0.26 mm" in html and "per ball" in html

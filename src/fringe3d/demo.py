@@ -156,6 +156,8 @@ def run_demo(out: str | Path, profile: str = "default", seed: int = 0, full: boo
     }
     if full:
         summary["sequences"] = _run_sequences(seed)
+        st.rows += [{"name": f"sequence: {k}", "seconds": v["seconds"]} for k, v in summary["sequences"].items()]
+        summary["seconds_total"] = round(sum(r["seconds"] for r in st.rows), 2)
     save_summary(out, summary)
     write_report(out)
     return summary
@@ -211,7 +213,7 @@ def _error_png(path: Path, err: np.ndarray, title: str) -> None:
 
 
 def _run_sequences(seed: int) -> dict:
-    """``--full``: the falling-ball and flapping-wing experiments (quick variants)."""
+    """``--full``: the falling-ball and flapping-wing experiments (full variants, ~2.5 min)."""
     from fringe3d import experiments
     out = {}
     for name in ("falling-balls", "flapping-wing"):

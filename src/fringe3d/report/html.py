@@ -114,6 +114,15 @@ def build_report(folder: str | Path) -> str:
             plots.append((div, trace, layout))
         parts.append(_img(folder, m.get("error_map"), f"error map {m['name']}"))
 
+    for name, seq in s.get("sequences", {}).items():
+        parts.append(f"<h2>Sequence: {html.escape(name)}</h2>")
+        goals = seq.get("goals", {})
+        if goals:
+            parts.append(_table([[k, bool(v)] for k, v in goals.items()], ["goal", "met"], "goals"))
+        for tab in seq.get("tables", []):
+            parts.append(f"<h3>{html.escape(str(tab.get('title', '')))}</h3>"
+                         + _table(tab.get("rows", []), tab.get("columns", []), "sequence"))
+
     if s.get("stages"):
         rows = [[st["name"], st.get("seconds", float("nan"))] for st in s["stages"]]
         parts.append("<h2>Time per stage</h2>" + _table(rows, ["stage", "seconds"], "stages"))
