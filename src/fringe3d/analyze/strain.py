@@ -51,6 +51,58 @@ class LocalShape:
     ok: np.ndarray
 
 
+@numba.njit(cache=True, inline="always")
+def _local_coords(pts, r, c, cen, t1, t2, n0):
+    """Point (r, c) in the local frame at ``cen``: (θ1, θ2) along the tangents, z along n0."""
+    dx = pts[r, c, 0] - cen[0]
+    dy = pts[r, c, 1] - cen[1]
+    dz = pts[r, c, 2] - cen[2]
+    return (dx * t1[0] + dy * t1[1] + dz * t1[2], dx * t2[0] + dy * t2[1] + dz * t2[2],
+            dx * n0[0] + dy * n0[1] + dz * n0[2])
+
+
+@numba.njit(cache=True)
+def _fit_quadric(pts, valid, rc, cc, half, cen, t1, t2, n0):
+    """Least-squares ``z = Aθ1² + Bθ2² + Cθ1θ2 + Dθ1 + Eθ2 + F`` (Eq. 6.13) over the valid points of
+    the window centred on (rc, cc), columns scaled for conditioning. Returns (coef (6,), sum of
+    squared residuals)."""
+    h, w = valid.shape
+    ata = np.zeros((6, 6))
+    atz = np.zeros(6)
+    row = np.empty(6)
+    for r in range(max(rc - half, 0), min(rc + half + 1, h)):
+        for c in range(max(cc - half, 0), min(cc + half + 1, w)):
+            if valid[r, c]:
+                a1, a2, zz = _local_coords(pts, r, c, cen, t1, t2, n0)
+                row[0] = a1 * a1
+                row[1] = a2 * a2
+                row[2] = a1 * a2
+                row[3] = a1
+                row[4] = a2
+                row[5] = 1.0
+                for a in range(6):
+                    atz[a] += row[a] * zz
+                    for b in range(6):
+                        ata[a, b] += row[a] * row[b]
+    scale = np.empty(6)
+    for a in range(6):
+        scale[a] = 1.0 / np.sqrt(ata[a, a]) if ata[a, a] > 0 else 1.0
+    for a in range(6):
+        atz[a] *= scale[a]
+        for b in range(6):
+            ata[a, b] *= scale[a] * scale[b]
+    coef = np.linalg.solve(ata, atz) * scale
+    ss = 0.0
+    for r in range(max(rc - half, 0), min(rc + half + 1, h)):
+        for c in range(max(cc - half, 0), min(cc + half + 1, w)):
+            if valid[r, c]:
+                a1, a2, zz = _local_coords(pts, r, c, cen, t1, t2, n0)
+                e = zz - (coef[0] * a1 * a1 + coef[1] * a2 * a2 + coef[2] * a1 * a2 + coef[3] * a1
+                          + coef[4] * a2 + coef[5])
+                ss += e * e
+    return coef, ss
+
+
 @numba.njit(cache=True)
 def _local_shape_kernel(pts, valid, toward, has_toward, uv, half, min_count, out):
     h, w = valid.shape
@@ -97,52 +149,9 @@ def _local_shape_kernel(pts, valid, toward, has_toward, uv, half, min_count, out
         n0 = evecs[:, 0].copy()
         t1 = evecs[:, 2].copy()
         t2 = np.cross(n0, t1)
-        # pass 2: least squares in (θ1, θ2, z) with origin at the centre point
-        ata = np.zeros((6, 6))
-        atz = np.zeros(6)
-        row = np.empty(6)
-        for r in range(max(rc - half, 0), min(rc + half + 1, h)):
-            for c in range(max(cc - half, 0), min(cc + half + 1, w)):
-                if valid[r, c]:
-                    dx = pts[r, c, 0] - cen[0]
-                    dy = pts[r, c, 1] - cen[1]
-                    dz = pts[r, c, 2] - cen[2]
-                    a1 = dx * t1[0] + dy * t1[1] + dz * t1[2]
-                    a2 = dx * t2[0] + dy * t2[1] + dz * t2[2]
-                    zz = dx * n0[0] + dy * n0[1] + dz * n0[2]
-                    row[0] = a1 * a1
-                    row[1] = a2 * a2
-                    row[2] = a1 * a2
-                    row[3] = a1
-                    row[4] = a2
-                    row[5] = 1.0
-                    for a in range(6):
-                        atz[a] += row[a] * zz
-                        for b in range(6):
-                            ata[a, b] += row[a] * row[b]
-        # scale columns for conditioning
-        scale = np.empty(6)
-        for a in range(6):
-            scale[a] = 1.0 / np.sqrt(ata[a, a]) if ata[a, a] > 0 else 1.0
-        for a in range(6):
-            atz[a] *= scale[a]
-            for b in range(6):
-                ata[a, b] *= scale[a] * scale[b]
-        coef = np.linalg.solve(ata, atz) * scale
+        # pass 2: least squares in (θ1, θ2, z) with origin at the centre point (Eq. 6.13-6.15)
+        coef, ss = _fit_quadric(pts, valid, rc, cc, half, cen, t1, t2, n0)
         A, B, C, D, E, F = coef[0], coef[1], coef[2], coef[3], coef[4], coef[5]
-        # residual RMS
-        ss = 0.0
-        for r in range(max(rc - half, 0), min(rc + half + 1, h)):
-            for c in range(max(cc - half, 0), min(cc + half + 1, w)):
-                if valid[r, c]:
-                    dx = pts[r, c, 0] - cen[0]
-                    dy = pts[r, c, 1] - cen[1]
-                    dz = pts[r, c, 2] - cen[2]
-                    a1 = dx * t1[0] + dy * t1[1] + dz * t1[2]
-                    a2 = dx * t2[0] + dy * t2[1] + dz * t2[2]
-                    zz = dx * n0[0] + dy * n0[1] + dz * n0[2]
-                    e = zz - (A * a1 * a1 + B * a2 * a2 + C * a1 * a2 + D * a1 + E * a2 + F)
-                    ss += e * e
         # differential geometry at θ = 0 (Eq. 6.16–6.21)
         r1 = t1 + D * n0
         r2 = t2 + E * n0
