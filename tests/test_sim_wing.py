@@ -37,7 +37,7 @@ def test_geodesic_distance_equals_flat_distance_along_dense_surface_polyline():
 
 
 def test_flat_segment_image_is_the_shortest_path_on_a_tessellated_wing():
-    pp3d = pytest.importorskip("potpourri3d")
+    import potpourri3d as pp3d  # a test dependency (pyproject [test]): never skipped
     w = _wing(outline="rectangle", bend_angle=0.0, bend_offset=0.0)
     t = 0.01  # strongly bent and flapped
     # tessellate the bent sheet (vertices exactly on the surface) and let an independent
