@@ -13,7 +13,7 @@ then flapped by a rotation φ(t) about the root line (the body y axis) and place
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -348,143 +348,242 @@ def _strain_vs_truth(wing, res, sel, M_ref, times):
     e = np.concatenate(errs)
     return float(np.sqrt(np.mean(e ** 2))), float(np.median(np.abs(e))), peak, int(e.size)
 
+_METHODS = (("bezier", GEO_WAVE), ("bezier-edges", GEO_EDGES))   # (wing_sequence method, table name)
 
-def run(quick: bool = False, seed: int = 0) -> dict:
-    """Simulate → reconstruct → track → strain for the ch. 6 flapping wing; see SUMMARY."""
+
+@dataclass
+class _Setup:
+    """The run's fixed inputs: the high-speed preset (``cam`` = its camera), the realistic
+    ``settings`` at FRAME_RATE Hz and their ``quiet`` (read/shot-noise-free, 8-bit) twin, the ch. 6
+    pattern set ``ps``, burst start times ``starts`` (F,) s for tracking and ``nf_starts`` (4,) s
+    for the noise-free strain, the wing ``sides`` (+1 right, −1 left), the tracking/strain fit
+    ``window`` and ``big`` window (px) and the strain-grid step ``grid_step`` (px)."""
+    quick: bool
+    seed: int
+    preset: object
+    settings: object
+    quiet: object
+    ps: object
+    starts: np.ndarray
+    nf_starts: np.ndarray
+    sides: list
+    window: int
+    big: int
+    grid_step: int
+
+    @property
+    def cam(self):
+        return self.preset.rig.camera
+
+
+@dataclass
+class _Tracked:
+    """Rows and per-axis RMS errors (mm) gathered over the wings: Table 6.1-style marker rows per
+    geodesic method (``recon_rows``) and on truth maps (``truth_rows``), the error-budget rows, the
+    strain-table rows, and per wing the (5, 3) RMS arrays behind them."""
+    recon_rows: dict = field(default_factory=dict)
+    truth_rows: list = field(default_factory=list)
+    budget_rows: list = field(default_factory=list)
+    strain_rows: list = field(default_factory=list)
+    track_rms_recon: dict = field(default_factory=dict)
+    track_rms_truth: list = field(default_factory=list)
+
+
+@dataclass
+class _SideRecon:
+    """Stage A result for one wing: reconstructed maps (F × (H, W, 3) mm float64), burst times
+    ``t3`` (F,) s, detected anchors (F, 2, 2) px, marker reference pixels ``q_mark`` (5, 2) px,
+    marker truth ``truth_xyz`` (F, 5, 3) mm, the wavefront-geodesic tracking ``res`` (markers,
+    then ``n_all`` eroded-grid points, then the interior grid) and the interior area fraction."""
+    wing: object
+    label: str
+    maps: list
+    t3: np.ndarray
+    anchors: np.ndarray
+    q_mark: np.ndarray
+    truth_xyz: np.ndarray
+    res: object
+    n_all: int
+    area: float
+
+
+def _setup(quick: bool, seed: int) -> _Setup:
+    """Preset, sensor settings, patterns and sampling for a quick (right wing, 4 bursts over the
+    first quarter cycle) or full (both wings, 16 bursts over one 40 ms cycle) run."""
     import dataclasses
 
-    from scipy import ndimage
-
-    from fringe3d.analyze.strain import local_shape, wing_sequence
-    from fringe3d.io.console import progress_bar
     from fringe3d.sim import presets
 
     preset = presets.get("high-speed")
     settings = dataclasses.replace(preset.settings, frame_rate=FRAME_RATE, seed=seed)
     quiet = dataclasses.replace(settings, read_noise=0.0, shot_noise=False)   # noise-free sensor, 8-bit
-    cam = preset.rig.camera
-    ps = ch6_patterns(preset.rig)
     n3d = 4 if quick else 16
     # full: one flapping cycle (40 ms) in 16 bursts; quick: the first quarter cycle (to peak flap)
-    starts = np.arange(n3d) / (BEAT * 16)
-    sides = [1] if quick else [1, -1]
-    window, big, grid_step = 11, 31, (16 if quick else 8)
-    methods = (("bezier", GEO_WAVE), ("bezier-edges", GEO_EDGES))
-    tables, notes, goals = [], [], {}
-    recon_rows, truth_rows, strain_rows, budget_rows = {}, [], [], []
-    track_rms_recon, track_rms_truth = {}, []
-    nf_starts = np.arange(4) / (BEAT * 8)        # noise-free strain: 4 bursts over half a cycle
-    with progress_bar("flapping wing", total=len(sides) * n3d * 2 + len(nf_starts)) as advance:
-        for side in sides:
-            wing = sim_wing(side)
-            label = "right" if side > 0 else "left"
-            # --- A: full chain (render the 5-image burst, decode, triangulate) ------------------
-            maps, _, t3, anchors = _reconstruct_side(wing, preset, settings, ps, starts, seed * 1000, advance)
-            q_mark = cam.project(wing.material_to_world(SIM_MARKERS, t3[0]))
-            truth_xyz = np.stack([wing.material_to_world(SIM_MARKERS, t) for t in t3])
-            # one tracking pass per geodesic method: markers (+ for the default, the strain grids)
-            valid0 = np.isfinite(maps[0]).all(axis=2)
-            vv, uu = np.mgrid[0:cam.height:grid_step, 0:cam.width:grid_step]
-            g_all = ndimage.binary_erosion(valid0, iterations=window)
-            g_all = np.stack([uu[g_all[vv, uu]], vv[g_all[vv, uu]]], axis=1).astype(float)
-            g_in, area = interior_grid(valid0, anchors[0], big, grid_step)
-            nm, na = len(SIM_MARKERS), len(g_all)
-            for meth, _ in methods:
-                grids = np.vstack([g_all, g_in]) if meth == "bezier" else None
-                res = _track_markers(maps, anchors, q_mark, grids, big, fill=8, method=meth)
-                err = res.xyz[:, :nm] - truth_xyz
-                err[~res.ok[:, :nm]] = np.nan
-                recon_rows.setdefault(meth, []).extend(_marker_rows(f"{label} marker", err))
-                track_rms_recon.setdefault(meth, []).append(np.sqrt(np.nanmean(err ** 2, axis=0)))
-                if meth == "bezier":
-                    res_r = res
-            # --- B: noise-free truth maps (ray cast, float64) -----------------------------------
-            tmaps, M0 = [], None
-            for t in t3:
-                P, M = truth_map(wing, cam, t)
-                tmaps.append(P)
-                M0 = M if M0 is None else M0
-                advance()
-            ta = np.stack([cam.project(wing.material_to_world(SIM_ANCHORS, t)) for t in t3])
-            inner = ndimage.binary_erosion(np.isfinite(tmaps[0]).all(axis=2), iterations=window)
-            vv, uu = np.mgrid[0:cam.height:grid_step, 0:cam.width:grid_step]
-            grid = np.stack([uu[inner[vv, uu]], vv[inner[vv, uu]]], axis=1).astype(float)
-            res_t = _track_markers(tmaps, ta, q_mark, grid, window, fill=0)
-            err_t = res_t.xyz[:, :len(SIM_MARKERS)] - truth_xyz
-            truth_rows += _marker_rows(f"{label} marker", err_t)
-            track_rms_truth.append(np.sqrt(np.nanmean(err_t ** 2, axis=0)))
-            # tracking error budget: swap in exact anchors / exact surfaces one at a time
-            budget = {"reconstructed maps, detected anchors": track_rms_recon["bezier"][-1],
-                      "truth maps, exact anchors": track_rms_truth[-1]}
-            for name, M_, A_, fl in (("reconstructed maps, exact anchors", maps, ta, 8),
-                                     ("truth maps, detected anchors", tmaps, anchors, 0)):
-                rb = _track_markers(M_, A_, q_mark, None, window, fill=fl)
-                eb = rb.xyz[:, :len(SIM_MARKERS)] - truth_xyz
-                eb[~rb.ok[:, :len(SIM_MARKERS)]] = np.nan
-                budget[name] = np.sqrt(np.nanmean(eb ** 2, axis=0))
-            for name in ("reconstructed maps, detected anchors", "reconstructed maps, exact anchors",
-                         "truth maps, detected anchors", "truth maps, exact anchors"):
-                b_ = np.asarray(budget[name])
-                k_ = np.unravel_index(np.nanargmax(b_), b_.shape)
-                budget_rows.append([f"{label} wing: {name}", *np.nanmax(b_, axis=0),
-                                    f"marker {k_[0] + 1} {'XYZ'[k_[1]]}"])
-            rms, med, peak, n = _strain_vs_truth(wing, res_t, len(SIM_MARKERS), M0, t3)
-            strain_rows.append([f"{label} wing, truth point maps", window, "", 1e6 * peak, 1e6 * rms, 100 * rms / peak,
-                                100 * med / peak, n])
-            # --- C: strain from the reconstructed maps (realistic noise) ------------------------
-            strain_rows.append(_strain_row(f"{label} wing, realistic noise, all points (edge erosion {window} px)",
-                                           wing, res_r, slice(nm, nm + na), big, M0, t3))
-            strain_rows.append(_strain_row(f"{label} wing, realistic noise, interior", wing, res_r,
-                                           slice(nm + na, None), big, M0, t3, area))
-        # --- D: noise-free reconstruction (no read/shot noise; real pattern → decode → triangulate) --
-        wing = sim_wing(1)
-        nmaps, _, nt3, nanch = _reconstruct_side(wing, preset, quiet, ps, nf_starts, seed * 1000 + 500, advance)
-        nq = cam.project(wing.material_to_world(SIM_MARKERS, nt3[0]))
-        NM0 = truth_map(wing, cam, nt3[0])[1]
-        nvalid = np.isfinite(nmaps[0]).all(axis=2)
-        nf_rows = []
-        g_all = ndimage.binary_erosion(nvalid, iterations=window)
-        vv, uu = np.mgrid[0:cam.height:8, 0:cam.width:8]
-        g_all = np.stack([uu[g_all[vv, uu]], vv[g_all[vv, uu]]], axis=1).astype(float)
-        for win in ((11, 31) if quick else (11, 21, 31, 41)):
-            g_in, area = interior_grid(nvalid, nanch[0], win, 8)
-            nres = _track_markers(nmaps, nanch, nq, np.vstack([g_all, g_in]), win, fill=8)
-            nm, na = len(nq), len(g_all)
-            if win == big:
-                nf_rows.append(_strain_row(f"right wing, noise-free recon., all points (edge erosion {window} px)",
-                                           wing, nres, slice(nm, nm + na), big, NM0, nt3))
-            nf_rows.append(_strain_row("right wing, noise-free recon., interior", wing, nres, slice(nm + na, None),
-                                       win, NM0, nt3, area))
-        if not quick:   # diagnostic: static 4-step PSP instead of modified FTP (no FTP edge/lobe effects)
-            pmaps = [_measure(wing, preset, quiet, psp_patterns(preset.rig), float(t0), 0, static=True)[0]
-                     .astype(np.float64) for t0 in nf_starts]
-            pt = np.asarray(nf_starts, float)
-            pa = np.stack([cam.project(wing.material_to_world(SIM_ANCHORS, t)) for t in pt])
-            pq = cam.project(wing.material_to_world(SIM_MARKERS, pt[0]))
-            PM0 = truth_map(wing, cam, pt[0])[1]
-            pvalid = np.isfinite(pmaps[0]).all(axis=2)
-            for win in (11, 31):
-                for em in (0, EDGE_MARGIN):
-                    g_p, area = interior_grid(pvalid, pa[0], win, 8, edge_margin=em)
-                    pres = _track_markers(pmaps, pa, pq, g_p, win, fill=8)
-                    nf_rows.append(_strain_row(f"diagnostic: static 4-step PSP, noise-free, exact anchors, edge margin "
-                                               f"{em} px", wing, pres, len(pq), win, PM0, pt, area))
-        strain_rows += nf_rows
+    return _Setup(quick=quick, seed=seed, preset=preset, settings=settings, quiet=quiet,
+                  ps=ch6_patterns(preset.rig), starts=np.arange(n3d) / (BEAT * 16),
+                  nf_starts=np.arange(4) / (BEAT * 8),        # noise-free strain: 4 bursts over half a cycle
+                  sides=[1] if quick else [1, -1], window=11, big=31, grid_step=16 if quick else 8)
+
+
+def _eroded_grid(valid: np.ndarray, erosion: int, step: int) -> np.ndarray:
+    """Grid points (K, 2) float (u, v) px every ``step`` px of ``valid`` (H, W) bool eroded by
+    ``erosion`` px."""
+    from scipy import ndimage
+
+    inner = ndimage.binary_erosion(valid, iterations=erosion)
+    vv, uu = np.mgrid[0:valid.shape[0]:step, 0:valid.shape[1]:step]
+    return np.stack([uu[inner[vv, uu]], vv[inner[vv, uu]]], axis=1).astype(float)
+
+
+def _reconstruct_and_track(cfg: _Setup, side: int, acc: _Tracked, advance) -> _SideRecon:
+    """Stage A: render → decode → triangulate one burst per start (realistic noise), then one
+    tracking pass per geodesic method (markers; for the default also the strain grids). Appends
+    the marker rows and per-axis RMS (mm) to ``acc``."""
+    cam, nm = cfg.cam, len(SIM_MARKERS)
+    wing = sim_wing(side)
+    label = "right" if side > 0 else "left"
+    maps, _, t3, anchors = _reconstruct_side(wing, cfg.preset, cfg.settings, cfg.ps, cfg.starts, cfg.seed * 1000,
+                                             advance)
+    q_mark = cam.project(wing.material_to_world(SIM_MARKERS, t3[0]))
+    truth_xyz = np.stack([wing.material_to_world(SIM_MARKERS, t) for t in t3])
+    valid0 = np.isfinite(maps[0]).all(axis=2)
+    g_all = _eroded_grid(valid0, cfg.window, cfg.grid_step)
+    g_in, area = interior_grid(valid0, anchors[0], cfg.big, cfg.grid_step)
+    for meth, _ in _METHODS:
+        grids = np.vstack([g_all, g_in]) if meth == "bezier" else None
+        res = _track_markers(maps, anchors, q_mark, grids, cfg.big, fill=8, method=meth)
+        err = res.xyz[:, :nm] - truth_xyz
+        err[~res.ok[:, :nm]] = np.nan
+        acc.recon_rows.setdefault(meth, []).extend(_marker_rows(f"{label} marker", err))
+        acc.track_rms_recon.setdefault(meth, []).append(np.sqrt(np.nanmean(err ** 2, axis=0)))
+        if meth == "bezier":
+            res_r = res
+    return _SideRecon(wing, label, maps, t3, anchors, q_mark, truth_xyz, res_r, len(g_all), area)
+
+
+def _tracking_budget(cfg: _Setup, rec: _SideRecon, tmaps, ta, acc: _Tracked) -> None:
+    """Tracking error budget: swap in exact anchors / exact surfaces one at a time; appends one
+    row per combination (worst per-marker RMS per axis, mm, and which marker/axis) to ``acc``."""
+    budget = {"reconstructed maps, detected anchors": acc.track_rms_recon["bezier"][-1],
+              "truth maps, exact anchors": acc.track_rms_truth[-1]}
+    for name, M_, A_, fl in (("reconstructed maps, exact anchors", rec.maps, ta, 8),
+                             ("truth maps, detected anchors", tmaps, rec.anchors, 0)):
+        rb = _track_markers(M_, A_, rec.q_mark, None, cfg.window, fill=fl)
+        eb = rb.xyz[:, :len(SIM_MARKERS)] - rec.truth_xyz
+        eb[~rb.ok[:, :len(SIM_MARKERS)]] = np.nan
+        budget[name] = np.sqrt(np.nanmean(eb ** 2, axis=0))
+    for name in ("reconstructed maps, detected anchors", "reconstructed maps, exact anchors",
+                 "truth maps, detected anchors", "truth maps, exact anchors"):
+        b_ = np.asarray(budget[name])
+        k_ = np.unravel_index(np.nanargmax(b_), b_.shape)
+        acc.budget_rows.append([f"{rec.label} wing: {name}", *np.nanmax(b_, axis=0),
+                                f"marker {k_[0] + 1} {'XYZ'[k_[1]]}"])
+
+
+def _truth_track_and_strain(cfg: _Setup, rec: _SideRecon, acc: _Tracked, advance) -> None:
+    """Stages B and C for one wing: track on noise-free ray-cast truth maps (float64), the error
+    budget, then the strain rows (µε) vs the analytic wing for the truth maps and for the
+    reconstructed maps of stage A (all points, and the interior)."""
+    cam, wing, label, t3, window = cfg.cam, rec.wing, rec.label, rec.t3, cfg.window
+    tmaps, M0 = [], None
+    for t in t3:
+        P, M = truth_map(wing, cam, t)
+        tmaps.append(P)
+        M0 = M if M0 is None else M0
+        advance()
+    ta = np.stack([cam.project(wing.material_to_world(SIM_ANCHORS, t)) for t in t3])
+    grid = _eroded_grid(np.isfinite(tmaps[0]).all(axis=2), window, cfg.grid_step)
+    res_t = _track_markers(tmaps, ta, rec.q_mark, grid, window, fill=0)
+    err_t = res_t.xyz[:, :len(SIM_MARKERS)] - rec.truth_xyz
+    acc.truth_rows += _marker_rows(f"{label} marker", err_t)
+    acc.track_rms_truth.append(np.sqrt(np.nanmean(err_t ** 2, axis=0)))
+    _tracking_budget(cfg, rec, tmaps, ta, acc)
+    rms, med, peak, n = _strain_vs_truth(wing, res_t, len(SIM_MARKERS), M0, t3)
+    acc.strain_rows.append([f"{label} wing, truth point maps", window, "", 1e6 * peak, 1e6 * rms, 100 * rms / peak,
+                            100 * med / peak, n])
+    # --- C: strain from the reconstructed maps (realistic noise) ------------------------------
+    nm, na, big = len(SIM_MARKERS), rec.n_all, cfg.big
+    acc.strain_rows.append(_strain_row(f"{label} wing, realistic noise, all points (edge erosion {window} px)",
+                                       wing, rec.res, slice(nm, nm + na), big, M0, t3))
+    acc.strain_rows.append(_strain_row(f"{label} wing, realistic noise, interior", wing, rec.res,
+                                       slice(nm + na, None), big, M0, t3, rec.area))
+
+
+def _noise_free_strain(cfg: _Setup, advance) -> list[list]:
+    """Stage D: strain rows for a noise-free reconstruction (no read/shot noise; real pattern →
+    decode → triangulate) of the right wing, 4 bursts over half a cycle, per fit window (px);
+    the full run adds the static 4-step PSP diagnostic rows."""
+    cam, window, big = cfg.cam, cfg.window, cfg.big
+    wing = sim_wing(1)
+    nmaps, _, nt3, nanch = _reconstruct_side(wing, cfg.preset, cfg.quiet, cfg.ps, cfg.nf_starts,
+                                             cfg.seed * 1000 + 500, advance)
+    nq = cam.project(wing.material_to_world(SIM_MARKERS, nt3[0]))
+    NM0 = truth_map(wing, cam, nt3[0])[1]
+    nvalid = np.isfinite(nmaps[0]).all(axis=2)
+    nf_rows = []
+    g_all = _eroded_grid(nvalid, window, 8)
+    for win in ((11, 31) if cfg.quick else (11, 21, 31, 41)):
+        g_in, area = interior_grid(nvalid, nanch[0], win, 8)
+        nres = _track_markers(nmaps, nanch, nq, np.vstack([g_all, g_in]), win, fill=8)
+        nm, na = len(nq), len(g_all)
+        if win == big:
+            nf_rows.append(_strain_row(f"right wing, noise-free recon., all points (edge erosion {window} px)",
+                                       wing, nres, slice(nm, nm + na), big, NM0, nt3))
+        nf_rows.append(_strain_row("right wing, noise-free recon., interior", wing, nres, slice(nm + na, None),
+                                   win, NM0, nt3, area))
+    if not cfg.quick:   # diagnostic: static 4-step PSP instead of modified FTP (no FTP edge/lobe effects)
+        nf_rows += _psp_diagnostic(cfg, wing)
+    return nf_rows
+
+
+def _psp_diagnostic(cfg: _Setup, wing) -> list[list]:
+    """Strain rows for the wing measured statically (noise-free) with a 4-step PSP set instead of
+    modified FTP, exact anchors, fit windows 11 and 31 px, edge margin 0 and EDGE_MARGIN px."""
+    cam, preset = cfg.cam, cfg.preset
+    pmaps = [_measure(wing, preset, cfg.quiet, psp_patterns(preset.rig), float(t0), 0, static=True)[0]
+             .astype(np.float64) for t0 in cfg.nf_starts]
+    pt = np.asarray(cfg.nf_starts, float)
+    pa = np.stack([cam.project(wing.material_to_world(SIM_ANCHORS, t)) for t in pt])
+    pq = cam.project(wing.material_to_world(SIM_MARKERS, pt[0]))
+    PM0 = truth_map(wing, cam, pt[0])[1]
+    pvalid = np.isfinite(pmaps[0]).all(axis=2)
+    rows = []
+    for win in (11, 31):
+        for em in (0, EDGE_MARGIN):
+            g_p, area = interior_grid(pvalid, pa[0], win, 8, edge_margin=em)
+            pres = _track_markers(pmaps, pa, pq, g_p, win, fill=8)
+            rows.append(_strain_row(f"diagnostic: static 4-step PSP, noise-free, exact anchors, edge margin "
+                                    f"{em} px", wing, pres, len(pq), win, PM0, pt, area))
+    return rows
+
+
+def _tracking_tables(cfg: _Setup, acc: _Tracked) -> list[dict]:
+    """The tracking tables (one per geodesic method, truth maps, error budget; mm) and the strain
+    table (µε, % of peak)."""
+    tables = []
     cols6 = ["marker", "mean |ΔX| mm", "mean |ΔY| mm", "mean |ΔZ| mm", "RMS ΔX mm", "RMS ΔY mm", "RMS ΔZ mm", "frames"]
-    for meth, name in methods:
-        tables.append({"title": f"tracking error, simulate→reconstruct→track ({n3d} 3D frames 2.5 ms apart, 25 Hz "
-                                f"beat; geodesics: {name}) — cf. Table 6.1",
-                       "columns": cols6, "rows": recon_rows[meth]})
+    for meth, name in _METHODS:
+        tables.append({"title": f"tracking error, simulate→reconstruct→track ({len(cfg.starts)} 3D frames 2.5 ms "
+                                f"apart, 25 Hz beat; geodesics: {name}) — cf. Table 6.1",
+                       "columns": cols6, "rows": acc.recon_rows[meth]})
     tables.append({"title": "tracking error on noise-free truth point maps (geodesic method only)",
-                   "columns": cols6, "rows": truth_rows})
+                   "columns": cols6, "rows": acc.truth_rows})
     tables.append({"title": "tracking error budget (wavefront geodesics): worst per-marker RMS per axis over the "
                             "frames, swapping in exact anchors or exact (ray-cast) surfaces",
-                   "columns": ["data", "RMS ΔX mm", "RMS ΔY mm", "RMS ΔZ mm", "worst"], "rows": budget_rows})
+                   "columns": ["data", "RMS ΔX mm", "RMS ΔY mm", "RMS ΔZ mm", "worst"], "rows": acc.budget_rows})
     tables.append({"title": f"dominant bending strain vs the analytic wing (h = {THICKNESS} mm); interior = fit window "
                             f"≥ {EDGE_MARGIN} px inside the wing outline and clear of the {DOT_MARGIN} px filled dot disks",
                    "columns": ["data", "fit window px", "interior % of wing", "peak |E| µε", "RMS error µε",
-                               "RMS error % of peak", "median |error| % of peak", "samples"], "rows": strain_rows})
-    # --- rigid motion: constant curvature, flapping only -----------------------------------------
+                               "RMS error % of peak", "median |error| % of peak", "samples"], "rows": acc.strain_rows})
+    return tables
+
+
+def _rigid_motion(cam, window: int):
+    """Constant curvature 1/150 mm, flapping only, on truth maps at 0, 4, 8 ms: the strain must
+    stay 0. Returns rows [material points, max |E|] (exact points, then each geodesic method) and
+    {method: max |E|}."""
+    from fringe3d.analyze.strain import local_shape
+
     rigid = sim_wing(1, kappa_amp=0.0)
     rigid.kappa_mean = 1 / 150.0
     rt = np.array([0.0, 0.004, 0.008])
@@ -496,42 +595,52 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     rigid_rows = [["exact material points (strain computation alone)",
                    float(max(np.abs(0.5 * THICKNESS * (x.second_form - rtruth[0].second_form)).max() for x in rtruth))]]
     rigid_max = {}
-    for meth, name in methods:
+    for meth, name in _METHODS:
         rres = _track_markers(rmaps, ra, rq, None, window, fill=0, method=meth)
         rigid_max[meth] = float(np.nanmax(np.abs(rres.E[:, rres.ok.all(axis=0)])))
         rigid_rows.append([f"geodesic tracking ({name})", rigid_max[meth]])
-    # --- noise floor: the same pose measured twice (independent noise), interior points ----------
+    return rigid_rows, rigid_max
+
+
+def _noise_floor_table(cfg: _Setup) -> dict:
+    """Strain noise floor: one pose (t = 10 ms) measured twice with independent sensor noise;
+    RMS dominant strain (µε) of the interior points per fit window (px)."""
+    from fringe3d.analyze.strain import wing_sequence
+
+    cam = cfg.cam
     wing = sim_wing(1)
-    Pa, _, ta_ = _measure(wing, preset, settings, ps, 0.01, seed * 1000 + 901)
-    Pb, _, _ = _measure(wing, preset, settings, ps, 0.01, seed * 1000 + 902)
+    Pa, _, ta_ = _measure(wing, cfg.preset, cfg.settings, cfg.ps, 0.01, cfg.seed * 1000 + 901)
+    Pb, _, _ = _measure(wing, cfg.preset, cfg.settings, cfg.ps, 0.01, cfg.seed * 1000 + 902)
     aa = cam.project(wing.material_to_world(SIM_ANCHORS, ta_))
     floor_rows = []
-    for win in ((11, 31) if quick else (11, 21, 31)):
+    for win in ((11, 31) if cfg.quick else (11, 21, 31)):
         gq, _ = interior_grid(np.isfinite(Pa).all(axis=2), aa, win, 8)
         nres = wing_sequence([Pa.astype(float), Pb.astype(float)], np.stack([aa, aa]), gq, THICKNESS, win,
                              fill_dots=8)
         okn = nres.ok[1]
         floor_rows.append([win, 1e6 * float(np.sqrt(np.mean(nres.dominant[1][okn] ** 2))), int(okn.sum())])
-    tables.append({"title": "strain noise floor: one pose measured twice with independent sensor noise (interior)",
-                   "columns": ["fit window px", "RMS dominant E µε", "points"], "rows": floor_rows})
-    geo_rows = _geodesic_comparison(cam, sim_wing(1), 0.01)
-    tables.append({"title": f"geodesic distance from anchor 1 on the wing's truth map ({cam.width}×{cam.height}), "
-                            "error vs the exact (flat-sheet) distance",
-                   "columns": ["method", "mean rel. error %", "95th pct %", "max %", "time ms"], "rows": geo_rows})
-    tables.append({"title": "rigid motion (constant curvature 1/150 mm, flapping only, truth maps)",
-                   "columns": ["material points", "max |E| over markers and frames"], "rows": rigid_rows})
-    worst = {m: float(np.nanmax(np.stack(v))) for m, v in track_rms_recon.items()}
-    worst_truth = float(np.nanmax(np.stack(track_rms_truth)))
-    geo = {r[0]: r for r in geo_rows}
-    nf_best = next(r for r in nf_rows if "noise-free recon., interior" in r[0] and r[1] == big)
-    goals["geodesic mean relative error ≤ 0.5 % (Bézier 7×7 + wavefront)"] = bool(geo[GEO_WAVE][1] <= 0.5)
-    goals["tracking RMS ≤ 0.5 mm per axis (reconstructed, Bézier 7×7 + wavefront)"] = bool(worst["bezier"] <= 0.5)
-    goals["tracking RMS ≤ 1.24 mm per axis (dissertation's worst; edge-only 7×7)"] = bool(worst["bezier-edges"] <= 1.24)
-    goals["strain RMS error ≤ 5 % of peak, truth point maps"] = bool(
-        all(r[5] <= 5.0 for r in strain_rows if "truth point maps" in r[0]))
-    goals[f"strain RMS error ≤ 5 % of peak, noise-free reconstruction, interior, {big} px fit"] = bool(nf_best[5] <= 5.0)
-    goals["rigid motion |E| < 1e-6 (tracked, Bézier 7×7 + wavefront)"] = bool(rigid_max["bezier"] < 1e-6)
-    notes += [
+    return {"title": "strain noise floor: one pose measured twice with independent sensor noise (interior)",
+            "columns": ["fit window px", "RMS dominant E µε", "points"], "rows": floor_rows}
+
+
+def _goals(cfg: _Setup, acc: _Tracked, geo: dict, worst: dict, nf_best: list, rigid_max: dict) -> dict:
+    """Pass/fail of the issue's goals (geodesic %, tracking mm, strain % of peak, rigid |E|)."""
+    big = cfg.big
+    return {
+        "geodesic mean relative error ≤ 0.5 % (Bézier 7×7 + wavefront)": bool(geo[GEO_WAVE][1] <= 0.5),
+        "tracking RMS ≤ 0.5 mm per axis (reconstructed, Bézier 7×7 + wavefront)": bool(worst["bezier"] <= 0.5),
+        "tracking RMS ≤ 1.24 mm per axis (dissertation's worst; edge-only 7×7)": bool(worst["bezier-edges"] <= 1.24),
+        "strain RMS error ≤ 5 % of peak, truth point maps": bool(
+            all(r[5] <= 5.0 for r in acc.strain_rows if "truth point maps" in r[0])),
+        f"strain RMS error ≤ 5 % of peak, noise-free reconstruction, interior, {big} px fit": bool(nf_best[5] <= 5.0),
+        "rigid motion |E| < 1e-6 (tracked, Bézier 7×7 + wavefront)": bool(rigid_max["bezier"] < 1e-6),
+    }
+
+
+def _notes(cfg: _Setup, geo: dict, worst: dict, worst_truth: float) -> list[str]:
+    """The explanatory notes, with the measured geodesic (%) and tracking (mm) figures filled in."""
+    cam, big = cfg.cam, cfg.big
+    return [
         f"simulated with the simulator's Wing scene (fringe3d.sim.wing) and the high-speed preset camera "
         f"({cam.width}×{cam.height}) at {FRAME_RATE:.0f} Hz; each 3D frame is a 5-image burst (3-step dithered "
         "T=380 for histogram unwrapping + π-shifted area-modulated T=24 pair for modified FTP), decoded by "
@@ -561,15 +670,44 @@ def run(quick: bool = False, seed: int = 0) -> dict:
         f"noise-free reconstruction = read and shot noise off (8-bit quantisation and the whole pattern → decode → "
         f"triangulate chain kept), right wing, 4 bursts over half a cycle; goal judged at the {big} px window",
         "the 'left' wing is the simulator's wing rotated 180° about the image y axis (rendered separately: "
-        "both 150 mm wings do not fit the preset's 180 mm-wide volume at once)" if len(sides) > 1 else
+        "both 150 mm wings do not fit the preset's 180 mm-wide volume at once)" if len(cfg.sides) > 1 else
         "quick: right wing only, 4 3D frames over the first quarter cycle",
     ]
-    return {"tables": tables, "goals": goals, "notes": notes,
+
+
+def run(quick: bool = False, seed: int = 0) -> dict:
+    """Simulate → reconstruct → track → strain for the ch. 6 flapping wing; see SUMMARY."""
+    from fringe3d.io.console import progress_bar
+
+    cfg = _setup(quick, seed)
+    acc = _Tracked()
+    with progress_bar("flapping wing", total=len(cfg.sides) * len(cfg.starts) * 2 + len(cfg.nf_starts)) as advance:
+        for side in cfg.sides:
+            rec = _reconstruct_and_track(cfg, side, acc, advance)
+            _truth_track_and_strain(cfg, rec, acc, advance)
+        nf_rows = _noise_free_strain(cfg, advance)
+        acc.strain_rows += nf_rows
+    tables = _tracking_tables(cfg, acc)
+    rigid_rows, rigid_max = _rigid_motion(cfg.cam, cfg.window)
+    tables.append(_noise_floor_table(cfg))
+    cam = cfg.cam
+    geo_rows = _geodesic_comparison(cam, sim_wing(1), 0.01)
+    tables.append({"title": f"geodesic distance from anchor 1 on the wing's truth map ({cam.width}×{cam.height}), "
+                            "error vs the exact (flat-sheet) distance",
+                   "columns": ["method", "mean rel. error %", "95th pct %", "max %", "time ms"], "rows": geo_rows})
+    tables.append({"title": "rigid motion (constant curvature 1/150 mm, flapping only, truth maps)",
+                   "columns": ["material points", "max |E| over markers and frames"], "rows": rigid_rows})
+    worst = {m: float(np.nanmax(np.stack(v))) for m, v in acc.track_rms_recon.items()}
+    worst_truth = float(np.nanmax(np.stack(acc.track_rms_truth)))
+    geo = {r[0]: r for r in geo_rows}
+    nf_best = next(r for r in nf_rows if "noise-free recon., interior" in r[0] and r[1] == cfg.big)
+    return {"tables": tables, "goals": _goals(cfg, acc, geo, worst, nf_best, rigid_max),
+            "notes": _notes(cfg, geo, worst, worst_truth),
             "dissertation": {"tracking mean diff (max)": "≈1.2 mm X/Y, 0.80 mm Z",
                              "tracking RMS diff (max)": "1.24 mm (left marker 5, Y)",
                              "wing": "150×70 mm, 25 Hz, 5,000 Hz capture"},
             "figures": {"worst_tracking_rms_mm": worst, "worst_tracking_rms_truth_mm": worst_truth,
                         "rigid_max_abs_E": rigid_max, "rigid_max_abs_E_exact_points": rigid_rows[0][1],
                         "strain_rms_pct_noise_free_interior": {int(r[1]): r[5] for r in nf_rows if "interior" in r[0]},
-                        "strain_rms_pct_truth": [r[5] for r in strain_rows if "truth point maps" in r[0]],
+                        "strain_rms_pct_truth": [r[5] for r in acc.strain_rows if "truth point maps" in r[0]],
                         "geodesic_mean_rel_err_pct": {r[0]: r[1] for r in geo_rows}}}
