@@ -125,16 +125,24 @@ class SphereFit:
         return 2.0 * self.radius
 
 
-def sphere_algebraic(xyz: np.ndarray) -> tuple[np.ndarray, float]:
-    """Linear sphere fit: ``|p|^2 = 2 c.p + (r^2 - |c|^2)`` in least squares (Kasa-type)."""
-    A = np.hstack([2 * xyz, np.ones((len(xyz), 1))])
-    b = np.sum(xyz * xyz, axis=1)
+def algebraic_fit(p: np.ndarray, what: str) -> tuple[np.ndarray, float]:
+    """Linear (Kasa-type) circle/sphere fit in any dimension: ``|p|^2 = 2 c.p + (r^2 - |c|^2)``
+    in least squares. ``p`` (N, D); returns ``(center (D,), radius)``; ``what`` names the shape
+    in the error raised when the points determine none."""
+    d = p.shape[1]
+    A = np.hstack([2 * p, np.ones((len(p), 1))])
+    b = np.sum(p * p, axis=1)
     sol, *_ = np.linalg.lstsq(A, b, rcond=None)
-    c = sol[:3]
-    r2 = sol[3] + c @ c
+    c = sol[:d]
+    r2 = sol[d] + c @ c
     if not r2 > 0:
-        raise ValueError("sphere fit: the points do not determine a sphere (degenerate algebraic fit)")
+        raise ValueError(f"{what} fit: the points do not determine a {what} (degenerate algebraic fit)")
     return c, float(np.sqrt(r2))
+
+
+def sphere_algebraic(xyz: np.ndarray) -> tuple[np.ndarray, float]:
+    """Linear sphere fit (:func:`algebraic_fit` in 3D)."""
+    return algebraic_fit(xyz, "sphere")
 
 
 def fit_sphere(points, mask=None, radius: float | None = None) -> SphereFit:
@@ -191,18 +199,12 @@ class CircleFit:
 
 def circle_2d(xy: np.ndarray) -> tuple[np.ndarray, float]:
     """Geometric 2D circle fit (algebraic init + LM): returns ``(center (2,), radius)``."""
-    A = np.hstack([2 * xy, np.ones((len(xy), 1))])
-    b = np.sum(xy * xy, axis=1)
-    sol, *_ = np.linalg.lstsq(A, b, rcond=None)
-    c0 = sol[:2]
-    r2 = sol[2] + c0 @ c0
-    if not r2 > 0:
-        raise ValueError("circle fit: the points do not determine a circle (degenerate algebraic fit)")
+    c0, r0 = algebraic_fit(xy, "circle")
 
     def res(p):
         return np.linalg.norm(xy - p[:2], axis=1) - p[2]
 
-    s = least_squares(res, np.r_[c0, np.sqrt(r2)], method="lm", xtol=1e-14, ftol=1e-14)
+    s = least_squares(res, np.r_[c0, r0], method="lm", xtol=1e-14, ftol=1e-14)
     return s.x[:2], float(abs(s.x[2]))
 
 

@@ -28,6 +28,7 @@ from fringe3d.io.console import progress_bar
 from fringe3d.optics.defocus import blur_pattern, defocus_size_at
 
 from .noise import sense
+from .scenes import copy_hit_row
 from .settings import RenderSettings
 from .truth import Truth, TruthFrames, directions_of, frame_truth, make_truth
 
@@ -262,13 +263,8 @@ def _merge_rows(rows, t, n, oid, alb, uv, t2, n2, oid2, alb2, uv2, new_id):  # p
     for r in range(rows.shape[0]):
         i = rows[r]
         if oid2[r] >= 0 and t2[r] < t[i]:
-            t[i] = t2[r]
+            copy_hit_row(i, r, t, n, alb, uv, t2, n2, alb2, uv2)
             oid[i] = new_id
-            alb[i] = alb2[r]
-            for k in range(3):
-                n[i, k] = n2[r, k]
-            uv[i, 0] = uv2[r, 0]
-            uv[i, 1] = uv2[r, 1]
 
 
 def intersect_culled(scene, origins, dirs, time: float):

@@ -80,30 +80,32 @@ class Hit:
                       np.int32(object_id))
 
 
+@numba.njit(cache=True, inline="always")
+def copy_hit_row(i, j, t, n, alb, uv, t2, n2, alb2, uv2):
+    """Row ``i`` of a hit record (t, normal, albedo, material uv) takes row ``j`` of another;
+    the caller sets the object id."""
+    t[i] = t2[j]
+    alb[i] = alb2[j]
+    for k in range(3):
+        n[i, k] = n2[j, k]
+    uv[i, 0] = uv2[j, 0]
+    uv[i, 1] = uv2[j, 1]
+
+
 @numba.njit(cache=True)
 def _take_kernel(where, t, n, oid, alb, uv, t2, n2, oid2, alb2, uv2):
     for i in range(t.shape[0]):
         if where[i]:
-            t[i] = t2[i]
+            copy_hit_row(i, i, t, n, alb, uv, t2, n2, alb2, uv2)
             oid[i] = oid2[i]
-            alb[i] = alb2[i]
-            for k in range(3):
-                n[i, k] = n2[i, k]
-            uv[i, 0] = uv2[i, 0]
-            uv[i, 1] = uv2[i, 1]
 
 
 @numba.njit(cache=True)
 def _merge_kernel(t, n, oid, alb, uv, t2, n2, oid2, alb2, uv2, new_id):
     for i in range(t.shape[0]):
         if oid2[i] >= 0 and t2[i] < t[i]:
-            t[i] = t2[i]
+            copy_hit_row(i, i, t, n, alb, uv, t2, n2, alb2, uv2)
             oid[i] = new_id
-            alb[i] = alb2[i]
-            for k in range(3):
-                n[i, k] = n2[i, k]
-            uv[i, 0] = uv2[i, 0]
-            uv[i, 1] = uv2[i, 1]
 
 
 @numba.njit(cache=True)
