@@ -141,3 +141,4 @@ def test_point_triangulation_agrees_with_reconstruct_pixel_grid():
     ours = triangulate_telecentric(cam, PRJ, cam.pixel_grid(), pp[..., 0], pp[..., 1])
     assert np.allclose(ours, P, atol=1e-8)
     assert np.allclose(theirs, ours, atol=1e-4)  # float32 output of the reconstruct module
+

@@ -153,18 +153,44 @@ def detect_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, 
         radius_px = (1.5, max(3.0, 1.3 * ratio * s_max * (2 if board.asymmetric else 1)))
     flags = cv2.CALIB_CB_ASYMMETRIC_GRID if board.asymmetric else cv2.CALIB_CB_SYMMETRIC_GRID
     det = blob_detector(board, radius_px)
-    found, centres = cv2.findCirclesGrid(img8, board.pattern_size, flags=flags, blobDetector=det)
-    if not found or centres is None:
-        found, centres = cv2.findCirclesGrid(img8, board.pattern_size,
-                                             flags=flags | cv2.CALIB_CB_CLUSTERING, blobDetector=det)
-        if not found or centres is None:
-            return None
-    uv = np.asarray(centres, dtype=np.float64).reshape(-1, 2)  # OpenCV 4: (N,1,2); 5: may be (N,2)
-    if uv.shape[0] != board.count:
+    uv = None
+    # when the default search fails or mislabels the grid: OpenCV's clustering search, then both
+    # again on a lightly smoothed image (sensor noise makes small spurious blobs)
+    attempts = [(img8, 0), (img8, cv2.CALIB_CB_CLUSTERING)]
+    smooth = cv2.GaussianBlur(img8, (0, 0), 1.0)
+    attempts += [(smooth, 0), (smooth, cv2.CALIB_CB_CLUSTERING)]
+    for im, extra in attempts:
+        found, centres = cv2.findCirclesGrid(im, board.pattern_size, flags=flags | extra, blobDetector=det)
+        if found and centres is not None:
+            cand = np.asarray(centres, dtype=np.float64).reshape(-1, 2)  # OpenCV 4: (N,1,2); 5: may be (N,2)
+            if cand.shape[0] == board.count and grid_is_consistent(cand, board):
+                uv = cand
+                break
+    if uv is None:
         return None
     if refine:
         uv = refine_centres(np.asarray(image, dtype=np.float64), uv, board)
     return uv
+
+
+def grid_is_consistent(uv: np.ndarray, board: CircleBoard, tolerance: float = 0.3) -> bool:
+    """Whether detected centres ``uv (N, 2)`` (OpenCV order) form a smooth grid.
+
+    Along every grid row and column the second difference ``uv[k+1] - 2 uv[k] + uv[k-1]``
+    of a correctly labelled grid is small (perspective and lens distortion bend the grid
+    slowly); a block of circles labelled one place off (a spurious or missed blob) makes it
+    about one spacing. The grid is rejected when any second difference exceeds ``tolerance``
+    times the median neighbour distance. For an asymmetric grid the check runs along the
+    rows of the OpenCV order only.
+    """
+    g = np.asarray(uv, float).reshape(board.rows, board.cols, 2)
+    steps = [np.diff(g, axis=1)]
+    if not board.asymmetric:
+        steps.append(np.diff(g, axis=0))
+    spacing = np.median(np.concatenate([np.linalg.norm(s, axis=-1).ravel() for s in steps]))
+    second = [np.linalg.norm(np.diff(s, axis=ax), axis=-1) for s, ax in zip(steps, (1, 0))]
+    worst = max((float(x.max()) for x in second if x.size), default=0.0)
+    return worst <= tolerance * spacing
 
 
 def refine_centres(image: np.ndarray, uv: np.ndarray, board: CircleBoard) -> np.ndarray:

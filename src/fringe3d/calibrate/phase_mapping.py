@@ -42,24 +42,79 @@ def bilinear_sample(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
 class FringeDirection:
     """One decoded fringe direction: absolute phase map (radians), its fringe angle
     ``alpha`` (radians, manifest convention), its period ``T`` (projector pixels), an
-    optional modulation map and validity mask (H, W)."""
+    optional modulation map and validity mask (H, W), and optionally the wrapped phase of
+    period ``T`` (H, W) that lets :func:`fringe_coordinates` repair masked fringe orders."""
 
     phase: np.ndarray
     angle: float
     period: float
     modulation: np.ndarray | None = None
     mask: np.ndarray | None = None
+    wrapped: np.ndarray | None = None
+
+
+def repair_orders(phase: np.ndarray, wrapped: np.ndarray, uv: np.ndarray, min_valid: int = 24,
+                  max_radius: int = 64) -> np.ndarray:
+    """Absolute phase with the fringe orders of the 2x2 bilinear neighbourhoods of ``uv``
+    restored where the unwrapping left them invalid (NaN).
+
+    A dark circle's centre has low modulation, so the coarse unwrapping phases there fail
+    first while the fine wrapped phase ``wrapped`` (same period) is still good. For each
+    point with an invalid neighbour, a plane ``Phi = a + b du + c dv`` is fitted to the valid
+    absolute phase in a window around it (radius 8 px, doubled until ``min_valid`` pixels,
+    at most ``max_radius``) and each invalid neighbour gets ``k = round((Phi_plane -
+    phi) / 2 pi)``, ``Phi = phi + 2 pi k``. Points without enough valid phase stay NaN.
+
+    phase, wrapped : (H, W) radians (phase NaN = invalid); uv : (N, 2) (column, row).
+    Returns a copy of ``phase`` (float64).
+    """
+    out = np.array(phase, dtype=np.float64)
+    wr = np.asarray(wrapped, dtype=np.float64)
+    h, w = out.shape
+    for u, v in np.asarray(uv, float).reshape(-1, 2):
+        if not (np.isfinite(u) and np.isfinite(v) and 0 <= u <= w - 1 and 0 <= v <= h - 1):
+            continue
+        c0, r0 = min(int(u), w - 2), min(int(v), h - 2)
+        nb = out[r0:r0 + 2, c0:c0 + 2]
+        if np.all(np.isfinite(nb)):
+            continue
+        radius = 8
+        while True:
+            ra, rb = max(r0 - radius, 0), min(r0 + radius + 2, h)
+            ca, cb = max(c0 - radius, 0), min(c0 + radius + 2, w)
+            win = out[ra:rb, ca:cb]
+            ok = np.isfinite(win)
+            if ok.sum() >= min_valid or radius >= max_radius:
+                break
+            radius *= 2
+        if ok.sum() < min_valid:
+            continue
+        rr, cc = np.nonzero(ok)
+        A = np.stack([np.ones(rr.size), cc + ca - u, rr + ra - v], 1)
+        coef, *_ = np.linalg.lstsq(A, win[ok], rcond=None)
+        for dr in (0, 1):
+            for dc in (0, 1):
+                if np.isfinite(out[r0 + dr, c0 + dc]) or not np.isfinite(wr[r0 + dr, c0 + dc]):
+                    continue
+                pred = coef[0] + coef[1] * (c0 + dc - u) + coef[2] * (r0 + dr - v)
+                phi = wr[r0 + dr, c0 + dc]
+                out[r0 + dr, c0 + dc] = phi + 2 * np.pi * np.round((pred - phi) / (2 * np.pi))
+    return out
 
 
 def fringe_coordinates(direction: FringeDirection, uv: np.ndarray, min_modulation: float = 0.0) -> np.ndarray:
     """Projector fringe coordinate ``w = Phi T / 2pi`` sampled at camera points ``uv (N, 2)``.
 
     NaN where the phase is invalid (NaN or masked at any of the 4 neighbours) or where the
-    bilinearly sampled modulation is below ``min_modulation`` (same units as the map).
+    bilinearly sampled modulation is below ``min_modulation`` (same units as the map). With
+    the direction's wrapped phase known, invalid fringe orders next to a point are first
+    restored from the surrounding valid phase (:func:`repair_orders`).
     """
     phase = np.asarray(direction.phase, dtype=np.float64)
     if direction.mask is not None:
         phase = np.where(np.asarray(direction.mask, bool), phase, np.nan)
+    if direction.wrapped is not None and np.shape(direction.wrapped) == phase.shape:
+        phase = repair_orders(phase, direction.wrapped, uv)
     w = bilinear_sample(phase, uv) * direction.period / (2 * np.pi)
     if direction.modulation is not None and min_modulation > 0:
         mod = bilinear_sample(direction.modulation, uv)

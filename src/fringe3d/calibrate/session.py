@@ -98,7 +98,7 @@ def decode_directions(pose: PoseCapture) -> list[FringeDirection]:
         d = p.direction
         out.append(FringeDirection(phase=np.asarray(dec.phase[d]), angle=float(dec.angle[d]),
                                    period=float(dec.period[d]), modulation=np.asarray(dec.modulation[d]),
-                                   mask=np.asarray(dec.mask[d])))
+                                   mask=np.asarray(dec.mask[d]), wrapped=np.asarray(dec.wrapped[d])))
     return out
 
 
