@@ -48,3 +48,37 @@ def test_optimal_angle_and_hv_mappings_have_the_same_projector_noise(alpha_opt_d
     sigma_w2 = (sigma_phi * T / (2 * np.pi)) ** 2
     for c in covs.values():
         assert np.allclose(c, sigma_w2 * np.eye(2), atol=0.02 * sigma_w2)
+
+
+def _smooth_phase(h=160, w=200):
+    vv, uu = np.mgrid[0:h, 0:w].astype(float)
+    return 2 * np.pi * (0.8 * uu + 0.1 * vv + 4e-4 * uu * vv - 2e-4 * vv ** 2) / 18.0, uu, vv
+
+
+def test_local_phase_fit_averages_noise_that_bilinear_keeps():
+    """Noise sigma on a smooth phase: the bilinear sample keeps ~sigma/sqrt(2) of it, the
+    weighted quadratic fit over r = 15 px (~700 px, 6 parameters) leaves ~sigma/sqrt(700/6)."""
+    from fringe3d.calibrate.phase_mapping import bilinear_sample, local_fit_sample
+    true, _, _ = _smooth_phase()
+    rng = np.random.default_rng(2)
+    sigma = 0.05
+    noisy = true + rng.normal(0, sigma, true.shape)
+    pts = np.stack([rng.uniform(30, 170, 400), rng.uniform(30, 130, 400)], 1)
+    exact = bilinear_sample(true, pts)  # the smooth map is locally linear to < 1e-4 rad
+    e_bil = bilinear_sample(noisy, pts) - exact
+    e_fit = local_fit_sample(noisy, np.ones_like(noisy), pts, 15.0) - exact
+    assert 0.5 * sigma < np.std(e_bil) < 0.8 * sigma
+    assert np.sqrt(np.mean(e_fit ** 2)) < 2.5 * sigma / np.sqrt(700 / 6)
+
+
+def test_local_phase_fit_ignores_a_stray_fringe_order_and_masked_pixels():
+    from fringe3d.calibrate.phase_mapping import local_fit_sample
+    true, uu, vv = _smooth_phase()
+    bad = true.copy()
+    bad[(uu - 104) ** 2 + (vv - 80) ** 2 < 16] += 2 * np.pi   # a small patch one order off
+    bad[(uu - 96) ** 2 + (vv - 84) ** 2 < 9] = np.nan          # and a masked hole
+    pts = np.array([[100.3, 80.6]])
+    got = local_fit_sample(bad, None, pts, 12.0)
+    want = local_fit_sample(true, None, pts, 12.0)
+    assert abs(got[0] - want[0]) < 1e-6
+    assert np.isnan(local_fit_sample(np.full_like(true, np.nan), None, pts, 12.0)[0])

@@ -142,3 +142,16 @@ def test_missing_inputs_and_empty_folders_are_errors(tmp_path):
         calibrate_session([tmp_path / "nope"], progress=False)
     with pytest.raises(ValueError, match="neither a manifest.json"):
         calibrate_session([tmp_path], progress=False)
+
+
+def test_calibrate_command_local_phase_window_is_recorded_and_bad_value_rejected(tiny_session, tmp_path, capsys):
+    out = tmp_path / "local.json"
+    rc = main(["calibrate", str(tiny_session.folder), "-o", str(out), "--phase-window", "auto", "--json", "--no-plot"])
+    assert rc == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["phase_sampling"] == "local fit, radius auto"
+    assert load_calibration(out).extra["phase_sampling"] == "local fit, radius auto"
+    rc = main(["calibrate", str(tiny_session.folder), "-o", str(tmp_path / "x.json"), "--phase-window", "wide", "-q"])
+    assert rc == 2
+    assert "phase window must be 'auto', 'bilinear' or a radius in pixels" in capsys.readouterr().err
+    assert not (tmp_path / "x.json").exists()

@@ -102,34 +102,89 @@ def repair_orders(phase: np.ndarray, wrapped: np.ndarray, uv: np.ndarray, min_va
     return out
 
 
-def fringe_coordinates(direction: FringeDirection, uv: np.ndarray, min_modulation: float = 0.0) -> np.ndarray:
+def local_fit_sample(phase: np.ndarray, weight: np.ndarray | None, uv: np.ndarray, radius: float,
+                     min_valid: int = 24) -> np.ndarray:
+    """Phase at sub-pixel points from a weighted quadratic fit over a window (beyond Eq. 2.30).
+
+    Instead of the 4 pixels of a bilinear sample, every valid pixel within ``radius`` of a
+    point enters a least-squares fit ``Phi = c0 + c1 du + c2 dv + c3 du^2 + c4 du dv + c5 dv^2``
+    (``du, dv`` from the point), weighted by ``weight`` (use modulation^2: the phase variance
+    is proportional to 1/B^2); ``c0`` is the sample. On a board the phase is a smooth
+    (homographic) function of the pixel, so the fit averages sensor noise over the whole
+    circle and its white ring - the local-model idea of Moreno & Taubin's projector
+    calibration, applied to phase. Falls back to NaN with fewer than ``min_valid`` pixels.
+
+    phase : (H, W) radians, NaN invalid; weight : (H, W) or None; uv : (N, 2) (column, row);
+    radius : px. Returns (N,) float64.
+    """
+    ph = np.asarray(phase, np.float64)
+    wt = None if weight is None else np.asarray(weight, np.float64)
+    h, w = ph.shape
+    r = max(float(radius), 1.5)
+    out = np.full(len(uv), np.nan)
+    for i, (u, v) in enumerate(np.asarray(uv, float).reshape(-1, 2)):
+        if not (np.isfinite(u) and np.isfinite(v) and 0 <= u <= w - 1 and 0 <= v <= h - 1):
+            continue
+        ca, cb = max(int(np.floor(u - r)), 0), min(int(np.ceil(u + r)) + 1, w)
+        ra, rb = max(int(np.floor(v - r)), 0), min(int(np.ceil(v + r)) + 1, h)
+        vv, uu = np.mgrid[ra:rb, ca:cb]
+        du, dv = (uu - u).ravel(), (vv - v).ravel()
+        val = ph[ra:rb, ca:cb].ravel()
+        wk = np.ones_like(val) if wt is None else wt[ra:rb, ca:cb].ravel()
+        ok = np.isfinite(val) & np.isfinite(wk) & (wk > 0) & (du * du + dv * dv <= r * r)
+        if ok.sum() < min_valid:
+            continue
+        du, dv, val, sw = du[ok] / r, dv[ok] / r, val[ok], np.sqrt(wk[ok])
+        A = np.stack([np.ones_like(du), du, dv, du * du, du * dv, dv * dv], 1)
+        keep = np.ones(len(val), bool)
+        for _ in range(2):  # fit, drop pixels off by > pi/2 (a stray fringe order), fit again
+            coef, *_ = np.linalg.lstsq(A[keep] * sw[keep, None], val[keep] * sw[keep], rcond=None)
+            keep = np.abs(A @ coef - val) < np.pi / 2
+            if keep.sum() < min_valid:
+                break
+        out[i] = coef[0] if keep.sum() >= min_valid else np.nan
+    return out
+
+
+def fringe_coordinates(direction: FringeDirection, uv: np.ndarray, min_modulation: float = 0.0,
+                       window: float = 0.0) -> np.ndarray:
     """Projector fringe coordinate ``w = Phi T / 2pi`` sampled at camera points ``uv (N, 2)``.
 
     NaN where the phase is invalid (NaN or masked at any of the 4 neighbours) or where the
     bilinearly sampled modulation is below ``min_modulation`` (same units as the map). With
     the direction's wrapped phase known, invalid fringe orders next to a point are first
-    restored from the surrounding valid phase (:func:`repair_orders`).
+    restored from the surrounding valid phase (:func:`repair_orders`). ``window > 0`` replaces
+    the bilinear sample by a modulation-weighted quadratic fit over that radius in pixels
+    (:func:`local_fit_sample`; bilinear where the window holds too few valid pixels, e.g. tiny
+    circles); 0 keeps the dissertation's bilinear interpolation.
     """
     phase = np.asarray(direction.phase, dtype=np.float64)
     if direction.mask is not None:
         phase = np.where(np.asarray(direction.mask, bool), phase, np.nan)
     if direction.wrapped is not None and np.shape(direction.wrapped) == phase.shape:
         phase = repair_orders(phase, direction.wrapped, uv)
-    w = bilinear_sample(phase, uv) * direction.period / (2 * np.pi)
+    if window > 0:
+        weight = None if direction.modulation is None else np.asarray(direction.modulation, np.float64) ** 2
+        phi = local_fit_sample(phase, weight, uv, window)
+        phi = np.where(np.isnan(phi), bilinear_sample(phase, uv), phi)  # too few pixels: bilinear
+    else:
+        phi = bilinear_sample(phase, uv)
+    w = phi * direction.period / (2 * np.pi)
     if direction.modulation is not None and min_modulation > 0:
         mod = bilinear_sample(direction.modulation, uv)
         w = np.where(mod >= min_modulation, w, np.nan)
     return w
 
 
-def projector_points(directions: list[FringeDirection], uv: np.ndarray, min_modulation: float = 0.0) -> np.ndarray:
+def projector_points(directions: list[FringeDirection], uv: np.ndarray, min_modulation: float = 0.0,
+                     window: float = 0.0) -> np.ndarray:
     """Projector pixel coordinates ``(u_p, v_p)`` of camera points ``uv (N, 2)``.
 
     Eq. (2.30)-(2.31) for vertical (alpha = pi/2) and horizontal (alpha = 0) fringes, and the
     rotation of Eq. (2.32)-(2.34) for any two non-parallel angles (e.g. alpha_opt -/+ pi/4):
     each direction gives ``w_k = v_p cos(alpha_k) + u_p sin(alpha_k)``; the 2x2 (or least
     squares, for more directions) system is solved per point. Returns ``(N, 2)`` float64 with
-    NaN rows where any direction is invalid.
+    NaN rows where any direction is invalid. ``window``: see :func:`fringe_coordinates`.
     """
     if len(directions) < 2:
         raise ValueError(f"projector mapping needs two fringe directions, got {len(directions)}")
@@ -139,7 +194,7 @@ def projector_points(directions: list[FringeDirection], uv: np.ndarray, min_modu
     A = np.array([[np.sin(d.angle), np.cos(d.angle)] for d in directions])  # rows: (u_p, v_p) coeffs
     if abs(np.linalg.det(A.T @ A)) < 1e-6:
         raise ValueError("fringe directions are (nearly) parallel; need two different angles")
-    W = np.stack([fringe_coordinates(d, uv, min_modulation) for d in directions], axis=1)  # (N, k)
+    W = np.stack([fringe_coordinates(d, uv, min_modulation, window) for d in directions], axis=1)  # (N, k)
     sol = W @ np.linalg.pinv(A).T
     sol[~np.all(np.isfinite(W), axis=1)] = np.nan
     return sol

@@ -102,13 +102,33 @@ def decode_directions(pose: PoseCapture) -> list[FringeDirection]:
     return out
 
 
+def phase_window_px(window, uv: np.ndarray) -> float:
+    """Radius (px) of the local phase fit: 0 = bilinear (Eq. 2.30-2.31), a number = that many
+    pixels, ``"auto"`` = half the median distance between neighbouring circle centres."""
+    if window in (None, 0, 0.0, "0", "bilinear"):
+        return 0.0
+    if window == "auto":
+        d = np.linalg.norm(uv[:, None] - uv[None], axis=-1)
+        np.fill_diagonal(d, np.inf)
+        return 0.5 * float(np.median(d.min(1)))
+    try:
+        r = float(window)
+    except (TypeError, ValueError):
+        raise ValueError(f"phase window must be 'auto', 'bilinear' or a radius in pixels, got {window!r}") from None
+    if not r >= 0:
+        raise ValueError(f"phase window radius must be >= 0 pixels, got {window!r}")
+    return r
+
+
 def observe_pose(pose: PoseCapture, board: CircleBoard, min_modulation_fraction: float = 0.1,
-                 directions: list[FringeDirection] | None = None) -> PoseObservation | None:
+                 directions: list[FringeDirection] | None = None, phase_window=0.0) -> PoseObservation | None:
     """Circle centres in the camera and, through phase, in the projector (Eq. 2.30-2.34).
 
     Returns None (after a warning naming the pose) when the board is not found. Centres whose
     bilinearly sampled modulation is below ``min_modulation_fraction`` times the 95th
-    percentile of the valid modulation are NaN in ``projector_uv``.
+    percentile of the valid modulation are NaN in ``projector_uv``. ``phase_window`` (see
+    :func:`phase_window_px`) picks bilinear sampling (default, the dissertation's) or a local
+    modulation-weighted fit of the phase around each centre.
     """
     iw = check_calibration_set(pose.patterns, pose.name)
     uv = detect_board(pose.frames[iw], board)
@@ -122,18 +142,21 @@ def observe_pose(pose: PoseCapture, board: CircleBoard, min_modulation_fraction:
     thr = 0.0
     if mods and all(m.size for m in mods):
         thr = min_modulation_fraction * min(float(np.percentile(m, 95)) for m in mods)
-    puv = projector_points(dirs, uv, min_modulation=thr)
+    puv = projector_points(dirs, uv, min_modulation=thr, window=phase_window_px(phase_window, uv))
     return PoseObservation(name=pose.name, camera_uv=uv, projector_uv=puv)
 
 
 # ----------------------------------------------------------------------------- whole session
 def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 0.1,
-                    progress: bool = True) -> tuple[list[PoseObservation], dict]:
-    """Observe every pose (an iterable of :class:`PoseCapture` or folders).
+                    progress: bool = True, phase_window=0.0) -> tuple[list[PoseObservation], dict]:
+    """Observe every pose (an iterable of :class:`PoseCapture` or folders); ``phase_window``
+    as in :func:`observe_pose`.
 
     Checks that all poses have the same camera size and projector size. Returns the usable
     observations and ``{"camera_size", "projector_size", "periods", "angles", "skipped"}``.
     """
+    if phase_window != "auto":
+        phase_window_px(phase_window, None)  # a bad value fails before any work
     poses = list(poses)
     obs: list[PoseObservation] = []
     info: dict = {"skipped": []}
@@ -150,7 +173,7 @@ def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 
             elif prj_size != info["projector_size"]:
                 raise ValueError(f"pose {pose.name} was projected at {prj_size[0]}x{prj_size[1]} but pose "
                                  f"{info['first']} at {info['projector_size'][0]}x{info['projector_size'][1]}")
-            o = observe_pose(pose, board, min_modulation_fraction)
+            o = observe_pose(pose, board, min_modulation_fraction, phase_window=phase_window)
             if o is None:
                 info["skipped"].append(pose.name)
             else:
@@ -165,6 +188,8 @@ def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 
             advance()
     if not poses:
         raise ValueError("no calibration poses given")
+    info["phase_sampling"] = "local fit, radius auto" if phase_window == "auto" else (
+        "bilinear" if phase_window_px(phase_window, None) == 0 else f"local fit, radius {float(phase_window):g} px")
     return obs, info
 
 
@@ -212,6 +237,7 @@ def calibrate_observations(obs: list[PoseObservation], info: dict, board: Circle
     if "alpha_opt" in info:
         extra["alpha_opt"] = info["alpha_opt"]
     extra["skipped_poses"] = list(info.get("skipped", []))
+    extra["phase_sampling"] = info.get("phase_sampling", "bilinear")
     cal = Calibration(model=model, rig=res.rig, camera=cam_d, projector=prj_d, board=board.to_dict(),
                       periods=info.get("periods", {}), angles=info.get("angles", {}), poses=poses, rms=rms,
                       extra=extra)
@@ -229,7 +255,7 @@ def calibrate_session(paths, board: CircleBoard | None = None, model: str | None
         board = CircleBoard.from_dict(meta["board"])
     model = model or meta.get("model", "pinhole")
     mmf = kw.pop("min_modulation_fraction", 0.1)
-    obs, info = observe_session(folders, board, mmf, progress)
+    obs, info = observe_session(folders, board, mmf, progress, phase_window=kw.pop("phase_window", 0.0))
     return calibrate_observations(obs, info, board, model, **kw)
 
 

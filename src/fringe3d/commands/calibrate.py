@@ -18,7 +18,7 @@ def _board(cols, rows, spacing, radius, asymmetric, bright):
 
 def run_calibration(inputs, output: Path, board=None, model=None, camera_dist="k1k2p", projector_dist="none",
                     plot: Path | None = None, yaml: Path | None = None, min_modulation: float = 0.1,
-                    progress: bool = True, refine: bool = True) -> dict:
+                    progress: bool = True, refine: bool = True, phase_window="bilinear") -> dict:
     """Calibrate from pose/session folders; write JSON (+ optional PNG plot / OpenCV YAML).
 
     Returns a JSON-friendly summary. Nothing is written unless the calibration succeeds.
@@ -28,7 +28,7 @@ def run_calibration(inputs, output: Path, board=None, model=None, camera_dist="k
 
     cal, res = calibrate_session(inputs, board=board, model=model, progress=progress, camera_dist=camera_dist,
                                  projector_dist=projector_dist, min_modulation_fraction=min_modulation,
-                                 telecentric_refine=refine)
+                                 telecentric_refine=refine, phase_window=phase_window)
     cal.save(output)
     written = {"calibration": str(output)}
     if plot is not None:
@@ -46,6 +46,7 @@ def run_calibration(inputs, output: Path, board=None, model=None, camera_dist="k
     rig = cal.rig
     summary = {"model": cal.model, "rms": cal.rms, "poses": cal.poses, "written": written,
                "skipped_poses": cal.extra.get("skipped_poses", []), "periods": cal.periods,
+               "phase_sampling": cal.extra.get("phase_sampling", "bilinear"),
                "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}
     return summary
 
@@ -67,6 +68,9 @@ def register(app: typer.Typer) -> None:
         projector_dist: str = typer.Option("none", help="Projector distortion (linear model = none)."),
         min_modulation: float = typer.Option(0.1, help="Reject centres whose modulation is below this "
                                                        "fraction of the image's 95th percentile."),
+        phase_window: str = typer.Option("bilinear", help="Phase at each circle centre: 'bilinear' (Eq. 2.30-2.31), "
+                                                          "or a modulation-weighted local fit over a radius: 'auto' "
+                                                          "(half the circle spacing) or a number of pixels."),
         no_refine: bool = typer.Option(False, "--no-refine", help="Telecentric rigs: skip the joint LM "
                                                                    "refinement (the dissertation's sequential ch. 3 method)."),
         plot: Path = typer.Option(None, help="Residual plot PNG (default: OUTPUT with .png)."),
@@ -104,7 +108,8 @@ def register(app: typer.Typer) -> None:
             truth = ss.rig
         plot_path = None if no_plot else (plot or output.with_suffix(".png"))
         s = run_calibration(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
-                            min_modulation, progress=not (quiet or json_), refine=not no_refine)
+                            min_modulation, progress=not (quiet or json_), refine=not no_refine,
+                            phase_window=phase_window)
         if truth is not None:
             from fringe3d.calibrate.calibration_file import load_calibration
             from fringe3d.calibrate.evaluation import compare_to_truth
