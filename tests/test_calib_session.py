@@ -155,3 +155,12 @@ def test_calibrate_command_local_phase_window_is_recorded_and_bad_value_rejected
     assert rc == 2
     assert "phase window must be 'auto', 'bilinear' or a radius in pixels" in capsys.readouterr().err
     assert not (tmp_path / "x.json").exists()
+
+
+def test_pose_whose_grid_cannot_be_labelled_is_skipped_with_that_reason(tiny_session, capsys, monkeypatch):
+    from fringe3d.calibrate import board_detection
+    monkeypatch.setattr(board_detection, "grid_is_consistent", lambda uv, board, tolerance=0.3: False)
+    obs, info = observe_session(tiny_session.poses[:1], tiny_session.board, progress=False)
+    assert obs == [] and info["skipped"] == ["pose_00"]
+    err = capsys.readouterr().err
+    assert "pose_00" in err and "could not be labelled consistently" in err

@@ -122,6 +122,12 @@ def blob_detector(board: CircleBoard, expected_radius_px: tuple[float, float]) -
 
 def detect_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, float] | None = None,
                  refine: bool = True) -> np.ndarray | None:
+    """The board's circle centres, or None; see :func:`find_board` (which also says why not)."""
+    return find_board(image, board, radius_px, refine)[0]
+
+
+def find_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, float] | None = None,
+               refine: bool = True) -> tuple[np.ndarray | None, str]:
     """Find the board's circle centres in a white-illuminated image.
 
     Parameters
@@ -137,13 +143,13 @@ def detect_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, 
 
     Returns
     -------
-    (rows*cols, 2) float64 pixel centres ``(u, v)`` in OpenCV order, or None if the board
-    was not found.
+    ``(uv, reason)``: (rows*cols, 2) float64 pixel centres ``(u, v)`` in OpenCV order and "",
+    or None and why ("not found", or found but its circles could not be labelled consistently).
     """
     if np.ndim(image) != 2:
         raise ValueError(f"board image must be a 2-D grey image, got shape {np.shape(image)}")
     if not np.ptp(np.asarray(image)) > 0:
-        return None  # a flat frame holds no board
+        return None, "the image is flat"
     img8 = to_uint8(image)
     h, w = img8.shape
     if radius_px is None:
@@ -153,7 +159,7 @@ def detect_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, 
         radius_px = (1.5, max(3.0, 1.3 * ratio * s_max * (2 if board.asymmetric else 1)))
     flags = cv2.CALIB_CB_ASYMMETRIC_GRID if board.asymmetric else cv2.CALIB_CB_SYMMETRIC_GRID
     det = blob_detector(board, radius_px)
-    uv = None
+    uv, mislabelled = None, False
     # when the default search fails or mislabels the grid: OpenCV's clustering search, then both
     # again on a lightly smoothed image (sensor noise makes small spurious blobs)
     attempts = [(img8, 0), (img8, cv2.CALIB_CB_CLUSTERING)]
@@ -166,11 +172,13 @@ def detect_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, 
             if cand.shape[0] == board.count and grid_is_consistent(cand, board):
                 uv = cand
                 break
+            mislabelled = True
     if uv is None:
-        return None
+        return None, ("a grid was found but its circles could not be labelled consistently (noise blobs?)"
+                      if mislabelled else "not found")
     if refine:
         uv = refine_centres(np.asarray(image, dtype=np.float64), uv, board)
-    return uv
+    return uv, ""
 
 
 def grid_is_consistent(uv: np.ndarray, board: CircleBoard, tolerance: float = 0.3) -> bool:

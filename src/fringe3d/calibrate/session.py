@@ -22,7 +22,7 @@ import numpy as np
 from fringe3d.io.console import progress_bar, warn
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 
-from .board_detection import CircleBoard, detect_board
+from .board_detection import CircleBoard, find_board
 from .calibration_file import Calibration
 from .phase_mapping import FringeDirection, projector_points
 from .stereo import PoseObservation, calibrate_pinhole_rig
@@ -131,10 +131,10 @@ def observe_pose(pose: PoseCapture, board: CircleBoard, min_modulation_fraction:
     modulation-weighted fit of the phase around each centre.
     """
     iw = check_calibration_set(pose.patterns, pose.name)
-    uv = detect_board(pose.frames[iw], board)
+    uv, why = find_board(pose.frames[iw], board)
     if uv is None:
-        warn(f"pose {pose.name}: the {board.cols}x{board.rows} circle board was not found in the white frame; "
-             "pose skipped")
+        what = "was not found" if why in ("not found", "the image is flat") else f"is unusable: {why}"
+        warn(f"pose {pose.name}: the {board.cols}x{board.rows} circle board {what} in the white frame; pose skipped")
         return None
     dirs = directions if directions is not None else decode_directions(pose)
     mods = [d.modulation[np.isfinite(d.phase) & (d.mask if d.mask is not None else True)]
