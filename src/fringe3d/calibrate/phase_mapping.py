@@ -118,32 +118,46 @@ def local_fit_sample(phase: np.ndarray, weight: np.ndarray | None, uv: np.ndarra
     radius : px. Returns (N,) float64.
     """
     ph = np.asarray(phase, np.float64)
-    wt = None if weight is None else np.asarray(weight, np.float64)
+    wt = np.ones_like(ph) if weight is None else np.asarray(weight, np.float64)
     h, w = ph.shape
     r = max(float(radius), 1.5)
+    uv = np.asarray(uv, float).reshape(-1, 2)
     out = np.full(len(uv), np.nan)
-    for i, (u, v) in enumerate(np.asarray(uv, float).reshape(-1, 2)):
-        if not (np.isfinite(u) and np.isfinite(v) and 0 <= u <= w - 1 and 0 <= v <= h - 1):
-            continue
-        ca, cb = max(int(np.floor(u - r)), 0), min(int(np.ceil(u + r)) + 1, w)
-        ra, rb = max(int(np.floor(v - r)), 0), min(int(np.ceil(v + r)) + 1, h)
-        vv, uu = np.mgrid[ra:rb, ca:cb]
-        du, dv = (uu - u).ravel(), (vv - v).ravel()
-        val = ph[ra:rb, ca:cb].ravel()
-        wk = np.ones_like(val) if wt is None else wt[ra:rb, ca:cb].ravel()
-        ok = np.isfinite(val) & np.isfinite(wk) & (wk > 0) & (du * du + dv * dv <= r * r)
-        if ok.sum() < min_valid:
-            continue
-        du, dv, val, sw = du[ok] / r, dv[ok] / r, val[ok], np.sqrt(wk[ok])
-        A = np.stack([np.ones_like(du), du, dv, du * du, du * dv, dv * dv], 1)
-        keep = np.ones(len(val), bool)
-        for _ in range(2):  # fit, drop pixels off by > pi/2 (a stray fringe order), fit again
-            coef, *_ = np.linalg.lstsq(A[keep] * sw[keep, None], val[keep] * sw[keep], rcond=None)
-            keep = np.abs(A @ coef - val) < np.pi / 2
-            if keep.sum() < min_valid:
-                break
-        out[i] = coef[0] if keep.sum() >= min_valid else np.nan
+    inside = np.all(np.isfinite(uv), 1) & (uv[:, 0] >= 0) & (uv[:, 0] <= w - 1) & (uv[:, 1] >= 0) & (uv[:, 1] <= h - 1)
+    idx = np.flatnonzero(inside)
+    for i in range(0, len(idx), 64):  # chunks bound the (N, P, 6) design array
+        out[idx[i:i + 64]] = _local_fit_chunk(ph, wt, uv[idx[i:i + 64]], r, min_valid)
     return out
+
+
+def _local_fit_chunk(ph, wt, pts, r, min_valid):
+    """:func:`local_fit_sample` for points inside the image, all windows gathered at once."""
+    h, w = ph.shape
+    k = int(np.ceil(r)) + 1
+    oy, ox = np.mgrid[-k:k + 1, -k:k + 1]
+    cx, cy = np.round(pts[:, 0]).astype(int), np.round(pts[:, 1]).astype(int)
+    xs, ys = cx[:, None] + ox.ravel()[None], cy[:, None] + oy.ravel()[None]
+    du, dv = (xs - pts[:, :1]) / r, (ys - pts[:, 1:]) / r
+    inb = (xs >= 0) & (xs < w) & (ys >= 0) & (ys < h) & (du * du + dv * dv <= 1.0)
+    xs, ys = np.clip(xs, 0, w - 1), np.clip(ys, 0, h - 1)
+    val, wk = ph[ys, xs], wt[ys, xs]
+    ok = inb & np.isfinite(val) & np.isfinite(wk) & (wk > 0)
+    val = np.where(ok, val, 0.0)
+    A = np.stack([np.ones_like(du), du, dv, du * du, du * dv, dv * dv], -1)  # (N, P, 6)
+    keep = ok
+    coef = np.zeros((len(pts), 6))
+    for _ in range(2):  # fit, drop pixels off by > pi/2 (a stray fringe order), fit again
+        wkeep = np.where(keep, wk, 0.0)
+        enough = keep.sum(1) >= min_valid
+        AtA = np.einsum("npi,np,npj->nij", A, wkeep, A)
+        Atb = np.einsum("npi,np,np->ni", A, wkeep, val)
+        AtA[~enough] = np.eye(6)  # placeholders, discarded below
+        coef = np.linalg.solve(AtA, Atb[..., None])[..., 0]
+        keep = ok & (np.abs(np.einsum("npi,ni->np", A, coef) - val) < np.pi / 2)
+    good = (keep.sum(1) >= min_valid) & enough
+    res = np.full(len(pts), np.nan)
+    res[good] = coef[good, 0]
+    return res
 
 
 def fringe_coordinates(direction: FringeDirection, uv: np.ndarray, min_modulation: float = 0.0,
