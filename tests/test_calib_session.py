@@ -1,7 +1,6 @@
 """End-to-end calibration on simulated sessions (sim.render -> decode -> phase mapping -> rig),
 the calibrate command, the calibration file, and the bad-input errors."""
 import json
-import shutil
 
 import numpy as np
 import pytest

@@ -1,7 +1,6 @@
 """The manifest-driven decoder on closed-form synthetic captures (truth: the projector
 coordinate each camera pixel sees)."""
 import math
-import warnings
 from dataclasses import replace
 
 import numpy as np

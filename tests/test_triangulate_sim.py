@@ -6,13 +6,11 @@ least-squares path is exact) and a telecentric rig; the simulator renders analyt
 """
 from __future__ import annotations
 
-from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from fringe3d.decode import decode
-from fringe3d.optics import Rig
 from fringe3d.patterns import sets
 from fringe3d.reconstruct import points_from_decoded
 from fringe3d.sim import RenderSettings, render

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fringe3d.analyze.fits import fit_plane, fit_sphere
+from fringe3d.analyze.fits import fit_plane
 from fringe3d.analyze.vdi import flatness, probing_errors, sphere_spacing
 from fringe3d.decode import decode
 from fringe3d.patterns import sets

@@ -16,7 +16,7 @@ import numpy as np
 
 from fringe3d.io.atomic import atomic_write_text
 from fringe3d.io.console import progress_bar, to_jsonable
-from fringe3d.optics import PinholeDevice, Rig, TelecentricCamera
+from fringe3d.optics import Rig, TelecentricCamera
 
 from .board_detection import CircleBoard
 from .session import SESSION_NAME, PoseCapture

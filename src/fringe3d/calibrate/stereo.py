@@ -22,7 +22,7 @@ import numpy as np
 from fringe3d.optics import PinholeDevice, Rig
 
 from .board_detection import CircleBoard
-from .camera import DeviceCalibration, calibrate_device, reprojection_residuals, rms_of
+from .camera import DeviceCalibration, calibrate_device
 
 
 @dataclass

@@ -134,7 +134,7 @@ def build_report(folder: str | Path) -> str:
             f"<title>{html.escape(s['title'])}</title><style>{_CSS}</style>"
             f"<script type='text/javascript'>{plotly.offline.get_plotlyjs()}</script></head><body>"
             + "\n".join(parts)
-            + f"<p class='muted'>fringe3d report · self-contained, no network needed</p>"
+            + "<p class='muted'>fringe3d report · self-contained, no network needed</p>"
             + f"<script>{scripts}</script></body></html>")
 
 
