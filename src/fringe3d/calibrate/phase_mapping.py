@@ -63,7 +63,9 @@ def repair_orders(phase: np.ndarray, wrapped: np.ndarray, uv: np.ndarray, min_va
     point with an invalid neighbour, a plane ``Phi = a + b du + c dv`` is fitted to the valid
     absolute phase in a window around it (radius 8 px, doubled until ``min_valid`` pixels,
     at most ``max_radius``) and each invalid neighbour gets ``k = round((Phi_plane -
-    phi) / 2 pi)``, ``Phi = phi + 2 pi k``. Points without enough valid phase stay NaN.
+    phi) / 2 pi)``, ``Phi = phi + 2 pi k``. Points without enough valid phase stay NaN. The
+    wrapped phase of a repaired pixel is trusted as it is: next to saturated pixels (masked for
+    that reason, not for unwrapping) it would be biased - dark circles make that unlikely.
 
     phase, wrapped : (H, W) radians (phase NaN = invalid); uv : (N, 2) (column, row).
     Returns a copy of ``phase`` (float64).
