@@ -162,10 +162,8 @@ def find_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, fl
     uv, mislabelled = None, False
     # when the default search fails or mislabels the grid: OpenCV's clustering search, then both
     # again on a lightly smoothed image (sensor noise makes small spurious blobs)
-    attempts = [(img8, 0), (img8, cv2.CALIB_CB_CLUSTERING)]
-    smooth = cv2.GaussianBlur(img8, (0, 0), 1.0)
-    attempts += [(smooth, 0), (smooth, cv2.CALIB_CB_CLUSTERING)]
-    for im, extra in attempts:
+    for smooth, extra in ((False, 0), (False, cv2.CALIB_CB_CLUSTERING), (True, 0), (True, cv2.CALIB_CB_CLUSTERING)):
+        im = cv2.GaussianBlur(img8, (0, 0), 1.0) if smooth else img8
         found, centres = cv2.findCirclesGrid(im, board.pattern_size, flags=flags | extra, blobDetector=det)
         if found and centres is not None:
             cand = np.asarray(centres, dtype=np.float64).reshape(-1, 2)  # OpenCV 4: (N,1,2); 5: may be (N,2)

@@ -53,19 +53,18 @@ class FringeDirection:
     wrapped: np.ndarray | None = None
 
 
-def repair_orders(phase: np.ndarray, wrapped: np.ndarray, uv: np.ndarray, min_valid: int = 24,
-                  max_radius: int = 64) -> np.ndarray:
+def repair_orders(phase: np.ndarray, wrapped: np.ndarray, uv: np.ndarray, max_radius: int = 64) -> np.ndarray:
     """Absolute phase with the fringe orders of the 2x2 bilinear neighbourhoods of ``uv``
     restored where the unwrapping left them invalid (NaN).
 
     A dark circle's centre has low modulation, so the coarse unwrapping phases there fail
-    first while the fine wrapped phase ``wrapped`` (same period) is still good. For each
-    point with an invalid neighbour, a plane ``Phi = a + b du + c dv`` is fitted to the valid
-    absolute phase in a window around it (radius 8 px, doubled until ``min_valid`` pixels,
-    at most ``max_radius``) and each invalid neighbour gets ``k = round((Phi_plane -
-    phi) / 2 pi)``, ``Phi = phi + 2 pi k``. Points without enough valid phase stay NaN. The
-    wrapped phase of a repaired pixel is trusted as it is: next to saturated pixels (masked for
-    that reason, not for unwrapping) it would be biased - dark circles make that unlikely.
+    first while the fine wrapped phase ``wrapped`` (same period) is still good. Each invalid
+    neighbour pixel with a valid wrapped phase ``phi`` gets the local model of the valid
+    absolute phase around it (:func:`local_fit_sample`, radius 8 px, doubled up to
+    ``max_radius`` until enough pixels are valid): ``k = round((Phi_model - phi) / 2 pi)``,
+    ``Phi = phi + 2 pi k``. Pixels without enough valid phase around stay NaN. The wrapped
+    phase of a repaired pixel is trusted as it is: next to saturated pixels (masked for that
+    reason, not for unwrapping) it would be biased - dark circles make that unlikely.
 
     phase, wrapped : (H, W) radians (phase NaN = invalid); uv : (N, 2) (column, row).
     Returns a copy of ``phase`` (float64).
@@ -73,34 +72,24 @@ def repair_orders(phase: np.ndarray, wrapped: np.ndarray, uv: np.ndarray, min_va
     out = np.array(phase, dtype=np.float64)
     wr = np.asarray(wrapped, dtype=np.float64)
     h, w = out.shape
-    for u, v in np.asarray(uv, float).reshape(-1, 2):
-        if not (np.isfinite(u) and np.isfinite(v) and 0 <= u <= w - 1 and 0 <= v <= h - 1):
-            continue
-        c0, r0 = min(int(u), w - 2), min(int(v), h - 2)
-        nb = out[r0:r0 + 2, c0:c0 + 2]
-        if np.all(np.isfinite(nb)):
-            continue
-        radius = 8
-        while True:
-            ra, rb = max(r0 - radius, 0), min(r0 + radius + 2, h)
-            ca, cb = max(c0 - radius, 0), min(c0 + radius + 2, w)
-            win = out[ra:rb, ca:cb]
-            ok = np.isfinite(win)
-            if ok.sum() >= min_valid or radius >= max_radius:
-                break
-            radius *= 2
-        if ok.sum() < min_valid:
-            continue
-        rr, cc = np.nonzero(ok)
-        A = np.stack([np.ones(rr.size), cc + ca - u, rr + ra - v], 1)
-        coef, *_ = np.linalg.lstsq(A, win[ok], rcond=None)
-        for dr in (0, 1):
-            for dc in (0, 1):
-                if np.isfinite(out[r0 + dr, c0 + dc]) or not np.isfinite(wr[r0 + dr, c0 + dc]):
-                    continue
-                pred = coef[0] + coef[1] * (c0 + dc - u) + coef[2] * (r0 + dr - v)
-                phi = wr[r0 + dr, c0 + dc]
-                out[r0 + dr, c0 + dc] = phi + 2 * np.pi * np.round((pred - phi) / (2 * np.pi))
+    uv = np.asarray(uv, float).reshape(-1, 2)
+    uv = uv[np.all(np.isfinite(uv), 1) & np.all(uv >= 0, 1) & (uv[:, 0] <= w - 1) & (uv[:, 1] <= h - 1)]
+    c0 = np.minimum(uv[:, 0].astype(int), w - 2)
+    r0 = np.minimum(uv[:, 1].astype(int), h - 2)
+    rows = np.concatenate([r0, r0, r0 + 1, r0 + 1])
+    cols = np.concatenate([c0, c0 + 1, c0, c0 + 1])
+    todo = np.unique(np.stack([rows, cols], 1), axis=0)
+    todo = todo[np.isnan(out[todo[:, 0], todo[:, 1]]) & np.isfinite(wr[todo[:, 0], todo[:, 1]])]
+    model = np.full(len(todo), np.nan)
+    radius = 8
+    while radius <= max_radius and np.isnan(model).any():
+        miss = np.isnan(model)
+        model[miss] = local_fit_sample(out, None, todo[miss][:, ::-1].astype(float), radius)
+        radius *= 2
+    ok = np.isfinite(model)
+    r, c = todo[ok, 0], todo[ok, 1]
+    phi = wr[r, c]
+    out[r, c] = phi + 2 * np.pi * np.round((model[ok] - phi) / (2 * np.pi))
     return out
 
 

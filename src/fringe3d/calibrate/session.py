@@ -105,12 +105,17 @@ def decode_directions(pose: PoseCapture) -> list[FringeDirection]:
 def phase_window_px(window, uv: np.ndarray) -> float:
     """Radius (px) of the local phase fit: 0 = bilinear (Eq. 2.30-2.31), a number = that many
     pixels, ``"auto"`` = half the median distance between neighbouring circle centres."""
-    if window in (None, 0, 0.0, "0", "bilinear"):
-        return 0.0
     if window == "auto":
         d = np.linalg.norm(uv[:, None] - uv[None], axis=-1)
         np.fill_diagonal(d, np.inf)
         return 0.5 * float(np.median(d.min(1)))
+    return _fixed_window_px(window)
+
+
+def _fixed_window_px(window) -> float:
+    """A window other than ``"auto"`` as a radius in px (0 = bilinear); raises on bad values."""
+    if window in (None, "bilinear"):
+        return 0.0
     try:
         r = float(window)
     except (TypeError, ValueError):
@@ -118,6 +123,14 @@ def phase_window_px(window, uv: np.ndarray) -> float:
     if not r >= 0:
         raise ValueError(f"phase window radius must be >= 0 pixels, got {window!r}")
     return r
+
+
+def phase_sampling_label(window) -> str:
+    """How the centres' phase is sampled, as recorded in the calibration file."""
+    if window == "auto":
+        return "local fit, radius auto"
+    r = _fixed_window_px(window)
+    return "bilinear" if r == 0 else f"local fit, radius {r:g} px"
 
 
 def observe_pose(pose: PoseCapture, board: CircleBoard, min_modulation_fraction: float = 0.1,
@@ -155,8 +168,7 @@ def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 
     Checks that all poses have the same camera size and projector size. Returns the usable
     observations and ``{"camera_size", "projector_size", "periods", "angles", "skipped"}``.
     """
-    if phase_window != "auto":
-        phase_window_px(phase_window, None)  # a bad value fails before any work
+    sampling = phase_sampling_label(phase_window)  # a bad value fails before any work
     poses = list(poses)
     obs: list[PoseObservation] = []
     info: dict = {"skipped": []}
@@ -188,8 +200,7 @@ def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 
             advance()
     if not poses:
         raise ValueError("no calibration poses given")
-    info["phase_sampling"] = "local fit, radius auto" if phase_window == "auto" else (
-        "bilinear" if phase_window_px(phase_window, None) == 0 else f"local fit, radius {float(phase_window):g} px")
+    info["phase_sampling"] = sampling
     return obs, info
 
 

@@ -85,6 +85,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     clean = preset.settings.replace(defocus="gaussian", defocus_size=LEVELS[1][1], shot_noise=False, read_noise=0.0,
                                     bit_depth=16)
     _, truth_c, dirs_c = render_and_decode(scene, rig_true, patterns, clean)
+    contrast = np.array([fundamental_contrast(sigma) for _, sigma in LEVELS])
     rows, own, common = [], [], []
     for k, ((label, sigma), (cal, n_obs)) in enumerate(zip(LEVELS, cals)):
         rms_own, r_own, dropped = sphere_rms(cal.rig, meas[k][1], meas[k][0])
@@ -92,14 +93,13 @@ def run(quick: bool = False, seed: int = 0) -> dict:
         rms_clean, r_clean, _ = sphere_rms(cal.rig, dirs_c, truth_c)
         own.append(1000 * rms_own)
         common.append(1000 * rms_com)
+        # noise-limited prediction from the in-focus level: RMS scales with 1 / contrast
+        predicted = own[0] * contrast[0] / contrast[k]
         rows.append([label, sigma, n_obs, cal.rms["camera_px"], cal.rms["projector_px"], 1000 * rms_own,
-                     1000 * (r_own - radius), 100 * dropped, 1000 * rms_com, 1000 * rms_clean,
-                     1000 * (r_clean - radius)])
+                     float(contrast[k]), float(predicted), 1000 * (r_own - radius), 100 * dropped,
+                     1000 * rms_com, 1000 * rms_clean, 1000 * (r_clean - radius)])
     own, common = np.array(own), np.array(common)
-    contrast = np.array([fundamental_contrast(sigma) for _, sigma in LEVELS])
-    predicted = own[0] * contrast[0] / contrast  # noise-limited prediction from the in-focus level
-    for row, c, p in zip(rows, contrast, predicted):
-        row[6:6] = [float(c), float(p)]
+    predicted = own[0] * contrast[0] / contrast
     spread_own = float((own.max() - own.min()) / own.min())
     spread_common = float((common.max() - common.min()) / common.min())
     return {

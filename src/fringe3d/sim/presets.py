@@ -98,6 +98,13 @@ def _projector(f, width, height, center, target, cy_offset=0.0) -> PinholeDevice
     return PinholeDevice(K=K, width=width, height=height, R=R, t=t)
 
 
+def _baseline_centre(z0: float, direction, angle_deg: float = 13.0) -> np.ndarray:
+    """Projector centre (mm) for a camera at the origin looking at ``(0, 0, z0)``: a baseline of
+    ``z0 tan(angle)`` scaled by the (x, y) ``direction`` in the camera's x-y plane."""
+    b = z0 * np.tan(np.deg2rad(angle_deg))
+    return np.array([b * direction[0], b * direction[1], 0.0])
+
+
 def _camera(f, width, height, dist=(0, 0, 0, 0, 0)) -> PinholeDevice:
     return PinholeDevice(K=intrinsics(f, f, (width - 1) / 2, (height - 1) / 2), width=width,
                          height=height, dist=dist)
@@ -105,10 +112,8 @@ def _camera(f, width, height, dist=(0, 0, 0, 0, 0)) -> PinholeDevice:
 
 def _macro() -> Preset:
     z0 = 450.0
-    angle = np.deg2rad(13.0)
     # baseline mostly horizontal with a small vertical part: both fringe directions see depth
-    b = z0 * np.tan(angle)
-    centre = np.array([b * np.cos(np.deg2rad(20)), -b * np.sin(np.deg2rad(20)), 0.0])
+    centre = _baseline_centre(z0, (np.cos(np.deg2rad(20)), -np.sin(np.deg2rad(20))))
     cam = _camera(8.0 / 0.0048, 1280, 1024, dist=(-0.08, 0.1, 0.0, 0.0, 0.0))
     proj = _projector(965.0, 800, 600, centre, (0, 0, z0))
     return Preset("macro", Rig(cam, proj),
@@ -121,10 +126,8 @@ def _macro() -> Preset:
 
 def _well_designed() -> Preset:
     z0 = 750.0
-    angle = np.deg2rad(13.0)
-    b = z0 * np.tan(angle)
     tilt = np.deg2rad(4.0)  # baseline rotated 4 deg out of the horizontal
-    centre = np.array([b * np.cos(tilt), -b * np.sin(tilt), 0.0])
+    centre = _baseline_centre(z0, (np.cos(tilt), -np.sin(tilt)))
     cam = _camera(8.0 / 0.0048, 1280, 1024)
     proj = _projector(1100.0, 800, 600, centre, (0, 0, z0))
     return Preset("well-designed", Rig(cam, proj),
@@ -164,9 +167,7 @@ def _microscope() -> Preset:
 
 def _high_speed() -> Preset:
     z0 = 400.0
-    angle = np.deg2rad(13.0)
-    b = z0 * np.tan(angle)
-    centre = np.array([b, -0.15 * b, 0.0])
+    centre = _baseline_centre(z0, (1.0, -0.15))
     cam = _camera(1000.0, 640, 512)
     proj = _projector(1150.0, 800, 600, centre, (0, 0, z0))
     return Preset("high-speed", Rig(cam, proj),
@@ -180,9 +181,7 @@ def _high_speed() -> Preset:
 
 def _tiny() -> Preset:
     z0 = 400.0
-    angle = np.deg2rad(13.0)
-    b = z0 * np.tan(angle)
-    centre = np.array([b, -0.2 * b, 0.0])
+    centre = _baseline_centre(z0, (1.0, -0.2))
     cam = _camera(200.0, 160, 128)
     proj = _projector(290.0, 256, 200, centre, (0, 0, z0))
     return Preset("tiny", Rig(cam, proj),
