@@ -17,7 +17,7 @@ import sys
 import typer
 
 from fringe3d import commands
-from fringe3d.io.console import err_console
+from fringe3d.utils.console import err_console, set_quiet
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_WRITE = 0, 1, 2, 3
 
@@ -62,6 +62,7 @@ _register_all()
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point: run the app, turning known error types into clear messages and exit codes."""
+    set_quiet(False)  # the command line shows progress; sub-commands' --quiet/--json silence it
     try:
         app(args=argv, standalone_mode=False)
     except SystemExit as e:  # typer/click exit

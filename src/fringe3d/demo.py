@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.console import info
+from fringe3d.utils.console import info
 
 #: Named demo profiles: (preset, board poses, camera scale).
 PROFILES = {
@@ -184,7 +184,7 @@ def _write_outputs(out: Path, points, err, masks, metrics, texture) -> list:
 
 
 def _save_npy(path: Path, arr: np.ndarray) -> None:
-    from fringe3d.io.atomic import atomic_path
+    from fringe3d.utils.atomic import atomic_path
     with atomic_path(path) as tmp:
         np.save(tmp, arr)
 
@@ -194,7 +194,7 @@ def _error_png(path: Path, err: np.ndarray, title: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from fringe3d.io.atomic import atomic_path
+    from fringe3d.utils.atomic import atomic_path
 
     rows, cols = np.nonzero(np.isfinite(err))
     if rows.size:  # crop to the object, with a small margin

@@ -27,8 +27,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from fringe3d.io.atomic import atomic_path, atomic_write_text
-from fringe3d.io.console import to_jsonable
+from fringe3d.utils.atomic import atomic_path, atomic_write_text
+from fringe3d.utils.console import to_jsonable
 from fringe3d.optics import Rig
 
 FORMAT = "fringe3d-calibration"
@@ -144,7 +144,7 @@ def validate(d: dict, where: str = "calibration file") -> None:
 
 def load_calibration(path) -> Calibration:
     """Read and validate a calibration JSON (errors name the missing/invalid field)."""
-    from fringe3d.io.jsonfile import read_json
+    from fringe3d.utils.jsonfile import read_json
     path = Path(path)
     d = read_json(path, "calibration file", require_object=False)
     return Calibration.from_dict(d, where=str(path))

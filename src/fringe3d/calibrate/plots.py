@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.atomic import atomic_path
+from fringe3d.utils.atomic import atomic_path
 
 
 def residual_plot(path, camera_residuals: list[np.ndarray], projector_residuals: list[np.ndarray],

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.console import progress_bar, warn
+from fringe3d.utils.console import progress_bar, warn
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 
 from .board_detection import CircleBoard, find_board

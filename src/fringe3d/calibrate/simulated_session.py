@@ -14,8 +14,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from fringe3d.io.atomic import atomic_write_text
-from fringe3d.io.console import progress_bar, to_jsonable
+from fringe3d.utils.atomic import atomic_write_text
+from fringe3d.utils.console import progress_bar, to_jsonable
 from fringe3d.optics import Rig, TelecentricCamera
 
 from .board_detection import CircleBoard

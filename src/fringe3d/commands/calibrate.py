@@ -5,7 +5,7 @@ from pathlib import Path
 
 import typer
 
-from fringe3d.io.console import console, info, make_table, print_json, set_quiet
+from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
 
 
 def _board(cols, rows, spacing, radius, asymmetric, bright):

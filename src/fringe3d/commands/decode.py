@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from fringe3d.io.console import console, info, make_table, print_json, progress_bar, set_quiet, warn
+from fringe3d.utils.console import console, info, make_table, print_json, progress_bar, set_quiet, warn
 
 
 def _load_rig(path: Path | None):

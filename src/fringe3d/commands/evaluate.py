@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from fringe3d.io.console import console, make_table, print_json, set_quiet
+from fringe3d.utils.console import console, make_table, print_json, set_quiet
 
 
 # ----------------------------------------------------------------------------- inputs
@@ -21,7 +21,7 @@ def load_points(result: Path, frame: int = 0) -> tuple[np.ndarray, dict]:
     if result.is_dir():
         js = result / "reconstruct.json"
         if js.exists():
-            from fringe3d.io.jsonfile import read_json
+            from fringe3d.utils.jsonfile import read_json
             info = read_json(js, "reconstruction summary")
         if (result / "points.npy").exists():
             return _check_map(np.load(result / "points.npy"), result), info
@@ -163,8 +163,8 @@ def register(app: typer.Typer) -> None:
         """
         from fringe3d.analyze.fits import fit_plane, fit_sphere
         from fringe3d.analyze.vdi import flatness, sphere_spacing
-        from fringe3d.io.atomic import atomic_write_text
-        from fringe3d.io.console import to_jsonable
+        from fringe3d.utils.atomic import atomic_write_text
+        from fringe3d.utils.console import to_jsonable
 
         set_quiet(quiet or json_)
         if sum([sphere, plane, ball_bar]) > 1:

@@ -6,7 +6,7 @@ import time
 import typer
 
 from fringe3d import experiments
-from fringe3d.io.console import console, make_table, print_json, set_quiet
+from fringe3d.utils.console import console, make_table, print_json, set_quiet
 
 
 def register(app: typer.Typer) -> None:

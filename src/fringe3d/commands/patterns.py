@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from fringe3d.io.console import console, info, print_json, progress_bar, set_quiet
+from fringe3d.utils.console import console, info, print_json, progress_bar, set_quiet
 
 SETS = ("phase-shift", "three-frequency", "hierarchical", "gray-code", "binary-code", "psp-gray", "ftp", "modified-ftp",
         "two-frequency", "hybrid", "calibration", "optimal-angle")

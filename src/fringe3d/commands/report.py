@@ -5,7 +5,7 @@ from pathlib import Path
 
 import typer
 
-from fringe3d.io.console import console, print_json, set_quiet
+from fringe3d.utils.console import console, print_json, set_quiet
 
 
 def register(app: typer.Typer) -> None:

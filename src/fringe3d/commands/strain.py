@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from fringe3d.io.console import console, make_table, print_json, progress_bar, set_quiet, to_jsonable
+from fringe3d.utils.console import console, make_table, print_json, progress_bar, set_quiet, to_jsonable
 
 MIN_FRAMES = 2
 
@@ -216,7 +216,7 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
     before any file is written."""
     from fringe3d.analyze.anchors import check_anchor
     from fringe3d.analyze.strain import wing_sequence
-    from fringe3d.io.atomic import atomic_write_text
+    from fringe3d.utils.atomic import atomic_write_text
     from fringe3d.io.export_vtk import strain_table, write_strain_csv, write_strain_vtk
     from fringe3d.io.strain_figures import scatter_to_image, strain_animation, strain_map_png
 

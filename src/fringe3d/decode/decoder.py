@@ -118,7 +118,7 @@ def decode_sequence(frames, patterns: PatternSet, rig=None, z_min: float | None 
         raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
     cycles = _check_count(frames.shape[0], patterns, sequence=True)
     n = len(patterns)
-    from fringe3d.io.console import progress_bar
+    from fringe3d.utils.console import progress_bar
     with progress_bar("decoding", cycles, enabled=progress) as advance:
         for c in range(cycles):
             yield _decode_cycle(np.ascontiguousarray(frames[c * n:(c + 1) * n]), patterns, rig, z_min, opts)

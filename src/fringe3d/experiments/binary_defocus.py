@@ -58,7 +58,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     ``quick``: the same grid on a smaller projector image (fewer rows). Deterministic: no
     noise is added, ``seed`` is unused.
     """
-    from fringe3d.io.console import progress_bar
+    from fringe3d.utils.console import progress_bar
 
     kinds = KINDS + EXTRA_KINDS
     width, height = (360, 40) if quick else (720, 128)

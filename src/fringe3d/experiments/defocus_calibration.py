@@ -62,7 +62,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     from fringe3d.calibrate.evaluation import render_and_decode
     from fringe3d.calibrate.session import calibrate_observations, observe_session, simulate_session
     from fringe3d.calibrate.simulated_session import scaled_camera
-    from fringe3d.io.console import track
+    from fringe3d.utils.console import track
     from fringe3d.sim import presets
 
     preset = presets.get("macro")

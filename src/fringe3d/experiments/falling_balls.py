@@ -180,7 +180,7 @@ def measure_cycle(scene, seed: int, noise: bool = True) -> dict:
 
 
 def run(quick: bool = False, seed: int = 0) -> dict:
-    from fringe3d.io.console import track
+    from fringe3d.utils.console import track
 
     rows_, cols_ = (4, 5)
     cases = [("two balls, realistic noise", lambda: two_ball_scene(), True)]

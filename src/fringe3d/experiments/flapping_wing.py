@@ -677,7 +677,7 @@ def _notes(cfg: _Setup, geo: dict, worst: dict, worst_truth: float) -> list[str]
 
 def run(quick: bool = False, seed: int = 0) -> dict:
     """Simulate → reconstruct → track → strain for the ch. 6 flapping wing; see SUMMARY."""
-    from fringe3d.io.console import progress_bar
+    from fringe3d.utils.console import progress_bar
 
     cfg = _setup(quick, seed)
     acc = _Tracked()

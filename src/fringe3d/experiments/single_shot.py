@@ -134,7 +134,7 @@ def depth_limit_case(rig, settings, seed: int, z_limit: float) -> dict:
 
 
 def run(quick: bool = False, seed: int = 0) -> dict:
-    from fringe3d.io.console import track
+    from fringe3d.utils.console import track
     from fringe3d.reconstruct.single_shot import single_shot
     from fringe3d.unwrap.geometric import depth_limit, minimum_phase
 

@@ -97,7 +97,7 @@ def predicted_rates(sigma: float) -> dict:
 def run(quick: bool = False, seed: int = 0) -> dict:
     """Order-error rate (fraction of pixels) per method and noise level; see the module doc."""
     from fringe3d.decode import decode
-    from fringe3d.io.console import progress_bar
+    from fringe3d.utils.console import progress_bar
     from fringe3d.patterns.synthetic import frames_from_coordinates
 
     cam_w, cam_h = (320, 48) if quick else (320, 400)

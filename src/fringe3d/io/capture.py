@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.atomic import atomic_write_text
-from fringe3d.io.console import progress_bar
+from fringe3d.utils.atomic import atomic_write_text
+from fringe3d.utils.console import progress_bar
 from fringe3d.io.images import IMAGE_SUFFIXES, read_image, write_image
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 
@@ -120,7 +120,7 @@ def read_meta(folder: str | os.PathLike) -> dict:
     path = Path(folder) / META_NAME
     if not path.exists():
         return {}
-    from fringe3d.io.jsonfile import read_json
+    from fringe3d.utils.jsonfile import read_json
     meta = read_json(path, "capture metadata")
     if "frame_rate" in meta and not (isinstance(meta["frame_rate"], (int, float)) and meta["frame_rate"] > 0):
         raise ValueError(f"{path}: frame_rate must be a positive number (Hz), got {meta['frame_rate']!r}")
@@ -238,6 +238,6 @@ def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: Patte
     meta.setdefault("camera", [int(frames.shape[2]), int(frames.shape[1])])
     if frames.dtype in (np.uint8, np.uint16):
         meta.setdefault("bit_depth", 8 if frames.dtype == np.uint8 else 16)
-    from fringe3d.io.console import to_jsonable
+    from fringe3d.utils.console import to_jsonable
     atomic_write_text(folder / META_NAME, json.dumps(to_jsonable(meta), indent=1))
     return folder

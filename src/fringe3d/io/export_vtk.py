@@ -1,6 +1,6 @@
 """Export tracked points with their strain: CSV and legacy-ASCII VTK polydata (ParaView, VisIt).
 
-Both writers go through :func:`fringe3d.io.atomic.atomic_path`, so a reader never sees a
+Both writers go through :func:`fringe3d.utils.atomic.atomic_path`, so a reader never sees a
 half-written file. Columns / point-data arrays: ``x, y, z`` (mm), the strain components
 ``E11, E12, E22`` (material basis), the principal values ``E_min, E_max``, the dominant
 principal value ``E_dominant``, the image position ``u, v`` (px), the tracking residual (mm)
@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from fringe3d.io.atomic import atomic_path
+from fringe3d.utils.atomic import atomic_path
 
 __all__ = ["strain_table", "write_strain_csv", "write_strain_vtk", "FIELDS"]
 

@@ -1,6 +1,6 @@
 """Single-image read/write: PNG (uint8/uint16, via OpenCV) and TIFF (any dtype, via tifffile).
 
-Every write is atomic (:mod:`fringe3d.io.atomic`); every read error names the file.
+Every write is atomic (:mod:`fringe3d.utils.atomic`); every read error names the file.
 """
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 import tifffile
 
-from fringe3d.io.atomic import atomic_path, atomic_write_bytes
+from fringe3d.utils.atomic import atomic_path, atomic_write_bytes
 
 PNG_SUFFIXES = (".png",)
 TIFF_SUFFIXES = (".tif", ".tiff")

@@ -4,7 +4,7 @@
 list in mm, with optional per-point colour (a grey texture ``(H, W)``, an RGB image
 ``(H, W, 3)``, float in [0, 1] or uint8) and normals (given, or estimated from the organized
 map with ``normals=True``). The file appears only once it is complete: an exception midway
-leaves no file behind (:func:`fringe3d.io.atomic.atomic_path`).
+leaves no file behind (:func:`fringe3d.utils.atomic.atomic_path`).
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.atomic import atomic_path
+from fringe3d.utils.atomic import atomic_path
 
 
 @dataclass

@@ -8,7 +8,7 @@ import os
 
 import numpy as np
 
-from fringe3d.io.atomic import atomic_path
+from fringe3d.utils.atomic import atomic_path
 
 __all__ = ["strain_map_png", "strain_animation", "scatter_to_image"]
 

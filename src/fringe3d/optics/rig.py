@@ -69,14 +69,14 @@ class Rig:
                    projector=device_from_dict(d["projector"], "rig projector"))
 
     def save(self, path) -> Path:
-        from fringe3d.io.atomic import atomic_write_text
+        from fringe3d.utils.atomic import atomic_write_text
         path = Path(path)
         atomic_write_text(path, json.dumps(self.to_dict(), indent=1))
         return path
 
     @classmethod
     def load(cls, path) -> "Rig":
-        from fringe3d.io.jsonfile import read_json
+        from fringe3d.utils.jsonfile import read_json
         d = read_json(path, "rig file")
         if "rig" in d and "camera" not in d:  # a calibration file embeds a rig
             d = d["rig"]

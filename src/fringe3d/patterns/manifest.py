@@ -240,7 +240,7 @@ class PatternSet:
         path = Path(path)
         if path.is_dir():
             path = path / MANIFEST_NAME
-        from fringe3d.io.atomic import atomic_write_text
+        from fringe3d.utils.atomic import atomic_write_text
         atomic_write_text(path, json.dumps(self.to_dict(), indent=1))
         return path
 
@@ -250,7 +250,7 @@ class PatternSet:
         path = Path(path)
         if path.is_dir():
             path = path / MANIFEST_NAME
-        from fringe3d.io.jsonfile import read_json
+        from fringe3d.utils.jsonfile import read_json
         return cls.from_dict(read_json(path, "pattern manifest"))
 
 

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.console import progress_bar
+from fringe3d.utils.console import progress_bar
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 
 from .depth import points_from_decoded

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fringe3d.io.console import warn
+from fringe3d.utils.console import warn
 
 TWO_PI = 2.0 * math.pi
 METHODS = ("ftp", "modified_ftp")

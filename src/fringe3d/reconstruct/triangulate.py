@@ -26,7 +26,7 @@ import weakref
 import numba
 import numpy as np
 
-from fringe3d.io.console import warn
+from fringe3d.utils.console import warn
 from fringe3d.phase.kernels import fast_atan2
 
 ANGLE_UP = math.pi / 2  # vertical fringes: w = u_p

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.atomic import atomic_write_text
+from fringe3d.utils.atomic import atomic_write_text
 
 from .results import load_summary
 

@@ -30,7 +30,7 @@ def load_summary(folder: str | Path) -> dict:
     if not path.exists():
         raise FileNotFoundError(f"{folder} has no {SUMMARY_NAME}: expected the output of `fringe3d demo` "
                                 "or a folder written by fringe3d.report.results.save_summary")
-    from fringe3d.io.jsonfile import read_json
+    from fringe3d.utils.jsonfile import read_json
     summary = read_json(path, "results summary")
     if "title" not in summary:
         raise ValueError(f"{path}: missing field 'title'")
@@ -42,8 +42,8 @@ def load_summary(folder: str | Path) -> dict:
 
 def save_summary(folder: str | Path, summary: dict) -> Path:
     """Write ``summary.json`` atomically."""
-    from fringe3d.io.atomic import atomic_write_text
-    from fringe3d.io.console import to_jsonable
+    from fringe3d.utils.atomic import atomic_write_text
+    from fringe3d.utils.console import to_jsonable
     path = Path(folder) / SUMMARY_NAME
     atomic_write_text(path, json.dumps(to_jsonable(summary), indent=1))
     return path

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from fringe3d.io.console import progress_bar
+from fringe3d.utils.console import progress_bar
 from fringe3d.optics.defocus import blur_pattern, defocus_size_at
 
 from .noise import sense

@@ -222,7 +222,7 @@ def scene_from_dict(d, where: str = "scene", base: Path | None = None):
 def save_scene(scene, path):
     """Write ``scene`` as a JSON scene file (atomic). Every object must support ``to_dict()``;
     meshes must come from a file (their path is stored as given)."""
-    from fringe3d.io.atomic import atomic_write_text
+    from fringe3d.utils.atomic import atomic_write_text
     path = Path(path)
     atomic_write_text(path, json.dumps(scene.to_dict(), indent=1))
     return path
@@ -231,6 +231,6 @@ def save_scene(scene, path):
 def load_scene(path):
     """Read a JSON scene file; relative mesh paths are resolved next to it."""
     path = Path(path)
-    from fringe3d.io.jsonfile import read_json
+    from fringe3d.utils.jsonfile import read_json
     d = read_json(path, "scene file", require_object=False)
     return scene_from_dict(d, where=f"{path.name}", base=path.parent)

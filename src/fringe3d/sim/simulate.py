@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.console import info
+from fringe3d.utils.console import info
 from fringe3d.patterns.manifest import PatternSet
 
 from . import presets as _presets

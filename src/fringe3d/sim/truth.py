@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.atomic import atomic_path, atomic_write_text
+from fringe3d.utils.atomic import atomic_path, atomic_write_text
 
 TRUTH_FORMAT = "fringe3d-truth"
 ARRAY_FIELDS = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit", "material_uv")
@@ -96,7 +96,7 @@ class Truth:
                 "shape": list(self.depth.shape),
                 "units": {"xyz": "mm", "depth": "mm", "up": "projector px", "vp": "projector px",
                           "phase": "rad"}}
-        from fringe3d.io.console import to_jsonable
+        from fringe3d.utils.console import to_jsonable
         atomic_write_text(folder / "truth.json", json.dumps(to_jsonable(meta), indent=1))
         return folder
 
@@ -110,7 +110,7 @@ class Truth:
         for p in (npz, js):
             if not p.exists():
                 raise FileNotFoundError(f"no ground-truth file {p} (expected truth.npz and truth.json)")
-        from fringe3d.io.jsonfile import read_json
+        from fringe3d.utils.jsonfile import read_json
         meta = read_json(js, "ground-truth metadata")
         with np.load(npz) as z:
             data = {k: z[k] for k in z.files}

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fringe3d.io.console import warn
+from fringe3d.utils.console import warn
 from fringe3d.reconstruct.triangulate import Triangulator, check_map, projector_row
 
 TWO_PI = 2.0 * math.pi

@@ -1,4 +1,8 @@
-"""Console output shared by the sub-commands: rich tables, progress bars, JSON, --quiet."""
+"""Console output shared by the sub-commands: rich tables, progress bars, JSON, --quiet.
+
+Progress bars and ``info`` are off unless the command layer enabled them (``set_quiet(False)``),
+so a library call never draws on the terminal.
+"""
 from __future__ import annotations
 
 import json
@@ -16,7 +20,9 @@ err_console = Console(stderr=True)
 
 
 class _Settings:
-    quiet: bool = False
+    # Library functions are silent by default; the CLI turns output on (``fringe3d.cli.main``)
+    # and each sub-command's ``--quiet``/``--json`` turns it off again.
+    quiet: bool = True
 
 
 settings = _Settings()
