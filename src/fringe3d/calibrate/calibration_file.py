@@ -19,7 +19,6 @@ writes are atomic.
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,9 +26,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from fringe3d.utils.atomic import atomic_path, atomic_write_text
-from fringe3d.utils.console import to_jsonable
 from fringe3d.optics import Rig
+from fringe3d.utils.atomic import atomic_path
+from fringe3d.utils.console import to_jsonable
+from fringe3d.utils.jsonfile import write_json
 
 FORMAT = "fringe3d-calibration"
 VERSION = 1
@@ -62,7 +62,7 @@ class Calibration:
     def save(self, path) -> Path:
         """Write the JSON atomically; returns the path."""
         path = Path(path)
-        atomic_write_text(path, json.dumps(self.to_dict(), indent=1, allow_nan=False))
+        write_json(path, self.to_dict(), allow_nan=False)
         return path
 
     @classmethod

@@ -7,16 +7,15 @@ pattern set for each pose with :func:`fringe3d.sim.render`, and returns the pose
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from fringe3d.utils.atomic import atomic_write_text
-from fringe3d.utils.console import progress_bar, to_jsonable
 from fringe3d.optics import Rig, TelecentricCamera
+from fringe3d.utils.console import progress_bar
+from fringe3d.utils.jsonfile import write_json
 
 from .board_detection import CircleBoard
 from .session import SESSION_NAME, PoseCapture
@@ -224,6 +223,6 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
     if folder is not None:
         meta = {"board": board.to_dict(), "model": model, "preset": p.name, "seed": seed,
                 "truth": {"rig": rig.to_dict(), "board_poses": [{"R": R, "t": t} for R, t in board_poses]}}
-        atomic_write_text(folder / SESSION_NAME, json.dumps(to_jsonable(meta), indent=1))
+        write_json(folder / SESSION_NAME, meta)
     return SimulatedSession(poses=poses, board=board, rig=rig, board_poses=board_poses, model=model, folder=folder,
                             settings=s)

@@ -1,13 +1,13 @@
 """``fringe3d evaluate RESULT --sphere/--plane/--ball-bar [--truth DIR]``: accuracy figures."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import typer
 
 from fringe3d.utils.console import console, make_table, print_json, set_quiet
+from fringe3d.utils.jsonfile import write_json
 
 
 # ----------------------------------------------------------------------------- inputs
@@ -163,8 +163,6 @@ def register(app: typer.Typer) -> None:
         """
         from fringe3d.analyze.fits import fit_plane, fit_sphere
         from fringe3d.analyze.vdi import flatness, sphere_spacing
-        from fringe3d.utils.atomic import atomic_write_text
-        from fringe3d.utils.console import to_jsonable
 
         set_quiet(quiet or json_)
         if sum([sphere, plane, ball_bar]) > 1:
@@ -225,7 +223,7 @@ def register(app: typer.Typer) -> None:
             out["ball_bar"] = {"object_ids": [oa, ob], "true_distance": L,
                                **sphere_spacing(points, ma & valid, mb & valid, L, d_true, exclude).as_dict()}
         if result.is_dir():
-            atomic_write_text(result / "evaluate.json", json.dumps(to_jsonable(out), indent=1))
+            write_json(result / "evaluate.json", out)
         if json_:
             print_json(out)
             return

@@ -9,6 +9,7 @@ import numpy as np
 import typer
 
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
+from fringe3d.utils.jsonfile import write_json
 
 METHODS = ("none", "geometric", "two_frequency_geometric", "hierarchical", "heterodyne", "gray_code",
            "binary_code", "hybrid", "spatial", "histogram")
@@ -25,9 +26,9 @@ def check_sizes(rig, frames: np.ndarray, calibration: Path) -> None:
 
 def write_single(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool) -> dict:
     """points.npy, depth.tif (float32 mm, NaN invalid) and optionally points.ply, all atomic."""
-    from fringe3d.utils.atomic import atomic_path
     from fringe3d.io.images import write_image
     from fringe3d.reconstruct.depth import depth_map
+    from fringe3d.utils.atomic import atomic_path
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "points.npy") as tmp:
         with open(tmp, "wb") as f:
@@ -92,11 +93,14 @@ def register(app: typer.Typer) -> None:
 
         Example: fringe3d reconstruct sphere-capture --calibration calib.json -o sphere-3d --ply
         """
-        from fringe3d.utils.atomic import atomic_write_text
         from fringe3d.io.capture import list_frame_files, read_capture
         from fringe3d.optics import Rig
-        from fringe3d.reconstruct.sequence import (CaptureFrames, FrameReconstructor, reconstruct_sequence,
-                                                   with_method)
+        from fringe3d.reconstruct.sequence import (
+            CaptureFrames,
+            FrameReconstructor,
+            reconstruct_sequence,
+            with_method,
+        )
 
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
@@ -134,7 +138,7 @@ def register(app: typer.Typer) -> None:
             summary.update(seq)
         summary["seconds"] = round(time.perf_counter() - t0, 3)
         from fringe3d.utils.console import to_jsonable
-        atomic_write_text(out / "reconstruct.json", json.dumps(to_jsonable(summary), indent=1))
+        write_json(out / "reconstruct.json", summary)
         if json_:
             print_json(summary)
             return

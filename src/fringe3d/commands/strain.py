@@ -15,14 +15,20 @@ per frame), ``maps/strain_00000.png`` (dominant strain maps with a colour bar),
 """
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 import typer
 
-from fringe3d.utils.console import console, make_table, print_json, progress_bar, set_quiet, to_jsonable
+from fringe3d.utils.console import (
+    console,
+    make_table,
+    print_json,
+    progress_bar,
+    set_quiet,
+)
+from fringe3d.utils.jsonfile import write_json
 
 MIN_FRAMES = 2
 
@@ -216,9 +222,12 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
     before any file is written."""
     from fringe3d.analyze.anchors import check_anchor
     from fringe3d.analyze.strain import wing_sequence
-    from fringe3d.utils.atomic import atomic_write_text
     from fringe3d.io.export_vtk import strain_table, write_strain_csv, write_strain_vtk
-    from fringe3d.io.strain_figures import scatter_to_image, strain_animation, strain_map_png
+    from fringe3d.io.strain_figures import (
+        scatter_to_image,
+        strain_animation,
+        strain_map_png,
+    )
 
     t0 = time.perf_counter()
     if not (thickness > 0):
@@ -282,7 +291,7 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         "thickness_mm": thickness, "window_px": window, "step_px": step, "geodesic_window_px": 2 * radius + 1,
         "seconds": round(time.perf_counter() - t0, 2), "output": str(out),
     }
-    atomic_write_text(out / "summary.json", json.dumps(to_jsonable(summary), indent=1))
+    write_json(out / "summary.json", summary)
     return summary
 
 

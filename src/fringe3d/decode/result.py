@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.utils.atomic import atomic_path, atomic_write_text
+from fringe3d.utils.atomic import atomic_path
+from fringe3d.utils.jsonfile import write_json
 
 NPZ_NAME = "decoded.npz"
 SUMMARY_NAME = "decoded.json"
@@ -85,8 +86,7 @@ class Decoded:
         for key, arr in arrays.items():
             with atomic_path(folder / f"{key}.tif") as tmp:
                 tifffile.imwrite(tmp, np.asarray(arr, dtype=np.float32))
-        from fringe3d.utils.console import to_jsonable
-        atomic_write_text(folder / SUMMARY_NAME, json.dumps(to_jsonable(self.summary()), indent=1))
+        write_json(folder / SUMMARY_NAME, self.summary())
         return folder
 
     @classmethod

@@ -15,7 +15,6 @@ Layout::
 """
 from __future__ import annotations
 
-import json
 import os
 import re
 from concurrent.futures import ThreadPoolExecutor
@@ -24,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.utils.atomic import atomic_write_text
-from fringe3d.utils.console import progress_bar
 from fringe3d.io.images import IMAGE_SUFFIXES, read_image, write_image
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
+from fringe3d.utils.console import progress_bar
+from fringe3d.utils.jsonfile import write_json
 
 FRAMES_DIR = "frames"
 META_NAME = "capture.json"
@@ -238,6 +237,5 @@ def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: Patte
     meta.setdefault("camera", [int(frames.shape[2]), int(frames.shape[1])])
     if frames.dtype in (np.uint8, np.uint16):
         meta.setdefault("bit_depth", 8 if frames.dtype == np.uint8 else 16)
-    from fringe3d.utils.console import to_jsonable
-    atomic_write_text(folder / META_NAME, json.dumps(to_jsonable(meta), indent=1))
+    write_json(folder / META_NAME, meta)
     return folder

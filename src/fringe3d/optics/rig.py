@@ -7,11 +7,12 @@ Rig files are JSON (``Rig.save`` / ``Rig.load``).
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from fringe3d.utils.jsonfile import write_json
 
 from .pinhole import PinholeDevice
 from .telecentric import TelecentricCamera
@@ -69,9 +70,8 @@ class Rig:
                    projector=device_from_dict(d["projector"], "rig projector"))
 
     def save(self, path) -> Path:
-        from fringe3d.utils.atomic import atomic_write_text
         path = Path(path)
-        atomic_write_text(path, json.dumps(self.to_dict(), indent=1))
+        write_json(path, self.to_dict())
         return path
 
     @classmethod

@@ -17,12 +17,13 @@ Conventions (SPEC.md §2, DESIGN.md):
 """
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Iterable
+
+from fringe3d.utils.jsonfile import write_json
 
 MANIFEST_VERSION = 1
 MANIFEST_NAME = "manifest.json"
@@ -240,8 +241,7 @@ class PatternSet:
         path = Path(path)
         if path.is_dir():
             path = path / MANIFEST_NAME
-        from fringe3d.utils.atomic import atomic_write_text
-        atomic_write_text(path, json.dumps(self.to_dict(), indent=1))
+        write_json(path, self.to_dict())
         return path
 
     @classmethod

@@ -15,8 +15,9 @@ Paths are relative to the folder. Every field but ``title`` is optional.
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
+
+from fringe3d.utils.jsonfile import write_json
 
 SUMMARY_NAME = "summary.json"
 
@@ -42,8 +43,6 @@ def load_summary(folder: str | Path) -> dict:
 
 def save_summary(folder: str | Path, summary: dict) -> Path:
     """Write ``summary.json`` atomically."""
-    from fringe3d.utils.atomic import atomic_write_text
-    from fringe3d.utils.console import to_jsonable
     path = Path(folder) / SUMMARY_NAME
-    atomic_write_text(path, json.dumps(to_jsonable(summary), indent=1))
+    write_json(path, summary)
     return path

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fringe3d.utils.jsonfile import write_json
+
 SCENE_FORMAT = "fringe3d-scene"
 
 # field kinds: vec3, vec2, number, int, bool, str, rotation (3-vector or 3x3), texture, motion,
@@ -222,9 +224,8 @@ def scene_from_dict(d, where: str = "scene", base: Path | None = None):
 def save_scene(scene, path):
     """Write ``scene`` as a JSON scene file (atomic). Every object must support ``to_dict()``;
     meshes must come from a file (their path is stored as given)."""
-    from fringe3d.utils.atomic import atomic_write_text
     path = Path(path)
-    atomic_write_text(path, json.dumps(scene.to_dict(), indent=1))
+    write_json(path, scene.to_dict())
     return path
 
 

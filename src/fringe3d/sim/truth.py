@@ -5,13 +5,13 @@ per-direction fringe angle and period, frame times, whether the scene moves).
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from fringe3d.utils.atomic import atomic_path, atomic_write_text
+from fringe3d.utils.atomic import atomic_path
+from fringe3d.utils.jsonfile import write_json
 
 TRUTH_FORMAT = "fringe3d-truth"
 ARRAY_FIELDS = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit", "material_uv")
@@ -96,8 +96,7 @@ class Truth:
                 "shape": list(self.depth.shape),
                 "units": {"xyz": "mm", "depth": "mm", "up": "projector px", "vp": "projector px",
                           "phase": "rad"}}
-        from fringe3d.utils.console import to_jsonable
-        atomic_write_text(folder / "truth.json", json.dumps(to_jsonable(meta), indent=1))
+        write_json(folder / "truth.json", meta)
         return folder
 
     @classmethod

@@ -12,8 +12,16 @@ from typing import Iterable, Iterator
 
 import numpy as np
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.progress import (
+    BarColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
 from rich.table import Table
+
+from fringe3d.utils.jsonfile import to_jsonable
 
 console = Console()
 err_console = Console(stderr=True)
@@ -65,22 +73,6 @@ def warn(msg: str) -> None:
     err_console.print(f"[yellow]warning:[/] {msg}")
 
 
-def to_jsonable(obj):
-    """Convert numpy scalars/arrays and non-finite floats into JSON-friendly values."""
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return to_jsonable(obj.tolist())
-    if isinstance(obj, (np.floating, float)):
-        f = float(obj)
-        return f if math.isfinite(f) else None
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.bool_,)):
-        return bool(obj)
-    return obj
 
 
 def print_json(obj) -> None:

@@ -1,9 +1,14 @@
-"""Reading JSON files with errors that say which file and what was expected."""
+"""JSON files: one reader (errors that say which file and what was expected) and one writer."""
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
+
+import numpy as np
+
+from fringe3d.utils.atomic import atomic_write_text
 
 
 def read_json(path: str | os.PathLike, what: str = "JSON file", require_object: bool = True):
@@ -28,3 +33,32 @@ def read_json(path: str | os.PathLike, what: str = "JSON file", require_object: 
     if require_object and not isinstance(data, dict):
         raise ValueError(f"{what} {path} must hold a JSON object, got {type(data).__name__}")
     return data
+
+
+def to_jsonable(obj):
+    """Convert numpy scalars/arrays and non-finite floats into JSON-friendly values."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        f = float(obj)
+        return f if math.isfinite(f) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    return obj
+
+
+def write_json(path: str | os.PathLike, obj, allow_nan: bool = True) -> None:
+    """Write ``obj`` as indented JSON to ``path`` atomically (temporary name, then rename).
+
+    NumPy scalars and arrays become JSON numbers and lists and non-finite floats become
+    ``null`` (:func:`to_jsonable`); with ``allow_nan=False`` the object is written as given and
+    a non-finite float raises ``ValueError`` instead.
+    """
+    data = to_jsonable(obj) if allow_nan else obj
+    atomic_write_text(path, json.dumps(data, indent=1, allow_nan=allow_nan))
