@@ -30,8 +30,10 @@ from __future__ import annotations
 
 import math
 
+from fringe3d.patterns.codes import bits_needed
+from fringe3d.patterns.conventions import beat_period, w_range
 from fringe3d.patterns.manifest import DirectionPlan, FrameSpec, PatternSet
-from fringe3d.patterns.render import BINARY_PHASE_KINDS, PHASE_KINDS, code_origin, w_range
+from fringe3d.patterns.render import BINARY_PHASE_KINDS, PHASE_KINDS, code_origin
 
 #: Default projector resolution (pixels). 800 x 600 keeps the 18/21/144 heterodyne set
 #: (equivalent period 1008 px) unambiguous in both directions.
@@ -92,13 +94,6 @@ def _w_range(angle: float, width: int, height: int) -> list[float]:
 def _check_size(width: int, height: int) -> None:
     if int(width) != width or int(height) != height or width <= 0 or height <= 0:
         raise ValueError(f"projector size must be positive integers, got {width}x{height}")
-
-
-def beat_period(t1: float, t2: float) -> float:
-    """Equivalent (beat) period ``t1*t2/|t2 - t1|`` of two phase maps (heterodyne)."""
-    if t1 == t2:
-        raise ValueError(f"heterodyne needs distinct periods, got {t1} twice")
-    return t1 * t2 / abs(t2 - t1)
 
 
 # -- builders ----------------------------------------------------------------------
@@ -180,7 +175,6 @@ def _code_frames(period: float, direction: str, a: float, width: int, height: in
         raise ValueError(f"code must be 'gray' or 'binary', got {code!r}")
     if not period > 0:
         raise ValueError(f"code stripe period must be positive, got {period}")
-    from fringe3d.patterns.codes import bits_needed
     w0, stripes = code_origin(a, width, height, float(period))
     bits = bits_needed(stripes)
     kind = "gray_code" if code == "gray" else "binary_code"
