@@ -25,8 +25,9 @@ import numpy as np
 
 from fringe3d.io.images import IMAGE_SUFFIXES, read_image, write_image
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
+from fringe3d.phase.frames import as_frame_stack
 from fringe3d.utils.console import progress_bar
-from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.jsonfile import read_json, write_json
 
 FRAMES_DIR = "frames"
 META_NAME = "capture.json"
@@ -119,7 +120,6 @@ def read_meta(folder: str | os.PathLike) -> dict:
     path = Path(folder) / META_NAME
     if not path.exists():
         return {}
-    from fringe3d.utils.jsonfile import read_json
     meta = read_json(path, "capture metadata")
     if "frame_rate" in meta and not (isinstance(meta["frame_rate"], (int, float)) and meta["frame_rate"] > 0):
         raise ValueError(f"{path}: frame_rate must be a positive number (Hz), got {meta['frame_rate']!r}")
@@ -212,9 +212,7 @@ def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: Patte
     fmt : ``"png"`` or ``"tif"``
     """
     folder = Path(folder)
-    frames = np.asarray(frames)
-    if frames.ndim != 3:
-        raise ValueError(f"frames must be (F, H, W), got shape {frames.shape}")
+    frames = as_frame_stack(frames)
     msg = frame_count_error(len(frames), len(patterns))
     if msg:
         raise ValueError(msg)

@@ -72,7 +72,7 @@ def write_ply(path: str | os.PathLike, points, colors=None, normals=None, mask=N
 
     Returns the path. Raises ValueError when no point is valid or shapes disagree.
     """
-    import trimesh
+    import trimesh  # optional heavy dependency: loaded only when a PLY file is written
     from trimesh.exchange.ply import export_ply
 
     P = np.asarray(points, np.float32)
@@ -117,7 +117,7 @@ def _write_bytes(path: Path, data: bytes) -> None:
 
 def read_ply(path: str | os.PathLike) -> PointCloudData:
     """Read a PLY point cloud (points, and colours / normals when present)."""
-    import trimesh
+    import trimesh  # optional heavy dependency: loaded only when a PLY file is read
 
     path = Path(path)
     if not path.exists():

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.jsonfile import read_json, write_json
 
 from .pinhole import PinholeDevice
 from .telecentric import TelecentricCamera
@@ -76,7 +76,6 @@ class Rig:
 
     @classmethod
     def load(cls, path) -> "Rig":
-        from fringe3d.utils.jsonfile import read_json
         d = read_json(path, "rig file")
         if "rig" in d and "camera" not in d:  # a calibration file embeds a rig
             d = d["rig"]

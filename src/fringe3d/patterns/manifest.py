@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Iterable
 
-from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.jsonfile import read_json, write_json
 
 MANIFEST_VERSION = 1
 MANIFEST_NAME = "manifest.json"
@@ -250,7 +250,6 @@ class PatternSet:
         path = Path(path)
         if path.is_dir():
             path = path / MANIFEST_NAME
-        from fringe3d.utils.jsonfile import read_json
         return cls.from_dict(read_json(path, "pattern manifest"))
 
 
