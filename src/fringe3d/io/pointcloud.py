@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -98,12 +99,12 @@ def write_ply(path: str | os.PathLike, points, colors=None, normals=None, mask=N
     C = None if colors is None else _colors(colors, lead)
     v = P[valid]
     if N is not None:
-        obj = trimesh.Trimesh(vertices=v, faces=np.zeros((0, 3), np.int64), vertex_normals=N[valid],
-                              vertex_colors=None if C is None else C[valid], process=False)
-        data = export_ply(obj, encoding="binary" if binary else "ascii", vertex_normal=True)
+        mesh = trimesh.Trimesh(vertices=v, faces=np.zeros((0, 3), np.int64), vertex_normals=N[valid],
+                               vertex_colors=None if C is None else C[valid], process=False)
+        data = export_ply(mesh, encoding="binary" if binary else "ascii", vertex_normal=True)
     else:
-        obj = trimesh.PointCloud(v, colors=None if C is None else C[valid])
-        data = export_ply(obj, encoding="binary" if binary else "ascii")
+        cloud = trimesh.PointCloud(v, colors=None if C is None else C[valid])
+        data = export_ply(cloud, encoding="binary" if binary else "ascii")
     path = Path(path)
     with atomic_path(path) as tmp:
         _write_bytes(tmp, data)
@@ -123,7 +124,7 @@ def read_ply(path: str | os.PathLike) -> PointCloudData:
     if not path.exists():
         raise FileNotFoundError(f"no PLY file at {path}")
     try:
-        obj = trimesh.load(path, file_type="ply", process=False)
+        obj: Any = trimesh.load(path, file_type="ply", process=False)  # PointCloud or Trimesh
     except Exception as e:  # trimesh raises many types on malformed files
         raise ValueError(f"{path} is not a readable PLY file: {e}") from None
     pts = np.asarray(obj.vertices, np.float32)

@@ -89,5 +89,5 @@ def strain_animation(path: str | os.PathLike, images: list[np.ndarray], titles: 
 
     anim = FuncAnimation(fig, update, frames=len(images), blit=False)
     with atomic_path(path, suffix=".gif") as tmp:
-        anim.save(str(tmp), writer=PillowWriter(fps=fps))
+        anim.save(str(tmp), writer=PillowWriter(fps=fps))  # type: ignore[arg-type]  # matplotlib stubs say int; a float rate works
     plt.close(fig)

@@ -314,7 +314,7 @@ def calibration(width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT, direct
     three-frequency set for each direction (31 frames for ``("v", "h")``)."""
     _check_size(width, height)
     frames = [white_frame()]
-    plans = []
+    plans: list[DirectionPlan] = []
     for d in directions:
         ps = three_frequency(d, periods, steps, kind=kind, width=width, height=height, bit_depth=bit_depth)
         frames += ps.frames
@@ -331,7 +331,7 @@ def optimal_angle_calibration(alpha_opt: float, width: int = DEFAULT_WIDTH, heig
     31 frames; each plan carries ``options["alpha_opt"]``."""
     _check_size(width, height)
     frames = [white_frame()]
-    plans = []
+    plans: list[DirectionPlan] = []
     for d, off in (("a1", -math.pi / 4), ("a2", math.pi / 4)):
         ps = three_frequency(d, periods, steps, angle=direction_angle(d, alpha_opt + off), kind=kind,
                              width=width, height=height, bit_depth=bit_depth)

@@ -38,7 +38,7 @@ def default_shifts(n: int) -> np.ndarray:
     return 2.0 * np.pi * np.arange(n) / n
 
 
-def lsq_coefficients(shifts: Sequence[float]) -> np.ndarray:
+def lsq_coefficients(shifts: Sequence[float] | np.ndarray) -> np.ndarray:
     """(3, N) float64 matrix P with ``(a, b, c) = P @ I`` for ``I_k = a + b cos d_k + c sin d_k``.
 
     Raises ``ValueError`` when fewer than 3 shifts are given or the shifts cannot separate
@@ -50,8 +50,8 @@ def lsq_coefficients(shifts: Sequence[float]) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=256)
-def _lsq_coefficients(d: tuple[float, ...]) -> np.ndarray:
-    d = np.array(d, dtype=np.float64)
+def _lsq_coefficients(shifts: tuple[float, ...]) -> np.ndarray:
+    d = np.array(shifts, dtype=np.float64)
     if d.size < 3:
         raise ValueError(f"phase shifting needs at least 3 frames, got {d.size} (shifts {d.tolist()})")
     design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1)
