@@ -160,6 +160,17 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
     ValueError
         Unknown manifest fields, a frame count that is not a multiple of the manifest's length,
         frames of different shapes or dtypes, unreadable or non-image files, bad capture.json.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from fringe3d.patterns import sets, render_set
+    >>> ps = sets.phase_shift(16, 3, "v", width=32, height=8)
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     _ = write_capture(folder, render_set(ps), ps)
+    ...     cap = read_capture(folder)
+    >>> cap.frames.shape, cap.cycles, cap.meta["bit_depth"]
+    ((3, 8, 32), 1, 8)
     """
     folder = Path(folder)
     if not folder.is_dir():

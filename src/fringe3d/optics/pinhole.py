@@ -84,7 +84,15 @@ class PinholeDevice:
         return np.asarray(X, float) @ self.R.T + self.t
 
     def project(self, X: np.ndarray) -> np.ndarray:
-        """World points ``(..., 3)`` (mm) to pixel coordinates ``(..., 2)``, with distortion."""
+        """World points ``(..., 3)`` (mm) to pixel coordinates ``(..., 2)``, with distortion.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> cam = PinholeDevice(K=intrinsics(1000, 1000, 320, 240), width=640, height=480)
+        >>> cam.project(np.array([[0.0, 0.0, 500.0], [10.0, 0.0, 500.0]])).tolist()
+        [[320.0, 240.0], [340.0, 240.0]]
+        """
         Xd = self.to_device(X)
         with np.errstate(divide="ignore", invalid="ignore"):
             xy = Xd[..., :2] / Xd[..., 2:3]

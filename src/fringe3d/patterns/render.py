@@ -85,6 +85,14 @@ def render_frame(spec: FrameSpec, width: int, height: int, *, dither_size: int =
     Returns
     -------
     (height, width) float32 in [0, 1]; binary kinds give exactly 0 or 1.
+
+    Examples
+    --------
+    >>> from fringe3d.patterns import sets
+    >>> ps = sets.phase_shift(16, 3, "v", width=32, height=8)
+    >>> img = render_frame(ps.frames[0], 32, 8)
+    >>> img.shape, img.dtype, float(img[0, 0]), float(img[0, 8])
+    ((8, 32), dtype('float32'), 1.0, 0.0)
     """
     if width <= 0 or height <= 0:
         raise ValueError(f"projector size must be positive, got {width}x{height}")
@@ -114,6 +122,13 @@ def render_set(ps: PatternSet, **options) -> np.ndarray:
     """All frames of ``ps`` as ``(F, H, W)`` uint8 (0..255; 1-bit sets give only 0 and 255).
 
     8-bit frames are rounded from ``255 * intensity``. ``options`` go to :func:`render_frame`.
+
+    Examples
+    --------
+    >>> from fringe3d.patterns import sets
+    >>> frames = render_set(sets.phase_shift(16, 3, "v", width=32, height=8))
+    >>> frames.shape, frames.dtype
+    ((3, 8, 32), dtype('uint8'))
     """
     out = np.empty((len(ps), ps.height, ps.width), dtype=np.uint8)
     for i, spec in enumerate(ps.frames):

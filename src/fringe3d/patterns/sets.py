@@ -100,7 +100,14 @@ def _check_size(width: int, height: int) -> None:
 def phase_shift(period: float, steps: int = 3, direction: str = "v", angle: float | None = None,
                 kind: str = "sinusoid", width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
                 bit_depth: int | None = None) -> PatternSet:
-    """One N-step phase-shifted set (Eq. 2.2); plan method ``"none"`` (wrapped phase only)."""
+    """One N-step phase-shifted set (Eq. 2.2); plan method ``"none"`` (wrapped phase only).
+
+    Examples
+    --------
+    >>> ps = phase_shift(16, 3, "v", width=32, height=8)
+    >>> len(ps), ps.plans[0].method, ps.plans[0].options["w_range"]
+    (3, 'none', [0.0, 31.0])
+    """
     _check_size(width, height)
     if steps < 3:
         raise ValueError(f"N-step phase shifting needs N >= 3, got {steps}")

@@ -119,6 +119,13 @@ def three_step(i1, i2, i3) -> np.ndarray:
     output (H, W) float64 rad in (-pi, pi]. A manifest whose 3-step set uses shifts
     0, 2pi/3, 4pi/3 is the same formula with the frames taken in the order (I3, I1, I2);
     :func:`wrapped_phase` with the manifest's shifts handles any order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> i1, i2, i3 = (100 + 50 * np.cos(0.5 + d) * np.ones((2, 2)) for d in (-2 * np.pi / 3, 0, 2 * np.pi / 3))
+    >>> round(float(three_step(i1, i2, i3)[0, 0]), 12)
+    0.5
     """
     a = np.asarray(i1, dtype=np.float64)
     b = np.asarray(i2, dtype=np.float64)

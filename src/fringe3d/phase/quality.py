@@ -67,6 +67,13 @@ def validity_mask(average: np.ndarray, modulation: np.ndarray, frames: np.ndarra
         A precomputed saturation map (e.g. from :func:`fringe3d.phase.psp.wrapped_phase`).
     min_modulation : float, optional
         Default :func:`default_min_modulation` (or 2 % of 1.0 without frames).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> validity_mask(np.full((2, 2), 100.0), np.array([[50.0, 1.0], [50.0, 50.0]]), min_modulation=5.0)
+    array([[ True, False],
+           [ True,  True]])
     """
     modulation = np.asarray(modulation)
     average = np.asarray(average)
