@@ -86,7 +86,9 @@ def phase_frames(period: float, steps: int, direction: str, angle: float, kind: 
                  for k, s in enumerate(shifts))
 
 
-def _w_range(angle: float, width: int, height: int) -> list[float]:
+def w_range_option(angle: float, width: int, height: int) -> list[float]:
+    """A plan's ``options["w_range"]``: ``[w_min, w_max]`` of :func:`~fringe3d.patterns.conventions.w_range`
+    as a JSON list."""
     lo, hi = w_range(angle, width, height)
     return [lo, hi]
 
@@ -114,7 +116,7 @@ def phase_shift(period: float, steps: int = 3, direction: str = "v", angle: floa
     a = direction_angle(direction, angle)
     frames = phase_frames(period, steps, direction, a, kind)
     plan = DirectionPlan(direction, a, "none", (float(period),),
-                         {"phase": "psp", "w_range": _w_range(a, width, height)})
+                         {"phase": "psp", "w_range": w_range_option(a, width, height)})
     return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
                       f"phase-shift-{steps}step-T{period:g}-{direction}")
 
@@ -192,7 +194,7 @@ def _code_frames(period: float, direction: str, a: float, width: int, height: in
             frames.append(FrameSpec(kind=kind, role="code", direction=direction, angle=a, period=float(period),
                                     bit=b, bits=bits, inverse=inv, group=group))
     opts = {"code": code, "code_group": group, "bits": bits, "inverse": inverse,
-            "order_offset": int(round(w0 / period)), "w_range": _w_range(a, width, height)}
+            "order_offset": int(round(w0 / period)), "w_range": w_range_option(a, width, height)}
     return tuple(frames), opts
 
 
@@ -252,7 +254,7 @@ def ftp(period: float, direction: str = "v", angle: float | None = None, kind: s
     a = direction_angle(direction, angle)
     frames = phase_frames(period, 1, direction, a, kind, shifts=[0.0])
     plan = DirectionPlan(direction, a, method, (float(period),),
-                         {"phase": "ftp", "w_range": _w_range(a, width, height)})
+                         {"phase": "ftp", "w_range": w_range_option(a, width, height)})
     return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth), f"ftp-T{period:g}-{direction}")
 
 
@@ -264,7 +266,7 @@ def modified_ftp(period: float, direction: str = "v", angle: float | None = None
     a = direction_angle(direction, angle)
     frames = phase_frames(period, 2, direction, a, kind, shifts=[0.0, math.pi])
     plan = DirectionPlan(direction, a, method, (float(period),),
-                         {"phase": "modified_ftp", "w_range": _w_range(a, width, height)})
+                         {"phase": "modified_ftp", "w_range": w_range_option(a, width, height)})
     return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
                       f"modified-ftp-T{period:g}-{direction}")
 
@@ -283,7 +285,7 @@ def two_frequency(high_period: float, low_period: float, direction: str = "v", a
     a = direction_angle(direction, angle)
     frames = phase_frames(low_period, 3, direction, a, kind) + phase_frames(high_period, 3, direction, a, kind)
     plan = DirectionPlan(direction, a, "two_frequency_geometric", (float(high_period), float(low_period)),
-                         {"phase": "psp", "w_range": _w_range(a, width, height)})
+                         {"phase": "psp", "w_range": w_range_option(a, width, height)})
     return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
                       f"two-frequency-{high_period:g}-{low_period:g}-{direction}")
 
@@ -304,7 +306,7 @@ def hybrid(high_period: float, low_period: float, direction: str = "v", angle: f
                                                                             shifts=[0.0])
     plan = DirectionPlan(direction, a, "hybrid", (float(high_period), float(low_period)),
                          {"phase": "ftp+psp", "high_group": group_name(direction, high_period),
-                          "low_group": group_name(direction, low_period), "w_range": _w_range(a, width, height)})
+                          "low_group": group_name(direction, low_period), "w_range": w_range_option(a, width, height)})
     return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
                       f"hybrid-{high_period:g}-{low_period:g}-{direction}")
 
