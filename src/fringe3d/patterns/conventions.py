@@ -121,13 +121,14 @@ def w_to_phase(w, period: float, *, scale_first: bool = False):
     return TWO_PI * w / period
 
 
-def fringe_order(coarse_phase, fine_phase, period_ratio: float = 1.0, *,
+def coarse_to_fine_order(coarse_phase, fine_phase, period_ratio: float = 1.0, *,
                  ties: Literal["even", "up"] = "even"):
     """Fringe order of a finer phase from a coarser absolute one (SPEC §4, Eq. 1.5):
 
         ``k = round((Phi_coarse * (T_coarse / T_fine) - phi_fine) / 2 pi)``
 
-    so that ``Phi_fine = phi_fine + 2 pi k``.
+    so that ``Phi_fine = phi_fine + 2 pi k``. (The geometric constraint's order, Eq. 4.20-4.21,
+    is :func:`fringe3d.unwrap.geometric.fringe_order`.)
 
     Parameters
     ----------
@@ -149,7 +150,7 @@ def fringe_order(coarse_phase, fine_phase, period_ratio: float = 1.0, *,
     Examples
     --------
     >>> import math
-    >>> float(fringe_order(2 * math.pi * 1.1, 0.8 * math.pi, 8.0))  # 8 * 1.1 = 8.8 fringes
+    >>> float(coarse_to_fine_order(2 * math.pi * 1.1, 0.8 * math.pi, 8.0))  # 8 * 1.1 = 8.8 fringes
     8.0
     """
     if ties == "even":
