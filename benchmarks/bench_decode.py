@@ -181,7 +181,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     ap.add_argument("--threads", type=int, default=None, help="numba threads (default: all cores)")
     args = ap.parse_args(argv)
-    import fringe3d.phase.kernels  # noqa: F401  (sets OMP_WAIT_POLICY before numba starts its threads)
+    import fringe3d.phase._kernels  # noqa: F401  (sets OMP_WAIT_POLICY before numba starts its threads)
     import numba
     if args.threads:
         numba.set_num_threads(args.threads)

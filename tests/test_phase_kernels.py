@@ -1,7 +1,7 @@
 """The branch-free atan2 used by the fused kernels against numpy.arctan2."""
 import numpy as np
 
-from fringe3d.phase.kernels import fast_atan2
+from fringe3d.phase._kernels import fast_atan2
 from numba import njit
 
 

@@ -88,7 +88,7 @@ def main(argv=None) -> None:
     p.add_argument("--repeat", type=int, default=20)
     p.add_argument("--threads", type=int, default=None, help="numba threads (default: all cores)")
     a = p.parse_args(argv)
-    import fringe3d.phase.kernels  # noqa: F401  (sets OMP_WAIT_POLICY before numba starts its threads)
+    import fringe3d.phase._kernels  # noqa: F401  (sets OMP_WAIT_POLICY before numba starts its threads)
     if a.threads:
         import numba
         numba.set_num_threads(a.threads)

@@ -158,13 +158,13 @@ def ch6_patterns(rig):
     histogram (fringe-order mode) unwrapping, then the π-shifted area-modulated T = 24 pair for
     modified FTP (Eq. 6.1–6.6), all 1-bit."""
     from fringe3d.patterns.manifest import DirectionPlan, PatternSet
-    from fringe3d.patterns.sets import _w_range, direction_angle, phase_frames
+    from fringe3d.patterns.sets import direction_angle, phase_frames, w_range_option
 
     w, h = rig.projector.width, rig.projector.height
     a = direction_angle("v")
     frames = phase_frames(380, 3, "v", a, "floyd_steinberg") + \
         phase_frames(24, 2, "v", a, "area_modulated", shifts=[0.0, np.pi])
-    plan = DirectionPlan("v", a, "histogram", (24.0, 380.0), {"phase": "modified_ftp", "w_range": _w_range(a, w, h)})
+    plan = DirectionPlan("v", a, "histogram", (24.0, 380.0), {"phase": "modified_ftp", "w_range": w_range_option(a, w, h)})
     return PatternSet(w, h, frames, (plan,), 1, "ch6-modified-ftp-T24-dithered-T380")
 
 
@@ -204,12 +204,12 @@ def psp_patterns(rig):
     """Diagnostic set without FTP: the same 3-step dithered T = 380 plus a 4-step area-modulated
     T = 24 phase-shifting set (PSP), to tell modified-FTP errors from pattern/sensor errors."""
     from fringe3d.patterns.manifest import DirectionPlan, PatternSet
-    from fringe3d.patterns.sets import _w_range, direction_angle, phase_frames
+    from fringe3d.patterns.sets import direction_angle, phase_frames, w_range_option
 
     w, h = rig.projector.width, rig.projector.height
     a = direction_angle("v")
     frames = phase_frames(380, 3, "v", a, "floyd_steinberg") + phase_frames(24, 4, "v", a, "area_modulated")
-    plan = DirectionPlan("v", a, "histogram", (24.0, 380.0), {"w_range": _w_range(a, w, h)})
+    plan = DirectionPlan("v", a, "histogram", (24.0, 380.0), {"w_range": w_range_option(a, w, h)})
     return PatternSet(w, h, frames, (plan,), 1, "diag-psp4-T24-dithered-T380")
 
 

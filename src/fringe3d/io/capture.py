@@ -25,8 +25,9 @@ import numpy as np
 
 from fringe3d.io.images import IMAGE_SUFFIXES, read_image, write_image
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
+from fringe3d.phase.frames import as_frame_stack
 from fringe3d.utils.console import progress_bar
-from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.jsonfile import read_json, write_json
 
 FRAMES_DIR = "frames"
 META_NAME = "capture.json"
@@ -119,7 +120,6 @@ def read_meta(folder: str | os.PathLike) -> dict:
     path = Path(folder) / META_NAME
     if not path.exists():
         return {}
-    from fringe3d.utils.jsonfile import read_json
     meta = read_json(path, "capture metadata")
     if "frame_rate" in meta and not (isinstance(meta["frame_rate"], (int, float)) and meta["frame_rate"] > 0):
         raise ValueError(f"{path}: frame_rate must be a positive number (Hz), got {meta['frame_rate']!r}")
@@ -160,6 +160,17 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
     ValueError
         Unknown manifest fields, a frame count that is not a multiple of the manifest's length,
         frames of different shapes or dtypes, unreadable or non-image files, bad capture.json.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from fringe3d.patterns import sets, render_set
+    >>> ps = sets.phase_shift(16, 3, "v", width=32, height=8)
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     _ = write_capture(folder, render_set(ps), ps)
+    ...     cap = read_capture(folder)
+    >>> cap.frames.shape, cap.cycles, cap.meta["bit_depth"]
+    ((3, 8, 32), 1, 8)
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -212,9 +223,7 @@ def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: Patte
     fmt : ``"png"`` or ``"tif"``
     """
     folder = Path(folder)
-    frames = np.asarray(frames)
-    if frames.ndim != 3:
-        raise ValueError(f"frames must be (F, H, W), got shape {frames.shape}")
+    frames = as_frame_stack(frames)
     msg = frame_count_error(len(frames), len(patterns))
     if msg:
         raise ValueError(msg)

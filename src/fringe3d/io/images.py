@@ -34,6 +34,7 @@ def read_image(path: str | os.PathLike, grey: bool = True) -> np.ndarray:
     if not path.is_file():
         raise FileNotFoundError(f"image file {path} does not exist")
     suffix = path.suffix.lower()
+    img: np.ndarray | None
     try:
         if suffix in TIFF_SUFFIXES:
             img = tifffile.imread(path)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -72,7 +73,7 @@ def write_ply(path: str | os.PathLike, points, colors=None, normals=None, mask=N
 
     Returns the path. Raises ValueError when no point is valid or shapes disagree.
     """
-    import trimesh
+    import trimesh  # optional heavy dependency: loaded only when a PLY file is written
     from trimesh.exchange.ply import export_ply
 
     P = np.asarray(points, np.float32)
@@ -98,12 +99,12 @@ def write_ply(path: str | os.PathLike, points, colors=None, normals=None, mask=N
     C = None if colors is None else _colors(colors, lead)
     v = P[valid]
     if N is not None:
-        obj = trimesh.Trimesh(vertices=v, faces=np.zeros((0, 3), np.int64), vertex_normals=N[valid],
-                              vertex_colors=None if C is None else C[valid], process=False)
-        data = export_ply(obj, encoding="binary" if binary else "ascii", vertex_normal=True)
+        mesh = trimesh.Trimesh(vertices=v, faces=np.zeros((0, 3), np.int64), vertex_normals=N[valid],
+                               vertex_colors=None if C is None else C[valid], process=False)
+        data = export_ply(mesh, encoding="binary" if binary else "ascii", vertex_normal=True)
     else:
-        obj = trimesh.PointCloud(v, colors=None if C is None else C[valid])
-        data = export_ply(obj, encoding="binary" if binary else "ascii")
+        cloud = trimesh.PointCloud(v, colors=None if C is None else C[valid])
+        data = export_ply(cloud, encoding="binary" if binary else "ascii")
     path = Path(path)
     with atomic_path(path) as tmp:
         _write_bytes(tmp, data)
@@ -117,13 +118,13 @@ def _write_bytes(path: Path, data: bytes) -> None:
 
 def read_ply(path: str | os.PathLike) -> PointCloudData:
     """Read a PLY point cloud (points, and colours / normals when present)."""
-    import trimesh
+    import trimesh  # optional heavy dependency: loaded only when a PLY file is read
 
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no PLY file at {path}")
     try:
-        obj = trimesh.load(path, file_type="ply", process=False)
+        obj: Any = trimesh.load(path, file_type="ply", process=False)  # PointCloud or Trimesh
     except Exception as e:  # trimesh raises many types on malformed files
         raise ValueError(f"{path} is not a readable PLY file: {e}") from None
     pts = np.asarray(obj.vertices, np.float32)

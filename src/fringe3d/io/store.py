@@ -44,7 +44,7 @@ class PointMapStore:
         An existing store must hold the same number of frames and image size (else
         ValueError, so a resumed run never mixes two different sequences).
         """
-        import zarr
+        import zarr  # optional heavy dependency: loaded only when a store is opened
         from zarr.codecs import BloscCodec
 
         if frames <= 0 or height <= 0 or width <= 0:
@@ -75,7 +75,7 @@ class PointMapStore:
     @classmethod
     def open_existing(cls, path: str | os.PathLike) -> "PointMapStore":
         """Open a store for reading (FileNotFoundError / ValueError when it is not one)."""
-        import zarr
+        import zarr  # optional heavy dependency: loaded only when a store is opened
         path = Path(path)
         if not path.exists():
             raise FileNotFoundError(f"no point store at {path}")

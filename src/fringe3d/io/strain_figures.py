@@ -14,7 +14,7 @@ __all__ = ["strain_map_png", "strain_animation", "scatter_to_image"]
 
 
 def _mpl():
-    import matplotlib
+    import matplotlib  # optional heavy dependency: loaded only when a figure is drawn
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
     return plt
@@ -68,7 +68,7 @@ def strain_animation(path: str | os.PathLike, images: list[np.ndarray], titles: 
                      vmax: float | None = None, fps: float = 10.0) -> None:
     """Animated GIF of strain maps (one per frame) with a fixed colour scale (µε), via Pillow."""
     plt = _mpl()
-    from matplotlib.animation import FuncAnimation, PillowWriter
+    from matplotlib.animation import FuncAnimation, PillowWriter  # optional heavy dependency (see _mpl)
 
     if not images:
         raise ValueError("no strain maps to animate; expected at least one frame")
@@ -89,5 +89,5 @@ def strain_animation(path: str | os.PathLike, images: list[np.ndarray], titles: 
 
     anim = FuncAnimation(fig, update, frames=len(images), blit=False)
     with atomic_path(path, suffix=".gif") as tmp:
-        anim.save(str(tmp), writer=PillowWriter(fps=fps))
+        anim.save(str(tmp), writer=PillowWriter(fps=fps))  # type: ignore[arg-type]  # matplotlib stubs say int; a float rate works
     plt.close(fig)

@@ -1,7 +1,17 @@
-"""Optical models: pinhole devices with Brown distortion, telecentric camera, rigs, defocus."""
+"""Optical models (SPEC §5-6): pinhole devices with Brown distortion, the telecentric camera,
+camera-projector rigs, and projector defocus (OTF/PSF models).
+
+Typical use::
+
+    from fringe3d.optics import Rig
+    rig = Rig.load("rig.json")
+    uv = rig.projector.project(points)               # (N, 3) -> (N, 2) projector pixels
+"""
+from .defocus import blur_pattern, defocus_size_at, gaussian_otf, hopkins_otf, otf, psf_kernel
 from .distortion import distort, undistort
 from .pinhole import PinholeDevice, intrinsics
 from .rig import Rig
 from .telecentric import TelecentricCamera
 
-__all__ = ["PinholeDevice", "TelecentricCamera", "Rig", "intrinsics", "distort", "undistort"]
+__all__ = ["PinholeDevice", "TelecentricCamera", "Rig", "intrinsics", "distort", "undistort", "blur_pattern",
+           "defocus_size_at", "gaussian_otf", "hopkins_otf", "otf", "psf_kernel"]

@@ -10,13 +10,14 @@ class (SPEC.md §5). ``R, t`` map world points into this device's frame:
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
 from .distortion import as_coeffs, distort, undistort
 
 
-def _arr(a, shape, name):
+def _arr(a: Any, shape: tuple[int, ...], name: str) -> np.ndarray:
     a = np.asarray(a, dtype=float)
     if a.shape != shape:
         raise ValueError(f"{name} must have shape {shape}, got {a.shape}")
@@ -47,7 +48,7 @@ class PinholeDevice:
     t: np.ndarray = field(default_factory=lambda: np.zeros(3))
     kind: str = "pinhole"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "K", _arr(self.K, (3, 3), "K"))
         object.__setattr__(self, "dist", as_coeffs(self.dist))
         object.__setattr__(self, "R", _arr(self.R, (3, 3), "R"))
@@ -73,7 +74,8 @@ class PinholeDevice:
         """(3, 4) projection matrix ``K [R | t]`` (ignores distortion)."""
         return self.K @ np.hstack([self.R, self.t[:, None]])
 
-    def with_pose(self, R, t) -> "PinholeDevice":
+    def with_pose(self, R: np.ndarray, t: np.ndarray) -> "PinholeDevice":
+        """A copy with world-to-device rotation ``R`` (3, 3) and translation ``t`` (3,)."""
         return replace(self, R=np.asarray(R, float), t=np.asarray(t, float))
 
     # -- geometry -----------------------------------------------------------------
@@ -82,7 +84,15 @@ class PinholeDevice:
         return np.asarray(X, float) @ self.R.T + self.t
 
     def project(self, X: np.ndarray) -> np.ndarray:
-        """World points ``(..., 3)`` (mm) to pixel coordinates ``(..., 2)``, with distortion."""
+        """World points ``(..., 3)`` (mm) to pixel coordinates ``(..., 2)``, with distortion.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> cam = PinholeDevice(K=intrinsics(1000, 1000, 320, 240), width=640, height=480)
+        >>> cam.project(np.array([[0.0, 0.0, 500.0], [10.0, 0.0, 500.0]])).tolist()
+        [[320.0, 240.0], [340.0, 240.0]]
+        """
         Xd = self.to_device(X)
         with np.errstate(divide="ignore", invalid="ignore"):
             xy = Xd[..., :2] / Xd[..., 2:3]
@@ -123,7 +133,7 @@ class PinholeDevice:
         return np.stack([u, v], axis=-1)
 
     # -- serialisation ------------------------------------------------------------
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {"kind": "pinhole", "K": self.K.tolist(), "dist": self.dist.tolist(),
                 "width": self.width, "height": self.height,
                 "R": self.R.tolist(), "t": self.t.tolist()}

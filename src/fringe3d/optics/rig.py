@@ -7,20 +7,25 @@ Rig files are JSON (``Rig.save`` / ``Rig.load``).
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
 
-from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.jsonfile import read_json, write_json
 
 from .pinhole import PinholeDevice
 from .telecentric import TelecentricCamera
 
 RIG_FORMAT = "fringe3d-rig"
+#: A rig camera: pinhole (Eq. 2.8-2.18) or telecentric (Eq. 3.1-3.3).
+Camera = PinholeDevice | TelecentricCamera
 
 
-def device_from_dict(d: dict, where: str):
+def device_from_dict(d: dict[str, Any], where: str) -> Camera:
+    """A device from its ``to_dict`` form (``kind`` pinhole or telecentric); ``where`` names it in errors."""
     kind = d.get("kind", "pinhole")
     try:
         if kind == "pinhole":
@@ -43,7 +48,7 @@ class Rig:
     projector : PinholeDevice
     """
 
-    camera: object
+    camera: Camera
     projector: PinholeDevice
 
     @property
@@ -53,30 +58,30 @@ class Rig:
     @property
     def baseline(self) -> float:
         """Distance between the camera and projector centres (mm); NaN for telecentric."""
-        if self.telecentric:
+        cam = self.camera
+        if isinstance(cam, TelecentricCamera):
             return float("nan")
-        return float(np.linalg.norm(self.projector.center - self.camera.center))
+        return float(np.linalg.norm(self.projector.center - cam.center))
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {"format": RIG_FORMAT, "version": 1, "camera": self.camera.to_dict(),
                 "projector": self.projector.to_dict()}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Rig":
+    def from_dict(cls, d: dict[str, Any]) -> "Rig":
         for key in ("camera", "projector"):
             if key not in d:
                 raise ValueError(f"rig file: missing field {key!r}")
         return cls(camera=device_from_dict(d["camera"], "rig camera"),
-                   projector=device_from_dict(d["projector"], "rig projector"))
+                   projector=cast(PinholeDevice, device_from_dict(d["projector"], "rig projector")))
 
-    def save(self, path) -> Path:
+    def save(self, path: str | os.PathLike) -> Path:
         path = Path(path)
         write_json(path, self.to_dict())
         return path
 
     @classmethod
-    def load(cls, path) -> "Rig":
-        from fringe3d.utils.jsonfile import read_json
+    def load(cls, path: str | os.PathLike) -> "Rig":
         d = read_json(path, "rig file")
         if "rig" in d and "camera" not in d:  # a calibration file embeds a rig
             d = d["rig"]

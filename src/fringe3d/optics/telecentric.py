@@ -8,6 +8,7 @@ the projector.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -29,14 +30,14 @@ class TelecentricCamera:
     height: int
     kind: str = "telecentric"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         M = np.asarray(self.M, float)
         if M.shape != (2, 4):
             raise ValueError(f"telecentric M must have shape (2, 4), got {M.shape}")
         object.__setattr__(self, "M", M)
 
     @classmethod
-    def from_pose(cls, magnification: float, R, t, cx: float, cy: float, width: int, height: int,
+    def from_pose(cls, magnification: float, R: np.ndarray, t: np.ndarray, cx: float, cy: float, width: int, height: int,
                   pixel_size: float = 1.0) -> "TelecentricCamera":
         """Build ``M`` from a magnification (image mm per object mm), sensor pixel size (mm),
         world-to-camera rotation ``R`` and translation ``t`` and a principal point."""
@@ -75,8 +76,9 @@ class TelecentricCamera:
         return origins, self.view_direction
 
     def pixel_grid(self) -> np.ndarray:
+        """``(height, width, 2)`` pixel centres ``(u, v)`` = (column, row)."""
         v, u = np.mgrid[0 : self.height, 0 : self.width].astype(float)
         return np.stack([u, v], axis=-1)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {"kind": "telecentric", "M": self.M.tolist(), "width": self.width, "height": self.height}

@@ -21,13 +21,27 @@ def bits_needed(stripes: int) -> int:
 
 
 def gray_encode(c: np.ndarray) -> np.ndarray:
-    """Binary-reflected Gray code of non-negative integers ``c``."""
+    """Binary-reflected Gray code of non-negative integers ``c``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> gray_encode(np.arange(4)).tolist()
+    [0, 1, 3, 2]
+    """
     c = np.asarray(c, dtype=np.int64)
     return c ^ (c >> 1)
 
 
 def gray_decode(g: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`gray_encode` (prefix XOR), any integer array."""
+    """Inverse of :func:`gray_encode` (prefix XOR), any integer array.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> gray_decode(gray_encode(np.arange(8))).tolist()
+    [0, 1, 2, 3, 4, 5, 6, 7]
+    """
     g = np.asarray(g, dtype=np.int64)
     c = g.copy()
     shift = 1

@@ -21,9 +21,9 @@ import math
 import os
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
-from typing import Iterable
+from typing import Any, Iterable
 
-from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.jsonfile import read_json, write_json
 
 MANIFEST_VERSION = 1
 MANIFEST_NAME = "manifest.json"
@@ -118,7 +118,7 @@ class DirectionPlan:
     angle: float
     method: str
     periods: tuple[float, ...] = ()
-    options: dict = field(default_factory=dict)
+    options: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.method not in UNWRAP_METHODS:
@@ -171,12 +171,13 @@ class PatternSet:
         return seen
 
     def plan(self, direction: str) -> DirectionPlan:
+        """The unwrapping plan of ``direction`` (``KeyError`` when the manifest has none)."""
         for p in self.plans:
             if p.direction == direction:
                 return p
         raise KeyError(f"manifest has no unwrapping plan for direction {direction!r}")
 
-    def indices(self, **match) -> list[int]:
+    def indices(self, **match: Any) -> list[int]:
         """Frame indices whose attributes equal every ``match`` item, e.g. ``group="v/T18"``."""
         return [i for i, f in enumerate(self.frames)
                 if all(getattr(f, k) == v for k, v in match.items())]
@@ -202,7 +203,8 @@ class PatternSet:
                        name=name if name is not None else f"{self.name}+{other.name}")
 
     # -- JSON --------------------------------------------------------------------
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form written as ``manifest.json`` (:meth:`from_dict` reads it back)."""
         return {
             "format": "fringe3d-pattern-manifest",
             "version": MANIFEST_VERSION,
@@ -215,7 +217,7 @@ class PatternSet:
         }
 
     @classmethod
-    def from_dict(cls, d: dict) -> "PatternSet":
+    def from_dict(cls, d: dict[str, Any]) -> "PatternSet":
         """Build from a parsed manifest, rejecting unknown or missing fields by name."""
         top = {"format", "version", "name", "width", "height", "bit_depth", "frames", "plans"}
         _check_keys(d, top, required={"width", "height", "frames"}, where="manifest")
@@ -250,11 +252,10 @@ class PatternSet:
         path = Path(path)
         if path.is_dir():
             path = path / MANIFEST_NAME
-        from fringe3d.utils.jsonfile import read_json
         return cls.from_dict(read_json(path, "pattern manifest"))
 
 
-def _check_keys(d: dict, allowed: Iterable[str], required: Iterable[str], where: str) -> None:
+def _check_keys(d: dict[str, Any], allowed: Iterable[str], required: Iterable[str], where: str) -> None:
     allowed = set(allowed)
     unknown = sorted(set(d) - allowed)
     if unknown:

@@ -13,23 +13,11 @@ import math
 import numpy as np
 
 from fringe3d.patterns import binary, codes, dither
+from fringe3d.patterns.conventions import fringe_coordinate, stripe_coordinate, w_range, w_to_phase
 from fringe3d.patterns.manifest import FrameSpec, PatternSet
 
-TWO_PI = 2.0 * math.pi
 BINARY_PHASE_KINDS = ("square", "bayer", "floyd_steinberg", "area_modulated", "pwm")
 PHASE_KINDS = ("sinusoid",) + BINARY_PHASE_KINDS
-
-
-def fringe_coordinate(angle: float, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``w = v*cos(angle) + u*sin(angle)`` (float64, broadcast shape), Eq. (2.1)."""
-    return np.asarray(v, dtype=np.float64) * math.cos(angle) + np.asarray(u, dtype=np.float64) * math.sin(angle)
-
-
-def w_range(angle: float, width: int, height: int) -> tuple[float, float]:
-    """Smallest and largest fringe coordinate over the projector's pixel centres."""
-    c, s = math.cos(angle), math.sin(angle)
-    corners = [v * c + u * s for v in (0, height - 1) for u in (0, width - 1)]
-    return min(corners), max(corners)
 
 
 def code_origin(angle: float, width: int, height: int, period: float) -> tuple[float, int]:
@@ -64,10 +52,10 @@ def sinusoid_value(spec: FrameSpec, u, v, width: int | None = None, height: int 
         return np.ones(shape)
     if spec.kind == "black":
         return np.zeros(shape)
-    w = fringe_coordinate(spec.angle, u, v)
+    w = fringe_coordinate(u, v, spec.angle)
     if spec.kind in ("gray_code", "binary_code"):
         return _code_frame(spec, w, width, height).astype(np.float64)
-    return 0.5 * (1.0 + np.cos(TWO_PI * w / spec.period + spec.shift))
+    return 0.5 * (1.0 + np.cos(w_to_phase(w, spec.period) + spec.shift))
 
 
 def _code_frame(spec: FrameSpec, w: np.ndarray, width: int | None, height: int | None) -> np.ndarray:
@@ -97,14 +85,21 @@ def render_frame(spec: FrameSpec, width: int, height: int, *, dither_size: int =
     Returns
     -------
     (height, width) float32 in [0, 1]; binary kinds give exactly 0 or 1.
+
+    Examples
+    --------
+    >>> from fringe3d.patterns import sets
+    >>> ps = sets.phase_shift(16, 3, "v", width=32, height=8)
+    >>> img = render_frame(ps.frames[0], 32, 8)
+    >>> img.shape, img.dtype, float(img[0, 0]), float(img[0, 8])
+    ((8, 32), dtype('float32'), 1.0, 0.0)
     """
     if width <= 0 or height <= 0:
         raise ValueError(f"projector size must be positive, got {width}x{height}")
     u, v = _grid(width, height)
     if spec.kind in ("white", "black", "gray_code", "binary_code"):
         return sinusoid_value(spec, u, v, width, height).astype(np.float32)
-    w = fringe_coordinate(spec.angle, u, v)
-    theta = TWO_PI * w / spec.period + spec.shift
+    theta = w_to_phase(fringe_coordinate(u, v, spec.angle), spec.period) + spec.shift
     kind = spec.kind
     if kind == "sinusoid":
         return (0.5 * (1.0 + np.cos(theta))).astype(np.float32)
@@ -113,7 +108,7 @@ def render_frame(spec: FrameSpec, width: int, height: int, *, dither_size: int =
     if kind == "pwm":
         return binary.pulse_width_modulated(theta, pwm_pulses or binary.default_pwm_pulses(spec.period))
     if kind == "area_modulated":
-        along = np.rint(-v * math.sin(spec.angle) + u * math.cos(spec.angle))
+        along = np.rint(stripe_coordinate(u, v, spec.angle))
         return binary.area_modulated(theta, along, area_cell)
     gray = 0.5 * (1.0 + np.cos(theta))
     if kind == "bayer":
@@ -127,6 +122,13 @@ def render_set(ps: PatternSet, **options) -> np.ndarray:
     """All frames of ``ps`` as ``(F, H, W)`` uint8 (0..255; 1-bit sets give only 0 and 255).
 
     8-bit frames are rounded from ``255 * intensity``. ``options`` go to :func:`render_frame`.
+
+    Examples
+    --------
+    >>> from fringe3d.patterns import sets
+    >>> frames = render_set(sets.phase_shift(16, 3, "v", width=32, height=8))
+    >>> frames.shape, frames.dtype
+    ((3, 8, 32), dtype('uint8'))
     """
     out = np.empty((len(ps), ps.height, ps.width), dtype=np.uint8)
     for i, spec in enumerate(ps.frames):

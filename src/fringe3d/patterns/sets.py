@@ -30,8 +30,10 @@ from __future__ import annotations
 
 import math
 
+from fringe3d.patterns.codes import bits_needed
+from fringe3d.patterns.conventions import beat_period, w_range
 from fringe3d.patterns.manifest import DirectionPlan, FrameSpec, PatternSet
-from fringe3d.patterns.render import BINARY_PHASE_KINDS, PHASE_KINDS, code_origin, w_range
+from fringe3d.patterns.render import BINARY_PHASE_KINDS, PHASE_KINDS, code_origin
 
 #: Default projector resolution (pixels). 800 x 600 keeps the 18/21/144 heterodyne set
 #: (equivalent period 1008 px) unambiguous in both directions.
@@ -84,7 +86,9 @@ def phase_frames(period: float, steps: int, direction: str, angle: float, kind: 
                  for k, s in enumerate(shifts))
 
 
-def _w_range(angle: float, width: int, height: int) -> list[float]:
+def w_range_option(angle: float, width: int, height: int) -> list[float]:
+    """A plan's ``options["w_range"]``: ``[w_min, w_max]`` of :func:`~fringe3d.patterns.conventions.w_range`
+    as a JSON list."""
     lo, hi = w_range(angle, width, height)
     return [lo, hi]
 
@@ -94,25 +98,25 @@ def _check_size(width: int, height: int) -> None:
         raise ValueError(f"projector size must be positive integers, got {width}x{height}")
 
 
-def beat_period(t1: float, t2: float) -> float:
-    """Equivalent (beat) period ``t1*t2/|t2 - t1|`` of two phase maps (heterodyne)."""
-    if t1 == t2:
-        raise ValueError(f"heterodyne needs distinct periods, got {t1} twice")
-    return t1 * t2 / abs(t2 - t1)
-
-
 # -- builders ----------------------------------------------------------------------
 def phase_shift(period: float, steps: int = 3, direction: str = "v", angle: float | None = None,
                 kind: str = "sinusoid", width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
                 bit_depth: int | None = None) -> PatternSet:
-    """One N-step phase-shifted set (Eq. 2.2); plan method ``"none"`` (wrapped phase only)."""
+    """One N-step phase-shifted set (Eq. 2.2); plan method ``"none"`` (wrapped phase only).
+
+    Examples
+    --------
+    >>> ps = phase_shift(16, 3, "v", width=32, height=8)
+    >>> len(ps), ps.plans[0].method, ps.plans[0].options["w_range"]
+    (3, 'none', [0.0, 31.0])
+    """
     _check_size(width, height)
     if steps < 3:
         raise ValueError(f"N-step phase shifting needs N >= 3, got {steps}")
     a = direction_angle(direction, angle)
     frames = phase_frames(period, steps, direction, a, kind)
     plan = DirectionPlan(direction, a, "none", (float(period),),
-                         {"phase": "psp", "w_range": _w_range(a, width, height)})
+                         {"phase": "psp", "w_range": w_range_option(a, width, height)})
     return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
                       f"phase-shift-{steps}step-T{period:g}-{direction}")
 
@@ -180,7 +184,6 @@ def _code_frames(period: float, direction: str, a: float, width: int, height: in
         raise ValueError(f"code must be 'gray' or 'binary', got {code!r}")
     if not period > 0:
         raise ValueError(f"code stripe period must be positive, got {period}")
-    from fringe3d.patterns.codes import bits_needed
     w0, stripes = code_origin(a, width, height, float(period))
     bits = bits_needed(stripes)
     kind = "gray_code" if code == "gray" else "binary_code"
@@ -191,7 +194,7 @@ def _code_frames(period: float, direction: str, a: float, width: int, height: in
             frames.append(FrameSpec(kind=kind, role="code", direction=direction, angle=a, period=float(period),
                                     bit=b, bits=bits, inverse=inv, group=group))
     opts = {"code": code, "code_group": group, "bits": bits, "inverse": inverse,
-            "order_offset": int(round(w0 / period)), "w_range": _w_range(a, width, height)}
+            "order_offset": int(round(w0 / period)), "w_range": w_range_option(a, width, height)}
     return tuple(frames), opts
 
 
@@ -251,7 +254,7 @@ def ftp(period: float, direction: str = "v", angle: float | None = None, kind: s
     a = direction_angle(direction, angle)
     frames = phase_frames(period, 1, direction, a, kind, shifts=[0.0])
     plan = DirectionPlan(direction, a, method, (float(period),),
-                         {"phase": "ftp", "w_range": _w_range(a, width, height)})
+                         {"phase": "ftp", "w_range": w_range_option(a, width, height)})
     return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth), f"ftp-T{period:g}-{direction}")
 
 
@@ -263,7 +266,7 @@ def modified_ftp(period: float, direction: str = "v", angle: float | None = None
     a = direction_angle(direction, angle)
     frames = phase_frames(period, 2, direction, a, kind, shifts=[0.0, math.pi])
     plan = DirectionPlan(direction, a, method, (float(period),),
-                         {"phase": "modified_ftp", "w_range": _w_range(a, width, height)})
+                         {"phase": "modified_ftp", "w_range": w_range_option(a, width, height)})
     return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
                       f"modified-ftp-T{period:g}-{direction}")
 
@@ -282,7 +285,7 @@ def two_frequency(high_period: float, low_period: float, direction: str = "v", a
     a = direction_angle(direction, angle)
     frames = phase_frames(low_period, 3, direction, a, kind) + phase_frames(high_period, 3, direction, a, kind)
     plan = DirectionPlan(direction, a, "two_frequency_geometric", (float(high_period), float(low_period)),
-                         {"phase": "psp", "w_range": _w_range(a, width, height)})
+                         {"phase": "psp", "w_range": w_range_option(a, width, height)})
     return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
                       f"two-frequency-{high_period:g}-{low_period:g}-{direction}")
 
@@ -303,7 +306,7 @@ def hybrid(high_period: float, low_period: float, direction: str = "v", angle: f
                                                                             shifts=[0.0])
     plan = DirectionPlan(direction, a, "hybrid", (float(high_period), float(low_period)),
                          {"phase": "ftp+psp", "high_group": group_name(direction, high_period),
-                          "low_group": group_name(direction, low_period), "w_range": _w_range(a, width, height)})
+                          "low_group": group_name(direction, low_period), "w_range": w_range_option(a, width, height)})
     return PatternSet(width, height, frames, (plan,), _bit_depth(kind, bit_depth),
                       f"hybrid-{high_period:g}-{low_period:g}-{direction}")
 
@@ -320,7 +323,7 @@ def calibration(width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT, direct
     three-frequency set for each direction (31 frames for ``("v", "h")``)."""
     _check_size(width, height)
     frames = [white_frame()]
-    plans = []
+    plans: list[DirectionPlan] = []
     for d in directions:
         ps = three_frequency(d, periods, steps, kind=kind, width=width, height=height, bit_depth=bit_depth)
         frames += ps.frames
@@ -337,7 +340,7 @@ def optimal_angle_calibration(alpha_opt: float, width: int = DEFAULT_WIDTH, heig
     31 frames; each plan carries ``options["alpha_opt"]``."""
     _check_size(width, height)
     frames = [white_frame()]
-    plans = []
+    plans: list[DirectionPlan] = []
     for d, off in (("a1", -math.pi / 4), ("a2", math.pi / 4)):
         ps = three_frequency(d, periods, steps, angle=direction_angle(d, alpha_opt + off), kind=kind,
                              width=width, height=height, bit_depth=bit_depth)

@@ -38,6 +38,15 @@ def frames_from_coordinates(ps: PatternSet, u_p: np.ndarray, v_p: np.ndarray, a:
         Unit-variance noise to scale by ``noise`` instead of drawing it (so several noise
         levels share one realisation).
     dtype : output dtype; ``np.uint8``/``np.uint16`` round and clip to the type's range.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringe3d.patterns import sets
+    >>> up, vp = np.meshgrid(np.arange(6.0), np.arange(4.0))
+    >>> frames = frames_from_coordinates(sets.phase_shift(16, 3, "v", width=32, height=8), up, vp)
+    >>> frames.shape, frames.dtype, float(frames[0, 0, 0])  # a + b at the crest of frame 0
+    ((3, 4, 6), dtype('float32'), 210.0)
     """
     u_p = np.asarray(u_p, dtype=np.float64)
     v_p = np.asarray(v_p, dtype=np.float64)

@@ -21,7 +21,8 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from fringe3d.phase import kernels
+from fringe3d.phase import _kernels
+from fringe3d.phase.frames import as_frame_stack
 
 
 class PhaseResult(NamedTuple):
@@ -37,7 +38,7 @@ def default_shifts(n: int) -> np.ndarray:
     return 2.0 * np.pi * np.arange(n) / n
 
 
-def lsq_coefficients(shifts: Sequence[float]) -> np.ndarray:
+def lsq_coefficients(shifts: Sequence[float] | np.ndarray) -> np.ndarray:
     """(3, N) float64 matrix P with ``(a, b, c) = P @ I`` for ``I_k = a + b cos d_k + c sin d_k``.
 
     Raises ``ValueError`` when fewer than 3 shifts are given or the shifts cannot separate
@@ -49,8 +50,8 @@ def lsq_coefficients(shifts: Sequence[float]) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=256)
-def _lsq_coefficients(d: tuple[float, ...]) -> np.ndarray:
-    d = np.array(d, dtype=np.float64)
+def _lsq_coefficients(shifts: tuple[float, ...]) -> np.ndarray:
+    d = np.array(shifts, dtype=np.float64)
     if d.size < 3:
         raise ValueError(f"phase shifting needs at least 3 frames, got {d.size} (shifts {d.tolist()})")
     design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1)
@@ -60,20 +61,6 @@ def _lsq_coefficients(d: tuple[float, ...]) -> np.ndarray:
     p = np.linalg.pinv(design)
     p.flags.writeable = False
     return p
-
-
-def _as_stack(frames) -> np.ndarray:
-    if isinstance(frames, (list, tuple)):
-        shapes = {np.shape(f) for f in frames}
-        if len(shapes) != 1:
-            raise ValueError(f"frames have different shapes {sorted(shapes)}; expected one (H, W) shape")
-        frames = np.stack([np.asarray(f) for f in frames])
-    frames = np.asarray(frames)
-    if frames.ndim != 3:
-        raise ValueError(f"frames must be an (N, H, W) stack, got shape {frames.shape}")
-    if frames.dtype.kind not in "uif":
-        raise ValueError(f"frames must be integer or float images, got dtype {frames.dtype}")
-    return frames
 
 
 def wrapped_phase(frames, shifts=None, index=None, saturation_level: float | None = None,
@@ -106,7 +93,7 @@ def wrapped_phase(frames, shifts=None, index=None, saturation_level: float | Non
     >>> float(wrapped_phase(f).phase[0, 0])  # doctest: +ELLIPSIS
     0.3...
     """
-    frames = _as_stack(frames)
+    frames = as_frame_stack(frames, layout="(N, H, W)")
     idx = np.arange(frames.shape[0]) if index is None else np.asarray(index, dtype=np.int64)
     if idx.size and (idx.min() < 0 or idx.max() >= frames.shape[0]):
         raise ValueError(f"frame index {idx.tolist()} out of range for {frames.shape[0]} frames")
@@ -120,37 +107,9 @@ def wrapped_phase(frames, shifts=None, index=None, saturation_level: float | Non
     modulation = np.empty((h, w), np.float32)
     saturated = np.zeros((h, w), np.bool_)
     sat = math.inf if saturation_level is None else float(saturation_level)
-    kernels.psp_kernel(frames, idx.astype(np.int64), coef, sat, phase, average, modulation, saturated)
+    _kernels.psp_kernel(frames, idx.astype(np.int64), coef, sat, phase, average, modulation, saturated)
     result = PhaseResult(phase, average, modulation)
     return (result, saturated) if return_saturated else result
-
-
-def wrapped_phase_reference(frames, shifts=None) -> PhaseResult:
-    """Plain-NumPy reference of :func:`wrapped_phase` (float64 math, float32 output).
-
-    Equal shifts use the literal sums of Eq. (2.4); other shifts solve the least-squares
-    system with ``numpy.linalg.lstsq``.
-    """
-    f = _as_stack(frames).astype(np.float64)
-    n = f.shape[0]
-    d = default_shifts(n) if shifts is None else np.asarray(shifts, dtype=np.float64)
-    if d.size != n:
-        raise ValueError(f"got {d.size} phase shifts for {n} frames; expected one shift per frame")
-    if n < 3:
-        raise ValueError(f"phase shifting needs at least 3 frames, got {n}")
-    rel = np.sort(np.mod(d - d[0] + 1e-12, 2 * np.pi) - 1e-12)
-    if np.allclose(rel, default_shifts(n), atol=1e-9):  # N equally spaced shifts, any order
-        num = -np.tensordot(np.sin(d), f, axes=1)
-        den = np.tensordot(np.cos(d), f, axes=1)
-        phase = np.arctan2(num, den)
-        average = f.mean(axis=0)
-        modulation = (2.0 / n) * np.abs(np.tensordot(np.exp(-1j * d), f, axes=1))
-    else:
-        design = np.stack([np.ones(n), np.cos(d), np.sin(d)], axis=1)
-        sol, *_ = np.linalg.lstsq(design, f.reshape(n, -1), rcond=None)
-        a, b, c = (s.reshape(f.shape[1:]) for s in sol)
-        phase, average, modulation = np.arctan2(-c, b), a, np.hypot(b, c)
-    return PhaseResult(phase.astype(np.float32), average.astype(np.float32), modulation.astype(np.float32))
 
 
 def three_step(i1, i2, i3) -> np.ndarray:
@@ -160,6 +119,13 @@ def three_step(i1, i2, i3) -> np.ndarray:
     output (H, W) float64 rad in (-pi, pi]. A manifest whose 3-step set uses shifts
     0, 2pi/3, 4pi/3 is the same formula with the frames taken in the order (I3, I1, I2);
     :func:`wrapped_phase` with the manifest's shifts handles any order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> i1, i2, i3 = (100 + 50 * np.cos(0.5 + d) * np.ones((2, 2)) for d in (-2 * np.pi / 3, 0, 2 * np.pi / 3))
+    >>> round(float(three_step(i1, i2, i3)[0, 0]), 12)
+    0.5
     """
     a = np.asarray(i1, dtype=np.float64)
     b = np.asarray(i2, dtype=np.float64)

@@ -11,6 +11,8 @@ import warnings
 
 import numpy as np
 
+from fringe3d.utils.warning_types import DataQualityWarning
+
 #: Default modulation threshold as a fraction of the full scale.
 DEFAULT_MIN_MODULATION_FRACTION = 0.02
 #: A frame counts as dark when its brightest pixel is below this fraction of the full scale.
@@ -19,8 +21,9 @@ DARK_FRACTION = 0.02
 SATURATED_WARN_FRACTION = 0.05
 
 
-class FrameQualityWarning(UserWarning):
-    """Frames that are all dark or heavily saturated (their pixels are masked)."""
+class FrameQualityWarning(DataQualityWarning):
+    """Frames that are all dark or heavily saturated (their pixels are masked); a
+    :class:`fringe3d.utils.warning_types.DataQualityWarning` (so a ``UserWarning``)."""
 
 
 def full_scale(frames: np.ndarray, bit_depth: int | None = None) -> float:
@@ -64,6 +67,13 @@ def validity_mask(average: np.ndarray, modulation: np.ndarray, frames: np.ndarra
         A precomputed saturation map (e.g. from :func:`fringe3d.phase.psp.wrapped_phase`).
     min_modulation : float, optional
         Default :func:`default_min_modulation` (or 2 % of 1.0 without frames).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> validity_mask(np.full((2, 2), 100.0), np.array([[50.0, 1.0], [50.0, 50.0]]), min_modulation=5.0)
+    array([[ True, False],
+           [ True,  True]])
     """
     modulation = np.asarray(modulation)
     average = np.asarray(average)

@@ -27,7 +27,7 @@ import numba
 import numpy as np
 
 from fringe3d.utils.console import warn
-from fringe3d.phase.kernels import fast_atan2
+from fringe3d.phase._kernels import fast_atan2
 
 ANGLE_UP = math.pi / 2  # vertical fringes: w = u_p
 ANGLE_VP = 0.0          # horizontal fringes: w = v_p

@@ -22,7 +22,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from fringe3d.phase import kernels
+from fringe3d.phase import _kernels as kernels
 
 TWO_PI = 2.0 * math.pi
 
