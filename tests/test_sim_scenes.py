@@ -2,7 +2,9 @@
 import numpy as np
 import pytest
 
-from fringe3d.sim.scenes import Box, Hit, Plane, Scene, Sphere
+from fringe3d.sim.hits import Hit
+from fringe3d.sim.primitives import Box, Plane, Sphere
+from fringe3d.sim.scene import Scene
 from fringe3d.sim.textures import Checker
 
 

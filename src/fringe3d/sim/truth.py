@@ -5,13 +5,14 @@ per-direction fringe angle and period, frame times, whether the scene moves).
 """
 from __future__ import annotations
 
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from fringe3d.utils.atomic import atomic_path
-from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.jsonfile import read_json, write_json
 
 TRUTH_FORMAT = "fringe3d-truth"
 ARRAY_FIELDS = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit", "material_uv")
@@ -109,7 +110,6 @@ class Truth:
         for p in (npz, js):
             if not p.exists():
                 raise FileNotFoundError(f"no ground-truth file {p} (expected truth.npz and truth.json)")
-        from fringe3d.utils.jsonfile import read_json
         meta = read_json(js, "ground-truth metadata")
         with np.load(npz) as z:
             data = {k: z[k] for k in z.files}
@@ -127,7 +127,6 @@ class Truth:
 
 def write_npz(path, arrays: dict, level: int = 1) -> None:
     """``np.savez_compressed`` with a fast deflate level (truth maps are large and smooth)."""
-    import zipfile
     with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=level) as zf:
         for name, arr in arrays.items():
             with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
