@@ -37,8 +37,8 @@ import numpy as np
 from fringe3d.patterns import sets
 from fringe3d.sim import presets, render
 from fringe3d.sim.motion import RigidMotion
-from fringe3d.sim.projector_sampling import IMAGE_CACHE
 from fringe3d.sim.primitives import Plane, Sphere
+from fringe3d.sim.projector_sampling import IMAGE_CACHE
 from fringe3d.sim.scene import Scene
 from fringe3d.sim.simulate import named_scene
 

@@ -8,14 +8,14 @@ from fringe3d.optics.defocus import blur_pattern
 from fringe3d.patterns import sets
 from fringe3d.patterns.render import render_frame
 from fringe3d.sim import presets
+from fringe3d.sim.geometry import cast
+from fringe3d.sim.hits import Hit
 from fringe3d.sim.mesh import Mesh
 from fringe3d.sim.motion import RigidMotion
-from fringe3d.sim.geometry import cast
+from fringe3d.sim.primitives import Box, Plane, Sphere
 from fringe3d.sim.projector_sampling import IMAGE_CACHE, projector_image
 from fringe3d.sim.rays import camera_rays, occluded
 from fringe3d.sim.render import render as render_capture
-from fringe3d.sim.hits import Hit
-from fringe3d.sim.primitives import Box, Plane, Sphere
 from fringe3d.sim.scene import Scene
 
 

@@ -181,6 +181,7 @@ def test_step_block_on_plane_gives_exact_step_height():
 
 def test_rotation_vector_matches_cv2_rodrigues_and_motion_is_closed_form():
     import cv2
+
     from fringe3d.sim.motion import RigidMotion, rotation_vector_to_matrix
     for w in ([0.3, -0.2, 0.5], [0.0, 0.0, 2.5], [1e-9, 0, 0]):
         np.testing.assert_allclose(rotation_vector_to_matrix(w), cv2.Rodrigues(np.array(w))[0], atol=1e-12)

@@ -7,9 +7,9 @@ import trimesh
 
 from fringe3d.optics import PinholeDevice, Rig, intrinsics
 from fringe3d.sim.catalog import NAMES, named_scene
-from fringe3d.sim.scene_file import load_scene, scene_from_dict
 from fringe3d.sim.primitives import Plane, Sphere
 from fringe3d.sim.scene import Scene
+from fringe3d.sim.scene_file import load_scene, scene_from_dict
 from fringe3d.sim.validate import check_scene, scene_problems
 from fringe3d.sim.wing import Wing
 
@@ -160,8 +160,8 @@ def test_scene_save_load_round_trip_casts_identically(tmp_path):
     from fringe3d.sim.board import CircleBoard
     from fringe3d.sim.mesh import Mesh
     from fringe3d.sim.motion import RigidMotion
-    from fringe3d.sim.scene_file import save_scene
     from fringe3d.sim.primitives import Box
+    from fringe3d.sim.scene_file import save_scene
     from fringe3d.sim.sculpture import sculpture
     from fringe3d.sim.textures import Blotches, Checker
     trimesh.creation.icosphere(2, radius=10).export(tmp_path / "ball.stl")

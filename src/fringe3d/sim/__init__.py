@@ -27,6 +27,6 @@ from .simulate import make_patterns, make_scene, named_scene, simulate_capture
 from .truth import Truth
 from .wing import Wing
 
-__all__ = ["render", "RenderSettings", "Truth", "simulate_capture", "presets", "Scene", "SceneObject",
-           "PosedObject", "Hit", "Plane", "Sphere", "Box", "Mesh", "HeightField", "sculpture", "Wing",
-           "RigidMotion", "falling", "named_scene", "make_scene", "make_patterns", "load_scene", "save_scene"]
+__all__ = ["Box", "HeightField", "Hit", "Mesh", "Plane", "PosedObject", "RenderSettings", "RigidMotion",
+           "Scene", "SceneObject", "Sphere", "Truth", "Wing", "falling", "load_scene", "make_patterns",
+           "make_scene", "named_scene", "presets", "render", "save_scene", "sculpture", "simulate_capture"]

@@ -8,6 +8,7 @@ preset, so the same name works for the macro, high-speed and tiny rigs.
 from __future__ import annotations
 
 import time as _time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -19,6 +20,7 @@ from .motion import GRAVITY_MM_S2, falling
 from .presets import Preset
 from .primitives import Plane, Sphere
 from .scene import Scene
+from .scene_object import PosedObject
 from .sculpture import sculpture
 from .textures import Checker
 from .wing import Wing
@@ -115,14 +117,14 @@ def textured_spheres_scene(preset) -> Scene:
     c, size, view, down = preset_frame(preset)
     right = np.cross(down, view)
     r = 0.12 * min(size[0], size[1])
-    objs = [Sphere(c + right * (dx * size[0]) + down * (dy * size[1]) + view * (dz * size[2]), r,
+    objs: list[PosedObject] = [Sphere(c + right * (dx * size[0]) + down * (dy * size[1]) + view * (dz * size[2]), r,
                    albedo=0.9, texture=Checker(period=np.pi / 8, contrast=0.4))
             for dx, dy, dz in ((-0.28, 0.1, -0.2), (0.0, -0.12, 0.0), (0.28, 0.08, 0.2))]
     objs.append(Plane(c + view * (0.5 * size[2]), -view, albedo=0.7))
     return Scene(objs, name="textured-spheres")
 
 
-_BUILDERS = {"sculpture": sculpture_scene, "mesh": mesh_scene, "falling-balls": falling_balls_scene,
+_BUILDERS: dict[str, Callable[[Preset], Scene]] = {"sculpture": sculpture_scene, "mesh": mesh_scene, "falling-balls": falling_balls_scene,
              "wing": wing_scene, "textured-spheres": textured_spheres_scene}
 
 
@@ -142,6 +144,7 @@ def bench_cast(preset: str = "macro", repeats: int = 5, time: float = 0.003) -> 
     cam = p.rig.camera
     o, d = cam.rays(cam.pixel_grid().reshape(-1, 2))
     mesh = named_scene("mesh", p)
+    assert isinstance(mesh[0], Mesh)
     scenes = {f"mesh ({mesh[0].n_faces} triangles)": mesh,
               "analytic sphere": Scene([Sphere(p.center, 0.25 * min(p.size[0], p.size[1]))]),
               "analytic sculpture": named_scene("sculpture", p), "wing": named_scene("wing", p)}

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from fringe3d.optics import Rig
+from fringe3d.optics import Rig, TelecentricCamera
 
 from .rays import intersect_culled, occluded, shadow_rays
 from .scene import Scene
@@ -145,9 +145,10 @@ def cast(scene: Scene, rig: Rig, origins: np.ndarray, dirs: np.ndarray, depth_of
     n_pix = dirs.shape[0]
     oid = np.ascontiguousarray(h.object_id, dtype=np.int32)
     cam, proj = rig.camera, rig.projector
-    tele = cam.kind == "telecentric"
-    cam_r2 = np.zeros(3) if tele else np.ascontiguousarray(cam.R[2], dtype=float)
-    cam_t2 = 0.0 if tele else float(cam.t[2])
+    if isinstance(cam, TelecentricCamera):  # depth = ray parameter - depth_offset
+        tele, cam_r2, cam_t2 = True, np.zeros(3), 0.0
+    else:  # depth = camera-frame z = R[2] @ X + t[2]
+        tele, cam_r2, cam_t2 = False, np.ascontiguousarray(cam.R[2], dtype=np.float64), float(cam.t[2])
     pts, normal, L = (_buffer(work, k, (n_pix, 3)) for k in ("points", "normal", "L"))
     depth, up, vp, pdepth, cosine, dist = (_buffer(work, k, (n_pix,)) for k in
                                            ("depth", "up", "vp", "proj_depth", "cosine", "dist"))

@@ -44,7 +44,7 @@ class Hit:
     material_uv: np.ndarray
 
     @classmethod
-    def miss(cls, n: int) -> "Hit":
+    def miss(cls, n: int) -> Hit:
         """A record of ``n`` rays that hit nothing."""
         return cls(t=np.full(n, np.inf), normal=np.full((n, 3), np.nan),
                    object_id=np.full(n, -1, np.int32), albedo=np.zeros(n),
@@ -64,19 +64,19 @@ class Hit:
         t = np.where(self.mask, self.t, np.nan)
         return o + t[:, None] * d
 
-    def take(self, other: "Hit", where: np.ndarray) -> None:
+    def take(self, other: Hit, where: np.ndarray) -> None:
         """Overwrite rows ``where`` (bool (N,)) with those of ``other`` (in place)."""
         _take_kernel(where, self.t, self.normal, self.object_id, self.albedo, self.material_uv,
                      other.t, other.normal, other.object_id, other.albedo, other.material_uv)
 
-    def merge_nearer(self, other: "Hit", object_id: int) -> None:
+    def merge_nearer(self, other: Hit, object_id: int) -> None:
         """Keep, per ray, the nearer of ``self`` and ``other`` (in place); rows taken from
         ``other`` get ``object_id``."""
         _merge_kernel(self.t, self.normal, self.object_id, self.albedo, self.material_uv,
                       other.t, other.normal, other.object_id, other.albedo, other.material_uv,
                       np.int32(object_id))
 
-    def merge_nearer_rows(self, rows: np.ndarray, other: "Hit", object_id: int) -> None:
+    def merge_nearer_rows(self, rows: np.ndarray, other: Hit, object_id: int) -> None:
         """Like :meth:`merge_nearer` for a subset: ray ``rows[r]`` takes row ``r`` of ``other``
         (a record of ``len(rows)`` rays) when that is a hit nearer than its current one."""
         uv = other.material_uv if other.material_uv is not None else np.full((rows.size, 2), np.nan)

@@ -15,12 +15,20 @@ import numpy as np
 
 from .hits import Hit, as_rays
 from .motion import STATIC, RigidMotion
-from .scene_object import CullingVolume, PosedObject, check_albedo, check_rotation, check_vec3, rigid_to_body
+from .scene_object import (
+    CullingVolume,
+    PosedObject,
+    check_albedo,
+    check_rotation,
+    check_vec3,
+    rigid_to_body,
+)
 
 
 def load_mesh(path):
     """Read a triangle mesh with trimesh (any format it knows: OBJ, PLY, STL, OFF, GLB...)."""
-    import trimesh  # heavy (about 1 s to import): loaded only when a mesh is used
+    # heavy (about 1 s to import): loaded only when a mesh file is read
+    import trimesh
 
     path = Path(path)
     if not path.exists():
@@ -41,7 +49,8 @@ class _EmbreeFirstHit:
     conversion (as trimesh does) to keep Embree's float32 precise."""
 
     def __init__(self, mesh):
-        from embreex import rtcore_scene  # optional: embreex (x86-64 only); ImportError -> trimesh fallback
+        # optional: embreex (x86-64 only); an ImportError selects the trimesh fallback
+        from embreex import rtcore_scene
         from embreex.mesh_construction import TriangleMesh
 
         v = np.asarray(mesh.vertices, dtype=np.float64)
@@ -61,7 +70,8 @@ class _TrimeshFirstHit:
     """Fallback without embreex: trimesh's pure-NumPy ray/triangle test (slow but exact)."""
 
     def __init__(self, mesh):
-        from trimesh.ray.ray_triangle import RayMeshIntersector  # heavy: only without embreex
+        # heavy (trimesh, about 1 s to import): only meshes without embreex need it
+        from trimesh.ray.ray_triangle import RayMeshIntersector
         self.rays = RayMeshIntersector(mesh)
 
     def first(self, o, d):
@@ -93,7 +103,7 @@ class Mesh(PosedObject):
     def __init__(self, mesh, center=(0.0, 0.0, 0.0), R=None, scale=1.0, smooth=False, albedo=1.0,
                  texture=None, motion: RigidMotion = STATIC):
         if isinstance(mesh, (str, Path)):
-            self.source = str(Path(mesh).resolve())
+            self.source: str | None = str(Path(mesh).resolve())
             mesh = load_mesh(mesh)
         else:
             self.source = None

@@ -17,7 +17,13 @@ import numpy as np
 
 from .hits import Hit, as_rays
 from .motion import STATIC, RigidMotion
-from .scene_object import PosedObject, check_albedo, check_rotation, check_vec3, rigid_to_body
+from .scene_object import (
+    PosedObject,
+    check_albedo,
+    check_rotation,
+    check_vec3,
+    rigid_to_body,
+)
 
 
 # --------------------------------------------------------------------------------------------

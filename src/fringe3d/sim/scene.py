@@ -8,7 +8,7 @@
 """
 from __future__ import annotations
 
-from typing import Iterable
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -86,6 +86,6 @@ class Scene:
         return out
 
 
-def as_scene(scene: "Scene | SceneObject") -> Scene:
+def as_scene(scene: Scene | SceneObject) -> Scene:
     """``scene`` itself, or a one-object :class:`Scene` around a bare scene object."""
     return scene if isinstance(scene, Scene) else Scene([scene])

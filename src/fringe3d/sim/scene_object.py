@@ -278,7 +278,7 @@ class PosedObject:
 
     def _style_dict(self, motion: bool = True) -> dict:
         """Scene-file fields shared by most objects: albedo, texture and (non-static) motion."""
-        d = {"albedo": self.albedo}
+        d: dict = {"albedo": self.albedo}
         if self.texture is not None:
             if not isinstance(self.texture, Texture):
                 raise ValueError(f"{self.describe()}: its texture {self.texture!r} cannot be saved to a scene file")

@@ -214,7 +214,8 @@ class HeightField(PosedObject):
     def to_mesh(self, step: float = 1.0):
         """Tessellate the relief (body frame, mm) into a ``trimesh.Trimesh`` with vertices on
         the exact surface (grid ``step`` mm)."""
-        import trimesh  # heavy (about 1 s to import): only tessellation needs it
+        # heavy (about 1 s to import): only tessellation needs it
+        import trimesh
 
         w, h = 0.5 * self.size
         xs = np.linspace(-w, w, int(round(2 * w / step)) + 1)

@@ -188,6 +188,14 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
     -------
     dict
         Summary: folder, preset, scene, patterns, frames, frame_rate, valid fraction, seconds.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     summary = simulate_capture(tmp, "tiny", "plane", "phase-shift", progress=False)
+    >>> summary["frames"], summary["camera"], summary["valid_fraction"]
+    (9, [160, 128], 1.0)
     """
     t0 = time.perf_counter()
     p = _presets.get(preset)

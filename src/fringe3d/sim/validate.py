@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fringe3d.optics import Rig, TelecentricCamera
+from fringe3d.optics import PinholeDevice, Rig, TelecentricCamera
 
 from .primitives import Sphere
 from .scene import Scene
@@ -73,7 +73,7 @@ def scene_problems(scene: Scene, rig: Rig, times=(0.0,), grid=(96, 77)) -> list[
                     problems.append(f"{_label(i, ob)} is behind the projector{at} (centre depth "
                                     f"{_depth(proj, c):.1f} mm in the projector frame)")
                     ok = False
-                if pinhole_cam and isinstance(ob, Sphere) and np.linalg.norm(c - cam.center) < r:
+                if isinstance(cam, PinholeDevice) and isinstance(ob, Sphere) and np.linalg.norm(c - cam.center) < r:
                     problems.append(f"{_label(i, ob)} encloses the camera{at}")
                     ok = False
             front.append(ok)
