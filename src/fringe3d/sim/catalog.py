@@ -117,15 +117,17 @@ def textured_spheres_scene(preset) -> Scene:
     c, size, view, down = preset_frame(preset)
     right = np.cross(down, view)
     r = 0.12 * min(size[0], size[1])
-    objs: list[PosedObject] = [Sphere(c + right * (dx * size[0]) + down * (dy * size[1]) + view * (dz * size[2]), r,
-                   albedo=0.9, texture=Checker(period=np.pi / 8, contrast=0.4))
-            for dx, dy, dz in ((-0.28, 0.1, -0.2), (0.0, -0.12, 0.0), (0.28, 0.08, 0.2))]
+    objs: list[PosedObject] = [
+        Sphere(c + right * (dx * size[0]) + down * (dy * size[1]) + view * (dz * size[2]), r,
+               albedo=0.9, texture=Checker(period=np.pi / 8, contrast=0.4))
+        for dx, dy, dz in ((-0.28, 0.1, -0.2), (0.0, -0.12, 0.0), (0.28, 0.08, 0.2))]
     objs.append(Plane(c + view * (0.5 * size[2]), -view, albedo=0.7))
     return Scene(objs, name="textured-spheres")
 
 
-_BUILDERS: dict[str, Callable[[Preset], Scene]] = {"sculpture": sculpture_scene, "mesh": mesh_scene, "falling-balls": falling_balls_scene,
-             "wing": wing_scene, "textured-spheres": textured_spheres_scene}
+_BUILDERS: dict[str, Callable[[Preset], Scene]] = {
+    "sculpture": sculpture_scene, "mesh": mesh_scene, "falling-balls": falling_balls_scene,
+    "wing": wing_scene, "textured-spheres": textured_spheres_scene}
 
 
 def named_scene(name: str, preset) -> Scene:

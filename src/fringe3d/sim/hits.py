@@ -83,7 +83,8 @@ class Hit:
         _merge_rows_kernel(rows, self.t, self.normal, self.object_id, self.albedo, self.material_uv,
                            np.ascontiguousarray(other.t, dtype=np.float64),
                            np.ascontiguousarray(other.normal, dtype=np.float64),
-                           np.ascontiguousarray(other.object_id), np.ascontiguousarray(other.albedo, dtype=np.float64),
+                           np.ascontiguousarray(other.object_id),
+                           np.ascontiguousarray(other.albedo, dtype=np.float64),
                            np.ascontiguousarray(uv, dtype=np.float64), np.int32(object_id))
 
 

@@ -23,7 +23,8 @@ TELECENTRIC_BACKOFF = 1.0e4
 
 Camera = PinholeDevice | TelecentricCamera
 
-_RAY_CACHE: list[tuple[Camera, tuple[np.ndarray, np.ndarray, float]]] = []  # [(camera, rays)], most recent last; cameras are frozen dataclasses
+#: ``[(camera, rays)]``, most recent last (cameras are frozen dataclasses, compared by identity).
+_RAY_CACHE: list[tuple[Camera, tuple[np.ndarray, np.ndarray, float]]] = []
 
 
 def camera_rays(camera: Camera) -> tuple[np.ndarray, np.ndarray, float]:

@@ -77,7 +77,8 @@ class Scene:
             if not isinstance(ob, SupportsTruthFields):
                 continue
             rows = np.flatnonzero(hit.object_id == i)
-            fields = ob.truth_fields(hit.material_uv[rows], time) if rows.size else ob.truth_fields(np.zeros((1, 2)), time)
+            uv = hit.material_uv[rows] if rows.size else np.zeros((1, 2))  # out of view: still its fields
+            fields = ob.truth_fields(uv, time)
             for name, val in fields.items():
                 if name not in out:
                     out[name] = np.full((n,) + np.shape(val)[1:], np.nan, np.float32)

@@ -73,7 +73,8 @@ def scene_problems(scene: Scene, rig: Rig, times=(0.0,), grid=(96, 77)) -> list[
                     problems.append(f"{_label(i, ob)} is behind the projector{at} (centre depth "
                                     f"{_depth(proj, c):.1f} mm in the projector frame)")
                     ok = False
-                if isinstance(cam, PinholeDevice) and isinstance(ob, Sphere) and np.linalg.norm(c - cam.center) < r:
+                inside = isinstance(cam, PinholeDevice) and np.linalg.norm(c - cam.center) < r
+                if inside and isinstance(ob, Sphere):
                     problems.append(f"{_label(i, ob)} encloses the camera{at}")
                     ok = False
             front.append(ok)
