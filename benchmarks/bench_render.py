@@ -12,7 +12,7 @@ renderer); wall-clock and CPU seconds are both reported (the machine may be shar
   one fully ray-traced frame, what the issue's "<= 0.2 s per mesh frame" target is about).
 
 Projector images (rendered and defocus-blurred pattern frames) are cached across render calls
-(``fringe3d.sim.render.projector_image``), so repeated runs of a set do not re-blur them;
+(``fringe3d.sim.projector_sampling.projector_image``), so repeated runs of a set do not re-blur them;
 ``--cold`` clears that cache before every run to include that cost (about 10 ms per frame).
 The 1-minute load average (``os.getloadavg()``) is printed with every row: wall-clock times
 on a shared 2-core machine grow with the load, CPU seconds much less.
@@ -37,8 +37,9 @@ import numpy as np
 from fringe3d.patterns import sets
 from fringe3d.sim import presets, render
 from fringe3d.sim.motion import RigidMotion
-from fringe3d.sim.render import _IMAGE_CACHE
-from fringe3d.sim.scenes import Plane, Scene, Sphere
+from fringe3d.sim.primitives import Plane, Sphere
+from fringe3d.sim.projector_sampling import IMAGE_CACHE
+from fringe3d.sim.scene import Scene
 from fringe3d.sim.simulate import named_scene
 
 
@@ -64,7 +65,7 @@ def time_render(scene, preset, ps, repeat: int, cold: bool = False) -> tuple[flo
     best, best_cpu = np.inf, np.inf
     for _ in range(repeat):
         if cold:
-            _IMAGE_CACHE.clear()
+            IMAGE_CACHE.clear()
         t0, c0 = time.perf_counter(), time.process_time()
         frames, truth = render(scene, preset.rig, ps, preset.settings, progress=False)
         best = min(best, time.perf_counter() - t0)

@@ -20,7 +20,8 @@ from fringe3d.calibrate.simulated_session import scaled_camera
 from fringe3d.experiments.optimal_angle import sections_rms
 from fringe3d.patterns import sets
 from fringe3d.sim import presets
-from fringe3d.sim.scenes import Scene, Sphere
+from fringe3d.sim.primitives import Sphere
+from fringe3d.sim.scene import Scene
 
 ALPHA_OPT = np.radians(93.9)  # the rig's measured alpha_opt (fringe3d experiment optimal-angle)
 

@@ -11,7 +11,8 @@ from fringe3d.decode import decode
 from fringe3d.patterns import sets
 from fringe3d.reconstruct.triangulate import triangulate
 from fringe3d.sim import presets, render
-from fringe3d.sim.scenes import Plane, Scene
+from fringe3d.sim.primitives import Plane
+from fringe3d.sim.scene import Scene
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,8 @@ from fringe3d.decode import decode
 from fringe3d.patterns.manifest import DirectionPlan
 from fringe3d.patterns.sets import modified_ftp, phase_shift
 from fringe3d.sim import presets, render
-from fringe3d.sim.scenes import Plane, Scene, Sphere
+from fringe3d.sim.primitives import Plane, Sphere
+from fringe3d.sim.scene import Scene
 from fringe3d.unwrap.geometric import depth_limit, minimum_phase
 
 T, T_REF = 24.0, 380.0

@@ -5,7 +5,8 @@ import pytest
 from fringe3d.reconstruct.motion import dissertation_sequence, hybrid_view, measure
 from fringe3d.sim import presets, render
 from fringe3d.sim.motion import GRAVITY_MM_S2
-from fringe3d.sim.scenes import Scene, Sphere
+from fringe3d.sim.primitives import Sphere
+from fringe3d.sim.scene import Scene
 from fringe3d.sim.textures import Blotches
 
 TWO_PI = 2 * np.pi

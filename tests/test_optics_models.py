@@ -8,7 +8,8 @@ import pytest
 from fringe3d.optics import PinholeDevice, Rig, TelecentricCamera, intrinsics
 from fringe3d.optics.distortion import distort, undistort
 from fringe3d.sim.motion import rotation_vector_to_matrix
-from fringe3d.sim.scenes import Plane, Scene, Sphere
+from fringe3d.sim.primitives import Plane, Sphere
+from fringe3d.sim.scene import Scene
 
 DIST = np.array([-0.28, 0.12, 8e-4, -5e-4, -0.02])
 

@@ -5,7 +5,7 @@ import trimesh
 
 from fringe3d.optics import PinholeDevice, intrinsics
 from fringe3d.sim.mesh import Mesh
-from fringe3d.sim.scenes import Sphere
+from fringe3d.sim.primitives import Sphere
 from fringe3d.sim.sculpture import HeightField, sculpture
 
 CAM = PinholeDevice(intrinsics(400, 400, 79.5, 63.5), 160, 128)

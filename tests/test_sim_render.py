@@ -7,7 +7,8 @@ from fringe3d.optics import PinholeDevice, Rig, intrinsics
 from fringe3d.patterns.manifest import FrameSpec, PatternSet
 from fringe3d.patterns.render import sinusoid_value
 from fringe3d.sim import RenderSettings, presets, render
-from fringe3d.sim.scenes import Plane, Scene, Sphere
+from fringe3d.sim.primitives import Plane, Sphere
+from fringe3d.sim.scene import Scene
 
 TINY = presets.get("tiny")
 CLEAN = RenderSettings(ideal=True, defocus="none", gamma=1.0, ambient=0.0, brightness=0.8,

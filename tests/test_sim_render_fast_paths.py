@@ -8,11 +8,15 @@ from fringe3d.optics.defocus import blur_pattern
 from fringe3d.patterns import sets
 from fringe3d.patterns.render import render_frame
 from fringe3d.sim import presets
+from fringe3d.sim.geometry import cast
+from fringe3d.sim.hits import Hit
 from fringe3d.sim.mesh import Mesh
 from fringe3d.sim.motion import RigidMotion
-from fringe3d.sim.render import _IMAGE_CACHE, camera_rays, cast, occluded, projector_image
+from fringe3d.sim.primitives import Box, Plane, Sphere
+from fringe3d.sim.projector_sampling import IMAGE_CACHE, projector_image
+from fringe3d.sim.rays import camera_rays, occluded
 from fringe3d.sim.render import render as render_capture
-from fringe3d.sim.scenes import Box, Hit, Plane, Scene, Sphere
+from fringe3d.sim.scene import Scene
 
 
 def _rays(n=4000, seed=0):
@@ -131,7 +135,7 @@ def test_renders_are_identical_with_a_warm_projector_image_cache():
     rig = preset.rig
     ps = sets.phase_shift(18, 3, "v", width=rig.projector.width, height=rig.projector.height)
     scene = Scene([Sphere(preset.center, 45.0)])
-    _IMAGE_CACHE.clear()
+    IMAGE_CACHE.clear()
     f1, _ = render_capture(scene, rig, ps, preset.settings, progress=False)
     f2, _ = render_capture(scene, rig, ps, preset.settings, progress=False)
     np.testing.assert_array_equal(f1, f2)
@@ -145,7 +149,7 @@ def test_hit_record_fields_keep_their_dtypes():
 
 
 def test_per_object_culling_equals_the_full_scene_cast_with_an_unbounded_plane():
-    from fringe3d.sim.render import intersect_culled
+    from fringe3d.sim.rays import intersect_culled
     scene = Scene(_objects())
     rng = np.random.default_rng(5)
     d = rng.normal(0.0, 0.3, (6000, 3)) + np.array([0.0, 0.0, 1.0])

@@ -5,7 +5,9 @@ import pytest
 from fringe3d.optics import Rig, TelecentricCamera
 from fringe3d.patterns.manifest import FrameSpec, PatternSet
 from fringe3d.sim import RenderSettings, presets, render
-from fringe3d.sim.scenes import Plane, Scene, Sphere, named_scene
+from fringe3d.sim.catalog import named_scene
+from fringe3d.sim.primitives import Plane, Sphere
+from fringe3d.sim.scene import Scene
 
 TINY = presets.get("tiny")
 CLEAN = RenderSettings(ideal=True, defocus="none", ambient=0.0, brightness=0.8, shot_noise=False,
@@ -137,12 +139,11 @@ def test_static_scene_is_cast_once_and_moving_scene_every_frame(monkeypatch):
 
 @pytest.mark.parametrize("name", ["mesh", "falling-balls", "wing"])
 def test_ray_culling_gives_the_same_hits_as_casting_every_ray(name):
-    import importlib
-    r = importlib.import_module("fringe3d.sim.render")
+    from fringe3d.sim.rays import camera_rays, intersect_culled
     scene = named_scene(name, TINY)
-    o, d, _ = r.camera_rays(TINY.rig.camera)
+    o, d, _ = camera_rays(TINY.rig.camera)
     for time in (0.0, 0.004):
-        culled = r.intersect_culled(scene, o, d, time)
+        culled = intersect_culled(scene, o, d, time)
         full = scene.intersect(o[0], d, time)
         assert np.array_equal(culled.object_id, full.object_id)
         hit = full.object_id >= 0

@@ -2,7 +2,9 @@
 import numpy as np
 import pytest
 
-from fringe3d.sim.scenes import Box, Hit, Plane, Scene, Sphere
+from fringe3d.sim.hits import Hit
+from fringe3d.sim.primitives import Box, Plane, Sphere
+from fringe3d.sim.scene import Scene
 from fringe3d.sim.textures import Checker
 
 
@@ -179,6 +181,7 @@ def test_step_block_on_plane_gives_exact_step_height():
 
 def test_rotation_vector_matches_cv2_rodrigues_and_motion_is_closed_form():
     import cv2
+
     from fringe3d.sim.motion import RigidMotion, rotation_vector_to_matrix
     for w in ([0.3, -0.2, 0.5], [0.0, 0.0, 2.5], [1e-9, 0, 0]):
         np.testing.assert_allclose(rotation_vector_to_matrix(w), cv2.Rodrigues(np.array(w))[0], atol=1e-12)
@@ -202,3 +205,30 @@ def test_textures_stay_in_range_and_round_trip_through_dicts():
         texture_from_dict({"type": "tartan"})
     with pytest.raises(ValueError, match="bad field"):
         texture_from_dict({"type": "checker", "size": 3})
+
+
+def test_every_simulator_object_implements_the_scene_object_protocol():
+    from fringe3d.sim import HeightField, Wing, sculpture
+    from fringe3d.sim.board import CircleBoard
+    from fringe3d.sim.scene_object import SceneObject, SupportsCircleCentres, SupportsTruthFields
+
+    objects = [Plane((0, 0, 100), (0, 0, -1)), Sphere((0, 0, 100), 5), Box((0, 0, 100), (1, 2, 3)),
+               HeightField(), sculpture(), Wing(), CircleBoard()]
+    assert all(isinstance(ob, SceneObject) for ob in objects)
+    assert [isinstance(ob, SupportsTruthFields) for ob in objects] == [False] * 5 + [True, False]
+    assert [isinstance(ob, SupportsCircleCentres) for ob in objects] == [False] * 6 + [True]
+    with pytest.raises(ValueError, match="has no intersect method"):
+        Scene([object()])
+
+
+def test_a_bare_object_renders_as_a_one_object_scene():
+    from fringe3d.patterns import sets
+    from fringe3d.sim import presets, render
+
+    p = presets.get("tiny")
+    ps = sets.phase_shift(18, 3, "v", width=p.rig.projector.width, height=p.rig.projector.height)
+    ob = Sphere(p.center, 40.0)
+    bare, t1 = render(ob, p.rig, ps, p.settings, progress=False)
+    wrapped, t2 = render(Scene([ob]), p.rig, ps, p.settings, progress=False)
+    np.testing.assert_array_equal(bare, wrapped)
+    np.testing.assert_array_equal(t1.depth, t2.depth)

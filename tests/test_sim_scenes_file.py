@@ -7,8 +7,9 @@ import trimesh
 
 from fringe3d.optics import PinholeDevice, Rig, intrinsics
 from fringe3d.sim.catalog import NAMES, named_scene
+from fringe3d.sim.primitives import Plane, Sphere
+from fringe3d.sim.scene import Scene
 from fringe3d.sim.scene_file import load_scene, scene_from_dict
-from fringe3d.sim.scenes import Plane, Scene, Sphere
 from fringe3d.sim.validate import check_scene, scene_problems
 from fringe3d.sim.wing import Wing
 
@@ -146,7 +147,7 @@ def test_scene_truth_fields_carry_wing_curvature_only_on_wing_pixels():
     cam = PinholeDevice(intrinsics(200, 200, 79.5, 63.5), 160, 128)
     o, d = cam.rays(cam.pixel_grid().reshape(-1, 2))
     h = scene.intersect(o, d, 0.003)
-    tf = scene.truth_fields(h.points(o, d), h, 0.003)
+    tf = scene.truth_fields(h, 0.003)
     on = h.object_id == 1
     assert on.any() and (h.object_id == 0).any()
     np.testing.assert_allclose(tf["principal_curvature"][on], w.kappa(0.003), rtol=1e-6)
@@ -159,8 +160,8 @@ def test_scene_save_load_round_trip_casts_identically(tmp_path):
     from fringe3d.sim.board import CircleBoard
     from fringe3d.sim.mesh import Mesh
     from fringe3d.sim.motion import RigidMotion
+    from fringe3d.sim.primitives import Box
     from fringe3d.sim.scene_file import save_scene
-    from fringe3d.sim.scenes import Box
     from fringe3d.sim.sculpture import sculpture
     from fringe3d.sim.textures import Blotches, Checker
     trimesh.creation.icosphere(2, radius=10).export(tmp_path / "ball.stl")

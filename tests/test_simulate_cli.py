@@ -126,7 +126,7 @@ def test_simulated_three_frequency_capture_decodes_to_the_truth_absolute_phase(t
 
 
 def test_moving_scene_capture_has_per_frame_truth_on_the_falling_balls(tmp_path):
-    from fringe3d.sim.scenes import named_scene
+    from fringe3d.sim.catalog import named_scene
     scene = named_scene("falling-balls", presets.get("tiny"))
     simulate_capture(tmp_path / "c", "tiny", scene, "two-frequency", frame_rate=500.0, progress=False)
     truth = Truth.load(tmp_path / "c")

@@ -7,7 +7,8 @@ import pytest
 from fringe3d.patterns.sets import modified_ftp
 from fringe3d.reconstruct.single_shot import single_shot
 from fringe3d.sim import presets, render
-from fringe3d.sim.scenes import Plane, Scene, Sphere
+from fringe3d.sim.primitives import Plane, Sphere
+from fringe3d.sim.scene import Scene
 from fringe3d.unwrap.geometric import depth_limit, minimum_phase
 
 T = 18.0

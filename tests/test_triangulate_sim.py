@@ -14,7 +14,7 @@ from fringe3d.decode import decode
 from fringe3d.patterns import sets
 from fringe3d.reconstruct import points_from_decoded
 from fringe3d.sim import RenderSettings, render
-from fringe3d.sim import scenes as sc
+from fringe3d import sim as sc
 
 from test_triangulate import small_rig, telecentric_rig
 

@@ -16,7 +16,7 @@ from fringe3d.decode import decode
 from fringe3d.patterns import sets
 from fringe3d.reconstruct import points_from_decoded
 from fringe3d.sim import render
-from fringe3d.sim import scenes as sc
+from fringe3d import sim as sc
 from fringe3d.sim.presets import get
 
 SEEDS = range(6)

@@ -45,11 +45,12 @@ class Stages:
 
 def measurement_scene(preset, seed: int = 0):
     """Sculpture on the left, two isolated spheres (a ball bar) on the right of the volume."""
-    from fringe3d.sim.catalog import _frame, facing_rotation
-    from fringe3d.sim.scenes import Scene, Sphere
+    from fringe3d.sim.catalog import facing_rotation, preset_frame
+    from fringe3d.sim.primitives import Sphere
+    from fringe3d.sim.scene import Scene
     from fringe3d.sim.sculpture import sculpture
 
-    c, size, view, down = _frame(preset)
+    c, size, view, down = preset_frame(preset)
     right = np.cross(down, view)
     relief = 0.12 * size[2]
     sc = sculpture(center=c - right * (0.2 * size[0]) + view * (0.5 * relief),

@@ -147,7 +147,7 @@ def render_board_poses(rig: Rig, settings, board: CircleBoard, board_poses, patt
     :class:`PoseCapture` per pose (noise seeded by ``seed`` and the pose index)."""
     from fringe3d.sim import render
     from fringe3d.sim.board import CircleBoard as SceneBoard
-    from fringe3d.sim.scenes import Scene
+    from fringe3d.sim.scene import Scene
 
     out = []
     with progress_bar("rendering board poses", len(board_poses), enabled=progress) as advance:

@@ -42,7 +42,8 @@ def binary_calibration_set(width: int, height: int, steps=(9, 3, 3)):
 
 
 def sphere_scene(preset):
-    from fringe3d.sim.scenes import Scene, Sphere
+    from fringe3d.sim.primitives import Sphere
+    from fringe3d.sim.scene import Scene
     c = preset.center
     return Scene([Sphere(center=c, radius=40.0, albedo=0.8)]), c, 40.0
 

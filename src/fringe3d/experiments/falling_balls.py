@@ -23,7 +23,7 @@ DISSERTATION = {"hybrid sphere RMS": "0.26 mm", "two-frequency PSP sphere RMS": 
 
 def _ball(center, velocity, spin, texture_seed):
     from fringe3d.sim.motion import GRAVITY_MM_S2
-    from fringe3d.sim.scenes import Sphere
+    from fringe3d.sim.primitives import Sphere
     from fringe3d.sim.textures import Blotches
 
     return Sphere(center, BALL_RADIUS, albedo=0.9, texture=Blotches(scale=0.6, contrast=0.3, seed=texture_seed),
@@ -32,7 +32,7 @@ def _ball(center, velocity, spin, texture_seed):
 
 def two_ball_scene(speed: float = 3000.0):
     """Two balls side by side falling at ``speed`` mm/s (≈ 0.46 m drop), slight sideways drift."""
-    from fringe3d.sim.scenes import Scene
+    from fringe3d.sim.scene import Scene
 
     return Scene([_ball((-55.0, -25.0, 420.0), (150.0, speed, 0.0), (0.0, 0.0, 25.0), 1),
                   _ball((50.0, -10.0, 400.0), (-100.0, 0.9 * speed, 0.0), (15.0, 0.0, 0.0), 2)], name="two-balls")
@@ -41,7 +41,7 @@ def two_ball_scene(speed: float = 3000.0):
 def many_ball_scene(rows: int, cols: int, seed: int):
     """``rows × cols`` isolated balls on a jittered grid 420–520 mm away, random fall speeds
     (1.5–3.5 m/s), drift and spin."""
-    from fringe3d.sim.scenes import Scene
+    from fringe3d.sim.scene import Scene
 
     rng = np.random.default_rng(seed)
     balls = []
@@ -57,7 +57,7 @@ def many_ball_scene(rows: int, cols: int, seed: int):
 
 def thrown_ball_scene(speed: float):
     """Two balls thrown towards each other ACROSS the vertical fringes at ``speed`` mm/s."""
-    from fringe3d.sim.scenes import Scene
+    from fringe3d.sim.scene import Scene
 
     return Scene([_ball((-50.0, 0.0, 420.0), (speed, 500.0, 0.0), (0.0, 0.0, 10.0), 1),
                   _ball((60.0, 0.0, 420.0), (-speed, 500.0, 0.0), (0.0, 0.0, 10.0), 2)],

@@ -218,7 +218,7 @@ def _measure(wing, preset, settings, ps, t_start, seed, static=False):
     decode, triangulate → (points, texture, t3d)."""
     from fringe3d.decode import decode
     from fringe3d.reconstruct.triangulate import triangulate
-    from fringe3d.sim import scenes as sc
+    from fringe3d import sim as sc
     from fringe3d.sim.render import render
 
     import dataclasses

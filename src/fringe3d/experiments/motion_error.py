@@ -33,7 +33,8 @@ def measure(preset, radius: float, step_fraction: float, seed: int, progress: bo
     from fringe3d.phase.psp import wrapped_phase
     from fringe3d.reconstruct.triangulate import triangulate
     from fringe3d.sim import render
-    from fringe3d.sim.scenes import Scene, Sphere
+    from fringe3d.sim.primitives import Sphere
+    from fringe3d.sim.scene import Scene
     from fringe3d.unwrap.geometric import geometric_unwrap, minimum_phase
 
     proj = preset.rig.projector

@@ -21,7 +21,8 @@ DISSERTATION = {"sphere cross-section RMS, H/V patterns (um)": "111 / 86.0",
 
 def step_scenes(preset):
     """Reference plane and the same plane with a 30 mm step block, at the volume centre."""
-    from fringe3d.sim.scenes import Box, Plane, Scene
+    from fringe3d.sim.primitives import Box, Plane
+    from fringe3d.sim.scene import Scene
     c = preset.center
     z_plane = c[2] + 60.0
     ref = Scene([Plane([0, 0, z_plane], [0, 0, -1], albedo=0.8)])
@@ -59,7 +60,8 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     from fringe3d.calibrate.simulated_session import scaled_camera
     from fringe3d.patterns import sets
     from fringe3d.sim import presets
-    from fringe3d.sim.scenes import Scene, Sphere
+    from fringe3d.sim.primitives import Sphere
+    from fringe3d.sim.scene import Scene
 
     preset = presets.get("well-designed")
     scale = 0.25 if quick else 1.0

@@ -46,7 +46,8 @@ def _rig(quick: bool):
 
 def scene(sphere_z: float = 445.0):
     """Sculpture (110 × 100 mm, 18 mm relief, textured) and a 40 mm sphere centred at depth ``sphere_z``."""
-    from fringe3d.sim.scenes import Scene, Sphere
+    from fringe3d.sim.primitives import Sphere
+    from fringe3d.sim.scene import Scene
     from fringe3d.sim.sculpture import sculpture
 
     return Scene([sculpture(center=(-45.0, 0.0, 446.0), size=(110.0, 100.0), relief=18.0, seed=1),
@@ -57,7 +58,8 @@ def limit_scene(z_limit: float, span: float = 30.0):
     """Sculpture plus a 80 × 70 mm plane tilted about the vertical so its depth runs from
     ``z_limit − span/2`` to ``z_limit + span/2`` across its width: half of it lies beyond the
     geometric constraint's depth range, on one continuous surface."""
-    from fringe3d.sim.scenes import Plane, Scene
+    from fringe3d.sim.primitives import Plane
+    from fringe3d.sim.scene import Scene
     from fringe3d.sim.sculpture import sculpture
 
     width = 80.0

@@ -94,7 +94,8 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     from fringe3d.calibrate.session import calibrate_observations, observe_session, simulate_session
     from fringe3d.calibrate.simulated_session import render_board_poses, sample_board_poses
     from fringe3d.sim import presets
-    from fringe3d.sim.scenes import Plane, Scene
+    from fringe3d.sim.primitives import Plane
+    from fringe3d.sim.scene import Scene
 
     preset = presets.get("microscope")
     scale = 0.25 if quick else 1.0

@@ -18,10 +18,10 @@ from __future__ import annotations
 import numpy as np
 
 from .motion import STATIC, RigidMotion
-from .scenes import SceneObject, _albedo, _rotation, _vec3
+from .scene_object import PosedObject, check_albedo, check_rotation, check_vec3
 
 
-class CircleBoard(SceneObject):
+class CircleBoard(PosedObject):
     """A matte white board with dark circles.
 
     Parameters
@@ -63,12 +63,12 @@ class CircleBoard(SceneObject):
         self.margin = self.spacing if margin is None else float(margin)
         if self.margin < self.radius:
             raise ValueError(f"board margin ({self.margin} mm) must be at least the circle radius")
-        self.white, self.dark = _albedo(white, "white"), _albedo(dark, "dark")
+        self.white, self.dark = check_albedo(white, "white"), check_albedo(dark, "dark")
         self.edge_width = float(edge_width)
         if self.edge_width < 0 or self.edge_width > self.radius:
             raise ValueError(f"edge_width must be in [0, radius] mm, got {edge_width}")
-        self.R = np.eye(3) if R is None else _rotation(R)
-        self.center = _vec3(t, "t")
+        self.R = np.eye(3) if R is None else check_rotation(R)
+        self.center = check_vec3(t, "t")
         self.motion = motion
         self.albedo = self.white
         self.texture = None
@@ -172,9 +172,9 @@ def look_at_rotation(normal_towards, up=(0.0, -1.0, 0.0)) -> np.ndarray:
     from the board towards the viewer; the board's ``z_b`` axis points away from the viewer
     (as OpenCV's does for a board seen from the front), ``y_b`` points roughly along ``-up``.
     """
-    z = -_vec3(normal_towards, "normal_towards")
+    z = -check_vec3(normal_towards, "normal_towards")
     z /= np.linalg.norm(z)
-    upv = _vec3(up, "up")
+    upv = check_vec3(up, "up")
     y = -(upv - (upv @ z) * z)
     if np.linalg.norm(y) < 1e-9:
         raise ValueError("up must not be parallel to the viewing direction")
@@ -191,8 +191,8 @@ def board_facing(camera_center, board_center, tilt=(0.0, 0.0, 0.0), **board_kwar
     """
     from .motion import rotation_vector_to_matrix
 
-    bc = _vec3(board_center, "board_center")
-    R = look_at_rotation(_vec3(camera_center, "camera_center") - bc) @ rotation_vector_to_matrix(tilt)
+    bc = check_vec3(board_center, "board_center")
+    R = look_at_rotation(check_vec3(camera_center, "camera_center") - bc) @ rotation_vector_to_matrix(tilt)
     probe = CircleBoard(R=R, t=bc, **board_kwargs)
     mid = probe.object_points()[:, :2]
     mid = np.array([(mid[:, 0].min() + mid[:, 0].max()) / 2, (mid[:, 1].min() + mid[:, 1].max()) / 2, 0.0])

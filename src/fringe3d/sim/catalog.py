@@ -7,20 +7,32 @@ preset, so the same name works for the macro, high-speed and tiny rigs.
 """
 from __future__ import annotations
 
+import time as _time
+from collections.abc import Callable
+
 import numpy as np
 
+from fringe3d.optics import TelecentricCamera
+
+from . import presets
+from .mesh import Mesh
 from .motion import GRAVITY_MM_S2, falling
-from .scenes import Plane, Scene, Sphere
+from .presets import Preset
+from .primitives import Plane, Sphere
+from .scene import Scene
+from .scene_object import PosedObject
+from .sculpture import sculpture
 from .textures import Checker
+from .wing import Wing
 
 NAMES = ("sculpture", "mesh", "falling-balls", "wing", "textured-spheres")
 
 
-def _frame(preset):
+def preset_frame(preset: Preset) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(centre (3,), size (3,), view (3,), down (3,)) from a preset: unit viewing direction and
     the world direction of image-down (the camera's +y axis)."""
     cam = preset.rig.camera
-    if getattr(cam, "kind", "pinhole") == "telecentric":
+    if isinstance(cam, TelecentricCamera):
         view = cam.view_direction
         down = cam.M[1, :3] - (cam.M[1, :3] @ view) * view
     else:
@@ -40,9 +52,7 @@ def facing_rotation(view, down) -> np.ndarray:
 
 def sculpture_scene(preset, seed: int = 0) -> Scene:
     """The textured freeform relief, 60% of the lateral volume, relief 15% of the depth range."""
-    from .sculpture import sculpture
-
-    c, size, view, down = _frame(preset)
+    c, size, view, down = preset_frame(preset)
     R = facing_rotation(view, down)
     relief = 0.15 * size[2]
     base = c + view * (0.5 * relief)
@@ -52,10 +62,7 @@ def sculpture_scene(preset, seed: int = 0) -> Scene:
 
 def mesh_scene(preset, triangles: int = 100_000, seed: int = 0) -> Scene:
     """The sculpture tessellated into a ~``triangles`` triangle mesh, ray-cast with Embree."""
-    from .mesh import Mesh
-    from .sculpture import sculpture
-
-    c, size, view, down = _frame(preset)
+    c, size, view, down = preset_frame(preset)
     R = facing_rotation(view, down)
     relief = 0.15 * size[2]
     w, h = 0.6 * size[0], 0.6 * size[1]
@@ -70,7 +77,7 @@ def falling_balls_scene(preset, n: int = 3, seed: int = 0) -> Scene:
     spins, each printed with a checker texture so their motion is visible. Their centres follow
     ``c0 + v0 t + g t²/2`` exactly (ch. 5). In the microscope volume they leave the view within
     a few tens of milliseconds (:func:`fringe3d.sim.validate.scene_problems` says so)."""
-    c, size, view, down = _frame(preset)
+    c, size, view, down = preset_frame(preset)
     rng = np.random.default_rng(seed)
     r = float(min(20.0, 0.15 * min(size[0], size[1])))
     right = np.cross(down, view)
@@ -90,9 +97,7 @@ def falling_balls_scene(preset, n: int = 3, seed: int = 0) -> Scene:
 def wing_scene(preset, frequency: float = 25.0, markers: bool = True) -> Scene:
     """The flapping 150 × 70 mm membrane (scaled down to 60% of the lateral volume if needed)
     with two dark anchor dots at the root corners and optional white marker dots (ch. 6)."""
-    from .wing import Wing
-
-    c, size, view, down = _frame(preset)
+    c, size, view, down = preset_frame(preset)
     scale = min(1.0, 0.6 * size[0] / 150.0, 0.6 * size[1] / 70.0)
     span, chord = 150.0 * scale, 70.0 * scale
     R0 = facing_rotation(view, down)  # material x → image right, y → image up, normal → camera
@@ -109,18 +114,20 @@ def wing_scene(preset, frequency: float = 25.0, markers: bool = True) -> Scene:
 
 def textured_spheres_scene(preset) -> Scene:
     """Three isolated checker-printed spheres at different depths in front of a matte plane."""
-    c, size, view, down = _frame(preset)
+    c, size, view, down = preset_frame(preset)
     right = np.cross(down, view)
     r = 0.12 * min(size[0], size[1])
-    objs = [Sphere(c + right * (dx * size[0]) + down * (dy * size[1]) + view * (dz * size[2]), r,
-                   albedo=0.9, texture=Checker(period=np.pi / 8, contrast=0.4))
-            for dx, dy, dz in ((-0.28, 0.1, -0.2), (0.0, -0.12, 0.0), (0.28, 0.08, 0.2))]
+    objs: list[PosedObject] = [
+        Sphere(c + right * (dx * size[0]) + down * (dy * size[1]) + view * (dz * size[2]), r,
+               albedo=0.9, texture=Checker(period=np.pi / 8, contrast=0.4))
+        for dx, dy, dz in ((-0.28, 0.1, -0.2), (0.0, -0.12, 0.0), (0.28, 0.08, 0.2))]
     objs.append(Plane(c + view * (0.5 * size[2]), -view, albedo=0.7))
     return Scene(objs, name="textured-spheres")
 
 
-_BUILDERS = {"sculpture": sculpture_scene, "mesh": mesh_scene, "falling-balls": falling_balls_scene,
-             "wing": wing_scene, "textured-spheres": textured_spheres_scene}
+_BUILDERS: dict[str, Callable[[Preset], Scene]] = {
+    "sculpture": sculpture_scene, "mesh": mesh_scene, "falling-balls": falling_balls_scene,
+    "wing": wing_scene, "textured-spheres": textured_spheres_scene}
 
 
 def named_scene(name: str, preset) -> Scene:
@@ -135,14 +142,11 @@ def bench_cast(preset: str = "macro", repeats: int = 5, time: float = 0.003) -> 
     ~100k-triangle ``mesh`` scene (Embree), an analytic sphere, the analytic sculpture and the
     wing, with the preset's camera (1280×1024 for ``macro``). Geometry only: no shading.
     ``best_cpu_s`` is process CPU time, less sensitive to other jobs on a shared machine."""
-    import time as _time
-
-    from . import presets
-
     p = presets.get(preset)
     cam = p.rig.camera
     o, d = cam.rays(cam.pixel_grid().reshape(-1, 2))
     mesh = named_scene("mesh", p)
+    assert isinstance(mesh[0], Mesh)
     scenes = {f"mesh ({mesh[0].n_faces} triangles)": mesh,
               "analytic sphere": Scene([Sphere(p.center, 0.25 * min(p.size[0], p.size[1]))]),
               "analytic sculpture": named_scene("sculpture", p), "wing": named_scene("wing", p)}

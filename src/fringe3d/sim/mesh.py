@@ -13,12 +13,21 @@ from pathlib import Path
 import numba
 import numpy as np
 
+from .hits import Hit, as_rays
 from .motion import STATIC, RigidMotion
-from .scenes import SceneObject, _albedo, _rotation, _vec3, as_rays, rigid_to_body
+from .scene_object import (
+    CullingVolume,
+    PosedObject,
+    check_albedo,
+    check_rotation,
+    check_vec3,
+    rigid_to_body,
+)
 
 
 def load_mesh(path):
     """Read a triangle mesh with trimesh (any format it knows: OBJ, PLY, STL, OFF, GLB...)."""
+    # heavy (about 1 s to import): loaded only when a mesh file is read
     import trimesh
 
     path = Path(path)
@@ -40,6 +49,7 @@ class _EmbreeFirstHit:
     conversion (as trimesh does) to keep Embree's float32 precise."""
 
     def __init__(self, mesh):
+        # optional: embreex (x86-64 only); an ImportError selects the trimesh fallback
         from embreex import rtcore_scene
         from embreex.mesh_construction import TriangleMesh
 
@@ -60,6 +70,7 @@ class _TrimeshFirstHit:
     """Fallback without embreex: trimesh's pure-NumPy ray/triangle test (slow but exact)."""
 
     def __init__(self, mesh):
+        # heavy (trimesh, about 1 s to import): only meshes without embreex need it
         from trimesh.ray.ray_triangle import RayMeshIntersector
         self.rays = RayMeshIntersector(mesh)
 
@@ -74,7 +85,7 @@ def _intersector(mesh):
         return _TrimeshFirstHit(mesh)
 
 
-class Mesh(SceneObject):
+class Mesh(PosedObject):
     """A triangle mesh scene object.
 
     Parameters
@@ -92,7 +103,7 @@ class Mesh(SceneObject):
     def __init__(self, mesh, center=(0.0, 0.0, 0.0), R=None, scale=1.0, smooth=False, albedo=1.0,
                  texture=None, motion: RigidMotion = STATIC):
         if isinstance(mesh, (str, Path)):
-            self.source = str(Path(mesh).resolve())
+            self.source: str | None = str(Path(mesh).resolve())
             mesh = load_mesh(mesh)
         else:
             self.source = None
@@ -106,10 +117,10 @@ class Mesh(SceneObject):
             mesh = mesh.copy()
             mesh.apply_scale(scale)
         self.mesh = mesh
-        self.center = _vec3(center, "center")
-        self.R = np.eye(3) if R is None else _rotation(R)
+        self.center = check_vec3(center, "center")
+        self.R = np.eye(3) if R is None else check_rotation(R)
         self.smooth = bool(smooth)
-        self.albedo = _albedo(albedo)
+        self.albedo = check_albedo(albedo)
         self.texture = texture
         self.motion = motion
         self._tri = np.ascontiguousarray(mesh.triangles, dtype=np.float64)  # (F, 3, 3)
@@ -132,19 +143,26 @@ class Mesh(SceneObject):
         return {"type": "mesh", "path": self.source, "center": self.center.tolist(), "R": self.R.tolist(),
                 "scale": self.scale, "smooth": self.smooth, **self._style_dict()}
 
-    def bounding_sphere_body(self):
+    def culling_volume(self, time: float = 0.0) -> CullingVolume:
+        """The oriented body-frame bounding box (``mesh.bounds``, padded by 1e-6 of its extent)."""
+        R, c = self.pose(time)
+        lo, hi = np.asarray(self.mesh.bounds, float)
+        pad = 1e-6 * (1.0 + np.abs(hi - lo).max())
+        return CullingVolume(np.asarray(c, float), -1.0, np.asarray(R, float), lo - pad, hi + pad)
+
+    def bounding_sphere_body(self) -> tuple[np.ndarray, float]:
         lo, hi = self.mesh.bounds
         c = 0.5 * (lo + hi)
         return c, float(np.linalg.norm(self.mesh.vertices - c, axis=1).max())
 
-    def intersect(self, origins, dirs, time: float = 0.0):
+    def intersect(self, origins: np.ndarray, dirs: np.ndarray, time: float = 0.0) -> Hit:
         o, d = as_rays(origins, dirs)
         R, c = self.pose(time)
         ob, db = rigid_to_body(o, R, c), rigid_to_body(d, R)
         t, normal, uv = self._refine(ob, db, self._rays.first(ob, db), R)
         return self._finish(t, normal, uv, d, reuse=True)
 
-    def hit_distance(self, origins, dirs, time: float = 0.0) -> np.ndarray:
+    def hit_distance(self, origins: np.ndarray, dirs: np.ndarray, time: float = 0.0) -> np.ndarray:
         """Ray parameter (N,) of the first hit, ``inf`` where :meth:`intersect` reports a miss
         (same double-precision ``t``; no normals, material coordinates or albedo)."""
         o, d = as_rays(origins, dirs)

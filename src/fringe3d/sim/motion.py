@@ -8,7 +8,7 @@ constant angular velocity ``ω`` (rad/s) about the body origin:
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -45,12 +45,12 @@ class RigidMotion:
     t0 : float s, time at which the object is at its nominal pose.
     """
 
-    velocity: tuple = (0.0, 0.0, 0.0)
-    acceleration: tuple = (0.0, 0.0, 0.0)
-    angular_velocity: tuple = (0.0, 0.0, 0.0)
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    acceleration: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    angular_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     t0: float = 0.0
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:  # any array-like (3,) in, float64 (3,) arrays kept
         for name in ("velocity", "acceleration", "angular_velocity"):
             object.__setattr__(self, name, _vec3(getattr(self, name), name))
 

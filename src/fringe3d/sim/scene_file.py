@@ -24,7 +24,17 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.jsonfile import read_json, write_json
+
+from .board import CircleBoard
+from .mesh import Mesh
+from .motion import GRAVITY_MM_S2, RigidMotion, falling
+from .primitives import Box, Plane, Sphere
+from .scene import Scene
+from .scene_object import SceneObject
+from .sculpture import HeightField, sculpture
+from .textures import texture_from_dict
+from .wing import Wing
 
 SCENE_FORMAT = "fringe3d-scene"
 
@@ -113,7 +123,6 @@ def _check(value, kind, at, base: Path | None):
     elif kind == "table4":
         ok = isinstance(value, list) and (len(value) == 0 or _shape_ok(value, (len(value), 4)))
     elif kind == "texture":
-        from .textures import texture_from_dict
         return texture_from_dict(value, at)
     elif kind == "motion":
         return _motion(value, at)
@@ -128,7 +137,6 @@ def _check(value, kind, at, base: Path | None):
 
 
 def _motion(d, at):
-    from .motion import RigidMotion
     if not isinstance(d, dict):
         raise ValueError(f"{at}: expected {_KIND_TEXT['motion']}, got {json.dumps(d)}")
     allowed = {"velocity": "vec3", "acceleration": "vec3", "angular_velocity": "vec3", "t0": "number"}
@@ -138,38 +146,31 @@ def _motion(d, at):
     return RigidMotion(**{k: _check(v, allowed[k], f"{at}.{k}", None) for k, v in d.items()})
 
 
-def _build(kind, kw):
-    from . import scenes as sc
+def _build(kind: str, kw: dict) -> SceneObject:
     if kind == "plane":
-        return sc.Plane(**kw)
+        return Plane(**kw)
     if kind == "sphere":
-        return sc.Sphere(**kw)
+        return Sphere(**kw)
     if kind == "falling_ball":
-        from .motion import GRAVITY_MM_S2, falling
         motion = falling(velocity=kw.pop("velocity", (0, 0, 0)), spin=kw.pop("spin", (0, 0, 0)),
                          gravity=kw.pop("gravity", (0, GRAVITY_MM_S2, 0)), t0=kw.pop("t0", 0.0))
-        return sc.Sphere(motion=motion, **kw)
+        return Sphere(motion=motion, **kw)
     if kind == "box":
-        return sc.Box(**kw)
+        return Box(**kw)
     if kind == "board":
-        from .board import CircleBoard
         return CircleBoard(**kw)
     if kind == "heightfield":
-        from .sculpture import HeightField
         return HeightField(**kw)
     if kind == "sculpture":
-        from .sculpture import sculpture
         return sculpture(**kw)
     if kind == "mesh":
-        from .mesh import Mesh
         return Mesh(kw.pop("path"), **kw)
     if kind == "wing":
-        from .wing import Wing
         return Wing(**kw)
     raise AssertionError(kind)
 
 
-def object_from_dict(d, at: str = "object", base: Path | None = None):
+def object_from_dict(d, at: str = "object", base: Path | None = None) -> SceneObject:
     """Build one scene object from ``{"type": ..., fields...}``."""
     if not isinstance(d, dict):
         raise ValueError(f"{at}: expected an object with a 'type' field, got {json.dumps(d)[:60]}")
@@ -197,9 +198,8 @@ def object_from_dict(d, at: str = "object", base: Path | None = None):
         raise ValueError(f"{at}: {e}") from None
 
 
-def scene_from_dict(d, where: str = "scene", base: Path | None = None):
-    """Build a :class:`~fringe3d.sim.scenes.Scene` from a parsed scene file."""
-    from .scenes import Scene
+def scene_from_dict(d, where: str = "scene", base: Path | None = None) -> Scene:
+    """Build a :class:`~fringe3d.sim.scene.Scene` from a parsed scene file."""
     if not isinstance(d, dict):
         raise ValueError(f"{where}: expected a JSON object with an 'objects' list")
     allowed = {"format", "version", "name", "ambient", "objects"}
@@ -221,7 +221,7 @@ def scene_from_dict(d, where: str = "scene", base: Path | None = None):
     return Scene(built, ambient=float(ambient), name=name)
 
 
-def save_scene(scene, path):
+def save_scene(scene: Scene, path) -> Path:
     """Write ``scene`` as a JSON scene file (atomic). Every object must support ``to_dict()``;
     meshes must come from a file (their path is stored as given)."""
     path = Path(path)
@@ -229,9 +229,8 @@ def save_scene(scene, path):
     return path
 
 
-def load_scene(path):
-    """Read a JSON scene file; relative mesh paths are resolved next to it."""
+def load_scene(path) -> Scene:
+    """Read a JSON scene file; relative mesh paths are resolved next to it (errors name the field)."""
     path = Path(path)
-    from fringe3d.utils.jsonfile import read_json
     d = read_json(path, "scene file", require_object=False)
     return scene_from_dict(d, where=f"{path.name}", base=path.parent)

@@ -12,7 +12,8 @@ import numba
 import numpy as np
 
 from .motion import STATIC, RigidMotion
-from .scenes import SceneObject, _albedo, _rotation, _vec3
+from .scene_object import PosedObject, check_albedo, check_rotation, check_vec3
+from .textures import Blotches
 
 
 @numba.njit(cache=True)
@@ -132,7 +133,7 @@ def _table(rows, name, width=4):
     return a
 
 
-class HeightField(SceneObject):
+class HeightField(PosedObject):
     """Analytic relief ``z_b = Σ A exp(−r²/2σ²) + Σ B sin(k·x + φ)`` over a rectangle.
 
     Parameters
@@ -155,9 +156,9 @@ class HeightField(SceneObject):
         self.ripples = _table(ripples, "ripples")
         if np.any(self.bumps[:, 3] <= 0):
             raise ValueError("bump widths sigma must be > 0 mm")
-        self.center = _vec3(center, "center")
-        self.R = np.diag([1.0, -1.0, -1.0]) if R is None else _rotation(R)
-        self.albedo = _albedo(albedo)
+        self.center = check_vec3(center, "center")
+        self.R = np.diag([1.0, -1.0, -1.0]) if R is None else check_rotation(R)
+        self.albedo = check_albedo(albedo)
         self.texture = texture
         self.motion = motion
         self.steps = int(steps)
@@ -213,6 +214,7 @@ class HeightField(SceneObject):
     def to_mesh(self, step: float = 1.0):
         """Tessellate the relief (body frame, mm) into a ``trimesh.Trimesh`` with vertices on
         the exact surface (grid ``step`` mm)."""
+        # heavy (about 1 s to import): only tessellation needs it
         import trimesh
 
         w, h = 0.5 * self.size
@@ -234,8 +236,6 @@ def sculpture(center=(0.0, 0.0, 450.0), size=(120.0, 100.0), relief=25.0, seed: 
               texture="blotches", albedo=0.85, motion: RigidMotion = STATIC) -> HeightField:
     """A seeded freeform relief (a "head" bump, cheeks, brow ridge, ripples) ``relief`` mm deep,
     textured by default with a smooth printed pattern (material coordinates = body x, y mm)."""
-    from .textures import Blotches
-
     rng = np.random.default_rng(seed)
     w, h = 0.5 * np.asarray(size, float)
     bumps = [(relief, 0.0, 0.0, 0.35 * min(w, h))]

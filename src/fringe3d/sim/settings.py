@@ -126,7 +126,7 @@ class RenderSettings:
     def noiseless(self) -> bool:
         return not self.shot_noise and self.read_noise == 0
 
-    def replace(self, **changes) -> "RenderSettings":
+    def replace(self, **changes) -> RenderSettings:
         """A copy with some fields changed (validated)."""
         unknown = set(changes) - {f.name for f in fields(self)}
         if unknown:
@@ -138,7 +138,7 @@ class RenderSettings:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict) -> "RenderSettings":
+    def from_dict(cls, d: dict) -> RenderSettings:
         names = {f.name for f in fields(cls)}
         unknown = sorted(set(d) - names)
         if unknown:

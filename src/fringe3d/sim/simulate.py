@@ -4,7 +4,7 @@
 a preset rig and writes exactly what a real capture holds (decoders cannot tell the
 difference), plus the ground truth and the true rig. The same is ``fringe3d simulate``.
 
-Scenes are given as a :class:`~fringe3d.sim.scenes.Scene`, a name (:data:`SCENE_NAMES`,
+Scenes are given as a :class:`~fringe3d.sim.scene.Scene`, a name (:data:`SCENE_NAMES`,
 built inside the preset's working volume) or a JSON scene file
 (:mod:`fringe3d.sim.scene_file`). Before rendering, :func:`fringe3d.sim.validate.check_scene`
 rejects objects behind the camera or projector, unseen by the camera or unlit by the projector.
@@ -13,27 +13,36 @@ built for the preset's projector).
 """
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
 
-from fringe3d.utils.console import info
+from fringe3d.io.capture import write_capture
+from fringe3d.optics import TelecentricCamera
+from fringe3d.patterns import sets
 from fringe3d.patterns.manifest import PatternSet
 
+from . import catalog
 from . import presets as _presets
-from .render import frame_times, render
+from .board import board_facing
+from .presets import Preset
+from .primitives import Box, Plane, Sphere
+from .radiometry import frame_times
+from .render import render
+from .scene import Scene
+from .scene_file import load_scene
+from .scene_object import SceneObject
 from .settings import RenderSettings
-
+from .validate import check_scene
 
 
 # ----------------------------------------------------------------------------- pattern sets
 def _three_frequency_both(w, h):
-    from fringe3d.patterns import sets
     return sets.calibration(w, h, directions=("v", "h"))
 
 
 def _named_pattern_builders():
-    from fringe3d.patterns import sets
     return {
         "three-frequency": lambda w, h: _three_frequency_both(w, h),
         "three-frequency-v": lambda w, h: sets.three_frequency("v", width=w, height=h),
@@ -77,22 +86,25 @@ SCENE_NAMES = ("sphere", "plane", "spheres", "step", "board", "sculpture", "mesh
                "textured-spheres")
 
 
-def make_scene(spec, preset):
-    """A scene from a Scene object, a scene file (``*.json``) or a name in :data:`SCENE_NAMES`.
+def make_scene(spec, preset: Preset) -> Scene:
+    """A scene from a Scene, a scene object (a one-object scene), a scene file (``*.json``) or a
+    name in :data:`SCENE_NAMES`.
 
     Named scenes are placed in the preset's working volume (see :func:`named_scene`).
     """
     if spec is None:
         spec = preset.scene
-    if hasattr(spec, "intersect"):
+    if isinstance(spec, Scene):
         return spec
+    if isinstance(spec, SceneObject):
+        return Scene([spec])
     spec = str(spec)
     if spec.endswith(".json") or Path(spec).exists():
         return load_scene(spec)
     return named_scene(spec, preset)
 
 
-def named_scene(name: str, preset):
+def named_scene(name: str, preset: Preset) -> Scene:
     """Build the named scene inside ``preset.volume`` (mm, world frame).
 
     * ``sphere``: a sphere (radius 30% of the smaller lateral extent) at the volume centre in
@@ -104,7 +116,6 @@ def named_scene(name: str, preset):
     * ``sculpture``, ``mesh`` (~100k triangles, Embree), ``falling-balls``, ``wing``,
       ``textured-spheres``: from :mod:`fringe3d.sim.catalog`.
     """
-    from . import scenes as sc
     c = preset.center
     size = preset.size
     lateral = float(min(size[0], size[1]))
@@ -112,41 +123,34 @@ def named_scene(name: str, preset):
     view = _view_direction(preset)
     if name == "sphere":
         r = 0.3 * lateral
-        return sc.Scene([sc.Sphere(c, r), sc.Plane(c + view * (z1 - c[2]), -view, albedo=0.8)], name="sphere")
+        return Scene([Sphere(c, r), Plane(c + view * (z1 - c[2]), -view, albedo=0.8)], name="sphere")
     if name == "plane":
-        return sc.Scene([sc.Plane(c, -view, albedo=0.9)], name="plane")
+        return Scene([Plane(c, -view, albedo=0.9)], name="plane")
     if name == "spheres":
         r = 0.15 * lateral
-        objs = [sc.Sphere(c + np.array([dx * size[0], dy * size[1], dz * size[2]]), r)
+        objs = [Sphere(c + np.array([dx * size[0], dy * size[1], dz * size[2]]), r)
                 for dx, dy, dz in ((-0.25, -0.1, -0.2), (0.0, 0.15, 0.0), (0.25, -0.05, 0.2))]
-        return sc.Scene(objs, name="spheres")
+        return Scene(objs, name="spheres")
     if name == "step":
         h = 0.2 * size[2]
         back = c + view * (0.5 * size[2])
-        block = sc.Box(back - view * (h / 2), (0.4 * size[0], 0.5 * size[1], h))
-        return sc.Scene([block, sc.Plane(back, -view, albedo=0.9)], name="step")
+        block = Box(back - view * (h / 2), (0.4 * size[0], 0.5 * size[1], h))
+        return Scene([block, Plane(back, -view, albedo=0.9)], name="step")
     if name == "board":
-        from .board import board_facing
         spacing = lateral / 12.0
-        cam_c = getattr(preset.rig.camera, "center", c - view * 1000.0)
-        return sc.Scene([board_facing(cam_c, c, cols=9, rows=9, spacing=spacing)], name="board")
-    from .catalog import NAMES as CATALOG
-    if name in CATALOG:
-        return sc.named_scene(name, preset)
+        cam = preset.rig.camera
+        cam_c = c - view * 1000.0 if isinstance(cam, TelecentricCamera) else cam.center  # no centre: 1 m back
+        return Scene([board_facing(cam_c, c, cols=9, rows=9, spacing=spacing)], name="board")
+    if name in catalog.NAMES:
+        return catalog.named_scene(name, preset)
     raise ValueError(f"unknown scene {name!r}; expected a scene file (*.json) or one of: {', '.join(SCENE_NAMES)}")
 
 
-def _view_direction(preset) -> np.ndarray:
+def _view_direction(preset: Preset) -> np.ndarray:
     cam = preset.rig.camera
-    if getattr(cam, "kind", "pinhole") == "telecentric":
+    if isinstance(cam, TelecentricCamera):
         return cam.view_direction
     return cam.R[2]
-
-
-def load_scene(path):
-    """Read a JSON scene file (:func:`fringe3d.sim.scene_file.load_scene`; errors name the field)."""
-    from .scene_file import load_scene as _load
-    return _load(path)
 
 
 # ----------------------------------------------------------------------------- capture
@@ -184,11 +188,15 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
     -------
     dict
         Summary: folder, preset, scene, patterns, frames, frame_rate, valid fraction, seconds.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     summary = simulate_capture(tmp, "tiny", "plane", "phase-shift", progress=False)
+    >>> summary["frames"], summary["camera"], summary["valid_fraction"]
+    (9, [160, 128], 1.0)
     """
-    import time
-
-    from fringe3d.io.capture import write_capture
-
     t0 = time.perf_counter()
     p = _presets.get(preset)
     s = settings or p.settings
@@ -215,12 +223,11 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
         raise ValueError(f"frames must be a positive multiple of the pattern set's {len(ps)} frames, got {frames}")
     sc = make_scene(scene, p)
     times = frame_times(frames, s)
-    from .validate import check_scene
     check_scene(sc, p.rig, times=sorted({float(times[0]), float(times[-1])}))
     imgs, truth = render(sc, p.rig, ps, s, times=times, progress=progress)
     folder = Path(folder)
     meta = {"frame_rate": s.frame_rate, "simulated": True, "preset": p.name,
-            "scene": getattr(sc, "name", str(scene)), "patterns": ps.name, "seed": s.seed,
+            "scene": sc.name, "patterns": ps.name, "seed": s.seed,
             "exposure": s.exposure if s.exposure is not None else 1.0 / s.frame_rate,
             "render_settings": s.to_dict(), "volume": p.volume}
     if s.bit_depth is not None:
@@ -233,6 +240,4 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
     summary = {"folder": str(folder), "preset": p.name, "scene": meta["scene"], "patterns": ps.name,
                "frames": int(frames), "frame_rate": s.frame_rate, "camera": [p.rig.camera.width, p.rig.camera.height],
                "valid_fraction": valid, "seed": s.seed, "seconds": round(time.perf_counter() - t0, 2)}
-    if progress:
-        info(f"wrote {frames} frames + truth to {folder} ({valid:.0%} of pixels valid)")
     return summary

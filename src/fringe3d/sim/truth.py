@@ -5,13 +5,15 @@ per-direction fringe angle and period, frame times, whether the scene moves).
 """
 from __future__ import annotations
 
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from fringe3d.optics import Rig
 from fringe3d.utils.atomic import atomic_path
-from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.jsonfile import read_json, write_json
 
 TRUTH_FORMAT = "fringe3d-truth"
 ARRAY_FIELDS = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit", "material_uv")
@@ -69,7 +71,7 @@ class Truth:
     def per_frame(self) -> bool:
         return bool(self.meta.get("per_frame", False))
 
-    def frame(self, k: int) -> "Truth":
+    def frame(self, k: int) -> Truth:
         """The truth at frame ``k`` (the same object for a static scene)."""
         if not self.per_frame:
             return self
@@ -100,7 +102,7 @@ class Truth:
         return folder
 
     @classmethod
-    def load(cls, folder) -> "Truth":
+    def load(cls, folder) -> Truth:
         """Read a truth bundle written by :meth:`save` (``folder`` may be a capture folder)."""
         folder = Path(folder)
         if (folder / "truth").is_dir():
@@ -109,7 +111,6 @@ class Truth:
         for p in (npz, js):
             if not p.exists():
                 raise FileNotFoundError(f"no ground-truth file {p} (expected truth.npz and truth.json)")
-        from fringe3d.utils.jsonfile import read_json
         meta = read_json(js, "ground-truth metadata")
         with np.load(npz) as z:
             data = {k: z[k] for k in z.files}
@@ -127,7 +128,6 @@ class Truth:
 
 def write_npz(path, arrays: dict, level: int = 1) -> None:
     """``np.savez_compressed`` with a fast deflate level (truth maps are large and smooth)."""
-    import zipfile
     with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=level) as zf:
         for name, arr in arrays.items():
             with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
@@ -200,10 +200,12 @@ def _flatten(ft: dict) -> dict:
     return out
 
 
-def make_truth(frames: "dict | TruthFrames", dirs_info, times, static: bool, rig) -> Truth:
+def make_truth(frames: dict | TruthFrames, dirs_info: dict[str, tuple[float, float]], times, static: bool,
+               rig: Rig) -> Truth:
     """Assemble :class:`Truth` from one :func:`frame_truth` dict (static scene) or the filled
     :class:`TruthFrames` of a moving scene."""
-    data = _flatten(frames) if static else frames.data
+    data = frames.data if isinstance(frames, TruthFrames) else _flatten(frames)
+    assert data is not None, "no frame was put into the TruthFrames"
     names = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit")
     meta = {"per_frame": not static, "times": [float(t) for t in times],
             "fringe": {d: {"angle": a, "period": p} for d, (a, p) in dirs_info.items()},

@@ -10,13 +10,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringe3d.optics import PinholeDevice, Rig, TelecentricCamera
 
-def _label(i, ob) -> str:
-    desc = ob.describe() if hasattr(ob, "describe") else type(ob).__name__
-    return f"objects[{i}] ({desc})"
+from .primitives import Sphere
+from .scene import Scene
+from .scene_object import SceneObject
 
 
-def _camera_rays(cam, grid, scene, time):
+def _label(i: int, ob: SceneObject) -> str:
+    return f"objects[{i}] ({ob.describe()})"
+
+
+def _camera_rays(cam, grid, scene: Scene, time: float):
     """Coarse camera rays: (origins, dirs). Telecentric origins are moved back along the view
     direction in front of every object."""
     nu, nv = grid
@@ -24,7 +29,7 @@ def _camera_rays(cam, grid, scene, time):
     v = np.linspace(0, cam.height - 1, nv)
     uv = np.stack(np.meshgrid(u, v), -1).reshape(-1, 2)
     o, d = cam.rays(uv)
-    if getattr(cam, "kind", "pinhole") == "telecentric":
+    if isinstance(cam, TelecentricCamera):
         d = np.broadcast_to(d, o.shape)
         reach = 0.0
         for ob in scene.objects:
@@ -40,7 +45,7 @@ def _depth(device, X):
     return float(device.to_device(X)[2])
 
 
-def scene_problems(scene, rig, times=(0.0,), grid=(96, 77)) -> list[str]:
+def scene_problems(scene: Scene, rig: Rig, times=(0.0,), grid=(96, 77)) -> list[str]:
     """List what is wrong with ``scene`` for ``rig`` at each time in ``times`` (s).
 
     Parameters
@@ -51,7 +56,7 @@ def scene_problems(scene, rig, times=(0.0,), grid=(96, 77)) -> list[str]:
     grid : (columns, rows) of the coarse camera ray grid.
     """
     cam, proj = rig.camera, rig.projector
-    pinhole_cam = getattr(cam, "kind", "pinhole") != "telecentric"
+    pinhole_cam = not isinstance(cam, TelecentricCamera)
     problems: list[str] = []
     for time in times:
         at = f" at t = {time:g} s" if scene.moving else ""
@@ -68,7 +73,8 @@ def scene_problems(scene, rig, times=(0.0,), grid=(96, 77)) -> list[str]:
                     problems.append(f"{_label(i, ob)} is behind the projector{at} (centre depth "
                                     f"{_depth(proj, c):.1f} mm in the projector frame)")
                     ok = False
-                if pinhole_cam and np.linalg.norm(c - cam.center) < r and hasattr(ob, "radius"):
+                inside = isinstance(cam, PinholeDevice) and np.linalg.norm(c - cam.center) < r
+                if inside and isinstance(ob, Sphere):
                     problems.append(f"{_label(i, ob)} encloses the camera{at}")
                     ok = False
             front.append(ok)
@@ -94,7 +100,7 @@ def scene_problems(scene, rig, times=(0.0,), grid=(96, 77)) -> list[str]:
     return problems
 
 
-def check_scene(scene, rig, times=(0.0,), grid=(96, 77)) -> None:
+def check_scene(scene: Scene, rig: Rig, times=(0.0,), grid=(96, 77)) -> None:
     """Raise ``ValueError`` listing every problem :func:`scene_problems` finds."""
     problems = scene_problems(scene, rig, times, grid)
     if problems:

@@ -24,8 +24,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .hits import Hit, as_rays
 from .motion import rotation_vector_to_matrix
-from .scenes import Hit, SceneObject, _albedo, _rotation, _vec3, as_rays
+from .scene_object import PosedObject, check_albedo, check_rotation, check_vec3
 
 _EPS_K = 1e-12  # |κ| below this is treated as flat
 
@@ -93,7 +94,7 @@ def _wing_kernel(o, d, R, c, k, a2, p2, s0, span, chord, rect, t_out, uv_out):
             break
 
 
-class Wing(SceneObject):
+class Wing(PosedObject):
     """Flapping, bending inextensible membrane (see the module docstring for the formulas).
 
     Parameters
@@ -125,8 +126,8 @@ class Wing(SceneObject):
         if outline not in ("wing", "rectangle"):
             raise ValueError(f"wing outline must be 'wing' or 'rectangle', got {outline!r}")
         self.outline = outline
-        self.root = _vec3(root, "root")
-        self.R0 = _rest_rotation() if R0 is None else _rotation(R0, "R0")
+        self.root = check_vec3(root, "root")
+        self.R0 = _rest_rotation() if R0 is None else check_rotation(R0, "R0")
         self.kappa_mean, self.kappa_amp = float(kappa_mean), float(kappa_amp)
         self.frequency = float(frequency)
         if self.frequency < 0:
@@ -139,13 +140,13 @@ class Wing(SceneObject):
         self.thickness = float(thickness)
         if not self.thickness > 0:
             raise ValueError(f"wing thickness must be > 0 mm, got {thickness}")
-        self.albedo = _albedo(albedo)
+        self.albedo = check_albedo(albedo)
         self.texture = texture
         self.anchors = np.asarray(anchors, float).reshape(-1, 2)
         self.markers = np.asarray(markers, float).reshape(-1, 2)
         self.dot_radius = float(dot_radius)
-        self.anchor_albedo = _albedo(anchor_albedo, "anchor_albedo")
-        self.marker_albedo = _albedo(marker_albedo, "marker_albedo")
+        self.anchor_albedo = check_albedo(anchor_albedo, "anchor_albedo")
+        self.marker_albedo = check_albedo(marker_albedo, "marker_albedo")
         for name, pts in (("anchors", self.anchors), ("markers", self.markers)):
             if len(pts) and not self.contains(pts).all():
                 raise ValueError(f"wing {name} must lie inside the outline, got {pts.tolist()}")
