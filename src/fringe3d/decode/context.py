@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from fringe3d.decode.options import DecodeOptions
+from fringe3d.optics.rays import camera_shape, pixel_rays
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import ftp, quality
@@ -161,7 +162,8 @@ def group_phase_and_saturation(ctx: DecodeContext, group: PhaseGroup) -> tuple[P
         return wrapped_phase(ctx.frames, shifts=group.shifts, index=group.indices, saturation_level=level,
                              return_saturated=True)
     sel = ctx.frames[list(group.indices)]
-    saturated = (sel >= level).any(axis=0) if np.isfinite(level) else np.zeros(sel.shape[1:], bool)
+    saturated: np.ndarray = (np.asarray((sel >= level).any(axis=0)) if np.isfinite(level)
+                             else np.zeros(sel.shape[1:], bool))
     kw: dict[str, Any] = {}
     if ctx.options.ftp_window is not None:
         kw["window"] = ctx.options.ftp_window
@@ -212,7 +214,7 @@ def camera_fringe_direction(rig: Rig, angle: float, shape: tuple[int, int], z_mi
     h, w = shape
     uv = np.array([[0.5 * (w - 1), 0.5 * (h - 1)], [0.5 * (w - 1) + 1.0, 0.5 * (h - 1)],
                    [0.5 * (w - 1), 0.5 * (h - 1) + 1.0]])
-    origins, dirs = rig.camera.rays(uv)
+    origins, dirs = pixel_rays(rig, uv)
     origins = np.broadcast_to(np.asarray(origins, float), (3, 3))
     dirs = np.broadcast_to(np.asarray(dirs, float), (3, 3))
     if z_min is not None:
@@ -248,9 +250,10 @@ def require_geometry(ctx: DecodeContext, method: str) -> tuple[Rig, float]:
         raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs z_min, the nearest depth of the "
                          "measurement volume in mm (pass z_min=... / --z-min, or set it in the plan's options)")
     H, W = ctx.frames.shape[1:]
-    if (ctx.rig.camera.height, ctx.rig.camera.width) != (H, W):
+    ch, cw = camera_shape(ctx.rig)
+    if (ch, cw) != (H, W):
         raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is "
-                         f"{ctx.rig.camera.width}x{ctx.rig.camera.height}: calibration and capture sizes disagree")
+                         f"{cw}x{ch}: calibration and capture sizes disagree")
     return ctx.rig, float(z_min)
 
 
@@ -259,7 +262,7 @@ def not_saturated(ctx: DecodeContext, indices) -> np.ndarray:
     level = quality.saturation_level(ctx.frames, ctx.bit_depth)
     if not np.isfinite(level):
         return np.ones(ctx.frames.shape[1:], bool)
-    return ~(ctx.frames[list(indices)] >= level).any(axis=0)
+    return np.asarray(~(ctx.frames[list(indices)] >= level).any(axis=0))
 
 
 def combined_mask(ctx: DecodeContext, groups: list[PhaseGroup]) -> np.ndarray:

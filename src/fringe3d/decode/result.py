@@ -90,7 +90,7 @@ class Decoded:
 
     def summary(self) -> dict:
         """Small JSON-friendly description: per direction period, angle, method, valid fraction."""
-        out = {"directions": {}}
+        out: dict[str, Any] = {"directions": {}}
         for d in self.directions:
             m = self.mask[d]
             out["directions"][d] = {

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import weakref
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 
@@ -37,6 +37,10 @@ def projector_row(P: np.ndarray, angle: float) -> np.ndarray:
     return math.cos(angle) * P[1] + math.sin(angle) * P[0]
 
 
+@overload
+def check_map(a: None, shape: tuple[int, int], name: str) -> None: ...
+@overload
+def check_map(a: Any, shape: tuple[int, int], name: str) -> np.ndarray: ...
 def check_map(a: Any, shape: tuple[int, int], name: str) -> np.ndarray | None:
     """Return ``a`` as an array of camera ``shape`` (H, W), or raise a clear ValueError."""
     if a is None:
@@ -51,7 +55,8 @@ def check_map(a: Any, shape: tuple[int, int], name: str) -> np.ndarray | None:
 
 def camera_shape(rig: Rig) -> tuple[int, int]:
     """(H, W) of the rig's camera."""
-    return (rig.camera.height, rig.camera.width)
+    cam: Any = rig.camera
+    return (cam.height, cam.width)
 
 
 def camera_normalized(camera) -> np.ndarray:
@@ -72,12 +77,20 @@ def camera_rays(rig: Rig) -> tuple[np.ndarray, np.ndarray]:
     device depth ``z = 1`` (so ``s`` is the depth along the camera axis); telecentric cameras
     give ``O (H, W, 3)`` and the common unit direction ``D (3,)``.
     """
-    cam = rig.camera
+    cam: Any = rig.camera  # PinholeDevice or TelecentricCamera
     if rig.telecentric:
         return cam.rays(cam.pixel_grid())
     xy = camera_normalized(cam)
     d_dev = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
     return cam.center, d_dev @ cam.R
+
+
+def pixel_rays(rig: Rig, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World rays of camera pixels ``uv (..., 2)`` (column, row), in the convention of
+    :func:`camera_rays` (pinhole: ``O (3,)``, ``D (..., 3)`` with device depth 1; telecentric:
+    ``O (..., 3)``, ``D (3,)`` unit)."""
+    cam: Any = rig.camera  # PinholeDevice or TelecentricCamera
+    return cam.rays(uv)
 
 
 def fringe_coordinate(rig: Rig, X: np.ndarray, angle: float, distortion: bool = True) -> np.ndarray:

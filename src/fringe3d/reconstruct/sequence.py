@@ -30,7 +30,7 @@ from fringe3d.io.capture import list_frame_files
 from fringe3d.io.images import read_image
 from fringe3d.io.pointcloud import write_ply
 from fringe3d.io.store import PointMapStore
-from fringe3d.optics.rays import fringe_coordinate
+from fringe3d.optics.rays import camera_shape, fringe_coordinate
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase.quality import default_min_modulation, full_scale
@@ -73,6 +73,7 @@ def plan_for_method(ps: PatternSet, direction: str, method: str) -> DirectionPla
     if code and not ps.indices(kind=code, direction=direction):
         raise ValueError(f"method {method!r} needs {code} frames for direction {direction!r}, but the manifest "
                          f"({label}) has none; choose a method the pattern set can feed")
+    chosen: tuple[float, ...]
     if method in ("two_frequency_geometric", "hybrid"):
         chosen = (periods[0], periods[-1])
     elif method in ("hierarchical", "heterodyne"):
@@ -256,9 +257,10 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
     if len(frames.shape) != 3:
         raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
     H, W = frames.shape[1:]
-    if (rig.camera.height, rig.camera.width) != (H, W):
-        raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is {rig.camera.width}x"
-                         f"{rig.camera.height}: calibration and capture sizes disagree")
+    ch, cw = camera_shape(rig)
+    if (ch, cw) != (H, W):
+        raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is {cw}x"
+                         f"{ch}: calibration and capture sizes disagree")
     options = options or DecodeOptions()
     z_min = options.z_min
     n = len(patterns)

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from fringe3d.optics.rays import camera_shape
 from fringe3d.optics.rig import Rig
 from fringe3d.reconstruct.triangulate import Triangulator
 from fringe3d.unwrap.geometric import check_wrap_around, fringe_order, minimum_phase
@@ -106,10 +107,10 @@ def single_shot(images, rig: Rig, period: float, z_min: float, method: str = "ft
     if imgs.ndim != 3 or imgs.shape[0] != need:
         raise ValueError(f"method {method!r} needs {need} image(s) of shape (H, W), got an array of shape "
                          f"{np.asarray(images).shape}")
-    cam = rig.camera
-    if imgs.shape[1:] != (cam.height, cam.width):
+    ch, cw = camera_shape(rig)
+    if imgs.shape[1:] != (ch, cw):
         raise ValueError(f"the images are {imgs.shape[2]}x{imgs.shape[1]} pixels but the rig's camera is "
-                         f"{cam.width}x{cam.height}: calibration and capture sizes disagree")
+                         f"{cw}x{ch}: calibration and capture sizes disagree")
     mp = minimum_phase(rig, z_min, period, angle)
     carrier = carrier_from_minimum_phase(mp.phi_min)
     pr = ftp_group_phase(imgs, list(shifts)[:need], carrier, window)

@@ -63,6 +63,17 @@ def triangulate(rig, up=None, vp=None, mask=None, *, iterations: int = 8) -> np.
     Camera rows use undistorted pixel coordinates (cached per camera); each pixel's 3x3 (one
     projector coordinate) or 4x3 (both) system is solved by a numba kernel - exactly for 3 rows,
     by the normal equations ``(H^T H)^{-1} H^T b`` of Eq. (2.37) for 4.
+
+    Examples
+    --------
+    >>> from fringe3d.optics import PinholeDevice, Rig, intrinsics
+    >>> cam = PinholeDevice(intrinsics(200.0, 200.0, 79.5, 63.5), 160, 128)
+    >>> proj = PinholeDevice(intrinsics(290.0, 290.0, 127.5, 99.5), 256, 200, t=[-100.0, 0.0, 0.0])
+    >>> O, D = cam.rays(cam.pixel_grid())
+    >>> uv_p = proj.project(O + 400.0 * D)                # projector pixels seen on z = 400 mm
+    >>> xyz = triangulate(Rig(cam, proj), up=uv_p[..., 0], vp=uv_p[..., 1])
+    >>> bool(np.allclose(xyz[..., 2], 400.0, atol=1e-3))
+    True
     """
     if up is None and vp is None:
         raise ValueError("triangulate needs at least one projector coordinate: up (from vertical "
@@ -146,11 +157,14 @@ class Triangulator(RayGeometry):
 
     Examples
     --------
-    >>> from fringe3d.sim.presets import get_preset
-    >>> rig = get_preset("tiny").rig
-    >>> tri = Triangulator(rig)
-    >>> xyz = tri.points(np.full(tri.shape, 400.0))     # (H, W, 3) float32, NaN where invalid
-    >>> xyz.shape == tri.shape + (3,)
+    >>> from fringe3d.optics import PinholeDevice, Rig, intrinsics
+    >>> cam = PinholeDevice(intrinsics(200.0, 200.0, 79.5, 63.5), 160, 128)
+    >>> proj = PinholeDevice(intrinsics(290.0, 290.0, 127.5, 99.5), 256, 200, t=[-100.0, 0.0, 0.0])
+    >>> rig = Rig(cam, proj)
+    >>> O, D = cam.rays(cam.pixel_grid())                 # depth-1 ray directions
+    >>> up = proj.project(O + 400.0 * D)[..., 0]          # u_p seen on the plane z = 400 mm
+    >>> xyz = Triangulator(rig).points(up)                # (H, W, 3) float32, NaN where invalid
+    >>> bool(np.allclose(xyz[..., 2], 400.0, atol=1e-3))
     True
     """
 
@@ -194,7 +208,7 @@ class FastThreeStep:
         Pixels whose modulation ``I''`` (frames' units) is below this are NaN.
     """
 
-    def __init__(self, triangulator: Triangulator, minimum_phase, shifts=(-2 * math.pi / 3, 0.0, 2 * math.pi / 3),
+    def __init__(self, triangulator: Triangulator, minimum_phase: MinimumPhase, shifts=(-2 * math.pi / 3, 0.0, 2 * math.pi / 3),
                  min_modulation: float = 0.0):
         if not triangulator.central:
             raise ValueError("FastThreeStep supports pinhole cameras; use Triangulator for telecentric rigs")

@@ -24,6 +24,7 @@ import numpy as np
 
 from fringe3d.phase import kernels
 from fringe3d.phase.psp import lsq_coefficients
+from fringe3d.utils.warning_types import UnwrapRangeWarning
 
 TWO_PI = 2.0 * math.pi
 
@@ -33,10 +34,6 @@ class OrderedPhase(NamedTuple):
 
     phase: np.ndarray
     order: np.ndarray
-
-
-class UnwrapRangeWarning(UserWarning):
-    """The coarsest (equivalent) period is shorter than the projector's coordinate range."""
 
 
 def fringe_extent(width: int, height: int, angle: float) -> tuple[float, float]:
@@ -114,7 +111,7 @@ def hierarchical(phases: Sequence[np.ndarray], periods: Sequence[float],
 
 
 # -- heterodyne ---------------------------------------------------------------------------
-def beat_chain(periods: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+def beat_chain(periods: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Equivalent periods and signs of the heterodyne chain.
 
     ``beat(Ta, Tb) = Ta Tb / |Tb - Ta|``; the chain beats the first two periods, then that
