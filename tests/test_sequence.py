@@ -18,6 +18,8 @@ from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
 from fringe3d.utils.warning_types import DepthRangeWarning
 
+Z340 = DecodeOptions(z_min=340.0)
+
 
 @pytest.fixture(scope="module")
 def seq_capture(tmp_path_factory):
@@ -53,7 +55,7 @@ def max_error(P, truth):
 def test_every_cycle_equals_truth_in_store_and_ply(seq_capture, tmp_path, fast):
     cap, rig, truth = seq_capture
     ps = with_method(cap.patterns, "geometric")
-    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=DecodeOptions(z_min=340.0), ply=True, progress=False, fast=fast)
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, ply=True, progress=False, fast=fast)
     assert res["frames_3d"] == 3 and res["done_now"] == 3
     assert res["path"].startswith("fused") == fast
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
@@ -66,7 +68,7 @@ def test_every_cycle_equals_truth_in_store_and_ply(seq_capture, tmp_path, fast):
 def test_sliding_windows_give_one_3d_frame_per_captured_frame(seq_capture, tmp_path):
     cap, rig, truth = seq_capture
     ps = with_method(cap.patterns, "geometric")
-    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=DecodeOptions(z_min=340.0), mode="window", progress=False)
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", progress=False)
     assert res["frames_3d"] == 9 - 3 + 1
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     for k in range(st.frames):  # windows starting mid-cycle are reordered correctly
@@ -87,11 +89,11 @@ def test_interrupted_run_resumes_where_it_stopped(seq_capture, tmp_path, monkeyp
 
     monkeypatch.setattr(sequence.FrameReconstructor, "__call__", flaky)
     with pytest.raises(KeyboardInterrupt):
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=DecodeOptions(z_min=340.0), mode="window", step=1, progress=False)
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", step=1, progress=False)
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     assert st.pending() == [2, 3, 4, 5, 6]
     monkeypatch.setattr(sequence.FrameReconstructor, "__call__", real_call)
-    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=DecodeOptions(z_min=340.0), mode="window", step=1, progress=False)
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", step=1, progress=False)
     assert res["done_before"] == 2 and res["done_now"] == 5
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     assert st.pending() == [] and all(max_error(st.read(k), truth) < 1e-3 for k in range(7))
@@ -101,12 +103,12 @@ def test_sequence_bad_inputs(seq_capture, tmp_path):
     cap, rig, truth = seq_capture
     ps = with_method(cap.patterns, "geometric")
     with pytest.raises(ValueError, match="nothing to write"):
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=DecodeOptions(z_min=340.0), ply=False, store=False)
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, ply=False, store=False)
     with pytest.raises(ValueError, match="sizes disagree"):
-        reconstruct_sequence(cap.frames[:, :100], ps, rig, tmp_path, options=DecodeOptions(z_min=340.0))
-    reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=DecodeOptions(z_min=340.0), progress=False)
+        reconstruct_sequence(cap.frames[:, :100], ps, rig, tmp_path, options=Z340)
+    reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, progress=False)
     with pytest.raises(ValueError, match="new output folder"):  # a different sequence into the same store
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=DecodeOptions(z_min=340.0), mode="window", progress=False)
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", progress=False)
 
 
 def test_reconstruct_command_on_a_sequence_then_evaluate_a_frame(seq_capture, tmp_path, capsys):

@@ -132,9 +132,9 @@ def single_shot(images, rig: Rig, period: float, z_min: float, method: str = "ft
     warned = wrap_pairs >= 20
     if disagreement > warn_share:
         warned = True
-        warnings.warn(f"{100 * disagreement:.2f}% of the object pixels get a fringe order that disagrees with the rest of "
-             f"their object: parts of the scene lie more than one fringe period (T = {period:g} px) beyond "
-             f"z_min = {z_min:g} mm, the geometric constraint's depth range (ch. 4.4)",
+        warnings.warn(f"{100 * disagreement:.2f}% of the object pixels get a fringe order that disagrees with the "
+                      f"rest of their object: parts of the scene lie more than one fringe period (T = {period:g} px) "
+                      f"beyond z_min = {z_min:g} mm, the geometric constraint's depth range (ch. 4.4)",
                       DepthRangeWarning, stacklevel=2)
     tri = Triangulator(rig, angle=angle, warn_distortion=False)
     points = tri.points_from_phase(np.where(valid, phase, np.nan), period, valid)

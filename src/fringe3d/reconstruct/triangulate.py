@@ -208,7 +208,8 @@ class FastThreeStep:
         Pixels whose modulation ``I''`` (frames' units) is below this are NaN.
     """
 
-    def __init__(self, triangulator: Triangulator, minimum_phase: MinimumPhase, shifts=(-2 * math.pi / 3, 0.0, 2 * math.pi / 3),
+    def __init__(self, triangulator: Triangulator, minimum_phase: MinimumPhase,
+                 shifts=(-2 * math.pi / 3, 0.0, 2 * math.pi / 3),
                  min_modulation: float = 0.0):
         if not triangulator.central:
             raise ValueError("FastThreeStep supports pinhole cameras; use Triangulator for telecentric rigs")

@@ -174,9 +174,9 @@ def check_depth_range(rig, mp: MinimumPhase, z_max: float | np.ndarray, mask=Non
            "limit_median": float(np.median(lim[sel])) if sel.any() else float("nan")}
     if not out["ok"]:
         warnings.warn(f"the scene reaches beyond the geometric constraint's depth range at {100 * share:.2f}% of the "
-             f"pixels: with z_min = {mp.z_min:g} mm and period {mp.period:g} px the range ends at "
-             f"z = {out['limit_min']:.1f} mm (nearest) .. {out['limit_median']:.1f} mm (median); "
-             "those pixels get the wrong fringe order (ch. 4.4). Raise z_min or use a longer period.",
+                      f"pixels: with z_min = {mp.z_min:g} mm and period {mp.period:g} px the range ends at "
+                      f"z = {out['limit_min']:.1f} mm (nearest) .. {out['limit_median']:.1f} mm (median); "
+                      "those pixels get the wrong fringe order (ch. 4.4). Raise z_min or use a longer period.",
                       DepthRangeWarning, stacklevel=2)
     return out
 
@@ -197,9 +197,9 @@ def check_wrap_around(Phi: np.ndarray, mp: MinimumPhase, mask=None, min_pairs: i
         n = int(np.sum(np.abs(np.diff(r, axis=0)) > 1.5 * math.pi) + np.sum(np.abs(np.diff(r, axis=1)) > 1.5 * math.pi))
     if n >= min_pairs:
         warnings.warn(f"the geometric-constraint unwrapped phase jumps by about 2*pi relative to Phi_min at {n} "
-             f"neighbouring pixel pairs: the scene probably extends beyond one fringe period from "
-             f"z_min = {mp.z_min:g} mm (the depth-range limit, ch. 4.4). Lower z_min only if it is not "
-             "already the nearest depth; otherwise use a longer period or a temporal method.",
+                      f"neighbouring pixel pairs: the scene probably extends beyond one fringe period from "
+                      f"z_min = {mp.z_min:g} mm (the depth-range limit, ch. 4.4). Lower z_min only if it is not "
+                      "already the nearest depth; otherwise use a longer period or a temporal method.",
                       DepthRangeWarning, stacklevel=2)
     return n
 

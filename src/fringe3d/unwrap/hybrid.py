@@ -187,7 +187,8 @@ def ftp_group_phase(images: np.ndarray, shifts, carrier: tuple[float, float],
     return PhaseResult(phase.astype(np.float32), np.asarray(avg, np.float32), np.asarray(mod, np.float32))
 
 
-def hybrid_unwrap(high: PhaseResult, low: PhaseResult, mp_low: MinimumPhase, period: float, period_low: float, *, erode: int = 2,
+def hybrid_unwrap(high: PhaseResult, low: PhaseResult, mp_low: MinimumPhase, period: float, period_low: float, *,
+                  erode: int = 2,
                   min_size: int = 200, min_ratio: float = 0.15, max_shift: float | None = None,
                   cross_motion: bool = False, seed: int | None = 0, valid_high: np.ndarray | None = None,
                   valid_low: np.ndarray | None = None) -> HybridResult:
