@@ -1,14 +1,14 @@
 """Decode captured fringe frames to absolute phase, driven by the pattern manifest.
 
 ``decode(frames, patterns, rig, options)`` -> :class:`Decoded`; ``decode_sequence`` for
-repeated cycles. Each fringe direction's plan names a method of :data:`METHODS`, a function
-``(DecodeContext) -> Unwrapped``; :class:`DecodeOptions` are the typed options.
+repeated cycles; :class:`DecodeOptions` are the typed options. Each fringe direction's plan
+names a method of :data:`METHODS`, a function ``(DecodeContext) -> Unwrapped``.
 """
-from fringe3d.decode.context import DecodeContext, PhaseGroup, ftp_lobe_angle, phase_groups
+from fringe3d.decode.context import DecodeContext, PhaseGroup
 from fringe3d.decode.decoder import as_frame_stack, decode, decode_sequence
-from fringe3d.decode.methods import METHODS, method_for
+from fringe3d.decode.methods import METHODS
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.decode.result import Decoded, Unwrapped
 
 __all__ = ["METHODS", "DecodeContext", "DecodeOptions", "Decoded", "PhaseGroup", "Unwrapped", "as_frame_stack",
-           "decode", "decode_sequence", "ftp_lobe_angle", "method_for", "phase_groups"]
+           "decode", "decode_sequence"]
