@@ -12,8 +12,8 @@
 
 Bound (same run): copying the input bytes (``np.copyto`` into a preallocated stack) plus NumPy's
 vectorised ``np.arctan2`` over the output pixels (float32 in and out) - the work any decoder must
-do; the same function (:func:`fringe3d.decode.timing.bound_times`) as ``python -m
-fringe3d.decode.timing``. ``--threads N`` sets numba's thread count (default: all cores).
+do; the same function (``benchmarks/timing.py``, :func:`bound_times`) as ``python
+benchmarks/timing.py``. ``--threads N`` sets numba's thread count (default: all cores).
 
 Peers run in a separate interpreter (``--peer-python``, default ``$FRINGE3D_BENCH_PYTHON``,
 else ``/tmp/benchvenv/bin/python`` if it exists, else this one) so that
@@ -71,9 +71,9 @@ def make_frames():
 
 def bound_time(frames: np.ndarray, repeat: int) -> float:
     """Copy of the input bytes + np.arctan2 over the output pixels (float32 in, float32 out),
-    the definition shared with ``python -m fringe3d.decode.timing``
-    (:func:`fringe3d.decode.timing.bound_times`); median returned, best kept in ``BEST``."""
-    from fringe3d.decode.timing import bound_times
+    the definition shared with ``python benchmarks/timing.py``
+    (``timing.bound_times``); median returned, best kept in ``BEST``."""
+    from timing import bound_times  # benchmarks/timing.py, beside this script
     b = bound_times(frames, repeat)
     BEST[f"bound{len(frames)}"] = b["best"]
     return b["median"]

@@ -5,7 +5,9 @@ experiment, once per revision (each checked out into a temporary git worktree, r
 tree's ``src/`` first on ``PYTHONPATH``), or reads the JSON files a previous run saved
 (``--save DIR`` / ``--load-a DIR``). Wall-clock fields (keys naming seconds, time, wall, speed or
 frames per second) are dropped; everything else must be equal. Prints one line per output and
-every differing value.
+every differing value. Calibrations are not bit-deterministic from run to run (threaded
+reductions in OpenCV's solvers move figures by ~1e-8 relative), so compare those with
+``--rtol 1e-6`` and say so.
 
 Example: python scripts/compare_figures.py 6d45a32 HEAD --save /tmp/figs
 """
@@ -50,6 +52,10 @@ def _runs(tree: Path, out: Path) -> dict[str, Path]:
 
 
 def _strip(obj):
+    if isinstance(obj, dict) and isinstance(obj.get("columns"), list) and isinstance(obj.get("rows"), list):
+        keep = [i for i, c in enumerate(obj["columns"]) if not CLOCK.search(str(c)) and str(c) != "time ms"]
+        obj = dict(obj, columns=[obj["columns"][i] for i in keep],
+                   rows=[[r[i] for i in keep] if isinstance(r, list) else r for r in obj["rows"]])
     if isinstance(obj, dict):
         return {k: _strip(v) for k, v in obj.items() if not CLOCK.search(str(k))}
     if isinstance(obj, list):
@@ -57,14 +63,17 @@ def _strip(obj):
     return obj
 
 
-def _diff(a, b, path="") -> list[str]:
+def _diff(a, b, path="", rtol=0.0) -> list[str]:
+    """Differences between two JSON values; floats may differ by ``rtol`` (relative)."""
     if isinstance(a, dict) and isinstance(b, dict):
         out = [f"{path}/{k}: only in {'A' if k in a else 'B'}" for k in sorted(set(a) ^ set(b))]
         for k in sorted(set(a) & set(b)):
-            out += _diff(a[k], b[k], f"{path}/{k}")
+            out += _diff(a[k], b[k], f"{path}/{k}", rtol)
         return out
     if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
-        return [d for i, (x, y) in enumerate(zip(a, b)) for d in _diff(x, y, f"{path}[{i}]")]
+        return [d for i, (x, y) in enumerate(zip(a, b)) for d in _diff(x, y, f"{path}[{i}]", rtol)]
+    if isinstance(a, float) and isinstance(b, float) and abs(a - b) <= rtol * max(abs(a), abs(b)):
+        return []
     return [] if a == b else [f"{path}: A {a!r} != B {b!r}"]
 
 
@@ -80,6 +89,8 @@ def main(argv=None) -> int:
     ap.add_argument("rev_b")
     ap.add_argument("--load-a", type=Path, help="use the JSON files saved by an earlier run for A")
     ap.add_argument("--save", type=Path, help="keep the JSON files here (A/ and B/)")
+    ap.add_argument("--rtol", type=float, default=0.0,
+                    help="relative tolerance for floats (default 0: bit-identical)")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="fringe3d-figs-") as tmp_name:
         tmp = Path(tmp_name)
@@ -102,7 +113,7 @@ def main(argv=None) -> int:
                 print(f"{key}: only in {'A' if key in fa else 'B'}")
                 failed += 1
                 continue
-            d = _diff(_strip(json.loads(fa[key].read_text())), _strip(json.loads(fb[key].read_text())))
+            d = _diff(_strip(json.loads(fa[key].read_text())), _strip(json.loads(fb[key].read_text())), rtol=args.rtol)
             print(f"{key}: {'identical' if not d else f'{len(d)} differences'}")
             for line in d[:20]:
                 print(f"    {line}")

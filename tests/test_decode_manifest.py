@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import tifffile
 
-from fringe3d.decode import Decoded, decode, decode_sequence
+from fringe3d.decode import DecodeOptions, Decoded, Unwrapped, decode, decode_sequence
 from fringe3d.patterns import sets
 from fringe3d.patterns.render import sinusoid_value
 from fringe3d.phase.quality import FrameQualityWarning
-from fringe3d.unwrap import registry
+from fringe3d.decode import methods
 
 H, W = 96, 128
 A, B = 110.0, 80.0
@@ -54,7 +54,7 @@ def order_errors(phase, truth):
 @pytest.mark.parametrize("fused", [True, False])
 def test_three_frequency_set_decodes_exact_absolute_phase(fused):
     ps = sets.three_frequency("v")
-    d = decode(synthesize(ps, dtype=np.float64), ps, fused=fused)
+    d = decode(synthesize(ps, dtype=np.float64), ps, options=DecodeOptions(fused=fused))
     truth = true_phase(ps, "v")
     assert d.mask["v"].all()
     assert np.abs(d.phase["v"] - truth).max() < 1e-4   # float32 output, phase up to 280 rad
@@ -139,27 +139,26 @@ def test_saturated_frames_warn_and_saturated_pixels_are_masked():
     assert d.mask["v"][:, W // 2:].all()
 
 
-def test_unregistered_method_error_names_method_and_registered_ones(monkeypatch):
+def test_unknown_method_error_names_method_and_known_ones(monkeypatch):
     ps = sets.three_frequency("v")
-    monkeypatch.delitem(registry.UNWRAPPERS, "heterodyne")
-    monkeypatch.setattr(registry, "_import_unwrap_modules", lambda: {})
-    with pytest.raises(ValueError, match=r"'heterodyne'.*registered methods: \[.*'hierarchical'"):
+    monkeypatch.delitem(methods.METHODS, "heterodyne")
+    with pytest.raises(ValueError, match=r"'heterodyne'.*known methods: \[.*'hierarchical'"):
         decode(synthesize(ps), ps)
 
 
-def test_registered_plugin_is_called_with_context(monkeypatch):
+def test_method_in_the_table_is_called_with_context(monkeypatch):
     ps = sets.ftp(20.0, "v", method="spatial")
     seen = {}
 
     def fake(ctx):
         seen["ctx"] = ctx
         g = ctx.groups_for_plan()[0]
-        return ctx.group_phase(g).phase + 2 * np.pi, ctx.group_mask(g)
+        return Unwrapped(ctx.group_phase(g).phase + 2 * np.pi, ctx.group_mask(g))
 
-    monkeypatch.setitem(registry.UNWRAPPERS, "spatial", fake)
-    d = decode(synthesize(ps, dtype=np.float64), ps, z_min=300.0, my_option=5)
+    monkeypatch.setitem(methods.METHODS, "spatial", fake)
+    d = decode(synthesize(ps, dtype=np.float64), ps, options=DecodeOptions(z_min=300.0, extra={"my_option": 5}))
     ctx = seen["ctx"]
-    assert ctx.direction == "v" and ctx.z_min == 300.0 and ctx.options["my_option"] == 5
+    assert ctx.direction == "v" and ctx.z_min == 300.0 and ctx.options.extra["my_option"] == 5
     assert np.allclose(d.phase["v"] - d.wrapped["v"], 2 * np.pi, atol=1e-5)
 
 
@@ -208,8 +207,8 @@ def test_max_residual_option_masks_exactly_the_pixels_with_large_unwrapping_resi
     ps = sets.three_frequency("v")
     frames = synthesize(ps, sigma=25.0, seed=3, dtype=np.float32)
     truth = true_phase(ps, "v")
-    strict = decode(frames, ps, min_modulation=1.0)
-    loose = decode(frames, ps, min_modulation=1.0, max_residual=math.pi)
+    strict = decode(frames, ps, options=DecodeOptions(min_modulation=1.0))
+    loose = decode(frames, ps, options=DecodeOptions(min_modulation=1.0, max_residual=math.pi))
     wrong_loose = loose.mask["v"] & (order_errors(loose.phase["v"], truth) != 0)
     wrong_strict = strict.mask["v"] & (order_errors(strict.phase["v"], truth) != 0)
     assert loose.mask["v"].all()          # only the residual check can mask here

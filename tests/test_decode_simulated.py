@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from fringe3d.decode import decode
+from fringe3d.decode import DecodeOptions, decode
 from fringe3d.io.capture import read_capture
 from fringe3d.patterns import sets
 from fringe3d.sim.simulate import simulate_capture
@@ -15,10 +15,11 @@ def _truth(folder):
 
 @pytest.mark.parametrize("patterns", ["three-frequency", "psp-gray-half"])
 def test_simulated_sphere_exact_orders_and_mrad_phase(tmp_path, patterns):
-    ps = sets.psp_with_gray_code(18, steps=4, direction="v", code_period=9, width=256, height=200) if patterns == "psp-gray-half" else patterns
+    ps = (sets.psp_with_gray_code(18, steps=4, direction="v", code_period=9, width=256, height=200)
+          if patterns == "psp-gray-half" else patterns)
     simulate_capture(tmp_path / "cap", preset="tiny", scene="sphere", patterns=ps, seed=1, progress=False)
     cap = read_capture(tmp_path / "cap")
-    d = decode(cap.frames, cap.patterns, bit_depth=cap.bit_depth)
+    d = decode(cap.frames, cap.patterns, options=DecodeOptions(bit_depth=cap.bit_depth))
     truth = _truth(tmp_path / "cap")
     for direction in d.directions:
         tp = truth[f"phase_{direction}"]
@@ -46,5 +47,5 @@ def test_simulated_ftp_sign_oriented_by_the_rig(tmp_path, patterns):
         return np.median(np.abs(np.angle(np.exp(1j * (d.wrapped["v"][sel] - truth["phase_v"][sel])))))
 
     assert median_err(decode(cap.frames, cap.patterns, rig=rig)) < 0.1
-    assert median_err(decode(cap.frames, cap.patterns, ftp_sign=-1)) < 0.1
+    assert median_err(decode(cap.frames, cap.patterns, options=DecodeOptions(ftp_sign=-1))) < 0.1
     assert median_err(decode(cap.frames, cap.patterns)) > 1.0

@@ -41,12 +41,12 @@ def test_half_period_gray_code_is_exact_at_every_noise_level_in_the_quick_run(re
 
 
 def test_period_wide_gray_code_fails_only_next_to_its_stripe_edges():
-    from fringe3d.decode import decode
+    from fringe3d.decode import DecodeOptions, decode
     from fringe3d.patterns.synthetic import frames_from_coordinates
     ps = unwrap_noise.methods()["gray code + phase (T stripes)"]
     sub, centre = unwrap_noise.phase_field(320, 16)
     frames = frames_from_coordinates(ps, sub, np.full_like(sub, 300.0), unwrap_noise.A, unwrap_noise.B_GAIN)
-    d = decode(frames, ps, min_modulation=1.0)
+    d = decode(frames, ps, options=DecodeOptions(min_modulation=1.0))
     wrong = np.abs(d.phase["v"] - 2 * np.pi * centre / 18) > np.pi
     assert wrong.any()
     dist = np.abs(centre - 18 * np.round(centre / 18))  # projector px to the nearest stripe edge

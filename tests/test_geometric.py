@@ -1,12 +1,15 @@
 """Geometric-constraint unwrapping (Eq. 4.14-4.21) against analytic truth."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
 from fringe3d.optics import PinholeDevice, Rig, intrinsics
 from fringe3d.unwrap.geometric import (check_depth_range, depth_limit, geometric_unwrap, minimum_phase,
                                        propose_z_min)
+from fringe3d.utils.warning_types import DepthRangeWarning
 
 from test_triangulate import intersect_plane, intersect_sphere, look_at, small_rig
 
@@ -74,7 +77,7 @@ def test_depth_limit_is_one_period_beyond_z_min():
     assert np.all(lim > 260.0)
 
 
-def test_beyond_depth_range_fails_as_predicted_and_warns(capsys):
+def test_beyond_depth_range_fails_as_predicted_and_warns():
     rig = small_rig()
     T = 18.0
     mp = minimum_phase(rig, 280.0, T)
@@ -85,7 +88,8 @@ def test_beyond_depth_range_fails_as_predicted_and_warns(capsys):
     X = intersect_plane(O, D, np.array([0, 0, 0.5 * (z_in + z_out)]), np.array([-(z_out - z_in) / 220.0, 0, 1.0]))
     assert np.nanmin(X[..., 2]) > 280.0
     Phi = true_phase(rig, X, T)
-    got, valid = geometric_unwrap(wrap(Phi), mp)
+    with pytest.warns(DepthRangeWarning) as record:
+        got, valid = geometric_unwrap(wrap(Phi), mp)
     beyond = X[..., 2] >= lim
     assert beyond.any() and (~beyond).any()
     err = got - Phi
@@ -93,21 +97,22 @@ def test_beyond_depth_range_fails_as_predicted_and_warns(capsys):
     # beyond the limit the order is off by whole periods, towards Phi_min (falling phase here: too large)
     assert np.all(np.abs(err[beyond] / (2 * np.pi) - np.round(err[beyond] / (2 * np.pi))) < 1e-4)
     assert np.all(mp.sign[beyond] * np.round(err[beyond] / (2 * np.pi)) <= -1)
-    assert "depth-range" in capsys.readouterr().err.replace("depth range", "depth-range")
-    res = check_depth_range(rig, mp, X[..., 2])
+    assert any("depth-range" in str(w.message).replace("depth range", "depth-range") for w in record)
+    with pytest.warns(DepthRangeWarning, match="beyond"):
+        res = check_depth_range(rig, mp, X[..., 2])
     assert not res["ok"] and abs(res["share_beyond"] - beyond.mean()) < 1e-9
-    assert "beyond" in capsys.readouterr().err
 
 
-def test_scene_inside_range_gives_no_warning(capsys):
+def test_scene_inside_range_gives_no_warning():
     rig = small_rig()
     mp = minimum_phase(rig, 270.0, 18.0)
     O, D = rig.camera.rays(rig.camera.pixel_grid())
     X = intersect_sphere(O, D, np.array([0.0, 0.0, 300.0]), 25.0)
     ok = np.isfinite(X[..., 0])
-    geometric_unwrap(wrap(true_phase(rig, X, 18.0)), mp, mask=ok)
-    assert check_depth_range(rig, mp, X[..., 2], mask=ok)["ok"]
-    assert capsys.readouterr().err == ""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        geometric_unwrap(wrap(true_phase(rig, X, 18.0)), mp, mask=ok)
+        assert check_depth_range(rig, mp, X[..., 2], mask=ok)["ok"]
 
 
 def test_z_min_behind_camera_is_a_clear_error():
@@ -139,7 +144,7 @@ def frames_for(ps, up, vp):
 def test_decoder_runs_geometric_and_two_frequency_geometric_plans():
     from dataclasses import replace
 
-    from fringe3d.decode import decode
+    from fringe3d.decode import DecodeOptions, decode
     from fringe3d.patterns import sets
     from fringe3d.patterns.manifest import DirectionPlan
     from fringe3d.reconstruct import points_from_decoded
@@ -154,14 +159,15 @@ def test_decoder_runs_geometric_and_two_frequency_geometric_plans():
     two = sets.two_frequency(18, 144, "v", width=256, height=200)
     assert two.plans[0].method == "two_frequency_geometric"
     for ps, z_min in ((one, 255.0), (two, 200.0)):
-        dec = decode(frames_for(ps, uv[..., 0], uv[..., 1]), ps, rig=rig, z_min=z_min, min_modulation=0.05)
+        dec = decode(frames_for(ps, uv[..., 0], uv[..., 1]), ps, rig=rig,
+                         options=DecodeOptions(z_min=z_min, min_modulation=0.05))
         T = dec.period["v"]
         assert np.array_equal(dec.mask["v"], ok)
         np.testing.assert_allclose(dec.phase["v"][ok], 2 * np.pi * uv[..., 0][ok] / T, atol=1e-3)
         pts = points_from_decoded(dec, rig)
         assert np.max(np.abs(pts[ok] - X[ok])) < 1e-3
         with pytest.raises(ValueError, match="rig"):
-            decode(frames_for(ps, uv[..., 0], uv[..., 1]), ps, z_min=z_min)
+            decode(frames_for(ps, uv[..., 0], uv[..., 1]), ps, options=DecodeOptions(z_min=z_min))
         with pytest.raises(ValueError, match="z_min"):
             decode(frames_for(ps, uv[..., 0], uv[..., 1]), ps, rig=rig)
 

@@ -5,7 +5,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from fringe3d.decode import decode
+from fringe3d.decode import DecodeOptions, decode
 from fringe3d.patterns.manifest import DirectionPlan
 from fringe3d.patterns.sets import modified_ftp, phase_shift
 from fringe3d.sim import presets, render
@@ -49,13 +49,13 @@ def _orders(phase, mask, truth):
 
 def test_histogram_with_coarse_reference_is_absolute_beyond_the_single_shot_range(deep_scene):
     rig, ps, frames, truth = deep_scene
-    d = decode(frames, ps, rig=rig, z_min=Z_MIN)
+    d = decode(frames, ps, rig=rig, options=DecodeOptions(z_min=Z_MIN))
     k, n = _orders(d.phase["v"], d.mask["v"], truth)
     assert n > 8000
     assert np.mean(k == 0) >= 0.999
     # the pixel-wise geometric constraint alone (same frames, FTP pair) fails on the far spheres
     geo = replace(ps, plans=(DirectionPlan("v", ps.plans[0].angle, "geometric", (T,)),))
-    g = decode(frames, geo, rig=rig, z_min=Z_MIN)
+    g = decode(frames, geo, rig=rig, options=DecodeOptions(z_min=Z_MIN))
     kg, _ = _orders(g.phase["v"], g.mask["v"] & d.mask["v"], truth)
     assert np.mean(kg == 0) < 0.8
 
@@ -63,7 +63,7 @@ def test_histogram_with_coarse_reference_is_absolute_beyond_the_single_shot_rang
 def test_spatial_unwrapper_is_relative_one_offset_per_object(deep_scene):
     rig, ps, frames, truth = deep_scene
     sp = replace(ps, plans=(DirectionPlan("v", ps.plans[0].angle, "spatial", (T,)),))
-    d = decode(frames, sp, rig=rig, z_min=Z_MIN)
+    d = decode(frames, sp, rig=rig, options=DecodeOptions(z_min=Z_MIN))
     for ball in range(3):
         sel = d.mask["v"] & (truth.object_id == ball) & truth.mask
         k = np.round((d.phase["v"][sel] - truth.phase["v"][sel]) / TWO_PI)
@@ -80,11 +80,11 @@ def test_single_group_histogram_fixes_an_object_partly_beyond_the_depth_range():
     plane = Plane((0.0, 0.0, Z_MIN + 0.75 * rng), (math.sin(tilt), 0.0, -math.cos(tilt)), size=(95.0, 70.0))
     ps = modified_ftp(T, "v", width=rig.projector.width, height=rig.projector.height, method="histogram")
     frames, truth = render(Scene([plane]), rig, ps, p.settings, progress=False)
-    h = decode(frames, ps, rig=rig, z_min=Z_MIN)
+    h = decode(frames, ps, rig=rig, options=DecodeOptions(z_min=Z_MIN))
     k, n = _orders(h.phase["v"], h.mask["v"], truth)
     assert n > 10000 and np.mean(k == 0) >= 0.999
     geo = replace(ps, plans=(DirectionPlan("v", ps.plans[0].angle, "geometric", (T,)),))
-    g = decode(frames, geo, rig=rig, z_min=Z_MIN)
+    g = decode(frames, geo, rig=rig, options=DecodeOptions(z_min=Z_MIN))
     kg, _ = _orders(g.phase["v"], g.mask["v"] & h.mask["v"], truth)
     assert 0.02 < np.mean(kg != 0) < 0.5  # pixel-wise: the part beyond the range is one order off
 
@@ -92,6 +92,6 @@ def test_single_group_histogram_fixes_an_object_partly_beyond_the_depth_range():
 def test_histogram_needs_rig_and_z_min(deep_scene):
     rig, ps, frames, truth = deep_scene
     with pytest.raises(ValueError, match="rig"):
-        decode(frames, ps, rig=None, z_min=Z_MIN)
+        decode(frames, ps, rig=None, options=DecodeOptions(z_min=Z_MIN))
     with pytest.raises(ValueError, match="z_min"):
         decode(frames, ps, rig=rig)

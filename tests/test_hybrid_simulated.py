@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 
+from fringe3d.decode import DecodeOptions
 from fringe3d.reconstruct.motion import dissertation_sequence, hybrid_view, measure
 from fringe3d.sim import presets, render
 from fringe3d.sim.motion import GRAVITY_MM_S2
@@ -29,10 +30,10 @@ def capture():
 def test_hybrid_gets_every_balls_fringe_order_from_simulated_frames(capture):
     rig, ps6, frames, truth = capture
     ps4, idx = hybrid_view(ps6)
-    m = measure(frames[idx], ps4, rig, z_min=340.0, erode=4)
+    m = measure(frames[idx], ps4, rig, DecodeOptions(z_min=340.0, erode=4))
     t = truth.frame(idx[0])  # FTP frame I_h3
-    labels = m.extras["labels"]
-    assert len(m.extras["k_s"]) == 3
+    labels = m.labels
+    assert len(m.object_orders) == 3
     for ball in range(3):
         own = (t.object_id == ball) & m.mask
         assert own.sum() > 2000
@@ -41,14 +42,14 @@ def test_hybrid_gets_every_balls_fringe_order_from_simulated_frames(capture):
         # every pixel of the ball is within a fraction of a fringe of the truth (no 2π slips)
         assert np.mean(np.abs(err) < 1.5) > 0.995
         assert np.sqrt(np.mean(err ** 2)) < 0.4
-    assert set(np.unique(labels[m.mask])) == set(m.extras["k_s"])
+    assert set(np.unique(labels[m.mask])) == set(m.object_orders)
 
 
 def test_two_frequency_psp_suffers_motion_error_the_hybrid_avoids(capture):
     rig, ps6, frames, truth = capture
     ps4, idx = hybrid_view(ps6)
-    hyb = measure(frames[idx], ps4, rig, z_min=340.0, erode=4)
-    psp = measure(frames, ps6, rig, z_min=340.0)
+    hyb = measure(frames[idx], ps4, rig, DecodeOptions(z_min=340.0, erode=4))
+    psp = measure(frames, ps6, rig, DecodeOptions(z_min=340.0))
     t_h, t_p = truth.frame(idx[0]), truth.frame(1)
     e_h = (hyb.phase - t_h.phase["v"])[(t_h.object_id >= 0) & hyb.mask]
     e_p = (psp.phase - t_p.phase["v"])[(t_p.object_id >= 0) & psp.mask]
@@ -70,9 +71,9 @@ def test_hybrid_rejects_missing_rig_and_wrong_frame_count(capture):
     rig, ps6, frames, truth = capture
     ps4, idx = hybrid_view(ps6)
     with pytest.raises(ValueError, match="rig"):
-        measure(frames[idx], ps4, None, z_min=340.0)
+        measure(frames[idx], ps4, None, DecodeOptions(z_min=340.0))
     with pytest.raises(ValueError, match="expected 4 frames"):
-        measure(frames, ps4, rig, z_min=340.0)
+        measure(frames, ps4, rig, DecodeOptions(z_min=340.0))
 
 
 def test_hybrid_on_the_simulators_named_falling_balls_scene():
@@ -84,7 +85,7 @@ def test_hybrid_on_the_simulators_named_falling_balls_scene():
     ps4, idx = hybrid_view(ps6)
     scene = falling_balls_scene(p, n=3, seed=0)  # checker-printed, spinning, isolated balls
     frames, truth = render(scene, rig, ps6, p.settings.replace(frame_rate=1500.0, seed=0), progress=False)
-    m = measure(frames[idx], ps4, rig, z_min=p.volume["z"][0], erode=4)
+    m = measure(frames[idx], ps4, rig, DecodeOptions(z_min=p.volume["z"][0], erode=4))
     t = truth.frame(idx[0])
     for ball in range(3):
         own = (t.object_id == ball) & m.mask
@@ -102,7 +103,7 @@ def test_hybrid_plan_on_a_set_without_a_single_ftp_frame_is_rejected(capture):
     rig, ps6, frames, truth = capture
     bad = dc_replace(ps6, plans=(DirectionPlan("v", ps6.plans[0].angle, "hybrid", (18.0, 228.0)),))
     with pytest.raises(ValueError, match="1 high-frequency frame"):
-        measure(frames, bad, rig, z_min=340.0)
+        measure(frames, bad, rig, DecodeOptions(z_min=340.0))
 
 
 def test_saturated_pixels_of_the_ftp_frame_are_left_out(capture):
@@ -112,7 +113,7 @@ def test_saturated_pixels_of_the_ftp_frame_are_left_out(capture):
     t = truth.frame(idx[0])
     v, u = np.argwhere(t.object_id == 1).mean(axis=0).astype(int)
     f4[0, v - 5:v + 5, u - 5:u + 5] = 255  # a specular glint on ball 1 in I_h3
-    m = measure(f4, ps4, rig, z_min=340.0, erode=0)
+    m = measure(f4, ps4, rig, DecodeOptions(z_min=340.0, erode=0))
     assert not m.mask[v - 5:v + 5, u - 5:u + 5].any()
     own = (t.object_id == 1) & m.mask
     assert round(float(np.median(m.phase[own] - t.phase["v"][own])) / TWO_PI) == 0

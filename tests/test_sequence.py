@@ -1,9 +1,12 @@
 """Sequences: cycle / sliding-window 3D frames, store + PLY outputs, resuming after an interruption."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
+from fringe3d.decode import DecodeOptions
 from fringe3d.io.capture import read_capture
 from fringe3d.io.pointcloud import read_ply
 from fringe3d.io.store import PointMapStore
@@ -13,6 +16,9 @@ from fringe3d.reconstruct import sequence
 from fringe3d.reconstruct.sequence import reconstruct_sequence, window_index, window_starts, with_method
 from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
+from fringe3d.utils.warning_types import DepthRangeWarning
+
+Z340 = DecodeOptions(z_min=340.0)
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +55,7 @@ def max_error(P, truth):
 def test_every_cycle_equals_truth_in_store_and_ply(seq_capture, tmp_path, fast):
     cap, rig, truth = seq_capture
     ps = with_method(cap.patterns, "geometric")
-    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, ply=True, progress=False, fast=fast)
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, ply=True, progress=False, fast=fast)
     assert res["frames_3d"] == 3 and res["done_now"] == 3
     assert res["path"].startswith("fused") == fast
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
@@ -62,7 +68,7 @@ def test_every_cycle_equals_truth_in_store_and_ply(seq_capture, tmp_path, fast):
 def test_sliding_windows_give_one_3d_frame_per_captured_frame(seq_capture, tmp_path):
     cap, rig, truth = seq_capture
     ps = with_method(cap.patterns, "geometric")
-    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, mode="window", progress=False)
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", progress=False)
     assert res["frames_3d"] == 9 - 3 + 1
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     for k in range(st.frames):  # windows starting mid-cycle are reordered correctly
@@ -83,11 +89,11 @@ def test_interrupted_run_resumes_where_it_stopped(seq_capture, tmp_path, monkeyp
 
     monkeypatch.setattr(sequence.FrameReconstructor, "__call__", flaky)
     with pytest.raises(KeyboardInterrupt):
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, mode="window", step=1, progress=False)
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", step=1, progress=False)
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     assert st.pending() == [2, 3, 4, 5, 6]
     monkeypatch.setattr(sequence.FrameReconstructor, "__call__", real_call)
-    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, mode="window", step=1, progress=False)
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", step=1, progress=False)
     assert res["done_before"] == 2 and res["done_now"] == 5
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     assert st.pending() == [] and all(max_error(st.read(k), truth) < 1e-3 for k in range(7))
@@ -97,12 +103,12 @@ def test_sequence_bad_inputs(seq_capture, tmp_path):
     cap, rig, truth = seq_capture
     ps = with_method(cap.patterns, "geometric")
     with pytest.raises(ValueError, match="nothing to write"):
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, ply=False, store=False)
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, ply=False, store=False)
     with pytest.raises(ValueError, match="sizes disagree"):
-        reconstruct_sequence(cap.frames[:, :100], ps, rig, tmp_path, z_min=340.0)
-    reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, progress=False)
+        reconstruct_sequence(cap.frames[:, :100], ps, rig, tmp_path, options=Z340)
+    reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, progress=False)
     with pytest.raises(ValueError, match="new output folder"):  # a different sequence into the same store
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path, z_min=340.0, mode="window", progress=False)
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", progress=False)
 
 
 def test_reconstruct_command_on_a_sequence_then_evaluate_a_frame(seq_capture, tmp_path, capsys):
@@ -120,19 +126,20 @@ def test_reconstruct_command_on_a_sequence_then_evaluate_a_frame(seq_capture, tm
     assert code == 0 and ev["truth"]["max_mm"] < 1e-3 and abs(ev["sphere"]["size"]) < 1e-3
 
 
-def test_fast_path_warns_when_the_scene_leaves_the_depth_range(seq_capture, capsys):
+def test_fast_path_warns_when_the_scene_leaves_the_depth_range(seq_capture):
     from fringe3d.reconstruct.sequence import FrameReconstructor
     cap, rig, truth = seq_capture
     ps = with_method(cap.patterns, "geometric")
     n = len(ps)
-    ok = FrameReconstructor(ps, rig, 340.0)
-    ok(cap.frames[:n])
-    assert "depth" not in capsys.readouterr().err
+    ok = FrameReconstructor(ps, rig, DecodeOptions(z_min=340.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DepthRangeWarning)
+        ok(cap.frames[:n])
     # z_min far too close: the sphere and the wall lie beyond one period (T = 64 px)
-    bad = FrameReconstructor(ps, rig, 120.0)
+    bad = FrameReconstructor(ps, rig, DecodeOptions(z_min=120.0))
     assert bad.fast is not None
-    bad(cap.frames[:n])
-    assert "depth-range limit" in capsys.readouterr().err.replace("\n", " ")
+    with pytest.warns(DepthRangeWarning, match="depth-range limit"):
+        bad(cap.frames[:n])
 
 
 def test_capture_frames_read_on_demand_match_the_capture(seq_capture):

@@ -6,6 +6,7 @@ import pytest
 
 from fringe3d.patterns.sets import modified_ftp
 from fringe3d.reconstruct.single_shot import single_shot
+from fringe3d.utils.warning_types import DepthRangeWarning
 from fringe3d.sim import presets, render
 from fringe3d.sim.primitives import Plane, Sphere
 from fringe3d.sim.scene import Scene
@@ -73,7 +74,8 @@ def test_beyond_depth_range_order_is_off_by_one_exactly_where_theory_says_and_wa
     tilt = math.atan2(30.0, 80.0)  # plane depth spans the limit +-15 mm
     plane = Plane((0.0, 0.0, Z_MIN + rng), (math.sin(tilt), 0.0, -math.cos(tilt)), size=(85.0, 70.0))
     rig, frames, truth = _capture([plane], seed=1)
-    res = single_shot(frames, rig, T, Z_MIN, method="modified_ftp")
+    with pytest.warns(DepthRangeWarning, match="depth range"):
+        res = single_shot(frames, rig, T, Z_MIN, method="modified_ftp")
     mp = minimum_phase(rig, Z_MIN, T)
     sel = res.mask & truth.mask
     r_true = mp.sign * (truth.phase["v"] - mp.phi_min)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fringe3d.decode import decode
+from fringe3d.decode import DecodeOptions, decode
 from fringe3d.patterns import sets
 from fringe3d.reconstruct import points_from_decoded
 from fringe3d.sim import RenderSettings, render
@@ -32,7 +32,7 @@ def patterns(directions=("v",)):
 def reconstruct(rig, scene, method, directions=("v",)):
     ps = patterns(directions)
     frames, truth = render(scene, rig, ps, SETTINGS, progress=False)
-    dec = decode(frames, ps, min_modulation=0.02)
+    dec = decode(frames, ps, options=DecodeOptions(min_modulation=0.02))
     return points_from_decoded(dec, rig, method=method), truth
 
 

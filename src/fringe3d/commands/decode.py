@@ -43,7 +43,7 @@ def register(app: typer.Typer) -> None:
 
         Example: fringe3d decode sphere-capture -o sphere-decoded --json
         """
-        from fringe3d.decode import decode_sequence
+        from fringe3d.decode import DecodeOptions, decode_sequence
         from fringe3d.io.capture import read_capture
 
         set_quiet(quiet or json_)
@@ -59,7 +59,8 @@ def register(app: typer.Typer) -> None:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             with progress_bar("decoding", n, enabled=n > 1) as advance:
-                for c, dec in enumerate(decode_sequence(cap.frames, cap.patterns, rig=rig_obj, z_min=z_min, **opts)):
+                for c, dec in enumerate(decode_sequence(cap.frames, cap.patterns, rig=rig_obj,
+                                                                options=DecodeOptions(z_min=z_min, **opts))):
                     folder = out if n == 1 else out / f"cycle_{c:05d}"
                     dec.save(folder)
                     s = dec.summary()

@@ -93,6 +93,7 @@ def register(app: typer.Typer) -> None:
 
         Example: fringe3d reconstruct sphere-capture --calibration calib.json -o sphere-3d --ply
         """
+        from fringe3d.decode import DecodeOptions
         from fringe3d.io.capture import list_frame_files, read_capture
         from fringe3d.optics import Rig
         from fringe3d.reconstruct.sequence import (
@@ -125,16 +126,17 @@ def register(app: typer.Typer) -> None:
                    "z_min": z_min, "cycles": cycles, "cycle_length": len(ps), "step": window,
                    "shape": list(cap.frames.shape[1:])}
         if cycles == 1 and window is None:
-            rec = FrameReconstructor(ps, rig, z_min, triangulation=triangulation, **opts)
+            rec = FrameReconstructor(ps, rig, DecodeOptions(z_min=z_min, **opts), triangulation=triangulation)
             points, texture = rec(np.ascontiguousarray(cap.frames), with_texture=True)
             summary["files"] = write_single(out, points, texture, ply)
             summary.update(point_summary(points))
             summary["path"] = rec.path
         else:
             frames = CaptureFrames(capture, limit=cycles * len(ps))
-            seq = reconstruct_sequence(frames, ps, rig, out, z_min=z_min, mode="window" if window else "cycle",
+            seq = reconstruct_sequence(frames, ps, rig, out, options=DecodeOptions(z_min=z_min, **opts),
+                                       mode="window" if window else "cycle",
                                        step=window, ply=ply, store=store, progress=not (quiet or json_),
-                                       triangulation=triangulation, **opts)
+                                       triangulation=triangulation)
             summary.update(seq)
         summary["seconds"] = round(time.perf_counter() - t0, 3)
         from fringe3d.utils.console import to_jsonable

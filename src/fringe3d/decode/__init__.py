@@ -1,10 +1,14 @@
 """Decode captured fringe frames to absolute phase, driven by the pattern manifest.
 
-``decode(frames, patterns)`` -> :class:`Decoded`; ``decode_sequence`` for repeated cycles;
-``three_frequency_decode`` is the fused single-pass path for the 18/21/144 set.
+``decode(frames, patterns, rig, options)`` -> :class:`Decoded`; ``decode_sequence`` for
+repeated cycles; :class:`DecodeOptions` are the typed options. Each fringe direction's plan
+names a method of :data:`METHODS`, a function ``(DecodeContext) -> Unwrapped``.
 """
+from fringe3d.decode.context import DecodeContext, PhaseGroup
 from fringe3d.decode.decoder import as_frame_stack, decode, decode_sequence
-from fringe3d.decode.result import Decoded
-from fringe3d.unwrap.temporal import three_frequency_decode
+from fringe3d.decode.methods import METHODS
+from fringe3d.decode.options import DecodeOptions
+from fringe3d.decode.result import Decoded, Unwrapped
 
-__all__ = ["Decoded", "as_frame_stack", "decode", "decode_sequence", "three_frequency_decode"]
+__all__ = ["METHODS", "DecodeContext", "DecodeOptions", "Decoded", "PhaseGroup", "Unwrapped", "as_frame_stack",
+           "decode", "decode_sequence"]

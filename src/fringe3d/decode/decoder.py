@@ -1,8 +1,8 @@
 """Manifest-driven decoder: camera frames + PatternSet -> absolute phase per fringe direction.
 
 For each :class:`~fringe3d.patterns.manifest.DirectionPlan` the unwrapping method is looked
-up in :data:`fringe3d.unwrap.registry.UNWRAPPERS` and run on a
-:class:`~fringe3d.unwrap.registry.DecodeContext`; the decoder itself knows no method.
+up in :data:`fringe3d.decode.methods.METHODS` and run on a
+:class:`~fringe3d.decode.context.DecodeContext`; the decoder itself knows no method.
 A three-frequency heterodyne plan (e.g. 9-step T=18 + 3-step T=21 + 3-step T=144, the
 calibration set) runs the fused single-pass kernel
 (:func:`fringe3d.unwrap.temporal.three_frequency_decode`).
@@ -10,15 +10,19 @@ calibration set) runs the fused single-pass kernel
 from __future__ import annotations
 
 import warnings
-from typing import Iterator
+from typing import Any, Iterator
 
 import numpy as np
 
-from fringe3d.decode.result import Decoded
+from fringe3d.decode.context import DecodeContext, phase_groups
+from fringe3d.decode.methods import method_for
+from fringe3d.decode.options import DecodeOptions
+from fringe3d.decode.result import Decoded, Unwrapped
+from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import quality
-from fringe3d.unwrap import temporal  # noqa: F401  (registers the temporal methods)
-from fringe3d.unwrap.registry import DecodeContext, get_unwrapper, phase_groups
+from fringe3d.utils.console import progress_bar
+
 
 def as_frame_stack(frames) -> np.ndarray:
     """(F, H, W) array from an array or a list of (H, W) images, with clear errors."""
@@ -70,7 +74,7 @@ def _plans(ps: PatternSet) -> list[DirectionPlan]:
     return plans
 
 
-def decode(frames, patterns: PatternSet, rig=None, z_min: float | None = None, **opts) -> Decoded:
+def decode(frames, patterns: PatternSet, rig: Rig | None = None, options: DecodeOptions | None = None) -> Decoded:
     """Decode one pattern cycle to absolute phase per fringe direction.
 
     Parameters
@@ -78,21 +82,14 @@ def decode(frames, patterns: PatternSet, rig=None, z_min: float | None = None, *
     frames : (F, H, W) uint8, uint16 or float array (or list of (H, W) arrays)
         Captured frames in projection order, ``F == len(patterns)``.
     patterns : PatternSet
-        The manifest of the projected set (with ``plans``).
-    rig, z_min : passed to unwrappers that need geometry (geometric constraint, Eq. 4.15-4.21).
-    bit_depth : int, optional
-        Sensor bit depth (saturation level ``2**bit_depth - 1``); default from the dtype
-        (8 / 16), no saturation check for float frames.
-    min_modulation : float, optional
-        Modulation threshold (frames' units); default 2 % of full scale.
-    fused : bool
-        Use the fused three-frequency kernel when the plan allows (default True).
-    max_residual : float
-        Fused three-frequency path: largest accepted unwrapping residual in rad (default pi/2;
-        pixels above it are masked as inconsistent; ``math.pi`` disables the check).
-    ftp_window, ftp_radius :
-        Band-pass window (``"hanning"``/``"circular"``) and radius for FTP groups.
-    Other keyword options reach the unwrappers as ``ctx.options``.
+        The manifest of the projected set (with ``plans``; each plan's ``method`` is a key of
+        :data:`fringe3d.decode.METHODS`).
+    rig : fringe3d.optics.Rig, optional
+        Calibrated rig, for the methods that need geometry (geometric constraint,
+        Eq. 4.15-4.21) and to orient FTP.
+    options : DecodeOptions, optional
+        ``z_min``, ``bit_depth``, ``min_modulation``, ``fused``, ``max_residual``, FTP and
+        method options (see :class:`DecodeOptions`); default ``DecodeOptions()``.
 
     Returns
     -------
@@ -100,34 +97,49 @@ def decode(frames, patterns: PatternSet, rig=None, z_min: float | None = None, *
     ``mask`` and NaN in ``phase``. All-dark or heavily saturated frames give a
     :class:`fringe3d.phase.quality.FrameQualityWarning`; their pixels are masked.
 
-    Raises ``ValueError`` for a wrong frame count (both numbers named), frames of different
-    shapes, manifest groups with missing steps, or an unregistered unwrapping method.
+    Raises
+    ------
+    ValueError
+        For a wrong frame count (both numbers named), frames of different shapes, manifest
+        groups with missing steps, or an unknown unwrapping method.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fringe3d.patterns import sets
+    >>> from fringe3d.patterns.synthetic import frames_from_coordinates
+    >>> ps = sets.three_frequency("v", width=800, height=600)        # 18/21/144 px, 15 frames
+    >>> v_p, u_p = np.mgrid[0:48, 100:164].astype(float)              # a 64 x 48 camera's view
+    >>> frames = frames_from_coordinates(ps, u_p, v_p, dtype=np.uint8)
+    >>> d = decode(frames, ps, options=DecodeOptions(min_modulation=1.0))
+    >>> bool(np.abs(d.projector_coordinate("v") - u_p).max() < 0.05)  # u_p = Phi T / 2 pi
+    True
     """
     frames = as_frame_stack(frames)
     _check_count(frames.shape[0], patterns, sequence=False)
-    return _decode_cycle(frames, patterns, rig, z_min, opts)
+    return _decode_cycle(frames, patterns, rig, options or DecodeOptions())
 
 
-def decode_sequence(frames, patterns: PatternSet, rig=None, z_min: float | None = None, progress: bool = False,
-                    **opts) -> Iterator[Decoded]:
+def decode_sequence(frames, patterns: PatternSet, rig: Rig | None = None, options: DecodeOptions | None = None,
+                    progress: bool = False) -> Iterator[Decoded]:
     """Decode a sequence of ``n_cycles`` repetitions of the manifest (``F = n_cycles * len``),
     yielding one :class:`Decoded` per cycle (frames may be a memory map; each cycle is read
-    once). ``progress=True`` shows a progress bar."""
+    once). ``rig`` and ``options`` as in :func:`decode`; ``progress=True`` shows a progress bar."""
     frames = as_frame_stack(frames) if not isinstance(frames, np.ndarray) else frames
     if frames.ndim != 3:
         raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
     cycles = _check_count(frames.shape[0], patterns, sequence=True)
     n = len(patterns)
-    from fringe3d.utils.console import progress_bar
+    opts = options or DecodeOptions()
     with progress_bar("decoding", cycles, enabled=progress) as advance:
         for c in range(cycles):
-            yield _decode_cycle(np.ascontiguousarray(frames[c * n:(c + 1) * n]), patterns, rig, z_min, opts)
+            yield _decode_cycle(np.ascontiguousarray(frames[c * n:(c + 1) * n]), patterns, rig, opts)
             advance()
 
 
-def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig, z_min, opts: dict) -> Decoded:
-    bit_depth = opts.get("bit_depth")
-    min_mod = opts.get("min_modulation")
+def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: DecodeOptions) -> Decoded:
+    bit_depth = opts.bit_depth
+    min_mod = opts.min_modulation
     min_mod = quality.default_min_modulation(frames, bit_depth) if min_mod is None else float(min_mod)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -138,25 +150,25 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig, z_min, opts: dict) ->
     groups_of = {plan.direction: phase_groups(ps, plan.direction) for plan in plans}  # validate before any work
     out = Decoded(info={"frame_checks": checks, "warnings": [str(w.message) for w in caught],
                         "min_modulation": min_mod})
-    first_ctx = None
+    first: tuple[DecodeContext, Any, Unwrapped] | None = None
     for plan in plans:
-        ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig, z_min=z_min,
-                            options=dict(opts), bit_depth=bit_depth, min_modulation=min_mod)
+        ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig,
+                            options=opts, min_modulation=min_mod)
         if not groups_of[plan.direction]:
             raise ValueError(f"direction {plan.direction!r} has an unwrapping plan ({plan.method}) but no phase frames "
                              "in the manifest; the decoder needs phase-shifted or FTP frames (a code-only set "
                              "gives no phase: combine it with phase frames, e.g. psp_with_gray_code)")
-        result = get_unwrapper(plan.method)(ctx)
-        phi, mask = result[0], result[1]
-        extras = result[2] if len(result) > 2 else {}
+        result = method_for(plan.method)(ctx)
+        phi, mask = result.phase, result.mask
         # narrowest group of the plan (= ctx.groups_for_plan()[0] without re-reading the manifest thrice)
         g = ctx.group_for_period(plan.periods[0]) if plan.periods else groups_of[plan.direction][0]
-        if "wrapped" in extras and "modulation" in extras:
-            wrapped, modulation = extras["wrapped"], extras["modulation"]
+        if result.wrapped is not None and result.modulation is not None:
+            wrapped, modulation = result.wrapped, result.modulation
         else:
             pr = ctx.group_phase(g)
-            wrapped, modulation = extras.get("wrapped", pr.phase), extras.get("modulation", pr.modulation)
-        if extras.get("masked") and phi.dtype == np.float32:  # the unwrapper already set NaN exactly where mask is False
+            wrapped = pr.phase if result.wrapped is None else result.wrapped
+            modulation = pr.modulation if result.modulation is None else result.modulation
+        if result.phase_is_masked and phi.dtype == np.float32:  # NaN exactly where mask is False already
             phase, mask = phi, mask
         else:
             mask = np.asarray(mask, dtype=bool) & np.isfinite(phi)
@@ -165,21 +177,22 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig, z_min, opts: dict) ->
         out.phase[d], out.mask[d] = phase, mask
         out.wrapped[d] = np.asarray(wrapped, np.float32)
         out.modulation[d] = np.asarray(modulation, np.float32)
-        out.period[d] = float(extras.get("period", g.period))
+        out.period[d] = float(g.period if result.period is None else result.period)
         out.angle[d] = float(plan.angle)
         out.method[d] = plan.method
-        if first_ctx is None:
-            first_ctx = (ctx, g, extras)
-    ctx, g, extras = first_ctx
-    average = extras.get("average")
+        if first is None:
+            first = (ctx, g, result)
+    assert first is not None  # _plans returns at least one plan
+    ctx, g, result = first
+    average = result.average
     if average is None:
         average = ctx.group_phase(g).average
     out.average = np.asarray(average, np.float32)
     white = ps.indices(kind="white")
     if white:
         out.texture = frames[white[0]].astype(np.float32)
-    elif extras.get("texture") is not None:  # the fused kernel wrote average + modulation
-        out.texture = np.asarray(extras["texture"], np.float32)
+    elif result.texture is not None:  # the fused kernel wrote average + modulation
+        out.texture = np.asarray(result.texture, np.float32)
     else:
         out.texture = np.add(out.average, out.modulation[plans[0].direction], dtype=np.float32)  # one pass
     return out

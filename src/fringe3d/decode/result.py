@@ -1,12 +1,15 @@
-"""The decoder's output: absolute phase, wrapped phase, modulation and mask per direction."""
+"""The decoder's outputs: :class:`Unwrapped` (one method, one direction) and :class:`Decoded`
+(absolute phase, wrapped phase, modulation and mask per direction of one pattern cycle)."""
 from __future__ import annotations
 
 import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import tifffile
 
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.jsonfile import write_json
@@ -14,6 +17,44 @@ from fringe3d.utils.jsonfile import write_json
 NPZ_NAME = "decoded.npz"
 SUMMARY_NAME = "decoded.json"
 _PER_DIRECTION = ("phase", "wrapped", "modulation", "mask")
+
+
+@dataclass(frozen=True, eq=False)
+class Unwrapped:
+    """What a decoding method returns for one fringe direction.
+
+    Attributes
+    ----------
+    phase : (H, W) float
+        Absolute phase ``Phi`` (rad) of the method's period (by default the plan's narrowest).
+    mask : (H, W) bool
+        Valid pixels.
+    wrapped, modulation, average : (H, W) float, optional
+        Override the decoder's wrapped phase, modulation and average of the direction (e.g. an
+        FTP-based method's own analysis); None: the narrowest group's.
+    texture : (H, W) float, optional
+        Texture computed on the way (the fused kernel's average + modulation).
+    period : float, optional
+        Fringe period (projector pixels) of ``phase`` when it is not the plan's narrowest.
+    phase_is_masked : bool
+        ``phase`` is float32 and already NaN exactly where ``mask`` is False (the decoder then
+        uses it as is).
+    labels : (H, W) int, optional
+        Object labels of object-wise methods (spatial, hybrid).
+    object_orders : dict label -> int, optional
+        Fringe-order shift ``k_s`` per object (hybrid, Eq. 5.14).
+    """
+
+    phase: np.ndarray
+    mask: np.ndarray
+    wrapped: np.ndarray | None = None
+    modulation: np.ndarray | None = None
+    average: np.ndarray | None = None
+    texture: np.ndarray | None = None
+    period: float | None = None
+    phase_is_masked: bool = False
+    labels: np.ndarray | None = None
+    object_orders: dict[int, int] | None = None
 
 
 @dataclass
@@ -28,16 +69,16 @@ class Decoded:
     (H, W) float32 and ``info`` (frame checks, warnings).
     """
 
-    phase: dict = field(default_factory=dict)
-    wrapped: dict = field(default_factory=dict)
-    modulation: dict = field(default_factory=dict)
-    mask: dict = field(default_factory=dict)
-    period: dict = field(default_factory=dict)
-    angle: dict = field(default_factory=dict)
-    method: dict = field(default_factory=dict)
+    phase: dict[str, np.ndarray] = field(default_factory=dict)
+    wrapped: dict[str, np.ndarray] = field(default_factory=dict)
+    modulation: dict[str, np.ndarray] = field(default_factory=dict)
+    mask: dict[str, np.ndarray] = field(default_factory=dict)
+    period: dict[str, float] = field(default_factory=dict)
+    angle: dict[str, float] = field(default_factory=dict)
+    method: dict[str, str] = field(default_factory=dict)
     average: np.ndarray | None = None
     texture: np.ndarray | None = None
-    info: dict = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
 
     @property
     def directions(self) -> list[str]:
@@ -49,7 +90,7 @@ class Decoded:
 
     def summary(self) -> dict:
         """Small JSON-friendly description: per direction period, angle, method, valid fraction."""
-        out = {"directions": {}}
+        out: dict[str, Any] = {"directions": {}}
         for d in self.directions:
             m = self.mask[d]
             out["directions"][d] = {
@@ -67,7 +108,6 @@ class Decoded:
         """Write ``decoded.npz``, ``decoded.json`` and one 32-bit float TIFF per map
         (``phase_<d>.tif``, ``wrapped_<d>.tif``, ``modulation_<d>.tif``, ``mask_<d>.tif`` as
         0/1, ``average.tif``, ``texture.tif``), each atomically. Returns the folder."""
-        import tifffile
 
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)

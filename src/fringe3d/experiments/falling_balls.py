@@ -66,6 +66,7 @@ def thrown_ball_scene(speed: float):
 
 def thrown_orders(speed: float, seed: int) -> dict:
     """k_s error per ball with Eq. (5.13) as printed and with the cross-motion correction."""
+    from fringe3d.decode import DecodeOptions
     from fringe3d.reconstruct.motion import measure
     from fringe3d.sim import render
 
@@ -75,7 +76,7 @@ def thrown_orders(speed: float, seed: int) -> dict:
     t = truth.frame(idx[0])
     out = {}
     for key, cross in (("eq_5_13", False), ("cross_motion", True)):
-        m = measure(frames[idx], ps4, rig, Z_MIN, erode=ERODE, cross_motion=cross)
+        m = measure(frames[idx], ps4, rig, DecodeOptions(z_min=Z_MIN, erode=ERODE, cross_motion=cross))
         errs = []
         for b in range(len(scene.objects)):
             own = (t.object_id == b) & m.mask
@@ -122,6 +123,7 @@ def sequence_orders(scene, seed: int, cycles: int) -> dict:
     Balls cut by the image border are counted apart (``edge_*``): their bounding box is
     clipped, so its centre no longer follows the ball (a limit of Eq. 5.13's motion estimate).
     """
+    from fringe3d.decode import DecodeOptions
     from fringe3d.reconstruct.motion import measure
     from fringe3d.sim import render
 
@@ -131,14 +133,14 @@ def sequence_orders(scene, seed: int, cycles: int) -> dict:
     count = {k: 0 for k in ("ball_cycles", "right", "lost", "edge_ball_cycles", "edge_right")}
     for c in range(cycles):
         sel = [6 * c + i for i in idx]
-        hyb = measure(frames[sel], ps4, rig, Z_MIN, erode=ERODE)
+        hyb = measure(frames[sel], ps4, rig, DecodeOptions(z_min=Z_MIN, erode=ERODE))
         t = truth.frame(sel[0])
         for b in range(len(scene.objects)):
             ball = t.object_id == b
             if ball.sum() < 1500:
                 continue
             edge = bool(ball[0].any() or ball[-1].any() or ball[:, 0].any() or ball[:, -1].any())
-            own = _ball_pixels(hyb.extras["labels"], t.object_id, b) & hyb.mask
+            own = _ball_pixels(hyb.labels, t.object_id, b) & hyb.mask
             ok = own.sum() >= 50 and np.round(np.median(hyb.phase[own] - t.phase["v"][own]) / (2 * np.pi)) == 0
             if edge:
                 count["edge_ball_cycles"] += 1
@@ -150,22 +152,38 @@ def sequence_orders(scene, seed: int, cycles: int) -> dict:
     return {"cycles": cycles, **count}
 
 
+def sphere_residuals(points: np.ndarray, mask: np.ndarray | None = None) -> tuple[float, float, np.ndarray]:
+    """Least-squares sphere through the valid points: ``(rms (mm), radius (mm), centre (3,))``
+    (:func:`fringe3d.analyze.fits.fit_sphere`)."""
+    from fringe3d.analyze.fits import fit_sphere
+
+    P = np.asarray(points, np.float64)
+    ok = np.isfinite(P).all(axis=-1)
+    if mask is not None:
+        ok &= np.asarray(mask, bool)
+    if ok.sum() < 4:
+        raise ValueError(f"a sphere fit needs at least 4 valid points, got {int(ok.sum())}")
+    fit = fit_sphere(P, ok)
+    return float(fit.rms), float(fit.radius), np.asarray(fit.center, float)
+
+
 def measure_cycle(scene, seed: int, noise: bool = True) -> dict:
     """Render one six-frame cycle and measure it both ways; per-ball figures."""
-    from fringe3d.reconstruct.motion import measure, sphere_residuals
+    from fringe3d.decode import DecodeOptions
+    from fringe3d.reconstruct.motion import measure
     from fringe3d.sim import render
 
     rig, s, ps6, ps4, idx = _setup(seed, noise)
     frames, truth = render(scene, rig, ps6, s, progress=False)
-    hyb = measure(frames[idx], ps4, rig, Z_MIN, erode=ERODE)
-    psp = measure(frames, ps6, rig, Z_MIN)
+    hyb = measure(frames[idx], ps4, rig, DecodeOptions(z_min=Z_MIN, erode=ERODE))
+    psp = measure(frames, ps6, rig, DecodeOptions(z_min=Z_MIN))
     t_hyb = truth.frame(idx[0])       # Φ_r comes from I_h3: the hybrid's 3D frame is at its time
     t_psp = truth.frame(1)            # the PSP high-frequency phase is centred on I_h2
     psp_labels = _psp_labels(frames)
     balls = []
     for b in range(len(scene.objects)):
         row = {"ball": b}
-        own = _ball_pixels(hyb.extras["labels"], t_hyb.object_id, b) & hyb.mask
+        own = _ball_pixels(hyb.labels, t_hyb.object_id, b) & hyb.mask
         if own.sum() >= 50:
             err = (hyb.phase[own] - t_hyb.phase["v"][own]) / (2 * np.pi)
             row["k_error"] = int(np.round(np.median(err)))
@@ -176,7 +194,7 @@ def measure_cycle(scene, seed: int, noise: bool = True) -> dict:
             row["psp_rms"], row["psp_radius"], _ = sphere_residuals(psp.points, ps)
             row["psp_points"] = int(ps.sum())
         balls.append(row)
-    return {"balls": balls, "hybrid_shifts": hyb.extras.get("k_s", {})}
+    return {"balls": balls, "hybrid_shifts": hyb.object_orders or {}}
 
 
 def run(quick: bool = False, seed: int = 0) -> dict:

@@ -216,7 +216,7 @@ def psp_patterns(rig):
 def _measure(wing, preset, settings, ps, t_start, seed, static=False):
     """Render one burst starting at ``t_start`` (``static``: every image at ``t_start``, no motion),
     decode, triangulate → (points, texture, t3d)."""
-    from fringe3d.decode import decode
+    from fringe3d.decode import DecodeOptions, decode
     from fringe3d.reconstruct.triangulate import triangulate
     from fringe3d import sim as sc
     from fringe3d.sim.render import render
@@ -225,7 +225,7 @@ def _measure(wing, preset, settings, ps, t_start, seed, static=False):
     st = dataclasses.replace(settings, seed=seed) if hasattr(settings, "seed") else settings
     times = t_start + (0.0 if static else 1.0) * np.arange(len(ps)) / FRAME_RATE
     frames, _ = render(sc.Scene([wing], name="wing"), preset.rig, ps, st, times=times, progress=False)
-    dec = decode(frames, ps, rig=preset.rig, z_min=preset.volume["z"][0])
+    dec = decode(frames, ps, rig=preset.rig, options=DecodeOptions(z_min=preset.volume["z"][0]))
     up = dec.phase["v"] * 24.0 / (2 * np.pi)
     pts = triangulate(preset.rig, up=up)
     tex = np.asarray(dec.average, float) if getattr(dec, "average", None) is not None else frames[-1].astype(float)

@@ -96,7 +96,7 @@ def predicted_rates(sigma: float) -> dict:
 
 def run(quick: bool = False, seed: int = 0) -> dict:
     """Order-error rate (fraction of pixels) per method and noise level; see the module doc."""
-    from fringe3d.decode import decode
+    from fringe3d.decode import DecodeOptions, decode
     from fringe3d.utils.console import progress_bar
     from fringe3d.patterns.synthetic import frames_from_coordinates
 
@@ -125,7 +125,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
                 frames = (base + sg * field).astype(np.float32)
                 # max_residual=pi: no residual masking, so every wrong order is counted (the rate
                 # measures unwrapping itself; the decoder's default pi/2 masks likely errors)
-                d = decode(frames, ps, min_modulation=1.0, max_residual=math.pi)
+                d = decode(frames, ps, options=DecodeOptions(min_modulation=1.0, max_residual=math.pi))
                 phi, mask = d.phase["v"], d.mask["v"]
                 wrong = mask & (np.abs(phi - truth) > np.pi)
                 rates[name].append(float(wrong.sum() / mask.size))

@@ -1,13 +1,19 @@
 """Reconstruction: absolute phase -> organized 3D point maps (Eq. 2.37-2.38, 3.3, 4.13).
 
-* :mod:`.triangulate` - least squares (:func:`triangulate`) and the fast per-pixel closed form
-  (:class:`Triangulator`), pinhole and telecentric rigs.
-* :mod:`.depth` - depth maps, projector coordinates from decoded phase, points from a decode.
-* :class:`FastThreeStep` (in :mod:`.triangulate`) - the superfast fused kernel: three frames
-  -> wrapped phase -> geometric-constraint order -> point map, one pass.
-* :mod:`.sequence` - many-frame captures -> one 3D frame per cycle / window (imported lazily).
+* :func:`triangulate` - least squares over every known projector coordinate; :class:`Triangulator`
+  - the fast per-pixel closed form (pinhole and telecentric rigs).
+* :func:`depth_map`, :func:`projector_coordinates`, :func:`points_from_decoded` - from a decode
+  to points.
+* :class:`FastThreeStep` - the superfast fused kernel: three frames -> wrapped phase ->
+  geometric-constraint order -> point map, one pass.
+* :func:`single_shot` (ch. 4) and :func:`measure` (ch. 5, motion) - one-call measurements.
+* :mod:`.sequence` - many-frame captures -> one 3D frame per cycle / window (imported on use:
+  it pulls in the point stores).
 """
-from .depth import depth_map, points_from_decoded, projector_coordinates
-from .triangulate import FastThreeStep, Triangulator, triangulate
+from fringe3d.reconstruct.depth import depth_map, points_from_decoded, projector_coordinates
+from fringe3d.reconstruct.motion import Measurement, dissertation_sequence, hybrid_view, measure
+from fringe3d.reconstruct.single_shot import SingleShotResult, single_shot
+from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator, triangulate
 
-__all__ = ["FastThreeStep", "Triangulator", "triangulate", "depth_map", "points_from_decoded", "projector_coordinates"]
+__all__ = ["FastThreeStep", "Measurement", "SingleShotResult", "Triangulator", "depth_map", "dissertation_sequence",
+           "hybrid_view", "measure", "points_from_decoded", "projector_coordinates", "single_shot", "triangulate"]

@@ -14,7 +14,10 @@ import math
 
 import numpy as np
 
-from .triangulate import Triangulator, camera_shape, triangulate
+from fringe3d.decode.result import Decoded
+from fringe3d.optics.rays import camera_shape
+from fringe3d.optics.rig import Rig
+from fringe3d.reconstruct.triangulate import Triangulator, triangulate
 
 
 def depth_map(points: np.ndarray) -> np.ndarray:
@@ -34,7 +37,7 @@ def direction_coordinate(phase: np.ndarray, period: float) -> np.ndarray:
     return np.asarray(phase, np.float64) * (period / (2 * np.pi))
 
 
-def projector_coordinates(decoded, directions=None) -> dict:
+def projector_coordinates(decoded: Decoded, directions=None) -> dict:
     """Projector coordinates from a :class:`fringe3d.decode.Decoded`.
 
     Returns ``{"w": {direction: (H, W)}, "angle": {direction: rad}, "up": map or None,
@@ -67,7 +70,7 @@ def projector_coordinates(decoded, directions=None) -> dict:
     return {"w": w, "angle": ang, "up": up, "vp": vp, "mask": mask}
 
 
-def points_from_decoded(decoded, rig, method: str = "auto", directions=None) -> np.ndarray:
+def points_from_decoded(decoded: Decoded, rig: Rig, method: str = "auto", directions=None) -> np.ndarray:
     """Organized point map ``(H, W, 3)`` float32 (mm, NaN invalid) from decoded absolute phase.
 
     ``method``: ``"fast"`` (closed form, one direction; the first of ``directions``),

@@ -11,16 +11,23 @@ projector defocus. Two ways to measure one cycle:
   ``I_h3`` by FTP + spatial unwrapping, ``I_l1..I_l3`` only to pick each object's fringe order.
 
 :func:`dissertation_sequence` builds the six-frame pattern set, :func:`hybrid_view` the
-four-frame view the hybrid method reads, and :func:`measure` runs a registered unwrapper on
-one cycle and triangulates it.
+four-frame view the hybrid method reads, and :func:`measure` runs the plan's decoding method
+(:data:`fringe3d.decode.METHODS`) on one cycle and triangulates it.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from fringe3d.decode.context import DecodeContext
+from fringe3d.decode.methods import run_method
+from fringe3d.decode.options import DecodeOptions
+from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
+from fringe3d.patterns.sets import phase_shift
+from fringe3d.phase.quality import default_min_modulation
+from fringe3d.reconstruct.triangulate import Triangulator
 
 #: Ch. 5.3: squared binary T = 18 (high), Bayer-dithered T = 228 (low), 1,500 Hz.
 HIGH_PERIOD = 18.0
@@ -36,8 +43,6 @@ def dissertation_sequence(width: int, height: int, high_period: float = HIGH_PER
     Built from :func:`fringe3d.patterns.sets.phase_shift`; the plan is
     ``"two_frequency_geometric"`` with periods ``(T, T_l)``. 1-bit patterns by default.
     """
-    from fringe3d.patterns.sets import phase_shift
-
     hi = phase_shift(high_period, 3, direction, kind=high_kind, width=width, height=height)
     lo = phase_shift(low_period, 3, direction, kind=low_kind, width=width, height=height)
     ps = hi.concat(lo, name=f"ch5-two-frequency-{high_period:g}-{low_period:g}-{direction}")
@@ -73,35 +78,34 @@ def hybrid_view(ps: PatternSet) -> tuple[PatternSet, list[int]]:
 @dataclass
 class Measurement:
     """One 3D frame: absolute phase (H, W) float32 rad of period ``period``, validity mask,
-    points (H, W, 3) float32 mm (NaN invalid) and the unwrapper's extras."""
+    points (H, W, 3) float32 mm (NaN invalid), and, for object-wise methods (hybrid), the
+    object ``labels`` (H, W) int and each object's fringe-order shift ``object_orders``
+    (label -> k_s, Eq. 5.14)."""
 
     phase: np.ndarray
     mask: np.ndarray
     points: np.ndarray
     period: float
-    extras: dict = field(default_factory=dict)
+    labels: np.ndarray | None = None
+    object_orders: dict[int, int] | None = None
 
 
-def measure(frames: np.ndarray, ps: PatternSet, rig, z_min: float, **options) -> Measurement:
-    """Decode one cycle with the plan's registered unwrapper and triangulate it.
+def measure(frames: np.ndarray, ps: PatternSet, rig: Rig, options: DecodeOptions) -> Measurement:
+    """Decode one cycle with the plan's decoding method and triangulate it.
 
     Parameters
     ----------
     frames : (F, H, W) uint8/uint16/float
         The cycle's frames in the order of ``ps``.
     ps : PatternSet
-        One direction; its plan's ``method`` selects the unwrapper (``"hybrid"``,
+        One direction; its plan's ``method`` selects the decoding method (``"hybrid"``,
         ``"two_frequency_geometric"``, ``"histogram"``...).
     rig : fringe3d.optics.Rig
-    z_min : float
-        Nearest depth of the measurement volume (mm), for the geometric constraint.
-    options
-        Passed to the unwrapper (e.g. ``erode``, ``min_modulation``).
+    options : DecodeOptions
+        ``z_min`` (nearest depth of the measurement volume, mm, for the geometric constraint)
+        and the method's options (e.g. ``erode``, ``min_modulation``; the latter defaults to
+        2 % of the frames' full scale).
     """
-    from fringe3d.phase.quality import default_min_modulation
-    from fringe3d.reconstruct.triangulate import Triangulator
-    from fringe3d.unwrap.registry import DecodeContext, get_unwrapper
-
     frames = np.asarray(frames)
     if frames.ndim != 3 or frames.shape[0] != len(ps):
         raise ValueError(f"expected {len(ps)} frames of shape (H, W) for pattern set {ps.name!r}, "
@@ -109,34 +113,18 @@ def measure(frames: np.ndarray, ps: PatternSet, rig, z_min: float, **options) ->
     if len(ps.plans) != 1:
         raise ValueError(f"measure() takes a one-direction pattern set, got {len(ps.plans)} plans")
     plan = ps.plans[0]
-    min_mod = options.pop("min_modulation", default_min_modulation(frames))
-    ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig,
-                        z_min=z_min, options=options, min_modulation=min_mod)
-    out = get_unwrapper(plan.method)(ctx)
-    phase, mask = out[0], out[1]
-    extras = dict(out[2]) if len(out) > 2 else {}
-    period = float(extras.get("period", min(plan.periods)))
+    min_mod = options.min_modulation
+    if min_mod is None:
+        min_mod = default_min_modulation(frames, options.bit_depth)
+    ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig, options=options,
+                        min_modulation=min_mod)
+    out = run_method(ctx)
+    period = float(min(plan.periods) if out.period is None else out.period)
     tri = Triangulator(rig, angle=plan.angle, warn_distortion=False)
-    points = tri.points_from_phase(np.where(mask, phase, np.nan), period, mask)
-    return Measurement(np.asarray(phase, np.float32), np.asarray(mask, bool), points, period, extras)
-
-
-def sphere_residuals(points: np.ndarray, mask: np.ndarray | None = None) -> tuple[float, float, np.ndarray]:
-    """Least-squares sphere through the valid points: ``(rms (mm), radius (mm), centre (3,))``.
-
-    Uses :func:`fringe3d.analyze.fits.fit_sphere` (the reconstruction helper's fit).
-    """
-    from fringe3d.analyze.fits import fit_sphere
-
-    P = np.asarray(points, np.float64)
-    ok = np.isfinite(P).all(axis=-1)
-    if mask is not None:
-        ok &= np.asarray(mask, bool)
-    if ok.sum() < 4:
-        raise ValueError(f"a sphere fit needs at least 4 valid points, got {int(ok.sum())}")
-    fit = fit_sphere(P, ok)
-    return float(fit.rms), float(fit.radius), np.asarray(fit.center, float)
+    points = tri.points_from_phase(np.where(out.mask, out.phase, np.nan), period, out.mask)
+    return Measurement(np.asarray(out.phase, np.float32), np.asarray(out.mask, bool), points, period,
+                       labels=out.labels, object_orders=out.object_orders)
 
 
 __all__ = ["HIGH_PERIOD", "LOW_PERIOD", "FRAME_RATE_HZ", "dissertation_sequence", "hybrid_view",
-           "measure", "Measurement", "sphere_residuals"]
+           "measure", "Measurement"]

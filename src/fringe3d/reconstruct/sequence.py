@@ -23,11 +23,21 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.utils.console import progress_bar
+from fringe3d.decode.context import phase_groups
+from fringe3d.decode.decoder import decode
+from fringe3d.decode.options import DecodeOptions
+from fringe3d.io.capture import list_frame_files
+from fringe3d.io.images import read_image
+from fringe3d.io.pointcloud import write_ply
+from fringe3d.io.store import PointMapStore
+from fringe3d.optics.rays import camera_shape, fringe_coordinate
+from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
-
-from .depth import points_from_decoded
-from .triangulate import FastThreeStep, Triangulator
+from fringe3d.phase.quality import default_min_modulation, full_scale
+from fringe3d.reconstruct.depth import points_from_decoded
+from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator
+from fringe3d.unwrap.geometric import cached_minimum_phase, check_wrap_around
+from fringe3d.utils.console import progress_bar
 
 STORE_NAME = "points.zarr"
 PLY_DIR = "ply"
@@ -42,7 +52,6 @@ METHOD_NEEDS = {
 
 # ----------------------------------------------------------------------------- plans
 def _group_periods(ps: PatternSet, direction: str) -> list[float]:
-    from fringe3d.unwrap.registry import phase_groups
     return [g.period for g in phase_groups(ps, direction)]
 
 
@@ -64,6 +73,7 @@ def plan_for_method(ps: PatternSet, direction: str, method: str) -> DirectionPla
     if code and not ps.indices(kind=code, direction=direction):
         raise ValueError(f"method {method!r} needs {code} frames for direction {direction!r}, but the manifest "
                          f"({label}) has none; choose a method the pattern set can feed")
+    chosen: tuple[float, ...]
     if method in ("two_frequency_geometric", "hybrid"):
         chosen = (periods[0], periods[-1])
     elif method in ("hierarchical", "heterodyne"):
@@ -124,13 +134,13 @@ class FrameReconstructor:
     modulation only; saturation is not checked on that path).
     """
 
-    def __init__(self, patterns: PatternSet, rig, z_min: float | None = None, triangulation: str = "auto",
-                 fast: bool = True, **decode_opts):
+    def __init__(self, patterns: PatternSet, rig: Rig, options: DecodeOptions | None = None,
+                 triangulation: str = "auto", fast: bool = True):
         self.patterns = patterns
         self.rig = rig
-        self.z_min = z_min
+        self.options = options or DecodeOptions()
+        self.z_min = self.options.z_min
         self.triangulation = triangulation
-        self.opts = decode_opts
         self._range_checked = False
         self.fast = self._fast_path() if fast else None
 
@@ -145,45 +155,41 @@ class FrameReconstructor:
             return None
         if self.rig.projector.dist.any():
             return None
-        from fringe3d.unwrap.registry import phase_groups
         groups = phase_groups(ps, plans[0].direction)
         if len(groups) != 1 or len(groups[0].indices) != 3 or len(ps) != 3:
             return None
         g = groups[0]
-        from fringe3d.unwrap.geometric import cached_minimum_phase
         mp = cached_minimum_phase(self.rig, self.z_min, g.period, g.angle)
         self._fast_index = np.asarray(g.indices, np.int64)
-        self._fast_min_mod = self.opts.get("min_modulation")
+        self._fast_min_mod = self.options.min_modulation
         return FastThreeStep(Triangulator(self.rig, g.angle, warn_distortion=False), mp, g.shifts,
                              min_modulation=0.0)
 
     def __call__(self, frames: np.ndarray, with_texture: bool = False):
         """Points ``(H, W, 3)`` float32 (and the texture ``(H, W)`` float32 in [0, 1] if asked)."""
-        from fringe3d.phase.quality import default_min_modulation, full_scale
+        bit_depth = self.options.bit_depth
         if self.fast is not None:
             mm = self._fast_min_mod
-            self.fast.min_mod2 = (default_min_modulation(frames, self.opts.get("bit_depth")) if mm is None else mm) ** 2
+            self.fast.min_mod2 = (default_min_modulation(frames, bit_depth) if mm is None else mm) ** 2
             pts = self.fast.points(frames, index=self._fast_index)
             valid = np.isfinite(pts[..., 0])
             if not valid.any():
                 raise ValueError("the decoded phase mask is empty: no pixel has enough fringe modulation "
                                  "(check exposure, modulation threshold and that the scene is lit by the projector)")
             if not self._range_checked:  # once: the depth-range warning the decode path gives
-                from fringe3d.unwrap.geometric import check_wrap_around, fringe_coordinate
                 mp = self.fast.mp
                 w = fringe_coordinate(self.rig, np.where(valid[..., None], pts, 0.0).astype(np.float64), mp.angle)
                 check_wrap_around(np.where(valid, w * (2 * math.pi / mp.period), np.nan), mp, valid)
                 self._range_checked = True
             if not with_texture:
                 return pts
-            tex = frames[self._fast_index].mean(axis=0, dtype=np.float32) / full_scale(frames, self.opts.get("bit_depth"))
+            tex = frames[self._fast_index].mean(axis=0, dtype=np.float32) / full_scale(frames, bit_depth)
             return pts, np.clip(tex, 0, 1).astype(np.float32)
-        from fringe3d.decode import decode
-        dec = decode(frames, self.patterns, rig=self.rig, z_min=self.z_min, **self.opts)
+        dec = decode(frames, self.patterns, rig=self.rig, options=self.options)
         pts = points_from_decoded(dec, self.rig, method=self.triangulation)
         if not with_texture:
             return pts
-        tex = np.asarray(dec.texture, np.float32) / full_scale(frames, self.opts.get("bit_depth"))
+        tex = np.asarray(dec.texture, np.float32) / full_scale(frames, bit_depth)
         return pts, np.clip(np.nan_to_num(tex), 0, 1).astype(np.float32)
 
 
@@ -196,8 +202,6 @@ class CaptureFrames:
     """
 
     def __init__(self, folder, limit: int | None = None):
-        from fringe3d.io.capture import list_frame_files
-        from fringe3d.io.images import read_image
         self._read = read_image
         self.files = list_frame_files(folder)[:limit]
         if not self.files:
@@ -227,17 +231,19 @@ def ply_name(k: int) -> str:
     return f"frame_{k:05d}.ply"
 
 
-def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig, out, z_min: float | None = None,
-                         mode: str = "cycle", step: int | None = None, ply: bool = False, store: bool = True,
-                         progress: bool = True, triangulation: str = "auto", fast: bool = True,
-                         **decode_opts) -> dict:
+def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out,
+                         options: DecodeOptions | None = None, mode: str = "cycle", step: int | None = None,
+                         ply: bool = False, store: bool = True, progress: bool = True, triangulation: str = "auto",
+                         fast: bool = True) -> dict:
     """Reconstruct every 3D frame of a sequence into ``out`` (resumable).
 
     Parameters
     ----------
     frames : (F, H, W) array (or a memory map, or :class:`CaptureFrames`), in projection order
     patterns : the manifest (its plans choose the unwrapping; see :func:`with_method`)
-    rig : the calibrated rig; z_min : mm, for geometric-constraint methods
+    rig : the calibrated rig
+    options : :class:`fringe3d.decode.DecodeOptions` (``z_min`` in mm for geometric-constraint
+        methods, ``bit_depth``, ``min_modulation``, ...)
     out : output folder: ``points.zarr`` and/or ``ply/frame_00000.ply`` ...
     mode, step : ``"cycle"`` or ``"window"`` (one 3D frame every ``step`` captured frames)
     ply, store : which outputs to write (at least one)
@@ -251,9 +257,12 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig, out, z_m
     if len(frames.shape) != 3:
         raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
     H, W = frames.shape[1:]
-    if (rig.camera.height, rig.camera.width) != (H, W):
-        raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is {rig.camera.width}x"
-                         f"{rig.camera.height}: calibration and capture sizes disagree")
+    ch, cw = camera_shape(rig)
+    if (ch, cw) != (H, W):
+        raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is {cw}x"
+                         f"{ch}: calibration and capture sizes disagree")
+    options = options or DecodeOptions()
+    z_min = options.z_min
     n = len(patterns)
     starts = window_starts(frames.shape[0], n, mode, step)
     out = Path(out)
@@ -262,7 +271,6 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig, out, z_m
             "window_starts": [starts[0], starts[-1], len(starts)]}
     st = None
     if store:
-        from fringe3d.io.store import PointMapStore
         st = PointMapStore.open(out / STORE_NAME, len(starts), H, W, meta=meta)
     if ply:
         (out / PLY_DIR).mkdir(exist_ok=True)
@@ -271,7 +279,7 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig, out, z_m
         return (st is None or st.is_done(k)) and (not ply or (out / PLY_DIR / ply_name(k)).exists())
 
     todo = [k for k in range(len(starts)) if not done(k)]
-    rec = FrameReconstructor(patterns, rig, z_min, triangulation=triangulation, fast=fast, **decode_opts)
+    rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, fast=fast)
     t0 = time.perf_counter()
     empty = 0
     with progress_bar("reconstructing 3D frames", len(todo), enabled=progress and len(todo) > 1) as advance:
@@ -285,7 +293,6 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig, out, z_m
                 pts, tex = np.full((H, W, 3), np.nan, np.float32), None
                 empty += 1
             if ply and np.isfinite(pts[..., 0]).any():
-                from fringe3d.io.pointcloud import write_ply
                 write_ply(out / PLY_DIR / ply_name(k), pts, colors=tex)
             if st is not None:
                 st.write(k, pts)

@@ -15,11 +15,20 @@ between the pixel-wise orders and a spatially unwrapped map).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from fringe3d.utils.console import warn
+from fringe3d.optics.rays import camera_shape
+from fringe3d.optics.rig import Rig
+from fringe3d.reconstruct.triangulate import Triangulator
+from fringe3d.unwrap.geometric import check_wrap_around, fringe_order, minimum_phase
+from fringe3d.unwrap.histogram import fringe_order_difference, mode_of_orders
+from fringe3d.unwrap.hybrid import carrier_from_minimum_phase, ftp_group_phase
+from fringe3d.unwrap.segmentation import foreground_mask, segment_objects
+from fringe3d.unwrap.spatial import unwrap_objects
+from fringe3d.utils.warning_types import DepthRangeWarning
 
 TWO_PI = 2.0 * math.pi
 METHODS = ("ftp", "modified_ftp")
@@ -58,7 +67,7 @@ class SingleShotResult:
     range_check: dict = field(default_factory=dict)
 
 
-def single_shot(images, rig, period: float, z_min: float, method: str = "ftp", window: str = "hanning",
+def single_shot(images, rig: Rig, period: float, z_min: float, method: str = "ftp", window: str = "hanning",
                 angle: float = math.pi / 2, shifts=(0.0, math.pi), mask: np.ndarray | None = None,
                 min_ratio: float = 0.15, erode: int = 0, warn_share: float = 1e-3) -> SingleShotResult:
     """Absolute 3D from one fringe image (FTP) or a π-shifted pair (modified FTP), ch. 4.
@@ -89,11 +98,6 @@ def single_shot(images, rig, period: float, z_min: float, method: str = "ftp", w
     -------
     :class:`SingleShotResult`
     """
-    from fringe3d.reconstruct.triangulate import Triangulator
-    from fringe3d.unwrap.geometric import check_wrap_around, fringe_order, minimum_phase
-    from fringe3d.unwrap.hybrid import carrier_from_minimum_phase, ftp_group_phase
-    from fringe3d.unwrap.segmentation import foreground_mask, segment_objects
-
     if method not in METHODS:
         raise ValueError(f"unknown single-shot method {method!r}; expected one of {METHODS}")
     imgs = np.asarray(images)
@@ -103,10 +107,10 @@ def single_shot(images, rig, period: float, z_min: float, method: str = "ftp", w
     if imgs.ndim != 3 or imgs.shape[0] != need:
         raise ValueError(f"method {method!r} needs {need} image(s) of shape (H, W), got an array of shape "
                          f"{np.asarray(images).shape}")
-    cam = rig.camera
-    if imgs.shape[1:] != (cam.height, cam.width):
+    ch, cw = camera_shape(rig)
+    if imgs.shape[1:] != (ch, cw):
         raise ValueError(f"the images are {imgs.shape[2]}x{imgs.shape[1]} pixels but the rig's camera is "
-                         f"{cam.width}x{cam.height}: calibration and capture sizes disagree")
+                         f"{cw}x{ch}: calibration and capture sizes disagree")
     mp = minimum_phase(rig, z_min, period, angle)
     carrier = carrier_from_minimum_phase(mp.phi_min)
     pr = ftp_group_phase(imgs, list(shifts)[:need], carrier, window)
@@ -128,9 +132,10 @@ def single_shot(images, rig, period: float, z_min: float, method: str = "ftp", w
     warned = wrap_pairs >= 20
     if disagreement > warn_share:
         warned = True
-        warn(f"{100 * disagreement:.2f}% of the object pixels get a fringe order that disagrees with the rest of "
-             f"their object: parts of the scene lie more than one fringe period (T = {period:g} px) beyond "
-             f"z_min = {z_min:g} mm, the geometric constraint's depth range (ch. 4.4)")
+        warnings.warn(f"{100 * disagreement:.2f}% of the object pixels get a fringe order that disagrees with the "
+                      f"rest of their object: parts of the scene lie more than one fringe period (T = {period:g} px) "
+                      f"beyond z_min = {z_min:g} mm, the geometric constraint's depth range (ch. 4.4)",
+                      DepthRangeWarning, stacklevel=2)
     tri = Triangulator(rig, angle=angle, warn_distortion=False)
     points = tri.points_from_phase(np.where(valid, phase, np.nan), period, valid)
     return SingleShotResult(phase=phase, wrapped=pr.phase, order=k, mask=valid, points=points,
@@ -148,9 +153,6 @@ def order_disagreement(wrapped: np.ndarray, phase: np.ndarray, mask: np.ndarray)
     are where the geometric constraint broke (depth range exceeded) or where the spatial map has a
     genuine discontinuity.
     """
-    from fringe3d.unwrap.histogram import fringe_order_difference, mode_of_orders
-    from fringe3d.unwrap.spatial import unwrap_objects
-
     phi_r, labels = unwrap_objects(np.where(mask, wrapped, np.nan), mask, min_size=64)
     k = fringe_order_difference(phi_r, phase)
     votes = mode_of_orders(k, labels)

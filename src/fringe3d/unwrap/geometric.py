@@ -20,13 +20,15 @@ Telecentric rigs (world = projector frame) use ``z`` of the projector frame.
 from __future__ import annotations
 
 import math
+import warnings
 import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
-from fringe3d.utils.console import warn
-from fringe3d.reconstruct.triangulate import Triangulator, check_map, projector_row
+from fringe3d.optics.rays import RayGeometry, check_map, fringe_coordinate
+from fringe3d.optics.rig import Rig
+from fringe3d.utils.warning_types import DepthRangeWarning
 
 TWO_PI = 2.0 * math.pi
 
@@ -62,21 +64,7 @@ class MinimumPhase:
         return self.phi_min.shape
 
 
-def fringe_coordinate(rig, X: np.ndarray, angle: float, distortion: bool = True) -> np.ndarray:
-    """Projector fringe coordinate ``w`` (pixels) of world points ``X (..., 3)`` (Eq. 4.18).
-
-    With ``distortion`` the projector's lens distortion is applied (``Projector.project``);
-    otherwise the linear model ``w = Q.X~ / P3.X~``.
-    """
-    proj = rig.projector
-    if distortion and proj.dist.any():
-        uv = proj.project(X)
-        return uv[..., 1] * math.cos(angle) + uv[..., 0] * math.sin(angle)
-    Xh = np.concatenate([X, np.ones(X.shape[:-1] + (1,))], axis=-1)
-    return (Xh @ projector_row(proj.P, angle)) / (Xh @ proj.P[2])
-
-
-def minimum_phase(rig, z_min: float, period: float, angle: float = math.pi / 2) -> MinimumPhase:
+def minimum_phase(rig: Rig, z_min: float, period: float, angle: float = math.pi / 2) -> MinimumPhase:
     """Minimum phase map ``Phi_min`` for every camera pixel, Eq. (4.14)-(4.19).
 
     Parameters
@@ -100,7 +88,7 @@ def minimum_phase(rig, z_min: float, period: float, angle: float = math.pi / 2) 
     z_min = float(z_min)
     if not math.isfinite(z_min):
         raise ValueError(f"z_min must be a finite depth in mm, got {z_min}")
-    tri = Triangulator(rig, angle=angle, warn_distortion=False)
+    tri = RayGeometry(rig, angle)
     X0 = tri.ray_points_at_z(z_min)
     if not np.isfinite(X0[..., 0]).any():
         raise ValueError(f"z_min = {z_min:g} mm lies behind (or at) the camera: no camera ray reaches the "
@@ -161,7 +149,7 @@ def depth_limit(rig, mp: MinimumPhase) -> np.ndarray:
     ``|Phi - Phi_min|`` reaches 2*pi, one fringe period beyond ``z_min`` (ch. 4.4).
     Computed with the linear projector model; +inf where a whole period lies beyond the ray's
     vanishing point (unlimited range), NaN where undefined."""
-    tri = Triangulator(rig, angle=mp.angle, warn_distortion=False)
+    tri = RayGeometry(rig, mp.angle)
     w_lim = (mp.phi_min.astype(np.float64) / TWO_PI + mp.sign) * mp.period
     w_lim[mp.sign == 0] = np.nan
     z = tri.points(w_lim)[..., 2]
@@ -185,10 +173,11 @@ def check_depth_range(rig, mp: MinimumPhase, z_max: float | np.ndarray, mask=Non
            "limit_min": float(np.min(lim[sel])) if sel.any() else float("nan"),
            "limit_median": float(np.median(lim[sel])) if sel.any() else float("nan")}
     if not out["ok"]:
-        warn(f"the scene reaches beyond the geometric constraint's depth range at {100 * share:.2f}% of the "
-             f"pixels: with z_min = {mp.z_min:g} mm and period {mp.period:g} px the range ends at "
-             f"z = {out['limit_min']:.1f} mm (nearest) .. {out['limit_median']:.1f} mm (median); "
-             "those pixels get the wrong fringe order (ch. 4.4). Raise z_min or use a longer period.")
+        warnings.warn(f"the scene reaches beyond the geometric constraint's depth range at {100 * share:.2f}% of the "
+                      f"pixels: with z_min = {mp.z_min:g} mm and period {mp.period:g} px the range ends at "
+                      f"z = {out['limit_min']:.1f} mm (nearest) .. {out['limit_median']:.1f} mm (median); "
+                      "those pixels get the wrong fringe order (ch. 4.4). Raise z_min or use a longer period.",
+                      DepthRangeWarning, stacklevel=2)
     return out
 
 
@@ -207,10 +196,11 @@ def check_wrap_around(Phi: np.ndarray, mp: MinimumPhase, mask=None, min_pairs: i
     with np.errstate(invalid="ignore"):
         n = int(np.sum(np.abs(np.diff(r, axis=0)) > 1.5 * math.pi) + np.sum(np.abs(np.diff(r, axis=1)) > 1.5 * math.pi))
     if n >= min_pairs:
-        warn(f"the geometric-constraint unwrapped phase jumps by about 2*pi relative to Phi_min at {n} "
-             f"neighbouring pixel pairs: the scene probably extends beyond one fringe period from "
-             f"z_min = {mp.z_min:g} mm (the depth-range limit, ch. 4.4). Lower z_min only if it is not "
-             "already the nearest depth; otherwise use a longer period or a temporal method.")
+        warnings.warn(f"the geometric-constraint unwrapped phase jumps by about 2*pi relative to Phi_min at {n} "
+                      f"neighbouring pixel pairs: the scene probably extends beyond one fringe period from "
+                      f"z_min = {mp.z_min:g} mm (the depth-range limit, ch. 4.4). Lower z_min only if it is not "
+                      "already the nearest depth; otherwise use a longer period or a temporal method.",
+                      DepthRangeWarning, stacklevel=2)
     return n
 
 
@@ -238,7 +228,6 @@ def propose_z_min(reference, margin: float = 5.0, percentile: float = 0.0) -> fl
     return zmin - float(margin)
 
 
-# ----------------------------------------------------------------------------- decoder hooks
 _MP_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # rig -> {(z_min, T, angle): MinimumPhase}
 
 
@@ -250,67 +239,3 @@ def cached_minimum_phase(rig, z_min: float, period: float, angle: float) -> Mini
     if key not in per_rig:
         per_rig[key] = minimum_phase(rig, z_min, period, angle)
     return per_rig[key]
-
-
-def _context_geometry(ctx, method: str):
-    """(rig, z_min) for a geometric unwrapper, with clear errors when the decoder lacks them."""
-    if ctx.rig is None:
-        raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs the calibrated rig "
-                         "(pass rig=... to decode, or --calibration on the command line)")
-    z_min = ctx.z_min if ctx.z_min is not None else ctx.plan.options.get("z_min")
-    if z_min is None:
-        raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs z_min, the nearest depth of the "
-                         "measurement volume in mm (pass z_min=... / --z-min, or set it in the plan's options)")
-    H, W = ctx.frames.shape[1:]
-    if (ctx.rig.camera.height, ctx.rig.camera.width) != (H, W):
-        raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is "
-                         f"{ctx.rig.camera.width}x{ctx.rig.camera.height}: calibration and capture sizes disagree")
-    return ctx.rig, float(z_min)
-
-
-def _warn_range(ctx, rig, mp, mask) -> None:
-    z_max = ctx.plan.options.get("z_max", ctx.options.get("z_max"))
-    if z_max is not None:
-        check_depth_range(rig, mp, float(z_max), mask)
-
-
-def _register() -> None:
-    from fringe3d.unwrap.registry import register
-
-    @register("geometric")
-    def unwrap_geometric(ctx):
-        """Plan ``method="geometric"``: the plan's (single) period unwrapped by Eq. (4.21)."""
-        rig, z_min = _context_geometry(ctx, "geometric")
-        groups = ctx.groups_for_plan()
-        if len(groups) != 1:
-            raise ValueError(f"direction {ctx.direction!r}: method 'geometric' unwraps one phase group, the plan "
-                             f"names periods {[g.period for g in groups]}")
-        g = groups[0]
-        mp = cached_minimum_phase(rig, z_min, g.period, g.angle)
-        Phi, mask = geometric_unwrap(ctx.group_phase(g).phase, mp, ctx.group_mask(g))
-        _warn_range(ctx, rig, mp, mask)
-        return Phi, mask
-
-    @register("two_frequency_geometric")
-    def unwrap_two_frequency_geometric(ctx):
-        """Plan ``method="two_frequency_geometric"``, periods ``(T_high, T_low)`` (ch. 5.3): the
-        low-frequency phase is unwrapped by the geometric constraint, then unwraps the high one
-        hierarchically, ``k = round((T_l/T_h * Phi_l - phi_h)/2pi)`` (Eq. 1.5)."""
-        rig, z_min = _context_geometry(ctx, "two_frequency_geometric")
-        groups = ctx.groups_for_plan()
-        if len(groups) != 2:
-            raise ValueError(f"direction {ctx.direction!r}: method 'two_frequency_geometric' needs two phase groups "
-                             f"(high, low frequency), the plan names periods {[g.period for g in groups]}")
-        hi, lo = sorted(groups, key=lambda g: g.period)
-        mp = cached_minimum_phase(rig, z_min, lo.period, lo.angle)
-        Phi_l, mask_l = geometric_unwrap(ctx.group_phase(lo).phase, mp, ctx.group_mask(lo))
-        _warn_range(ctx, rig, mp, mask_l)
-        phi_h = ctx.group_phase(hi).phase.astype(np.float64)
-        k = np.round((Phi_l * (lo.period / hi.period) - phi_h) / TWO_PI)
-        Phi = (phi_h + TWO_PI * k).astype(np.float32)
-        mask = mask_l & ctx.group_mask(hi) & np.isfinite(Phi)
-        Phi[~mask] = np.nan
-        return Phi, mask
-
-
-_register()

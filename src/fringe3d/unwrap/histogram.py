@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fringe3d.unwrap.geometric import MinimumPhase, fringe_order
+
 TWO_PI = 2.0 * np.pi
 
 
@@ -140,7 +142,8 @@ def histogram_unwrap(phi_r: np.ndarray, labels: np.ndarray, phi_ref: np.ndarray,
     return apply_order_shift(phi_r, labels, votes), votes
 
 
-def minimum_phase_orders(phi_r: np.ndarray, labels: np.ndarray, mp, min_votes: int = 1):
+def minimum_phase_orders(phi_r: np.ndarray, labels: np.ndarray, mp: MinimumPhase,
+                         min_votes: int = 1) -> tuple[np.ndarray, dict[int, OrderVote]]:
     """``k_s`` per object from the minimum phase map alone (single-group histogram unwrapping).
 
     Each pixel's geometric-constraint order ``k_e = ceil[(Φ_min − Φ_r)/2π]`` (Eq. 4.21; ``floor``
@@ -150,46 +153,6 @@ def minimum_phase_orders(phi_r: np.ndarray, labels: np.ndarray, mp, min_votes: i
 
     Returns ``(phi_a (H, W) float32, votes)``.
     """
-    from .geometric import fringe_order
-
     k_e = fringe_order(np.asarray(phi_r, np.float64), mp).astype(np.float64)
     votes = mode_of_orders(k_e, labels, min_votes=min_votes)
     return apply_order_shift(phi_r, labels, votes), votes
-
-
-def _register() -> None:
-    from .registry import register
-
-    @register("histogram")
-    def unwrap_histogram(ctx):
-        """Plan ``method="histogram"`` (ch. 6): periods ``(T,)`` or ``(T, T_ref)``. The narrowest
-        group (FTP, modified FTP or phase shifting) is unwrapped spatially per object; each
-        object is shifted by the mode of its fringe-order difference to ``Φ_ref`` (the
-        ``T_ref`` group unwrapped by the geometric constraint) or, with one group, to ``Φ_min``.
-        Needs the rig and ``z_min``. Options: ``erode``, ``min_size``, ``min_ratio``."""
-        from .geometric import _context_geometry, cached_minimum_phase, geometric_unwrap
-        from .segmentation import foreground_mask
-        from .spatial import unwrap_group_per_object
-
-        rig, z_min = _context_geometry(ctx, "histogram")
-        groups = sorted(ctx.groups_for_plan(), key=lambda g: g.period)
-        if len(groups) not in (1, 2):
-            raise ValueError(f"direction {ctx.direction!r}: method 'histogram' takes one or two phase groups, "
-                             f"the plan names periods {[g.period for g in groups]}")
-        opts = {**ctx.plan.options, **ctx.options}
-        hi = groups[0]
-        mp_hi = cached_minimum_phase(rig, z_min, hi.period, hi.angle)
-        phi_r, labels, pr = unwrap_group_per_object(ctx, hi, mp_hi.phi_min, opts, min_size=200, erode=2)
-        if len(groups) == 2:
-            lo = groups[1]
-            mp_lo = cached_minimum_phase(rig, z_min, lo.period, lo.angle)
-            prl = ctx.group_phase(lo)
-            fg_l = foreground_mask(prl.average, prl.modulation, float(opts.get("min_ratio", 0.15)))
-            phi_ref, _ = geometric_unwrap(prl.phase, mp_lo, fg_l & ctx.group_mask(lo), check=False)
-            phi_a, votes = histogram_unwrap(phi_r, labels, phi_ref, scale=lo.period / hi.period)
-        else:
-            phi_a, votes = minimum_phase_orders(phi_r, labels, mp_hi)
-        return phi_a, np.isfinite(phi_a), {"wrapped": pr.phase, "modulation": pr.modulation, "period": hi.period}
-
-
-_register()

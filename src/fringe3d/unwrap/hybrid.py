@@ -13,8 +13,9 @@ objects move.
    (Eq. 5.13), ``k_s = mode(k_e)`` (Eq. 5.14), ``Φ_a = Φ_r + 2π·k_s`` (Eq. 5.15).
 
 :func:`hybrid_phase` does step 3 from phase maps (testable in closed form);
-:mod:`fringe3d.reconstruct.motion` runs the whole chain from frames, and the decoder reaches
-it through the ``"hybrid"`` unwrapper registered at the bottom of this module.
+:func:`hybrid_unwrap` the whole chain from wrapped phases; the decoder reaches it through the
+``"hybrid"`` method (:func:`fringe3d.decode.methods.hybrid.unwrap_hybrid`) and
+:mod:`fringe3d.reconstruct.motion` measures one cycle with it.
 """
 from __future__ import annotations
 
@@ -22,9 +23,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .histogram import OrderVote, apply_order_shift, fringe_order_difference, mode_of_orders
-from .segmentation import foreground_mask, match_objects, segment_objects, shift_image
-from .spatial import unwrap_objects
+from fringe3d.phase import ftp
+from fringe3d.phase.psp import PhaseResult
+from fringe3d.unwrap.geometric import MinimumPhase, geometric_unwrap
+from fringe3d.unwrap.histogram import OrderVote, apply_order_shift, fringe_order_difference, mode_of_orders
+from fringe3d.unwrap.segmentation import foreground_mask, match_objects, segment_objects, shift_image
+from fringe3d.unwrap.spatial import unwrap_objects
 
 TWO_PI = 2.0 * np.pi
 
@@ -158,7 +162,8 @@ def carrier_from_minimum_phase(phi_min: np.ndarray, scale: float = 1.0) -> tuple
     return (float(np.median(gv[ok])) * scale / TWO_PI, float(np.median(gu[ok])) * scale / TWO_PI)
 
 
-def ftp_group_phase(images, shifts, carrier, window: str = "hanning"):
+def ftp_group_phase(images: np.ndarray, shifts, carrier: tuple[float, float],
+                    window: str = "hanning") -> PhaseResult:
     """FTP (one frame, Eq. 4.1–4.4) or modified FTP (π-shifted pair, Eq. 4.5–4.7) on a given
     carrier; returns a ``PhaseResult`` whose wrapped phase is ``Φ`` (frame shift removed).
 
@@ -169,9 +174,6 @@ def ftp_group_phase(images, shifts, carrier, window: str = "hanning"):
     carrier : (f_v, f_u) cycles/pixel, e.g. :func:`carrier_from_minimum_phase`
     window : ``"hanning"`` or ``"circular"`` (smoothed circular), see ``fringe3d.phase.ftp``
     """
-    from fringe3d.phase import ftp
-    from fringe3d.phase.psp import PhaseResult
-
     imgs = np.asarray(images, np.float64)
     if imgs.ndim != 3 or imgs.shape[0] not in (1, 2):
         raise ValueError(f"FTP takes one frame or a pi-shifted pair, got an array of shape {imgs.shape}")
@@ -185,7 +187,8 @@ def ftp_group_phase(images, shifts, carrier, window: str = "hanning"):
     return PhaseResult(phase.astype(np.float32), np.asarray(avg, np.float32), np.asarray(mod, np.float32))
 
 
-def hybrid_unwrap(high, low, mp_low, period: float, period_low: float, *, erode: int = 2,
+def hybrid_unwrap(high: PhaseResult, low: PhaseResult, mp_low: MinimumPhase, period: float, period_low: float, *,
+                  erode: int = 2,
                   min_size: int = 200, min_ratio: float = 0.15, max_shift: float | None = None,
                   cross_motion: bool = False, seed: int | None = 0, valid_high: np.ndarray | None = None,
                   valid_low: np.ndarray | None = None) -> HybridResult:
@@ -220,8 +223,6 @@ def hybrid_unwrap(high, low, mp_low, period: float, period_low: float, *, erode:
     -------
     :class:`HybridResult` with ``coarse`` = ``Φ_e`` and ``labels_low``.
     """
-    from .geometric import geometric_unwrap
-
     fg_h = foreground_mask(high.average, high.modulation, min_ratio)
     if valid_high is not None:
         fg_h &= np.asarray(valid_high, bool)
@@ -237,52 +238,3 @@ def hybrid_unwrap(high, low, mp_low, period: float, period_low: float, *, erode:
     res.coarse = phi_e
     res.labels_low = labels_e
     return res
-
-
-def not_saturated(ctx, indices) -> np.ndarray:
-    """(H, W) bool: no frame of ``indices`` reaches the sensor's saturation level."""
-    from fringe3d.phase.quality import saturation_level
-
-    level = saturation_level(ctx.frames, ctx.bit_depth)
-    if not np.isfinite(level):
-        return np.ones(ctx.frames.shape[1:], bool)
-    return ~(ctx.frames[list(indices)] >= level).any(axis=0)
-
-
-def _register() -> None:
-    from .registry import register
-
-    @register("hybrid")
-    def unwrap_hybrid(ctx):
-        """Plan ``method="hybrid"``, periods ``(T, T_l)``: a 1-frame FTP group of period ``T`` and
-        a 3-step group of period ``T_l`` (ch. 5.2.5). Options (plan or decoder): ``ftp_window``, ``erode``,
-        ``min_size``, ``min_ratio``, ``max_shift``, ``cross_motion``. Returns ``Φ_a`` and extras
-        ``{"wrapped", "modulation", "period", "labels", "k_s"}``."""
-        from .geometric import _context_geometry, cached_minimum_phase
-
-        rig, z_min = _context_geometry(ctx, "hybrid")
-        groups = ctx.groups_for_plan()
-        if len(groups) != 2:
-            raise ValueError(f"direction {ctx.direction!r}: method 'hybrid' needs two phase groups (one FTP frame "
-                             f"of the high frequency, 3 phase-shifted low-frequency frames); the plan names "
-                             f"periods {[g.period for g in groups]}")
-        hi, lo = sorted(groups, key=lambda g: g.period)
-        if len(hi.indices) != 1 or len(lo.indices) < 3:
-            raise ValueError(f"direction {ctx.direction!r}: method 'hybrid' needs 1 high-frequency frame and >= 3 "
-                             f"low-frequency frames, the manifest has {len(hi.indices)} and {len(lo.indices)}")
-        opts = {**ctx.plan.options, **ctx.options}
-        mp = cached_minimum_phase(rig, z_min, lo.period, lo.angle)
-        carrier = carrier_from_minimum_phase(mp.phi_min, lo.period / hi.period)
-        high = ftp_group_phase(ctx.frames[list(hi.indices)], hi.shifts, carrier,
-                               window=str(opts.get("ftp_window", "hanning")))
-        res = hybrid_unwrap(high, ctx.group_phase(lo), mp, hi.period, lo.period,
-                            erode=int(opts.get("erode", 2)), min_size=int(opts.get("min_size", 200)),
-                            min_ratio=float(opts.get("min_ratio", 0.15)), max_shift=opts.get("max_shift"),
-                            cross_motion=bool(opts.get("cross_motion", False)),
-                            valid_high=not_saturated(ctx, hi.indices), valid_low=ctx.group_mask(lo))
-        mask = np.isfinite(res.phase)
-        return res.phase, mask, {"wrapped": high.phase, "modulation": high.modulation, "period": hi.period,
-                                 "labels": res.labels, "k_s": {l: v.k_s for l, v in res.votes.items()}}
-
-
-_register()

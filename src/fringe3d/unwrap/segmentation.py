@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 from scipy.optimize import linear_sum_assignment
+from skimage.filters import threshold_otsu
 from skimage.measure import label as _sk_label
 
 
@@ -48,7 +49,6 @@ def foreground_mask(average: np.ndarray, modulation: np.ndarray | None = None,
     -------
     (H, W) bool
     """
-    from skimage.filters import threshold_otsu
 
     average = np.asarray(average, np.float64)
     if average.ndim != 2:

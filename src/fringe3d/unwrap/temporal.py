@@ -2,7 +2,7 @@
 
 All methods produce ``Phi = phi + 2 pi k`` (Eq. 1.5) pixel by pixel, from the wrapped phase
 of the narrowest period and extra frames; fused numba kernels in
-:mod:`fringe3d.phase.kernels`, plain-NumPy references here (``*_reference``).
+:mod:`fringe3d.phase._kernels` (plain-NumPy references in the tests).
 
 Conventions: wrapped phases in (-pi, pi]; absolute phase ``Phi = 2 pi w / T`` with ``w`` the
 projector fringe coordinate (manifest). The coarsest (or final beat) phase is taken as
@@ -23,19 +23,17 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from fringe3d.phase import _kernels as kernels
+from fringe3d.phase.psp import lsq_coefficients
+from fringe3d.utils.warning_types import UnwrapRangeWarning
 
 TWO_PI = 2.0 * math.pi
 
 
-class Unwrapped(NamedTuple):
+class OrderedPhase(NamedTuple):
     """Absolute phase (H, W) float32 rad and fringe order (H, W) int32 of the narrowest period."""
 
     phase: np.ndarray
     order: np.ndarray
-
-
-class UnwrapRangeWarning(UserWarning):
-    """The coarsest (equivalent) period is shorter than the projector's coordinate range."""
 
 
 def fringe_extent(width: int, height: int, angle: float) -> tuple[float, float]:
@@ -64,7 +62,8 @@ def coarse_window(period: float, w_range: tuple[float, float] | None) -> float:
     return TWO_PI * (w0 - 0.5 * (period - span)) / period
 
 
-def _stack(phases: Sequence[np.ndarray]) -> np.ndarray:
+def stack_phases(phases: Sequence[np.ndarray]) -> np.ndarray:
+    """(M, H, W) float32 stack of M wrapped phases of one (H, W) shape, or a clear ValueError."""
     shapes = {np.shape(p) for p in phases}
     if len(shapes) != 1:
         raise ValueError(f"wrapped phases have different shapes {sorted(shapes)}; expected one (H, W) shape")
@@ -74,7 +73,8 @@ def _stack(phases: Sequence[np.ndarray]) -> np.ndarray:
     return st
 
 
-def _periods(periods: Sequence[float], n: int, minimum: int) -> np.ndarray:
+def check_periods(periods: Sequence[float], n: int, minimum: int) -> np.ndarray:
+    """(n,) float64 periods (px) for ``n`` wrapped phases (at least ``minimum``), all positive."""
     p = np.asarray(periods, dtype=np.float64)
     if p.size != n:
         raise ValueError(f"got {p.size} periods for {n} wrapped phases; expected one period per phase")
@@ -87,7 +87,7 @@ def _periods(periods: Sequence[float], n: int, minimum: int) -> np.ndarray:
 
 # -- hierarchical -------------------------------------------------------------------------
 def hierarchical(phases: Sequence[np.ndarray], periods: Sequence[float],
-                 w_range: tuple[float, float] | None = None) -> Unwrapped:
+                 w_range: tuple[float, float] | None = None) -> OrderedPhase:
     """Hierarchical multi-frequency unwrapping: each coarser absolute phase unwraps the next
     finer one, ``k = round(((T_low/T_high) Phi_low - phi_high) / 2 pi)`` (Eq. 1.5).
 
@@ -98,33 +98,20 @@ def hierarchical(phases: Sequence[np.ndarray], periods: Sequence[float],
     periods : M periods in projector pixels, same order.
     w_range : (w_min, w_max) projector fringe coordinates covered, see :func:`coarse_window`.
 
-    Returns :class:`Unwrapped` for the narrowest period. Exact while each level's error
+    Returns :class:`OrderedPhase` for the narrowest period. Exact while each level's error
     ``|(T_low/T_high) dPhi_low - dphi_high| < pi``.
     """
-    st = _stack(phases)
-    p = _periods(periods, st.shape[0], 1)
+    st = stack_phases(phases)
+    p = check_periods(periods, st.shape[0], 1)
     lower = coarse_window(p[-1], w_range)
     order = np.empty(st.shape[1:], np.int32)
     phase = np.empty(st.shape[1:], np.float32)
     kernels.hierarchical_kernel(st, p, lower, order, phase)
-    return Unwrapped(phase, order)
-
-
-def hierarchical_reference(phases, periods, w_range=None) -> Unwrapped:
-    """Plain-NumPy reference of :func:`hierarchical`."""
-    st = _stack(phases).astype(np.float64)
-    p = _periods(periods, st.shape[0], 1)
-    lower = coarse_window(p[-1], w_range)
-    big = lower + np.mod(st[-1] - lower, TWO_PI)
-    k = np.floor((big - st[-1]) / TWO_PI + 0.5)
-    for q in range(st.shape[0] - 2, -1, -1):
-        k = np.floor((big * (p[q + 1] / p[q]) - st[q]) / TWO_PI + 0.5)
-        big = st[q] + TWO_PI * k
-    return Unwrapped(big.astype(np.float32), k.astype(np.int32))
+    return OrderedPhase(phase, order)
 
 
 # -- heterodyne ---------------------------------------------------------------------------
-def beat_chain(periods: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+def beat_chain(periods: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Equivalent periods and signs of the heterodyne chain.
 
     ``beat(Ta, Tb) = Ta Tb / |Tb - Ta|``; the chain beats the first two periods, then that
@@ -144,39 +131,22 @@ def beat_chain(periods: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def heterodyne(phases: Sequence[np.ndarray], periods: Sequence[float],
-               w_range: tuple[float, float] | None = None) -> Unwrapped:
+               w_range: tuple[float, float] | None = None) -> OrderedPhase:
     """Multi-frequency heterodyne unwrapping (three-frequency 18/21/144 of the calibration set).
 
     The wrapped phases (narrowest first) are beaten pairwise along :func:`beat_chain`
     (18 & 21 -> 126, 126 & 144 -> 1008); the last beat, absolute when its period covers the
     projector, unwraps the previous beat, which unwraps the narrowest phase. Returns
-    :class:`Unwrapped` for ``periods[0]``.
+    :class:`OrderedPhase` for ``periods[0]``.
     """
-    st = _stack(phases)
-    p = _periods(periods, st.shape[0], 2)
+    st = stack_phases(phases)
+    p = check_periods(periods, st.shape[0], 2)
     beats, signs = beat_chain(p)
     lower = coarse_window(beats[-1], w_range)
     order = np.empty(st.shape[1:], np.int32)
     phase = np.empty(st.shape[1:], np.float32)
     kernels.heterodyne_kernel(st, signs, beats, p, lower, order, phase)
-    return Unwrapped(phase, order)
-
-
-def heterodyne_reference(phases, periods, w_range=None) -> Unwrapped:
-    """Plain-NumPy reference of :func:`heterodyne`."""
-    st = _stack(phases).astype(np.float64)
-    p = _periods(periods, st.shape[0], 2)
-    beats, signs = beat_chain(p)
-    lower = coarse_window(beats[-1], w_range)
-    beat_phases = [np.mod(signs[0] * (st[0] - st[1]), TWO_PI)]
-    for q in range(1, len(beats)):
-        beat_phases.append(np.mod(signs[q] * (beat_phases[-1] - st[q + 1]), TWO_PI))
-    big = lower + np.mod(beat_phases[-1] - lower, TWO_PI)
-    for q in range(len(beats) - 2, -1, -1):
-        kq = np.floor((big * (beats[q + 1] / beats[q]) - beat_phases[q]) / TWO_PI + 0.5)
-        big = beat_phases[q] + TWO_PI * kq
-    k = np.floor((big * (beats[0] / p[0]) - st[0]) / TWO_PI + 0.5)
-    return Unwrapped((st[0] + TWO_PI * k).astype(np.float32), k.astype(np.int32))
+    return OrderedPhase(phase, order)
 
 
 # -- Gray / binary code + phase -----------------------------------------------------------
@@ -254,22 +224,6 @@ def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.n
     return CodeUnwrapped(phase, order, valid)
 
 
-def gray_code_order_reference(frames, code_index, wrapped, period, centers, inverse_index=None,
-                              threshold=None) -> CodeUnwrapped:
-    """Plain-NumPy reference of :func:`gray_code_order`."""
-    f = np.asarray(frames, dtype=np.float64)
-    code = np.zeros(f.shape[1:], np.int64)
-    for q, i in enumerate(code_index):
-        t = f[inverse_index[q]] if inverse_index is not None else np.asarray(threshold, np.float64)
-        code = code * 2 + (f[i] > t)
-    c = np.asarray(centers)[code]
-    phi = np.asarray(wrapped, np.float64)
-    valid = np.isfinite(c)
-    k = np.floor((TWO_PI * np.where(valid, c, 0.0) / period - phi) / TWO_PI + 0.5)
-    phase = np.where(valid, phi + TWO_PI * k, np.nan)
-    return CodeUnwrapped(phase.astype(np.float32), np.where(valid, k, 0).astype(np.int32), valid)
-
-
 # -- fused three-frequency decode (the calibration set's hot path) ---------------------------
 class FusedResult(NamedTuple):
     """Output of :func:`three_frequency_decode`, each (H, W): absolute phase float32 (NaN
@@ -303,7 +257,6 @@ def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]],
     shifts (rad) of group g, narrowest period first. Equals :func:`heterodyne` applied to
     :func:`fringe3d.phase.psp.wrapped_phase` results (tested).
     """
-    from fringe3d.phase.psp import lsq_coefficients
     frames = np.asarray(frames)
     if frames.ndim != 3:
         raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
@@ -328,105 +281,3 @@ def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]],
     kernels.three_frequency_kernel(frames, idx[0], coef[0], idx[1], coef[1], idx[2], coef[2], params,
                                    out.phase, out.wrapped, out.modulation, out.average, out.mask, out.texture)
     return out
-
-
-# -- registered decoders for the manifest's temporal methods ----------------------------------
-from fringe3d.unwrap.registry import register  # noqa: E402  (registry has no temporal import)
-
-
-def _combined_mask(ctx, groups) -> np.ndarray:
-    mask = ctx.group_mask(groups[0])
-    for g in groups[1:]:
-        mask = mask & ctx.group_mask(g)
-    return mask
-
-
-@register("none")
-def _unwrap_none(ctx):
-    """No unwrapping: the wrapped phase of the narrowest group is returned as is."""
-    g = ctx.groups_for_plan()[0]
-    return ctx.group_phase(g).phase.copy(), ctx.group_mask(g)
-
-
-@register("hierarchical")
-def _unwrap_hierarchical(ctx):
-    groups = ctx.groups_for_plan()
-    phases = [ctx.group_phase(g).phase for g in groups]
-    res = hierarchical(phases, [g.period for g in groups], w_range=ctx.w_range())
-    return res.phase, _combined_mask(ctx, groups)
-
-
-@register("heterodyne")
-def _unwrap_heterodyne(ctx):
-    groups = ctx.groups_for_plan()
-    if len(groups) == 3 and all(len(g.indices) >= 3 for g in groups) and ctx.options.get("fused", True):
-        from fringe3d.phase import quality
-        r = three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
-                                   [g.period for g in groups], w_range=ctx.w_range(),
-                                   min_modulation=ctx.min_modulation,
-                                   saturation_level=quality.saturation_level(ctx.frames, ctx.bit_depth),
-                                   max_residual=float(ctx.options.get("max_residual", 0.5 * math.pi)))
-        return r.phase, r.mask, {"wrapped": r.wrapped, "modulation": r.modulation, "average": r.average,
-                                 "texture": r.texture, "masked": True}
-    phases = [ctx.group_phase(g).phase for g in groups]
-    res = heterodyne(phases, [g.period for g in groups], w_range=ctx.w_range())
-    return res.phase, _combined_mask(ctx, groups)
-
-
-def _code_frames(ctx):
-    ps = ctx.patterns
-    code = [i for i, f in enumerate(ps.frames)
-            if f.direction == ctx.direction and f.role == "code" and f.kind in ("gray_code", "binary_code")]
-    direct = sorted((i for i in code if not ps.frames[i].inverse), key=lambda i: ps.frames[i].bit)
-    inverse = {ps.frames[i].bit: i for i in code if ps.frames[i].inverse}
-    if not direct:
-        raise ValueError(f"direction {ctx.direction!r} uses method {ctx.plan.method!r} but the manifest has no "
-                         "code frames (role 'code', kind 'gray_code' or 'binary_code') for it")
-    bits = [ps.frames[i].bit for i in direct]
-    if len(set(bits)) != len(bits):
-        raise ValueError(f"direction {ctx.direction!r}: code bits repeat {bits}; expected each bit once")
-    inv = [inverse.get(b) for b in bits] if inverse else None
-    if inv is not None and any(i is None for i in inv):
-        raise ValueError(f"direction {ctx.direction!r}: inverse code frames cover bits {sorted(inverse)} but the "
-                         f"code has bits {bits}; expected an inverse for every bit or none")
-    return direct, inv
-
-
-def _projector_code_centers(ctx, direct) -> np.ndarray:
-    """Codeword -> stripe centre table, from the projected code itself: the code frames are
-    evaluated (``fringe3d.patterns.render.sinusoid_value``) along the fringe coordinate
-    ``w`` over the projector's range, every 1/16 px."""
-    key = ("code_centers", ctx.direction)
-    if key not in ctx._cache:
-        from fringe3d.patterns.render import sinusoid_value
-        ps = ctx.patterns
-        lo, hi = fringe_extent(ps.width, ps.height, ctx.plan.angle)
-        step = 1.0 / 16.0
-        w = np.arange(lo - 0.5, hi + 0.5, step) + 0.5 * step
-        u, v = w * math.sin(ctx.plan.angle), w * math.cos(ctx.plan.angle)
-        images = np.stack([sinusoid_value(ps.frames[i], u, v, ps.width, ps.height) for i in direct])
-        ctx._cache[key] = code_centers(images, w)
-    return ctx._cache[key]
-
-
-@register("gray_code")
-def _unwrap_gray_code(ctx):
-    groups = ctx.groups_for_plan()
-    g = groups[0]
-    pr = ctx.group_phase(g)
-    direct, inv = _code_frames(ctx)
-    threshold = None
-    if inv is None:
-        ps = ctx.patterns
-        white = ps.indices(kind="white")
-        black = ps.indices(kind="black")
-        if white and black:
-            threshold = 0.5 * (ctx.frames[white[0]].astype(np.float32) + ctx.frames[black[0]].astype(np.float32))
-        else:
-            threshold = pr.average
-    centers = _projector_code_centers(ctx, direct)
-    res = gray_code_order(ctx.frames, direct, pr.phase, g.period, centers, inverse_index=inv, threshold=threshold)
-    return res.phase, _combined_mask(ctx, groups) & res.valid
-
-
-register("binary_code")(_unwrap_gray_code)

@@ -33,3 +33,7 @@ class ReconstructionWarning(Fringe3DWarning):
 
 class AnalysisWarning(Fringe3DWarning):
     """A fit, tracking or strain figure is based on too few points or an ill-posed geometry."""
+
+
+class UnwrapRangeWarning(Fringe3DWarning):
+    """The coarsest (equivalent) unwrapping period is shorter than the projector's coordinate range."""

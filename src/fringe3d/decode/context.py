@@ -1,69 +1,26 @@
-"""Registry of unwrapping methods the decoder can run, keyed by ``DirectionPlan.method``.
+"""The decoding context of one fringe direction: phase groups, their wrapped phase and masks.
 
-An unwrapper is ``fn(ctx: DecodeContext) -> (Phi, mask)`` or ``(Phi, mask, extras)``:
-``Phi`` (H, W) absolute phase of the plan's narrowest period (rad), ``mask`` (H, W) bool,
-``extras`` an optional dict that may override the decoder's ``"wrapped"``, ``"modulation"``,
-``"average"`` or ``"period"`` for that direction (e.g. an FTP-based method); ``"masked": True``
-says ``Phi`` is float32 and already NaN exactly where ``mask`` is False. Register one with::
-
-    from fringe3d.unwrap.registry import register
-
-    @register("geometric")
-    def unwrap_geometric(ctx):
-        pr = ctx.group_phase(ctx.group_for_period(ctx.plan.periods[0]))
-        ...
-        return Phi, mask
-
-Modules under :mod:`fringe3d.unwrap` are imported on the first lookup of a name that is not
-registered yet, so a new method needs no edit to the decoder or to this file.
+:class:`DecodeContext` is what every method of :data:`fringe3d.decode.METHODS` receives. It
+groups the manifest's frames of one direction into :class:`PhaseGroup` s, computes each
+group's wrapped phase once (least squares, Eq. 2.4; modified FTP, Eq. 4.5-4.7; FTP,
+Eq. 4.1-4.4, with the lobe chosen by :func:`ftp_lobe_angle`) and its validity mask.
 """
 from __future__ import annotations
 
-import importlib
-import pkgutil
+import warnings
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
+from fringe3d.decode.options import DecodeOptions
+from fringe3d.optics.rays import camera_shape, pixel_rays
+from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
-
-UNWRAPPERS: dict[str, Callable] = {}
-
-
-def register(name: str) -> Callable:
-    """Decorator: make ``fn(ctx)`` the unwrapper for plans whose ``method`` is ``name``."""
-    def deco(fn: Callable) -> Callable:
-        UNWRAPPERS[name] = fn
-        return fn
-    return deco
-
-
-def _import_unwrap_modules() -> dict[str, str]:
-    """Import every module of :mod:`fringe3d.unwrap` (they register on import); returns the
-    import errors by module name."""
-    import fringe3d.unwrap as pkg
-    failed = {}
-    for mod in pkgutil.iter_modules(pkg.__path__):
-        if mod.name.startswith("_") or mod.name == "registry":
-            continue
-        try:
-            importlib.import_module(f"fringe3d.unwrap.{mod.name}")
-        except Exception as e:  # a broken optional module must not hide the others
-            failed[mod.name] = f"{type(e).__name__}: {e}"
-    return failed
-
-
-def get_unwrapper(name: str) -> Callable:
-    """The unwrapper registered for ``name``; ``ValueError`` naming the registered ones if none."""
-    failed = {}
-    if name not in UNWRAPPERS:
-        failed = _import_unwrap_modules()
-    if name not in UNWRAPPERS:
-        extra = f" (modules that failed to import: {failed})" if failed else ""
-        raise ValueError(f"no unwrapper registered for method {name!r}; registered methods: "
-                         f"{sorted(UNWRAPPERS)}{extra}")
-    return UNWRAPPERS[name]
+from fringe3d.phase import ftp, quality
+from fringe3d.phase.psp import PhaseResult, wrapped_phase
+from fringe3d.unwrap.temporal import fringe_extent
+from fringe3d.utils.warning_types import CalibrationWarning
 
 
 @dataclass(frozen=True)
@@ -85,21 +42,36 @@ class DecodeContext:
 
     Attributes: ``frames`` (F, H, W) camera frames of one cycle (any real dtype),
     ``patterns`` the :class:`PatternSet`, ``direction``, ``plan`` (:class:`DirectionPlan`),
-    ``rig`` (:class:`fringe3d.optics.Rig` or None), ``z_min`` (mm or None), ``options`` (dict
-    of decoder keyword options), ``bit_depth`` (None: the dtype's), ``min_modulation``
-    (frames' units). Wrapped phases are computed once per group and cached.
+    ``rig`` (:class:`fringe3d.optics.Rig` or None), ``options`` (:class:`DecodeOptions`),
+    ``min_modulation`` (frames' units, resolved). ``z_min`` and ``bit_depth`` read the
+    options. Wrapped phases are computed once per group and cached (``cache``, also for
+    methods' own per-direction tables).
     """
 
     frames: np.ndarray
     patterns: PatternSet
     direction: str
     plan: DirectionPlan
-    rig: Any = None
-    z_min: float | None = None
-    options: dict = field(default_factory=dict)
-    bit_depth: int | None = None
+    rig: Rig | None = None
+    options: DecodeOptions = field(default_factory=DecodeOptions)
     min_modulation: float = 0.0
-    _cache: dict = field(default_factory=dict, repr=False)
+    cache: dict[Any, Any] = field(default_factory=dict, repr=False)
+
+    @property
+    def z_min(self) -> float | None:
+        """The decoder's ``z_min`` (mm) or None (see :meth:`geometry` for the plan's)."""
+        return self.options.z_min
+
+    @property
+    def bit_depth(self) -> int | None:
+        """Sensor bit depth, None for the frames' dtype default."""
+        return self.options.bit_depth
+
+    def method_option(self, name: str, default: Any = None) -> Any:
+        """A method option: the decoder's (:class:`DecodeOptions`) if set, else the plan's
+        ``options[name]``, else ``default``."""
+        value = getattr(self.options, name)
+        return self.plan.options.get(name, default) if value is None else value
 
     # -- groups ------------------------------------------------------------------------
     def phase_groups(self) -> list[PhaseGroup]:
@@ -122,21 +94,21 @@ class DecodeContext:
         return [self.group_for_period(p) for p in self.plan.periods]
 
     # -- phase and quality ---------------------------------------------------------------
-    def group_phase(self, group: PhaseGroup):
+    def group_phase(self, group: PhaseGroup) -> PhaseResult:
         """Wrapped phase of a group, cached: :class:`fringe3d.phase.psp.PhaseResult`.
 
         3 or more steps: least-squares phase shifting (Eq. 2.4). 2 steps shifted by pi:
         modified FTP (Eq. 4.5-4.7). 1 step: FTP (Eq. 4.1-4.4). Options ``ftp_window`` and
-        ``ftp_radius`` are passed to FTP; the lobe sign follows :func:`ftp_lobe_angle`.
+        ``ftp_radius`` (:class:`DecodeOptions`) are passed to FTP; the lobe sign follows :func:`ftp_lobe_angle`.
         """
-        if group.name not in self._cache:
-            self._cache[group.name] = _group_phase(self, group)
-        return self._cache[group.name][0]
+        if group.name not in self.cache:
+            self.cache[group.name] = group_phase_and_saturation(self, group)
+        return self.cache[group.name][0]
 
     def group_saturated(self, group: PhaseGroup) -> np.ndarray:
         """(H, W) bool: a frame of the group is at the saturation level."""
         self.group_phase(group)
-        return self._cache[group.name][1]
+        return self.cache[group.name][1]
 
     def group_mask(self, group: PhaseGroup) -> np.ndarray:
         """(H, W) bool validity of one group: modulation >= min_modulation and not saturated."""
@@ -149,7 +121,6 @@ class DecodeContext:
         wr = self.plan.options.get("w_range")
         if wr is not None:
             return float(wr[0]), float(wr[1])
-        from fringe3d.unwrap.temporal import fringe_extent
         return fringe_extent(self.patterns.width, self.patterns.height, self.plan.angle)
 
 
@@ -182,18 +153,22 @@ def phase_groups(ps: PatternSet, direction: str) -> list[PhaseGroup]:
     return out
 
 
-def _group_phase(ctx: DecodeContext, group: PhaseGroup):
-    from fringe3d.phase import quality
-    from fringe3d.phase.psp import PhaseResult, wrapped_phase
+def group_phase_and_saturation(ctx: DecodeContext, group: PhaseGroup) -> tuple[PhaseResult, np.ndarray]:
+    """Wrapped phase of one group (see :meth:`DecodeContext.group_phase`) and its (H, W) bool
+    saturation map (a frame of the group at the sensor's saturation level)."""
     level = quality.saturation_level(ctx.frames, ctx.bit_depth)
     n = len(group.indices)
     if n >= 3:
         return wrapped_phase(ctx.frames, shifts=group.shifts, index=group.indices, saturation_level=level,
                              return_saturated=True)
-    from fringe3d.phase import ftp
     sel = ctx.frames[list(group.indices)]
-    saturated = (sel >= level).any(axis=0) if np.isfinite(level) else np.zeros(sel.shape[1:], bool)
-    kw = {k[4:]: v for k, v in ctx.options.items() if k in ("ftp_window", "ftp_radius")}
+    saturated: np.ndarray = (np.asarray((sel >= level).any(axis=0)) if np.isfinite(level)
+                             else np.zeros(sel.shape[1:], bool))
+    kw: dict[str, Any] = {}
+    if ctx.options.ftp_window is not None:
+        kw["window"] = ctx.options.ftp_window
+    if ctx.options.ftp_radius is not None:
+        kw["radius"] = ctx.options.ftp_radius
     lobe = ftp_lobe_angle(ctx, group)
     if n == 2:
         d = (group.shifts[1] - group.shifts[0]) % (2 * np.pi)
@@ -223,21 +198,23 @@ def ftp_lobe_angle(ctx: DecodeContext, group: PhaseGroup) -> float:
     angle = group.angle
     if ctx.rig is not None:
         try:
-            angle = _camera_fringe_direction(ctx.rig, group.angle, ctx.frames.shape[1:], ctx.z_min)
+            angle = camera_fringe_direction(ctx.rig, group.angle, ctx.frames.shape[1:], ctx.z_min)
         except Exception as e:  # an unusual rig model: fall back to the unmirrored assumption
-            import warnings
             warnings.warn(f"could not orient FTP from the rig ({type(e).__name__}: {e}); assuming an "
-                          "unmirrored view (decode option ftp_sign=-1 flips it)", UserWarning, stacklevel=3)
-    if ctx.options.get("ftp_sign", 1) < 0:
+                          "unmirrored view (decode option ftp_sign=-1 flips it)", CalibrationWarning, stacklevel=3)
+    if ctx.options.ftp_sign < 0:
         angle += np.pi
     return float(angle)
 
 
-def _camera_fringe_direction(rig, angle: float, shape, z_min) -> float:
+def camera_fringe_direction(rig: Rig, angle: float, shape: tuple[int, int], z_min: float | None) -> float:
+    """Camera-image direction (rad) in which the projector fringe coordinate ``w`` of fringe
+    ``angle`` grows at the image centre (``shape`` (H, W)), on the point of the central ray at
+    depth ``z_min`` or, if None, where that ray passes closest to the projector's axis."""
     h, w = shape
     uv = np.array([[0.5 * (w - 1), 0.5 * (h - 1)], [0.5 * (w - 1) + 1.0, 0.5 * (h - 1)],
                    [0.5 * (w - 1), 0.5 * (h - 1) + 1.0]])
-    origins, dirs = rig.camera.rays(uv)
+    origins, dirs = pixel_rays(rig, uv)
     origins = np.broadcast_to(np.asarray(origins, float), (3, 3))
     dirs = np.broadcast_to(np.asarray(dirs, float), (3, 3))
     if z_min is not None:
@@ -260,3 +237,37 @@ def _camera_fringe_direction(rig, angle: float, shape, z_min) -> float:
     if not (np.isfinite(gu) and np.isfinite(gv)) or gu == gv == 0:
         raise ValueError("the projector coordinate does not change across the camera image centre")
     return float(np.arctan2(gu, gv))
+
+
+def require_geometry(ctx: DecodeContext, method: str) -> tuple[Rig, float]:
+    """(rig, z_min) for a method that needs the geometric constraint, with clear errors when
+    the decoder lacks them; ``z_min`` from the options or the plan's ``options["z_min"]``."""
+    if ctx.rig is None:
+        raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs the calibrated rig "
+                         "(pass rig=... to decode, or --calibration on the command line)")
+    z_min = ctx.z_min if ctx.z_min is not None else ctx.plan.options.get("z_min")
+    if z_min is None:
+        raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs z_min, the nearest depth of the "
+                         "measurement volume in mm (pass z_min=... / --z-min, or set it in the plan's options)")
+    H, W = ctx.frames.shape[1:]
+    ch, cw = camera_shape(ctx.rig)
+    if (ch, cw) != (H, W):
+        raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is "
+                         f"{cw}x{ch}: calibration and capture sizes disagree")
+    return ctx.rig, float(z_min)
+
+
+def not_saturated(ctx: DecodeContext, indices) -> np.ndarray:
+    """(H, W) bool: no frame of ``indices`` reaches the sensor's saturation level."""
+    level = quality.saturation_level(ctx.frames, ctx.bit_depth)
+    if not np.isfinite(level):
+        return np.ones(ctx.frames.shape[1:], bool)
+    return np.asarray(~(ctx.frames[list(indices)] >= level).any(axis=0))
+
+
+def combined_mask(ctx: DecodeContext, groups: list[PhaseGroup]) -> np.ndarray:
+    """(H, W) bool: every group's :meth:`DecodeContext.group_mask`."""
+    mask = ctx.group_mask(groups[0])
+    for g in groups[1:]:
+        mask = mask & ctx.group_mask(g)
+    return mask

@@ -1,7 +1,7 @@
 """Quick timing of the decode hot paths at 1280 x 1024 (not a test; the full comparison with
 peers lives in ``benchmarks/bench_decode.py``, which uses the same bound, :func:`bound_times`).
 
-Run: ``.venv/bin/python -m fringe3d.decode.timing [--repeat 20] [--threads 1]``. Prints best and
+Run: ``.venv/bin/python benchmarks/timing.py [--repeat 20] [--threads 1]``. Prints best and
 median ms per call for the fused 15-frame three-frequency decode, the 3-step wrapped phase and
 the unavoidable-work bound of each, plus the load average (the machine may be shared).
 

@@ -1,0 +1,66 @@
+"""Typed decoder options: :class:`DecodeOptions`, what a user passes to ``decode``."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+
+@dataclass(frozen=True)
+class DecodeOptions:
+    """Options of :func:`fringe3d.decode.decode` and the methods of :data:`fringe3d.decode.METHODS`.
+
+    ``None`` means "not set": the plan's ``options`` (manifest) or the method's default apply.
+
+    Attributes
+    ----------
+    z_min : float, optional
+        Nearest depth of the measurement volume (mm, world frame) for the geometric
+        constraint (Eq. 4.15-4.21); the plan's ``options["z_min"]`` if not given.
+    z_max : float, optional
+        Farthest depth (mm): the geometric methods warn when it exceeds their depth range.
+        A plan's ``options["z_max"]`` takes precedence.
+    bit_depth : int, optional
+        Sensor bit depth (saturation level ``2**bit_depth - 1``); default from the dtype
+        (8 / 16), no saturation check for float frames.
+    min_modulation : float, optional
+        Modulation threshold (frames' units); default 2 % of full scale.
+    fused : bool
+        Use the fused three-frequency kernel when the plan allows (default True).
+    max_residual : float
+        Fused three-frequency path: largest accepted unwrapping residual in rad (default pi/2;
+        pixels above it are masked as inconsistent; ``math.pi`` disables the check).
+    ftp_window : str, optional
+        FTP band-pass window, ``"hanning"`` or ``"circular"``.
+    ftp_radius : float, optional
+        FTP band-pass radius (cycles/pixel), see :func:`fringe3d.phase.ftp.ftp_analysis`.
+    ftp_sign : int
+        ``-1`` flips the FTP lobe the decoder keeps (a mirrored rig without calibration).
+    erode, min_size, min_ratio, max_shift, cross_motion :
+        Object segmentation and motion options of the ``spatial``, ``histogram`` and
+        ``hybrid`` methods (rim erosion in pixels, smallest object in pixels, contrast
+        threshold, largest displacement in pixels, cross-fringe motion correction).
+    extra : mapping
+        Further options for user-added methods (read as ``ctx.options.extra``).
+
+    Examples
+    --------
+    >>> DecodeOptions(min_modulation=1.0).max_residual == math.pi / 2
+    True
+    """
+
+    z_min: float | None = None
+    z_max: float | None = None
+    bit_depth: int | None = None
+    min_modulation: float | None = None
+    fused: bool = True
+    max_residual: float = 0.5 * math.pi
+    ftp_window: str | None = None
+    ftp_radius: float | None = None
+    ftp_sign: int = 1
+    erode: int | None = None
+    min_size: int | None = None
+    min_ratio: float | None = None
+    max_shift: float | None = None
+    cross_motion: bool | None = None
+    extra: Mapping[str, Any] = field(default_factory=dict)

@@ -1,0 +1,194 @@
+"""Rig ray geometry: camera rays, projector rows and the closed-form ray coefficients.
+
+One camera-ray convention (:func:`camera_rays`): every camera pixel is the ray
+``X = O + s*D`` in the world frame. Pinhole cameras: ``O`` (3,) the centre and ``D`` (H, W, 3)
+the undistorted direction with device-frame depth ``z = 1`` (so ``s`` is the depth along the
+camera axis; Eq. 2.12-2.16 inverted). Telecentric cameras (Eq. 3.3): ``O`` (H, W, 3) per pixel
+and one common unit direction ``D`` (3,).
+
+Projector fringe coordinate along a fringe direction of angle ``alpha`` (manifest convention):
+``w = v_p*cos(alpha) + u_p*sin(alpha)``; for a (3, 4) projector matrix ``P`` the row
+``Q = cos(alpha)*P[1] + sin(alpha)*P[0]`` (:func:`projector_row`) gives
+``w = Q.X~ / P[2].X~`` (Eq. 2.37, Eq. 4.18). Along a camera ray that is a ratio of two affine
+functions of ``s``: :class:`RayGeometry` holds those per-pixel coefficients once per rig and
+solves ``s = (Q.O~ - w P3.O~) / (w P3.D - Q.D)`` for a whole map of ``w``.
+Units: mm and pixels; invalid pixels are NaN.
+"""
+from __future__ import annotations
+
+import math
+import weakref
+from typing import Any, overload
+
+import numpy as np
+
+from fringe3d.optics._ray_kernels import central_kernel, parallel_kernel
+from fringe3d.optics.rig import Rig
+
+ANGLE_UP = math.pi / 2  # vertical fringes: w = u_p
+ANGLE_VP = 0.0          # horizontal fringes: w = v_p
+
+_UNDISTORTED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # camera -> (H, W, 2) normalised
+
+
+def projector_row(P: np.ndarray, angle: float) -> np.ndarray:
+    """Row ``Q = cos(alpha)*P[1] + sin(alpha)*P[0]`` of a (3, 4) projection matrix, so that a
+    world point with homogeneous ``X~`` has fringe coordinate ``w = Q.X~ / P[2].X~``."""
+    return math.cos(angle) * P[1] + math.sin(angle) * P[0]
+
+
+@overload
+def check_map(a: None, shape: tuple[int, int], name: str) -> None: ...
+@overload
+def check_map(a: Any, shape: tuple[int, int], name: str) -> np.ndarray: ...
+def check_map(a: Any, shape: tuple[int, int], name: str) -> np.ndarray | None:
+    """Return ``a`` as an array of camera ``shape`` (H, W), or raise a clear ValueError."""
+    if a is None:
+        return None
+    a = np.asarray(a)
+    if a.shape != tuple(shape):
+        raise ValueError(f"{name} has shape {a.shape} but the calibration's camera is "
+                         f"{shape[1]}x{shape[0]} (expected an array of shape {tuple(shape)}): "
+                         "calibration and capture sizes disagree")
+    return a
+
+
+def camera_shape(rig: Rig) -> tuple[int, int]:
+    """(H, W) of the rig's camera."""
+    cam: Any = rig.camera
+    return (cam.height, cam.width)
+
+
+def camera_normalized(camera) -> np.ndarray:
+    """Undistorted normalised coordinates ``(H, W, 2)`` float64 of every pixel centre of a pinhole
+    camera (Eq. 2.12-2.16 inverted), computed once per camera object and cached."""
+    xy = _UNDISTORTED.get(camera)
+    if xy is None:
+        xy = camera.pixels_to_normalized(camera.pixel_grid())
+        xy.setflags(write=False)
+        _UNDISTORTED[camera] = xy
+    return xy
+
+
+def camera_rays(rig: Rig) -> tuple[np.ndarray, np.ndarray]:
+    """Undistorted camera rays ``X = O + s*D`` for every pixel, world frame.
+
+    Returns ``(O, D)``: pinhole cameras give ``O (3,)`` (the centre) and ``D (H, W, 3)`` with
+    device depth ``z = 1`` (so ``s`` is the depth along the camera axis); telecentric cameras
+    give ``O (H, W, 3)`` and the common unit direction ``D (3,)``.
+    """
+    cam: Any = rig.camera  # PinholeDevice or TelecentricCamera
+    if rig.telecentric:
+        return cam.rays(cam.pixel_grid())
+    xy = camera_normalized(cam)
+    d_dev = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
+    return cam.center, d_dev @ cam.R
+
+
+def pixel_rays(rig: Rig, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World rays of camera pixels ``uv (..., 2)`` (column, row), in the convention of
+    :func:`camera_rays` (pinhole: ``O (3,)``, ``D (..., 3)`` with device depth 1; telecentric:
+    ``O (..., 3)``, ``D (3,)`` unit)."""
+    cam: Any = rig.camera  # PinholeDevice or TelecentricCamera
+    return cam.rays(uv)
+
+
+def fringe_coordinate(rig: Rig, X: np.ndarray, angle: float, distortion: bool = True) -> np.ndarray:
+    """Projector fringe coordinate ``w`` (pixels) of world points ``X (..., 3)`` (Eq. 4.18).
+
+    With ``distortion`` the projector's lens distortion is applied (``Projector.project``);
+    otherwise the linear model ``w = Q.X~ / P3.X~``.
+    """
+    proj = rig.projector
+    if distortion and proj.dist.any():
+        uv = proj.project(X)
+        return uv[..., 1] * math.cos(angle) + uv[..., 0] * math.sin(angle)
+    Xh = np.concatenate([X, np.ones(X.shape[:-1] + (1,))], axis=-1)
+    return (Xh @ projector_row(proj.P, angle)) / (Xh @ proj.P[2])
+
+
+class RayGeometry:
+    """Per-pixel closed-form ray coefficients of one rig and fringe direction.
+
+    Parameters
+    ----------
+    rig : fringe3d.optics.Rig
+    angle : float
+        Fringe angle alpha (rad) of the direction that supplies ``w``: pi/2 (default) for
+        vertical fringes (``w = u_p``), 0 for horizontal fringes (``w = v_p``).
+
+    Attributes
+    ----------
+    central : bool
+        Pinhole camera (rays through one centre) or telecentric (parallel rays).
+    O, D_planes : (3,) float64, (3, H, W) float32
+        Pinhole: the camera centre and each pixel's ray direction as contiguous planes.
+    O_planes, D : (3, H, W) float32, (3,) float64
+        Telecentric: each pixel's ray origin as planes and the common direction.
+    Q, P3 : (4,) float64
+        Projector row of the fringe direction (:func:`projector_row`) and third row of ``P``.
+
+    Notes
+    -----
+    Pinhole camera: ``s = (a + b*w) / (c + e*w)`` with ``a = Q.O~``, ``b = -P3.O~``,
+    ``c = -Q.D``, ``e = P3.D`` (Eq. 2.37 solved along the ray). Projector lens distortion is
+    ignored (linear projector model).
+    """
+
+    def __init__(self, rig: Rig, angle: float = ANGLE_UP):
+        self.rig = rig
+        self.angle = float(angle)
+        self.shape: tuple[int, int] = camera_shape(rig)
+        O, D = camera_rays(rig)
+        self.central: bool = not rig.telecentric
+        # per-pixel vectors are stored as (3, H, W) float32 planes so the kernels vectorise
+        if self.central:
+            self.O = np.asarray(O, np.float64)
+            self.D_planes = np.ascontiguousarray(np.moveaxis(D, -1, 0), dtype=np.float32)
+        else:
+            self.O_planes = np.ascontiguousarray(np.moveaxis(O, -1, 0), dtype=np.float32)
+            self.D = np.asarray(D, np.float64)
+        P = rig.projector.P
+        self.Q = np.ascontiguousarray(projector_row(P, self.angle), dtype=np.float64)
+        self.P3 = np.ascontiguousarray(P[2], dtype=np.float64)
+
+    @property
+    def rays(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(O, D)`` as in :func:`camera_rays` (views of the stored planes)."""
+        if self.central:
+            return self.O, np.moveaxis(self.D_planes, 0, -1)
+        return np.moveaxis(self.O_planes, 0, -1), self.D
+
+    def points(self, w: np.ndarray, mask: np.ndarray | None = None, out: np.ndarray | None = None) -> np.ndarray:
+        """3D points from the projector coordinate ``w`` (H, W) (``u_p`` for vertical fringes).
+
+        Returns ``(H, W, 3)`` float32 in mm, NaN where ``w`` is NaN, ``mask`` is False, or the
+        point falls behind a pinhole camera. ``out`` may be a preallocated float32 array.
+        """
+        w = check_map(w, self.shape, "projector coordinate map")
+        if w.dtype not in (np.float32, np.float64):
+            w = w.astype(np.float32)
+        mask = np.ones(self.shape, bool) if mask is None else check_map(mask, self.shape, "mask").astype(bool)
+        if out is None:
+            out = np.empty(self.shape + (3,), np.float32)
+        if self.central:
+            central_kernel(np.ascontiguousarray(w), np.ascontiguousarray(mask), self.O, self.D_planes, self.Q,
+                           self.P3, out)
+        else:
+            parallel_kernel(np.ascontiguousarray(w), np.ascontiguousarray(mask), self.O_planes, self.D, self.Q,
+                            self.P3, out)
+        return out
+
+    def ray_points_at_z(self, z: float | np.ndarray) -> np.ndarray:
+        """World points ``(H, W, 3)`` float64 where each pixel's ray meets the plane world-z = ``z``
+        (Eq. 4.15-4.17). NaN where the ray is parallel to the plane or, for a pinhole camera,
+        where the plane lies behind it."""
+        O, D = (np.asarray(a, np.float64) for a in self.rays)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (np.asarray(z, float) - O[..., 2]) / D[..., 2]
+            X = O + s[..., None] * D
+        bad = ~np.isfinite(s)
+        if self.central:
+            bad |= ~(s > 0)
+        X[bad] = np.nan
+        return X

@@ -1,0 +1,106 @@
+"""Numba kernels of the triangulation (private; see :mod:`fringe3d.reconstruct.triangulate`)."""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from fringe3d.optics._ray_kernels import write_row
+from fringe3d.phase._kernels import fast_atan2
+
+
+@numba.njit(parallel=True, cache=True)
+def lsq_kernel(cu, cv, valid, Pc, Pp, up, vp, use_up, use_vp, check_front, out):  # pragma: no cover
+    H, W = cu.shape
+    nan = np.float32(np.nan)
+    for i in numba.prange(H):
+        A = np.empty((4, 3))
+        b = np.empty(4)
+        for j in range(W):
+            out[i, j, 0] = nan
+            out[i, j, 1] = nan
+            out[i, j, 2] = nan
+            if not valid[i, j]:
+                continue
+            n = 0
+            for r, (x, P, k) in enumerate(((cu[i, j], Pc, 0), (cv[i, j], Pc, 1), (up[i, j], Pp, 0),
+                                           (vp[i, j], Pp, 1))):
+                if (r == 2 and not use_up) or (r == 3 and not use_vp):
+                    continue
+                for c in range(3):
+                    A[n, c] = x * P[2, c] - P[k, c]
+                b[n] = P[k, 3] - x * P[2, 3]
+                n += 1
+            if n == 3:
+                X0, X1, X2, ok = solve3(A[0, 0], A[0, 1], A[0, 2], A[1, 0], A[1, 1], A[1, 2],
+                                         A[2, 0], A[2, 1], A[2, 2], b[0], b[1], b[2])
+            else:  # normal equations, Eq. (2.37)
+                M = np.zeros((3, 3))
+                v = np.zeros(3)
+                for r in range(n):
+                    for c in range(3):
+                        v[c] += A[r, c] * b[r]
+                        for d in range(3):
+                            M[c, d] += A[r, c] * A[r, d]
+                X0, X1, X2, ok = solve3(M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2],
+                                         M[2, 0], M[2, 1], M[2, 2], v[0], v[1], v[2])
+            if not ok:
+                continue
+            if check_front and not (Pc[2, 0] * X0 + Pc[2, 1] * X1 + Pc[2, 2] * X2 + Pc[2, 3] > 0.0):
+                continue  # behind the pinhole camera
+            out[i, j, 0] = X0
+            out[i, j, 1] = X1
+            out[i, j, 2] = X2
+
+
+@numba.njit(cache=True, inline="always")
+def solve3(a, b, c, d, e, f, g, h, k, r0, r1, r2):  # pragma: no cover - compiled
+    """Solve the 3x3 system [[a b c] [d e f] [g h k]] x = r by Cramer's rule."""
+    c0 = e * k - f * h
+    c1 = f * g - d * k
+    c2 = d * h - e * g
+    det = a * c0 + b * c1 + c * c2
+    if det == 0.0 or not math.isfinite(det):
+        return 0.0, 0.0, 0.0, False
+    x0 = (r0 * c0 + b * (f * r2 - r1 * k) + c * (r1 * h - e * r2)) / det
+    x1 = (a * (r1 * k - f * r2) + r0 * c1 + c * (d * r2 - r1 * g)) / det
+    x2 = (a * (e * r2 - r1 * h) + b * (r1 * g - d * r2) + r0 * c2) / det
+    return x0, x1, x2, True
+
+
+_FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # fastmath without the no-NaN/no-inf assumptions
+
+
+@numba.njit(parallel=True, fastmath=_FAST, cache=True)
+def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out):  # pragma: no cover
+    """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> X (Eq. 2.37).
+
+    Branch-free per pixel so the row loop vectorises: ``k = sg*ceil(sg*x)`` is ceil for a
+    rising and floor for a falling phase; invalid pixels carry ``s = NaN`` into the output.
+    """
+    H = frames.shape[1]
+    W = frames.shape[2]
+    two_pi = 2.0 * math.pi
+    qo = Q[0] * O[0] + Q[1] * O[1] + Q[2] * O[2] + Q[3]
+    po = P3[0] * O[0] + P3[1] * O[1] + P3[2] * O[2] + P3[3]
+    i0, i1, i2 = idx[0], idx[1], idx[2]
+    for i in numba.prange(H):
+        srow = np.empty(W, np.float64)
+        for j in range(W):
+            a0 = np.float64(frames[i0, i, j])
+            a1 = np.float64(frames[i1, i, j])
+            a2 = np.float64(frames[i2, i, j])
+            b = coef[1, 0] * a0 + coef[1, 1] * a1 + coef[1, 2] * a2
+            c = coef[2, 0] * a0 + coef[2, 1] * a1 + coef[2, 2] * a2
+            phi = fast_atan2(-c, b)
+            sg = np.float64(sign[i, j])
+            x = (np.float64(phi_min[i, j]) - phi) * (1.0 / two_pi)
+            w = (phi + two_pi * (sg * math.ceil(sg * x))) * scale
+            dx = np.float64(D[0, i, j])
+            dy = np.float64(D[1, i, j])
+            dz = np.float64(D[2, i, j])
+            s = (qo - w * po) / (w * (P3[0] * dx + P3[1] * dy + P3[2] * dz) - (Q[0] * dx + Q[1] * dy + Q[2] * dz))
+            ok = ((b * b + c * c) >= min_mod2) & (sg != 0.0) & (s > 0.0)
+            srow[j] = s if ok else np.nan
+        write_row(out, i, srow, O[0], O[1], O[2], D[0, i], D[1, i], D[2, i])

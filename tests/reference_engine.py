@@ -1,0 +1,54 @@
+"""Plain-NumPy reference implementations of the engine's kernels (unwrap, decode), used only by
+the tests to check the numba paths (:mod:`fringe3d.unwrap.temporal`)."""
+from __future__ import annotations
+
+import numpy as np
+
+from fringe3d.unwrap.temporal import (TWO_PI, CodeUnwrapped, OrderedPhase, beat_chain, check_periods,
+                                      coarse_window, stack_phases)
+
+
+def hierarchical_reference(phases, periods, w_range=None) -> OrderedPhase:
+    """Plain-NumPy reference of :func:`hierarchical`."""
+    st = stack_phases(phases).astype(np.float64)
+    p = check_periods(periods, st.shape[0], 1)
+    lower = coarse_window(p[-1], w_range)
+    big = lower + np.mod(st[-1] - lower, TWO_PI)
+    k = np.floor((big - st[-1]) / TWO_PI + 0.5)
+    for q in range(st.shape[0] - 2, -1, -1):
+        k = np.floor((big * (p[q + 1] / p[q]) - st[q]) / TWO_PI + 0.5)
+        big = st[q] + TWO_PI * k
+    return OrderedPhase(big.astype(np.float32), k.astype(np.int32))
+
+
+def heterodyne_reference(phases, periods, w_range=None) -> OrderedPhase:
+    """Plain-NumPy reference of :func:`heterodyne`."""
+    st = stack_phases(phases).astype(np.float64)
+    p = check_periods(periods, st.shape[0], 2)
+    beats, signs = beat_chain(p)
+    lower = coarse_window(beats[-1], w_range)
+    beat_phases = [np.mod(signs[0] * (st[0] - st[1]), TWO_PI)]
+    for q in range(1, len(beats)):
+        beat_phases.append(np.mod(signs[q] * (beat_phases[-1] - st[q + 1]), TWO_PI))
+    big = lower + np.mod(beat_phases[-1] - lower, TWO_PI)
+    for q in range(len(beats) - 2, -1, -1):
+        kq = np.floor((big * (beats[q + 1] / beats[q]) - beat_phases[q]) / TWO_PI + 0.5)
+        big = beat_phases[q] + TWO_PI * kq
+    k = np.floor((big * (beats[0] / p[0]) - st[0]) / TWO_PI + 0.5)
+    return OrderedPhase((st[0] + TWO_PI * k).astype(np.float32), k.astype(np.int32))
+
+
+def gray_code_order_reference(frames, code_index, wrapped, period, centers, inverse_index=None,
+                              threshold=None) -> CodeUnwrapped:
+    """Plain-NumPy reference of :func:`gray_code_order`."""
+    f = np.asarray(frames, dtype=np.float64)
+    code = np.zeros(f.shape[1:], np.int64)
+    for q, i in enumerate(code_index):
+        t = f[inverse_index[q]] if inverse_index is not None else np.asarray(threshold, np.float64)
+        code = code * 2 + (f[i] > t)
+    c = np.asarray(centers)[code]
+    phi = np.asarray(wrapped, np.float64)
+    valid = np.isfinite(c)
+    k = np.floor((TWO_PI * np.where(valid, c, 0.0) / period - phi) / TWO_PI + 0.5)
+    phase = np.where(valid, phi + TWO_PI * k, np.nan)
+    return CodeUnwrapped(phase.astype(np.float32), np.where(valid, k, 0).astype(np.int32), valid)
