@@ -56,9 +56,10 @@ def progress_bar(description: str, total: int | None, enabled: bool = True) -> I
 
 def track(items: Iterable, description: str, total: int | None = None) -> Iterator:
     """Iterate with a progress bar (on stderr, silenced by --quiet)."""
-    items = list(items) if total is None else items
-    n = total if total is not None else len(items)
-    with progress_bar(description, n) as advance:
+    if total is None:
+        items = list(items)
+        total = len(items)
+    with progress_bar(description, total) as advance:
         for it in items:
             yield it
             advance()
@@ -93,7 +94,7 @@ def _fmt(v) -> str:
     if isinstance(v, (float, np.floating)):
         if not math.isfinite(v):
             return "—"
-        a = abs(v)
+        a = abs(float(v))
         if a != 0 and (a < 1e-3 or a >= 1e5):
             return f"{v:.3g}"
         return f"{v:.4g}"
