@@ -2,10 +2,14 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import typer
 
+from fringe3d.io.images import write_image
+from fringe3d.patterns import sets
+from fringe3d.patterns.render import render_frame
 from fringe3d.utils.console import console, info, print_json, progress_bar, set_quiet
 
 SETS = ("phase-shift", "three-frequency", "hierarchical", "gray-code", "binary-code", "psp-gray", "ftp", "modified-ftp",
@@ -26,8 +30,6 @@ def _numbers(text: str, what: str, cast=float) -> list:
 def build_set(set_name: str, period: str | None, steps: str | None, direction: str, angle_deg: float | None,
               kind: str, width: int, height: int, bits: int | None):
     """The :class:`PatternSet` the command-line options describe (see ``fringe3d patterns --help``)."""
-    from fringe3d.patterns import sets
-
     if set_name not in SETS:
         raise ValueError(f"unknown pattern set {set_name!r}; choose one of {', '.join(SETS)}")
     periods = _numbers(period or DEFAULT_PERIODS.get(set_name, "18"), "period")
@@ -64,10 +66,6 @@ def build_set(set_name: str, period: str | None, steps: str | None, direction: s
 
 def write_pattern_folder(ps, out: Path, **render_options) -> list[Path]:
     """Render ``ps`` and write ``out/00000.png ...`` plus ``out/manifest.json`` (atomically)."""
-    from fringe3d.io.images import write_image
-    from fringe3d.patterns.render import render_frame
-
-    import re
     out.mkdir(parents=True, exist_ok=True)
     for stale in out.glob("*.png"):  # a longer, older set must not leave frames behind
         if re.fullmatch(r"\d{5}\.png", stale.name) and int(stale.stem) >= len(ps):

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+import time
+from collections.abc import Callable
 from types import ModuleType
 
 
@@ -35,3 +37,18 @@ def get(name: str) -> ModuleType:
     if name not in exps:
         raise ValueError(f"unknown experiment {name!r}; available: {', '.join(exps) or '(none)'}")
     return exps[name]
+
+
+def run_sequences(seed: int, announce: Callable[[str], None] | None = None) -> dict:
+    """The falling-ball and flapping-wing experiments (full variants, ~2.5 min), as
+    ``fringe3d demo --full`` reports them: ``{name: {"goals", "tables", "seconds"}}``.
+    ``announce(text)`` is called before each experiment (the CLI prints it)."""
+    out = {}
+    for name in ("falling-balls", "flapping-wing"):
+        if announce is not None:
+            announce(f"[bold]{name}[/] …")
+        t0 = time.perf_counter()
+        r = get(name).run(quick=False, seed=seed)
+        out[name] = {"goals": r.get("goals", {}), "tables": r.get("tables", []),
+                     "seconds": round(time.perf_counter() - t0, 1)}
+    return out

@@ -13,9 +13,27 @@ then flapped by a rotation φ(t) about the root line (the body y axis) and place
 """
 from __future__ import annotations
 
+import dataclasses
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import ndimage
+
+from fringe3d.analyze.anchors import find_anchor_dots, follow_anchors
+from fringe3d.analyze.geodesic import bezier_geodesic, grid_geodesic, heat_geodesic
+from fringe3d.analyze.strain import local_shape, wing_sequence
+from fringe3d.analyze.tracking import sample_bilinear
+from fringe3d.decode import decode
+from fringe3d.optics import PinholeDevice, intrinsics
+from fringe3d.patterns.manifest import DirectionPlan, PatternSet
+from fringe3d.patterns.sets import _w_range, direction_angle, phase_frames
+from fringe3d.reconstruct.triangulate import triangulate
+from fringe3d.sim import presets
+from fringe3d.sim import scenes as sc
+from fringe3d.sim.render import render
+from fringe3d.sim.wing import Wing
+from fringe3d.utils.console import progress_bar
 
 
 def _rot_y(a: float) -> np.ndarray:
@@ -97,7 +115,6 @@ class AnalyticWing:
 
 def camera(width: int = 320, height: int = 256, focal: float = 500.0):
     """A distortion-free pinhole camera at the world origin looking along +z (for tests)."""
-    from fringe3d.optics import PinholeDevice, intrinsics
     return PinholeDevice(K=intrinsics(focal, focal, (width - 1) / 2, (height - 1) / 2), width=width, height=height)
 
 
@@ -157,9 +174,6 @@ def ch6_patterns(rig):
     """Ch. 6 pattern cycle (5 images): 3-step dithered (Floyd–Steinberg) T = 380 for the
     histogram (fringe-order mode) unwrapping, then the π-shifted area-modulated T = 24 pair for
     modified FTP (Eq. 6.1–6.6), all 1-bit."""
-    from fringe3d.patterns.manifest import DirectionPlan, PatternSet
-    from fringe3d.patterns.sets import _w_range, direction_angle, phase_frames
-
     w, h = rig.projector.width, rig.projector.height
     a = direction_angle("v")
     frames = phase_frames(380, 3, "v", a, "floyd_steinberg") + \
@@ -175,8 +189,6 @@ def sim_wing(side: int = 1, kappa_amp: float = 1 / 150.0, flap_deg: float = 20.0
     (root on the right). The markers are evaluated as material points whatever the paint: their
     truth comes from the simulator, and painted dots would only disturb the fringe analysis
     (the dissertation removed them for its strain dataset)."""
-    from fringe3d.sim.wing import Wing
-
     R0 = None if side > 0 else np.array([[-1.0, 0, 0], [0, 1.0, 0], [0, 0, -1.0]])
     root = (-75.0, 35.0, z0) if side > 0 else (75.0, -35.0, z0)
     return Wing(root=root, R0=R0, frequency=BEAT, flap_amplitude=np.radians(flap_deg), kappa_amp=kappa_amp,
@@ -203,9 +215,6 @@ def _camera_sign(wing, m, t):
 def psp_patterns(rig):
     """Diagnostic set without FTP: the same 3-step dithered T = 380 plus a 4-step area-modulated
     T = 24 phase-shifting set (PSP), to tell modified-FTP errors from pattern/sensor errors."""
-    from fringe3d.patterns.manifest import DirectionPlan, PatternSet
-    from fringe3d.patterns.sets import _w_range, direction_angle, phase_frames
-
     w, h = rig.projector.width, rig.projector.height
     a = direction_angle("v")
     frames = phase_frames(380, 3, "v", a, "floyd_steinberg") + phase_frames(24, 4, "v", a, "area_modulated")
@@ -216,12 +225,6 @@ def psp_patterns(rig):
 def _measure(wing, preset, settings, ps, t_start, seed, static=False):
     """Render one burst starting at ``t_start`` (``static``: every image at ``t_start``, no motion),
     decode, triangulate → (points, texture, t3d)."""
-    from fringe3d.decode import decode
-    from fringe3d.reconstruct.triangulate import triangulate
-    from fringe3d.sim import scenes as sc
-    from fringe3d.sim.render import render
-
-    import dataclasses
     st = dataclasses.replace(settings, seed=seed) if hasattr(settings, "seed") else settings
     times = t_start + (0.0 if static else 1.0) * np.arange(len(ps)) / FRAME_RATE
     frames, _ = render(sc.Scene([wing], name="wing"), preset.rig, ps, st, times=times, progress=False)
@@ -235,10 +238,6 @@ def _measure(wing, preset, settings, ps, t_start, seed, static=False):
 def _geodesic_comparison(cam, wing, t: float) -> list[list]:
     """Relative error (vs the flat-sheet distance, exact for the isometric wing) and time of
     the geodesic methods on the wing's truth map, from anchor 1 at its sub-pixel position."""
-    import time
-
-    from fringe3d.analyze.geodesic import bezier_geodesic, grid_geodesic, heat_geodesic
-
     P, M = truth_map(wing, cam, t)
     a_uv = cam.project(wing.material_to_world(SIM_ANCHORS[:1], t))[0]
     truth = np.hypot(M[..., 0] - SIM_ANCHORS[0, 0], M[..., 1] - SIM_ANCHORS[0, 1])
@@ -270,8 +269,6 @@ def interior_grid(valid: np.ndarray, anchors_uv: np.ndarray, window: int, step: 
                   edge_margin: int = EDGE_MARGIN, dot_margin: int = DOT_MARGIN):
     """Grid points (K, 2) (u, v) every ``step`` px whose whole ``window`` fit lies ≥ edge_margin px
     inside the valid surface and outside the filled anchor-dot disks; also the kept area fraction."""
-    from scipy import ndimage
-
     inner = ndimage.binary_erosion(valid, iterations=edge_margin + window // 2)
     vv, uu = np.mgrid[0:valid.shape[0]:step, 0:valid.shape[1]:step]
     keep = inner[vv, uu]
@@ -296,7 +293,6 @@ def _marker_rows(label, err):
 
 
 def _track_markers(maps, anchors, q_markers, grid, window, fill, method="bezier"):
-    from fringe3d.analyze.strain import wing_sequence
     q = np.vstack([q_markers, grid]) if grid is not None and len(grid) else q_markers
     return wing_sequence(maps, anchors, q, THICKNESS, window, method=method, fill_dots=fill)
 
@@ -304,9 +300,6 @@ def _track_markers(maps, anchors, q_markers, grid, window, fill, method="bezier"
 def _reconstruct_side(wing, preset, settings, ps, starts, seed, advance=None):
     """Render, decode and triangulate one burst per start time; anchors found in the first texture
     (ordered like SIM_ANCHORS) and followed. Returns maps, textures, burst times, anchors (F,2,2)."""
-    from fringe3d.analyze.anchors import find_anchor_dots
-    from fringe3d.commands.strain import follow_anchors
-
     cam = preset.rig.camera
     maps, texs, t3 = [], [], []
     for k, t0 in enumerate(starts):
@@ -332,7 +325,6 @@ def _strain_row(label, wing, res, sel, window, M_ref, t3, area=None):
 def _strain_vs_truth(wing, res, sel, M_ref, times):
     """Dominant strain error of the points ``sel`` (slice, or int = first grid index after the
     markers) against the analytic wing (truth maps)."""
-    from fringe3d.analyze.tracking import sample_bilinear
     sel = slice(sel, None) if isinstance(sel, int) else sel
     m = sample_bilinear(M_ref, res.ref_uv[sel])
     ok_m = np.isfinite(m).all(axis=1)
@@ -410,10 +402,6 @@ class _SideRecon:
 def _setup(quick: bool, seed: int) -> _Setup:
     """Preset, sensor settings, patterns and sampling for a quick (right wing, 4 bursts over the
     first quarter cycle) or full (both wings, 16 bursts over one 40 ms cycle) run."""
-    import dataclasses
-
-    from fringe3d.sim import presets
-
     preset = presets.get("high-speed")
     settings = dataclasses.replace(preset.settings, frame_rate=FRAME_RATE, seed=seed)
     quiet = dataclasses.replace(settings, read_noise=0.0, shot_noise=False)   # noise-free sensor, 8-bit
@@ -428,8 +416,6 @@ def _setup(quick: bool, seed: int) -> _Setup:
 def _eroded_grid(valid: np.ndarray, erosion: int, step: int) -> np.ndarray:
     """Grid points (K, 2) float (u, v) px every ``step`` px of ``valid`` (H, W) bool eroded by
     ``erosion`` px."""
-    from scipy import ndimage
-
     inner = ndimage.binary_erosion(valid, iterations=erosion)
     vv, uu = np.mgrid[0:valid.shape[0]:step, 0:valid.shape[1]:step]
     return np.stack([uu[inner[vv, uu]], vv[inner[vv, uu]]], axis=1).astype(float)
@@ -582,8 +568,6 @@ def _rigid_motion(cam, window: int):
     """Constant curvature 1/150 mm, flapping only, on truth maps at 0, 4, 8 ms: the strain must
     stay 0. Returns rows [material points, max |E|] (exact points, then each geodesic method) and
     {method: max |E|}."""
-    from fringe3d.analyze.strain import local_shape
-
     rigid = sim_wing(1, kappa_amp=0.0)
     rigid.kappa_mean = 1 / 150.0
     rt = np.array([0.0, 0.004, 0.008])
@@ -605,8 +589,6 @@ def _rigid_motion(cam, window: int):
 def _noise_floor_table(cfg: _Setup) -> dict:
     """Strain noise floor: one pose (t = 10 ms) measured twice with independent sensor noise;
     RMS dominant strain (µε) of the interior points per fit window (px)."""
-    from fringe3d.analyze.strain import wing_sequence
-
     cam = cfg.cam
     wing = sim_wing(1)
     Pa, _, ta_ = _measure(wing, cfg.preset, cfg.settings, cfg.ps, 0.01, cfg.seed * 1000 + 901)
@@ -677,8 +659,6 @@ def _notes(cfg: _Setup, geo: dict, worst: dict, worst_truth: float) -> list[str]
 
 def run(quick: bool = False, seed: int = 0) -> dict:
     """Simulate → reconstruct → track → strain for the ch. 6 flapping wing; see SUMMARY."""
-    from fringe3d.utils.console import progress_bar
-
     cfg = _setup(quick, seed)
     acc = _Tracked()
     with progress_bar("flapping wing", total=len(cfg.sides) * len(cfg.starts) * 2 + len(cfg.nf_starts)) as advance:

@@ -21,6 +21,11 @@ import math
 
 import numpy as np
 
+from fringe3d.decode import decode
+from fringe3d.patterns import sets
+from fringe3d.patterns.synthetic import frames_from_coordinates
+from fringe3d.utils.console import progress_bar
+
 NAME = "unwrap-noise"
 SUMMARY = "fringe-order error rate vs intensity noise: hierarchical, heterodyne, Gray code + phase"
 
@@ -37,7 +42,6 @@ SHORT = {"hierarchical 18/144/1024": "hierarchical", "heterodyne 18/21/144": "he
 
 def methods(width: int = 800, height: int = 600) -> dict:
     """The four pattern sets, keyed by method label."""
-    from fringe3d.patterns import sets
     return {
         "hierarchical 18/144/1024": sets.hierarchical((18, 144, 1024), (9, 3, 3), "v", width=width, height=height),
         "heterodyne 18/21/144": sets.three_frequency("v", width=width, height=height),
@@ -96,10 +100,6 @@ def predicted_rates(sigma: float) -> dict:
 
 def run(quick: bool = False, seed: int = 0) -> dict:
     """Order-error rate (fraction of pixels) per method and noise level; see the module doc."""
-    from fringe3d.decode import decode
-    from fringe3d.utils.console import progress_bar
-    from fringe3d.patterns.synthetic import frames_from_coordinates
-
     cam_w, cam_h = (320, 48) if quick else (320, 400)
     sigmas = QUICK_SIGMAS if quick else SIGMAS
     sets_ = methods()

@@ -152,8 +152,8 @@ def _build(kind, kw):
     if kind == "box":
         return sc.Box(**kw)
     if kind == "board":
-        from .board import CircleBoard
-        return CircleBoard(**kw)
+        from .board import BoardTarget
+        return BoardTarget(**kw)
     if kind == "heightfield":
         from .sculpture import HeightField
         return HeightField(**kw)
