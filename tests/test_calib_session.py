@@ -6,15 +6,12 @@ import numpy as np
 import pytest
 
 from fringe3d.calibrate.calibration_file import export_opencv_yaml, load_calibration
+from fringe3d.calibrate.evaluation import rotation_angle_deg
 from fringe3d.calibrate.session import PoseCapture, calibrate_observations, calibrate_session, observe_session
 from fringe3d.cli import main
 from fringe3d.optics import Rig
 from fringe3d.sim.calibration_session import simulate_session
 from fringe3d.utils.warning_types import CalibrationWarning
-
-
-def rotation_error_deg(Ra, Rb):
-    return float(np.degrees(2 * np.arcsin(min(1.0, np.linalg.norm(Ra - Rb) / (2 * np.sqrt(2))))))
 
 
 @pytest.fixture(scope="module")
@@ -34,7 +31,7 @@ def test_noise_free_macro_session_meets_truth_tolerances():
         assert abs(e.K[0, 0] / t.K[0, 0] - 1) < 1e-3 and abs(e.K[1, 1] / t.K[1, 1] - 1) < 1e-3
         assert np.abs(e.K[:2, 2] - t.K[:2, 2]).max() < 0.1
     assert np.abs(est.projector.t - true.projector.t).max() < 0.05  # mm
-    assert rotation_error_deg(est.projector.R, true.projector.R) < 0.01
+    assert rotation_angle_deg(est.projector.R, true.projector.R) < 0.01
     assert cal.rms["camera_px"] < 0.01 and cal.rms["projector_px"] < 0.01
 
 
