@@ -14,21 +14,24 @@ Every experiment is a module here defining
 from __future__ import annotations
 
 import importlib
-import pkgutil
 import time
 from collections.abc import Callable
 from types import ModuleType
 
 
+#: The experiment modules (``fringe3d.experiments.<name>``), in listing order. Each is imported
+#: when the experiments are listed or one is run, so that ``import fringe3d.experiments`` stays
+#: cheap; a module that fails to import fails loudly.
+MODULES = ("binary_defocus", "defocus_calibration", "falling_balls", "flapping_wing", "motion_error",
+           "optimal_angle", "single_shot", "telecentric", "unwrap_noise")
+
+
 def available() -> dict[str, ModuleType]:
-    """Map experiment names to their modules."""
+    """Map experiment names to their modules, sorted by name."""
     out: dict[str, ModuleType] = {}
-    for mod in pkgutil.iter_modules(__path__):
-        if mod.name.startswith("_"):
-            continue
-        m = importlib.import_module(f"{__name__}.{mod.name}")
-        if hasattr(m, "NAME") and hasattr(m, "run"):
-            out[m.NAME] = m
+    for name in MODULES:
+        m = importlib.import_module(f"{__name__}.{name}")
+        out[m.NAME] = m
     return dict(sorted(out.items()))
 
 

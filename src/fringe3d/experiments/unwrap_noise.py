@@ -5,7 +5,8 @@ per noise level (Gaussian intensity noise of standard deviation sigma grey level
 unit-variance noise field scaled for every sigma), decoded by the manifest-driven decoder
 (:func:`fringe3d.decode.decode`) with four plans that share the same 9-step T=18 frames:
 
-* hierarchical 18 / 144 / 1024 px (+ 3-step T=144 and T=1024 frames), SPEC §4;
+* hierarchical 18 / 144 / 1024 px (+ 3-step T=144 and T=1024 frames), multi-frequency
+  temporal unwrapping (``Phi = phi + 2 pi k``, Eq. 1.5);
 * three-frequency heterodyne 18 / 21 / 144 px (beats 126 and 1008 px), the calibration set;
 * Gray code + phase, stripes T/2 wide (complementary code, the default of
   :func:`fringe3d.patterns.sets.psp_with_gray_code`);
@@ -13,7 +14,7 @@ unit-variance noise field scaled for every sigma), decoded by the manifest-drive
 
 A pixel's fringe order is wrong when ``|Phi - 2 pi u_p / 18| > pi``. The two multi-frequency
 methods also get a closed-form prediction: each level's rounding fails when a Gaussian of the
-propagated phase noise (N-step phase noise ``sqrt(2/N) sigma / B``, SPEC §3) exceeds pi.
+propagated phase noise (N-step phase noise ``sqrt(2/N) sigma / B`` of the least-squares phase, Eq. 2.4) exceeds pi.
 """
 from __future__ import annotations
 

@@ -14,7 +14,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import zarr
 
 from fringe3d.io.images import read_image
 
@@ -82,6 +81,7 @@ def read_point_sequence(path: str | Path) -> PointSequence:
             tex = [lambda i=i: tex_arr[i] for i in range(tex_arr.shape[0])]
         shape = tuple(arr.shape[1:])
     elif (p / ".zgroup").exists() or (p / "zarr.json").exists() or (p / ".zarray").exists():
+        import zarr  # heavy (~1 s to import): only zarr stores need it
         store = zarr.open(str(p), mode="r")
         if hasattr(store, "shape"):
             arr, tex_arr = store, None
