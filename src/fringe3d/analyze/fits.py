@@ -93,7 +93,13 @@ class PlaneFit:
 
 
 def fit_plane(points, mask=None) -> PlaneFit:
-    """Total-least-squares plane through the valid points (SVD of the centred cloud)."""
+    """Total-least-squares plane through the valid points (SVD of the centred cloud).
+
+    >>> v, u = np.mgrid[0:4, 0:5].astype(float)
+    >>> fit = fit_plane(np.dstack([u, v, 300.0 + 0.5 * u]))
+    >>> round(fit.rms, 9), fit.n_points
+    (0.0, 20)
+    """
     fp = collect_points(points, mask, 3, "plane fit")
     c = fp.xyz.mean(axis=0)
     _, sv, vt = np.linalg.svd(fp.xyz - c, full_matrices=False)
@@ -156,6 +162,15 @@ def fit_sphere(points, mask=None, radius: float | None = None) -> SphereFit:
     radius : float, optional
         Fix the radius (mm) and fit only the centre (e.g. VDI/VDE sphere spacing with a
         calibrated sphere).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> d = rng.normal(size=(200, 3))
+    >>> xyz = [1.0, 2.0, 300.0] + 10.0 * d / np.linalg.norm(d, axis=1, keepdims=True)
+    >>> fit = fit_sphere(xyz)
+    >>> round(fit.radius, 6), np.round(fit.center, 6).tolist()
+    (10.0, [1.0, 2.0, 300.0])
     """
     fp = collect_points(points, mask, 4, "sphere fit")
     xyz = fp.xyz
