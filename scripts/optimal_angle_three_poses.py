@@ -14,9 +14,12 @@ import sys
 import numpy as np
 
 from fringe3d.analyze.fits import fit_sphere
-from fringe3d.calibrate.evaluation import inner_mask, measure_points, render_and_decode, robust_fit
-from fringe3d.calibrate.session import calibrate_observations, observe_session, simulate_session
-from fringe3d.calibrate.simulated_session import scaled_camera
+from fringe3d.analyze.fits import inner_mask, robust_fit
+from fringe3d.calibrate.evaluation import measure_points
+from fringe3d.sim.calibration_session import render_and_decode
+from fringe3d.calibrate.session import calibrate_observations, observe_session
+from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import scaled_camera
 from fringe3d.experiments.optimal_angle import sections_rms
 from fringe3d.patterns import sets
 from fringe3d.sim import presets

@@ -3,8 +3,9 @@ import cv2
 import numpy as np
 import pytest
 
-from fringe3d.calibrate.board_detection import CircleBoard, detect_board
-from fringe3d.calibrate.simulated_session import render_board_poses
+from fringe3d.calibrate.board_detection import detect_board
+from fringe3d.calibrate.boards import CircleBoard
+from fringe3d.sim.calibration_session import render_board_poses
 from fringe3d.calibrate.stereo import circle_bias
 from fringe3d.optics import PinholeDevice, Rig, intrinsics
 from fringe3d.patterns.manifest import PatternSet
@@ -77,7 +78,7 @@ def test_noisy_microscope_board_that_opencv_mislabels_is_found_with_true_labels(
     grid with a block labelled one place off (a noise blob); detect_board must reject that
     and return the true labels (from the clustering search or the smoothed image)."""
     from fringe3d.calibrate.board_detection import blob_detector, grid_is_consistent, to_uint8
-    from fringe3d.calibrate.simulated_session import default_board, sample_board_poses
+    from fringe3d.sim.calibration_session import default_board, sample_board_poses
     from fringe3d.sim import presets
     p = presets.get("microscope")
     board = default_board(p.rig, p.volume)

@@ -3,7 +3,7 @@ import cv2
 import numpy as np
 import pytest
 
-from fringe3d.calibrate.board_detection import CircleBoard
+from fringe3d.calibrate.boards import CircleBoard
 from fringe3d.calibrate.stereo import PoseObservation, calibrate_pinhole_rig
 from fringe3d.optics import PinholeDevice, intrinsics
 

@@ -3,7 +3,7 @@ import cv2
 import numpy as np
 import pytest
 
-from fringe3d.calibrate.board_detection import CircleBoard
+from fringe3d.calibrate.boards import CircleBoard
 from fringe3d.calibrate.optimal_angle import epipolar_angle, optimal_angle, rotate_axes
 from fringe3d.calibrate.phase_mapping import FringeDirection, bilinear_sample, projector_points
 from fringe3d.calibrate.stereo import PoseObservation

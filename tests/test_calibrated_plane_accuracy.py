@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from fringe3d.analyze.vdi import flatness
-from fringe3d.calibrate.session import calibrate_observations, observe_session, simulate_session
+from fringe3d.calibrate.session import calibrate_observations, observe_session
+from fringe3d.sim.calibration_session import simulate_session
 from fringe3d.decode import decode
 from fringe3d.patterns import sets
 from fringe3d.reconstruct.triangulate import triangulate

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fringe3d.optics import PinholeDevice, intrinsics
-from fringe3d.sim.board import CircleBoard, board_facing
+from fringe3d.sim.board import BoardTarget, board_facing
 
 CAM = PinholeDevice(intrinsics(400, 400, 159.5, 127.5), 320, 256)
 
@@ -28,7 +28,7 @@ def test_opencv_finds_board_circles_at_projected_true_centres(asym):
 
 def test_board_albedo_dark_in_circles_white_between():
     for asym in (False, True):
-        b = CircleBoard(cols=5, rows=4, spacing=10, radius=3, asymmetric=asym, white=0.9, dark=0.1)
+        b = BoardTarget(cols=5, rows=4, spacing=10, radius=3, asymmetric=asym, white=0.9, dark=0.1)
         c = b.object_points()[:, :2]
         np.testing.assert_allclose(b.albedo_at(c), 0.1)
         np.testing.assert_allclose(b.albedo_at(c + [2.9, 0]), 0.1)
@@ -39,7 +39,7 @@ def test_board_albedo_dark_in_circles_white_between():
 def test_board_pose_maps_object_points_and_hits_lie_on_board_plane():
     R = cv2.Rodrigues(np.array([0.2, -0.4, 0.1]))[0]
     t = np.array([-40.0, -30.0, 350.0])
-    b = CircleBoard(cols=6, rows=5, spacing=10, R=R, t=t)
+    b = BoardTarget(cols=6, rows=5, spacing=10, R=R, t=t)
     np.testing.assert_allclose(b.circle_centers(), b.object_points() @ R.T + t)
     # a ray aimed at each true centre hits the board there and sees a dark circle
     X = b.circle_centers()
@@ -51,15 +51,15 @@ def test_board_pose_maps_object_points_and_hits_lie_on_board_plane():
 
 
 def test_board_is_finite_with_its_margin():
-    b = CircleBoard(cols=3, rows=3, spacing=10, margin=5, t=(0, 0, 100))
+    b = BoardTarget(cols=3, rows=3, spacing=10, margin=5, t=(0, 0, 100))
     d = np.array([[-4.9, 0, 100], [-5.1, 0, 100], [24.9, 24.9, 100], [25.1, 10, 100]])
     np.testing.assert_array_equal(b.intersect(np.zeros(3), d).mask, [True, False, True, False])
 
 
 def test_board_rejects_overlapping_circles_and_tiny_grids():
     with pytest.raises(ValueError, match="radius"):
-        CircleBoard(spacing=10, radius=5)
+        BoardTarget(spacing=10, radius=5)
     with pytest.raises(ValueError, match="radius"):
-        CircleBoard(spacing=10, radius=7.1, asymmetric=True)
+        BoardTarget(spacing=10, radius=7.1, asymmetric=True)
     with pytest.raises(ValueError, match="2x2"):
-        CircleBoard(cols=1, rows=5)
+        BoardTarget(cols=1, rows=5)

@@ -1,9 +1,14 @@
 """Bending strain (Eq. 6.10–6.21) against closed-form curvature and the analytic wing."""
 import numpy as np
 import pytest
+from conftest import ANCHORS, MARKERS, AnalyticWing, camera, point_map
 
-from fringe3d.analyze.strain import bending_strain, local_shape, principal_strains, wing_sequence
-from fringe3d.experiments.flapping_wing import ANCHORS, MARKERS, AnalyticWing, camera, point_map
+from fringe3d.analyze.strain import (
+    bending_strain,
+    local_shape,
+    principal_strains,
+    wing_sequence,
+)
 
 
 def cylinder_map(radius=40.0, h=96, w=128, pitch=0.3, tilt=0.0):

@@ -4,9 +4,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import ANCHORS, AnalyticWing, camera, point_map
 
 from fringe3d.cli import main
-from fringe3d.experiments.flapping_wing import ANCHORS, AnalyticWing, camera, point_map
 
 TIMES = (0.0, 0.01, 0.02)
 H = 0.1

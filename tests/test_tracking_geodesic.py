@@ -1,10 +1,10 @@
 """Geodesic point tracking (Eq. 6.9) against the analytic wing's material points."""
 import numpy as np
 import pytest
+from conftest import ANCHORS, MARKERS, AnalyticWing, camera, point_map
 
 from fringe3d.analyze.anchors import check_anchor, distance_maps, find_anchor_dots
 from fringe3d.analyze.tracking import sample_bilinear, side_of_line, track_points
-from fringe3d.experiments.flapping_wing import ANCHORS, MARKERS, AnalyticWing, camera, point_map
 
 
 def _wing():

@@ -1,8 +1,9 @@
 """The ``fringe3d`` command.
 
 Each sub-command lives in its own module under :mod:`fringe3d.commands` and exposes
-``register(app)``; this file only discovers and wires them, so adding a command never
-touches another's code.
+``register(app)``; this file wires the modules listed in :data:`COMMANDS` (in that order), so
+adding a command touches only its module and that list. A command module that fails to import
+fails the whole CLI loudly instead of vanishing from it.
 
 Exit codes (documented in ``fringe3d --help``):
   0 success · 1 unexpected internal error · 2 bad input or usage (the message says what was
@@ -10,14 +11,29 @@ Exit codes (documented in ``fringe3d --help``):
 """
 from __future__ import annotations
 
-import importlib
-import pkgutil
 import sys
+import warnings
 
 import typer
 
-from fringe3d import commands
-from fringe3d.utils.console import err_console, set_quiet
+from fringe3d import __version__
+from fringe3d.commands import (
+    calibrate,
+    decode,
+    demo,
+    evaluate,
+    experiment,
+    patterns,
+    reconstruct,
+    report,
+    simulate,
+    strain,
+)
+from fringe3d.utils.console import err_console, set_quiet, warn
+from fringe3d.utils.warning_types import Fringe3DWarning
+
+#: The sub-command modules, in the order they are registered (and listed by ``--help``).
+COMMANDS = (calibrate, decode, demo, evaluate, experiment, patterns, reconstruct, report, simulate, strain)
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_WRITE = 0, 1, 2, 3
 
@@ -42,29 +58,33 @@ def _root(
 ) -> None:
     """Superfast, high-accuracy 3D shape measurement with digital fringe projection."""
     if version:
-        from fringe3d import __version__
         typer.echo(__version__)
         raise typer.Exit()
 
 
-def _register_all() -> None:
-    for mod in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
-        if mod.name.startswith("_"):
-            continue
-        module = importlib.import_module(f"fringe3d.commands.{mod.name}")
-        register = getattr(module, "register", None)
-        if register is not None:
-            register(app)
+for _module in COMMANDS:
+    _module.register(app)
 
 
-_register_all()
+def show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """``warnings.showwarning`` of the CLI: fringe3d's warnings as ``warning: <message>`` lines
+    on stderr, any other warning as Python shows it."""
+    if issubclass(category, Fringe3DWarning):
+        warn(str(message))
+    else:
+        _python_showwarning(message, category, filename, lineno, file, line)
+
+
+_python_showwarning = warnings.showwarning
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point: run the app, turning known error types into clear messages and exit codes."""
     set_quiet(False)  # the command line shows progress; sub-commands' --quiet/--json silence it
     try:
-        app(args=argv, standalone_mode=False)
+        with warnings.catch_warnings():
+            warnings.showwarning = show_warning
+            app(args=argv, standalone_mode=False)
     except SystemExit as e:  # typer/click exit
         return int(e.code or 0)
     except (ValueError, FileNotFoundError, KeyError) as e:

@@ -9,13 +9,29 @@ figures, ``summary.json`` and a self-contained ``report.html``.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.ndimage import binary_erosion
 
-from fringe3d.utils.console import info
+from fringe3d.analyze.vdi import probing_errors, sphere_spacing
+from fringe3d.calibrate.plots import residual_plot
+from fringe3d.calibrate.session import calibrate_observations, observe_session
+from fringe3d.decode import decode
+from fringe3d.io.pointcloud import write_ply
+from fringe3d.patterns import sets
+from fringe3d.reconstruct.triangulate import triangulate
+from fringe3d.report import write_report
+from fringe3d.report.results import save_summary
+from fringe3d.sim import presets, render
+from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.catalog import facing_rotation, preset_frame
+from fringe3d.sim import Scene, Sphere
+from fringe3d.sim.sculpture import sculpture
+from fringe3d.utils.atomic import atomic_path
 
 #: Named demo profiles: (preset, board poses, camera scale).
 PROFILES = {
@@ -31,13 +47,15 @@ VDI_EXCLUDE = 0.003
 
 @dataclass
 class Stages:
-    """Wall-clock seconds per stage, in order."""
+    """Wall-clock seconds per stage, in order; ``announce(text)`` (if given) is told each stage's start."""
 
     rows: list
+    announce: Callable[[str], None] | None = None
 
     @contextmanager
     def time(self, name: str):
-        info(f"[bold]{name}[/] …")
+        if self.announce is not None:
+            self.announce(f"[bold]{name}[/] …")
         t0 = time.perf_counter()
         yield
         self.rows.append({"name": name, "seconds": round(time.perf_counter() - t0, 2)})
@@ -45,11 +63,6 @@ class Stages:
 
 def measurement_scene(preset, seed: int = 0):
     """Sculpture on the left, two isolated spheres (a ball bar) on the right of the volume."""
-    from fringe3d.sim.catalog import facing_rotation, preset_frame
-    from fringe3d.sim.primitives import Sphere
-    from fringe3d.sim.scene import Scene
-    from fringe3d.sim.sculpture import sculpture
-
     c, size, view, down = preset_frame(preset)
     right = np.cross(down, view)
     relief = 0.12 * size[2]
@@ -79,9 +92,6 @@ def _calibration_figures(cal, true_rig) -> dict:
 
 def _evaluate(points, truth, ids: dict, radius: float) -> tuple[dict, list]:
     """Sphere fits, ball-bar spacing and sculpture error against the truth (mm)."""
-    from fringe3d.analyze.vdi import probing_errors, sphere_spacing
-    from scipy.ndimage import binary_erosion
-
     valid = np.isfinite(points).all(axis=-1)
     masks = {k: binary_erosion(truth.object_id == i, iterations=2) & valid & truth.mask for k, i in ids.items()}
     err = np.linalg.norm(points - truth.xyz, axis=-1)
@@ -107,23 +117,21 @@ def _evaluate(points, truth, ids: dict, radius: float) -> tuple[dict, list]:
     return metrics, accuracy, err, masks
 
 
-def run_demo(out: str | Path, profile: str = "default", seed: int = 0, full: bool = False) -> dict:
-    """Run the chain and write the results folder ``out``; returns the summary dict."""
-    from fringe3d.calibrate.plots import residual_plot
-    from fringe3d.calibrate.session import calibrate_observations, observe_session, simulate_session
-    from fringe3d.decode import decode
-    from fringe3d.patterns import sets
-    from fringe3d.reconstruct.triangulate import triangulate
-    from fringe3d.report import write_report
-    from fringe3d.report.results import save_summary
-    from fringe3d.sim import presets, render
+def run_demo(out: str | Path, profile: str = "default", seed: int = 0,
+             sequences: Callable[[int], dict] | None = None, announce: Callable[[str], None] | None = None) -> dict:
+    """Run the chain and write the results folder ``out``; returns the summary dict.
 
+    ``sequences(seed)``, if given, runs further jobs (``fringe3d demo --full`` passes
+    :func:`fringe3d.experiments.run_sequences`) whose results join the summary and report as
+    ``"sequences"`` (``{name: {"goals", "tables", "seconds"}}``). ``announce(text)`` is told
+    the start of each stage (the CLI prints it).
+    """
     if profile not in PROFILES:
         raise ValueError(f"unknown demo profile {profile!r}; expected one of {', '.join(PROFILES)}")
     preset_name, n_poses, scale = PROFILES[profile]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    st = Stages([])
+    st = Stages([], announce)
     preset = presets.get(preset_name)
 
     with st.time("render calibration session"):
@@ -155,8 +163,8 @@ def run_demo(out: str | Path, profile: str = "default", seed: int = 0, full: boo
         "measurements": measurements, "accuracy": accuracy, "stages": st.rows,
         "seconds_total": round(sum(r["seconds"] for r in st.rows), 2),
     }
-    if full:
-        summary["sequences"] = _run_sequences(seed)
+    if sequences is not None:
+        summary["sequences"] = sequences(seed)
         st.rows += [{"name": f"sequence: {k}", "seconds": v["seconds"]} for k, v in summary["sequences"].items()]
         summary["seconds_total"] = round(sum(r["seconds"] for r in st.rows), 2)
     save_summary(out, summary)
@@ -166,8 +174,6 @@ def run_demo(out: str | Path, profile: str = "default", seed: int = 0, full: boo
 
 def _write_outputs(out: Path, points, err, masks, metrics, texture) -> list:
     """PLY + npy per object, an error map PNG; returns the summary's measurement entries."""
-    from fringe3d.io.pointcloud import write_ply
-
     _save_npy(out / "points.npy", points)
     entries = []
     for name in ("sculpture", "sphere", "sphere_b"):
@@ -185,17 +191,14 @@ def _write_outputs(out: Path, points, err, masks, metrics, texture) -> list:
 
 
 def _save_npy(path: Path, arr: np.ndarray) -> None:
-    from fringe3d.utils.atomic import atomic_path
     with atomic_path(path) as tmp:
         np.save(tmp, arr)
 
 
 def _error_png(path: Path, err: np.ndarray, title: str) -> None:
-    import matplotlib
+    import matplotlib  # heavy: loaded only when a figure is written; Agg must be chosen before pyplot
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from fringe3d.utils.atomic import atomic_path
 
     rows, cols = np.nonzero(np.isfinite(err))
     if rows.size:  # crop to the object, with a small margin
@@ -211,16 +214,3 @@ def _error_png(path: Path, err: np.ndarray, title: str) -> None:
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", bbox_inches="tight")
     plt.close(fig)
-
-
-def _run_sequences(seed: int) -> dict:
-    """``--full``: the falling-ball and flapping-wing experiments (full variants, ~2.5 min)."""
-    from fringe3d import experiments
-    out = {}
-    for name in ("falling-balls", "flapping-wing"):
-        info(f"[bold]{name}[/] …")
-        t0 = time.perf_counter()
-        r = experiments.get(name).run(quick=False, seed=seed)
-        out[name] = {"goals": r.get("goals", {}), "tables": r.get("tables", []),
-                     "seconds": round(time.perf_counter() - t0, 1)}
-    return out

@@ -11,8 +11,10 @@ from scipy import ndimage
 from skimage import measure
 
 from fringe3d.analyze.geodesic import bezier_geodesic, check_point_map, grid_geodesic
+from fringe3d.io.point_sequence import PointSequence
 
-__all__ = ["dark_dots", "fill_dot_holes", "find_anchor_dots", "check_anchor", "distance_maps", "pair_anchors"]
+__all__ = ["dark_dots", "fill_dot_holes", "find_anchor_dots", "check_anchor", "distance_maps", "pair_anchors",
+           "parse_anchors", "follow_anchors", "auto_anchors", "query_grid"]
 
 
 def dark_dots(texture: np.ndarray, min_area: float = 4.0, max_area: float = 2000.0, darkness: float = 0.5,
@@ -155,3 +157,68 @@ def fill_dot_holes(points: np.ndarray, anchors_uv: np.ndarray, max_radius: int =
         block = pts[r0:r1, c0:c1]
         block[hole] = A[hole] @ coef
     return pts
+
+
+def parse_anchors(text: str) -> list[np.ndarray] | None:
+    """``"auto"`` → None; ``"u1,v1,u2,v2[;u3,v3,u4,v4]"`` → list of (2, 2) arrays (one per wing)."""
+    if text.strip().lower() == "auto":
+        return None
+    wings = []
+    for part in text.split(";"):
+        try:
+            vals = [float(x) for x in part.split(",")]
+        except ValueError:
+            raise ValueError(f"cannot read anchors {part!r}; expected 'u1,v1,u2,v2' (pixels) or 'auto'") from None
+        if len(vals) != 4:
+            raise ValueError(f"anchors {part!r} has {len(vals)} numbers; expected 4: u1,v1,u2,v2")
+        wings.append(np.array(vals).reshape(2, 2))
+    return wings
+
+
+def follow_anchors(texture, n_frames: int, start: list[np.ndarray], search: float = 40.0) -> np.ndarray:
+    """Anchor positions (F, wings, 2, 2) from the reference positions ``start``.
+
+    ``texture``: callable ``i -> (H, W)`` image, or None. With textures, each frame's anchor is
+    the dark dot nearest its constant-velocity prediction (within ``search`` px, else the
+    prediction); without, the given positions hold for every frame (anchors near the wing root
+    barely move)."""
+    out = np.repeat(np.stack(start)[None], n_frames, axis=0)
+    if texture is None:
+        return out
+    for f in range(1, n_frames):
+        try:
+            dots = dark_dots(texture(f))[:, :2]
+        except ValueError:
+            dots = np.empty((0, 2))
+        for w in range(len(start)):
+            for a in range(2):
+                pred = out[f - 1, w, a] + ((out[f - 1, w, a] - out[f - 2, w, a]) if f >= 2 else 0.0)
+                out[f, w, a] = pred
+                if len(dots):
+                    d = np.linalg.norm(dots - pred, axis=1)
+                    j = int(np.argmin(d))
+                    if d[j] <= search:
+                        out[f, w, a] = dots[j]
+    return out
+
+
+def auto_anchors(seq: PointSequence, wings: int) -> list[np.ndarray]:
+    """Detect 2 × ``wings`` dark dots in the reference texture and pair them per wing."""
+    if not seq.has_texture:
+        raise ValueError(f"--anchors auto needs texture images in {seq.source} (texture_00000.npy/.png or a "
+                         "'texture' array); none found. Pass --anchors u1,v1,u2,v2 instead")
+    dots = find_anchor_dots(seq.texture(0), count=2 * wings)
+    return pair_anchors(dots, seq[0]) if wings > 1 else [dots]
+
+
+def query_grid(points: np.ndarray, anchors: np.ndarray, step: int, margin: int) -> np.ndarray:
+    """Reference pixels (N, 2) every ``step`` px on the surface region that holds the anchors,
+    at least ``margin`` px inside its valid area."""
+    valid = np.isfinite(points).all(axis=2)
+    lab = measure.label(valid, connectivity=1)
+    region = lab == lab[int(round(anchors[0, 1])), int(round(anchors[0, 0]))]
+    if margin > 0:
+        region = ndimage.binary_erosion(region, iterations=margin)
+    v, u = np.mgrid[0:valid.shape[0]:step, 0:valid.shape[1]:step]
+    keep = region[v, u]
+    return np.stack([u[keep], v[keep]], axis=1).astype(float)

@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.ndimage import binary_erosion
 from scipy.optimize import least_squares
 
 
@@ -92,7 +93,13 @@ class PlaneFit:
 
 
 def fit_plane(points, mask=None) -> PlaneFit:
-    """Total-least-squares plane through the valid points (SVD of the centred cloud)."""
+    """Total-least-squares plane through the valid points (SVD of the centred cloud).
+
+    >>> v, u = np.mgrid[0:4, 0:5].astype(float)
+    >>> fit = fit_plane(np.dstack([u, v, 300.0 + 0.5 * u]))
+    >>> round(fit.rms, 9), fit.n_points
+    (0.0, 20)
+    """
     fp = collect_points(points, mask, 3, "plane fit")
     c = fp.xyz.mean(axis=0)
     _, sv, vt = np.linalg.svd(fp.xyz - c, full_matrices=False)
@@ -155,6 +162,15 @@ def fit_sphere(points, mask=None, radius: float | None = None) -> SphereFit:
     radius : float, optional
         Fix the radius (mm) and fit only the centre (e.g. VDI/VDE sphere spacing with a
         calibrated sphere).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> d = rng.normal(size=(200, 3))
+    >>> xyz = [1.0, 2.0, 300.0] + 10.0 * d / np.linalg.norm(d, axis=1, keepdims=True)
+    >>> fit = fit_sphere(xyz)
+    >>> round(fit.radius, 6), np.round(fit.center, 6).tolist()
+    (10.0, [1.0, 2.0, 300.0])
     """
     fp = collect_points(points, mask, 4, "sphere fit")
     xyz = fp.xyz
@@ -232,3 +248,30 @@ def fit_circle(points, mask=None, normal=None) -> CircleFit:
     out_of_plane = d @ n
     return CircleFit(centre, r, n, _rms(resid), resid, _rms(out_of_plane), fp.to_map(resid), len(resid),
                      np.stack([a1, a2]))
+
+
+def inner_mask(mask: np.ndarray, border: int = 2) -> np.ndarray:
+    """``mask`` eroded by ``border`` pixels (drops silhouette pixels that mix object and background).
+
+    >>> inner_mask(np.ones((5, 5), bool), border=1).sum()
+    np.int64(9)
+    """
+    return binary_erosion(np.asarray(mask, bool), iterations=border) if border > 0 else np.asarray(mask, bool)
+
+
+def robust_fit(fit_fn, pts: np.ndarray, mask: np.ndarray, k: float = 5.0, passes: int = 2):
+    """Fit (:func:`fit_sphere` or :func:`fit_plane`) after discarding gross outliers
+    (isolated fringe-order errors): points whose residual exceeds ``k`` robust sigmas
+    (1.4826 MAD) of the previous fit are dropped. Returns ``(fit, used_mask, dropped_fraction)``."""
+    used = np.asarray(mask, bool) & np.all(np.isfinite(pts), -1)
+    n0 = int(used.sum())
+    fit = fit_fn(pts, used)
+    for _ in range(passes):
+        res = fit.residual_map
+        mad = np.nanmedian(np.abs(res[used] - np.nanmedian(res[used])))
+        keep = used & (np.abs(res) <= k * 1.4826 * max(mad, 1e-12))
+        if keep.sum() == used.sum():
+            break
+        used = keep
+        fit = fit_fn(pts, used)
+    return fit, used, 1.0 - used.sum() / max(n0, 1)

@@ -494,7 +494,7 @@ def heat_geodesic(points: np.ndarray, source, mesh: GridMesh | None = None, t_co
     ``potpourri3d.MeshHeatMethodDistanceSolver``; source snapped to the nearest valid pixel.
     ``t_coef``: time step factor (``t = t_coef · h²``), default :func:`heat_time_coefficient`.
     Same output layout as :func:`bezier_geodesic`."""
-    import potpourri3d as pp3d
+    import potpourri3d as pp3d  # heavy compiled extension: only the heat-method geodesic needs it
 
     pts = check_point_map(points)
     mesh = mesh or grid_mesh(pts)

@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from .fits import CircleFit, SphereFit, fit_circle, fit_sphere
 
@@ -80,9 +82,6 @@ def segments(points, max_jump: float | None = None, min_size: int = 50) -> np.nd
     of a wall separates from it at its silhouette. Returns ``(H, W)`` int32 labels (0..n-1,
     largest first; -1 for invalid pixels and pieces smaller than ``min_size``).
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     P = np.asarray(points, float)
     if P.ndim != 3 or P.shape[-1] != 3:
         raise ValueError(f"segmentation needs an organized point map (H, W, 3), got {P.shape}")

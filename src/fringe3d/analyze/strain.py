@@ -28,7 +28,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from fringe3d.analyze.anchors import distance_maps, fill_dot_holes
 from fringe3d.analyze.geodesic import check_point_map
+from fringe3d.analyze.tracking import sample_bilinear, side_of_line, track_points
 
 __all__ = ["LocalShape", "local_shape", "bending_strain", "StrainResult", "principal_strains"]
 
@@ -321,9 +323,6 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
     with the direction towards the farther anchor as the material direction.
     ``progress``: optional callable advanced once per frame.
     """
-    from fringe3d.analyze.anchors import distance_maps, fill_dot_holes
-    from fringe3d.analyze.tracking import sample_bilinear, side_of_line, track_points
-
     anchors = np.asarray(anchors, dtype=np.float64)
     nf = len(frames)
     if anchors.shape != (nf, 2, 2):

@@ -1,86 +1,16 @@
-"""Circle-grid calibration boards and sub-pixel centre detection (ch. 2.2.5 step 2, ch. 3.3).
+"""Sub-pixel detection of circle-grid boards (ch. 2.2.5 step 2, ch. 3.3).
 
-Board coordinates: the board plane is ``z = 0``, the first circle (top-left, OpenCV order:
-row by row, left to right) is the origin, ``x`` along a row, ``y`` down the columns (mm).
+The board geometry is :class:`fringe3d.calibrate.boards.CircleBoard`.
 OpenCV's ``findCirclesGrid`` finds and orders the circles; a ``SimpleBlobDetector`` sized to
 the expected circle area keeps it from locking onto noise or fringe remnants, and each centre
 is then refined to sub-pixel accuracy by an intensity-weighted centroid over the blob.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import cv2
 import numpy as np
 
-
-@dataclass(frozen=True)
-class CircleBoard:
-    """A planar circle-grid target.
-
-    Attributes
-    ----------
-    cols, rows : int
-        Circles per row and number of rows (OpenCV ``patternSize = (cols, rows)``).
-    spacing : float
-        Centre-to-centre distance in mm (for asymmetric grids: the distance between
-        neighbouring circles of one row is ``2*spacing``, rows are offset by ``spacing``).
-    radius : float
-        Circle radius in mm.
-    asymmetric : bool
-        OpenCV asymmetric grid layout.
-    dark_circles : bool
-        True for dark circles on a bright board, False for bright circles on a dark board.
-    """
-
-    cols: int = 9
-    rows: int = 9
-    spacing: float = 10.0
-    radius: float = 2.5
-    asymmetric: bool = False
-    dark_circles: bool = True
-
-    def __post_init__(self):
-        if self.cols < 2 or self.rows < 2:
-            raise ValueError(f"a circle board needs at least 2x2 circles, got {self.cols}x{self.rows}")
-        if not (0 < 2 * self.radius < self.spacing * (np.sqrt(2) if self.asymmetric else 1)):
-            raise ValueError(f"circle radius {self.radius} mm does not fit the spacing {self.spacing} mm")
-
-    @property
-    def pattern_size(self) -> tuple[int, int]:
-        return (self.cols, self.rows)
-
-    @property
-    def count(self) -> int:
-        return self.cols * self.rows
-
-    def object_points(self) -> np.ndarray:
-        """``(rows*cols, 3)`` float64 circle centres in board coordinates (mm), OpenCV order."""
-        j, i = np.meshgrid(np.arange(self.cols), np.arange(self.rows))
-        if self.asymmetric:
-            x = (2 * j + (i % 2)) * self.spacing
-        else:
-            x = j * self.spacing
-        y = i * self.spacing
-        return np.stack([x.ravel(), y.ravel(), np.zeros(self.count)], axis=-1).astype(float)
-
-    def corner_indices(self) -> dict[str, int]:
-        """Indices of the four corner circles A (top-left), B (top-right), C (bottom-right),
-        D (bottom-left) used for the diagonal-length check of ch. 3.4."""
-        c, r = self.cols, self.rows
-        return {"A": 0, "B": c - 1, "C": r * c - 1, "D": (r - 1) * c}
-
-    def to_dict(self) -> dict:
-        return {"cols": self.cols, "rows": self.rows, "spacing": self.spacing, "radius": self.radius,
-                "asymmetric": self.asymmetric, "dark_circles": self.dark_circles}
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "CircleBoard":
-        known = {"cols", "rows", "spacing", "radius", "asymmetric", "dark_circles"}
-        unknown = sorted(set(d) - known)
-        if unknown:
-            raise ValueError(f"board: unknown field(s) {unknown}; allowed {sorted(known)}")
-        return cls(**d)
+from .boards import CircleBoard
 
 
 def to_uint8(image: np.ndarray) -> np.ndarray:
@@ -157,7 +87,7 @@ def find_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, fl
         s_max = min(h, w) / max(span - 1, 1)
         ratio = board.radius / board.spacing
         radius_px = (1.5, max(3.0, 1.3 * ratio * s_max * (2 if board.asymmetric else 1)))
-    flags = cv2.CALIB_CB_ASYMMETRIC_GRID if board.asymmetric else cv2.CALIB_CB_SYMMETRIC_GRID
+    flags = board.cv_flags
     det = blob_detector(board, radius_px)
     uv, mislabelled = None, False
     # when the default search fails or mislabels the grid: OpenCV's clustering search, then both

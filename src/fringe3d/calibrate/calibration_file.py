@@ -29,7 +29,7 @@ import numpy as np
 from fringe3d.optics import Rig
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.console import to_jsonable
-from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.jsonfile import read_json, write_json
 
 FORMAT = "fringe3d-calibration"
 VERSION = 1
@@ -144,7 +144,6 @@ def validate(d: dict, where: str = "calibration file") -> None:
 
 def load_calibration(path) -> Calibration:
     """Read and validate a calibration JSON (errors name the missing/invalid field)."""
-    from fringe3d.utils.jsonfile import read_json
     path = Path(path)
     d = read_json(path, "calibration file", require_object=False)
     return Calibration.from_dict(d, where=str(path))

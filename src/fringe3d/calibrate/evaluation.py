@@ -1,9 +1,12 @@
-"""Measuring test objects with a (calibrated) rig in simulation: render, decode, map phase to
-projector coordinates, triangulate. Used by the calibration experiments to judge a
-calibration by what it measures (sphere, plane, board diagonals, stage steps)."""
+"""Judging a calibration by what it measures: decoded directions -> projector coordinates ->
+points (Eq. 2.30-2.34, 2.37), and calibrated-vs-true rig parameters. The calibration
+experiments render the test objects with :func:`fringe3d.sim.calibration_session.render_and_decode`."""
 from __future__ import annotations
 
 import numpy as np
+
+from fringe3d.optics import Rig
+from fringe3d.reconstruct.triangulate import triangulate
 
 from .phase_mapping import FringeDirection, projector_maps
 
@@ -16,55 +19,25 @@ def directions_of(decoded, patterns) -> list[FringeDirection]:
                             mask=np.asarray(decoded.mask[p.direction])) for p in patterns.plans]
 
 
-def render_and_decode(scene, rig, patterns, settings):
-    """Render ``scene`` through the true ``rig`` and decode: returns (frames, truth, directions)."""
-    from fringe3d.decode import decode
-    from fringe3d.sim import render
-    frames, truth = render(scene, rig, patterns, settings, progress=False)
-    dec = decode(frames, patterns)
-    return frames, truth, directions_of(dec, patterns)
-
-
-def measure_points(rig, directions: list[FringeDirection]) -> np.ndarray:
+def measure_points(rig: Rig, directions: list[FringeDirection]) -> np.ndarray:
     """(H, W, 3) float64 points (mm) from a calibrated rig and decoded directions: the two
     projector coordinates (any two fringe angles, Eq. 2.30-2.34) and least-squares
     triangulation (``reconstruct.triangulate``: Eq. 2.37, and Eq. 3.3-3.4 for telecentric rigs;
     ``calibrate.telecentric.triangulate_telecentric`` is the sub-pixel point version)."""
     up, vp = (np.ascontiguousarray(a) for a in projector_maps(directions))
-    from fringe3d.reconstruct.triangulate import triangulate
     return np.asarray(triangulate(rig, up=up, vp=vp), np.float64)
 
 
-def inner_mask(mask: np.ndarray, border: int = 2) -> np.ndarray:
-    """``mask`` eroded by ``border`` pixels (drops silhouette pixels that mix object and background)."""
-    from scipy.ndimage import binary_erosion
-    return binary_erosion(np.asarray(mask, bool), iterations=border) if border > 0 else np.asarray(mask, bool)
-
-
-def robust_fit(fit_fn, pts: np.ndarray, mask: np.ndarray, k: float = 5.0, passes: int = 2):
-    """Fit (``analyze.fits.fit_sphere`` or ``fit_plane``) after discarding gross outliers
-    (isolated fringe-order errors): points whose residual exceeds ``k`` robust sigmas
-    (1.4826 MAD) of the previous fit are dropped. Returns ``(fit, used_mask, dropped_fraction)``."""
-    used = np.asarray(mask, bool) & np.all(np.isfinite(pts), -1)
-    n0 = int(used.sum())
-    fit = fit_fn(pts, used)
-    for _ in range(passes):
-        res = fit.residual_map
-        mad = np.nanmedian(np.abs(res[used] - np.nanmedian(res[used])))
-        keep = used & (np.abs(res) <= k * 1.4826 * max(mad, 1e-12))
-        if keep.sum() == used.sum():
-            break
-        used = keep
-        fit = fit_fn(pts, used)
-    return fit, used, 1.0 - used.sum() / max(n0, 1)
-
-
 def rotation_angle_deg(Ra: np.ndarray, Rb: np.ndarray) -> float:
-    """Angle (degrees) of the rotation ``Ra Rb^T`` (robust near zero)."""
+    """Angle (degrees) of the rotation ``Ra Rb^T`` (robust near zero).
+
+    >>> round(rotation_angle_deg(np.eye(3), np.eye(3)), 6)
+    0.0
+    """
     return float(np.degrees(2 * np.arcsin(min(1.0, np.linalg.norm(np.asarray(Ra) - np.asarray(Rb)) / (2 * np.sqrt(2))))))
 
 
-def compare_to_truth(est, true) -> dict:
+def compare_to_truth(est: Rig, true: Rig) -> dict:
     """Calibrated vs true pinhole rig: relative focal-length errors, principal-point errors (px),
     projector translation error (mm, max abs component and norm) and rotation error (deg)."""
     out = {}

@@ -15,7 +15,7 @@ def residual_plot(path, camera_residuals: list[np.ndarray], projector_residuals:
 
     ``*_residuals``: per pose ``(N_i, 2)`` observed minus reprojected (``units``).
     """
-    import matplotlib
+    import matplotlib  # heavy: loaded only when a figure is written; Agg must be chosen before pyplot
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 

@@ -8,23 +8,29 @@ the rig model (``"model": "pinhole" | "telecentric"``).
 
 :func:`observe_pose` turns one pose's frames into a :class:`PoseObservation`;
 :func:`calibrate_observations` runs the pinhole or telecentric calibration and wraps the
-result in a :class:`Calibration`; :func:`simulate_session` renders a session with the
-simulator (board at random poses inside a preset's working volume).
+result in a :class:`Calibration`. Simulated sessions are rendered by
+:func:`fringe3d.sim.calibration_session.simulate_session`.
 """
 from __future__ import annotations
 
 import json
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from fringe3d.utils.console import progress_bar, warn
+from fringe3d.decode import decode
+from fringe3d.io.capture import read_capture
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
+from fringe3d.utils.console import progress_bar
+from fringe3d.utils.warning_types import CalibrationWarning
 
-from .board_detection import CircleBoard, find_board
+from .board_detection import find_board
+from .boards import CircleBoard
 from .calibration_file import Calibration
 from .phase_mapping import FringeDirection, projector_points
+from .plots import residual_plot
 from .stereo import PoseObservation, calibrate_pinhole_rig
 from .telecentric import calibrate_telecentric_rig
 
@@ -72,7 +78,7 @@ def find_pose_folders(paths) -> tuple[list[Path], dict]:
 
 
 def read_pose(folder: Path) -> PoseCapture:
-    from fringe3d.io.capture import read_capture
+    """The first pattern cycle of a pose (capture) folder."""
     cap = read_capture(folder, max_cycles=1)
     return PoseCapture(name=Path(folder).name, frames=cap.frames[: len(cap.patterns)], patterns=cap.patterns)
 
@@ -91,7 +97,6 @@ def check_calibration_set(ps: PatternSet, where: str) -> int:
 
 def decode_directions(pose: PoseCapture) -> list[FringeDirection]:
     """Absolute phase per direction from the decoder (``fringe3d.decode.decode``)."""
-    from fringe3d.decode import decode
     dec = decode(pose.frames, pose.patterns)
     out = []
     for p in pose.patterns.plans:
@@ -147,7 +152,8 @@ def observe_pose(pose: PoseCapture, board: CircleBoard, min_modulation_fraction:
     uv, why = find_board(pose.frames[iw], board)
     if uv is None:
         what = "was not found" if why in ("not found", "the image is flat") else f"is unusable: {why}"
-        warn(f"pose {pose.name}: the {board.cols}x{board.rows} circle board {what} in the white frame; pose skipped")
+        warnings.warn(f"pose {pose.name}: the {board.cols}x{board.rows} circle board {what} in the white frame; "
+                      "pose skipped", CalibrationWarning, stacklevel=2)
         return None
     dirs = directions if directions is not None else decode_directions(pose)
     mods = [d.modulation[np.isfinite(d.phase) & (d.mask if d.mask is not None else True)]
@@ -270,8 +276,43 @@ def calibrate_session(paths, board: CircleBoard | None = None, model: str | None
     return calibrate_observations(obs, info, board, model, **kw)
 
 
-def simulate_session(*args, **kwargs):
-    """Render a simulated calibration session; see
-    :func:`fringe3d.calibrate.simulated_session.simulate_session`."""
-    from .simulated_session import simulate_session as _simulate
-    return _simulate(*args, **kwargs)
+def board_from_options(cols: int, rows: int, spacing: float | None, radius: float | None, asymmetric: bool,
+                       bright: bool) -> CircleBoard | None:
+    """The board the command line describes (radius default ``spacing / 4``), or None without a spacing."""
+    if spacing is None:
+        return None
+    return CircleBoard(cols=cols, rows=rows, spacing=spacing, radius=radius if radius else 0.25 * spacing,
+                       asymmetric=asymmetric, dark_circles=not bright)
+
+
+def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist="k1k2p", projector_dist="none",
+                       plot: Path | None = None, yaml: Path | None = None, min_modulation: float = 0.1,
+                       progress: bool = True, refine: bool = True, phase_window="bilinear") -> dict:
+    """Calibrate from pose/session folders (:func:`calibrate_session`); write the calibration JSON
+    (+ optional residual PNG plot / OpenCV YAML).
+
+    Returns a JSON-friendly summary. Nothing is written unless the calibration succeeds.
+    """
+    cal, res = calibrate_session(inputs, board=board, model=model, progress=progress, camera_dist=camera_dist,
+                                 projector_dist=projector_dist, min_modulation_fraction=min_modulation,
+                                 telecentric_refine=refine, phase_window=phase_window)
+    cal.save(output)
+    written = {"calibration": str(output)}
+    if plot is not None:
+        if cal.model == "pinhole":
+            cam_r = res.camera.residuals
+            names = res.pose_names
+            prj_r = res.projector.residuals
+        else:
+            cam_r, prj_r, names = res.camera_residuals, res.projector.residuals, res.pose_names
+        residual_plot(plot, cam_r, prj_r, names, title=f"{output.name}: reprojection residuals")
+        written["plot"] = str(plot)
+    if yaml is not None:
+        cal.export_opencv_yaml(yaml)
+        written["yaml"] = str(yaml)
+    rig = cal.rig
+    summary = {"model": cal.model, "rms": cal.rms, "poses": cal.poses, "written": written,
+               "skipped_poses": cal.extra.get("skipped_poses", []), "periods": cal.periods,
+               "phase_sampling": cal.extra.get("phase_sampling", "bilinear"),
+               "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}
+    return summary

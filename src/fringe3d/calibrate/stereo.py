@@ -21,7 +21,7 @@ import numpy as np
 
 from fringe3d.optics import PinholeDevice, Rig
 
-from .board_detection import CircleBoard
+from .boards import CircleBoard
 from .camera import DeviceCalibration, calibrate_device
 
 

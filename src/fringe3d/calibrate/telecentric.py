@@ -20,10 +20,11 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
 
 from fringe3d.optics import PinholeDevice, Rig, TelecentricCamera
 
-from .board_detection import CircleBoard
+from .boards import CircleBoard
 from .camera import DeviceCalibration, calibrate_device
 from .stereo import PoseObservation
 
@@ -83,7 +84,6 @@ def refine_jointly(obj, cam_uv, prj_uv, keep, K, M, b2w):
     board pose from the projector alone; with a long-focal-length projector its depth is
     weakly determined, and the tilted telecentric camera sees that error. Returns
     ``(K, M, b2w)``."""
-    from scipy.optimize import least_squares
     n = len(b2w)
     x0 = [K[0, 0], K[1, 1], K[0, 2], K[1, 2], *M.ravel()]
     for R, t in b2w:

@@ -5,50 +5,11 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.calibrate.calibration_file import load_calibration
+from fringe3d.calibrate.evaluation import compare_to_truth
+from fringe3d.calibrate.session import board_from_options, calibrate_to_files
+from fringe3d.sim.calibration_session import simulate_session
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
-
-
-def _board(cols, rows, spacing, radius, asymmetric, bright):
-    from fringe3d.calibrate.board_detection import CircleBoard
-    if spacing is None:
-        return None
-    return CircleBoard(cols=cols, rows=rows, spacing=spacing, radius=radius if radius else 0.25 * spacing,
-                       asymmetric=asymmetric, dark_circles=not bright)
-
-
-def run_calibration(inputs, output: Path, board=None, model=None, camera_dist="k1k2p", projector_dist="none",
-                    plot: Path | None = None, yaml: Path | None = None, min_modulation: float = 0.1,
-                    progress: bool = True, refine: bool = True, phase_window="bilinear") -> dict:
-    """Calibrate from pose/session folders; write JSON (+ optional PNG plot / OpenCV YAML).
-
-    Returns a JSON-friendly summary. Nothing is written unless the calibration succeeds.
-    """
-    from fringe3d.calibrate.plots import residual_plot
-    from fringe3d.calibrate.session import calibrate_session
-
-    cal, res = calibrate_session(inputs, board=board, model=model, progress=progress, camera_dist=camera_dist,
-                                 projector_dist=projector_dist, min_modulation_fraction=min_modulation,
-                                 telecentric_refine=refine, phase_window=phase_window)
-    cal.save(output)
-    written = {"calibration": str(output)}
-    if plot is not None:
-        if cal.model == "pinhole":
-            cam_r = res.camera.residuals
-            names = res.pose_names
-            prj_r = res.projector.residuals
-        else:
-            cam_r, prj_r, names = res.camera_residuals, res.projector.residuals, res.pose_names
-        residual_plot(plot, cam_r, prj_r, names, title=f"{output.name}: reprojection residuals")
-        written["plot"] = str(plot)
-    if yaml is not None:
-        cal.export_opencv_yaml(yaml)
-        written["yaml"] = str(yaml)
-    rig = cal.rig
-    summary = {"model": cal.model, "rms": cal.rms, "poses": cal.poses, "written": written,
-               "skipped_poses": cal.extra.get("skipped_poses", []), "periods": cal.periods,
-               "phase_sampling": cal.extra.get("phase_sampling", "bilinear"),
-               "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}
-    return summary
 
 
 def register(app: typer.Typer) -> None:
@@ -85,7 +46,7 @@ def register(app: typer.Typer) -> None:
         defocus: float = typer.Option(None, help="--simulate: projector defocus (projector px)."),
         camera_scale: float = typer.Option(1.0, help="--simulate: camera resolution factor (e.g. 0.5)."),
         json_: bool = typer.Option(False, "--json", help="Print the figures as one JSON object."),
-        quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars or tables."),
     ) -> None:
         """Calibrate camera and projector from circle-board poses through the phase domain
         (works with a defocused projector), writing a versioned calibration JSON that
@@ -96,10 +57,9 @@ def register(app: typer.Typer) -> None:
         Example (simulated): fringe3d calibrate sim-session/ --simulate macro --poses 12 --noise-free -o calib.json
         """
         set_quiet(quiet or json_)
-        board = _board(cols, rows, spacing, radius, asymmetric, bright)
+        board = board_from_options(cols, rows, spacing, radius, asymmetric, bright)
         truth = None
         if simulate:
-            from fringe3d.calibrate.session import simulate_session
             if len(inputs) != 1:
                 raise ValueError("--simulate writes one session folder: give exactly one input folder")
             ss = simulate_session(simulate, n_poses=poses, seed=seed, defocus=defocus, board=board,
@@ -107,15 +67,15 @@ def register(app: typer.Typer) -> None:
                                   progress=not (quiet or json_))
             truth = ss.rig
         plot_path = None if no_plot else (plot or output.with_suffix(".png"))
-        s = run_calibration(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
-                            min_modulation, progress=not (quiet or json_), refine=not no_refine,
-                            phase_window=phase_window)
+        s = calibrate_to_files(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
+                               min_modulation, progress=not (quiet or json_), refine=not no_refine,
+                               phase_window=phase_window)
         if truth is not None:
-            from fringe3d.calibrate.calibration_file import load_calibration
-            from fringe3d.calibrate.evaluation import compare_to_truth
             s["truth_comparison"] = compare_to_truth(load_calibration(output).rig, truth)
         if json_:
             print_json(s)
+            return
+        if quiet:
             return
         rows_ = [[p["name"], p["points"], p["camera_rms_px"], p["projector_rms_px"]] for p in s["poses"]]
         console.print(make_table("per-pose reprojection RMS (px)", ["pose", "points", "camera", "projector"], rows_))

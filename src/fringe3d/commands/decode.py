@@ -7,13 +7,23 @@ from pathlib import Path
 
 import typer
 
-from fringe3d.utils.console import console, info, make_table, print_json, progress_bar, set_quiet, warn
+from fringe3d.decode import DecodeOptions, decode_sequence
+from fringe3d.io.capture import read_capture
+from fringe3d.optics import Rig
+from fringe3d.utils.console import (
+    console,
+    info,
+    make_table,
+    print_json,
+    progress_bar,
+    set_quiet,
+    warn,
+)
 
 
 def _load_rig(path: Path | None):
     if path is None:
         return None
-    from fringe3d.optics import Rig
     return Rig.load(path)
 
 
@@ -43,9 +53,6 @@ def register(app: typer.Typer) -> None:
 
         Example: fringe3d decode sphere-capture -o sphere-decoded --json
         """
-        from fringe3d.decode import DecodeOptions, decode_sequence
-        from fringe3d.io.capture import read_capture
-
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
         cap = read_capture(capture, max_cycles=max_cycles)

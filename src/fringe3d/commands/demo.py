@@ -5,7 +5,9 @@ from pathlib import Path
 
 import typer
 
-from fringe3d.utils.console import console, make_table, print_json, set_quiet
+from fringe3d import experiments
+from fringe3d.demo import run_demo
+from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
 
 
 def register(app: typer.Typer) -> None:
@@ -16,7 +18,7 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, help="Random seed (board poses, noise): same seed, same figures."),
         full: bool = typer.Option(False, "--full", help="Also run the falling-ball and flapping-wing sequences."),
         json_: bool = typer.Option(False, "--json", help="Print the summary as one JSON object."),
-        quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress output."),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress output or tables."),
     ) -> None:
         """Render a calibration session, calibrate, render a measurement scene (sculpture, sphere,
         ball bar), reconstruct, evaluate against ground truth, and write calibration JSON, PLY
@@ -25,10 +27,12 @@ def register(app: typer.Typer) -> None:
         Example: fringe3d demo -o demo-out && open demo-out/report.html
         """
         set_quiet(quiet or json_)
-        from fringe3d.demo import run_demo
-        s = run_demo(output, profile=profile, seed=seed, full=full)
+        sequences = (lambda sd: experiments.run_sequences(sd, announce=info)) if full else None
+        s = run_demo(output, profile=profile, seed=seed, sequences=sequences, announce=info)
         if json_:
             print_json(s)
+            return
+        if quiet:
             return
         cal = s["calibration"]["figures"]
         console.print(make_table("calibration", ["figure", "value"], [[k, v] for k, v in cal.items()]))

@@ -6,7 +6,9 @@ from pathlib import Path
 
 import typer
 
-from fringe3d.utils.console import console, info, print_json, progress_bar, set_quiet
+from fringe3d.io.pattern_folder import write_pattern_folder
+from fringe3d.patterns import sets
+from fringe3d.utils.console import console, info, print_json, set_quiet
 
 SETS = ("phase-shift", "three-frequency", "hierarchical", "gray-code", "binary-code", "psp-gray", "ftp", "modified-ftp",
         "two-frequency", "hybrid", "calibration", "optimal-angle")
@@ -26,8 +28,6 @@ def _numbers(text: str, what: str, cast=float) -> list:
 def build_set(set_name: str, period: str | None, steps: str | None, direction: str, angle_deg: float | None,
               kind: str, width: int, height: int, bits: int | None):
     """The :class:`PatternSet` the command-line options describe (see ``fringe3d patterns --help``)."""
-    from fringe3d.patterns import sets
-
     if set_name not in SETS:
         raise ValueError(f"unknown pattern set {set_name!r}; choose one of {', '.join(SETS)}")
     periods = _numbers(period or DEFAULT_PERIODS.get(set_name, "18"), "period")
@@ -60,27 +60,6 @@ def build_set(set_name: str, period: str | None, steps: str | None, direction: s
     if angle is None:
         raise ValueError("--set optimal-angle needs --angle: the optimal fringe angle alpha_opt in degrees")
     return sets.optimal_angle_calibration(angle, width, height, periods, nsteps, kind=kind, bit_depth=bits)
-
-
-def write_pattern_folder(ps, out: Path, **render_options) -> list[Path]:
-    """Render ``ps`` and write ``out/00000.png ...`` plus ``out/manifest.json`` (atomically)."""
-    from fringe3d.io.images import write_image
-    from fringe3d.patterns.render import render_frame
-
-    import re
-    out.mkdir(parents=True, exist_ok=True)
-    for stale in out.glob("*.png"):  # a longer, older set must not leave frames behind
-        if re.fullmatch(r"\d{5}\.png", stale.name) and int(stale.stem) >= len(ps):
-            stale.unlink()
-    paths = []
-    with progress_bar(f"writing {len(ps)} patterns", len(ps), enabled=len(ps) > 4) as advance:
-        for i, spec in enumerate(ps.frames):
-            img = render_frame(spec, ps.width, ps.height, **render_options)
-            img8 = ((img >= 0.5) * 255 if ps.bit_depth == 1 else (img * 255.0).round()).astype("uint8")
-            paths.append(write_image(out / f"{i:05d}.png", img8))
-            advance()
-    ps.save(out / "manifest.json")
-    return paths
 
 
 def register(app: typer.Typer) -> None:

@@ -5,58 +5,29 @@ import json
 import time
 from pathlib import Path
 
-import numpy as np
 import typer
 
-from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
+from fringe3d.decode import DecodeOptions
+from fringe3d.io.capture import list_frame_files, read_capture
+from fringe3d.optics import Rig
+from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
+from fringe3d.reconstruct.sequence import (
+    CaptureFrames,
+    reconstruct_sequence,
+    with_method,
+)
+from fringe3d.utils.console import (
+    console,
+    info,
+    make_table,
+    print_json,
+    set_quiet,
+    to_jsonable,
+)
 from fringe3d.utils.jsonfile import write_json
 
 METHODS = ("none", "geometric", "two_frequency_geometric", "hierarchical", "heterodyne", "gray_code",
            "binary_code", "hybrid", "spatial", "histogram")
-
-
-def check_sizes(rig, frames: np.ndarray, calibration: Path) -> None:
-    """ValueError when the calibration's camera and the captured frames differ in size."""
-    H, W = frames.shape[1:]
-    if (rig.camera.height, rig.camera.width) != (H, W):
-        raise ValueError(f"the calibration {calibration} describes a {rig.camera.width}x{rig.camera.height} camera "
-                         f"but the capture's frames are {W}x{H}: calibration and capture sizes disagree "
-                         "(expected the calibration of the camera that recorded this capture)")
-
-
-def write_single(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool) -> dict:
-    """points.npy, depth.tif (float32 mm, NaN invalid) and optionally points.ply, all atomic."""
-    from fringe3d.io.images import write_image
-    from fringe3d.reconstruct.depth import depth_map
-    from fringe3d.utils.atomic import atomic_path
-    out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(out / "points.npy") as tmp:
-        with open(tmp, "wb") as f:
-            np.save(f, points)
-    files = {"points": str(out / "points.npy"), "depth": str(write_image(out / "depth.tif", depth_map(points)))}
-    if texture is not None:
-        files["texture"] = str(write_image(out / "texture.tif", texture.astype(np.float32)))
-    if ply:
-        from fringe3d.io.pointcloud import write_ply
-        files["ply"] = str(write_ply(out / "points.ply", points, colors=texture))
-    return files
-
-
-def point_summary(points: np.ndarray) -> dict:
-    ok = np.isfinite(points[..., 0])
-    z = points[..., 2][ok]
-    return {"valid_share": float(ok.mean()), "valid_points": int(ok.sum()),
-            "depth_min": float(z.min()) if z.size else None, "depth_max": float(z.max()) if z.size else None}
-
-
-def reference_z_min(path: Path, margin: float) -> float:
-    """z_min proposed from a reference point map (``.npy`` or a folder holding ``points.npy``)."""
-    from fringe3d.unwrap.geometric import propose_z_min
-    path = Path(path)
-    f = path / "points.npy" if path.is_dir() else path
-    if not f.exists():
-        raise FileNotFoundError(f"no reference point map at {f} (expected a .npy point map or a reconstruct folder)")
-    return propose_z_min(np.load(f), margin=margin)
 
 
 def register(app: typer.Typer) -> None:
@@ -93,16 +64,6 @@ def register(app: typer.Typer) -> None:
 
         Example: fringe3d reconstruct sphere-capture --calibration calib.json -o sphere-3d --ply
         """
-        from fringe3d.decode import DecodeOptions
-        from fringe3d.io.capture import list_frame_files, read_capture
-        from fringe3d.optics import Rig
-        from fringe3d.reconstruct.sequence import (
-            CaptureFrames,
-            FrameReconstructor,
-            reconstruct_sequence,
-            with_method,
-        )
-
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
         if method is not None and method not in METHODS:
@@ -126,11 +87,10 @@ def register(app: typer.Typer) -> None:
                    "z_min": z_min, "cycles": cycles, "cycle_length": len(ps), "step": window,
                    "shape": list(cap.frames.shape[1:])}
         if cycles == 1 and window is None:
-            rec = FrameReconstructor(ps, rig, DecodeOptions(z_min=z_min, **opts), triangulation=triangulation)
-            points, texture = rec(np.ascontiguousarray(cap.frames), with_texture=True)
-            summary["files"] = write_single(out, points, texture, ply)
-            summary.update(point_summary(points))
-            summary["path"] = rec.path
+            r = reconstruct_cycle(cap, rig, method, z_min, triangulation=triangulation, min_modulation=min_modulation)
+            summary["files"] = r.save(out, ply)
+            summary.update(r.summary())
+            summary["path"] = r.path
         else:
             frames = CaptureFrames(capture, limit=cycles * len(ps))
             seq = reconstruct_sequence(frames, ps, rig, out, options=DecodeOptions(z_min=z_min, **opts),
@@ -139,7 +99,6 @@ def register(app: typer.Typer) -> None:
                                        triangulation=triangulation)
             summary.update(seq)
         summary["seconds"] = round(time.perf_counter() - t0, 3)
-        from fringe3d.utils.console import to_jsonable
         write_json(out / "reconstruct.json", summary)
         if json_:
             print_json(summary)

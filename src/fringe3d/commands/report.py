@@ -5,6 +5,7 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.report import write_report
 from fringe3d.utils.console import console, print_json, set_quiet
 
 
@@ -22,7 +23,6 @@ def register(app: typer.Typer) -> None:
         Example: fringe3d report demo-out -o demo-out/report.html
         """
         set_quiet(quiet)
-        from fringe3d.report import write_report
         path = write_report(results, output)
         if json_:
             print_json({"report": str(path)})

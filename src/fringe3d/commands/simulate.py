@@ -5,6 +5,7 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.sim.simulate import simulate_capture
 from fringe3d.utils.console import console, make_table, print_json, set_quiet
 
 
@@ -35,8 +36,6 @@ def register(app: typer.Typer) -> None:
 
         Example: fringe3d simulate --preset macro --scene sphere --patterns three-frequency -o sphere-capture
         """
-        from fringe3d.sim.simulate import simulate_capture
-
         set_quiet(quiet or json_)
         extra = {"ideal": True} if ideal else {}
         summary = simulate_capture(out, preset, scene, patterns, frames=frames, frame_rate=frame_rate,

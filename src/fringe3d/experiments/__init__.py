@@ -14,19 +14,24 @@ Every experiment is a module here defining
 from __future__ import annotations
 
 import importlib
-import pkgutil
+import time
+from collections.abc import Callable
 from types import ModuleType
 
 
+#: The experiment modules (``fringe3d.experiments.<name>``), in listing order. Each is imported
+#: when the experiments are listed or one is run, so that ``import fringe3d.experiments`` stays
+#: cheap; a module that fails to import fails loudly.
+MODULES = ("binary_defocus", "defocus_calibration", "falling_balls", "flapping_wing", "motion_error",
+           "optimal_angle", "single_shot", "telecentric", "unwrap_noise")
+
+
 def available() -> dict[str, ModuleType]:
-    """Map experiment names to their modules."""
+    """Map experiment names to their modules, sorted by name."""
     out: dict[str, ModuleType] = {}
-    for mod in pkgutil.iter_modules(__path__):
-        if mod.name.startswith("_"):
-            continue
-        m = importlib.import_module(f"{__name__}.{mod.name}")
-        if hasattr(m, "NAME") and hasattr(m, "run"):
-            out[m.NAME] = m
+    for name in MODULES:
+        m = importlib.import_module(f"{__name__}.{name}")
+        out[m.NAME] = m
     return dict(sorted(out.items()))
 
 
@@ -35,3 +40,18 @@ def get(name: str) -> ModuleType:
     if name not in exps:
         raise ValueError(f"unknown experiment {name!r}; available: {', '.join(exps) or '(none)'}")
     return exps[name]
+
+
+def run_sequences(seed: int, announce: Callable[[str], None] | None = None) -> dict:
+    """The falling-ball and flapping-wing experiments (full variants, ~2.5 min), as
+    ``fringe3d demo --full`` reports them: ``{name: {"goals", "tables", "seconds"}}``.
+    ``announce(text)`` is called before each experiment (the CLI prints it)."""
+    out = {}
+    for name in ("falling-balls", "flapping-wing"):
+        if announce is not None:
+            announce(f"[bold]{name}[/] …")
+        t0 = time.perf_counter()
+        r = get(name).run(quick=False, seed=seed)
+        out[name] = {"goals": r.get("goals", {}), "tables": r.get("tables", []),
+                     "seconds": round(time.perf_counter() - t0, 1)}
+    return out

@@ -15,6 +15,11 @@ import math
 
 import numpy as np
 
+from fringe3d.optics.defocus import blur_pattern
+from fringe3d.patterns import render_frame, render_set, sets
+from fringe3d.phase.psp import wrapped_phase
+from fringe3d.utils.console import progress_bar
+
 NAME = "binary-defocus"
 SUMMARY = "phase RMS error of sinusoidal, squared binary, Bayer and error-diffusion fringes vs defocus blur"
 
@@ -33,10 +38,6 @@ def phase_error(kind: str, period: float, sigma: float, steps: int = 3, width: i
     returns the RMS and max of ``wrap(phi - 2 pi u / T)`` over the interior (a border of
     ``4 sigma + 2`` px removed), plus the mean (a bias would be a shift of the fringes).
     """
-    from fringe3d.optics.defocus import blur_pattern
-    from fringe3d.patterns import render_frame, render_set, sets
-    from fringe3d.phase.psp import wrapped_phase
-
     ps = sets.phase_shift(period, steps, "v", kind=kind, width=width, height=height)
     if kind == "sinusoid":
         images = render_set(ps).astype(np.float64) / 255.0  # what an 8-bit projector shows
@@ -58,8 +59,6 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     ``quick``: the same grid on a smaller projector image (fewer rows). Deterministic: no
     noise is added, ``seed`` is unused.
     """
-    from fringe3d.utils.console import progress_bar
-
     kinds = KINDS + EXTRA_KINDS
     width, height = (360, 40) if quick else (720, 128)
     results: dict = {}

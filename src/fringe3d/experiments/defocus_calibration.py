@@ -8,7 +8,22 @@ depend on the defocus: the three sphere RMS figures should agree.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
+
+from fringe3d.analyze.fits import fit_sphere, inner_mask, robust_fit
+from fringe3d.calibrate.evaluation import measure_points
+from fringe3d.calibrate.session import calibrate_observations, observe_session
+from fringe3d.patterns import sets
+from fringe3d.sim import presets
+from fringe3d.sim.calibration_session import (
+    render_and_decode,
+    scaled_camera,
+    simulate_session,
+)
+from fringe3d.sim import Scene, Sphere
+from fringe3d.utils.console import track
 
 NAME = "defocus-calibration"
 SUMMARY = "calibrate the macro rig with an in-focus / slightly / strongly defocused projector; sphere RMS per level"
@@ -32,9 +47,6 @@ def binary_calibration_set(width: int, height: int, steps=(9, 3, 3)):
     T=21 / T=144 unwrapping groups as 8-bit sinusoids. (3-step squared binary at T=21/144
     aliases its 5th/7th harmonics into +-0.2 rad phase errors that break the heterodyne
     unwrapping while the projector is in focus; the measuring T=18 phase stays binary.)"""
-    import dataclasses
-
-    from fringe3d.patterns import sets
     base = sets.calibration(width=width, height=height, kind="square", steps=steps)
     frames = tuple(dataclasses.replace(f, kind="sinusoid") if (f.kind == "square" and f.period != 18) else f
                    for f in base.frames)
@@ -42,8 +54,6 @@ def binary_calibration_set(width: int, height: int, steps=(9, 3, 3)):
 
 
 def sphere_scene(preset):
-    from fringe3d.sim.primitives import Sphere
-    from fringe3d.sim.scene import Scene
     c = preset.center
     return Scene([Sphere(center=c, radius=40.0, albedo=0.8)]), c, 40.0
 
@@ -51,8 +61,6 @@ def sphere_scene(preset):
 def sphere_rms(rig, dirs, truth):
     """Robust sphere fit of the points a rig reconstructs from decoded directions: (rms mm,
     radius mm, dropped fraction)."""
-    from fringe3d.analyze.fits import fit_sphere
-    from fringe3d.calibrate.evaluation import inner_mask, measure_points, robust_fit
     pts = measure_points(rig, dirs)
     ok = inner_mask(truth.mask) & np.all(np.isfinite(pts), -1)
     fit, _, dropped = robust_fit(fit_sphere, pts, ok)
@@ -60,12 +68,6 @@ def sphere_rms(rig, dirs, truth):
 
 
 def run(quick: bool = False, seed: int = 0) -> dict:
-    from fringe3d.calibrate.evaluation import render_and_decode
-    from fringe3d.calibrate.session import calibrate_observations, observe_session, simulate_session
-    from fringe3d.calibrate.simulated_session import scaled_camera
-    from fringe3d.utils.console import track
-    from fringe3d.sim import presets
-
     preset = presets.get("macro")
     scale = 0.25 if quick else 0.5
     n_poses = 4 if quick else 10

@@ -11,6 +11,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringe3d.phase.psp import wrapped_phase
+from fringe3d.reconstruct.motion import (
+    FRAME_RATE_HZ,
+    dissertation_sequence,
+    hybrid_view,
+    measure,
+)
+from fringe3d.decode import DecodeOptions
+from fringe3d.sim import presets, render
+from fringe3d.sim.motion import GRAVITY_MM_S2
+from fringe3d.sim import Scene, Sphere
+from fringe3d.sim.textures import Blotches
+from fringe3d.unwrap.segmentation import foreground_mask, segment_objects
+from fringe3d.utils.console import track
+
 NAME = "falling-balls"
 SUMMARY = "ch. 5: free-falling 40 mm balls at 1,500 Hz, hybrid FTP+PSP vs two-frequency PSP (sphere RMS, k_s)"
 
@@ -22,18 +37,12 @@ DISSERTATION = {"hybrid sphere RMS": "0.26 mm", "two-frequency PSP sphere RMS": 
 
 
 def _ball(center, velocity, spin, texture_seed):
-    from fringe3d.sim.motion import GRAVITY_MM_S2
-    from fringe3d.sim.primitives import Sphere
-    from fringe3d.sim.textures import Blotches
-
     return Sphere(center, BALL_RADIUS, albedo=0.9, texture=Blotches(scale=0.6, contrast=0.3, seed=texture_seed),
                   velocity=velocity, acceleration=(0.0, GRAVITY_MM_S2, 0.0), spin=spin)
 
 
 def two_ball_scene(speed: float = 3000.0):
     """Two balls side by side falling at ``speed`` mm/s (≈ 0.46 m drop), slight sideways drift."""
-    from fringe3d.sim.scene import Scene
-
     return Scene([_ball((-55.0, -25.0, 420.0), (150.0, speed, 0.0), (0.0, 0.0, 25.0), 1),
                   _ball((50.0, -10.0, 400.0), (-100.0, 0.9 * speed, 0.0), (15.0, 0.0, 0.0), 2)], name="two-balls")
 
@@ -41,8 +50,6 @@ def two_ball_scene(speed: float = 3000.0):
 def many_ball_scene(rows: int, cols: int, seed: int):
     """``rows × cols`` isolated balls on a jittered grid 420–520 mm away, random fall speeds
     (1.5–3.5 m/s), drift and spin."""
-    from fringe3d.sim.scene import Scene
-
     rng = np.random.default_rng(seed)
     balls = []
     for r in range(rows):
@@ -57,8 +64,6 @@ def many_ball_scene(rows: int, cols: int, seed: int):
 
 def thrown_ball_scene(speed: float):
     """Two balls thrown towards each other ACROSS the vertical fringes at ``speed`` mm/s."""
-    from fringe3d.sim.scene import Scene
-
     return Scene([_ball((-50.0, 0.0, 420.0), (speed, 500.0, 0.0), (0.0, 0.0, 10.0), 1),
                   _ball((60.0, 0.0, 420.0), (-speed, 500.0, 0.0), (0.0, 0.0, 10.0), 2)],
                  name=f"thrown-{speed:g}")
@@ -66,10 +71,6 @@ def thrown_ball_scene(speed: float):
 
 def thrown_orders(speed: float, seed: int) -> dict:
     """k_s error per ball with Eq. (5.13) as printed and with the cross-motion correction."""
-    from fringe3d.decode import DecodeOptions
-    from fringe3d.reconstruct.motion import measure
-    from fringe3d.sim import render
-
     rig, s, ps6, ps4, idx = _setup(seed, True)
     scene = thrown_ball_scene(speed)
     frames, truth = render(scene, rig, ps6, s, progress=False)
@@ -86,9 +87,6 @@ def thrown_orders(speed: float, seed: int) -> dict:
 
 
 def _setup(seed: int, noise: bool = True):
-    from fringe3d.reconstruct.motion import FRAME_RATE_HZ, dissertation_sequence, hybrid_view
-    from fringe3d.sim import presets
-
     p = presets.get("high-speed")
     s = p.settings.replace(frame_rate=FRAME_RATE_HZ, seed=seed)
     if not noise:
@@ -100,9 +98,6 @@ def _setup(seed: int, noise: bool = True):
 
 def _psp_labels(frames6):
     """Objects as the six-frame PSP user sees them: foreground of the high-frequency set."""
-    from fringe3d.phase.psp import wrapped_phase
-    from fringe3d.unwrap.segmentation import foreground_mask, segment_objects
-
     pr = wrapped_phase(frames6, index=[0, 1, 2])
     return segment_objects(foreground_mask(pr.average, pr.modulation), min_size=200, erode=ERODE)
 
@@ -123,10 +118,6 @@ def sequence_orders(scene, seed: int, cycles: int) -> dict:
     Balls cut by the image border are counted apart (``edge_*``): their bounding box is
     clipped, so its centre no longer follows the ball (a limit of Eq. 5.13's motion estimate).
     """
-    from fringe3d.decode import DecodeOptions
-    from fringe3d.reconstruct.motion import measure
-    from fringe3d.sim import render
-
     rig, s, ps6, ps4, idx = _setup(seed, True)
     times = np.arange(6 * cycles) / s.frame_rate
     frames, truth = render(scene, rig, ps6, s, times=times, progress=False)
@@ -169,10 +160,6 @@ def sphere_residuals(points: np.ndarray, mask: np.ndarray | None = None) -> tupl
 
 def measure_cycle(scene, seed: int, noise: bool = True) -> dict:
     """Render one six-frame cycle and measure it both ways; per-ball figures."""
-    from fringe3d.decode import DecodeOptions
-    from fringe3d.reconstruct.motion import measure
-    from fringe3d.sim import render
-
     rig, s, ps6, ps4, idx = _setup(seed, noise)
     frames, truth = render(scene, rig, ps6, s, progress=False)
     hyb = measure(frames[idx], ps4, rig, DecodeOptions(z_min=Z_MIN, erode=ERODE))
@@ -198,8 +185,6 @@ def measure_cycle(scene, seed: int, noise: bool = True) -> dict:
 
 
 def run(quick: bool = False, seed: int = 0) -> dict:
-    from fringe3d.utils.console import track
-
     rows_, cols_ = (4, 5)
     cases = [("two balls, realistic noise", lambda: two_ball_scene(), True)]
     if not quick:

@@ -16,6 +16,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringe3d.patterns import sets
+from fringe3d.phase.psp import wrapped_phase
+from fringe3d.reconstruct.triangulate import triangulate
+from fringe3d.sim import presets, render
+from fringe3d.sim import Scene, Sphere
+from fringe3d.unwrap.geometric import geometric_unwrap, minimum_phase
+
 NAME = "motion-error"
 SUMMARY = "ch. 5.2.4: sphere moving 2% of its diameter per frame, two-frequency PSP -> periodic error"
 
@@ -24,19 +31,11 @@ STEP = 0.02  # fraction of the diameter moved per frame
 
 
 def _patterns(width, height):
-    from fringe3d.patterns import sets
     return sets.two_frequency(HIGH, LOW, "v", width=width, height=height)
 
 
 def measure(preset, radius: float, step_fraction: float, seed: int, progress: bool = False) -> dict:
     """Render the sphere moving ``step_fraction`` of its diameter per frame; decode; compare."""
-    from fringe3d.phase.psp import wrapped_phase
-    from fringe3d.reconstruct.triangulate import triangulate
-    from fringe3d.sim import render
-    from fringe3d.sim.primitives import Sphere
-    from fringe3d.sim.scene import Scene
-    from fringe3d.unwrap.geometric import geometric_unwrap, minimum_phase
-
     proj = preset.rig.projector
     ps = _patterns(proj.width, proj.height)
     # as in the dissertation, motion is the only error source: no shot or read noise (the
@@ -124,8 +123,6 @@ def periodic_part(err: np.ndarray, Phi: np.ndarray) -> tuple[float, float, float
 
 
 def run(quick: bool = False, seed: int = 0) -> dict:
-    from fringe3d.sim import presets
-
     preset = presets.get("tiny" if quick else "macro")
     radius = 0.3 * float(min(preset.size[0], preset.size[1]))
     moving = measure(preset, radius, STEP, seed)

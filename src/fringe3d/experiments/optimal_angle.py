@@ -11,6 +11,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringe3d.analyze.fits import fit_sphere, inner_mask, robust_fit
+from fringe3d.analyze.sections import sphere_sections
+from fringe3d.calibrate.evaluation import measure_points
+from fringe3d.calibrate.optimal_angle import epipolar_angle, optimal_angle
+from fringe3d.calibrate.session import calibrate_observations, observe_session
+from fringe3d.patterns import sets
+from fringe3d.sim import presets
+from fringe3d.sim.calibration_session import (
+    render_and_decode,
+    scaled_camera,
+    simulate_session,
+)
+from fringe3d.sim import Box, Plane, Scene, Sphere
+
 NAME = "optimal-angle"
 SUMMARY = "well-designed rig: alpha_opt from a step height; alpha_opt -/+ pi/4 vs H/V calibration, sphere sections"
 
@@ -21,8 +35,6 @@ DISSERTATION = {"sphere cross-section RMS, H/V patterns (um)": "111 / 86.0",
 
 def step_scenes(preset):
     """Reference plane and the same plane with a 30 mm step block, at the volume centre."""
-    from fringe3d.sim.primitives import Box, Plane
-    from fringe3d.sim.scene import Scene
     c = preset.center
     z_plane = c[2] + 60.0
     ref = Scene([Plane([0, 0, z_plane], [0, 0, -1], albedo=0.8)])
@@ -32,9 +44,6 @@ def step_scenes(preset):
 
 
 def measure_alpha(preset, rig, settings, seed):
-    from fringe3d.calibrate.evaluation import render_and_decode
-    from fringe3d.calibrate.optimal_angle import optimal_angle
-    from fringe3d.patterns import sets
     ps = sets.calibration(width=rig.projector.width, height=rig.projector.height)
     ref, obj, top = step_scenes(preset)
     maps = {}
@@ -47,22 +56,11 @@ def measure_alpha(preset, rig, settings, seed):
 
 def sections_rms(points, mask):
     """RMS (mm) of the circle fits of the row and the column through the sphere centre."""
-    from fringe3d.analyze.sections import sphere_sections
     sec = sphere_sections(points, mask)
     return sec["row"].fit.rms, sec["column"].fit.rms, sec["sphere"].rms
 
 
 def run(quick: bool = False, seed: int = 0) -> dict:
-    from fringe3d.analyze.fits import fit_sphere
-    from fringe3d.calibrate.evaluation import inner_mask, measure_points, render_and_decode, robust_fit
-    from fringe3d.calibrate.optimal_angle import epipolar_angle
-    from fringe3d.calibrate.session import calibrate_observations, observe_session, simulate_session
-    from fringe3d.calibrate.simulated_session import scaled_camera
-    from fringe3d.patterns import sets
-    from fringe3d.sim import presets
-    from fringe3d.sim.primitives import Sphere
-    from fringe3d.sim.scene import Scene
-
     preset = presets.get("well-designed")
     scale = 0.25 if quick else 1.0
     n_poses = 4 if quick else 10

@@ -13,8 +13,20 @@ modified FTP (π-shifted pair), each with the Hanning and the smoothed circular 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
+
+from fringe3d.decode import decode
+from fringe3d.optics import Rig
+from fringe3d.patterns.sets import modified_ftp, psp_with_gray_code
+from fringe3d.reconstruct.single_shot import single_shot
+from fringe3d.reconstruct.triangulate import Triangulator
+from fringe3d.sim import presets, render
+from fringe3d.sim import Plane, Scene, Sphere
+from fringe3d.sim.sculpture import sculpture
+from fringe3d.unwrap.geometric import depth_limit, minimum_phase
+from fringe3d.utils.console import track
 
 NAME = "single-shot"
 SUMMARY = "ch. 4: single-shot FTP / modified FTP + geometric constraint vs PSP + Gray code (orders, RMS, depth limit)"
@@ -27,11 +39,6 @@ DISSERTATION = {"FTP vs PSP+binary code (RMS)": "1.48 mm", "modified FTP vs PSP+
 
 def _rig(quick: bool):
     """The macro rig; the quick variant halves the camera resolution (same field of view)."""
-    from dataclasses import replace
-
-    from fringe3d.optics import Rig
-    from fringe3d.sim import presets
-
     p = presets.get("macro")
     if not quick:
         return p.rig, p.settings
@@ -46,10 +53,6 @@ def _rig(quick: bool):
 
 def scene(sphere_z: float = 445.0):
     """Sculpture (110 × 100 mm, 18 mm relief, textured) and a 40 mm sphere centred at depth ``sphere_z``."""
-    from fringe3d.sim.primitives import Sphere
-    from fringe3d.sim.scene import Scene
-    from fringe3d.sim.sculpture import sculpture
-
     return Scene([sculpture(center=(-45.0, 0.0, 446.0), size=(110.0, 100.0), relief=18.0, seed=1),
                   Sphere((70.0, 5.0, sphere_z), 20.0, albedo=0.9)], name=f"sculpture+sphere@{sphere_z:g}")
 
@@ -58,10 +61,6 @@ def limit_scene(z_limit: float, span: float = 30.0):
     """Sculpture plus a 80 × 70 mm plane tilted about the vertical so its depth runs from
     ``z_limit − span/2`` to ``z_limit + span/2`` across its width: half of it lies beyond the
     geometric constraint's depth range, on one continuous surface."""
-    from fringe3d.sim.primitives import Plane
-    from fringe3d.sim.scene import Scene
-    from fringe3d.sim.sculpture import sculpture
-
     width = 80.0
     tilt = math.atan2(span, width)
     normal = (math.sin(tilt), 0.0, -math.cos(tilt))  # depth grows with x
@@ -71,9 +70,6 @@ def limit_scene(z_limit: float, span: float = 30.0):
 
 
 def _render(sc, rig, settings, seed: int):
-    from fringe3d.patterns.sets import modified_ftp, psp_with_gray_code
-    from fringe3d.sim import render
-
     w, h = rig.projector.width, rig.projector.height
     s = settings.replace(seed=seed)
     pair = modified_ftp(PERIOD, "v", width=w, height=h)
@@ -84,9 +80,6 @@ def _render(sc, rig, settings, seed: int):
 
 
 def _reference_points(f_ref, ref, rig):
-    from fringe3d.decode import decode
-    from fringe3d.reconstruct.triangulate import Triangulator
-
     d = decode(f_ref, ref, rig=rig)
     tri = Triangulator(rig, warn_distortion=False)
     return tri.points_from_phase(d.phase["v"], d.period["v"], d.mask["v"]), d
@@ -114,9 +107,6 @@ def depth_limit_case(rig, settings, seed: int, z_limit: float) -> dict:
     one too small (``sign·Δk = −1``); pixels with ``r < 2π`` stay right. Pixels within
     :data:`MARGIN` of the limit are reported apart (phase noise decides their side).
     """
-    from fringe3d.reconstruct.single_shot import single_shot
-    from fringe3d.unwrap.geometric import minimum_phase
-
     f_pair, pair, _, _, truth = _render(limit_scene(z_limit), rig, settings, seed)
     res = single_shot(f_pair, rig, PERIOD, Z_MIN, method="modified_ftp", window="hanning")
     mp = minimum_phase(rig, Z_MIN, PERIOD)
@@ -136,10 +126,6 @@ def depth_limit_case(rig, settings, seed: int, z_limit: float) -> dict:
 
 
 def run(quick: bool = False, seed: int = 0) -> dict:
-    from fringe3d.utils.console import track
-    from fringe3d.reconstruct.single_shot import single_shot
-    from fringe3d.unwrap.geometric import depth_limit, minimum_phase
-
     rig, settings = _rig(quick)
     f_pair, pair, f_ref, ref, truth = _render(scene(), rig, settings, seed)
     ref_pts, dec = _reference_points(f_ref, ref, rig)

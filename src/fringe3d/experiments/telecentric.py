@@ -13,6 +13,26 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringe3d.analyze.fits import fit_plane, inner_mask, robust_fit
+from fringe3d.calibrate.evaluation import measure_points
+from fringe3d.calibrate.session import (
+    calibrate_observations,
+    decode_directions,
+    observe_pose,
+    observe_session,
+)
+from fringe3d.calibrate.telecentric import triangulate_telecentric
+from fringe3d.patterns import sets
+from fringe3d.patterns.manifest import PatternSet
+from fringe3d.sim import presets
+from fringe3d.sim.calibration_session import (
+    render_and_decode,
+    render_board_poses,
+    sample_board_poses,
+    simulate_session,
+)
+from fringe3d.sim import Plane, Scene
+
 NAME = "telecentric"
 SUMMARY = "telecentric camera + pinhole projector: reprojection, board diagonals, 50 um steps, plane RMS"
 
@@ -24,8 +44,6 @@ PROJECTOR_PITCH_UM = 7.6  # assumed DMD pitch (LightCrafter class) to express pr
 
 def pattern_set(width: int, height: int, steps=(9, 3, 3)):
     """White + vertical fringes T=18/21/144 + horizontal fringes T=36/42/288 (ch. 3.3: P1=18, P2=36)."""
-    from fringe3d.patterns import sets
-    from fringe3d.patterns.manifest import PatternSet
     v = sets.three_frequency("v", (18.0, 21.0, 144.0), steps, width=width, height=height)
     h = sets.three_frequency("h", (36.0, 42.0, 288.0), steps, width=width, height=height)
     return PatternSet(width, height, (sets.white_frame(),) + v.frames + h.frames, v.plans + h.plans, 8,
@@ -38,7 +56,6 @@ SAMPLINGS = (("bilinear", 0.0), ("local fit", "auto"))
 def observe_both(captures, board):
     """Observations of each capture for every phase sampling: ``{window: [obs or None]}``
     (each capture decoded once)."""
-    from fringe3d.calibrate.session import decode_directions, observe_pose
     out = {window: [] for _, window in SAMPLINGS}
     for pc in captures:
         dirs = decode_directions(pc)
@@ -56,7 +73,6 @@ def equal_or_better(value: float, quoted: float) -> bool:
 
 def corner_points(cal_rig, obs, board):
     """3-D corner circle centres (mm) of one observed pose via the telecentric triangulation."""
-    from fringe3d.calibrate.telecentric import triangulate_telecentric
     idx = board.corner_indices()
     ids = [idx[k] for k in "ABCD"]
     X = triangulate_telecentric(cal_rig.camera, cal_rig.projector, obs.camera_uv[ids],
@@ -66,8 +82,6 @@ def corner_points(cal_rig, obs, board):
 
 def figures(cal, res, board, tests, shots, step, plane_meas, cam_pixel_um):
     """The ch. 3.4 figures of one calibration (um)."""
-    from fringe3d.analyze.fits import fit_plane
-    from fringe3d.calibrate.evaluation import measure_points, robust_fit
     true_diag = (board.cols - 1) * board.spacing * np.sqrt(2)
     diag = []
     for o in tests:
@@ -90,13 +104,6 @@ def figures(cal, res, board, tests, shots, step, plane_meas, cam_pixel_um):
 
 
 def run(quick: bool = False, seed: int = 0) -> dict:
-    from fringe3d.calibrate.evaluation import inner_mask, render_and_decode
-    from fringe3d.calibrate.session import calibrate_observations, observe_session, simulate_session
-    from fringe3d.calibrate.simulated_session import render_board_poses, sample_board_poses
-    from fringe3d.sim import presets
-    from fringe3d.sim.primitives import Plane
-    from fringe3d.sim.scene import Scene
-
     preset = presets.get("microscope")
     scale = 0.25 if quick else 1.0
     n_cal, n_test, n_steps = (5, 3, 3) if quick else (10, 10, 6)

@@ -5,7 +5,8 @@ per noise level (Gaussian intensity noise of standard deviation sigma grey level
 unit-variance noise field scaled for every sigma), decoded by the manifest-driven decoder
 (:func:`fringe3d.decode.decode`) with four plans that share the same 9-step T=18 frames:
 
-* hierarchical 18 / 144 / 1024 px (+ 3-step T=144 and T=1024 frames), SPEC §4;
+* hierarchical 18 / 144 / 1024 px (+ 3-step T=144 and T=1024 frames), multi-frequency
+  temporal unwrapping (``Phi = phi + 2 pi k``, Eq. 1.5);
 * three-frequency heterodyne 18 / 21 / 144 px (beats 126 and 1008 px), the calibration set;
 * Gray code + phase, stripes T/2 wide (complementary code, the default of
   :func:`fringe3d.patterns.sets.psp_with_gray_code`);
@@ -13,13 +14,18 @@ unit-variance noise field scaled for every sigma), decoded by the manifest-drive
 
 A pixel's fringe order is wrong when ``|Phi - 2 pi u_p / 18| > pi``. The two multi-frequency
 methods also get a closed-form prediction: each level's rounding fails when a Gaussian of the
-propagated phase noise (N-step phase noise ``sqrt(2/N) sigma / B``, SPEC §3) exceeds pi.
+propagated phase noise (N-step phase noise ``sqrt(2/N) sigma / B`` of the least-squares phase, Eq. 2.4) exceeds pi.
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from fringe3d.decode import DecodeOptions, decode
+from fringe3d.patterns import sets
+from fringe3d.patterns.synthetic import frames_from_coordinates
+from fringe3d.utils.console import progress_bar
 
 NAME = "unwrap-noise"
 SUMMARY = "fringe-order error rate vs intensity noise: hierarchical, heterodyne, Gray code + phase"
@@ -37,7 +43,6 @@ SHORT = {"hierarchical 18/144/1024": "hierarchical", "heterodyne 18/21/144": "he
 
 def methods(width: int = 800, height: int = 600) -> dict:
     """The four pattern sets, keyed by method label."""
-    from fringe3d.patterns import sets
     return {
         "hierarchical 18/144/1024": sets.hierarchical((18, 144, 1024), (9, 3, 3), "v", width=width, height=height),
         "heterodyne 18/21/144": sets.three_frequency("v", width=width, height=height),
@@ -96,10 +101,6 @@ def predicted_rates(sigma: float) -> dict:
 
 def run(quick: bool = False, seed: int = 0) -> dict:
     """Order-error rate (fraction of pixels) per method and noise level; see the module doc."""
-    from fringe3d.decode import DecodeOptions, decode
-    from fringe3d.utils.console import progress_bar
-    from fringe3d.patterns.synthetic import frames_from_coordinates
-
     cam_w, cam_h = (320, 48) if quick else (320, 400)
     sigmas = QUICK_SIGMAS if quick else SIGMAS
     sets_ = methods()

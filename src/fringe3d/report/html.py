@@ -72,7 +72,7 @@ def _points_trace(points: np.ndarray, rng: np.random.Generator) -> dict:
 
 def build_report(folder: str | Path) -> str:
     """Return the HTML text of the report for a results folder (see :mod:`.results`)."""
-    import plotly.offline
+    import plotly.offline  # heavy (~1 s): only when a report is built
 
     folder = Path(folder)
     s = load_summary(folder)

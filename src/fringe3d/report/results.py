@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.jsonfile import read_json, write_json
 
 SUMMARY_NAME = "summary.json"
 
@@ -31,7 +31,6 @@ def load_summary(folder: str | Path) -> dict:
     if not path.exists():
         raise FileNotFoundError(f"{folder} has no {SUMMARY_NAME}: expected the output of `fringe3d demo` "
                                 "or a folder written by fringe3d.report.results.save_summary")
-    from fringe3d.utils.jsonfile import read_json
     summary = read_json(path, "results summary")
     if "title" not in summary:
         raise ValueError(f"{path}: missing field 'title'")

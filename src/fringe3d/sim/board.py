@@ -1,28 +1,21 @@
-"""Circle-grid calibration board (ch. 2.2.4, ch. 3: dark circles on matte white).
+"""The circle-grid calibration board as a scene object (ch. 2.2.4, ch. 3: dark circles on matte white).
 
-Board frame (mm): the board is the plane ``z_b = 0``; the first circle centre is the origin;
-``x_b`` runs along a grid row (columns), ``y_b`` down the rows. This is OpenCV's object-point
-frame, so the board's pose ``(R, t)`` (board → world, ``X = R @ x_b + t``) is what
-``cv2.solvePnP`` / ``cv2.calibrateCamera`` estimate when the world is the camera frame.
-
-Grid layouts, ``pattern_size = (cols, rows)`` as in ``cv2.findCirclesGrid``:
-
-* symmetric: centre ``(j s, i s, 0)`` for row ``i`` and column ``j``;
-* asymmetric (``cv2.CALIB_CB_ASYMMETRIC_GRID``): centre ``((2 j + i mod 2) s, i s, 0)``.
-
-Centres are listed row by row (``i`` outer, ``j`` inner), the order OpenCV reports them in
-for an unrotated board seen from the front.
+The grid geometry (board frame, layouts, OpenCV order) is
+:class:`fringe3d.calibrate.boards.CircleBoard`; :class:`BoardTarget` places such a board in
+a scene (pose, margin, albedos, anti-aliased circle edges) so the renderer can draw it.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .motion import STATIC, RigidMotion
+from fringe3d.calibrate.boards import CircleBoard
+
+from .motion import STATIC, RigidMotion, rotation_vector_to_matrix
 from .scene_object import PosedObject, check_albedo, check_rotation, check_vec3
 
 
-class CircleBoard(PosedObject):
-    """A matte white board with dark circles.
+class BoardTarget(PosedObject):
+    """A matte white board with dark circles: a :class:`CircleBoard` placed in a scene.
 
     Parameters
     ----------
@@ -48,18 +41,12 @@ class CircleBoard(PosedObject):
     def __init__(self, cols=9, rows=9, spacing=10.0, radius=None, R=None, t=(0.0, 0.0, 400.0),
                  asymmetric=False, margin=None, white=0.9, dark=0.1, edge_width=0.0,
                  motion: RigidMotion = STATIC):
-        self.cols, self.rows = int(cols), int(rows)
-        if self.cols < 2 or self.rows < 2:
-            raise ValueError(f"a circle grid needs at least 2x2 circles, got cols={cols}, rows={rows}")
-        self.spacing = float(spacing)
-        if not self.spacing > 0:
-            raise ValueError(f"board spacing must be > 0 mm, got {spacing}")
-        self.asymmetric = bool(asymmetric)
-        gap = self.spacing * (np.sqrt(2) if self.asymmetric else 1.0)  # nearest-centre distance
-        self.radius = float(radius) if radius is not None else 0.25 * self.spacing
-        if not 0 < self.radius < 0.5 * gap:
-            raise ValueError(f"board circle radius must be in (0, {0.5 * gap:g}) mm for spacing "
-                             f"{self.spacing:g}, got {self.radius}")
+        spacing = float(spacing)
+        self.board = CircleBoard(cols=int(cols), rows=int(rows), spacing=spacing,
+                                 radius=float(radius) if radius is not None else 0.25 * spacing,
+                                 asymmetric=bool(asymmetric))
+        self.cols, self.rows = self.board.cols, self.board.rows
+        self.spacing, self.radius, self.asymmetric = self.board.spacing, self.board.radius, self.board.asymmetric
         self.margin = self.spacing if margin is None else float(margin)
         if self.margin < self.radius:
             raise ValueError(f"board margin ({self.margin} mm) must be at least the circle radius")
@@ -81,31 +68,29 @@ class CircleBoard(PosedObject):
     def t(self) -> np.ndarray:
         return self.center
 
+    @classmethod
+    def from_board(cls, board: CircleBoard, **scene_kwargs) -> "BoardTarget":
+        """The scene object rendering ``board``; ``scene_kwargs`` as in the constructor (R, t, albedos...)."""
+        return cls(cols=board.cols, rows=board.rows, spacing=board.spacing, radius=board.radius,
+                   asymmetric=board.asymmetric, **scene_kwargs)
+
     @property
     def pattern_size(self) -> tuple[int, int]:
         """``(cols, rows)`` for ``cv2.findCirclesGrid``."""
-        return (self.cols, self.rows)
+        return self.board.pattern_size
 
     @property
     def cv_flags(self) -> int:
         """``cv2.CALIB_CB_SYMMETRIC_GRID`` or ``cv2.CALIB_CB_ASYMMETRIC_GRID``."""
-        import cv2
-        return cv2.CALIB_CB_ASYMMETRIC_GRID if self.asymmetric else cv2.CALIB_CB_SYMMETRIC_GRID
+        return self.board.cv_flags
 
     def object_points(self) -> np.ndarray:
         """Circle centres in the board frame, ``(rows*cols, 3)`` float64 mm, row by row."""
-        i, j = np.mgrid[0:self.rows, 0:self.cols]
-        x = (2 * j + (i % 2)) * self.spacing if self.asymmetric else j * self.spacing
-        return np.column_stack([x.ravel(), (i * self.spacing).ravel(), np.zeros(i.size)]).astype(float)
+        return self.board.object_points()
 
     def circle_centers(self, time: float = 0.0) -> np.ndarray:
         """True circle centres in world coordinates at ``time``, ``(rows*cols, 3)`` mm."""
         return self.to_world(self.object_points(), time)
-
-    def grid(self) -> dict:
-        """Grid geometry for calibration code and scene files."""
-        return {"cols": self.cols, "rows": self.rows, "spacing": self.spacing, "radius": self.radius,
-                "asymmetric": self.asymmetric, "pattern_size": list(self.pattern_size)}
 
     def to_dict(self) -> dict:
         d = {"type": "board", "cols": self.cols, "rows": self.rows, "spacing": self.spacing,
@@ -183,17 +168,15 @@ def look_at_rotation(normal_towards, up=(0.0, -1.0, 0.0)) -> np.ndarray:
     return np.column_stack([x, y, z])
 
 
-def board_facing(camera_center, board_center, tilt=(0.0, 0.0, 0.0), **board_kwargs) -> CircleBoard:
-    """A :class:`CircleBoard` whose grid centre sits at ``board_center`` (world mm), facing
+def board_facing(camera_center, board_center, tilt=(0.0, 0.0, 0.0), **board_kwargs) -> BoardTarget:
+    """A :class:`BoardTarget` whose grid centre sits at ``board_center`` (world mm), facing
     ``camera_center`` and then tilted by the rotation vector ``tilt`` (rad, board axes).
 
-    Other keyword arguments go to :class:`CircleBoard` (``cols``, ``rows``, ``spacing``...).
+    Other keyword arguments go to :class:`BoardTarget` (``cols``, ``rows``, ``spacing``...).
     """
-    from .motion import rotation_vector_to_matrix
-
     bc = check_vec3(board_center, "board_center")
     R = look_at_rotation(check_vec3(camera_center, "camera_center") - bc) @ rotation_vector_to_matrix(tilt)
-    probe = CircleBoard(R=R, t=bc, **board_kwargs)
+    probe = BoardTarget(R=R, t=bc, **board_kwargs)
     mid = probe.object_points()[:, :2]
     mid = np.array([(mid[:, 0].min() + mid[:, 0].max()) / 2, (mid[:, 1].min() + mid[:, 1].max()) / 2, 0.0])
-    return CircleBoard(R=R, t=bc - R @ mid, **board_kwargs)
+    return BoardTarget(R=R, t=bc - R @ mid, **board_kwargs)

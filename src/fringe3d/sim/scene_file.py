@@ -26,7 +26,7 @@ import numpy as np
 
 from fringe3d.utils.jsonfile import read_json, write_json
 
-from .board import CircleBoard
+from .board import BoardTarget
 from .mesh import Mesh
 from .motion import GRAVITY_MM_S2, RigidMotion, falling
 from .primitives import Box, Plane, Sphere
@@ -158,7 +158,7 @@ def _build(kind: str, kw: dict) -> SceneObject:
     if kind == "box":
         return Box(**kw)
     if kind == "board":
-        return CircleBoard(**kw)
+        return BoardTarget(**kw)
     if kind == "heightfield":
         return HeightField(**kw)
     if kind == "sculpture":

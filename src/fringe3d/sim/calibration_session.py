@@ -3,7 +3,9 @@
 :func:`simulate_session` picks board poses inside a preset's working volume (board fully
 visible to the camera and lit by the projector, facing both), renders the calibration
 pattern set for each pose with :func:`fringe3d.sim.render`, and returns the poses in memory
-(optionally also writing a session folder of capture folders plus ``session.json``).
+(optionally also writing a session folder of capture folders plus ``session.json``) for
+:func:`fringe3d.calibrate.observe_session` / :func:`fringe3d.calibrate.calibrate_session`.
+:func:`render_and_decode` measures a test scene with the same simulator.
 """
 from __future__ import annotations
 
@@ -13,12 +15,21 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from fringe3d.calibrate.boards import CircleBoard
+from fringe3d.calibrate.evaluation import directions_of
+from fringe3d.calibrate.phase_mapping import FringeDirection
+from fringe3d.calibrate.session import SESSION_NAME, PoseCapture
+from fringe3d.decode import decode
+from fringe3d.io.capture import write_capture
 from fringe3d.optics import Rig, TelecentricCamera
+from fringe3d.patterns import sets
 from fringe3d.utils.console import progress_bar
 from fringe3d.utils.jsonfile import write_json
 
-from .board_detection import CircleBoard
-from .session import SESSION_NAME, PoseCapture
+from . import presets
+from .board import BoardTarget
+from .render import render
+from .scene import Scene
 
 
 @dataclass
@@ -85,12 +96,6 @@ def _inside(dev, uv, front, margin):
                 and np.all(uv[:, 1] > margin * dev.height) and np.all(uv[:, 1] < (1 - margin) * dev.height - 1))
 
 
-def _device_centre(dev, X):
-    if isinstance(dev, TelecentricCamera):
-        return X - 1e6 * dev.view_direction * np.sign(dev.view_direction @ (X - 0) + 1e-12)
-    return dev.center
-
-
 def sample_board_poses(rig: Rig, volume: dict, board: CircleBoard, n: int, rng: np.random.Generator,
                        max_tilt_deg: float = 35.0, spin_deg: float = 15.0, margin: float = 0.04,
                        max_tries: int = 20000) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -145,10 +150,6 @@ def render_board_poses(rig: Rig, settings, board: CircleBoard, board_poses, patt
                        names: list[str] | None = None) -> list[PoseCapture]:
     """Render the board at each ``(R, t)`` (board -> world) with ``patterns``; one
     :class:`PoseCapture` per pose (noise seeded by ``seed`` and the pose index)."""
-    from fringe3d.sim import render
-    from fringe3d.sim.board import CircleBoard as SceneBoard
-    from fringe3d.sim.scene import Scene
-
     out = []
     with progress_bar("rendering board poses", len(board_poses), enabled=progress) as advance:
         for k, (R, t) in enumerate(board_poses):
@@ -157,8 +158,7 @@ def render_board_poses(rig: Rig, settings, board: CircleBoard, board_poses, patt
             else:
                 px_mm = rig.camera.to_device(t)[2] / rig.camera.K[0, 0]
             edge = min(edge_pixels * px_mm, 0.9 * board.radius)
-            sb = SceneBoard(cols=board.cols, rows=board.rows, spacing=board.spacing, radius=board.radius,
-                            asymmetric=board.asymmetric, R=R, t=t, white=0.9, dark=dark_albedo, edge_width=edge)
+            sb = BoardTarget.from_board(board, R=R, t=t, white=0.9, dark=dark_albedo, edge_width=edge)
             frames, _ = render(Scene([sb]), rig, patterns, settings.replace(seed=seed * 1000 + k), progress=False)
             out.append(PoseCapture(name=names[k] if names else f"pose_{k:02d}", frames=frames, patterns=patterns))
             advance()
@@ -189,9 +189,6 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
     edge_pixels : width of the circles' anti-aliasing albedo ramp, in camera pixels at the
         board (the renderer casts one ray per pixel)
     """
-    from fringe3d.patterns import sets
-    from fringe3d.sim import presets
-
     p = presets.get(preset)
     rig = scaled_camera(p.rig, camera_scale)
     model = "telecentric" if rig.telecentric else "pinhole"
@@ -216,7 +213,6 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
     poses = render_board_poses(rig, s, board, board_poses, patterns, seed=seed, dark_albedo=dark_albedo,
                                edge_pixels=edge_pixels, progress=progress)
     if folder is not None:
-        from fringe3d.io.capture import write_capture
         for pose, (R, t) in zip(poses, board_poses):
             write_capture(folder / pose.name, pose.frames, patterns,
                           meta={"simulated": True, "preset": p.name, "board_R": R, "board_t": t})
@@ -226,3 +222,10 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
         write_json(folder / SESSION_NAME, meta)
     return SimulatedSession(poses=poses, board=board, rig=rig, board_poses=board_poses, model=model, folder=folder,
                             settings=s)
+
+
+def render_and_decode(scene, rig: Rig, patterns, settings) -> tuple[np.ndarray, object, list[FringeDirection]]:
+    """Render ``scene`` through the true ``rig`` and decode: returns (frames, truth, directions)."""
+    frames, truth = render(scene, rig, patterns, settings, progress=False)
+    dec = decode(frames, patterns)
+    return frames, truth, directions_of(dec, patterns)

@@ -1,0 +1,30 @@
+"""A pattern folder: the frames of a :class:`~fringe3d.patterns.manifest.PatternSet` as 8-bit PNGs
+``00000.png ...`` (Eq. 2.1-2.2 rendered on the projector grid) plus ``manifest.json``, ready
+for a projector (``fringe3d patterns``)."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from fringe3d.patterns.manifest import PatternSet
+from fringe3d.patterns.render import render_frame
+from fringe3d.utils.console import progress_bar
+
+from .images import write_image
+
+
+def write_pattern_folder(ps: PatternSet, out: Path, **render_options) -> list[Path]:
+    """Render ``ps`` and write ``out/00000.png ...`` plus ``out/manifest.json`` (atomically)."""
+    out.mkdir(parents=True, exist_ok=True)
+    for stale in out.glob("*.png"):  # a longer, older set must not leave frames behind
+        if re.fullmatch(r"\d{5}\.png", stale.name) and int(stale.stem) >= len(ps):
+            stale.unlink()
+    paths = []
+    with progress_bar(f"writing {len(ps)} patterns", len(ps), enabled=len(ps) > 4) as advance:
+        for i, spec in enumerate(ps.frames):
+            img = render_frame(spec, ps.width, ps.height, **render_options)
+            img8 = ((img >= 0.5) * 255 if ps.bit_depth == 1 else (img * 255.0).round()).astype("uint8")
+            paths.append(write_image(out / f"{i:05d}.png", img8))
+            advance()
+    ps.save(out / "manifest.json")
+    return paths

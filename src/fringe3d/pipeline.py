@@ -1,0 +1,149 @@
+"""Capture folder -> point cloud in one call: the path ``fringe3d reconstruct`` takes for one
+pattern cycle (read the capture, load the rig, decode, triangulate; Eq. 2.37).
+
+>>> import fringe3d                                                   # doctest: +SKIP
+>>> r = fringe3d.reconstruct_capture("cap", "cap/rig.json")           # doctest: +SKIP
+>>> r.save_ply("cap.ply")                                             # doctest: +SKIP
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fringe3d.decode import DecodeOptions
+from fringe3d.io.capture import Capture, read_capture
+from fringe3d.io.images import write_image
+from fringe3d.io.pointcloud import write_ply
+from fringe3d.optics import Rig
+from fringe3d.patterns.manifest import PatternSet
+from fringe3d.reconstruct.depth import depth_map
+from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
+from fringe3d.unwrap.geometric import propose_z_min
+from fringe3d.utils.atomic import atomic_path
+
+
+@dataclass
+class Reconstruction:
+    """One pattern cycle reconstructed.
+
+    Attributes
+    ----------
+    points : (H, W, 3) float32
+        Camera-frame points (mm), NaN where invalid.
+    texture : (H, W) float32 or None
+        Texture in [0, 1].
+    mask : (H, W) bool
+        Valid points (``isfinite(points[..., 0])``).
+    patterns : PatternSet
+        The manifest as decoded (after any method override).
+    path : str
+        Which code path reconstructed it (fused kernel or decode + triangulate).
+    """
+
+    points: np.ndarray
+    texture: np.ndarray | None
+    mask: np.ndarray
+    patterns: PatternSet
+    path: str
+
+    def save_ply(self, path: str | os.PathLike) -> Path:
+        """Write the valid points as a PLY cloud coloured by the texture; returns the path."""
+        return write_ply(Path(path), self.points, colors=self.texture)
+
+    def save(self, out: str | os.PathLike, ply: bool = False) -> dict:
+        """Write ``points.npy``, ``depth.tif``, ``texture.tif`` (+ ``points.ply``) into ``out``;
+        see :func:`write_point_maps`."""
+        return write_point_maps(Path(out), self.points, self.texture, ply)
+
+    def summary(self) -> dict:
+        """Valid share / count and depth range; see :func:`point_summary`."""
+        return point_summary(self.points)
+
+
+def check_sizes(rig: Rig, frames: np.ndarray, calibration) -> None:
+    """ValueError when the calibration's camera and the captured frames ``(F, H, W)`` differ in size."""
+    H, W = frames.shape[1:]
+    if (rig.camera.height, rig.camera.width) != (H, W):
+        raise ValueError(f"the calibration {calibration} describes a {rig.camera.width}x{rig.camera.height} camera "
+                         f"but the capture's frames are {W}x{H}: calibration and capture sizes disagree "
+                         "(expected the calibration of the camera that recorded this capture)")
+
+
+def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: float | None = None,
+                      triangulation: str = "auto", min_modulation: float | None = None) -> Reconstruction:
+    """Reconstruct the first pattern cycle of a capture in memory.
+
+    Parameters
+    ----------
+    cap : Capture
+        From :func:`fringe3d.io.capture.read_capture` (frames in manifest order).
+    rig : Rig
+        Calibrated rig whose camera recorded ``cap``.
+    method : str, optional
+        Unwrapping method for every direction (default: the manifest's plans).
+    z_min : float, optional
+        Nearest scene depth (mm), for the geometric methods.
+    triangulation : {"auto", "fast", "lsq"}
+        Closed form or least squares (Eq. 2.37).
+    min_modulation : float, optional
+        Modulation threshold (camera counts); default from the bit depth.
+    """
+    ps = with_method(cap.patterns, method)
+    options = DecodeOptions(z_min=z_min, bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation)
+    rec = FrameReconstructor(ps, rig, options, triangulation=triangulation)
+    points, texture = rec(np.ascontiguousarray(cap.frames), with_texture=True)
+    return Reconstruction(points=points, texture=texture, mask=np.isfinite(points[..., 0]), patterns=ps,
+                          path=rec.path)
+
+
+def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLike | Rig, **options) -> Reconstruction:
+    """A capture folder's first pattern cycle as a point map.
+
+    Parameters
+    ----------
+    folder : path
+        Capture folder (``manifest.json`` + frames).
+    calibration : path or Rig
+        Calibration JSON (with a ``rig`` entry) or rig JSON, or a :class:`Rig`.
+    **options
+        ``method``, ``z_min``, ``triangulation``, ``min_modulation`` as in :func:`reconstruct_cycle`.
+    """
+    rig = calibration if isinstance(calibration, Rig) else Rig.load(calibration)
+    cap = read_capture(folder, max_cycles=1)
+    check_sizes(rig, cap.frames, calibration)
+    return reconstruct_cycle(cap, rig, **options)
+
+
+def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool) -> dict:
+    """points.npy, depth.tif (float32 mm, NaN invalid), texture.tif and optionally points.ply,
+    all written atomically; returns ``{kind: path}``."""
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out / "points.npy") as tmp:
+        with open(tmp, "wb") as f:
+            np.save(f, points)
+    files = {"points": str(out / "points.npy"), "depth": str(write_image(out / "depth.tif", depth_map(points)))}
+    if texture is not None:
+        files["texture"] = str(write_image(out / "texture.tif", texture.astype(np.float32)))
+    if ply:
+        files["ply"] = str(write_ply(out / "points.ply", points, colors=texture))
+    return files
+
+
+def point_summary(points: np.ndarray) -> dict:
+    """Share and count of valid points and their depth range (mm; None when no point is valid)."""
+    ok = np.isfinite(points[..., 0])
+    z = points[..., 2][ok]
+    return {"valid_share": float(ok.mean()), "valid_points": int(ok.sum()),
+            "depth_min": float(z.min()) if z.size else None, "depth_max": float(z.max()) if z.size else None}
+
+
+def reference_z_min(path: Path, margin: float) -> float:
+    """z_min proposed from a reference point map (``.npy`` or a folder holding ``points.npy``)."""
+    path = Path(path)
+    f = path / "points.npy" if path.is_dir() else path
+    if not f.exists():
+        raise FileNotFoundError(f"no reference point map at {f} (expected a .npy point map or a reconstruct folder)")
+    return propose_z_min(np.load(f), margin=margin)
