@@ -209,11 +209,11 @@ def test_textures_stay_in_range_and_round_trip_through_dicts():
 
 def test_every_simulator_object_implements_the_scene_object_protocol():
     from fringe3d.sim import HeightField, Wing, sculpture
-    from fringe3d.sim.board import CircleBoard
+    from fringe3d.sim.board import BoardTarget
     from fringe3d.sim.scene_object import SceneObject, SupportsCircleCentres, SupportsTruthFields
 
     objects = [Plane((0, 0, 100), (0, 0, -1)), Sphere((0, 0, 100), 5), Box((0, 0, 100), (1, 2, 3)),
-               HeightField(), sculpture(), Wing(), CircleBoard()]
+               HeightField(), sculpture(), Wing(), BoardTarget()]
     assert all(isinstance(ob, SceneObject) for ob in objects)
     assert [isinstance(ob, SupportsTruthFields) for ob in objects] == [False] * 5 + [True, False]
     assert [isinstance(ob, SupportsCircleCentres) for ob in objects] == [False] * 6 + [True]
