@@ -3,8 +3,10 @@ README's three lines (capture folder -> point cloud) reproduce the simulator's t
 from __future__ import annotations
 
 import importlib.metadata
+import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -51,6 +53,18 @@ def test_three_lines_from_capture_to_point_cloud(tiny_capture, tmp_path):
     assert ok.mean() > 0.8
     err = np.linalg.norm(r.points[ok] - truth.xyz[ok], axis=-1)
     assert float(np.sqrt(np.mean(err ** 2))) < RMS_BOUND_MM
+
+
+def test_the_readme_three_lines_run_as_written(tiny_capture, tmp_path, monkeypatch):
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = re.search(r"```python\n(import fringe3d\n.*?)```", readme, re.S)
+    assert block, "README lost its capture -> point cloud example"
+    lines = block.group(1).strip().splitlines()
+    assert len(lines) <= 3
+    (tmp_path / "cap").symlink_to(tiny_capture, target_is_directory=True)
+    monkeypatch.chdir(tmp_path)
+    exec(compile(block.group(1), "README.md", "exec"), {})
+    assert (tmp_path / "cap.ply").stat().st_size > 0
 
 
 def test_reconstruct_capture_matches_the_reconstruct_command(tiny_capture, tmp_path):
