@@ -33,3 +33,7 @@ class ReconstructionWarning(Fringe3DWarning):
 
 class AnalysisWarning(Fringe3DWarning):
     """A fit, tracking or strain figure is based on too few points or an ill-posed geometry."""
+
+
+class DeviceWarning(Fringe3DWarning):
+    """A projector or camera setting was adjusted, is unknown, or was not reported by the device."""
