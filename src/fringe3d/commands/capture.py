@@ -9,6 +9,8 @@ from pathlib import Path
 
 import typer
 
+from rich.markup import escape
+
 from fringe3d.utils.console import console, err_console, info, print_json, progress_bar, set_quiet
 
 #: Exit code of a capture that stopped or lost frames (the folder is not marked complete).
@@ -143,108 +145,120 @@ def register(app: typer.Typer) -> None:
 
         Example: fringe3d capture calib-pats --session session --poses 12 --auto --projector window:1 --camera pylon:
         """
-        from fringe3d.devices.acquire import (CaptureIncompleteError, capture_ramp, capture_sequence,
-                                              check_exposure, configure_camera, measure_latency)
-        from fringe3d.devices.base import DeviceError
-
-        set_quiet(quiet or json_)
-        if camera is None:
-            raise ValueError("--camera is required, e.g. --camera pylon:SERIAL or --camera virtual:tiny")
-        features = _parse_features(camera_feature)
-        roi_v = _parse_roi(roi)
-        modes = sum(bool(m) for m in (latency, gamma, session is not None))
-        if modes > 1:
-            raise ValueError("--latency, --gamma and --session are separate modes; give one")
-        ps = images = packed = None
-        if not (latency or gamma):
-            if patterns is None:
-                raise ValueError("give the pattern folder to project (fringe3d patterns -o FOLDER writes one)")
-            ps, images, packed = load_pattern_folder(patterns)
-            if session is None and output is None:
-                raise ValueError("-o/--output CAPTURE is required")
-        if gamma and output is None:
-            raise ValueError("--gamma needs -o gamma.json")
-        proj, cam = open_rig(projector, camera, patterns=ps, features=features)
+        opts = dict(locals())
         try:
-            configure_camera(cam, pixel_format=pixel_format, roi=roi_v, exposure=None, gain=gain)
-            planes = None
-            show = images
-            if packed is not None and sync == "hardware":
-                show, planes = packed
-            elif packed is not None:
-                info("the pattern folder is packed into bit-planes; software sync shows the unpacked 1-bit frames")
-            if exposure is not None:
-                rate = frame_rate or (proj.refresh_rate * (max(planes) if planes else 1) if sync == "hardware" else None)
-                check_exposure(exposure, 1.0 / rate if rate else None,
-                               f"{rate:g} Hz {'pattern rate' if sync == 'hardware' else 'frame rate'}" if rate else "")
-                cam.exposure = exposure
-            if latency:
-                res = measure_latency(proj, cam, timeout=timeout)
-                if output is not None:
-                    from fringe3d.utils.jsonfile import write_json
-                    write_json(output, res)
-                if json_:
-                    print_json(res)
-                else:
-                    console.print(f"display-to-camera delay {res['latency'] * 1e3:.1f} ms (step {res['step'] * 1e3:.1f} ms)"
-                                  f"; use --settle {res['latency']:.4f}")
-                return
-            if gamma:
-                from fringe3d.patterns.gamma import fit_gamma, save_gamma
-                lv, frames = capture_ramp(proj, cam, levels=levels, settle=settle, timeout=timeout)
-                bd = {"Mono8": 8, "Mono10": 10, "Mono12": 12}.get(cam.pixel_format, 8)
-                fit = fit_gamma(lv, frames, full_scale=2 ** bd - 1)
-                fit.update(projector=proj.describe(), camera_device=cam.describe())
-                save_gamma(output, fit)
-                if json_:
-                    print_json({k: fit[k] for k in ("gamma", "rms_residual", "pixels")} | {"output": str(output)})
-                else:
-                    console.print(f"projector gamma {fit['gamma']:.4f} (fit RMS {fit['rms_residual']:.4f}, "
-                                  f"{fit['pixels']} pixels); wrote {output}")
-                return
-            meta = {"fringe3d_version": _version(), "patterns_folder": str(patterns),
-                    "options": {"projector": projector, "camera": camera, "sync": sync, "cycles": cycles,
-                                "settle": settle, "timeout": timeout, "frame_rate": frame_rate}}
-            if session is not None:
-                from fringe3d.devices.session import capture_session
-                summary = capture_session(proj, cam, ps, images, session, poses, cols=cols, rows=rows,
-                                          spacing=spacing, auto=auto, still_seconds=still, preview=preview,
-                                          settle=settle, timeout=timeout, extra_meta=meta)
-                if json_:
-                    print_json(summary)
-                elif not quiet:
-                    console.print(f"captured {summary['poses']} poses into {session}; calibrate with "
-                                  f"fringe3d calibrate {session}")
-                return
-            total = len(ps) * cycles
-            with progress_bar(f"capturing {total} frames", total, enabled=not (quiet or json_)) as advance:
-                last = [0]
+            run_capture(**opts)
+        except (ValueError, FileNotFoundError) as e:  # printed here: device messages name extras in [] (no markup)
+            err_console.print("[bold red]error:[/] " + escape(str(e)))
+            raise SystemExit(2)
 
-                def prog(n):
-                    advance(n - last[0])
-                    last[0] = n
-                res = capture_sequence(proj, cam, ps, show, output, sync=sync, cycles=cycles, settle=settle,
-                                       timeout=timeout, frame_rate=frame_rate, planes=planes, extra_meta=meta,
-                                       progress=prog)
-        except CaptureIncompleteError as e:
-            err_console.print(f"[bold red]capture incomplete:[/] {e}")
-            raise SystemExit(EXIT_INCOMPLETE)
-        except KeyboardInterrupt:
-            err_console.print(f"[bold red]capture interrupted:[/] {output or session} is marked incomplete")
-            raise SystemExit(EXIT_INCOMPLETE)
-        except DeviceError as e:
-            where = output or session
-            err_console.print(f"[bold red]device error:[/] {e}" + (f"; {where} is marked incomplete" if where else ""))
-            raise SystemExit(EXIT_INCOMPLETE)
-        finally:
-            cam.close()
-            proj.close()
-        summary = {"output": str(output), "frames": res.received, "complete": res.complete, "sync": sync,
-                   "camera": res.meta.get("camera_device", {}).get("model"), "cycles": cycles}
-        if json_:
-            print_json(summary)
-        elif not quiet:
-            console.print(f"captured {res.received} frames ({sync} sync) into {output}; capture.json marks it complete")
+
+def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gain, pixel_format, roi, camera_feature,
+                frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto, still, preview,
+                cols, rows, spacing, json_, quiet) -> None:
+    """The body of ``fringe3d capture`` (see its --help)."""
+    from fringe3d.devices.acquire import (CaptureIncompleteError, capture_ramp, capture_sequence,
+                                          check_exposure, configure_camera, measure_latency)
+    from fringe3d.devices.base import DeviceError
+
+    set_quiet(quiet or json_)
+    if camera is None:
+        raise ValueError("--camera is required, e.g. --camera pylon:SERIAL or --camera virtual:tiny")
+    features = _parse_features(camera_feature)
+    roi_v = _parse_roi(roi)
+    modes = sum(bool(m) for m in (latency, gamma, session is not None))
+    if modes > 1:
+        raise ValueError("--latency, --gamma and --session are separate modes; give one")
+    ps = images = packed = None
+    if not (latency or gamma):
+        if patterns is None:
+            raise ValueError("give the pattern folder to project (fringe3d patterns -o FOLDER writes one)")
+        ps, images, packed = load_pattern_folder(patterns)
+        if session is None and output is None:
+            raise ValueError("-o/--output CAPTURE is required")
+    if gamma and output is None:
+        raise ValueError("--gamma needs -o gamma.json")
+    proj, cam = open_rig(projector, camera, patterns=ps, features=features)
+    try:
+        configure_camera(cam, pixel_format=pixel_format, roi=roi_v, exposure=None, gain=gain)
+        planes = None
+        show = images
+        if packed is not None and sync == "hardware":
+            show, planes = packed
+        elif packed is not None:
+            info("the pattern folder is packed into bit-planes; software sync shows the unpacked 1-bit frames")
+        if exposure is not None:
+            rate = frame_rate or (proj.refresh_rate * (max(planes) if planes else 1) if sync == "hardware" else None)
+            check_exposure(exposure, 1.0 / rate if rate else None,
+                           f"{rate:g} Hz {'pattern rate' if sync == 'hardware' else 'frame rate'}" if rate else "")
+            cam.exposure = exposure
+        if latency:
+            res = measure_latency(proj, cam, timeout=timeout)
+            if output is not None:
+                from fringe3d.utils.jsonfile import write_json
+                write_json(output, res)
+            if json_:
+                print_json(res)
+            else:
+                console.print(f"display-to-camera delay {res['latency'] * 1e3:.1f} ms (step {res['step'] * 1e3:.1f} ms)"
+                              f"; use --settle {res['latency']:.4f}")
+            return
+        if gamma:
+            from fringe3d.patterns.gamma import fit_gamma, save_gamma
+            lv, frames = capture_ramp(proj, cam, levels=levels, settle=settle, timeout=timeout)
+            bd = {"Mono8": 8, "Mono10": 10, "Mono12": 12}.get(cam.pixel_format, 8)
+            fit = fit_gamma(lv, frames, full_scale=2 ** bd - 1)
+            fit.update(projector=proj.describe(), camera_device=cam.describe())
+            save_gamma(output, fit)
+            if json_:
+                print_json({k: fit[k] for k in ("gamma", "rms_residual", "pixels")} | {"output": str(output)})
+            else:
+                console.print(f"projector gamma {fit['gamma']:.4f} (fit RMS {fit['rms_residual']:.4f}, "
+                              f"{fit['pixels']} pixels); wrote {output}")
+            return
+        meta = {"fringe3d_version": _version(), "patterns_folder": str(patterns),
+                "options": {"projector": projector, "camera": camera, "sync": sync, "cycles": cycles,
+                            "settle": settle, "timeout": timeout, "frame_rate": frame_rate}}
+        if session is not None:
+            from fringe3d.devices.session import capture_session
+            summary = capture_session(proj, cam, ps, images, session, poses, cols=cols, rows=rows,
+                                      spacing=spacing, auto=auto, still_seconds=still, preview=preview,
+                                      settle=settle, timeout=timeout, extra_meta=meta)
+            if json_:
+                print_json(summary)
+            elif not quiet:
+                console.print(f"captured {summary['poses']} poses into {session}; calibrate with "
+                              f"fringe3d calibrate {session}")
+            return
+        total = len(ps) * cycles
+        with progress_bar(f"capturing {total} frames", total, enabled=not (quiet or json_)) as advance:
+            last = [0]
+
+            def prog(n):
+                advance(n - last[0])
+                last[0] = n
+            res = capture_sequence(proj, cam, ps, show, output, sync=sync, cycles=cycles, settle=settle,
+                                   timeout=timeout, frame_rate=frame_rate, planes=planes, extra_meta=meta,
+                                   progress=prog)
+    except CaptureIncompleteError as e:
+        err_console.print(f"[bold red]capture incomplete:[/] {e}")
+        raise SystemExit(EXIT_INCOMPLETE)
+    except KeyboardInterrupt:
+        err_console.print(f"[bold red]capture interrupted:[/] {output or session} is marked incomplete")
+        raise SystemExit(EXIT_INCOMPLETE)
+    except DeviceError as e:
+        where = output or session
+        err_console.print(f"[bold red]device error:[/] {e}" + (f"; {where} is marked incomplete" if where else ""))
+        raise SystemExit(EXIT_INCOMPLETE)
+    finally:
+        cam.close()
+        proj.close()
+    summary = {"output": str(output), "frames": res.received, "complete": res.complete, "sync": sync,
+               "camera": res.meta.get("camera_device", {}).get("model"), "cycles": cycles}
+    if json_:
+        print_json(summary)
+    elif not quiet:
+        console.print(f"captured {res.received} frames ({sync} sync) into {output}; capture.json marks it complete")
 
 
 def _version() -> str:

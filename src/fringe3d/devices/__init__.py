@@ -51,6 +51,8 @@ def open_camera(spec, features: list[tuple[str, str]] | None = None) -> Camera:
         return PylonCamera(spec.ident, features=features)
     if spec.backend == "genicam":
         check_unknown_options(spec, set())
+        from .base import require_module
+        require_module("genicam")
         from .genicam import GenICamCamera, parse_ident
         producer, serial = parse_ident(spec.ident)
         return GenICamCamera(producer, serial, features=features)
