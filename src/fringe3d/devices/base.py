@@ -25,7 +25,7 @@ TRIGGER_MODES = ("off", "software", "hardware")
 #: Pixel formats (grey) a camera may deliver, and their bit depth.
 PIXEL_FORMATS = {"Mono8": 8, "Mono10": 10, "Mono12": 12}
 #: The optional extra (``pip install 'fringe3d[EXTRA]'``) and module each backend needs.
-EXTRAS = {"window": ("display", "pyglet"), "pylon": ("basler", "pypylon"),
+EXTRAS = {"window": ("display", "pyglet"), "pylon": ("basler", "pypylon.pylon"),
           "genicam": ("genicam", "harvesters"), "opencv": (None, "cv2")}
 
 

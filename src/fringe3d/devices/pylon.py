@@ -28,7 +28,7 @@ from .base import (DeviceError, DeviceNotFoundError, Frame, check_pixel_format, 
 
 def list_cameras() -> list[dict]:
     """The cameras pylon sees: model, serial, device class, user name."""
-    pylon = require_module("pylon").pylon
+    pylon = require_module("pylon")
     devs = pylon.TlFactory.GetInstance().EnumerateDevices()
     return [{"model": d.GetModelName(), "serial": d.GetSerialNumber(), "class": d.GetDeviceClass(),
              "name": d.GetUserDefinedName() if d.IsUserDefinedNameAvailable() else ""} for d in devs]
@@ -45,8 +45,9 @@ class PylonCamera:
     """A Basler camera (see the module docstring)."""
 
     def __init__(self, serial: str = "", features: list[tuple[str, str]] | None = None):
-        mod = require_module("pylon")
-        self._pylon, self._genicam = mod.pylon, mod.genicam
+        from pypylon import genicam
+
+        self._pylon, self._genicam = require_module("pylon"), genicam
         pylon = self._pylon
         tl = pylon.TlFactory.GetInstance()
         devs = tl.EnumerateDevices()
