@@ -188,7 +188,7 @@ def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gai
         elif packed is not None:
             info("the pattern folder is packed into bit-planes; software sync shows the unpacked 1-bit frames")
         if exposure is not None:
-            rate = frame_rate or (proj.refresh_rate * (max(planes) if planes else 1) if sync == "hardware" else None)
+            rate = frame_rate or (proj.refresh_rate * (24 if planes else 1) if sync == "hardware" else None)
             check_exposure(exposure, 1.0 / rate if rate else None,
                            f"{rate:g} Hz {'pattern rate' if sync == 'hardware' else 'frame rate'}" if rate else "")
             cam.exposure = exposure

@@ -35,6 +35,7 @@ import numpy as np
 
 from fringe3d.io.capture import FRAMES_DIR, META_NAME
 from fringe3d.io.images import write_image
+from fringe3d.patterns.bitplanes import PLANES_PER_FRAME
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.utils.jsonfile import write_json
 
@@ -185,7 +186,10 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
         if stale.is_file():
             stale.unlink()
     total = n_pat * cycles
-    plane_rate = frame_rate or (projector.refresh_rate * max(planes))
+    packed = max(planes) > 1
+    if packed and callable(getattr(projector, "configure_bitplanes", None)):
+        projector.configure_bitplanes(planes)
+    plane_rate = frame_rate or (projector.refresh_rate * (PLANES_PER_FRAME if packed else 1))
     period = 1.0 / plane_rate if plane_rate else None
     camera.trigger_mode = sync
     meta = {"format": CAPTURE_FORMAT, "complete": False, "status": "capturing", "started": _now(),

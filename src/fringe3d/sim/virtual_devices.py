@@ -160,9 +160,12 @@ class VirtualProjector:
         self._state = state
         proj = state.rig.projector
         self.width, self.height = int(proj.width), int(proj.height)
-        self.refresh_rate = float(state.settings.frame_rate)
-        self.latency = float(latency)
         self.bitplanes = bool(bitplanes)
+        # bit-plane mode: 24 planes per video frame, one plane per camera frame period
+        self.refresh_rate = float(state.settings.frame_rate) / (24 if self.bitplanes else 1)
+        self.latency = float(latency)
+        self.plane_counts: list[int] = []  # patterns per packed frame (the DLP's pattern sequence)
+        self._packed_shown = 0
         self.camera = None  # the VirtualCamera, set by open_virtual_rig (hardware trigger wiring)
 
     def show(self, image: np.ndarray) -> float:
@@ -171,8 +174,10 @@ class VirtualProjector:
             if not self.bitplanes:
                 raise ValueError("the virtual projector shows grey images; for packed RGB bit-plane frames open it "
                                  "as virtual:PRESET?bitplanes=1")
-            from fringe3d.patterns.bitplanes import unpack_bitplanes
-            planes = unpack_bitplanes(img[None], 24)
+            from fringe3d.patterns.bitplanes import PLANES_PER_FRAME, unpack_bitplanes
+            counts = self.plane_counts or [PLANES_PER_FRAME]
+            planes = unpack_bitplanes(img[None], counts[self._packed_shown % len(counts)])
+            self._packed_shown += 1
             for p in planes:
                 self._frame(np.where(p, 255, 0).astype(np.uint8))
         else:
@@ -187,6 +192,11 @@ class VirtualProjector:
             cam._expose()  # the projector's trigger output fires the camera
         elif cam is None or cam.trigger_mode != "software":
             st.tick += 1
+
+    def configure_bitplanes(self, counts: list[int]) -> None:
+        """Patterns (planes) shown per packed video frame, in order (a DLP's pattern sequence)."""
+        self.plane_counts = [int(c) for c in counts]
+        self._packed_shown = 0
 
     def describe(self) -> dict:
         s = self._state.settings
