@@ -16,7 +16,7 @@ demo: $(STAMP)
 	$(VENV)/bin/fringe3d demo
 
 test: $(STAMP)
-	bash scripts/ensure-chromium.sh
+	bash scripts/ensure-system-packages.sh
 	$(VENV)/bin/python -m pytest -q
 
 # Peers (the non-commercial `fringes` package, OpenCV contrib's structured_light) live in a separate
