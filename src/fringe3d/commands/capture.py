@@ -123,6 +123,8 @@ def register(app: typer.Typer) -> None:
         auto: bool = typer.Option(False, "--auto", help="--session: capture a pose when the board is found and "
                                                         "still for --still seconds (otherwise: press space)."),
         still: float = typer.Option(1.0, help="--session --auto: seconds the board must be still."),
+        pose_timeout: float = typer.Option(60.0, "--pose-timeout", help="--session: give up when no pose is taken "
+                                           "within this many seconds (camera time)."),
         preview: bool = typer.Option(True, "--preview/--no-preview", help="--session: show the live preview window."),
         cols: int = typer.Option(9, help="--session: board circles per row."),
         rows: int = typer.Option(9, help="--session: board rows."),
@@ -154,7 +156,7 @@ def register(app: typer.Typer) -> None:
 
 
 def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gain, pixel_format, roi, camera_feature,
-                frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto, still, preview,
+                frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto, still, pose_timeout, preview,
                 cols, rows, spacing, json_, quiet) -> None:
     """The body of ``fringe3d capture`` (see its --help)."""
     from fringe3d.devices.acquire import (CaptureIncompleteError, capture_ramp, capture_sequence,
@@ -223,6 +225,7 @@ def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gai
             from fringe3d.devices.session import capture_session
             summary = capture_session(proj, cam, ps, images, session, poses, cols=cols, rows=rows,
                                       spacing=spacing, auto=auto, still_seconds=still, preview=preview,
+                                          pose_timeout=pose_timeout,
                                       settle=settle, timeout=timeout, extra_meta=meta)
             if json_:
                 print_json(summary)

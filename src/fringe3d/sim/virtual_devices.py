@@ -41,7 +41,62 @@ from .render import PatternSampler, camera_rays, cast, check_visible, irradiance
 from .settings import RenderSettings
 
 PROJECTOR_OPTIONS = {"gamma", "defocus", "brightness", "bitplanes", "latency"}
-CAMERA_OPTIONS = {"scene", "seed", "noise", "frame_rate", "bit_depth", "ideal", "drop", "unplug", "exposure"}
+CAMERA_OPTIONS = {"scene", "seed", "noise", "frame_rate", "bit_depth", "ideal", "drop", "unplug", "exposure",
+                  "poses", "hold", "move"}
+
+
+class HandHeldBoard:
+    """A circle board held still at a sequence of poses, moved between them (calibration capture).
+
+    Pose ``j`` (board -> world ``(R_j, t_j)``, :func:`fringe3d.calibrate.simulated_session.sample_board_poses`)
+    is held for ``hold`` s (default 1.6) from ``j * (hold + move)``; during the next ``move`` s (0.2) the board slides
+    to pose ``j + 1`` (translation interpolated, rotation switching half-way). After the last
+    pose the board leaves the view. Poses are drawn in the near 60% of the preset's depth range. Boards are rendered like the simulated sessions' (grey
+    circles of albedo 0.35 on 0.9, a two-pixel anti-aliasing ramp).
+    """
+
+    moving = True
+    ambient = 0.0
+    name = "handheld-board"
+
+    def __init__(self, preset, poses: int = 4, hold: float = 1.6, move: float = 0.2, seed: int = 0):
+        from fringe3d.calibrate.simulated_session import default_board, sample_board_poses
+        self.rig = preset.rig
+        self.board = default_board(self.rig, preset.volume)
+        z0, z1 = preset.volume["z"]  # the near 60% of the depth range: the board stays large enough to find
+        near = {**preset.volume, "z": (z0, z0 + 0.6 * (z1 - z0))}
+        self.poses = sample_board_poses(self.rig, near, self.board, int(poses), np.random.default_rng(seed))
+        self.hold, self.move = float(hold), float(move)
+        self._boards: dict = {}
+
+    def _scene_board(self, R, t):
+        from .board import CircleBoard as SceneBoard
+        b = self.board
+        px_mm = self.rig.camera.to_device(t)[2] / self.rig.camera.K[0, 0]
+        edge = min(2.0 * px_mm, 0.9 * b.radius)
+        return SceneBoard(cols=b.cols, rows=b.rows, spacing=b.spacing, radius=b.radius, asymmetric=b.asymmetric,
+                          R=R, t=t, white=0.9, dark=0.35, edge_width=edge)
+
+    def board_at(self, time: float):
+        """The scene board at ``time`` (s), or None once every pose has been shown."""
+        period = self.hold + self.move
+        j = int(np.floor(time / period))
+        if j >= len(self.poses):
+            return None
+        f = (time - j * period - self.hold) / self.move if self.move > 0 else 0.0
+        if f <= 0 or j + 1 >= len(self.poses):
+            if j not in self._boards:
+                self._boards[j] = self._scene_board(*self.poses[j])
+            return self._boards[j] if f <= 0 else None
+        (R0, t0), (R1, t1) = self.poses[j], self.poses[j + 1]
+        return self._scene_board(R0 if f < 0.5 else R1, (1 - f) * np.asarray(t0) + f * np.asarray(t1))
+
+    def intersect(self, origins, dirs, time: float = 0.0):
+        from .scenes import Hit
+        b = self.board_at(time)
+        if b is None:
+            return Hit.miss(np.asarray(dirs).reshape(-1, 3).shape[0])
+        return b.intersect(origins, dirs, time=0.0)
 
 
 @dataclass(frozen=True)
@@ -372,6 +427,11 @@ def open_virtual_rig(projector_spec, camera_spec=None, patterns=None, scene=None
             changes[name] = option(co, key, None, cast_)
     s = s.replace(**changes)
     from .simulate import make_scene
+    if scene is None and co.get("scene") == "handheld-board":
+        scene = HandHeldBoard(p, poses=option(co, "poses", 4, int), hold=option(co, "hold", 1.6, float),
+                              move=option(co, "move", 0.2, float), seed=s.seed)
+    elif any(k in co for k in ("poses", "hold", "move")):
+        raise ValueError("the virtual camera's poses/hold/move options belong to scene=handheld-board")
     sc = scene if scene is not None else make_scene(co.get("scene") or None, p)
     state = VirtualRigState(p, sc, s, patterns)
     proj = VirtualProjector(state, bitplanes=option(po, "bitplanes", False, bool),
