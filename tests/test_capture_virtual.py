@@ -89,6 +89,9 @@ def test_exposure_longer_than_the_frame_period_is_refused(pats, tmp_path, capsys
     (["--projector", "virtual:tiny", "--camera", "genicam:/nowhere/producer.cti"], "pip install 'fringe3d[genicam]'"),
     (["--projector", "virtual:tiny", "--camera", "virtual:tiny?colour=red"], "unknown option(s) ['colour']"),
     (["--projector", "virtual:tiny", "--camera", "virtual:macro"], "must use the same preset"),
+    (["--projector", "virtual:tiny", "--camera", "opencv:7"], "OpenCV cannot open video device 7; devices that open:"),
+    (["--projector", "virtual:tiny", "--camera", "virtual:tiny", "--pixel-format", "Mono14"],
+     "pixel format 'Mono14' is not supported; expected one of Mono8, Mono10, Mono12"),
 ])
 def test_bad_device_specs_get_clear_messages(pats, tmp_path, capsys, args, message):
     code = main(["capture", str(pats), "-o", str(tmp_path / "c"), *args])
@@ -102,3 +105,20 @@ def test_patterns_larger_than_the_projector_are_refused(tmp_path, capsys):
     code = main(["capture", str(big), "-o", str(tmp_path / "c"), "--projector", "virtual:tiny", "--camera", "virtual:tiny"])
     assert code == 2
     assert "the patterns are 300x200 but the projector is 256x200" in " ".join(capsys.readouterr().err.split())
+
+
+def test_latency_helper_on_the_virtual_rig_reports_no_delay(tmp_path, capsys):
+    out = tmp_path / "latency.json"
+    assert main(["capture", "--latency", "-o", str(out), "--projector", "virtual:tiny",
+                 "--camera", "virtual:tiny?scene=plane", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["latency"] == 0.0 and res["white_mean"] > res["black_mean"] + 50
+    assert json.loads(out.read_text())["latency"] == 0.0
+
+
+def test_twelve_bit_virtual_capture_is_written_as_16_bit_png_with_bit_depth_12(pats, tmp_path):
+    cap = tmp_path / "cap"
+    assert main(["capture", str(pats), "-o", str(cap), "--projector", "virtual:tiny", "--camera", "virtual:tiny",
+                 "--pixel-format", "Mono12", "-q"]) == 0
+    c = read_capture(cap)
+    assert c.frames.dtype == np.uint16 and c.bit_depth == 12 and 1000 < c.frames.max() <= 4095
