@@ -63,6 +63,17 @@ def test_missed_hardware_trigger_is_named_and_the_folder_is_not_complete(pats, t
     assert main(["decode", str(cap), "-o", str(tmp_path / "dec")]) == 2
 
 
+def test_frame_delivered_twice_is_named_as_a_duplicate(pats, tmp_path, capsys):
+    cap = tmp_path / "cap"
+    code = main(["capture", str(pats), "-o", str(cap), "--projector", "virtual:tiny",
+                 "--camera", "virtual:tiny?scene=plane&repeat=3"])
+    err = " ".join(capsys.readouterr().err.split())
+    assert code == 4
+    assert "frame 4 (pattern 4, cycle 0) repeats camera frame id 3 of frame 3 (pattern 3, cycle 0) (duplicated)" in err
+    meta = _meta(cap)
+    assert meta["complete"] is False and meta["duplicate_frames"] == [4]
+
+
 def test_unplugged_camera_leaves_the_capture_marked_incomplete(pats, tmp_path, capsys):
     cap = tmp_path / "cap"
     code = main(["capture", str(pats), "-o", str(cap), "--projector", "virtual:tiny",

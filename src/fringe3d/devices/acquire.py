@@ -269,12 +269,12 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
                     finished=_now(), frames_received=received, frames=[r for r in records if r is not None])
         write_json(folder / META_NAME, meta)
         raise
+    for i in sorted(set(dups)):  # two frames in one burst slot
+        problems.append(f"{_frame_label(i, n_pat)} was received twice (duplicated)")
     problems += _check_records(records, n_pat, period if sync == "hardware" else None, dups)
     for i in missing:
         problems.append(f"{_frame_label(i, n_pat)} was not received (dropped: no frame within {timeout:g} s "
                         f"of its trigger)")
-    for i in sorted(set(dups)):
-        problems.append(f"{_frame_label(i, n_pat)} was received twice (duplicated)")
     complete = not problems and received == total
     meta.update(status="complete" if complete else "incomplete", finished=_now(), frames_received=received,
                 frames=[r for r in records if r is not None], missing_frames=sorted(missing),
@@ -310,6 +310,8 @@ def _check_records(records, n_pat: int, period: float | None, dups: list[int]) -
             did = r["frame_id"] - prev["frame_id"]
             if did == 0:
                 dups.append(r["index"])
+                out.append(f"{_frame_label(r['index'], n_pat)} repeats camera frame id {r['frame_id']} of "
+                           f"{_frame_label(prev['index'], n_pat)} (duplicated)")
             elif did < 0:
                 pass  # the camera's counter wrapped or restarted
             elif did > gap:

@@ -22,7 +22,8 @@ Semantics (chosen so that ``fringe3d capture`` on the virtual rig writes the ver
   bit-planes in :data:`fringe3d.patterns.bitplanes.PLANE_ORDER`, each a 0/255 binary image, with
   one hardware trigger per plane (like a DLP evaluation module in video pattern mode).
 * Faults for tests: ``drop=[k, ...]`` makes the camera miss triggers number ``k`` (counting
-  all triggers since opening); ``unplug=k`` makes it fail with :class:`DeviceError` at its
+  all triggers since opening); ``repeat=[k, ...]`` delivers the frame of trigger ``k`` twice;
+  ``unplug=k`` makes it fail with :class:`DeviceError` at its
   ``k``-th frame.
 """
 from __future__ import annotations
@@ -41,7 +42,7 @@ from .render import PatternSampler, camera_rays, cast, check_visible, irradiance
 from .settings import RenderSettings
 
 PROJECTOR_OPTIONS = {"gamma", "defocus", "brightness", "bitplanes", "latency"}
-CAMERA_OPTIONS = {"scene", "seed", "noise", "frame_rate", "bit_depth", "ideal", "drop", "unplug", "exposure",
+CAMERA_OPTIONS = {"scene", "seed", "noise", "frame_rate", "bit_depth", "ideal", "drop", "unplug", "exposure", "repeat",
                   "poses", "hold", "move"}
 
 
@@ -266,9 +267,10 @@ class VirtualProjector:
 class VirtualCamera:
     """The preset's camera as a device (see the module docstring)."""
 
-    def __init__(self, state: VirtualRigState, drop=(), unplug: int | None = None):
+    def __init__(self, state: VirtualRigState, drop=(), unplug: int | None = None, repeat=()):
         self._state = state
         self.drop = set(int(k) for k in drop)
+        self.repeat = set(int(k) for k in repeat)
         self.unplug = unplug
         self._trigger_mode = "off"
         self.armed = False
@@ -355,8 +357,10 @@ class VirtualCamera:
             raise DeviceError(f"virtual camera unplugged at its frame {self._frames}")
         img = st.exposure_image(t, self._frames)
         x, y, w, h = self._roi
-        self._queue.append(Frame(image=img[y:y + h, x:x + w], frame_id=self._frames, timestamp=t,
-                                 host_time=time.monotonic()))
+        fr = Frame(image=img[y:y + h, x:x + w], frame_id=self._frames, timestamp=t, host_time=time.monotonic())
+        self._queue.append(fr)
+        if k in self.repeat:
+            self._queue.append(fr)  # delivered twice (e.g. a transport resend)
         self._frames += 1
 
     def grab(self, timeout: float) -> Frame:
@@ -392,7 +396,7 @@ def open_virtual_rig(projector_spec, camera_spec=None, patterns=None, scene=None
 
     ``projector_spec``: ``virtual[:PRESET][?gamma=G&defocus=SIGMA&brightness=B&bitplanes=1&latency=S]``;
     ``camera_spec``: ``virtual[:PRESET][?scene=NAME&seed=N&noise=SIGMA&frame_rate=HZ&bit_depth=B&ideal=1
-    &drop=K,..&unplug=K]`` (the preset must be the projector's). ``scene`` (a Scene object) overrides
+    &drop=K,..&repeat=K,..&unplug=K]`` (the preset must be the projector's). ``scene`` (a Scene object) overrides
     the camera's ``scene`` option. Render settings start from the preset's, with ``seed`` 0 as
     ``fringe3d simulate``'s default.
     """
@@ -439,6 +443,6 @@ def open_virtual_rig(projector_spec, camera_spec=None, patterns=None, scene=None
     cam = None
     if cs is not None:
         unplug = option(co, "unplug", None, int)
-        cam = VirtualCamera(state, drop=_ints(co.get("drop", "")), unplug=unplug)
+        cam = VirtualCamera(state, drop=_ints(co.get("drop", "")), unplug=unplug, repeat=_ints(co.get("repeat", "")))
         proj.camera = cam
     return proj, cam
