@@ -8,7 +8,8 @@ import pytest
 from fringe3d.cli import main
 from fringe3d.decode import decode
 from fringe3d.io.capture import read_capture
-from fringe3d.patterns.bitplanes import PLANE_ORDER, pack_bitplanes, read_packed, unpack_bitplanes
+from fringe3d.io.packed_patterns import read_packed
+from fringe3d.patterns.bitplanes import PLANE_ORDER, pack_bitplanes, unpack_bitplanes
 
 
 def test_pack_then_unpack_round_trips_exactly_for_any_count():

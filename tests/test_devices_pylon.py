@@ -6,13 +6,13 @@ import os
 
 os.environ.setdefault("PYLON_CAMEMU", "1")  # before pylon's transport layer is created
 
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-from devices_xvfb import SCREEN, xvfb  # noqa: E402,F401  (fixture)
+import numpy as np
+import pytest
+from devices_xvfb import SCREEN, xvfb  # noqa: F401  (fixture)
 
-from fringe3d.cli import main  # noqa: E402
-from fringe3d.decode import decode  # noqa: E402
-from fringe3d.io.capture import read_capture  # noqa: E402
+from fringe3d.cli import main
+from fringe3d.decode import decode
+from fringe3d.io.capture import read_capture
 
 EMU_SERIAL = "0815-0000"
 

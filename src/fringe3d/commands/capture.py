@@ -8,10 +8,16 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-
 from rich.markup import escape
 
-from fringe3d.utils.console import console, err_console, info, print_json, progress_bar, set_quiet
+from fringe3d.utils.console import (
+    console,
+    err_console,
+    info,
+    print_json,
+    progress_bar,
+    set_quiet,
+)
 
 #: Exit code of a capture that stopped or lost frames (the folder is not marked complete).
 EXIT_INCOMPLETE = 4
@@ -69,7 +75,7 @@ def load_pattern_folder(folder: Path):
     import numpy as np
 
     from fringe3d.io.images import read_image
-    from fringe3d.patterns.bitplanes import read_packed
+    from fringe3d.io.packed_patterns import read_packed
     from fringe3d.patterns.manifest import PatternSet
 
     folder = Path(folder)
@@ -159,8 +165,14 @@ def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gai
                 frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto, still, pose_timeout, preview,
                 cols, rows, spacing, json_, quiet) -> None:
     """The body of ``fringe3d capture`` (see its --help)."""
-    from fringe3d.devices.acquire import (CaptureIncompleteError, capture_ramp, capture_sequence,
-                                          check_exposure, configure_camera, measure_latency)
+    from fringe3d.devices.acquire import (
+        CaptureIncompleteError,
+        capture_ramp,
+        capture_sequence,
+        check_exposure,
+        configure_camera,
+        measure_latency,
+    )
     from fringe3d.devices.base import DeviceError
 
     set_quiet(quiet or json_)

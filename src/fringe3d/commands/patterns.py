@@ -134,7 +134,7 @@ def register(app: typer.Typer) -> None:
         paths = write_pattern_folder(ps, output, gamma=g, dither_size=dither_size)
         if pack_bitplanes:
             from fringe3d.io.images import read_image
-            from fringe3d.patterns.bitplanes import write_packed
+            from fringe3d.io.packed_patterns import write_packed
             import numpy as np
             paths += write_packed(output, ps, np.stack([read_image(p) for p in paths]))
         summary = {"output": str(output), "name": ps.name, "frames": len(ps), "width": ps.width,

@@ -14,8 +14,17 @@ naming the extra to install.
 """
 from __future__ import annotations
 
-from .base import (Camera, DeviceError, DeviceNotFoundError, DeviceSpec, Frame, MissingExtraError, Projector,
-                   check_unknown_options, option)
+from .base import (
+    Camera,
+    DeviceError,
+    DeviceNotFoundError,
+    DeviceSpec,
+    Frame,
+    MissingExtraError,
+    Projector,
+    check_unknown_options,
+    option,
+)
 
 PROJECTOR_BACKENDS = ("window", "virtual")
 CAMERA_BACKENDS = ("pylon", "genicam", "opencv", "virtual")
@@ -66,5 +75,16 @@ def open_camera(spec, features: list[tuple[str, str]] | None = None) -> Camera:
                      f"(e.g. --camera pylon:40012345)")
 
 
-__all__ = ["Camera", "DeviceError", "DeviceNotFoundError", "DeviceSpec", "Frame", "MissingExtraError", "Projector",
-           "open_projector", "open_camera", "PROJECTOR_BACKENDS", "CAMERA_BACKENDS"]
+__all__ = [
+    "CAMERA_BACKENDS",
+    "PROJECTOR_BACKENDS",
+    "Camera",
+    "DeviceError",
+    "DeviceNotFoundError",
+    "DeviceSpec",
+    "Frame",
+    "MissingExtraError",
+    "Projector",
+    "open_camera",
+    "open_projector",
+]

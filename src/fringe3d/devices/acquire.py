@@ -39,7 +39,7 @@ from fringe3d.patterns.bitplanes import PLANES_PER_FRAME
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.utils.jsonfile import write_json
 
-from .base import DeviceError, PIXEL_FORMATS
+from .base import PIXEL_FORMATS, DeviceError
 
 SYNC_MODES = ("software", "hardware")
 CAPTURE_FORMAT = "fringe3d-capture"
@@ -48,7 +48,7 @@ CAPTURE_FORMAT = "fringe3d-capture"
 class CaptureIncompleteError(RuntimeError):
     """Frames were dropped or duplicated (or the capture stopped): the folder is not complete."""
 
-    def __init__(self, message: str, result: "CaptureResult | None" = None):
+    def __init__(self, message: str, result: CaptureResult | None = None):
         super().__init__(message)
         self.result = result
 
@@ -66,7 +66,7 @@ class CaptureResult:
 
 
 def _now() -> str:
-    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
 
 
 def _frame_label(i: int, n_patterns: int, planes_per_show: int = 1) -> str:

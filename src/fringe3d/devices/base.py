@@ -135,7 +135,7 @@ class DeviceSpec:
     options: dict = field(default_factory=dict)
 
     @classmethod
-    def parse(cls, text: str) -> "DeviceSpec":
+    def parse(cls, text: str) -> DeviceSpec:
         text = str(text).strip()
         if not text:
             raise ValueError("empty device spec; expected BACKEND[:ID], e.g. window:1 or pylon:40012345")

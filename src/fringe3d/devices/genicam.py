@@ -17,8 +17,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .base import (DeviceError, DeviceNotFoundError, Frame, check_pixel_format, check_trigger_mode,
-                   require_module)
+from .base import (
+    DeviceError,
+    DeviceNotFoundError,
+    Frame,
+    check_pixel_format,
+    check_trigger_mode,
+    require_module,
+)
 
 
 def parse_ident(ident: str) -> tuple[str, str]:

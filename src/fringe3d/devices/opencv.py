@@ -14,7 +14,13 @@ import time
 
 import numpy as np
 
-from .base import DeviceError, DeviceNotFoundError, Frame, check_pixel_format, require_module
+from .base import (
+    DeviceError,
+    DeviceNotFoundError,
+    Frame,
+    check_pixel_format,
+    require_module,
+)
 
 
 class OpenCVCamera:

@@ -22,8 +22,14 @@ import time
 
 import numpy as np
 
-from .base import (DeviceError, DeviceNotFoundError, Frame, check_pixel_format, check_trigger_mode,
-                   require_module)
+from .base import (
+    DeviceError,
+    DeviceNotFoundError,
+    Frame,
+    check_pixel_format,
+    check_trigger_mode,
+    require_module,
+)
 
 
 def list_cameras() -> list[dict]:

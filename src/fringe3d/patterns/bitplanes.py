@@ -7,18 +7,13 @@ patterns, with a trigger out per plane: 24 binary patterns per video frame, 1440
 frame ``k // 24``, planes in :data:`PLANE_ORDER` (the DLPC350's: G0..G7, R0..R7, B0..B7, bit 0
 the least significant). The pattern folder keeps the unpacked PNGs and the manifest, and gains
 ``bitplanes/00000.png ...`` (true-RGB PNGs) plus a ``packing`` entry in ``manifest.json``
-saying which plane of which file is which pattern. A capture of a packed sequence has one
+saying which plane of which file is which pattern (written and read by
+:mod:`fringe3d.io.packed_patterns`). A capture of a packed sequence has one
 camera frame per pattern, so ``fringe3d decode`` reads it as usual.
 """
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import numpy as np
-
-from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
-from fringe3d.utils.jsonfile import read_json, write_json
 
 PLANES_PER_FRAME = 24
 CHANNELS = "RGB"
@@ -81,56 +76,3 @@ def packing_entry(n_patterns: int, files: list[str]) -> dict:
         frames.append({"file": name, "planes": planes})
     return {"mode": PACKING_MODE, "order": "G0-G7, R0-R7, B0-B7 (TI DLPC350), bit 0 least significant",
             "frames": frames}
-
-
-def write_packed(folder: str | os.PathLike, ps: PatternSet, images: np.ndarray) -> list[Path]:
-    """Write ``folder/bitplanes/NNNNN.png`` (RGB) for the 1-bit ``images`` of ``ps`` and add the
-    ``packing`` entry to ``folder/manifest.json`` (atomic writes)."""
-    from fringe3d.io.images import write_image
-
-    if ps.bit_depth != 1:
-        raise ValueError(f"pattern set {ps.name!r} is {ps.bit_depth}-bit; only 1-bit sets can be packed into "
-                         f"bit-planes (use a binary --kind such as square or bayer, or a Gray code)")
-    folder = Path(folder)
-    packed = pack_bitplanes(images)
-    pdir = folder / PACKED_DIR
-    pdir.mkdir(parents=True, exist_ok=True)
-    for stale in pdir.glob("*.png"):
-        stale.unlink()
-    paths = [write_image(pdir / f"{j:05d}.png", np.ascontiguousarray(f[..., ::-1])) for j, f in enumerate(packed)]
-    d = ps.to_dict()
-    d["packing"] = packing_entry(len(ps), [f"{PACKED_DIR}/{p.name}" for p in paths])
-    write_json(folder / MANIFEST_NAME, d)
-    return paths
-
-
-def read_packed(folder: str | os.PathLike) -> tuple[list[np.ndarray], list[int]] | None:
-    """(RGB frames, patterns per frame) of a packed pattern folder, or None when it is not packed.
-
-    Checks that the planes list the patterns in projection order, one plane each.
-    """
-    from fringe3d.io.images import read_image
-
-    folder = Path(folder)
-    d = read_json(folder / MANIFEST_NAME, "pattern manifest")
-    pk = d.get("packing")
-    if pk is None:
-        return None
-    if pk.get("mode") != PACKING_MODE:
-        raise ValueError(f"{folder / MANIFEST_NAME}: packing mode {pk.get('mode')!r} is not {PACKING_MODE!r}")
-    frames, counts, k = [], [], 0
-    for entry in pk["frames"]:
-        for pl in entry["planes"]:
-            c, bit = PLANE_ORDER[pl["plane"]]
-            if pl["pattern"] != k or CHANNELS[c] != pl["channel"] or bit != pl["bit"]:
-                raise ValueError(f"{folder / MANIFEST_NAME}: packing plane {pl} is not pattern {k} in plane order")
-            k += 1
-        img = read_image(folder / entry["file"], grey=False)
-        if img.ndim != 3 or img.shape[2] != 3:
-            raise ValueError(f"{folder / entry['file']} is not an RGB image")
-        frames.append(np.ascontiguousarray(img[..., ::-1]))
-        counts.append(len(entry["planes"]))
-    if k != len(d["frames"]):
-        raise ValueError(f"{folder / MANIFEST_NAME}: the packing covers {k} patterns but the manifest lists "
-                         f"{len(d['frames'])}")
-    return frames, counts

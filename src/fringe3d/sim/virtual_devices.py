@@ -33,12 +33,28 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fringe3d.devices.base import (DeviceError, DeviceSpec, Frame, check_image_fits, check_pixel_format,
-                                   check_trigger_mode, check_unknown_options, option)
+from fringe3d.devices.base import (
+    DeviceError,
+    DeviceSpec,
+    Frame,
+    check_image_fits,
+    check_pixel_format,
+    check_trigger_mode,
+    check_unknown_options,
+    option,
+)
 
 from . import presets as _presets
 from .noise import sense
-from .render import PatternSampler, camera_rays, cast, check_visible, irradiance, is_static, motion_subtimes
+from .render import (
+    PatternSampler,
+    camera_rays,
+    cast,
+    check_visible,
+    irradiance,
+    is_static,
+    motion_subtimes,
+)
 from .settings import RenderSettings
 
 PROJECTOR_OPTIONS = {"gamma", "defocus", "brightness", "bitplanes", "latency"}
@@ -61,7 +77,10 @@ class HandHeldBoard:
     name = "handheld-board"
 
     def __init__(self, preset, poses: int = 4, hold: float = 1.6, move: float = 0.2, seed: int = 0):
-        from fringe3d.calibrate.simulated_session import default_board, sample_board_poses
+        from fringe3d.calibrate.simulated_session import (
+            default_board,
+            sample_board_poses,
+        )
         self.rig = preset.rig
         self.board = default_board(self.rig, preset.volume)
         z0, z1 = preset.volume["z"]  # the near 60% of the depth range: the board stays large enough to find
