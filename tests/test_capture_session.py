@@ -4,6 +4,8 @@ import json
 
 import numpy as np
 
+from devices_xvfb import xvfb  # noqa: F401  (fixture)
+
 from fringe3d.cli import main
 
 CAMERA = "virtual:tiny?scene=handheld-board&poses=3&hold=2.3&move=0.1&frame_rate=20"
@@ -36,3 +38,13 @@ def test_session_without_preview_needs_auto(tmp_path, capsys):
     code = main(["capture", str(pats), "--session", str(tmp_path / "s"), "--no-preview", "--projector", "virtual:tiny",
                  "--camera", CAMERA])
     assert code == 2 and "use --auto or --preview" in " ".join(capsys.readouterr().err.split())
+
+
+def test_preview_window_under_xvfb_takes_a_pose(tmp_path, xvfb, capsys):  # noqa: F811
+    pats, sess = tmp_path / "pats", tmp_path / "session"
+    assert main(["patterns", "--set", "calibration", "--width", "256", "--height", "200", "-o", str(pats), "-q"]) == 0
+    code = main(["capture", str(pats), "--session", str(sess), "--poses", "1", "--auto", "--still", "0.5", "--preview",
+                 "--projector", "virtual:tiny", "--camera", CAMERA, "--json"])
+    assert code == 0
+    assert json.loads(capsys.readouterr().out)["pose_folders"] == ["pose_00"]
+    assert json.loads((sess / "pose_00" / "capture.json").read_text())["complete"] is True

@@ -281,6 +281,9 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
                 duplicate_frames=sorted(set(dups)), problems=problems)
     if shape is not None:
         meta["camera"] = [int(shape[1]), int(shape[0])]
+    shown = [r["shown_at"] for r in records if r is not None]
+    if len(shown) > 1 and shown[-1] > shown[0]:
+        meta["sync"]["measured_frame_rate"] = (len(shown) - 1) / (shown[-1] - shown[0])  # host clock
     if sync == "hardware" and period:
         meta["frame_rate"] = 1.0 / period
     elif frame_rate:
