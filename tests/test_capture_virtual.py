@@ -86,6 +86,15 @@ def test_unplugged_camera_leaves_the_capture_marked_incomplete(pats, tmp_path, c
         read_capture(cap)
 
 
+def test_ctrl_c_during_capture_leaves_the_folder_marked_incomplete(pats, tmp_path, capsys):
+    cap = tmp_path / "cap"
+    code = main(["capture", str(pats), "-o", str(cap), "--projector", "virtual:tiny",
+                 "--camera", "virtual:tiny?scene=plane&interrupt=9"])
+    assert code == 4 and "capture interrupted" in capsys.readouterr().err
+    meta = _meta(cap)
+    assert meta["complete"] is False and meta["interrupted"] == "KeyboardInterrupt" and meta["frames_received"] == 9
+
+
 def test_exposure_longer_than_the_frame_period_is_refused(pats, tmp_path, capsys):
     code = main(["capture", str(pats), "-o", str(tmp_path / "c"), "--projector", "virtual:tiny", "--sync", "hardware",
                  "--camera", "virtual:tiny", "--exposure", "0.02"])

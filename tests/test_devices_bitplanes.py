@@ -74,6 +74,17 @@ def test_packed_capture_through_the_virtual_dlp_decodes_like_the_unpacked_set(pa
           f"(valid {da.mask['v'].mean():.1%})")
 
 
+def test_missed_plane_in_a_packed_burst_is_placed_by_its_timestamp(packed_set, tmp_path, capsys):
+    cap = tmp_path / "cap"
+    code = main(["capture", str(packed_set), "-o", str(cap), "--sync", "hardware", "--timeout", "0.01",
+                 "--projector", "virtual:tiny?bitplanes=1", "--camera", "virtual:tiny?scene=plane&drop=5"])
+    assert code == 4
+    assert "frame 5 (pattern 5, cycle 0) was not received" in " ".join(capsys.readouterr().err.split())
+    meta = json.loads((cap / "capture.json").read_text())
+    assert meta["missing_frames"] == [5] and meta["frames_received"] == 23 and meta["complete"] is False
+    assert [f["index"] for f in meta["frames"]] == [i for i in range(24) if i != 5]
+
+
 def test_packed_set_needs_hardware_sync_on_a_bitplane_projector(packed_set, tmp_path, capsys):
     code = main(["capture", str(packed_set), "-o", str(tmp_path / "c"), "--sync", "hardware",
                  "--projector", "virtual:tiny", "--camera", "virtual:tiny"])

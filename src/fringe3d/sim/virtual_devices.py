@@ -23,7 +23,7 @@ Semantics (chosen so that ``fringe3d capture`` on the virtual rig writes the ver
   one hardware trigger per plane (like a DLP evaluation module in video pattern mode).
 * Faults for tests: ``drop=[k, ...]`` makes the camera miss triggers number ``k`` (counting
   all triggers since opening); ``repeat=[k, ...]`` delivers the frame of trigger ``k`` twice;
-  ``unplug=k`` makes it fail with :class:`DeviceError` at its
+  ``interrupt=k`` raises ``KeyboardInterrupt`` (Ctrl-C) at its ``k``-th frame; ``unplug=k`` makes it fail with :class:`DeviceError` at its
   ``k``-th frame.
 """
 from __future__ import annotations
@@ -58,7 +58,7 @@ from .render import (
 from .settings import RenderSettings
 
 PROJECTOR_OPTIONS = {"gamma", "defocus", "brightness", "bitplanes", "latency"}
-CAMERA_OPTIONS = {"scene", "seed", "noise", "frame_rate", "bit_depth", "ideal", "drop", "unplug", "exposure", "repeat",
+CAMERA_OPTIONS = {"scene", "seed", "noise", "frame_rate", "bit_depth", "ideal", "drop", "unplug", "exposure", "repeat", "interrupt",
                   "poses", "hold", "move"}
 
 
@@ -286,8 +286,10 @@ class VirtualProjector:
 class VirtualCamera:
     """The preset's camera as a device (see the module docstring)."""
 
-    def __init__(self, state: VirtualRigState, drop=(), unplug: int | None = None, repeat=()):
+    def __init__(self, state: VirtualRigState, drop=(), unplug: int | None = None, repeat=(),
+                 interrupt: int | None = None):
         self._state = state
+        self.interrupt = interrupt
         self.drop = set(int(k) for k in drop)
         self.repeat = set(int(k) for k in repeat)
         self.unplug = unplug
@@ -372,6 +374,8 @@ class VirtualCamera:
         st.tick += 1
         if k in self.drop:
             return  # the camera missed this trigger: no exposure, no frame id consumed
+        if self.interrupt is not None and self._frames >= self.interrupt:
+            raise KeyboardInterrupt  # as if the user pressed Ctrl-C here
         if self.unplug is not None and self._frames >= self.unplug:
             raise DeviceError(f"virtual camera unplugged at its frame {self._frames}")
         img = st.exposure_image(t, self._frames)
@@ -462,6 +466,7 @@ def open_virtual_rig(projector_spec, camera_spec=None, patterns=None, scene=None
     cam = None
     if cs is not None:
         unplug = option(co, "unplug", None, int)
-        cam = VirtualCamera(state, drop=_ints(co.get("drop", "")), unplug=unplug, repeat=_ints(co.get("repeat", "")))
+        cam = VirtualCamera(state, drop=_ints(co.get("drop", "")), unplug=unplug, repeat=_ints(co.get("repeat", "")),
+                            interrupt=option(co, "interrupt", None, int))
         proj.camera = cam
     return proj, cam
