@@ -20,12 +20,13 @@ def _meta(folder):
     return json.loads((folder / "capture.json").read_text())
 
 
-def test_virtual_capture_frames_are_bit_identical_to_simulate(pats, tmp_path):
+@pytest.mark.parametrize("scene", ["sphere", "wing"])  # static, and moving (re-rendered at each frame's time)
+def test_virtual_capture_frames_are_bit_identical_to_simulate(pats, tmp_path, scene):
     cap, sim = tmp_path / "cap", tmp_path / "sim"
     code = main(["capture", str(pats), "-o", str(cap), "--projector", "virtual:tiny",
-                 "--camera", "virtual:tiny?scene=sphere&seed=7&noise=0.02", "-q"])
+                 "--camera", f"virtual:tiny?scene={scene}&seed=7&noise=0.02", "-q"])
     assert code == 0
-    assert main(["simulate", "--preset", "tiny", "--scene", "sphere", "--patterns", str(pats / "manifest.json"),
+    assert main(["simulate", "--preset", "tiny", "--scene", scene, "--patterns", str(pats / "manifest.json"),
                  "--seed", "7", "--noise", "0.02", "-o", str(sim), "-q"]) == 0
     a, b = read_capture(cap).frames, read_capture(sim).frames
     assert a.shape == b.shape == (15, 128, 160)
@@ -109,6 +110,7 @@ def test_exposure_longer_than_the_frame_period_is_refused(pats, tmp_path, capsys
     (["--projector", "virtual:tiny", "--camera", "genicam:/nowhere/producer.cti"], "pip install 'fringe3d[genicam]'"),
     (["--projector", "virtual:tiny", "--camera", "virtual:tiny?colour=red"], "unknown option(s) ['colour']"),
     (["--projector", "virtual:tiny", "--camera", "virtual:macro"], "must use the same preset"),
+    (["--projector", "virtual:tiny", "--camera", "virtual:tiny?scene=falling-balls"], "is not seen by the camera"),
     (["--projector", "virtual:tiny", "--camera", "opencv:7"], "OpenCV cannot open video device 7; devices that open:"),
     (["--projector", "virtual:tiny", "--camera", "virtual:tiny", "--pixel-format", "Mono14"],
      "pixel format 'Mono14' is not supported; expected one of Mono8, Mono10, Mono12"),

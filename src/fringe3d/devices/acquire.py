@@ -179,13 +179,16 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
                          f"{projector.width}x{projector.height}; patterns larger than the screen cannot be shown 1:1")
     from .base import check_image_fits
     images = [check_image_fits(im, projector.width, projector.height) for im in images]
+    total = n_pat * cycles
+    check = getattr(camera, "check_sequence", None)  # optional: a device that can vet the whole sequence first
+    if callable(check):
+        check(total)
     folder = Path(folder)
     fdir = folder / FRAMES_DIR
     fdir.mkdir(parents=True, exist_ok=True)
     for stale in fdir.glob("*"):
         if stale.is_file():
             stale.unlink()
-    total = n_pat * cycles
     packed = max(planes) > 1
     if packed and callable(getattr(projector, "configure_bitplanes", None)):
         projector.configure_bitplanes(planes)

@@ -386,6 +386,15 @@ class VirtualCamera:
             self._queue.append(fr)  # delivered twice (e.g. a transport resend)
         self._frames += 1
 
+    def check_sequence(self, n_frames: int) -> None:
+        """Reject a scene that leaves the view during the next ``n_frames`` frames (as simulate does)."""
+        st = self._state
+        if isinstance(st.scene, HandHeldBoard) or st.static:
+            return
+        from .validate import check_scene
+        t0 = st.tick / st.settings.frame_rate
+        check_scene(st.scene, st.rig, times=sorted({t0, t0 + (n_frames - 1) / st.settings.frame_rate}))
+
     def grab(self, timeout: float) -> Frame:
         if not self.armed:
             raise DeviceError("the virtual camera is not acquiring (call start())")
@@ -460,6 +469,9 @@ def open_virtual_rig(projector_spec, camera_spec=None, patterns=None, scene=None
     elif any(k in co for k in ("poses", "hold", "move")):
         raise ValueError("the virtual camera's poses/hold/move options belong to scene=handheld-board")
     sc = scene if scene is not None else make_scene(co.get("scene") or None, p)
+    if not isinstance(sc, HandHeldBoard):
+        from .validate import check_scene
+        check_scene(sc, p.rig, times=[0.0])  # as fringe3d simulate does (it also checks the last frame's time)
     state = VirtualRigState(p, sc, s, patterns)
     proj = VirtualProjector(state, bitplanes=option(po, "bitplanes", False, bool),
                             latency=option(po, "latency", 0.0, float))
