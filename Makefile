@@ -15,8 +15,12 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/fringe3d demo
 
+# The checks CI runs (.ci/run): layer contracts, lint, types, then the tests and docstring examples.
 test: $(STAMP)
-	bash scripts/ensure-chromium.sh
+	bash scripts/ensure-system-packages.sh
+	$(VENV)/bin/lint-imports
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/mypy
 	$(VENV)/bin/python -m pytest -q
 
 # Peers (the non-commercial `fringes` package, OpenCV contrib's structured_light) live in a separate

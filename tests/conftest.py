@@ -139,3 +139,8 @@ def flapping_pair(frequency: float = 25.0, amplitude_deg: float = 25.0, k0: floa
 #: of five markers inside the wing (like the dissertation's Fig. 6.1 dataset).
 ANCHORS = np.array([[6.0, 6.0], [125.0, 6.0]])
 MARKERS = np.array([[40.0, 20.0], [70.0, 45.0], [100.0, 30.0], [130.0, 50.0], [120.0, 15.0]])
+
+
+# One Xvfb X server for the whole test session (pyglet binds to the first display it opens, so
+# every device test must share it): defined once here, started on first use.
+from devices_xvfb import xvfb  # noqa: E402,F401  (session fixture)

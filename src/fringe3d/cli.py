@@ -7,7 +7,8 @@ fails the whole CLI loudly instead of vanishing from it.
 
 Exit codes (documented in ``fringe3d --help``):
   0 success · 1 unexpected internal error · 2 bad input or usage (the message says what was
-  wrong and what was expected) · 3 an output could not be written.
+  wrong and what was expected) · 3 an output could not be written · 4 a capture stopped or
+  lost frames (the folder is not marked complete).
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ import typer
 from fringe3d import __version__
 from fringe3d.commands import (
     calibrate,
+    capture,
     decode,
     demo,
     evaluate,
@@ -33,7 +35,7 @@ from fringe3d.utils.console import err_console, set_quiet, warn
 from fringe3d.utils.warning_types import Fringe3DWarning
 
 #: The sub-command modules, in the order they are registered (and listed by ``--help``).
-COMMANDS = (calibrate, decode, demo, evaluate, experiment, patterns, reconstruct, report, simulate, strain)
+COMMANDS = (patterns, capture, simulate, decode, calibrate, reconstruct, evaluate, strain, report, demo, experiment)
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_WRITE = 0, 1, 2, 3
 
@@ -42,7 +44,8 @@ app = typer.Typer(
     help=(
         "Superfast, high-accuracy 3D shape measurement with digital fringe projection, "
         "and a virtual camera-projector rig with ground truth.\n\n"
-        "Exit codes: 0 ok, 1 internal error, 2 bad input or usage, 3 output not writable.\n\n"
+        "Exit codes: 0 ok, 1 internal error, 2 bad input or usage, 3 output not writable, "
+        "4 capture incomplete.\n\n"
         "Example: fringe3d demo -o demo-out"
     ),
     no_args_is_help=True,

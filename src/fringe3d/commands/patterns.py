@@ -79,18 +79,39 @@ def register(app: typer.Typer) -> None:
         height: int = typer.Option(600, help="Projector height in pixels."),
         bits: int = typer.Option(None, help="Output bit depth, 1 or 8 (default: 1 for binary kinds, else 8)."),
         dither_size: int = typer.Option(8, help="Bayer matrix size for --kind bayer."),
+        gamma: Path = typer.Option(None, help="gamma.json from 'fringe3d capture --gamma': pre-compensate the "
+                                              "8-bit patterns for the projector's gamma."),
+        pack_bitplanes: bool = typer.Option(False, "--pack-bitplanes", help="Also pack the 1-bit patterns into the "
+                                            "bit-planes of RGB frames (24 per frame, bitplanes/*.png) for DLP video "
+                                            "pattern mode; the manifest records which plane is which pattern."),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
     ) -> None:
         """Generate a fringe pattern set and write it as a PNG sequence plus manifest.json.
 
         Example: fringe3d patterns --set three-frequency --direction v --width 912 --height 570 -o pats
+
+        Example: fringe3d patterns --set psp-gray --kind square --width 912 --height 1140 --pack-bitplanes -o bin
         """
         set_quiet(quiet or json_)
         if bits is not None and bits not in (1, 8):
             raise ValueError(f"--bits must be 1 or 8, got {bits}")
         ps = build_set(set_name, period, steps, direction, angle, kind, width, height, bits)
-        paths = write_pattern_folder(ps, output, dither_size=dither_size)
+        g = None
+        if gamma is not None:
+            from fringe3d.patterns.gamma import load_gamma
+            g = load_gamma(gamma)
+            if ps.bit_depth == 1:
+                raise ValueError("--gamma pre-compensates 8-bit patterns; a 1-bit set has only black and white")
+        if pack_bitplanes and ps.bit_depth != 1:
+            raise ValueError("--pack-bitplanes packs 1-bit patterns; use a binary --kind (square, bayer, ...) or "
+                             "--bits 1, or a Gray-code set")
+        paths = write_pattern_folder(ps, output, gamma=g, dither_size=dither_size)
+        if pack_bitplanes:
+            from fringe3d.io.images import read_image
+            from fringe3d.io.packed_patterns import write_packed
+            import numpy as np
+            paths += write_packed(output, ps, np.stack([read_image(p) for p in paths]))
         summary = {"output": str(output), "name": ps.name, "frames": len(ps), "width": ps.width,
                    "height": ps.height, "bit_depth": ps.bit_depth, "directions": ps.directions(),
                    "plans": [{"direction": p.direction, "angle_deg": math.degrees(p.angle), "method": p.method,

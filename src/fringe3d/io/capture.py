@@ -121,6 +121,9 @@ def read_meta(folder: str | os.PathLike) -> dict:
     if not path.exists():
         return {}
     meta = read_json(path, "capture metadata")
+    if meta.get("complete") is False:  # written by fringe3d capture until the last frame is in
+        why = "; ".join(meta.get("problems") or []) or meta.get("interrupted") or meta.get("status", "not finished")
+        raise ValueError(f"{path}: the capture is incomplete ({why}); it is not used, capture it again")
     if "frame_rate" in meta and not (isinstance(meta["frame_rate"], (int, float)) and meta["frame_rate"] > 0):
         raise ValueError(f"{path}: frame_rate must be a positive number (Hz), got {meta['frame_rate']!r}")
     if "bit_depth" in meta and meta["bit_depth"] not in (1, 8, 10, 12, 14, 16):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from fringe3d.patterns.gamma import precompensate
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.patterns.render import render_frame
 from fringe3d.utils.console import progress_bar
@@ -13,8 +14,12 @@ from fringe3d.utils.console import progress_bar
 from .images import write_image
 
 
-def write_pattern_folder(ps: PatternSet, out: Path, **render_options) -> list[Path]:
-    """Render ``ps`` and write ``out/00000.png ...`` plus ``out/manifest.json`` (atomically)."""
+def write_pattern_folder(ps: PatternSet, out: Path, gamma: float | None = None, **render_options) -> list[Path]:
+    """Render ``ps`` and write ``out/00000.png ...`` plus ``out/manifest.json`` (atomically).
+
+    ``gamma``: pre-compensate the 8-bit frames for a projector of that gamma
+    (:func:`fringe3d.patterns.gamma.precompensate`).
+    """
     out.mkdir(parents=True, exist_ok=True)
     for stale in out.glob("*.png"):  # a longer, older set must not leave frames behind
         if re.fullmatch(r"\d{5}\.png", stale.name) and int(stale.stem) >= len(ps):
@@ -24,6 +29,8 @@ def write_pattern_folder(ps: PatternSet, out: Path, **render_options) -> list[Pa
         for i, spec in enumerate(ps.frames):
             img = render_frame(spec, ps.width, ps.height, **render_options)
             img8 = ((img >= 0.5) * 255 if ps.bit_depth == 1 else (img * 255.0).round()).astype("uint8")
+            if gamma is not None:
+                img8 = precompensate(img, gamma)
             paths.append(write_image(out / f"{i:05d}.png", img8))
             advance()
     ps.save(out / "manifest.json")

@@ -219,7 +219,8 @@ class PatternSet:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "PatternSet":
         """Build from a parsed manifest, rejecting unknown or missing fields by name."""
-        top = {"format", "version", "name", "width", "height", "bit_depth", "frames", "plans"}
+        # "packing": bit-plane packing of a pattern folder (patterns.bitplanes), not part of the set
+        top = {"format", "version", "name", "width", "height", "bit_depth", "frames", "plans", "packing"}
         _check_keys(d, top, required={"width", "height", "frames"}, where="manifest")
         if d.get("format", "fringe3d-pattern-manifest") != "fringe3d-pattern-manifest":
             raise ValueError(f"manifest: 'format' is {d['format']!r}, expected 'fringe3d-pattern-manifest'")

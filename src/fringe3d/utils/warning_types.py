@@ -37,3 +37,7 @@ class AnalysisWarning(Fringe3DWarning):
 
 class UnwrapRangeWarning(Fringe3DWarning):
     """The coarsest (equivalent) unwrapping period is shorter than the projector's coordinate range."""
+
+
+class DeviceWarning(Fringe3DWarning):
+    """A projector or camera setting was adjusted, is unknown, or was not reported by the device."""
