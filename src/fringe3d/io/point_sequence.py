@@ -12,6 +12,7 @@ A sequence is one of
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -63,6 +64,8 @@ def read_point_sequence(path: str | Path) -> PointSequence:
     tex = None
     if p.is_dir() and (p / "points.zarr").is_dir() and not list(p.glob("points_*.npy")):
         p = p / "points.zarr"   # the output folder of ``fringe3d reconstruct`` sequences
+    arr: Any  # an (F, H, W, 3) array-like: ndarray, memmap, npz member or zarr array
+    tex_arr: Any
     if p.is_file():
         if p.suffix == ".npz":
             z = np.load(p)
@@ -91,7 +94,7 @@ def read_point_sequence(path: str | Path) -> PointSequence:
             arr = store["points"]
             tex_arr = store["texture"] if "texture" in store else None
             if "done" in store:
-                missing = np.flatnonzero(np.asarray(store["done"][:]) == 0)
+                missing = np.flatnonzero(np.asarray(store["done"]) == 0)
                 if missing.size:
                     raise ValueError(f"zarr store {p} is incomplete: frame(s) {missing[:10].tolist()} were never "
                                      "written; finish (resume) the reconstruction first")
