@@ -4,10 +4,14 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import typer
 
+from fringe3d.io.images import read_image
+from fringe3d.io.packed_patterns import write_packed
 from fringe3d.io.pattern_folder import write_pattern_folder
 from fringe3d.patterns import sets
+from fringe3d.patterns.gamma import load_gamma
 from fringe3d.utils.console import console, info, print_json, set_quiet
 
 SETS = ("phase-shift", "three-frequency", "hierarchical", "gray-code", "binary-code", "psp-gray", "ftp", "modified-ftp",
@@ -99,7 +103,6 @@ def register(app: typer.Typer) -> None:
         ps = build_set(set_name, period, steps, direction, angle, kind, width, height, bits)
         g = None
         if gamma is not None:
-            from fringe3d.patterns.gamma import load_gamma
             g = load_gamma(gamma)
             if ps.bit_depth == 1:
                 raise ValueError("--gamma pre-compensates 8-bit patterns; a 1-bit set has only black and white")
@@ -108,9 +111,6 @@ def register(app: typer.Typer) -> None:
                              "--bits 1, or a Gray-code set")
         paths = write_pattern_folder(ps, output, gamma=g, dither_size=dither_size)
         if pack_bitplanes:
-            from fringe3d.io.images import read_image
-            from fringe3d.io.packed_patterns import write_packed
-            import numpy as np
             paths += write_packed(output, ps, np.stack([read_image(p) for p in paths]))
         summary = {"output": str(output), "name": ps.name, "frames": len(ps), "width": ps.width,
                    "height": ps.height, "bit_depth": ps.bit_depth, "directions": ps.directions(),

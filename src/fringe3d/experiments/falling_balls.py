@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringe3d.analyze.fits import fit_sphere
+from fringe3d.decode import DecodeOptions
 from fringe3d.phase.psp import wrapped_phase
 from fringe3d.reconstruct.motion import (
     FRAME_RATE_HZ,
@@ -18,10 +20,8 @@ from fringe3d.reconstruct.motion import (
     hybrid_view,
     measure,
 )
-from fringe3d.decode import DecodeOptions
-from fringe3d.sim import presets, render
+from fringe3d.sim import Scene, Sphere, presets, render
 from fringe3d.sim.motion import GRAVITY_MM_S2
-from fringe3d.sim import Scene, Sphere
 from fringe3d.sim.textures import Blotches
 from fringe3d.unwrap.segmentation import foreground_mask, segment_objects
 from fringe3d.utils.console import track
@@ -146,7 +146,6 @@ def sequence_orders(scene, seed: int, cycles: int) -> dict:
 def sphere_residuals(points: np.ndarray, mask: np.ndarray | None = None) -> tuple[float, float, np.ndarray]:
     """Least-squares sphere through the valid points: ``(rms (mm), radius (mm), centre (3,))``
     (:func:`fringe3d.analyze.fits.fit_sphere`)."""
-    from fringe3d.analyze.fits import fit_sphere
 
     P = np.asarray(points, np.float64)
     ok = np.isfinite(P).all(axis=-1)
