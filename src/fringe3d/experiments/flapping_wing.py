@@ -17,6 +17,7 @@ from fringe3d.analyze.geodesic import bezier_geodesic, grid_geodesic, heat_geode
 from fringe3d.analyze.strain import local_shape, wing_sequence
 from fringe3d.analyze.tracking import sample_bilinear
 from fringe3d.decode import DecodeOptions, decode
+from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.patterns.sets import direction_angle, phase_frames, w_range_option
 from fringe3d.reconstruct.triangulate import triangulate
@@ -99,7 +100,7 @@ def _measure(wing, preset, settings, ps, t_start, seed, static=False):
     times = t_start + (0.0 if static else 1.0) * np.arange(len(ps)) / FRAME_RATE
     frames, _ = render(sc.Scene([wing], name="wing"), preset.rig, ps, st, times=times, progress=False)
     dec = decode(frames, ps, rig=preset.rig, options=DecodeOptions(z_min=preset.volume["z"][0]))
-    up = dec.phase["v"] * 24.0 / (2 * np.pi)
+    up = phase_to_w(dec.phase["v"], 24.0, scale_first=False)
     pts = triangulate(preset.rig, up=up)
     tex = np.asarray(dec.average, float) if getattr(dec, "average", None) is not None else frames[-1].astype(float)
     return pts, tex, float(times[-2:].mean())

@@ -27,6 +27,7 @@ import numpy as np
 
 from fringe3d.optics.rays import ANGLE_UP, ANGLE_VP, RayGeometry, camera_normalized, camera_shape, check_map
 from fringe3d.optics.rig import Rig
+from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.psp import lsq_coefficients
 from fringe3d.reconstruct._kernels import lsq_kernel, three_step_kernel
 from fringe3d.unwrap.geometric import MinimumPhase
@@ -182,7 +183,7 @@ class Triangulator(RayGeometry):
         if not period > 0:
             raise ValueError(f"fringe period must be positive (projector pixels), got {period}")
         phase = check_map(phase, self.shape, "absolute phase map")
-        return self.points(np.asarray(phase, np.float64) * (period / (2 * np.pi)), mask, out)
+        return self.points(phase_to_w(np.asarray(phase, np.float64), period), mask, out)
 
 
 # ----------------------------------------------------------------------------- fused 3-step pipeline
