@@ -15,7 +15,8 @@ from scipy import ndimage
 from fringe3d.analyze.anchors import find_anchor_dots, follow_anchors
 from fringe3d.analyze.geodesic import bezier_geodesic, grid_geodesic, heat_geodesic
 from fringe3d.analyze.strain import local_shape, wing_sequence
-from fringe3d.analyze.tracking import sample_bilinear
+from fringe3d.analyze.tracking import SURFACE_SAMPLING
+from fringe3d.phase.sampling import sample_bilinear
 from fringe3d.decode import DecodeOptions, decode
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
@@ -197,7 +198,7 @@ def _strain_vs_truth(wing, res, sel, M_ref, times):
     """Dominant strain error of the points ``sel`` (slice, or int = first grid index after the
     markers) against the analytic wing (truth maps)."""
     sel = slice(sel, None) if isinstance(sel, int) else sel
-    m = sample_bilinear(M_ref, res.ref_uv[sel])
+    m = sample_bilinear(M_ref, res.ref_uv[sel], **SURFACE_SAMPLING)
     ok_m = np.isfinite(m).all(axis=1)
     errs, peak = [], 0.0
     for f, t in enumerate(times):
