@@ -185,6 +185,6 @@ def fundamental_contrast(sigma: float, period: float = 18.0) -> float:
     Examples
     --------
     >>> round(fundamental_contrast(3.0), 4)
-    0.5733
+    0.5779
     """
     return float(np.exp(-2 * np.pi ** 2 * sigma ** 2 / period ** 2))
