@@ -139,10 +139,9 @@ class Triangulator(RayGeometry):
 
     Parameters
     ----------
-    rig : fringe3d.optics.Rig
-    angle : float
-        Fringe angle alpha (rad) of the direction that supplies ``w``: pi/2 (default) for
-        vertical fringes (``w = u_p``), 0 for horizontal fringes (``w = v_p``).
+    rig, angle
+        As for :class:`~fringe3d.optics.rays.RayGeometry` (``angle``: the fringe angle of the
+        direction that supplies ``w``, pi/2 by default).
     warn_distortion : bool
         Warn (once, here; :class:`~fringe3d.utils.warning_types.ReconstructionWarning`) when the
         projector has lens distortion, which this path ignores.
