@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from fringe3d.unwrap.temporal import (TWO_PI, CodeUnwrapped, OrderedPhase, beat_chain, check_periods,
-                                      coarse_window, stack_phases)
+from fringe3d.patterns.conventions import TWO_PI, coarse_to_fine_order, w_to_phase
+from fringe3d.unwrap.temporal import (CodeUnwrapped, OrderedPhase, beat_chain, check_periods, coarse_window,
+                                      stack_phases)
 
 
 def hierarchical_reference(phases, periods, w_range=None) -> OrderedPhase:
@@ -14,9 +15,9 @@ def hierarchical_reference(phases, periods, w_range=None) -> OrderedPhase:
     p = check_periods(periods, st.shape[0], 1)
     lower = coarse_window(p[-1], w_range)
     big = lower + np.mod(st[-1] - lower, TWO_PI)
-    k = np.floor((big - st[-1]) / TWO_PI + 0.5)
+    k = coarse_to_fine_order(big, st[-1], 1.0, ties="up")
     for q in range(st.shape[0] - 2, -1, -1):
-        k = np.floor((big * (p[q + 1] / p[q]) - st[q]) / TWO_PI + 0.5)
+        k = coarse_to_fine_order(big, st[q], p[q + 1] / p[q], ties="up")
         big = st[q] + TWO_PI * k
     return OrderedPhase(big.astype(np.float32), k.astype(np.int32))
 
@@ -32,9 +33,9 @@ def heterodyne_reference(phases, periods, w_range=None) -> OrderedPhase:
         beat_phases.append(np.mod(signs[q] * (beat_phases[-1] - st[q + 1]), TWO_PI))
     big = lower + np.mod(beat_phases[-1] - lower, TWO_PI)
     for q in range(len(beats) - 2, -1, -1):
-        kq = np.floor((big * (beats[q + 1] / beats[q]) - beat_phases[q]) / TWO_PI + 0.5)
+        kq = coarse_to_fine_order(big, beat_phases[q], beats[q + 1] / beats[q], ties="up")
         big = beat_phases[q] + TWO_PI * kq
-    k = np.floor((big * (beats[0] / p[0]) - st[0]) / TWO_PI + 0.5)
+    k = coarse_to_fine_order(big, st[0], beats[0] / p[0], ties="up")
     return OrderedPhase((st[0] + TWO_PI * k).astype(np.float32), k.astype(np.int32))
 
 
@@ -49,6 +50,6 @@ def gray_code_order_reference(frames, code_index, wrapped, period, centers, inve
     c = np.asarray(centers)[code]
     phi = np.asarray(wrapped, np.float64)
     valid = np.isfinite(c)
-    k = np.floor((TWO_PI * np.where(valid, c, 0.0) / period - phi) / TWO_PI + 0.5)
+    k = coarse_to_fine_order(w_to_phase(np.where(valid, c, 0.0), period), phi, 1.0, ties="up")
     phase = np.where(valid, phi + TWO_PI * k, np.nan)
     return CodeUnwrapped(phase.astype(np.float32), np.where(valid, k, 0).astype(np.int32), valid)

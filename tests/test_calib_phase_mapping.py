@@ -58,14 +58,15 @@ def _smooth_phase(h=160, w=200):
 def test_local_phase_fit_averages_noise_that_bilinear_keeps():
     """Noise sigma on a smooth phase: the bilinear sample keeps ~sigma/sqrt(2) of it, the
     weighted quadratic fit over r = 15 px (~700 px, 6 parameters) leaves ~sigma/sqrt(700/6)."""
-    from fringe3d.calibrate.phase_mapping import bilinear_sample, local_fit_sample
+    from fringe3d.calibrate.phase_mapping import local_fit_sample
+    from fringe3d.phase.sampling import sample_bilinear
     true, _, _ = _smooth_phase()
     rng = np.random.default_rng(2)
     sigma = 0.05
     noisy = true + rng.normal(0, sigma, true.shape)
     pts = np.stack([rng.uniform(30, 170, 400), rng.uniform(30, 130, 400)], 1)
-    exact = bilinear_sample(true, pts)  # the smooth map is locally linear to < 1e-4 rad
-    e_bil = bilinear_sample(noisy, pts) - exact
+    exact = sample_bilinear(true, pts)  # the smooth map is locally linear to < 1e-4 rad
+    e_bil = sample_bilinear(noisy, pts) - exact
     e_fit = local_fit_sample(noisy, np.ones_like(noisy), pts, 15.0) - exact
     assert 0.5 * sigma < np.std(e_bil) < 0.8 * sigma
     assert np.sqrt(np.mean(e_fit ** 2)) < 2.5 * sigma / np.sqrt(700 / 6)

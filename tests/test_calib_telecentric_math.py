@@ -5,7 +5,8 @@ import pytest
 
 from fringe3d.calibrate.boards import CircleBoard
 from fringe3d.calibrate.optimal_angle import epipolar_angle, optimal_angle, rotate_axes
-from fringe3d.calibrate.phase_mapping import FringeDirection, bilinear_sample, projector_points
+from fringe3d.calibrate.phase_mapping import FringeDirection, projector_points
+from fringe3d.phase.sampling import sample_bilinear
 from fringe3d.calibrate.stereo import PoseObservation
 from fringe3d.calibrate.telecentric import calibrate_telecentric_rig, triangulate_telecentric
 from fringe3d.optics import PinholeDevice, Rig, TelecentricCamera, intrinsics
@@ -68,7 +69,7 @@ def test_bilinear_sample_is_exact_on_planes_and_nan_outside():
     v, u = np.mgrid[0:20, 0:30].astype(float)
     img = 2.0 * u - 3.0 * v + 1
     pts = np.array([[3.3, 4.7], [28.99, 0.01], [-0.5, 3], [10, 19.5]])
-    got = bilinear_sample(img, pts)
+    got = sample_bilinear(img, pts)
     assert np.allclose(got[:2], 2 * pts[:2, 0] - 3 * pts[:2, 1] + 1)
     assert np.isnan(got[2]) and np.isnan(got[3])
 
@@ -84,7 +85,7 @@ def test_projector_points_solve_any_orthogonal_angle_pair(alpha):
         dirs.append(FringeDirection(phase=2 * np.pi * (vp_true * np.cos(a) + up_true * np.sin(a)) / T, angle=a, period=T))
     pts = np.array([[10.5, 20.25], [33.0, 7.75]])
     got = projector_points(dirs, pts)
-    want = np.stack([bilinear_sample(up_true, pts), bilinear_sample(vp_true, pts)], 1)
+    want = np.stack([sample_bilinear(up_true, pts), sample_bilinear(vp_true, pts)], 1)
     assert np.allclose(got, want, atol=1e-9)
     w1 = np.array([d for d in [(pts * 0)]])  # noqa: F841 (keeps pts shape explicit)
     a1, a2 = alpha - np.pi / 4, alpha + np.pi / 4

@@ -4,7 +4,8 @@ import pytest
 from conftest import ANCHORS, MARKERS, AnalyticWing, camera, point_map
 
 from fringe3d.analyze.anchors import check_anchor, distance_maps, find_anchor_dots
-from fringe3d.analyze.tracking import sample_bilinear, side_of_line, track_points
+from fringe3d.analyze.tracking import SURFACE_SAMPLING, side_of_line, track_points
+from fringe3d.phase.sampling import sample_bilinear
 
 
 def _wing():
@@ -21,14 +22,14 @@ def test_tracked_markers_follow_their_material_points():
     a1 = np.array([cam.project(wing.world(*a, t1)) for a in ANCHORS])
     q = cam.project(wing.world(MARKERS[:, 0], MARKERS[:, 1], t0))
     R1, R2 = distance_maps(P0, a0)
-    d1, d2 = sample_bilinear(R1, q), sample_bilinear(R2, q)
+    d1, d2 = sample_bilinear(R1, q, **SURFACE_SAMPLING), sample_bilinear(R2, q, **SURFACE_SAMPLING)
     # reference distances equal the flat-sheet distances (isometric wing): wavefront geodesics
     np.testing.assert_allclose(d1, np.hypot(*(MARKERS - ANCHORS[0]).T), rtol=0.003)
     np.testing.assert_allclose(d2, np.hypot(*(MARKERS - ANCHORS[1]).T), rtol=0.003)
     D1, D2 = distance_maps(P1, a1)
     tr = track_points(d1, d2, D1, D2, side_of_line(q, *a0), a1)
     assert tr.ok.all() and tr.residual.max() < 1e-6
-    xyz = sample_bilinear(P1, tr.uv)
+    xyz = sample_bilinear(P1, tr.uv, **SURFACE_SAMPLING)
     truth = wing.world(MARKERS[:, 0], MARKERS[:, 1], t1)
     err = np.linalg.norm(xyz - truth, axis=1)
     assert err.max() < 0.1          # mm (pixels are 1.12 mm at 560 mm)
@@ -47,12 +48,12 @@ def test_edge_only_geodesics_track_worse_by_their_direction_quantisation():
     errs = {}
     for method in ("bezier", "bezier-edges"):
         R1, R2 = distance_maps(P0, a0, method)
-        d1, d2 = sample_bilinear(R1, q), sample_bilinear(R2, q)
+        d1, d2 = sample_bilinear(R1, q, **SURFACE_SAMPLING), sample_bilinear(R2, q, **SURFACE_SAMPLING)
         if method == "bezier-edges":   # within the stencil's 1.3 % bound, but not exact
             np.testing.assert_allclose(d1, np.hypot(*(MARKERS - ANCHORS[0]).T), rtol=0.0135)
         D1, D2 = distance_maps(P1, a1, method)
         tr = track_points(d1, d2, D1, D2, side_of_line(q, *a0), a1)
-        errs[method] = np.linalg.norm(sample_bilinear(P1, tr.uv) - truth, axis=1).max()
+        errs[method] = np.linalg.norm(sample_bilinear(P1, tr.uv, **SURFACE_SAMPLING) - truth, axis=1).max()
     assert errs["bezier-edges"] < 1.5 and errs["bezier-edges"] > 5 * errs["bezier"]
 
 

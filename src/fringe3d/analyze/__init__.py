@@ -8,7 +8,7 @@ from .fits import CircleFit, PlaneFit, SphereFit, fit_circle, fit_plane, fit_sph
 from .geodesic import bezier_geodesic, grid_geodesic, heat_geodesic
 from .sections import segments, sphere_sections
 from .strain import LocalShape, StrainResult, WingSequence, bending_strain, local_shape, principal_strains, wing_sequence
-from .tracking import TrackResult, sample_bilinear, track_points
+from .tracking import TrackResult, track_points
 from .vdi import flatness, probing_errors, sphere_spacing
 from .wing_strain import run_strain
 
@@ -18,7 +18,7 @@ __all__ = [
     "evaluate_points", "load_points", "truth_errors",
     "bezier_geodesic", "grid_geodesic", "heat_geodesic",
     "find_anchor_dots", "pair_anchors", "check_anchor", "fill_dot_holes", "distance_maps", "follow_anchors",
-    "track_points", "TrackResult", "sample_bilinear",
+    "track_points", "TrackResult",
     "local_shape", "LocalShape", "bending_strain", "StrainResult", "principal_strains", "wing_sequence",
     "WingSequence", "run_strain",
 ]

@@ -259,10 +259,50 @@ def inner_mask(mask: np.ndarray, border: int = 2) -> np.ndarray:
     return binary_erosion(np.asarray(mask, bool), iterations=border) if border > 0 else np.asarray(mask, bool)
 
 
-def robust_fit(fit_fn, pts: np.ndarray, mask: np.ndarray, k: float = 5.0, passes: int = 2):
-    """Fit (:func:`fit_sphere` or :func:`fit_plane`) after discarding gross outliers
-    (isolated fringe-order errors): points whose residual exceeds ``k`` robust sigmas
-    (1.4826 MAD) of the previous fit are dropped. Returns ``(fit, used_mask, dropped_fraction)``."""
+def keep_smallest(residuals: np.ndarray, share: float) -> np.ndarray:
+    """Sorted indices of the residuals kept after dropping the ``share`` (0..1) of them with the
+    largest ``|r|`` (``floor(share * N)`` points).
+
+    >>> keep_smallest(np.array([0.1, -3.0, 0.2, 0.0]), 0.25).tolist()
+    [0, 2, 3]
+    """
+    r = np.asarray(residuals, float)
+    n_drop = int(np.floor(share * r.size))
+    return np.sort(np.argsort(np.abs(r))[: r.size - n_drop])
+
+
+def robust_fit(fit_fn, pts: np.ndarray, mask: np.ndarray | None, k: float = 5.0, passes: int = 2, *,
+               drop_share: float | None = None):
+    """Fit (:func:`fit_sphere` or :func:`fit_plane`) after discarding gross outliers.
+
+    Parameters
+    ----------
+    fit_fn : callable ``(points, mask) -> fit`` with ``residuals`` (and ``residual_map``)
+    pts : (H, W, 3) or (N, 3) float, mm
+    mask : bool map or None (every finite point)
+    k, passes : default mode: points whose residual exceeds ``k`` robust sigmas (1.4826 MAD)
+        of the previous fit are dropped, up to ``passes`` times (isolated fringe-order errors).
+    drop_share : float, optional
+        Instead, fit once, drop this share of the points with the largest ``|residual|``
+        (:func:`keep_smallest`) and fit once more (the outlier rule of VDI/VDE 2634-2);
+        0 keeps the first fit.
+
+    Returns
+    -------
+    ``(fit, used_mask, dropped_fraction)``
+    """
+    if drop_share is not None:
+        fit = fit_fn(pts, mask)
+        used = np.all(np.isfinite(pts), -1)
+        if mask is not None:
+            used = used & np.asarray(mask, bool)
+        n0 = int(used.sum())
+        if drop_share > 0:
+            keep = np.zeros(used.size, bool)
+            keep[np.flatnonzero(used)[keep_smallest(fit.residuals, drop_share)]] = True
+            used = keep.reshape(used.shape)
+            fit = fit_fn(pts, used)
+        return fit, used, 1.0 - used.sum() / max(n0, 1)
     used = np.asarray(mask, bool) & np.all(np.isfinite(pts), -1)
     n0 = int(used.sum())
     fit = fit_fn(pts, used)

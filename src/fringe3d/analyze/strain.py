@@ -30,7 +30,8 @@ import numpy as np
 
 from fringe3d.analyze.anchors import distance_maps, fill_dot_holes
 from fringe3d.analyze.geodesic import check_point_map
-from fringe3d.analyze.tracking import sample_bilinear, side_of_line, track_points
+from fringe3d.analyze.tracking import SURFACE_SAMPLING, side_of_line, track_points
+from fringe3d.phase.sampling import sample_bilinear
 
 __all__ = ["LocalShape", "local_shape", "bending_strain", "StrainResult", "principal_strains"]
 
@@ -334,13 +335,13 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
 
     ref_pts = frame(reference)
     R1, R2 = distance_maps(ref_pts, anchors[reference], method, radius)
-    d = np.stack([sample_bilinear(R1, q), sample_bilinear(R2, q)], axis=1)
+    d = np.stack([sample_bilinear(R1, q, **SURFACE_SAMPLING), sample_bilinear(R2, q, **SURFACE_SAMPLING)], axis=1)
     side = side_of_line(q, *anchors[reference])
     # material direction: towards the farther anchor (well defined, same choice in every frame)
     far = np.where(d[:, 0] >= d[:, 1], 0, 1)
 
     def toward(pts, a):
-        return sample_bilinear(pts, a)[far]
+        return sample_bilinear(pts, a, **SURFACE_SAMPLING)[far]
 
     B = local_shape(ref_pts, q, window, toward=toward(ref_pts, anchors[reference]))
     n = q.shape[0]
@@ -365,7 +366,7 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
         cur = local_shape(pts, uv, window, toward=toward(pts, anchors[f]))
         st = bending_strain(B, cur, thickness)
         out.uv[f], out.residual[f] = uv, res
-        out.xyz[f] = sample_bilinear(np.asarray(pts, dtype=np.float64), uv)
+        out.xyz[f] = sample_bilinear(np.asarray(pts, dtype=np.float64), uv, **SURFACE_SAMPLING)
         out.E[f], out.principal[f], out.dominant[f] = st.E, st.principal, st.dominant
         out.ok[f] = okt & st.ok & np.isfinite(out.xyz[f]).all(axis=1)
         if progress is not None:

@@ -16,31 +16,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["TrackResult", "sample_bilinear", "track_points", "side_of_line"]
+from fringe3d.phase.sampling import sample_bilinear
 
+__all__ = ["TrackResult", "track_points", "side_of_line", "SURFACE_SAMPLING"]
 
-def sample_bilinear(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Bilinear samples of ``img`` (H, W[, C]) at ``uv`` (N, 2) (u column, v row); NaN outside
-    the image or where a used corner is non-finite."""
-    img = np.asarray(img, dtype=np.float64)
-    uv = np.atleast_2d(np.asarray(uv, dtype=np.float64))
-    h, w = img.shape[:2]
-    u, v = uv[:, 0], uv[:, 1]
-    inside = (u >= 0) & (v >= 0) & (u <= w - 1) & (v <= h - 1)
-    uc = np.clip(np.nan_to_num(u), 0, w - 1)
-    vc = np.clip(np.nan_to_num(v), 0, h - 1)
-    c0 = np.minimum(np.floor(uc).astype(np.int64), w - 2)
-    r0 = np.minimum(np.floor(vc).astype(np.int64), h - 2)
-    fc, fr = uc - c0, vc - r0
-    if img.ndim == 3:
-        fc, fr = fc[:, None], fr[:, None]
-    a, b = img[r0, c0], img[r0, c0 + 1]
-    c, d = img[r0 + 1, c0], img[r0 + 1, c0 + 1]
-    with np.errstate(invalid="ignore"):
-        out = (1 - fr) * ((1 - fc) * a + fc * b) + fr * ((1 - fc) * c + fc * d)
-    out = np.where(np.isfinite(out), out, np.nan)
-    out[~inside] = np.nan
-    return out
+#: Options of :func:`fringe3d.phase.sampling.sample_bilinear` for surface maps (distance maps,
+#: point maps, (H, W[, C])): row-wise interpolation, every non-finite sample NaN.
+SURFACE_SAMPLING = {"combine": "rows", "nonfinite": "nan"}
 
 
 def side_of_line(uv: np.ndarray, a1, a2) -> np.ndarray:
@@ -66,8 +48,10 @@ class TrackResult:
 
 
 def _grad(D: np.ndarray, uv: np.ndarray, eps: float = 0.5):
-    du = (sample_bilinear(D, uv + [eps, 0]) - sample_bilinear(D, uv - [eps, 0])) / (2 * eps)
-    dv = (sample_bilinear(D, uv + [0, eps]) - sample_bilinear(D, uv - [0, eps])) / (2 * eps)
+    du = (sample_bilinear(D, uv + [eps, 0], **SURFACE_SAMPLING)
+          - sample_bilinear(D, uv - [eps, 0], **SURFACE_SAMPLING)) / (2 * eps)
+    dv = (sample_bilinear(D, uv + [0, eps], **SURFACE_SAMPLING)
+          - sample_bilinear(D, uv - [0, eps], **SURFACE_SAMPLING)) / (2 * eps)
     return du, dv
 
 
@@ -114,7 +98,8 @@ def track_points(d1: np.ndarray, d2: np.ndarray, D1: np.ndarray, D2: np.ndarray,
     target = np.stack([d1, d2], axis=1)
     h, w = D1.shape
     for _ in range(iterations):
-        f = np.stack([sample_bilinear(D1, uv), sample_bilinear(D2, uv)], axis=1) - target
+        f = np.stack([sample_bilinear(D1, uv, **SURFACE_SAMPLING), sample_bilinear(D2, uv, **SURFACE_SAMPLING)],
+                     axis=1) - target
         g1u, g1v = _grad(D1, uv)
         g2u, g2v = _grad(D2, uv)
         det = g1u * g2v - g1v * g2u
@@ -126,7 +111,8 @@ def track_points(d1: np.ndarray, d2: np.ndarray, D1: np.ndarray, D2: np.ndarray,
         scale = np.where(norm > 1.0, 1.0 / np.maximum(norm, 1e-12), 1.0)
         step = np.where(np.isfinite(step), step * scale[:, None], 0.0)
         uv = np.clip(uv + step, [0, 0], [w - 1, h - 1])
-    f = np.stack([sample_bilinear(D1, uv), sample_bilinear(D2, uv)], axis=1) - target
+    f = np.stack([sample_bilinear(D1, uv, **SURFACE_SAMPLING), sample_bilinear(D2, uv, **SURFACE_SAMPLING)],
+                 axis=1) - target
     residual = np.linalg.norm(f, axis=1)
     residual = np.where(np.isfinite(residual), residual, np.inf)   # lost: off the surface
     g1u, g1v = _grad(D1, uv)

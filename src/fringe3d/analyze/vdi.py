@@ -20,18 +20,21 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .fits import PlaneFit, SphereFit, fit_plane, fit_sphere
+from .fits import PlaneFit, SphereFit, fit_plane, fit_sphere, keep_smallest, robust_fit
 
 MAX_EXCLUDE = 0.003  # VDI/VDE 2634-2: at most 0.3 % of the points may be excluded
 
 
 def _keep_index(residuals: np.ndarray, exclude: float) -> np.ndarray:
     """Indices of the residuals kept after dropping the ``exclude`` share with the largest |r|."""
+    _check_exclude(exclude)
+    return keep_smallest(residuals, exclude)
+
+
+def _check_exclude(exclude: float) -> None:
     if not 0.0 <= exclude <= MAX_EXCLUDE:
-        raise ValueError(f"exclude must be a share between 0 and {MAX_EXCLUDE} (0.3 % per VDI/VDE 2634-2), got {exclude}")
-    r = np.asarray(residuals, float)
-    n_drop = int(np.floor(exclude * r.size))
-    return np.sort(np.argsort(np.abs(r))[: r.size - n_drop])
+        raise ValueError(f"exclude must be a share between 0 and {MAX_EXCLUDE} (0.3 % per VDI/VDE 2634-2), "
+                         f"got {exclude}")
 
 
 def _kept(residuals: np.ndarray, exclude: float) -> np.ndarray:
@@ -40,15 +43,9 @@ def _kept(residuals: np.ndarray, exclude: float) -> np.ndarray:
 
 def _refit(fitter, points, mask, exclude):
     """Fit, drop the ``exclude`` share of worst points, fit again on the rest."""
-    fit = fitter(points, mask)
     if exclude > 0:
-        keep = _keep_index(fit.residuals, exclude)
-        P = np.asarray(points, float).reshape(-1, 3)
-        valid = np.all(np.isfinite(P), axis=1)
-        if mask is not None:
-            valid &= np.asarray(mask, bool).ravel()
-        fit = fitter(P[np.flatnonzero(valid)[keep]])
-    return fit
+        _check_exclude(exclude)
+    return robust_fit(fitter, points, mask, drop_share=exclude)[0]
 
 
 def residual_range(residuals: np.ndarray, exclude: float = 0.0) -> float:

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringe3d.patterns.conventions import projector_coordinates
+
 
 def _wrap_angle(a: float) -> float:
     """Fringe angles live in [0, pi)."""
@@ -103,5 +105,4 @@ def rotate_axes(uv_rot: np.ndarray, alpha_opt: float) -> np.ndarray:
     form is the dissertation's.)
     """
     a1, a2 = alpha_opt - np.pi / 4, alpha_opt + np.pi / 4
-    A = np.array([[np.sin(a2), np.cos(a2)], [np.sin(a1), np.cos(a1)]])
-    return np.asarray(uv_rot, float) @ np.linalg.inv(A).T
+    return projector_coordinates(uv_rot, [a2, a1], solver="inv")

@@ -15,27 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
-def bilinear_sample(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Bilinear interpolation of ``image (H, W)`` at sub-pixel points ``uv (N, 2)`` = (column, row).
-
-    Returns ``(N,)`` float64; NaN where the point is outside the image or any of its four
-    neighbours is NaN (invalid phase).
-    """
-    img = np.asarray(image, dtype=np.float64)
-    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
-    h, w = img.shape
-    u, v = uv[:, 0], uv[:, 1]
-    ok = (u >= 0) & (v >= 0) & (u <= w - 1) & (v <= h - 1) & np.isfinite(u) & np.isfinite(v)
-    u0 = np.clip(np.floor(np.where(ok, u, 0)).astype(int), 0, max(w - 2, 0))
-    v0 = np.clip(np.floor(np.where(ok, v, 0)).astype(int), 0, max(h - 2, 0))
-    fu = np.where(ok, u, 0) - u0
-    fv = np.where(ok, v, 0) - v0
-    u1 = np.minimum(u0 + 1, w - 1)
-    v1 = np.minimum(v0 + 1, h - 1)
-    val = (img[v0, u0] * (1 - fu) * (1 - fv) + img[v0, u1] * fu * (1 - fv)
-           + img[v1, u0] * (1 - fu) * fv + img[v1, u1] * fu * fv)
-    return np.where(ok, val, np.nan)
+from fringe3d.patterns.conventions import coarse_to_fine_order, direction_matrix, phase_to_w, projector_coordinates
+from fringe3d.phase.sampling import sample_bilinear
 
 
 @dataclass(frozen=True)
@@ -89,7 +70,7 @@ def repair_orders(phase: np.ndarray, wrapped: np.ndarray, uv: np.ndarray, max_ra
     ok = np.isfinite(model)
     r, c = todo[ok, 0], todo[ok, 1]
     phi = wr[r, c]
-    out[r, c] = phi + 2 * np.pi * np.round((model[ok] - phi) / (2 * np.pi))
+    out[r, c] = phi + 2 * np.pi * coarse_to_fine_order(model[ok], phi)
     return out
 
 
@@ -171,12 +152,12 @@ def fringe_coordinates(direction: FringeDirection, uv: np.ndarray, min_modulatio
     if window > 0:
         weight = None if direction.modulation is None else np.asarray(direction.modulation, np.float64) ** 2
         phi = local_fit_sample(phase, weight, uv, window)
-        phi = np.where(np.isnan(phi), bilinear_sample(phase, uv), phi)  # too few pixels: bilinear
+        phi = np.where(np.isnan(phi), sample_bilinear(phase, uv), phi)  # too few pixels: bilinear
     else:
-        phi = bilinear_sample(phase, uv)
-    w = phi * direction.period / (2 * np.pi)
+        phi = sample_bilinear(phase, uv)
+    w = phase_to_w(phi, direction.period, scale_first=False)
     if direction.modulation is not None and min_modulation > 0:
-        mod = bilinear_sample(direction.modulation, uv)
+        mod = sample_bilinear(direction.modulation, uv)
         w = np.where(mod >= min_modulation, w, np.nan)
     return w
 
@@ -196,11 +177,12 @@ def projector_points(directions: list[FringeDirection], uv: np.ndarray, min_modu
     shapes = {np.shape(d.phase) for d in directions}
     if len(shapes) != 1:
         raise ValueError(f"phase maps have different shapes {sorted(shapes)}; expected one camera size")
-    A = np.array([[np.sin(d.angle), np.cos(d.angle)] for d in directions])  # rows: (u_p, v_p) coeffs
+    angles = [d.angle for d in directions]
+    A = direction_matrix(angles)  # rows: (u_p, v_p) coeffs
     if abs(np.linalg.det(A.T @ A)) < 1e-6:
         raise ValueError("fringe directions are (nearly) parallel; need two different angles")
     W = np.stack([fringe_coordinates(d, uv, min_modulation, window) for d in directions], axis=1)  # (N, k)
-    sol = W @ np.linalg.pinv(A).T
+    sol = projector_coordinates(W, angles)
     sol[~np.all(np.isfinite(W), axis=1)] = np.nan
     return sol
 
@@ -210,14 +192,12 @@ def projector_maps(directions: list[FringeDirection]) -> tuple[np.ndarray, np.nd
     two or more fringe directions: the per-pixel form of :func:`projector_points` (Eq. 2.30-2.34)."""
     if len(directions) < 2:
         raise ValueError(f"projector maps need two fringe directions, got {len(directions)}")
-    A = np.array([[np.sin(d.angle), np.cos(d.angle)] for d in directions])
-    Ainv = np.linalg.pinv(A)  # (2, k)
     ws = []
     for d in directions:
         ph = np.asarray(d.phase, np.float64)
         if d.mask is not None:
             ph = np.where(np.asarray(d.mask, bool), ph, np.nan)
-        ws.append(ph * d.period / (2 * np.pi))
+        ws.append(phase_to_w(ph, d.period, scale_first=False))
     W = np.stack(ws, -1)  # (H, W, k)
-    sol = W @ Ainv.T
+    sol = projector_coordinates(W, [d.angle for d in directions])
     return sol[..., 0], sol[..., 1]

@@ -16,10 +16,10 @@ import numpy as np
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.optics.rays import camera_shape, pixel_rays
 from fringe3d.optics.rig import Rig
+from fringe3d.patterns.conventions import fringe_coordinate, w_range
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import ftp, quality
 from fringe3d.phase.psp import PhaseResult, wrapped_phase
-from fringe3d.unwrap.temporal import fringe_extent
 from fringe3d.utils.warning_types import CalibrationWarning
 
 
@@ -121,7 +121,7 @@ class DecodeContext:
         wr = self.plan.options.get("w_range")
         if wr is not None:
             return float(wr[0]), float(wr[1])
-        return fringe_extent(self.patterns.width, self.patterns.height, self.plan.angle)
+        return w_range(self.plan.angle, self.patterns.width, self.patterns.height)
 
 
 def phase_groups(ps: PatternSet, direction: str) -> list[PhaseGroup]:
@@ -232,7 +232,7 @@ def camera_fringe_direction(rig: Rig, angle: float, shape: tuple[int, int], z_mi
             s = 1000.0
     pts = origins + s * dirs
     up = np.asarray(rig.projector.project(pts), float)
-    wp = up[:, 1] * np.cos(angle) + up[:, 0] * np.sin(angle)
+    wp = fringe_coordinate(up[:, 0], up[:, 1], angle)
     gu, gv = wp[1] - wp[0], wp[2] - wp[0]
     if not (np.isfinite(gu) and np.isfinite(gv)) or gu == gv == 0:
         raise ValueError("the projector coordinate does not change across the camera image centre")

@@ -21,29 +21,8 @@ from fringe3d.decode.result import Decoded, Unwrapped
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import quality
+from fringe3d.phase.frames import as_frame_stack
 from fringe3d.utils.console import progress_bar
-
-
-def as_frame_stack(frames) -> np.ndarray:
-    """(F, H, W) array from an array or a list of (H, W) images, with clear errors."""
-    if isinstance(frames, (list, tuple)):
-        if not frames:
-            raise ValueError("no frames given; expected an (F, H, W) stack")
-        shapes = [np.shape(f) for f in frames]
-        if len(set(shapes)) != 1:
-            first = shapes[0]
-            bad = [i for i, s in enumerate(shapes) if s != first]
-            raise ValueError(f"frames have different shapes: frame 0 is {first}, frame(s) {bad[:10]} are "
-                             f"{sorted(set(shapes[i] for i in bad))}; expected every frame to be {first}")
-        frames = np.stack([np.asarray(f) for f in frames])
-    frames = np.asarray(frames)
-    if frames.ndim == 4 and frames.shape[-1] in (3, 4):
-        raise ValueError(f"frames have shape {frames.shape} (colour?); expected single-channel (F, H, W) frames")
-    if frames.ndim != 3:
-        raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
-    if frames.dtype.kind not in "uif" or frames.dtype == np.bool_:
-        raise ValueError(f"frames must be integer or float images, got dtype {frames.dtype}")
-    return frames
 
 
 def _check_count(n_frames: int, ps: PatternSet, sequence: bool) -> int:

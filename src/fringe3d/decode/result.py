@@ -11,6 +11,8 @@ from typing import Any
 import numpy as np
 import tifffile
 
+from fringe3d.patterns.conventions import phase_to_w
+
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.jsonfile import write_json
 
@@ -86,7 +88,8 @@ class Decoded:
 
     def projector_coordinate(self, direction: str) -> np.ndarray:
         """(H, W) float32 projector fringe coordinate ``w = Phi T / 2 pi`` (px), NaN invalid."""
-        return (self.phase[direction] * np.float32(self.period[direction] / (2 * np.pi))).astype(np.float32)
+        # float32 phase times a Python float: the scale is rounded to float32, as the product
+        return phase_to_w(self.phase[direction], float(self.period[direction])).astype(np.float32)
 
     def summary(self) -> dict:
         """Small JSON-friendly description: per direction period, angle, method, valid fraction."""

@@ -8,13 +8,12 @@ depend on the defocus: the three sphere RMS figures should agree.
 """
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
 from fringe3d.analyze.fits import fit_sphere, inner_mask, robust_fit
 from fringe3d.calibrate.evaluation import measure_points
 from fringe3d.calibrate.session import calibrate_observations, observe_session
+from fringe3d.optics.defocus import fundamental_contrast
 from fringe3d.patterns import sets
 from fringe3d.sim import presets
 from fringe3d.sim.calibration_session import (
@@ -33,24 +32,6 @@ DISSERTATION = {"sphere RMS (um), in focus / slightly / greatly defocused": "71 
 #: Gaussian projector blur sigma (projector px). 0.5: the squared binary T=18 stays binary; 1.5: its
 #: 3rd harmonic is damped to 29%; 3.0: to 0.7% (the fringes look sinusoidal, Fig. 2.15(c)).
 LEVELS = (("in focus", 0.5), ("slightly defocused", 1.5), ("strongly defocused", 3.0))
-
-
-def fundamental_contrast(sigma: float, period: float = 18.0) -> float:
-    """Fraction of the fringe fundamental a Gaussian blur of ``sigma`` projector px keeps at
-    period ``T``: ``exp(-2 pi^2 sigma^2 / T^2)`` (the Gaussian's OTF). Phase noise - and, when
-    sensor noise dominates, the sphere RMS - scales with its inverse."""
-    return float(np.exp(-2 * np.pi ** 2 * sigma ** 2 / period ** 2))
-
-
-def binary_calibration_set(width: int, height: int, steps=(9, 3, 3)):
-    """White frame + per direction: 9-step squared binary T=18 (the measuring phase) and 3-step
-    T=21 / T=144 unwrapping groups as 8-bit sinusoids. (3-step squared binary at T=21/144
-    aliases its 5th/7th harmonics into +-0.2 rad phase errors that break the heterodyne
-    unwrapping while the projector is in focus; the measuring T=18 phase stays binary.)"""
-    base = sets.calibration(width=width, height=height, kind="square", steps=steps)
-    frames = tuple(dataclasses.replace(f, kind="sinusoid") if (f.kind == "square" and f.period != 18) else f
-                   for f in base.frames)
-    return dataclasses.replace(base, frames=frames, bit_depth=8, name="calibration-square18-sine21-144")
 
 
 def sphere_scene(preset):
@@ -72,7 +53,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     scale = 0.25 if quick else 0.5
     n_poses = 4 if quick else 10
     rig_true = scaled_camera(preset.rig, scale)
-    patterns = binary_calibration_set(rig_true.projector.width, rig_true.projector.height)
+    patterns = sets.binary_fine_calibration(rig_true.projector.width, rig_true.projector.height)
     scene, centre, radius = sphere_scene(preset)
     cals, meas = [], []
     for k, (label, sigma) in enumerate(track(LEVELS, "defocus levels")):

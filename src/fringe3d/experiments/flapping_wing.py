@@ -15,10 +15,11 @@ from scipy import ndimage
 from fringe3d.analyze.anchors import find_anchor_dots, follow_anchors
 from fringe3d.analyze.geodesic import bezier_geodesic, grid_geodesic, heat_geodesic
 from fringe3d.analyze.strain import local_shape, wing_sequence
-from fringe3d.analyze.tracking import sample_bilinear
+from fringe3d.analyze.tracking import SURFACE_SAMPLING
+from fringe3d.phase.sampling import sample_bilinear
 from fringe3d.decode import DecodeOptions, decode
-from fringe3d.patterns.manifest import DirectionPlan, PatternSet
-from fringe3d.patterns.sets import direction_angle, phase_frames, w_range_option
+from fringe3d.patterns.conventions import phase_to_w
+from fringe3d.patterns.sets import binary_modified_ftp, binary_psp
 from fringe3d.reconstruct.triangulate import triangulate
 from fringe3d.sim import presets
 from fringe3d import sim as sc
@@ -38,18 +39,6 @@ BEAT = 25.0
 THICKNESS = 0.1          # mm, membrane thickness h for E = (h/2)κ
 SIM_ANCHORS = np.array([[6.0, 6.0], [125.0, 6.0]])
 SIM_MARKERS = np.array([[40.0, 20.0], [70.0, 45.0], [100.0, 30.0], [125.0, 25.0], [110.0, 12.0]])
-
-
-def ch6_patterns(rig):
-    """Ch. 6 pattern cycle (5 images): 3-step dithered (Floyd–Steinberg) T = 380 for the
-    histogram (fringe-order mode) unwrapping, then the π-shifted area-modulated T = 24 pair for
-    modified FTP (Eq. 6.1–6.6), all 1-bit."""
-    w, h = rig.projector.width, rig.projector.height
-    a = direction_angle("v")
-    frames = phase_frames(380, 3, "v", a, "floyd_steinberg") + \
-        phase_frames(24, 2, "v", a, "area_modulated", shifts=[0.0, np.pi])
-    plan = DirectionPlan("v", a, "histogram", (24.0, 380.0), {"phase": "modified_ftp", "w_range": w_range_option(a, w, h)})
-    return PatternSet(w, h, frames, (plan,), 1, "ch6-modified-ftp-T24-dithered-T380")
 
 
 def sim_wing(side: int = 1, kappa_amp: float = 1 / 150.0, flap_deg: float = 20.0, z0: float = 460.0,
@@ -82,16 +71,6 @@ def _camera_sign(wing, m, t):
     return -np.sign(np.einsum("ij,ij->i", wing.normal(m, t), X))
 
 
-def psp_patterns(rig):
-    """Diagnostic set without FTP: the same 3-step dithered T = 380 plus a 4-step area-modulated
-    T = 24 phase-shifting set (PSP), to tell modified-FTP errors from pattern/sensor errors."""
-    w, h = rig.projector.width, rig.projector.height
-    a = direction_angle("v")
-    frames = phase_frames(380, 3, "v", a, "floyd_steinberg") + phase_frames(24, 4, "v", a, "area_modulated")
-    plan = DirectionPlan("v", a, "histogram", (24.0, 380.0), {"w_range": w_range_option(a, w, h)})
-    return PatternSet(w, h, frames, (plan,), 1, "diag-psp4-T24-dithered-T380")
-
-
 def _measure(wing, preset, settings, ps, t_start, seed, static=False):
     """Render one burst starting at ``t_start`` (``static``: every image at ``t_start``, no motion),
     decode, triangulate → (points, texture, t3d)."""
@@ -99,7 +78,7 @@ def _measure(wing, preset, settings, ps, t_start, seed, static=False):
     times = t_start + (0.0 if static else 1.0) * np.arange(len(ps)) / FRAME_RATE
     frames, _ = render(sc.Scene([wing], name="wing"), preset.rig, ps, st, times=times, progress=False)
     dec = decode(frames, ps, rig=preset.rig, options=DecodeOptions(z_min=preset.volume["z"][0]))
-    up = dec.phase["v"] * 24.0 / (2 * np.pi)
+    up = phase_to_w(dec.phase["v"], 24.0, scale_first=False)
     pts = triangulate(preset.rig, up=up)
     tex = np.asarray(dec.average, float) if getattr(dec, "average", None) is not None else frames[-1].astype(float)
     return pts, tex, float(times[-2:].mean())
@@ -196,7 +175,7 @@ def _strain_vs_truth(wing, res, sel, M_ref, times):
     """Dominant strain error of the points ``sel`` (slice, or int = first grid index after the
     markers) against the analytic wing (truth maps)."""
     sel = slice(sel, None) if isinstance(sel, int) else sel
-    m = sample_bilinear(M_ref, res.ref_uv[sel])
+    m = sample_bilinear(M_ref, res.ref_uv[sel], **SURFACE_SAMPLING)
     ok_m = np.isfinite(m).all(axis=1)
     errs, peak = [], 0.0
     for f, t in enumerate(times):
@@ -278,7 +257,8 @@ def _setup(quick: bool, seed: int) -> _Setup:
     n3d = 4 if quick else 16
     # full: one flapping cycle (40 ms) in 16 bursts; quick: the first quarter cycle (to peak flap)
     return _Setup(quick=quick, seed=seed, preset=preset, settings=settings, quiet=quiet,
-                  ps=ch6_patterns(preset.rig), starts=np.arange(n3d) / (BEAT * 16),
+                  ps=binary_modified_ftp(preset.rig.projector.width, preset.rig.projector.height),
+                  starts=np.arange(n3d) / (BEAT * 16),
                   nf_starts=np.arange(4) / (BEAT * 8),        # noise-free strain: 4 bursts over half a cycle
                   sides=[1] if quick else [1, -1], window=11, big=31, grid_step=16 if quick else 8)
 
@@ -396,7 +376,8 @@ def _psp_diagnostic(cfg: _Setup, wing) -> list[list]:
     """Strain rows for the wing measured statically (noise-free) with a 4-step PSP set instead of
     modified FTP, exact anchors, fit windows 11 and 31 px, edge margin 0 and EDGE_MARGIN px."""
     cam, preset = cfg.cam, cfg.preset
-    pmaps = [_measure(wing, preset, cfg.quiet, psp_patterns(preset.rig), float(t0), 0, static=True)[0]
+    psp = binary_psp(preset.rig.projector.width, preset.rig.projector.height)
+    pmaps = [_measure(wing, preset, cfg.quiet, psp, float(t0), 0, static=True)[0]
              .astype(np.float64) for t0 in cfg.nf_starts]
     pt = np.asarray(cfg.nf_starts, float)
     pa = np.stack([cam.project(wing.material_to_world(SIM_ANCHORS, t)) for t in pt])

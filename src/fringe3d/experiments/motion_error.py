@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from fringe3d.patterns import sets
+from fringe3d.patterns.conventions import coarse_to_fine_order, phase_to_w
 from fringe3d.phase.psp import wrapped_phase
 from fringe3d.reconstruct.triangulate import triangulate
 from fringe3d.sim import presets, render
@@ -53,7 +54,7 @@ def measure(preset, radius: float, step_fraction: float, seed: int, progress: bo
     ph_lo = wrapped_phase(frames, index=lo)
     z_min = float(preset.center[2] - radius - 5.0)
     Phi_lo, _ = geometric_unwrap(ph_lo.phase, minimum_phase(preset.rig, z_min, LOW), check=False)
-    k = np.round((Phi_lo * (LOW / HIGH) - ph_hi.phase) / (2 * np.pi))
+    k = coarse_to_fine_order(Phi_lo, ph_hi.phase, LOW / HIGH)
     Phi = ph_hi.phase + 2 * np.pi * k  # Eq. (1.5)
     t_ref = truth.frame(ref) if truth.per_frame else truth
     seen = truth.mask.all(axis=0) if truth.per_frame else truth.mask
@@ -61,7 +62,7 @@ def measure(preset, radius: float, step_fraction: float, seed: int, progress: bo
     mask = seen & (ph_hi.modulation > 0.05 * full) & (ph_lo.modulation > 0.05 * full) & np.isfinite(Phi)
     dphi_all = (Phi - t_ref.phase["v"])[mask].astype(float)
     good = np.abs(dphi_all) < np.pi  # right fringe order
-    X = triangulate(preset.rig, up=np.where(mask, Phi * HIGH / (2 * np.pi), np.nan))
+    X = triangulate(preset.rig, up=np.where(mask, phase_to_w(Phi, HIGH, scale_first=False), np.nan))
     c_ref = preset.center
     radial_all = np.linalg.norm(X[mask].astype(float) - c_ref, axis=1) - radius
     dphi, radial = dphi_all[good], radial_all[good]

@@ -161,3 +161,30 @@ def defocus_size_at(distance, size: float, focus_distance: float | None, growth:
     if focus_distance is None or growth == 0:
         return np.full_like(d, size)
     return size + growth * np.abs(d - focus_distance)
+
+
+def fundamental_contrast(sigma: float, period: float = 18.0) -> float:
+    """Fraction of the fringe fundamental a Gaussian blur keeps: its OTF (:func:`gaussian_otf`)
+    at ``f = 1 / T`` (Eq. 2.22-2.26), ``C = exp(-2 pi^2 sigma^2 / T^2)``.
+
+    Phase noise - and, when sensor noise dominates, the
+    measured sphere RMS - scales with ``1 / C``.
+
+    Parameters
+    ----------
+    sigma : float
+        Gaussian projector blur (projector px).
+    period : float
+        Fringe period ``T`` (projector px).
+
+    Returns
+    -------
+    float
+        Contrast in (0, 1].
+
+    Examples
+    --------
+    >>> round(fundamental_contrast(3.0), 4)
+    0.5779
+    """
+    return float(np.exp(-2 * np.pi ** 2 * sigma ** 2 / period ** 2))

@@ -24,6 +24,7 @@ import numpy as np
 
 from fringe3d.optics._ray_kernels import central_kernel, parallel_kernel
 from fringe3d.optics.rig import Rig
+from fringe3d.patterns.conventions import fringe_coordinate
 
 ANGLE_UP = math.pi / 2  # vertical fringes: w = u_p
 ANGLE_VP = 0.0          # horizontal fringes: w = v_p
@@ -93,7 +94,7 @@ def pixel_rays(rig: Rig, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return cam.rays(uv)
 
 
-def fringe_coordinate(rig: Rig, X: np.ndarray, angle: float, distortion: bool = True) -> np.ndarray:
+def projector_fringe_coordinate(rig: Rig, X: np.ndarray, angle: float, distortion: bool = True) -> np.ndarray:
     """Projector fringe coordinate ``w`` (pixels) of world points ``X (..., 3)`` (Eq. 4.18).
 
     With ``distortion`` the projector's lens distortion is applied (``Projector.project``);
@@ -102,7 +103,7 @@ def fringe_coordinate(rig: Rig, X: np.ndarray, angle: float, distortion: bool = 
     proj = rig.projector
     if distortion and proj.dist.any():
         uv = proj.project(X)
-        return uv[..., 1] * math.cos(angle) + uv[..., 0] * math.sin(angle)
+        return fringe_coordinate(uv[..., 0], uv[..., 1], angle)
     Xh = np.concatenate([X, np.ones(X.shape[:-1] + (1,))], axis=-1)
     return (Xh @ projector_row(proj.P, angle)) / (Xh @ proj.P[2])
 

@@ -28,6 +28,7 @@ Conventions every builder follows (the decoder relies on them):
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 from fringe3d.patterns.codes import bits_needed
@@ -350,3 +351,77 @@ def optimal_angle_calibration(alpha_opt: float, width: int = DEFAULT_WIDTH, heig
                                    {**p.options, "alpha_opt": float(alpha_opt)}))
     return PatternSet(width, height, tuple(frames), tuple(plans), _bit_depth(kind, bit_depth),
                       f"optimal-angle-calibration-{math.degrees(alpha_opt):g}deg")
+
+
+def binary_fine_calibration(width: int, height: int, steps=(9, 3, 3)) -> PatternSet:
+    """Calibration set with a squared-binary measuring phase (binary defocusing, ch. 5.3).
+
+    White frame + per direction (``"v"``, ``"h"``) the three-frequency groups of
+    :func:`calibration`: the ``T = 18`` measuring group as 1-bit squared binary fringes, the
+    ``T = 21`` / ``T = 144`` unwrapping groups as 8-bit sinusoids. (3-step squared binary at
+    T = 21 / 144 aliases its 5th / 7th harmonics into +-0.2 rad phase errors that break the
+    heterodyne unwrapping while the projector is in focus; the measuring T = 18 phase stays
+    binary.)
+
+    Parameters
+    ----------
+    width, height : int
+        Projector size (px).
+    steps : (3,) int
+        Phase steps of the T = 18, 21, 144 groups.
+
+    Returns
+    -------
+    PatternSet
+        ``1 + 2 * sum(steps)`` frames, bit depth 8, name ``"calibration-square18-sine21-144"``.
+    """
+    base = calibration(width=width, height=height, kind="square", steps=steps)
+    frames = tuple(dataclasses.replace(f, kind="sinusoid") if (f.kind == "square" and f.period != 18) else f
+                   for f in base.frames)
+    return dataclasses.replace(base, frames=frames, bit_depth=8, name="calibration-square18-sine21-144")
+
+
+def binary_modified_ftp(width: int, height: int) -> PatternSet:
+    """The 1-bit five-image cycle of the flapping-wing measurement (ch. 6).
+
+    A 3-step Floyd-Steinberg dithered ``T = 380`` set for the histogram (fringe-order mode)
+    unwrapping, then the pi-shifted area-modulated ``T = 24`` pair for modified FTP
+    (Eq. 6.1-6.6), vertical fringes (``w = u``).
+
+    Parameters
+    ----------
+    width, height : int
+        Projector size (px); the plan's ``w_range`` covers it.
+
+    Returns
+    -------
+    PatternSet
+        5 frames, bit depth 1, one ``"histogram"`` plan with ``options["phase"] = "modified_ftp"``.
+    """
+    a = direction_angle("v")
+    frames = phase_frames(380, 3, "v", a, "floyd_steinberg") + \
+        phase_frames(24, 2, "v", a, "area_modulated", shifts=[0.0, math.pi])
+    plan = DirectionPlan("v", a, "histogram", (24.0, 380.0),
+                         {"phase": "modified_ftp", "w_range": w_range_option(a, width, height)})
+    return PatternSet(width, height, frames, (plan,), 1, "ch6-modified-ftp-T24-dithered-T380")
+
+
+def binary_psp(width: int, height: int) -> PatternSet:
+    """Diagnostic 1-bit cycle without FTP for the flapping wing (ch. 6): the 3-step dithered
+    ``T = 380`` set of :func:`binary_modified_ftp` plus a 4-step area-modulated ``T = 24``
+    phase-shifting set, to tell modified-FTP errors from pattern/sensor errors.
+
+    Parameters
+    ----------
+    width, height : int
+        Projector size (px).
+
+    Returns
+    -------
+    PatternSet
+        7 frames, bit depth 1, one ``"histogram"`` plan (N-step phase).
+    """
+    a = direction_angle("v")
+    frames = phase_frames(380, 3, "v", a, "floyd_steinberg") + phase_frames(24, 4, "v", a, "area_modulated")
+    plan = DirectionPlan("v", a, "histogram", (24.0, 380.0), {"w_range": w_range_option(a, width, height)})
+    return PatternSet(width, height, frames, (plan,), 1, "diag-psp4-T24-dithered-T380")

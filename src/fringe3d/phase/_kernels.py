@@ -1,9 +1,10 @@
-"""Fused per-pixel numba kernels for wrapped phase and temporal unwrapping.
+"""Fused per-pixel numba kernels for the wrapped phase, and the inline helpers the temporal
+unwrapping kernels (:mod:`fringe3d.unwrap._kernels`) share with them.
 
 Every kernel walks the image once, rows in parallel (``prange``), reads the camera frames in
 their own dtype (uint8, uint16 or float) and writes only its (H, W) outputs: no full-size
-float temporaries. The plain-NumPy references these kernels are tested against live next to
-the public functions (:mod:`fringe3d.phase.psp`, :mod:`fringe3d.unwrap.temporal`).
+float temporaries. The plain-NumPy references these kernels are tested against live in the
+tests (``tests/reference_engine.py``).
 
 Phase-shift model (Eq. 2.3-2.4): ``I_k = A + B cos(phi + delta_k)``. Writing
 ``I_k = a + b cos(delta_k) + c sin(delta_k)`` with ``b = B cos(phi)``, ``c = -B sin(phi)``,
@@ -61,7 +62,7 @@ def fast_atan2(y, x):
 
 
 @njit(cache=True, inline="always")
-def _round(x):
+def round_half_up(x):
     return math.floor(x + 0.5)
 
 
@@ -75,7 +76,7 @@ FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH)
-def _accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, init, init_peak, with_a):
+def accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, init, init_peak, with_a):
     """Least-squares sums of one group over columns ``j0 .. j0 + n - 1`` of row ``i``:
     ``a/b/c[j] (+)= sum_k coef[:, k] * frames[index[k], i, j0 + j]`` and the running
     ``peak[j]`` (max over frames) in the buffers' dtype. ``init``: the sums start at this group (the first
@@ -139,7 +140,7 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
         for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
             for j0 in range(0, w, COL_CHUNK):
                 n = min(COL_CHUNK, w - j0)
-                _accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, True, True, True)
+                accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, True, True, True)
                 ph = phase[i, j0:j0 + n]
                 av = average[i, j0:j0 + n]
                 mo = modulation[i, j0:j0 + n]
@@ -155,73 +156,8 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
                     sa[j] = sa[j] | (peak[j] >= sat_level)
 
 
-@njit(cache=True, parallel=True)
-def hierarchical_kernel(wrapped, periods, lower, order_out, phase_out):
-    """Hierarchical temporal unwrapping, Eq. (1.5): the coarser absolute phase unwraps the finer.
-
-    wrapped (M, H, W) float32 wrapped phases, narrowest period first; periods (M,) float64;
-    lower: the coarsest phase is placed in [lower, lower + 2 pi). Outputs (H, W): fringe order
-    of the narrowest phase (int32) and its absolute phase (float32).
-    ``k_i = round(((T_{i+1}/T_i) Phi_{i+1} - phi_i) / 2pi)``, ``Phi_i = phi_i + 2 pi k_i``.
-    """
-    m = wrapped.shape[0]
-    h = wrapped.shape[1]
-    w = wrapped.shape[2]
-    for i in prange(h):
-        for j in range(w):
-            phi = np.float64(wrapped[m - 1, i, j])
-            big = lower + (phi - lower) % TWO_PI
-            k = 0.0
-            for q in range(m - 2, -1, -1):
-                phi = np.float64(wrapped[q, i, j])
-                k = _round((big * (periods[q + 1] / periods[q]) - phi) / TWO_PI)
-                big = phi + TWO_PI * k
-            if m == 1:
-                k = _round((big - phi) / TWO_PI)
-            order_out[i, j] = np.int32(k)
-            phase_out[i, j] = big
-
-
-@njit(cache=True, inline="always")
-def _beat(phi_a, phi_b, sign):
-    """Wrapped beat phase sign*(phi_a - phi_b) in [0, 2 pi)."""
-    return (sign * (phi_a - phi_b)) % TWO_PI
-
-
-@njit(cache=True, parallel=True)
-def heterodyne_kernel(wrapped, signs, beat_periods, periods, lower, order_out, phase_out):
-    """Multi-frequency heterodyne unwrapping (three-frequency: 18, 21, 144 -> 126 -> 1008).
-
-    wrapped (M, H, W) float32, M >= 2, narrowest first; beat chain
-    ``b_1 = beat(phi_0, phi_1)``, ``b_q = beat(b_{q-1}, phi_q)`` with equivalent periods
-    ``beat_periods[q-1]`` and signs making each beat increase with w. The last beat is taken
-    in [lower, lower + 2 pi) as absolute, then each beat unwraps the previous one and the first
-    beat unwraps phi_0. Outputs as :func:`hierarchical_kernel`.
-    """
-    m = wrapped.shape[0]
-    h = wrapped.shape[1]
-    w = wrapped.shape[2]
-    nb = m - 1
-    for i in prange(h):
-        beats_local = np.empty(nb)
-        for j in range(w):
-            b = _beat(np.float64(wrapped[0, i, j]), np.float64(wrapped[1, i, j]), signs[0])
-            beats_local[0] = b
-            for q in range(1, nb):
-                b = _beat(b, np.float64(wrapped[q + 1, i, j]), signs[q])
-                beats_local[q] = b
-            big = lower + (b - lower) % TWO_PI
-            for q in range(nb - 2, -1, -1):
-                kq = _round((big * (beat_periods[q + 1] / beat_periods[q]) - beats_local[q]) / TWO_PI)
-                big = beats_local[q] + TWO_PI * kq
-            phi = np.float64(wrapped[0, i, j])
-            k = _round((big * (beat_periods[0] / periods[0]) - phi) / TWO_PI)
-            order_out[i, j] = np.int32(k)
-            phase_out[i, j] = phi + TWO_PI * k
-
-
-_F2PI = np.float32(TWO_PI)
-_FINV2PI = np.float32(1.0 / TWO_PI)
+F2PI = np.float32(TWO_PI)
+FINV2PI = np.float32(1.0 / TWO_PI)
 _FHALF = np.float32(0.5)
 _FPI = np.float32(math.pi)
 _FHALFPI = np.float32(0.5 * math.pi)
@@ -247,129 +183,12 @@ def fast_atan2_f32(y, x):
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH)
-def _mod_2pi_f32(x):
+def mod_2pi_f32(x):
     # np.floor keeps float32 (math.floor returns int64, which would promote the products to float64
     # and stop the loop vectorising in float32)
-    return x - _F2PI * np.floor(x * _FINV2PI)
+    return x - F2PI * np.floor(x * FINV2PI)
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH)
-def _round_f32(x):
+def round_half_up_f32(x):
     return np.floor(x + _FHALF)
-
-
-@njit(cache=True, parallel=True, fastmath=FASTMATH)
-def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params,
-                           phase, wrapped, modulation, average, mask, texture):
-    """Fused three-frequency heterodyne decode: wrapped phases of the three groups, the two
-    beats, absolute phase, modulation, average and validity mask in one pass per pixel
-    (float32 arithmetic; rows in parallel, columns vectorised).
-
-    frames (F, H, W) uint8/uint16/float; idx_g (N_g,) int64 frame indices and coef_g (3, N_g)
-    float32 least-squares coefficients of group g (narrowest period first). ``params`` float32
-    ``(s12, s123, r_top, r_mid, lower, min_modulation, sat_level, max_residual)``: beat
-    signs, period ratios ``r_top = T123/T12`` and ``r_mid = T12/T1``, the start of the
-    absolute window of the final beat (rad), the modulation threshold, the saturation level
-    and the largest accepted unwrapping residual (rad): at each of the two unwrapping steps
-    ``e = scaled coarse phase - fine phase - 2 pi k`` lies in [-pi, pi]; a consistent pixel
-    has ``|e|`` of a few noise sigmas, an inconsistent one (mixed silhouette pixel, glint)
-    near pi, where the fringe order is a coin toss, so it is masked. Outputs (H, W):
-    absolute phase float32 (NaN where invalid), wrapped phase of group 1 float32, its
-    modulation and average float32, mask bool (modulation of every group >= min_modulation
-    and no frame >= sat_level and both unwrapping residuals <= max_residual), texture float32
-    (average + modulation of group 1, the fringe-free intensity ``A + B``).
-    """
-    s12 = params[0]
-    s123 = params[1]
-    r_top = params[2]
-    r_mid = params[3]
-    lower = params[4]
-    min_mod2 = params[5] * params[5]
-    sat_level = params[6]
-    max_res = params[7]
-    h = frames.shape[1]
-    w = frames.shape[2]
-    nan = np.float32(np.nan)
-    nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
-    for blk in prange(nblk):
-        acc = np.empty((9, COL_CHUNK), np.float32)  # a2 is a dummy: groups 2, 3 need no average
-        a1, b1, c1, a2, b2, c2, b3, c3, peak = acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], acc[6], acc[7], acc[8]
-        for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
-            for j0 in range(0, w, COL_CHUNK):
-                n = min(COL_CHUNK, w - j0)
-                _accumulate_chunk(frames, idx1, coef1, i, j0, n, a1, b1, c1, peak, True, True, True)
-                _accumulate_chunk(frames, idx2, coef2, i, j0, n, a2, b2, c2, peak, True, False, False)
-                _accumulate_chunk(frames, idx3, coef3, i, j0, n, a2, b3, c3, peak, True, False, False)
-                ph = phase[i, j0:j0 + n]
-                wr = wrapped[i, j0:j0 + n]
-                mo = modulation[i, j0:j0 + n]
-                av = average[i, j0:j0 + n]
-                ma = mask[i, j0:j0 + n]
-                tx = texture[i, j0:j0 + n]
-                for j in range(n):
-                    m1 = b1[j] * b1[j] + c1[j] * c1[j]
-                    m2 = b2[j] * b2[j] + c2[j] * c2[j]
-                    m3 = b3[j] * b3[j] + c3[j] * c3[j]
-                    p1 = fast_atan2_f32(-c1[j], b1[j])
-                    p2 = fast_atan2_f32(-c2[j], b2[j])
-                    p3 = fast_atan2_f32(-c3[j], b3[j])
-                    x12 = _mod_2pi_f32(s12 * (p1 - p2))
-                    x123 = _mod_2pi_f32(s123 * (x12 - p3))
-                    big = lower + _mod_2pi_f32(x123 - lower)
-                    d1 = big * r_top - x12
-                    k1 = _round_f32(d1 * _FINV2PI)
-                    big = x12 + _F2PI * k1
-                    d2 = big * r_mid - p1
-                    k2 = _round_f32(d2 * _FINV2PI)
-                    absolute = p1 + _F2PI * k2
-                    # non-short-circuit '&' so the loop stays branch-free (vectorised)
-                    consistent = (abs(d1 - _F2PI * k1) <= max_res) & (abs(d2 - _F2PI * k2) <= max_res)
-                    ok = (min(m1, min(m2, m3)) >= min_mod2) & (peak[j] < sat_level) & consistent
-                    bm = math.sqrt(m1)
-                    wr[j] = p1
-                    mo[j] = bm
-                    av[j] = a1[j]
-                    tx[j] = a1[j] + bm
-                    ma[j] = ok
-                    ph[j] = absolute if ok else nan
-
-
-@njit(cache=True, parallel=True)
-def code_order_kernel(frames, code_idx, inverse_idx, threshold, wrapped, period, centers,
-                      order_out, phase_out, valid_out):
-    """Gray/binary code + phase: fringe order from the codeword, made robust with the phase.
-
-    frames (F, H, W); code_idx (B,) frame indices of the code bits (most significant first);
-    inverse_idx (B,) indices of the inverted frames or -1 (then ``threshold`` (H, W) is the
-    per-pixel threshold); wrapped (H, W) float32; period T (px); centers (2**B,) float64
-    centre w (px) of the projector interval each raw codeword covers (NaN = unused codeword).
-    ``k = round((2 pi * center / T - phi) / 2 pi)``: exact while the true phase is within pi of
-    the codeword's centre phase, so a code that resolves half a period tolerates stripe-edge
-    misalignment of up to a quarter period. Outputs: order int32, absolute phase float32,
-    valid bool (False for unused codewords).
-    """
-    nb = code_idx.shape[0]
-    h = frames.shape[1]
-    w = frames.shape[2]
-    for i in prange(h):
-        for j in range(w):
-            code = 0
-            for q in range(nb):
-                v = np.float64(frames[code_idx[q], i, j])
-                if inverse_idx[q] >= 0:
-                    t = np.float64(frames[inverse_idx[q], i, j])
-                else:
-                    t = np.float64(threshold[i, j])
-                code = code * 2 + (1 if v > t else 0)
-            c = centers[code]
-            phi = np.float64(wrapped[i, j])
-            if math.isnan(c):
-                valid_out[i, j] = False
-                order_out[i, j] = 0
-                phase_out[i, j] = np.nan
-            else:
-                k = _round((TWO_PI * c / period - phi) / TWO_PI)
-                valid_out[i, j] = True
-                order_out[i, j] = np.int32(k)
-                phase_out[i, j] = phi + TWO_PI * k
-

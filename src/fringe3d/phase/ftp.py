@@ -31,6 +31,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy import fft as sfft
 
+from fringe3d.patterns.conventions import fringe_coordinate
+
 #: Border (px) beyond which :data:`NONINTEGER_BORDER_ERROR` holds (see module docstring).
 BORDER_PX = 32
 #: Border (px) beyond which the noise-free Hanning-window error is < 1e-4 rad for any carrier
@@ -83,7 +85,7 @@ def detect_carrier(image: np.ndarray, angle: float | None = None, dc_radius: flo
     if angle is None:
         half = (fu > 1e-12) | ((np.abs(fu) <= 1e-12) & (fv > 0))
     else:
-        half = (fv * math.cos(angle) + fu * math.sin(angle)) > 0
+        half = fringe_coordinate(fu, fv, angle) > 0
     score = np.where(half & (np.hypot(fv, fu) > r), spec, -1.0)
     iv, iu = np.unravel_index(np.argmax(score), score.shape)
     if score[iv, iu] <= 1e-9 * max(1.0, float(spec.max())):

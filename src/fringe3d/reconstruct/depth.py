@@ -17,6 +17,7 @@ import numpy as np
 from fringe3d.decode.result import Decoded
 from fringe3d.optics.rays import camera_shape
 from fringe3d.optics.rig import Rig
+from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.reconstruct.triangulate import Triangulator, triangulate
 
 
@@ -34,7 +35,7 @@ def direction_coordinate(phase: np.ndarray, period: float) -> np.ndarray:
     """Projector coordinate along a fringe direction, ``w = Phi*T/(2*pi)`` (Eq. 4.13), pixels."""
     if not period > 0:
         raise ValueError(f"fringe period must be positive (projector pixels), got {period}")
-    return np.asarray(phase, np.float64) * (period / (2 * np.pi))
+    return phase_to_w(np.asarray(phase, np.float64), period)
 
 
 def projector_coordinates(decoded: Decoded, directions=None) -> dict:

@@ -17,7 +17,6 @@ Outputs: a resumable zarr store (:class:`fringe3d.io.store.PointMapStore`) and/o
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from pathlib import Path
 
@@ -30,8 +29,9 @@ from fringe3d.io.capture import list_frame_files
 from fringe3d.io.images import read_image
 from fringe3d.io.pointcloud import write_ply
 from fringe3d.io.store import PointMapStore
-from fringe3d.optics.rays import camera_shape, fringe_coordinate
+from fringe3d.optics.rays import camera_shape, projector_fringe_coordinate
 from fringe3d.optics.rig import Rig
+from fringe3d.patterns.conventions import w_to_phase
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase.quality import default_min_modulation, full_scale
 from fringe3d.reconstruct.depth import points_from_decoded
@@ -178,8 +178,9 @@ class FrameReconstructor:
                                  "(check exposure, modulation threshold and that the scene is lit by the projector)")
             if not self._range_checked:  # once: the depth-range warning the decode path gives
                 mp = self.fast.mp
-                w = fringe_coordinate(self.rig, np.where(valid[..., None], pts, 0.0).astype(np.float64), mp.angle)
-                check_wrap_around(np.where(valid, w * (2 * math.pi / mp.period), np.nan), mp, valid)
+                X = np.where(valid[..., None], pts, 0.0).astype(np.float64)
+                w = projector_fringe_coordinate(self.rig, X, mp.angle)
+                check_wrap_around(np.where(valid, w_to_phase(w, mp.period, scale_first=True), np.nan), mp, valid)
                 self._range_checked = True
             if not with_texture:
                 return pts

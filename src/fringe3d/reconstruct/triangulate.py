@@ -27,6 +27,7 @@ import numpy as np
 
 from fringe3d.optics.rays import ANGLE_UP, ANGLE_VP, RayGeometry, camera_normalized, camera_shape, check_map
 from fringe3d.optics.rig import Rig
+from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.psp import lsq_coefficients
 from fringe3d.reconstruct._kernels import lsq_kernel, three_step_kernel
 from fringe3d.unwrap.geometric import MinimumPhase
@@ -138,10 +139,9 @@ class Triangulator(RayGeometry):
 
     Parameters
     ----------
-    rig : fringe3d.optics.Rig
-    angle : float
-        Fringe angle alpha (rad) of the direction that supplies ``w``: pi/2 (default) for
-        vertical fringes (``w = u_p``), 0 for horizontal fringes (``w = v_p``).
+    rig, angle
+        As for :class:`~fringe3d.optics.rays.RayGeometry` (``angle``: the fringe angle of the
+        direction that supplies ``w``, pi/2 by default).
     warn_distortion : bool
         Warn (once, here; :class:`~fringe3d.utils.warning_types.ReconstructionWarning`) when the
         projector has lens distortion, which this path ignores.
@@ -182,7 +182,7 @@ class Triangulator(RayGeometry):
         if not period > 0:
             raise ValueError(f"fringe period must be positive (projector pixels), got {period}")
         phase = check_map(phase, self.shape, "absolute phase map")
-        return self.points(np.asarray(phase, np.float64) * (period / (2 * np.pi)), mask, out)
+        return self.points(phase_to_w(np.asarray(phase, np.float64), period), mask, out)
 
 
 # ----------------------------------------------------------------------------- fused 3-step pipeline

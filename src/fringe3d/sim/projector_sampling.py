@@ -29,7 +29,11 @@ from .settings import RenderSettings
 def bilinear(image, u, v, out):
     """Bilinear sample of ``image`` (H, W) at float coordinates (u column, v row), edge-clamped.
 
-    Writes ``out[i]``; NaN coordinates give 0.
+    Writes ``out[i]``; NaN coordinates give 0. Bit-identical to
+    ``fringe3d.phase.sampling.sample_bilinear(image, np.stack([u, v], -1), outside="clamp",
+    combine="rows")``, kept as a numba loop because the renderer samples every lit pixel of
+    every frame: the NumPy version (about 15 full-size temporaries) took 0.34 s against
+    0.05 s here for 10^6 samples of a 912 x 1140 image.
     """
     H, W = image.shape
     for i in range(u.shape[0]):

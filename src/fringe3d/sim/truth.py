@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.optics import Rig
+from fringe3d.patterns.conventions import fringe_coordinate, w_to_phase
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.jsonfile import read_json, write_json
 
@@ -136,8 +137,7 @@ def write_npz(path, arrays: dict, level: int = 1) -> None:
 
 def direction_phase(up: np.ndarray, vp: np.ndarray, angle: float, period: float) -> np.ndarray:
     """Absolute phase of a fringe direction, ``Phi = 2 pi (vp cos a + up sin a) / T`` (Eq. 2.1-2.2)."""
-    w = vp * np.cos(angle) + up * np.sin(angle)
-    return (2.0 * np.pi / period) * w
+    return w_to_phase(fringe_coordinate(up, vp, angle), period, scale_first=True)
 
 
 def directions_of(patterns) -> dict[str, tuple[float, float]]:

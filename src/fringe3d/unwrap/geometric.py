@@ -26,11 +26,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fringe3d.optics.rays import RayGeometry, check_map, fringe_coordinate
+from fringe3d.optics.rays import RayGeometry, check_map, projector_fringe_coordinate
 from fringe3d.optics.rig import Rig
+from fringe3d.patterns.conventions import TWO_PI, w_to_phase
 from fringe3d.utils.warning_types import DepthRangeWarning
 
-TWO_PI = 2.0 * math.pi
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,12 +96,12 @@ def minimum_phase(rig: Rig, z_min: float, period: float, angle: float = math.pi 
                          "expected z_min > 0, the nearest depth of the measurement volume")
     dz = max(1e-3, 1e-4 * abs(z_min))
     X1 = tri.ray_points_at_z(z_min + dz)
-    w0 = fringe_coordinate(rig, X0, angle)
-    w1 = fringe_coordinate(rig, X1, angle)
+    w0 = projector_fringe_coordinate(rig, X0, angle)
+    w1 = projector_fringe_coordinate(rig, X1, angle)
     with np.errstate(invalid="ignore"):
         sign = np.sign(w1 - w0)
     sign = np.where(np.isfinite(sign), sign, 0).astype(np.int8)
-    phi_min = (w0 * (TWO_PI / period)).astype(np.float32)
+    phi_min = w_to_phase(w0, period, scale_first=True).astype(np.float32)
     return MinimumPhase(phi_min, sign, z_min, float(period), float(angle))
 
 

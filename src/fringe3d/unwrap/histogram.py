@@ -14,9 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fringe3d.patterns.conventions import TWO_PI, coarse_to_fine_order
 from fringe3d.unwrap.geometric import MinimumPhase, fringe_order
-
-TWO_PI = 2.0 * np.pi
 
 
 @dataclass(frozen=True)
@@ -53,7 +52,7 @@ def fringe_order_difference(phi_r: np.ndarray, phi_ref: np.ndarray, scale: float
         raise ValueError(f"phase maps differ in shape: {phi_r.shape} vs {phi_ref.shape}")
     if not np.isfinite(scale) or scale <= 0:
         raise ValueError(f"period ratio T_ref/T must be positive, got {scale}")
-    return np.round((phi_ref * scale - phi_r) / TWO_PI)
+    return coarse_to_fine_order(phi_ref, phi_r, scale)
 
 
 def mode_of_orders(k_e: np.ndarray, labels: np.ndarray, min_votes: int = 1) -> dict[int, OrderVote]:

@@ -2,7 +2,7 @@
 
 All methods produce ``Phi = phi + 2 pi k`` (Eq. 1.5) pixel by pixel, from the wrapped phase
 of the narrowest period and extra frames; fused numba kernels in
-:mod:`fringe3d.phase._kernels` (plain-NumPy references in the tests).
+:mod:`fringe3d.unwrap._kernels` (plain-NumPy references in the tests).
 
 Conventions: wrapped phases in (-pi, pi]; absolute phase ``Phi = 2 pi w / T`` with ``w`` the
 projector fringe coordinate (manifest). The coarsest (or final beat) phase is taken as
@@ -22,11 +22,11 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from fringe3d.phase import _kernels as kernels
+from fringe3d.patterns.conventions import beat_period, w_to_phase
+from fringe3d.phase.frames import as_frame_stack
 from fringe3d.phase.psp import lsq_coefficients
+from fringe3d.unwrap import _kernels as kernels
 from fringe3d.utils.warning_types import UnwrapRangeWarning
-
-TWO_PI = 2.0 * math.pi
 
 
 class OrderedPhase(NamedTuple):
@@ -34,13 +34,6 @@ class OrderedPhase(NamedTuple):
 
     phase: np.ndarray
     order: np.ndarray
-
-
-def fringe_extent(width: int, height: int, angle: float) -> tuple[float, float]:
-    """(w_min, w_max) of ``w = v cos(angle) + u sin(angle)`` over a width x height projector."""
-    c, s = math.cos(angle), math.sin(angle)
-    corners = [0.0, (height - 1) * c, (width - 1) * s, (height - 1) * c + (width - 1) * s]
-    return min(corners), max(corners)
 
 
 def coarse_window(period: float, w_range: tuple[float, float] | None) -> float:
@@ -58,8 +51,8 @@ def coarse_window(period: float, w_range: tuple[float, float] | None) -> float:
         warnings.warn(f"coarsest equivalent period {period:g} px is shorter than the projector's fringe "
                       f"coordinate range {span + 1:g} px; absolute phase aliases beyond w = {w0 + period:g}",
                       UnwrapRangeWarning, stacklevel=3)
-        return TWO_PI * (w0 - 0.5) / period
-    return TWO_PI * (w0 - 0.5 * (period - span)) / period
+        return w_to_phase(w0 - 0.5, period)
+    return w_to_phase(w0 - 0.5 * (period - span), period)
 
 
 def stack_phases(phases: Sequence[np.ndarray]) -> np.ndarray:
@@ -124,7 +117,7 @@ def beat_chain(periods: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.nd
     for nxt in p[1:]:
         if abs(nxt - cur) < 1e-9 * max(nxt, cur):
             raise ValueError(f"heterodyne needs distinct periods, got {cur:g} and {nxt:g} in {p}")
-        beats.append(cur * nxt / abs(nxt - cur))
+        beats.append(beat_period(cur, nxt))
         signs.append(1.0 if cur < nxt else -1.0)
         cur = beats[-1]
     return np.array(beats), np.array(signs)
@@ -257,9 +250,7 @@ def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]],
     shifts (rad) of group g, narrowest period first. Equals :func:`heterodyne` applied to
     :func:`fringe3d.phase.psp.wrapped_phase` results (tested).
     """
-    frames = np.asarray(frames)
-    if frames.ndim != 3:
-        raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
+    frames = as_frame_stack(frames)
     if len(indices) != 3 or len(shifts) != 3 or len(periods) != 3:
         raise ValueError("three_frequency_decode needs exactly three groups (indices, shifts, periods)")
     idx = [np.asarray(i, dtype=np.int64) for i in indices]

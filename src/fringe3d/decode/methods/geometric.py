@@ -7,6 +7,7 @@ import numpy as np
 from fringe3d.decode.context import DecodeContext, require_geometry
 from fringe3d.decode.result import Unwrapped
 from fringe3d.optics.rig import Rig
+from fringe3d.patterns.conventions import coarse_to_fine_order
 from fringe3d.unwrap.geometric import TWO_PI, MinimumPhase, cached_minimum_phase, check_depth_range, geometric_unwrap
 
 
@@ -46,7 +47,7 @@ def unwrap_two_frequency_geometric(ctx: DecodeContext) -> Unwrapped:
     Phi_l, mask_l = geometric_unwrap(ctx.group_phase(lo).phase, mp, ctx.group_mask(lo))
     warn_depth_range(ctx, rig, mp, mask_l)
     phi_h = ctx.group_phase(hi).phase.astype(np.float64)
-    k = np.round((Phi_l * (lo.period / hi.period) - phi_h) / TWO_PI)
+    k = coarse_to_fine_order(Phi_l, phi_h, lo.period / hi.period)
     Phi = (phi_h + TWO_PI * k).astype(np.float32)
     mask = mask_l & ctx.group_mask(hi) & np.isfinite(Phi)
     Phi[~mask] = np.nan

@@ -2,15 +2,14 @@
 ``gray_code`` / ``binary_code`` (the array algorithms are :mod:`fringe3d.unwrap.temporal`)."""
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from fringe3d.decode.context import DecodeContext, combined_mask
 from fringe3d.decode.result import Unwrapped
+from fringe3d.patterns.conventions import point_at_fringe_coordinate, w_range
 from fringe3d.patterns.render import sinusoid_value
 from fringe3d.phase import quality
-from fringe3d.unwrap.temporal import (code_centers, fringe_extent, gray_code_order, heterodyne, hierarchical,
+from fringe3d.unwrap.temporal import (code_centers, gray_code_order, heterodyne, hierarchical,
                                       three_frequency_decode)
 
 
@@ -74,10 +73,10 @@ def projector_code_centers(ctx: DecodeContext, direct: list[int]) -> np.ndarray:
     key = ("code_centers", ctx.direction)
     if key not in ctx.cache:
         ps = ctx.patterns
-        lo, hi = fringe_extent(ps.width, ps.height, ctx.plan.angle)
+        lo, hi = w_range(ctx.plan.angle, ps.width, ps.height)
         step = 1.0 / 16.0
         w = np.arange(lo - 0.5, hi + 0.5, step) + 0.5 * step
-        u, v = w * math.sin(ctx.plan.angle), w * math.cos(ctx.plan.angle)
+        u, v = point_at_fringe_coordinate(w, ctx.plan.angle)
         images = np.stack([sinusoid_value(ps.frames[i], u, v, ps.width, ps.height) for i in direct])
         ctx.cache[key] = code_centers(images, w)
     return ctx.cache[key]
