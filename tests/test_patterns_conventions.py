@@ -1,4 +1,4 @@
-"""Fringe-coordinate conventions (Eq. 2.1-2.2, 2.30-2.34, SPEC §4) in fringe3d.patterns.conventions."""
+"""Fringe-coordinate conventions (Eq. 2.1-2.2, 2.30-2.34, 1.5) in fringe3d.patterns.conventions."""
 import math
 
 import numpy as np

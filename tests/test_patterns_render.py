@@ -1,4 +1,4 @@
-"""Rendered patterns against their closed forms (SPEC §2, Eq. 2.1-2.2)."""
+"""Rendered patterns against their closed forms (Eq. 2.1-2.2)."""
 import math
 
 import numpy as np

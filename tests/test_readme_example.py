@@ -14,7 +14,7 @@ def test_quickstart_runs_and_reaches_the_n_step_noise_floor():
     m = re.search(r"phase RMS error ([\d.]+) rad, fringe-order errors ([\d.]+)%, valid pixels ([\d.]+)%", out.stdout)
     assert m, out.stdout
     rms, order_err, valid = (float(g) for g in m.groups())
-    # 9-step phase noise sqrt(2/N) * sigma / B (SPEC §3): sigma = 2 grey levels plus 8-bit rounding
+    # 9-step phase noise sqrt(2/N) * sigma / B (the N-step noise floor): sigma = 2 grey levels plus 8-bit rounding
     # (variance 1/12), B = 180/2 = 90
     predicted = math.sqrt(2 / 9) * math.sqrt(2.0 ** 2 + 1 / 12) / 90
     assert abs(rms - predicted) < 0.1 * predicted

@@ -154,8 +154,8 @@ def run(quick: bool = False, seed: int = 0) -> dict:
         "frames": clean,
         "dissertation": {"method": "three-frequency heterodyne 18/21/144 (9+3+3 frames) for calibration (ch. 2-3); "
                                    "Gray code + phase as the reference for FTP (ch. 4)",
-                         "figure": "no error-rate figure in the dissertation; SPEC §4 asks for exact orders at "
-                                   "stated noise levels"},
+                         "figure": "no error-rate figure in the dissertation; temporal unwrapping must give exact "
+                                   "orders (Eq. 1.5) at stated noise levels"},
         "goals": {"no order errors at sigma=0 (hierarchical, heterodyne, T/2 Gray code)": zero_at_0,
                   "error rate non-decreasing in sigma for every method": monotone},
         "notes": ["exact fringe order on 100% of pixels up to sigma (grey levels, B = 90): " +

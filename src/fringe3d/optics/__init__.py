@@ -1,4 +1,4 @@
-"""Optical models (SPEC §5-6): pinhole devices with Brown distortion, the telecentric camera,
+"""Optical models (Eq. 2.8-2.18, 2.26, 3.1-3.3): pinhole devices with Brown distortion, the telecentric camera,
 camera-projector rigs, and projector defocus (OTF/PSF models).
 
 Typical use::

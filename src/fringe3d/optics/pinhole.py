@@ -3,7 +3,7 @@
 ``s [u v 1]^T = A [R | t] [x y z 1]^T`` with intrinsics
 ``A = [[fx, skew, cx], [0, fy, cy], [0, 0, 1]]`` and Brown distortion applied in
 normalised coordinates. The projector is modelled as an inverse camera with the same
-class (SPEC.md §5). ``R, t`` map world points into this device's frame:
+class (Eq. 2.35-2.38). ``R, t`` map world points into this device's frame:
 ``X_dev = R @ X_world + t``. With the camera frame as world frame the camera has
 ``R = I, t = 0``.
 """

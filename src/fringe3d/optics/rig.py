@@ -1,7 +1,7 @@
 """A camera-projector rig: two devices sharing one world frame.
 
 For a pinhole camera the world frame is the camera frame (camera ``R = I, t = 0``) and the
-projector carries ``[R | t]`` (SPEC.md §5). For a telecentric camera the world frame is the
+projector carries ``[R | t]`` (Eq. 2.35-2.38). For a telecentric camera the world frame is the
 projector frame (projector ``R = I, t = 0``) and the camera's ``M`` includes its pose (ch. 3).
 Rig files are JSON (``Rig.save`` / ``Rig.load``).
 """

@@ -1,4 +1,4 @@
-"""Fringe patterns (SPEC §2): sinusoids at any angle and period, binary and dithered
+"""Fringe patterns (ch. 1, 2.2.1, Eq. 2.1-2.2): sinusoids at any angle and period, binary and dithered
 approximations, Gray / simple binary codes, the :class:`PatternSet` manifest and the
 fringe-coordinate conventions (:mod:`fringe3d.patterns.conventions`).
 

@@ -1,4 +1,4 @@
-"""Binary approximations of a sinusoidal fringe (SPEC §2; binary defocusing, ch. 5.3, 6.4.1).
+"""Binary approximations of a sinusoidal fringe (binary defocusing, ch. 5.3, 6.4.1).
 
 All functions take the fringe phase ``theta = 2*pi*w/T + shift`` (any shape) and return 0/1
 float32 of the same shape (area modulation also needs the coordinate along the stripes).

@@ -1,4 +1,4 @@
-"""Fringe-coordinate conventions, each written once (SPEC §2 and §4).
+"""Fringe-coordinate conventions, each written once (Eq. 2.1-2.2, 1.5, 2.30-2.34).
 
 A fringe pattern at angle ``alpha`` (0 <= alpha < pi) varies along the fringe coordinate
 
@@ -9,8 +9,8 @@ coordinates): ``alpha = pi/2`` (vertical stripes) gives ``w = u``, ``alpha = 0``
 stripes) ``w = v``. A phase map of period ``T`` encodes it as the absolute phase
 ``Phi = 2 pi w / T``, so ``w = Phi T / 2 pi`` (Eq. 2.30-2.31). Two directions give the
 projector point ``(u, v)`` (Eq. 2.30-2.34); a coarse absolute phase gives the fringe order of
-a finer wrapped one (Eq. 1.5 with the period ratio, SPEC §4); two periods beat to the
-equivalent period ``T1 T2 / |T2 - T1|`` (heterodyne, SPEC §2).
+a finer wrapped one (Eq. 1.5 with the period ratio); two periods beat to the
+equivalent period ``T1 T2 / |T2 - T1|`` (three-frequency heterodyne, ch. 2.2.4).
 
 The functions are vectorised and keep the dtype of their array arguments (a float32 array
 times a Python float stays float32); scalars in give NumPy scalars out.
@@ -123,7 +123,7 @@ def w_to_phase(w, period: float, *, scale_first: bool = False):
 
 def coarse_to_fine_order(coarse_phase, fine_phase, period_ratio: float = 1.0, *,
                  ties: Literal["even", "up"] = "even"):
-    """Fringe order of a finer phase from a coarser absolute one (SPEC §4, Eq. 1.5):
+    """Fringe order of a finer phase from a coarser absolute one (Eq. 1.5):
 
         ``k = round((Phi_coarse * (T_coarse / T_fine) - phi_fine) / 2 pi)``
 
@@ -161,7 +161,7 @@ def coarse_to_fine_order(coarse_phase, fine_phase, period_ratio: float = 1.0, *,
 
 
 def beat_period(t1: float, t2: float) -> float:
-    """Equivalent (beat) period ``t1 t2 / |t2 - t1|`` of two phase maps (heterodyne, SPEC §2).
+    """Equivalent (beat) period ``t1 t2 / |t2 - t1|`` of two phase maps (three-frequency heterodyne, ch. 2.2.4).
 
     Raises ``ValueError`` for equal periods.
 

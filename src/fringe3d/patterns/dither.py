@@ -1,4 +1,4 @@
-"""Dithered binary fringe patterns (SPEC §2; dissertation ch. 5, 6.4.1, its refs [165]).
+"""Dithered binary fringe patterns (dissertation ch. 5, 6.4.1, its refs [165]).
 
 A grey sinusoid is turned into a 1-bit image whose local density of "on" pixels follows the
 sinusoid; projector defocus (a low-pass filter, §2.2.2) restores a quasi-sinusoid.

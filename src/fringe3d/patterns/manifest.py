@@ -5,7 +5,7 @@ into every capture folder, so a capture explains itself: decoders read it to kno
 frames are phase-shifted sinusoids (period, fringe angle, shift), which are binary code
 bits, and how each fringe direction is to be unwrapped.
 
-Conventions (SPEC.md §2, DESIGN.md):
+Conventions (Eq. 2.1-2.2; docs/architecture.md):
 
 * A fringe pattern at angle ``alpha`` varies along ``w = i*cos(alpha) + j*sin(alpha)``
   (``i`` row, ``j`` column, pixel centres at integer coordinates), Eq. (2.1)-(2.2).

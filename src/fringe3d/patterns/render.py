@@ -1,4 +1,4 @@
-"""Rendering pattern frames to projector images (SPEC §2, Eq. 2.1-2.2).
+"""Rendering pattern frames to projector images (Eq. 2.1-2.2).
 
 Fringe coordinate at projector pixel (row ``v``, column ``u``; pixel centres at integers):
 ``w = v*cos(angle) + u*sin(angle)``. A phase frame of period ``T`` and shift ``delta`` has the

@@ -155,7 +155,7 @@ def hierarchical(periods, steps, direction: str = "v", angle: float | None = Non
                  width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
                  bit_depth: int | None = None) -> PatternSet:
     """Hierarchical multi-frequency set: the coarsest period covers the projector (single
-    fringe, absolute phase) and each phase unwraps the next narrower one (SPEC §4).
+    fringe, absolute phase) and each phase unwraps the next narrower one (Eq. 1.5).
 
     ``steps`` is one count or one per period. Frames in the given order; plan periods sorted
     narrowest first.

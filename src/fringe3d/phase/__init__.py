@@ -1,4 +1,4 @@
-"""Wrapped phase from fringe images (SPEC §3): phase shifting, Fourier transform profilometry,
+"""Wrapped phase from fringe images (Eq. 1.4, 2.4, 4.1-4.7): phase shifting, Fourier transform profilometry,
 validity masks, and the helpers every layer above uses (the frame-stack check, bilinear
 sampling).
 

@@ -1,4 +1,4 @@
-"""Bilinear sampling of an image at sub-pixel points (SPEC §7: the phase at a circle centre,
+"""Bilinear sampling of an image at sub-pixel points (Eq. 2.30-2.31: the phase at a circle centre,
 Eq. 2.30-2.31, "phase sampled by bilinear interpolation at the sub-pixel centre").
 
 Pixel centres sit at integer coordinates: ``image[r, c]`` is the value at ``(u, v) = (c, r)``.

@@ -1,4 +1,4 @@
-"""Spatial (relative) phase unwrapping per isolated object (SPEC §4, ch. 5.2.5).
+"""Spatial (relative) phase unwrapping per isolated object (ch. 5.2.5).
 
 Reliability-sorting unwrapping (Herráez et al. 2002, the dissertation's [164]) through
 ``skimage.restoration.unwrap_phase``, run separately on each segmented object. The result is

@@ -1,4 +1,4 @@
-"""Decoding method ``spatial``: relative phase per isolated object (SPEC §4, ch. 5.2.5), and the
+"""Decoding method ``spatial``: relative phase per isolated object (ch. 5.2.5), and the
 per-object unwrapping of one phase group shared with ``histogram``."""
 from __future__ import annotations
 
