@@ -102,7 +102,9 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
                           path=rec.path)
 
 
-def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLike | Rig, **options) -> Reconstruction:
+def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLike | Rig, method: str | None = None,
+                        z_min: float | None = None, triangulation: str = "auto",
+                        min_modulation: float | None = None) -> Reconstruction:
     """A capture folder's first pattern cycle as a point map.
 
     Parameters
@@ -111,13 +113,21 @@ def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLik
         Capture folder (``manifest.json`` + frames).
     calibration : path or Rig
         Calibration JSON (with a ``rig`` entry) or rig JSON, or a :class:`Rig`.
-    **options
-        ``method``, ``z_min``, ``triangulation``, ``min_modulation`` as in :func:`reconstruct_cycle`.
+    method, z_min, triangulation, min_modulation
+        As in :func:`reconstruct_cycle`: the unwrapping method overriding the manifest's plan,
+        the nearest depth for the geometric constraint (mm), closed form or least squares, and
+        the modulation threshold (camera counts).
+
+    Returns
+    -------
+    Reconstruction
+        ``points`` (H, W, 3) float32 mm (NaN where invalid), ``texture``, ``mask``.
     """
     rig = calibration if isinstance(calibration, Rig) else Rig.load(calibration)
     cap = read_capture(folder, max_cycles=1)
     check_sizes(rig, cap.frames, calibration)
-    return reconstruct_cycle(cap, rig, **options)
+    return reconstruct_cycle(cap, rig, method=method, z_min=z_min, triangulation=triangulation,
+                             min_modulation=min_modulation)
 
 
 def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool) -> dict:
