@@ -130,7 +130,8 @@ def peers(f3: np.ndarray, repeat: int, python: str) -> dict:
         return json.loads(out.stdout.strip().splitlines()[-1])
     except (json.JSONDecodeError, IndexError):
         err = (out.stderr or "no output").strip().splitlines()[-1:]
-        return {"fringes": {"status": "not installed", "error": err}, "opencv": {"status": "not installed", "error": err}}
+        return {"fringes": {"status": "not installed", "error": err},
+                "opencv": {"status": "not installed", "error": err}}
 
 
 def fmt_ms(s):

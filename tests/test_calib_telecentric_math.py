@@ -82,14 +82,16 @@ def test_projector_points_solve_any_orthogonal_angle_pair(alpha):
     for a in (alpha - np.pi / 4 + np.pi, alpha + np.pi / 4):
         a = a % np.pi
         T = 18.0
-        dirs.append(FringeDirection(phase=2 * np.pi * (vp_true * np.cos(a) + up_true * np.sin(a)) / T, angle=a, period=T))
+        dirs.append(FringeDirection(phase=2 * np.pi * (vp_true * np.cos(a) + up_true * np.sin(a)) / T, angle=a,
+                                    period=T))
     pts = np.array([[10.5, 20.25], [33.0, 7.75]])
     got = projector_points(dirs, pts)
     want = np.stack([sample_bilinear(up_true, pts), sample_bilinear(vp_true, pts)], 1)
     assert np.allclose(got, want, atol=1e-9)
     w1 = np.array([d for d in [(pts * 0)]])  # noqa: F841 (keeps pts shape explicit)
     a1, a2 = alpha - np.pi / 4, alpha + np.pi / 4
-    w = np.stack([want[:, 1] * np.cos(a2) + want[:, 0] * np.sin(a2), want[:, 1] * np.cos(a1) + want[:, 0] * np.sin(a1)], 1)
+    w = np.stack([want[:, 1] * np.cos(a2) + want[:, 0] * np.sin(a2),
+                  want[:, 1] * np.cos(a1) + want[:, 0] * np.sin(a1)], 1)
     assert np.allclose(rotate_axes(w, alpha), want, atol=1e-9)
 
 

@@ -12,7 +12,8 @@ from fringe3d.io.capture import read_capture
 @pytest.fixture(scope="module")
 def pats(tmp_path_factory):
     out = tmp_path_factory.mktemp("pats") / "three-frequency"
-    assert main(["patterns", "--set", "three-frequency", "--width", "256", "--height", "200", "-o", str(out), "-q"]) == 0
+    assert main(["patterns", "--set", "three-frequency", "--width", "256", "--height", "200",
+                 "-o", str(out), "-q"]) == 0
     return out
 
 
@@ -124,7 +125,8 @@ def test_bad_device_specs_get_clear_messages(pats, tmp_path, capsys, args, messa
 def test_patterns_larger_than_the_projector_are_refused(tmp_path, capsys):
     big = tmp_path / "big"
     assert main(["patterns", "--set", "phase-shift", "--width", "300", "--height", "200", "-o", str(big), "-q"]) == 0
-    code = main(["capture", str(big), "-o", str(tmp_path / "c"), "--projector", "virtual:tiny", "--camera", "virtual:tiny"])
+    code = main(["capture", str(big), "-o", str(tmp_path / "c"), "--projector", "virtual:tiny",
+                 "--camera", "virtual:tiny"])
     assert code == 2
     assert "the patterns are 300x200 but the projector is 256x200" in " ".join(capsys.readouterr().err.split())
 

@@ -65,7 +65,8 @@ def test_packed_capture_through_the_virtual_dlp_decodes_like_the_unpacked_set(pa
                  "--projector", "virtual:tiny?defocus=2", "--camera", cam, "-q"]) == 0
     a, b = read_capture(packed_cap), read_capture(plain_cap)
     n = len(a.patterns)
-    assert n == 24 and json.loads((packed_cap / "capture.json").read_text())["bitplanes"]["planes_per_video_frame"] == [n]
+    assert n == 24 and (json.loads((packed_cap / "capture.json").read_text())["bitplanes"]["planes_per_video_frame"]
+                        == [n])
     assert np.array_equal(a.frames, b.frames)
     da, db = decode(a.frames, a.patterns), decode(b.frames, b.patterns)
     assert np.array_equal(da.mask["v"], db.mask["v"]) and da.mask["v"].mean() > 0.5
@@ -89,4 +90,5 @@ def test_packed_set_needs_hardware_sync_on_a_bitplane_projector(packed_set, tmp_
     code = main(["capture", str(packed_set), "-o", str(tmp_path / "c"), "--sync", "hardware",
                  "--projector", "virtual:tiny", "--camera", "virtual:tiny"])
     assert code == 2
-    assert "for packed RGB bit-plane frames open it as virtual:PRESET?bitplanes=1" in " ".join(capsys.readouterr().err.split())
+    assert ("for packed RGB bit-plane frames open it as virtual:PRESET?bitplanes=1"
+            in " ".join(capsys.readouterr().err.split()))

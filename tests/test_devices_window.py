@@ -48,11 +48,13 @@ def test_smaller_image_is_shown_top_left_on_black(projector, xvfb):
 
 
 def test_image_larger_than_the_screen_is_refused(projector):
-    with pytest.raises(ValueError, match=r"the image is 300x200 pixels but the window projector \(screen 0\) is 256x200"):
+    with pytest.raises(ValueError,
+                       match=r"the image is 300x200 pixels but the window projector \(screen 0\) is 256x200"):
         projector.show(np.zeros((200, 300), np.uint8))
 
 
 def test_screen_index_that_does_not_exist_lists_the_screens(xvfb):
     from fringe3d.devices import open_projector
-    with pytest.raises(ValueError, match=r"screen 3 does not exist; this display has 1 screen\(s\): 0: 256x200 at \(0,0\)"):
+    with pytest.raises(ValueError,
+                       match=r"screen 3 does not exist; this display has 1 screen\(s\): 0: 256x200 at \(0,0\)"):
         open_projector("window:3")

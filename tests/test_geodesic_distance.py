@@ -105,7 +105,9 @@ def test_bezier_dijkstra_beats_8_neighbour_and_heat_method_on_a_cylinder():
     truth = np.hypot(s - s[30, 20], y - y[30, 20])  # unrolled Euclidean distance
     far = truth > 5.0
     bezier_geodesic(pts[:10, :10], (1, 1), wavefront=False)  # compile
-    t0 = time.perf_counter(); d_bez = bezier_geodesic(pts, src, wavefront=False); t_bez = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    d_bez = bezier_geodesic(pts, src, wavefront=False)
+    t_bez = time.perf_counter() - t0
     d_8 = grid_geodesic(pts, src)
     d_heat = heat_geodesic(pts, src)
     e_bez, e_8, e_heat = (rel_error(d, truth, far) for d in (d_bez, d_8, d_heat))
@@ -144,7 +146,8 @@ def test_holes_block_the_front_instead_of_being_jumped():
     detour = np.hypot(28 - 10, 50 - 10) + np.hypot(50 - 31, 50 - 10)
     assert d[10, 50] >= 0.99 * detour
     # an isolated island is unreachable
-    pts2 = pts.copy(); pts2[:, 28:31] = np.nan
+    pts2 = pts.copy()
+    pts2[:, 28:31] = np.nan
     d2 = bezier_geodesic(pts2, (10, 10))
     assert np.isinf(d2[:, 40:]).all()
 

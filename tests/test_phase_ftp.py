@@ -4,7 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from fringe3d.phase.ftp import BORDER_1E4_PX, BORDER_PX, NONINTEGER_BORDER_ERROR, detect_carrier, ftp_phase, modified_ftp_phase
+from fringe3d.phase.ftp import (BORDER_1E4_PX, BORDER_PX, NONINTEGER_BORDER_ERROR, detect_carrier, ftp_phase,
+                                modified_ftp_phase)
 
 H, W = 128, 160
 V, U = np.mgrid[0:H, 0:W].astype(np.float64)

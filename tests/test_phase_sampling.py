@@ -18,7 +18,8 @@ def test_bilinear_is_exact_on_planes_nan_outside_and_near_invalid():
     img[5, 5] = np.nan
     assert np.isnan(sample_bilinear(img, [[5.5, 4.5]])[0])
     img[5, 5] = np.inf
-    assert np.isinf(sample_bilinear(img, [[5.5, 4.5]])[0]) and np.isnan(sample_bilinear(img, [[5.5, 4.5]], nonfinite="nan")[0])
+    assert (np.isinf(sample_bilinear(img, [[5.5, 4.5]])[0])
+            and np.isnan(sample_bilinear(img, [[5.5, 4.5]], nonfinite="nan")[0]))
 
 
 def test_bilinear_clamps_and_samples_channels():

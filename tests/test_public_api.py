@@ -69,7 +69,8 @@ def test_the_readme_three_lines_run_as_written(tiny_capture, tmp_path, monkeypat
 
 def test_reconstruct_capture_matches_the_reconstruct_command(tiny_capture, tmp_path):
     from fringe3d.cli import main
-    assert main(["reconstruct", str(tiny_capture), "-c", str(tiny_capture / "rig.json"), "-o", str(tmp_path), "-q"]) == 0
+    assert main(["reconstruct", str(tiny_capture), "-c", str(tiny_capture / "rig.json"),
+                 "-o", str(tmp_path), "-q"]) == 0
     r = fringe3d.reconstruct_capture(tiny_capture, tiny_capture / "rig.json")
     np.testing.assert_array_equal(np.load(tmp_path / "points.npy"), r.points)
 

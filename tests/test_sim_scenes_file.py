@@ -61,7 +61,8 @@ def test_scene_file_builds_every_object_type(tmp_path):
     ({"type": "plane", "point": [0, 0, 1], "normal": [0, 0, 1], "texture": {"type": "plaid"}},
      r"objects\[0\]\.texture\.type: unknown texture 'plaid'"),
     ({"type": "box", "center": [0, 0, 1], "size": [1, 1, 1], "motion": {"speed": 3}}, r"objects\[0\]\.motion\.speed"),
-    ({"type": "box", "center": [0, 0, 1], "size": [1, 1, 1], "R": [[1, 0], [0, 1]]}, r"objects\[0\]\.R: expected a rotation"),
+    ({"type": "box", "center": [0, 0, 1], "size": [1, 1, 1], "R": [[1, 0], [0, 1]]},
+     r"objects\[0\]\.R: expected a rotation"),
     ({"type": "wing", "anchors": [[1, 2, 3]]}, r"objects\[0\]\.anchors: expected a list of \[x, y\] pairs"),
 ])
 def test_scene_file_errors_name_the_field(tmp_path, obj, match):

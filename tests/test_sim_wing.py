@@ -66,7 +66,7 @@ def test_curvature_tensor_matches_finite_differences_of_truth_xyz():
     h = 1e-2
     ex, ey = np.array([h, 0]), np.array([0, h])
     for t in TIMES:
-        r = lambda m: w.material_to_world(m, t)  # noqa: E731
+        r = lambda m, t=t: w.material_to_world(m, t)  # noqa: E731
         rx = (r(uv + ex) - r(uv - ex)) / (2 * h)
         ry = (r(uv + ey) - r(uv - ey)) / (2 * h)
         rxx = (r(uv + ex) - 2 * r(uv) + r(uv - ex)) / h**2

@@ -112,7 +112,8 @@ def _evaluate(points, truth, ids: dict, radius: float) -> tuple[dict, list]:
         {"quantity": "probing error form P_F", "value": sph.form, "unit": "mm"},
         {"quantity": "probing error size P_S", "value": sph.size, "unit": "mm", "truth": 0.0},
         {"quantity": "sphere spacing error", "value": bar.error, "unit": "mm", "truth": 0.0},
-        {"quantity": "sculpture 3D error RMS", "value": metrics["sculpture"]["3D error RMS vs truth (mm)"], "unit": "mm"},
+        {"quantity": "sculpture 3D error RMS", "value": metrics["sculpture"]["3D error RMS vs truth (mm)"],
+         "unit": "mm"},
     ]
     return metrics, accuracy, err, masks
 

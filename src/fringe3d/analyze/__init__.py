@@ -7,7 +7,8 @@ from .evaluation import evaluate_points, load_points, truth_errors
 from .fits import CircleFit, PlaneFit, SphereFit, fit_circle, fit_plane, fit_sphere, inner_mask, robust_fit
 from .geodesic import bezier_geodesic, grid_geodesic, heat_geodesic
 from .sections import segments, sphere_sections
-from .strain import LocalShape, StrainResult, WingSequence, bending_strain, local_shape, principal_strains, wing_sequence
+from .strain import (LocalShape, StrainResult, WingSequence, bending_strain, local_shape, principal_strains,
+                     wing_sequence)
 from .tracking import TrackResult, track_points
 from .vdi import flatness, probing_errors, sphere_spacing
 from .wing_strain import run_strain

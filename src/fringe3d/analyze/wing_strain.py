@@ -83,7 +83,8 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         for f in range(len(seq)):
             img = np.full(seq.shape[:2], np.nan)
             for r in results:
-                part = scatter_to_image(r.uv[f][r.ok[f]], r.dominant[f][r.ok[f]], seq.shape[:2], radius=max(step // 2, 1))
+                part = scatter_to_image(r.uv[f][r.ok[f]], r.dominant[f][r.ok[f]], seq.shape[:2],
+                                        radius=max(step // 2, 1))
                 img = np.where(np.isfinite(part), part, img)
             images.append(img)
             strain_map_png(out / "maps" / f"strain_{f:05d}.png", img, f"dominant bending strain, frame {f}", vmax)

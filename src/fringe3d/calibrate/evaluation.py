@@ -34,7 +34,8 @@ def rotation_angle_deg(Ra: np.ndarray, Rb: np.ndarray) -> float:
     >>> round(rotation_angle_deg(np.eye(3), np.eye(3)), 6)
     0.0
     """
-    return float(np.degrees(2 * np.arcsin(min(1.0, np.linalg.norm(np.asarray(Ra) - np.asarray(Rb)) / (2 * np.sqrt(2))))))
+    return float(np.degrees(2 * np.arcsin(min(1.0,
+                                              np.linalg.norm(np.asarray(Ra) - np.asarray(Rb)) / (2 * np.sqrt(2))))))
 
 
 def compare_to_truth(est: Rig, true: Rig) -> dict:

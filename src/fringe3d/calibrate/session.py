@@ -186,8 +186,10 @@ def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 
             if "camera_size" not in info:
                 info.update(camera_size=cam_size, projector_size=prj_size, first=pose.name)
             elif cam_size != info["camera_size"]:
-                raise ValueError(f"pose {pose.name} has {cam_size[0]}x{cam_size[1]} images but pose {info['first']} has "
-                                 f"{info['camera_size'][0]}x{info['camera_size'][1]}; all poses must come from one camera")
+                raise ValueError(f"pose {pose.name} has {cam_size[0]}x{cam_size[1]} images "
+                                 f"but pose {info['first']} has "
+                                 f"{info['camera_size'][0]}x{info['camera_size'][1]}; "
+                                 "all poses must come from one camera")
             elif prj_size != info["projector_size"]:
                 raise ValueError(f"pose {pose.name} was projected at {prj_size[0]}x{prj_size[1]} but pose "
                                  f"{info['first']} at {info['projector_size'][0]}x{info['projector_size'][1]}")
@@ -212,7 +214,8 @@ def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 
 
 def calibrate_observations(obs: list[PoseObservation], info: dict, board: CircleBoard, model: str = "pinhole",
                            camera_dist: str = "k1k2p", projector_dist: str = "none", min_poses: int = 3,
-                           correct_circle_bias: bool = True, telecentric_refine: bool = True) -> tuple[Calibration, object]:
+                           correct_circle_bias: bool = True,
+                           telecentric_refine: bool = True) -> tuple[Calibration, object]:
     """Calibrate from observations; returns ``(Calibration, raw result)``.
 
     ``model`` is ``"pinhole"`` (camera frame = world, ch. 2) or ``"telecentric"`` (projector

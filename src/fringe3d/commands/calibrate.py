@@ -33,7 +33,8 @@ def register(app: typer.Typer) -> None:
                                                           "or a modulation-weighted local fit over a radius: 'auto' "
                                                           "(half the circle spacing) or a number of pixels."),
         no_refine: bool = typer.Option(False, "--no-refine", help="Telecentric rigs: skip the joint LM "
-                                                                   "refinement (the dissertation's sequential ch. 3 method)."),
+                                                                   "refinement (the dissertation's sequential "
+                                                                   "ch. 3 method)."),
         plot: Path = typer.Option(None, help="Residual plot PNG (default: OUTPUT with .png)."),
         no_plot: bool = typer.Option(False, "--no-plot", help="Do not write the residual plot."),
         yaml: Path = typer.Option(None, help="Also export OpenCV FileStorage YAML here."),

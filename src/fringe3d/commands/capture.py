@@ -171,7 +171,7 @@ def register(app: typer.Typer) -> None:
             run_capture(**opts)
         except (ValueError, FileNotFoundError) as e:  # printed here: device messages name extras in [] (no markup)
             err_console.print("[bold red]error:[/] " + escape(str(e)))
-            raise SystemExit(2)
+            raise SystemExit(2) from None
 
 
 def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gain, pixel_format, roi, camera_feature,
@@ -258,14 +258,14 @@ def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gai
                                    progress=prog)
     except CaptureIncompleteError as e:
         err_console.print(f"[bold red]capture incomplete:[/] {e}")
-        raise SystemExit(EXIT_INCOMPLETE)
+        raise SystemExit(EXIT_INCOMPLETE) from None
     except KeyboardInterrupt:
         err_console.print(f"[bold red]capture interrupted:[/] {output or session} is marked incomplete")
-        raise SystemExit(EXIT_INCOMPLETE)
+        raise SystemExit(EXIT_INCOMPLETE) from None
     except DeviceError as e:
         where = output or session
         err_console.print(f"[bold red]device error:[/] {e}" + (f"; {where} is marked incomplete" if where else ""))
-        raise SystemExit(EXIT_INCOMPLETE)
+        raise SystemExit(EXIT_INCOMPLETE) from None
     finally:
         cam.close()
         proj.close()

@@ -30,13 +30,16 @@ def _load_rig(path: Path | None):
 def register(app: typer.Typer) -> None:
     @app.command("decode")
     def decode_cmd(
-        capture: Path = typer.Argument(..., help="Capture folder: manifest.json + frames/00000.png ... (+ capture.json)."),
-        out: Path = typer.Option(..., "--out", "-o", help="Output folder (decoded.npz, 32-bit float TIFFs, decoded.json)."),
+        capture: Path = typer.Argument(..., help="Capture folder: manifest.json + frames/00000.png ... "
+                                                 "(+ capture.json)."),
+        out: Path = typer.Option(..., "--out", "-o",
+                                 help="Output folder (decoded.npz, 32-bit float TIFFs, decoded.json)."),
         rig: Path = typer.Option(None, "--rig", help="Rig or calibration JSON, for geometric/hybrid unwrapping."),
         z_min: float = typer.Option(None, "--z-min", help="Nearest depth (mm) for geometric-constraint unwrapping."),
         min_modulation: float = typer.Option(None, "--min-modulation",
                                              help="Modulation threshold in camera counts (default 2% of full scale)."),
-        bit_depth: int = typer.Option(None, "--bit-depth", help="Camera bit depth (default capture.json or the PNG dtype)."),
+        bit_depth: int = typer.Option(None, "--bit-depth",
+                                      help="Camera bit depth (default capture.json or the PNG dtype)."),
         max_cycles: int = typer.Option(None, "--max-cycles", help="Decode only the first N pattern cycles."),
         ftp_window: str = typer.Option(None, "--ftp-window",
                                        help="FTP band-pass window: hanning or circular (default hanning; circular "

@@ -36,9 +36,12 @@ def register(app: typer.Typer) -> None:
             return
         cal = s["calibration"]["figures"]
         console.print(make_table("calibration", ["figure", "value"], [[k, v] for k, v in cal.items()]))
-        console.print(make_table("accuracy (against the simulator's truth)", ["quantity", "value", "unit", "dissertation"],
-                                 [[a["quantity"], a["value"], a["unit"], a.get("dissertation", "")] for a in s["accuracy"]]))
-        console.print(make_table("time per stage", ["stage", "seconds"], [[r["name"], r["seconds"]] for r in s["stages"]]))
+        console.print(make_table("accuracy (against the simulator's truth)",
+                                 ["quantity", "value", "unit", "dissertation"],
+                                 [[a["quantity"], a["value"], a["unit"], a.get("dissertation", "")]
+                                  for a in s["accuracy"]]))
+        console.print(make_table("time per stage", ["stage", "seconds"],
+                                 [[r["name"], r["seconds"]] for r in s["stages"]]))
         for name, r in s.get("sequences", {}).items():
             console.print(f"{name}: " + ", ".join(f"{k} {'met' if v else 'NOT met'}" for k, v in r["goals"].items()))
         console.print(f"wrote {output}/report.html ({s['seconds_total']} s)")

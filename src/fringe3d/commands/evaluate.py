@@ -33,7 +33,8 @@ def register(app: typer.Typer) -> None:
         diameter: float = typer.Option(None, "--diameter", help="Calibrated sphere diameter (mm); default from truth."),
         distance: float = typer.Option(None, "--distance", help="Calibrated ball-bar length (mm); default from truth."),
         frame: int = typer.Option(0, "--frame", help="3D frame of a sequence store."),
-        exclude: float = typer.Option(0.0, "--exclude", help="Share of worst points to drop (<= 0.003, VDI/VDE 2634-2)."),
+        exclude: float = typer.Option(0.0, "--exclude",
+                                      help="Share of worst points to drop (<= 0.003, VDI/VDE 2634-2)."),
         json_: bool = typer.Option(False, "--json", help="Print one JSON object."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No tables."),
     ) -> None:

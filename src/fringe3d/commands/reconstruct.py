@@ -50,7 +50,8 @@ def register(app: typer.Typer) -> None:
         window: int = typer.Option(None, "--window",
                                    help="Sequences: a 3D frame every N captured frames (sliding window) instead of "
                                         "one per pattern cycle."),
-        triangulation: str = typer.Option("auto", "--triangulation", help="auto, fast (closed form) or lsq (Eq. 2.37)."),
+        triangulation: str = typer.Option("auto", "--triangulation",
+                                          help="auto, fast (closed form) or lsq (Eq. 2.37)."),
         min_modulation: float = typer.Option(None, "--min-modulation", help="Modulation threshold (camera counts)."),
         max_cycles: int = typer.Option(None, "--max-cycles", help="Use only the first N pattern cycles."),
         json_: bool = typer.Option(False, "--json", help="Print one JSON summary."),

@@ -12,7 +12,8 @@ from fringe3d.utils.console import console, print_json, set_quiet
 def register(app: typer.Typer) -> None:
     @app.command("report")
     def report(
-        results: Path = typer.Argument(..., help="Results folder (with summary.json), e.g. the output of `fringe3d demo`."),
+        results: Path = typer.Argument(...,
+                                       help="Results folder (with summary.json), e.g. the output of `fringe3d demo`."),
         output: Path = typer.Option(None, "-o", "--output", help="HTML file to write [default: RESULTS/report.html]."),
         json_: bool = typer.Option(False, "--json", help="Print the written path as JSON."),
         quiet: bool = typer.Option(False, "--quiet", "-q"),

@@ -83,7 +83,8 @@ def run(quick: bool = False, seed: int = 0) -> dict:
         "tables": [{"title": f"phase RMS error (rad), 3-step, after Gaussian blur sigma (px); "
                              f"{width}x{height} px, no noise",
                     "columns": ["pattern", "T (px)"] + [f"sigma={s:g}" for s in SIGMAS], "rows": rows},
-                   {"title": "best 1-bit pattern (lowest phase RMS) per period and blur; below ~1e-5 rad all are at float32 precision",
+                   {"title": "best 1-bit pattern (lowest phase RMS) per period and blur; "
+                             "below ~1e-5 rad all are at float32 precision",
                     "columns": ["T (px)"] + [f"sigma={s:g}" for s in SIGMAS],
                     "rows": [[T] + [best_binary[T][s] for s in SIGMAS] for T in PERIODS]}],
         "results": [{"kind": k, "period": T, "sigma": s, **v} for (k, T, s), v in results.items()],

@@ -56,7 +56,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     patterns = sets.binary_fine_calibration(rig_true.projector.width, rig_true.projector.height)
     scene, centre, radius = sphere_scene(preset)
     cals, meas = [], []
-    for k, (label, sigma) in enumerate(track(LEVELS, "defocus levels")):
+    for k, (_label, sigma) in enumerate(track(LEVELS, "defocus levels")):
         ss = simulate_session(preset, n_poses=n_poses, seed=seed, defocus=sigma, patterns=patterns,
                               camera_scale=scale, noise=True, progress=False)
         obs, info = observe_session(ss.poses, ss.board, progress=False)

@@ -203,7 +203,8 @@ def run(quick: bool = False, seed: int = 0) -> dict:
         rows = []
         for r in res["balls"]:
             ratio = r.get("psp_rms", np.nan) / r["hybrid_rms"] if "hybrid_rms" in r else np.nan
-            rows.append([r["ball"], r.get("k_error", "lost"), r.get("hybrid_rms", np.nan), r.get("hybrid_radius", np.nan),
+            rows.append([r["ball"], r.get("k_error", "lost"), r.get("hybrid_rms", np.nan),
+                         r.get("hybrid_radius", np.nan),
                          r.get("psp_rms", np.nan), r.get("psp_radius", np.nan), round(float(ratio), 1)])
         tables.append({"title": f"{title}: sphere fit per ball (radius 20 mm)",
                        "columns": ["ball", "hybrid k_s error", "hybrid RMS (mm)", "hybrid radius (mm)",
@@ -221,14 +222,16 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     h_rms = [r.get("hybrid_rms", np.inf) for r in two]
     ratio = [r.get("psp_rms", 0.0) / r["hybrid_rms"] for r in two if "hybrid_rms" in r]
     goals["hybrid sphere RMS <= 0.26 mm at realistic noise (both balls)"] = bool(max(h_rms) <= 0.26)
-    goals["two-frequency PSP RMS >= 27x the hybrid's (both balls)"] = bool(len(ratio) == len(two) and min(ratio) >= 27.0)
+    goals["two-frequency PSP RMS >= 27x the hybrid's (both balls)"] = bool(len(ratio) == len(two)
+                                                                           and min(ratio) >= 27.0)
     many = results[f"{rows_ * cols_} balls, realistic noise"]["balls"]
     goals[f"all {len(many)} balls get the right k_s"] = bool(all(r.get("k_error") == 0 for r in many))
     goals[f"every ball fully in view gets the right k_s in all {cycles} cycles"] = bool(
         seq["ball_cycles"] > 0 and seq["right"] == seq["ball_cycles"])
     goals["cross-motion correction gets every thrown ball's k_s right"] = bool(
         all(e == 0 for r in thrown.values() for e in r["cross_motion"]))
-    notes.append(f"smallest PSP/hybrid RMS ratio on the two falling balls: {min(ratio):.1f} (goal 27, dissertation 26.6)")
+    notes.append(f"smallest PSP/hybrid RMS ratio on the two falling balls: {min(ratio):.1f} "
+                 "(goal 27, dissertation 26.6)")
     notes += [
         "one six-frame cycle per scene rendered with the high-speed preset at 1500 Hz (seeded shot + read noise); "
         "hybrid = frames 3-6 (I_h3 FTP + I_l1..3), two-frequency PSP = all six",

@@ -409,7 +409,8 @@ def _tracking_tables(cfg: _Setup, acc: _Tracked) -> list[dict]:
                             "frames, swapping in exact anchors or exact (ray-cast) surfaces",
                    "columns": ["data", "RMS ΔX mm", "RMS ΔY mm", "RMS ΔZ mm", "worst"], "rows": acc.budget_rows})
     tables.append({"title": f"dominant bending strain vs the analytic wing (h = {THICKNESS} mm); interior = fit window "
-                            f"≥ {EDGE_MARGIN} px inside the wing outline and clear of the {DOT_MARGIN} px filled dot disks",
+                            f"≥ {EDGE_MARGIN} px inside the wing outline and clear of the {DOT_MARGIN} px "
+                            "filled dot disks",
                    "columns": ["data", "fit window px", "interior % of wing", "peak |E| µε", "RMS error µε",
                                "RMS error % of peak", "median |error| % of peak", "samples"], "rows": acc.strain_rows})
     return tables

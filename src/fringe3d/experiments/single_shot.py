@@ -153,7 +153,8 @@ def run(quick: bool = False, seed: int = 0) -> dict:
         {"title": "depth-range limit (modified FTP, Hanning): a tilted plane straddling z_min + one period",
          "columns": ["plane centre z (mm)", "pixels beyond (r >= 2π+m)", "share off by -1", "pixels inside (r < 2π-m)",
                      "share wrong inside", "pixels near limit", "order disagreement", "warned"],
-         "rows": [[round(limit["plane_centre_z"], 1), limit["pixels_beyond_limit"], round(limit["beyond_off_by_minus_one"], 4),
+         "rows": [[round(limit["plane_centre_z"], 1), limit["pixels_beyond_limit"],
+                   round(limit["beyond_off_by_minus_one"], 4),
                    limit["pixels_inside"], round(limit["inside_wrong"], 5), limit["pixels_near_limit"],
                    round(limit["order_disagreement"], 4), limit["warned"]]]},
     ]
@@ -171,7 +172,8 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     }
     notes = [
         f"macro rig{' at half camera resolution (quick)' if quick else ''}, seeded shot + read noise, "
-        f"8-bit sinusoidal fringes; PSP reference = 3-step + complementary Gray code (T/2 stripes) decoded by fringe3d.decode "
+        "8-bit sinusoidal fringes; PSP reference = 3-step + complementary Gray code (T/2 stripes) "
+        "decoded by fringe3d.decode "
         f"(its own RMS dz vs truth: {psp_true:.3f} mm)",
         f"geometric-constraint depth range at the scene: {range_mm:.1f} mm beyond z_min (median over the scene)",
         "FTP band-pass windows centred on the carrier predicted by the rig (gradient of Φ_min)",

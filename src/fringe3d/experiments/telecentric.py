@@ -180,7 +180,8 @@ def run(quick: bool = False, seed: int = 0) -> dict:
                   "poorly, and the 25-deg telecentric camera sees that error)",
                   "diagonals and steps from the corner circle centres: camera centre + phase-mapped (u_p, v_p), "
                   "telecentric triangulation (calibrate.telecentric.triangulate_telecentric)",
-                  f"plane tilted 5 deg, {100 * max(f['plane_dropped'] for f in figs.values()):.2f}% outlier pixels dropped "
+                  f"plane tilted 5 deg, {100 * max(f['plane_dropped'] for f in figs.values()):.2f}% "
+                  "outlier pixels dropped "
                   "before the plane fit"]
                  + ([f"quick variant: camera {rig_true.camera.width}x{rig_true.camera.height}, fewer poses/steps"]
                     if quick else []),

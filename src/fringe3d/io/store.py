@@ -61,7 +61,8 @@ class PointMapStore:
                 raise ValueError(f"{path} exists but is not a fringe3d point store (format {attrs.get('format')!r})")
             got = (attrs.get("frames"), attrs.get("height"), attrs.get("width"))
             if got != (frames, height, width):
-                raise ValueError(f"{path} holds {got[0]} frames of {got[2]}x{got[1]}, but this run makes {frames} frames "
+                raise ValueError(f"{path} holds {got[0]} frames of {got[2]}x{got[1]}, "
+                                 f"but this run makes {frames} frames "
                                  f"of {width}x{height}; use a new output folder to start over")
             return cls(g, path)
         g = zarr.open_group(str(path), mode="w")

@@ -37,8 +37,8 @@ class TelecentricCamera:
         object.__setattr__(self, "M", M)
 
     @classmethod
-    def from_pose(cls, magnification: float, R: np.ndarray, t: np.ndarray, cx: float, cy: float, width: int, height: int,
-                  pixel_size: float = 1.0) -> "TelecentricCamera":
+    def from_pose(cls, magnification: float, R: np.ndarray, t: np.ndarray, cx: float, cy: float, width: int,
+                  height: int, pixel_size: float = 1.0) -> "TelecentricCamera":
         """Build ``M`` from a magnification (image mm per object mm), sensor pixel size (mm),
         world-to-camera rotation ``R`` and translation ``t`` and a principal point."""
         s = magnification / pixel_size

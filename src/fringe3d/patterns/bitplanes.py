@@ -54,7 +54,8 @@ def unpack_bitplanes(packed: np.ndarray, count: int) -> np.ndarray:
     if p.ndim != 4 or p.shape[3] != 3 or p.dtype != np.uint8:
         raise ValueError(f"packed frames must be (N, H, W, 3) uint8, got {p.shape} {p.dtype}")
     if not 0 <= count <= PLANES_PER_FRAME * len(p):
-        raise ValueError(f"{len(p)} packed frame(s) hold at most {PLANES_PER_FRAME * len(p)} patterns, asked for {count}")
+        raise ValueError(f"{len(p)} packed frame(s) hold at most {PLANES_PER_FRAME * len(p)} patterns, "
+                         f"asked for {count}")
     out = np.empty((count,) + p.shape[1:3], bool)
     for k in range(count):
         c, bit = PLANE_ORDER[k % PLANES_PER_FRAME]

@@ -82,7 +82,8 @@ def load_gamma(path: str | os.PathLike) -> float:
     """The gamma of a ``gamma.json`` file (``ValueError`` when it is not one)."""
     d = read_json(path, "projector gamma file")
     if d.get("format") != GAMMA_FORMAT:
-        raise ValueError(f"{path} is not a projector gamma file (format {d.get('format')!r}, expected {GAMMA_FORMAT!r}); "
+        raise ValueError(f"{path} is not a projector gamma file "
+                         f"(format {d.get('format')!r}, expected {GAMMA_FORMAT!r}); "
                          f"write one with fringe3d capture --gamma")
     g = d.get("gamma")
     if not (isinstance(g, (int, float)) and math.isfinite(g) and g > 0):

@@ -84,7 +84,8 @@ def build_report(folder: str | Path) -> str:
     if s.get("accuracy"):
         rows = [[a.get("quantity"), a.get("value"), a.get("unit", ""), a.get("truth", ""), a.get("dissertation", "")]
                 for a in s["accuracy"]]
-        parts.append("<h2>Accuracy</h2>" + _table(rows, ["quantity", "value", "unit", "truth", "dissertation"], "accuracy"))
+        parts.append("<h2>Accuracy</h2>"
+                     + _table(rows, ["quantity", "value", "unit", "truth", "dissertation"], "accuracy"))
 
     cal = s.get("calibration")
     if cal:
@@ -109,7 +110,8 @@ def build_report(folder: str | Path) -> str:
             trace = _points_trace(np.load(folder / m["points"]), rng)
             layout = {"title": {"text": m["name"]}, "margin": {"l": 0, "r": 0, "t": 30, "b": 0},
                       "scene": {"aspectmode": "data", "xaxis": {"title": {"text": "x (mm)"}},
-                                "yaxis": {"title": {"text": "y (mm)"}}, "zaxis": {"title": {"text": "z (mm)"}, "autorange": "reversed"},
+                                "yaxis": {"title": {"text": "y (mm)"}},
+                                "zaxis": {"title": {"text": "z (mm)"}, "autorange": "reversed"},
                                 "camera": {"up": {"x": 0, "y": -1, "z": 0}, "eye": {"x": 1.1, "y": -1.1, "z": -1.6}}}}
             plots.append((div, trace, layout))
         parts.append(_img(folder, m.get("error_map"), f"error map {m['name']}"))

@@ -92,7 +92,8 @@ def _device_view(dev, X):
 
 
 def _inside(dev, uv, front, margin):
-    return bool(np.all(front) and np.all(uv[:, 0] > margin * dev.width) and np.all(uv[:, 0] < (1 - margin) * dev.width - 1)
+    return bool(np.all(front) and np.all(uv[:, 0] > margin * dev.width)
+                and np.all(uv[:, 0] < (1 - margin) * dev.width - 1)
                 and np.all(uv[:, 1] > margin * dev.height) and np.all(uv[:, 1] < (1 - margin) * dev.height - 1))
 
 

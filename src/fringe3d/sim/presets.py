@@ -135,7 +135,8 @@ def _well_designed() -> Preset:
                                  frame_rate=120.0, read_noise=0.004, shot_noise=True, bit_depth=8),
                   {"x": (-150.0, 150.0), "y": (-125.0, 125.0), "z": (500.0, 1000.0)},
                   scene="sphere", patterns="three-frequency",
-                  description="well-designed rig: horizontal baseline (4 deg tilt), horizontal fringes nearly depth-blind",
+                  description="well-designed rig: horizontal baseline (4 deg tilt), "
+                              "horizontal fringes nearly depth-blind",
                   extra={"baseline_tilt_deg": 4.0})
 
 

@@ -77,7 +77,8 @@ def make_patterns(spec, width: int, height: int) -> PatternSet:
         return PatternSet.load(spec)
     builders = _named_pattern_builders()
     if spec not in builders:
-        raise ValueError(f"unknown pattern set {spec!r}; expected a manifest file or one of: {', '.join(PATTERN_NAMES)}")
+        raise ValueError(f"unknown pattern set {spec!r}; "
+                         f"expected a manifest file or one of: {', '.join(PATTERN_NAMES)}")
     return builders[spec](width, height)
 
 

@@ -23,8 +23,8 @@ Semantics (chosen so that ``fringe3d capture`` on the virtual rig writes the ver
   one hardware trigger per plane (like a DLP evaluation module in video pattern mode).
 * Faults for tests: ``drop=[k, ...]`` makes the camera miss triggers number ``k`` (counting
   all triggers since opening); ``repeat=[k, ...]`` delivers the frame of trigger ``k`` twice;
-  ``interrupt=k`` raises ``KeyboardInterrupt`` (Ctrl-C) at its ``k``-th frame; ``unplug=k`` makes it fail with :class:`DeviceError` at its
-  ``k``-th frame.
+  ``interrupt=k`` raises ``KeyboardInterrupt`` (Ctrl-C) at its ``k``-th frame; ``unplug=k`` makes it fail
+  with :class:`DeviceError` at its ``k``-th frame.
 """
 from __future__ import annotations
 
@@ -64,8 +64,8 @@ from .simulate import make_scene
 from .validate import check_scene
 
 PROJECTOR_OPTIONS = {"gamma", "defocus", "brightness", "bitplanes", "latency"}
-CAMERA_OPTIONS = {"scene", "seed", "noise", "frame_rate", "bit_depth", "ideal", "drop", "unplug", "exposure", "repeat", "interrupt",
-                  "poses", "hold", "move"}
+CAMERA_OPTIONS = {"scene", "seed", "noise", "frame_rate", "bit_depth", "ideal", "drop", "unplug", "exposure", "repeat",
+                  "interrupt", "poses", "hold", "move"}
 
 
 class HandHeldBoard:
@@ -74,8 +74,8 @@ class HandHeldBoard:
     Pose ``j`` (board -> world ``(R_j, t_j)``, :func:`fringe3d.calibrate.simulated_session.sample_board_poses`)
     is held for ``hold`` s (default 1.6) from ``j * (hold + move)``; during the next ``move`` s (0.2) the board slides
     to pose ``j + 1`` (translation interpolated, rotation switching half-way). After the last
-    pose the board leaves the view. Poses are drawn in the near 60% of the preset's depth range. Boards are rendered like the simulated sessions' (grey
-    circles of albedo 0.35 on 0.9, a two-pixel anti-aliasing ramp).
+    pose the board leaves the view. Poses are drawn in the near 60% of the preset's depth range. Boards are rendered
+    like the simulated sessions' (grey circles of albedo 0.35 on 0.9, a two-pixel anti-aliasing ramp).
     """
 
     moving = True
@@ -474,7 +474,8 @@ def open_virtual_rig(projector_spec, camera_spec=None, patterns=None, scene=None
     if "brightness" in po:
         changes["brightness"] = option(po, "brightness", 0.8, float)
     for key, name, cast_ in (("seed", "seed", int), ("noise", "read_noise", float), ("frame_rate", "frame_rate", float),
-                             ("bit_depth", "bit_depth", int), ("ideal", "ideal", bool), ("exposure", "exposure", float)):
+                             ("bit_depth", "bit_depth", int), ("ideal", "ideal", bool),
+                             ("exposure", "exposure", float)):
         if key in co:
             changes[name] = option(co, key, None, cast_)
     s = s.replace(**changes)
