@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from fringe3d.calibrate.serial_opencv import serial_opencv
+
 #: Distortion models: which Brown coefficients are estimated.
 DIST_MODELS = ("none", "k1", "k1k2", "k1k2p", "full")
 
@@ -115,7 +117,8 @@ def calibrate_device(object_points: list[np.ndarray], image_points: list[np.ndar
         K0 = np.asarray(K_guess, np.float64).copy()
         flags |= cv2.CALIB_USE_INTRINSIC_GUESS
     crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-12)
-    rms, K, dist, rvecs, tvecs = cv2.calibrateCamera(obj, img, (w, h), K0, None, flags=flags, criteria=crit)
+    with serial_opencv():  # bit-reproducible sums
+        rms, K, dist, rvecs, tvecs = cv2.calibrateCamera(obj, img, (w, h), K0, None, flags=flags, criteria=crit)
     K = np.asarray(K, np.float64).reshape(3, 3)
     dist5 = np.zeros(5)
     d = np.asarray(dist, np.float64).ravel()

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from fringe3d.calibrate.serial_opencv import serial_opencv
 from fringe3d.optics import PinholeDevice, Rig
 
 from .boards import CircleBoard
@@ -127,11 +128,12 @@ def calibrate_pinhole_rig(board: CircleBoard, poses: list[PoseObservation], came
         cuv = [cam_uv[i][keep[i]] for i in proj_poses]
         prj = calibrate_device(pobj, puv, projector_size, projector_dist, min_poses, "projector")
         crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-12)
-        out = cv2.stereoCalibrate([o.astype(np.float32).reshape(-1, 1, 3) for o in pobj],
-                                  [c.astype(np.float32).reshape(-1, 1, 2) for c in cuv],
-                                  [p.astype(np.float32).reshape(-1, 1, 2) for p in puv],
-                                  cam.K, cam.dist, prj.K, prj.dist, tuple(int(x) for x in camera_size),
-                                  flags=cv2.CALIB_FIX_INTRINSIC, criteria=crit)
+        with serial_opencv():  # bit-reproducible sums
+            out = cv2.stereoCalibrate([o.astype(np.float32).reshape(-1, 1, 3) for o in pobj],
+                                      [c.astype(np.float32).reshape(-1, 1, 2) for c in cuv],
+                                      [p.astype(np.float32).reshape(-1, 1, 2) for p in puv],
+                                      cam.K, cam.dist, prj.K, prj.dist, tuple(int(x) for x in camera_size),
+                                      flags=cv2.CALIB_FIX_INTRINSIC, criteria=crit)
         stereo_rms, R, T = float(out[0]), np.asarray(out[5], np.float64), np.asarray(out[6], np.float64).ravel()
         if it == passes - 1:
             break

@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 from scipy.optimize import least_squares
 
+from fringe3d.calibrate.serial_opencv import serial_opencv
 from fringe3d.optics import PinholeDevice, Rig, TelecentricCamera
 
 from .boards import CircleBoard
@@ -72,7 +73,8 @@ def board_pose_lm(obj: np.ndarray, uv: np.ndarray, K: np.ndarray, dist: np.ndarr
     else:
         rvec, tvec = np.asarray(rvec0, np.float64).reshape(3, 1), np.asarray(tvec0, np.float64).reshape(3, 1)
     crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-14)
-    rvec, tvec = cv2.solvePnPRefineLM(obj, uv, K, dist, rvec, tvec, criteria=crit)
+    with serial_opencv():  # bit-reproducible sums
+        rvec, tvec = cv2.solvePnPRefineLM(obj, uv, K, dist, rvec, tvec, criteria=crit)
     R, _ = cv2.Rodrigues(rvec)
     return R, np.asarray(tvec, np.float64).ravel()
 
