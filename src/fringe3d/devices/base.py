@@ -126,6 +126,39 @@ class Camera(Protocol):
         ...
 
 
+class GenICamFeatures:
+    """Pixel format and ROI through the GenICam standard feature names, for cameras that
+    implement ``get_feature(name) -> str`` and ``set_feature(name, value)`` (pylon, GenTL)."""
+
+    def get_feature(self, name: str) -> str:  # pragma: no cover - provided by the camera
+        raise NotImplementedError
+
+    def set_feature(self, name: str, value) -> None:  # pragma: no cover - provided by the camera
+        raise NotImplementedError
+
+    @property
+    def pixel_format(self) -> str:
+        return self.get_feature("PixelFormat")
+
+    @pixel_format.setter
+    def pixel_format(self, fmt: str) -> None:
+        check_pixel_format(fmt)
+        self.set_feature("PixelFormat", fmt)
+
+    @property
+    def roi(self) -> tuple[int, int, int, int]:
+        """``(x, y, width, height)`` in sensor pixels (OffsetX, OffsetY, Width, Height)."""
+        x, y, w, h = (int(self.get_feature(n)) for n in ("OffsetX", "OffsetY", "Width", "Height"))
+        return x, y, w, h
+
+    @roi.setter
+    def roi(self, roi) -> None:
+        x, y, w, h = (int(v) for v in roi)
+        # offsets to 0 first so that any new width/height fits, then the requested offsets
+        for name, val in (("OffsetX", 0), ("OffsetY", 0), ("Width", w), ("Height", h), ("OffsetX", x), ("OffsetY", y)):
+            self.set_feature(name, val)
+
+
 @dataclass(frozen=True)
 class DeviceSpec:
     """A parsed ``BACKEND[:ID][?KEY=VALUE&...]`` device spec."""

@@ -21,7 +21,7 @@ from .base import (
     DeviceError,
     DeviceNotFoundError,
     Frame,
-    check_pixel_format,
+    GenICamFeatures,
     check_trigger_mode,
     require_module,
 )
@@ -38,7 +38,7 @@ def parse_ident(ident: str) -> tuple[str, str]:
     return producer, serial
 
 
-class GenICamCamera:
+class GenICamCamera(GenICamFeatures):
     """A GenICam camera through harvesters (see the module docstring)."""
 
     def __init__(self, producer: str, serial: str = "", features: list[tuple[str, str]] | None = None):
@@ -93,25 +93,6 @@ class GenICamCamera:
     @gain.setter
     def gain(self, db: float) -> None:
         self._nm.Gain.value = float(db)
-
-    @property
-    def pixel_format(self) -> str:
-        return self.get_feature("PixelFormat")
-
-    @pixel_format.setter
-    def pixel_format(self, fmt: str) -> None:
-        check_pixel_format(fmt)
-        self.set_feature("PixelFormat", fmt)
-
-    @property
-    def roi(self) -> tuple[int, int, int, int]:
-        return tuple(int(self.get_feature(n)) for n in ("OffsetX", "OffsetY", "Width", "Height"))
-
-    @roi.setter
-    def roi(self, roi) -> None:
-        x, y, w, h = (int(v) for v in roi)
-        for name, val in (("OffsetX", 0), ("OffsetY", 0), ("Width", w), ("Height", h), ("OffsetX", x), ("OffsetY", y)):
-            self.set_feature(name, val)
 
     @property
     def trigger_mode(self) -> str:

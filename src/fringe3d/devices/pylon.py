@@ -26,7 +26,7 @@ from .base import (
     DeviceError,
     DeviceNotFoundError,
     Frame,
-    check_pixel_format,
+    GenICamFeatures,
     check_trigger_mode,
     require_module,
 )
@@ -47,7 +47,7 @@ def _found_text(cams: list[dict]) -> str:
     return "pylon found: " + "; ".join(f"{c['model']} serial {c['serial']} ({c['class']})" for c in cams)
 
 
-class PylonCamera:
+class PylonCamera(GenICamFeatures):
     """A Basler camera (see the module docstring)."""
 
     def __init__(self, serial: str = "", features: list[tuple[str, str]] | None = None):
@@ -139,29 +139,6 @@ class PylonCamera:
         if node is None:
             raise ValueError(f"camera {self.model} has no Gain (dB) feature; set GainRaw with --camera-feature")
         node.SetValue(float(db))
-
-    @property
-    def pixel_format(self) -> str:
-        return self.get_feature("PixelFormat")
-
-    @pixel_format.setter
-    def pixel_format(self, fmt: str) -> None:
-        check_pixel_format(fmt)
-        self.set_feature("PixelFormat", fmt)
-
-    @property
-    def roi(self) -> tuple[int, int, int, int]:
-        return tuple(int(self.get_feature(n)) for n in ("OffsetX", "OffsetY", "Width", "Height"))
-
-    @roi.setter
-    def roi(self, roi) -> None:
-        x, y, w, h = (int(v) for v in roi)
-        self.set_feature("OffsetX", 0)
-        self.set_feature("OffsetY", 0)
-        self.set_feature("Width", w)
-        self.set_feature("Height", h)
-        self.set_feature("OffsetX", x)
-        self.set_feature("OffsetY", y)
 
     @property
     def trigger_mode(self) -> str:
