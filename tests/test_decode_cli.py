@@ -62,3 +62,10 @@ def test_decode_help_has_example(capsys):
         from fringe3d.cli import app
         app(["decode", "--help"])
     assert "Example:" in capsys.readouterr().out
+
+
+def test_error_messages_keep_square_brackets_literally(tmp_path, capsys):
+    from fringe3d.cli import main
+    missing = tmp_path / "take[raw]"  # rich markup would swallow "[raw]"
+    assert main(["decode", str(missing), "-o", str(tmp_path / "out")]) == 2
+    assert "take[raw]" in capsys.readouterr().err.replace("\n", "")

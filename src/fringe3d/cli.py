@@ -16,6 +16,7 @@ import sys
 import warnings
 
 import typer
+from rich.markup import escape
 
 from fringe3d import __version__
 from fringe3d.commands import (
@@ -91,13 +92,13 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as e:  # typer/click exit
         return int(e.code or 0)
     except (ValueError, FileNotFoundError, KeyError) as e:
-        err_console.print(f"[bold red]error:[/] {e}")
+        err_console.print(f"[bold red]error:[/] {escape(str(e))}")
         return EXIT_BAD_INPUT
     except PermissionError as e:
-        err_console.print(f"[bold red]cannot write output:[/] {e}")
+        err_console.print(f"[bold red]cannot write output:[/] {escape(str(e))}")
         return EXIT_WRITE
     except OSError as e:
-        err_console.print(f"[bold red]I/O error:[/] {e}")
+        err_console.print(f"[bold red]I/O error:[/] {escape(str(e))}")
         return EXIT_WRITE
     except Exception as e:  # usage errors of typer's (vendored) click, and the rest
         if hasattr(e, "show") and hasattr(e, "exit_code"):  # ClickException / UsageError

@@ -19,6 +19,7 @@ from rich.progress import (
     TimeElapsedColumn,
     TimeRemainingColumn,
 )
+from rich.markup import escape
 from rich.table import Table
 
 from fringe3d.utils.jsonfile import to_jsonable
@@ -71,7 +72,8 @@ def info(msg: str) -> None:
 
 
 def warn(msg: str) -> None:
-    err_console.print(f"[yellow]warning:[/] {msg}")
+    """``warning: msg`` on stderr; ``msg`` is shown literally (``[...]`` is not rich markup)."""
+    err_console.print(f"[yellow]warning:[/] {escape(msg)}")
 
 
 
