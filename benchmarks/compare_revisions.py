@@ -2,7 +2,7 @@
 
 Each revision is checked out into a temporary git worktree and its own ``bench_decode.py`` and
 ``bench_reconstruct.py`` run with that worktree's ``src/`` first on ``PYTHONPATH`` (same
-interpreter, same machine, alternating A, B, A, B ... so that drift hits both). Prints, per
+interpreter, same machine, alternating A, B, B, A ... so that drift hits both). Prints, per
 benchmark figure, the median over the rounds for each revision and the ratio B / A.
 
 Not part of the test suite (timings need a quiet machine).
@@ -61,9 +61,9 @@ def main(argv=None) -> int:
                            check=True)
         try:
             runs = {(b, k): [] for b in BENCHES for k in trees}
-            for _ in range(args.rounds):
+            for r in range(args.rounds):
                 for bench in BENCHES:
-                    for key in ("a", "b"):
+                    for key in (("a", "b") if r % 2 == 0 else ("b", "a")):  # ABBA: drift hits both
                         runs[bench, key].append(_run(trees[key], bench))
         finally:
             for tree in trees.values():
@@ -83,7 +83,7 @@ def main(argv=None) -> int:
         print(f"A = {args.rev_a}, B = {args.rev_b}, median of {args.rounds} alternating rounds")
         for r in rows:
             ratio = f"{r['ratio_b_over_a']:.3f}" if r["ratio_b_over_a"] is not None else "-"
-            print(f"  {r['bench']:11s} {r['figure']:48s} A {r['a']:10.3f}  B {r['b']:10.3f}  B/A {ratio}")
+            print(f"  {r['bench']:11s} {r['figure']:42s} A {r['a']:10.4g}  B {r['b']:10.4g}  B/A {ratio}")
     return 0
 
 
