@@ -127,14 +127,60 @@ class Camera(Protocol):
 
 
 class GenICamFeatures:
-    """Pixel format and ROI through the GenICam standard feature names, for cameras that
-    implement ``get_feature(name) -> str`` and ``set_feature(name, value)`` (pylon, GenTL)."""
+    """GenICam features by name, pixel format and ROI, for cameras whose SDK exposes a node map
+    (pylon, GenTL). A camera provides ``model``, ``serial`` and three node accessors:
+    ``_feature_node(name)`` (the node, or None when absent), ``_node_text(node)`` and
+    ``_set_node_text(node, text)`` (the SDK's string conversions)."""
 
-    def get_feature(self, name: str) -> str:  # pragma: no cover - provided by the camera
+    model: str
+    serial: str
+    _trigger_mode: str = "off"
+
+    def _feature_node(self, name: str):  # pragma: no cover - provided by the camera
         raise NotImplementedError
 
-    def set_feature(self, name: str, value) -> None:  # pragma: no cover - provided by the camera
+    def _node_text(self, node) -> str:  # pragma: no cover - provided by the camera
         raise NotImplementedError
+
+    def _set_node_text(self, node, text: str) -> None:  # pragma: no cover - provided by the camera
+        raise NotImplementedError
+
+    def _require_node(self, name: str):
+        node = self._feature_node(name)
+        if node is None:
+            raise ValueError(f"camera {self.model} {self.serial} has no feature {name!r}")
+        return node
+
+    def set_feature(self, name: str, value) -> None:
+        """Set any GenICam feature by name from its string form (``ValueError`` names it)."""
+        node = self._require_node(name)
+        try:
+            self._set_node_text(node, str(value))
+        except Exception as e:
+            raise ValueError(f"camera {self.model} {self.serial} refused {name}={value!r}: {e}") from None
+
+    def get_feature(self, name: str) -> str:
+        """Any GenICam feature's value in its string form (``ValueError`` if the camera lacks it)."""
+        return self._node_text(self._require_node(name))
+
+    @property
+    def trigger_mode(self) -> str:
+        return self._trigger_mode
+
+    @trigger_mode.setter
+    def trigger_mode(self, mode: str) -> None:
+        """"off", "software" or "hardware" (Line1, rising edge) on the FrameStart trigger."""
+        check_trigger_mode(mode)
+        if self._feature_node("TriggerSelector") is not None:
+            self.set_feature("TriggerSelector", "FrameStart")
+        if mode == "off":
+            self.set_feature("TriggerMode", "Off")
+        else:
+            self.set_feature("TriggerMode", "On")
+            self.set_feature("TriggerSource", "Software" if mode == "software" else "Line1")
+            if mode == "hardware" and self._feature_node("TriggerActivation") is not None:
+                self.set_feature("TriggerActivation", "RisingEdge")
+        self._trigger_mode = mode
 
     @property
     def pixel_format(self) -> str:

@@ -22,7 +22,6 @@ from .base import (
     DeviceNotFoundError,
     Frame,
     GenICamFeatures,
-    check_trigger_mode,
     require_module,
 )
 
@@ -63,20 +62,14 @@ class GenICamCamera(GenICamFeatures):
             self.set_feature(name, value)
         self.trigger_mode = "off"
 
-    def set_feature(self, name: str, value) -> None:
-        node = getattr(self._nm, name, None)
-        if node is None:
-            raise ValueError(f"camera {self.model} {self.serial} has no feature {name!r}")
-        try:
-            node.from_string(str(value))
-        except Exception as e:
-            raise ValueError(f"camera {self.model} refused {name}={value!r}: {e}") from None
+    def _feature_node(self, name: str):
+        return getattr(self._nm, name, None)
 
-    def get_feature(self, name: str) -> str:
-        node = getattr(self._nm, name, None)
-        if node is None:
-            raise ValueError(f"camera {self.model} {self.serial} has no feature {name!r}")
+    def _node_text(self, node) -> str:
         return node.to_string()
+
+    def _set_node_text(self, node, text: str) -> None:
+        node.from_string(text)
 
     @property
     def exposure(self) -> float:
@@ -94,18 +87,6 @@ class GenICamCamera(GenICamFeatures):
     def gain(self, db: float) -> None:
         self._nm.Gain.value = float(db)
 
-    @property
-    def trigger_mode(self) -> str:
-        return self._trigger_mode
-
-    @trigger_mode.setter
-    def trigger_mode(self, mode: str) -> None:
-        check_trigger_mode(mode)
-        self.set_feature("TriggerSelector", "FrameStart")
-        self.set_feature("TriggerMode", "Off" if mode == "off" else "On")
-        if mode != "off":
-            self.set_feature("TriggerSource", "Software" if mode == "software" else "Line1")
-        self._trigger_mode = mode
 
     def start(self) -> None:
         self._ia.start()

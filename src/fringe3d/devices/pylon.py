@@ -27,7 +27,6 @@ from .base import (
     DeviceNotFoundError,
     Frame,
     GenICamFeatures,
-    check_trigger_mode,
     require_module,
 )
 
@@ -88,21 +87,14 @@ class PylonCamera(GenICamFeatures):
                 return node
         return None
 
-    def set_feature(self, name: str, value) -> None:
-        """Set any GenICam feature by name from its string form (``ValueError`` names it)."""
-        node = self._node(name)
-        if node is None:
-            raise ValueError(f"camera {self.model} {self.serial} has no feature {name!r}")
-        try:
-            node.FromString(str(value))
-        except Exception as e:
-            raise ValueError(f"camera {self.model} {self.serial} refused {name}={value!r}: {e}") from None
+    def _feature_node(self, name: str):
+        return self._node(name)
 
-    def get_feature(self, name: str) -> str:
-        node = self._node(name)
-        if node is None:
-            raise ValueError(f"camera {self.model} {self.serial} has no feature {name!r}")
+    def _node_text(self, node) -> str:
         return node.ToString()
+
+    def _set_node_text(self, node, text: str) -> None:
+        node.FromString(text)
 
     def _tick_frequency(self) -> float:
         node = self._node("GevTimestampTickFrequency")
@@ -140,23 +132,6 @@ class PylonCamera(GenICamFeatures):
             raise ValueError(f"camera {self.model} has no Gain (dB) feature; set GainRaw with --camera-feature")
         node.SetValue(float(db))
 
-    @property
-    def trigger_mode(self) -> str:
-        return self._trigger_mode
-
-    @trigger_mode.setter
-    def trigger_mode(self, mode: str) -> None:
-        check_trigger_mode(mode)
-        if self._node("TriggerSelector") is not None:
-            self.set_feature("TriggerSelector", "FrameStart")
-        if mode == "off":
-            self.set_feature("TriggerMode", "Off")
-        else:
-            self.set_feature("TriggerMode", "On")
-            self.set_feature("TriggerSource", "Software" if mode == "software" else "Line1")
-            if mode == "hardware" and self._node("TriggerActivation") is not None:
-                self.set_feature("TriggerActivation", "RisingEdge")
-        self._trigger_mode = mode
 
     @property
     def max_frame_rate(self) -> float | None:
