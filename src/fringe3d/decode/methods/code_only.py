@@ -18,9 +18,12 @@ from __future__ import annotations
 import numpy as np
 
 from fringe3d.decode.context import DecodeContext
-from fringe3d.decode.methods.temporal import code_frames, projector_code_centers, unwrap_gray_code
+from fringe3d.decode.methods.temporal import code_frames, unwrap_gray_code
+from fringe3d.patterns.conventions import point_at_fringe_coordinate, w_range
+from fringe3d.patterns.render import sinusoid_value
 from fringe3d.decode.result import Unwrapped
 from fringe3d.phase import quality
+from fringe3d.unwrap.temporal import code_centers
 
 #: OpenCV's ``GrayCodePattern`` defaults, in counts of an 8-bit camera.
 DEFAULT_WHITE_THR = 5.0
@@ -44,6 +47,22 @@ def white_black(ctx: DecodeContext) -> tuple[np.ndarray, np.ndarray] | None:
     if not (white and black):
         return None
     return ctx.frames[white[0]].astype(np.float32), ctx.frames[black[0]].astype(np.float32)
+
+
+def pixel_code_centers(ctx: DecodeContext, direct: list[int]) -> np.ndarray:
+    """Codeword -> stripe centre (px) over the projector's pixel centres: the code frames
+    evaluated at integer fringe coordinates ``w`` (pixel centres of ``v``/``h`` stripes), so a
+    stripe of pixels ``c T .. c T + T - 1`` has centre ``c T + (T - 1) / 2`` (``c`` for
+    OpenCV's one-pixel stripes); cached in the context."""
+    key = ("pixel_code_centers", ctx.direction)
+    if key not in ctx.cache:
+        ps = ctx.patterns
+        lo, hi = w_range(ctx.plan.angle, ps.width, ps.height)
+        w = np.arange(np.ceil(lo), np.floor(hi) + 1.0)
+        u, v = point_at_fringe_coordinate(w, ctx.plan.angle)
+        images = np.stack([sinusoid_value(ps.frames[i], u, v, ps.width, ps.height) for i in direct])
+        ctx.cache[key] = code_centers(images, w)
+    return ctx.cache[key]
 
 
 def code_bits(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
@@ -77,7 +96,7 @@ def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
     word = np.zeros(bits.shape[1:], np.int64)
     for b in bits:
         word = word * 2 + b
-    centre = projector_code_centers(ctx, direct)[word]
+    centre = pixel_code_centers(ctx, direct)[word]
     mask = decided & np.isfinite(centre)
     if wb is not None:
         mask &= (wb[0] - wb[1]) >= black_thr
