@@ -98,7 +98,10 @@ def read_pages(path: Path) -> list[np.ndarray]:
     try:
         if path.suffix.lower() in (".tif", ".tiff"):
             with tifffile.TiffFile(path) as tif:
-                return [page.asarray() for page in tif.pages]
+                pages = [page.asarray() for page in tif.pages]
+            # planar RGB pages (3, H, W) -> (H, W, 3)
+            return [np.moveaxis(p, 0, -1) if p.ndim == 3 and p.shape[0] in (3, 4) and p.shape[2] > 4 else p
+                    for p in pages]
         img = cv2.imdecode(np.fromfile(path, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
     except Exception as e:  # decoders raise many types for corrupt files
         raise ValueError(f"{path} is not a readable image ({type(e).__name__}: {e})") from None
