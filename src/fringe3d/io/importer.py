@@ -116,7 +116,9 @@ def read_frames(files: Sequence[Path], channel: str | None = None) -> tuple[np.n
     """((F, H, W) frames, source names ``file`` or ``file#page``, any colour input) of the
     files in order, converted by :func:`to_grey`; ``ValueError`` naming the first file whose
     size or dtype differs from the first frame's."""
-    frames, names, colour = [], [], False
+    frames: list[np.ndarray] = []
+    names: list[str] = []
+    colour = False
     for f in files:
         pages = read_pages(f)
         for k, img in enumerate(pages):
