@@ -272,7 +272,6 @@ def import_images(src: str | os.PathLike, out: str | os.PathLike, *, list_file: 
     if (manifest is None) == (layout is None):
         raise ValueError("describe what was projected with exactly one of --manifest FILE or --set/--layout "
                          f"({', '.join(LAYOUTS)})")
-    files = list_sources(src, list_file)
     if manifest is not None:
         patterns = PatternSet.load(manifest)
         name = f"manifest {manifest}"
@@ -280,4 +279,5 @@ def import_images(src: str | os.PathLike, out: str | os.PathLike, *, list_file: 
         assert layout is not None
         patterns = layout_patterns(layout, projector_size, **layout_options)
         name = layout
+    files = list_sources(src, list_file)
     return import_capture(files, out, patterns, name, channel=channel, bit_depth=bit_depth, overwrite=overwrite)
