@@ -15,9 +15,10 @@ import tifffile
 from fringe3d.cli import main
 from fringe3d.decode import decode, with_method
 from fringe3d.io.capture import read_capture
-from fringe3d.io.importer import import_images, list_sources, natural_key, to_grey
+from fringe3d.io.importer import import_images, list_sources, natural_key, phase_shift_layout, to_grey
 from fringe3d.patterns import render_set, sets
 from fringe3d.patterns.layouts import opencv_graycode
+from fringe3d.patterns.synthetic import frames_from_coordinates
 from fringe3d.sim import presets
 from fringe3d.sim.render import render
 from fringe3d.sim.simulate import make_scene
@@ -138,3 +139,19 @@ def test_bad_input_says_what_was_expected(tmp_path, capsys):
     assert (tmp_path / "full" / "keep.txt").read_text() == "mine"
     assert cli("import", src, "-o", tmp_path / "c", "--set", "phase-shift", "--period", 16) == 2
     assert "--projector-size" in capsys.readouterr().err
+
+
+def test_shift_order_and_sign_describe_frames_stored_in_another_step_order(tmp_path):
+    ps = sets.phase_shift(PERIOD, 4, "v", width=64, height=48)
+    negative = phase_shift_layout(ps, None, -1)  # what the other lab projected: shifts -2 pi k / 4
+    v_p, u_p = np.mgrid[0:24, 4:60].astype(float) + 0.3
+    frames = frames_from_coordinates(negative, u_p, v_p, dtype=np.uint8)
+    order = [2, 0, 3, 1]  # file i holds step order[i]
+    for i, k in enumerate(order):
+        cv2.imwrite(str(tmp_path / f"step{i}.png"), frames[k])
+    assert cli("import", tmp_path, "-o", tmp_path / "cap", "--set", "phase-shift", "--steps", 4, "--period", PERIOD,
+               "--projector-size", "64x48", "--shift-order", "2,0,3,1", "--shift-sign", -1, "--quiet") == 0
+    cap = read_capture(tmp_path / "cap")
+    d = decode(cap.frames, cap.patterns)
+    dphi = np.angle(np.exp(1j * (d.phase["v"] - 2 * np.pi * u_p / PERIOD)))
+    assert np.abs(dphi).max() < 0.02
