@@ -16,6 +16,7 @@ import pytest
 from fringe3d.cli import main
 from fringe3d.decode import METHODS, DecodeOptions, decode, with_method
 from fringe3d.io.capture import read_capture, write_capture
+from fringe3d.pipeline import reconstruct_capture
 from fringe3d.patterns import render_set, sets
 from fringe3d.patterns.layouts import opencv_graycode
 from fringe3d.patterns.manifest import FrameSpec, PatternSet
@@ -23,6 +24,7 @@ from fringe3d.patterns.synthetic import frames_from_coordinates
 from fringe3d.sim import presets
 from fringe3d.sim.render import render
 from fringe3d.sim.simulate import make_scene, simulate_capture
+from fringe3d.sim.truth import Truth
 
 STRIPE = 8.0
 
@@ -137,3 +139,15 @@ def test_code_thresholds_are_options(tiny_noisy):
     frames = frames_from_coordinates(ps, u_p, v_p, dtype=np.uint8) // 8 + 10  # contrast 31 counts
     assert not decode(frames, ps).mask["v"].any()                     # below OpenCV's black_thr 40
     assert decode(frames, ps, options=DecodeOptions(black_thr=20)).mask["v"].all()
+
+
+def test_opencv_gray_code_session_triangulates_unchanged(tmp_path):
+    p = presets.get("tiny")
+    simulate_capture(tmp_path, "tiny", "plane", opencv_graycode(256, 200), progress=False)
+    r = reconstruct_capture(tmp_path, p.rig)
+    truth = Truth.load(tmp_path / "truth")
+    m = np.isfinite(r.points[..., 2]) & truth.mask
+    err = np.linalg.norm(r.points[m] - truth.xyz[m], axis=1)
+    footprint = np.nanmedian(truth.depth) / p.rig.projector.K[0, 0]  # mm per projector pixel at the plane
+    assert m.mean() > 0.9
+    assert np.median(err) < 2 * footprint  # stripe centres are whole projector pixels (+-0.5 px)
