@@ -26,6 +26,7 @@ from fringe3d.commands import (
     demo,
     evaluate,
     experiment,
+    import_,
     patterns,
     reconstruct,
     report,
@@ -36,7 +37,8 @@ from fringe3d.utils.console import err_console, set_quiet, warn
 from fringe3d.utils.warning_types import Fringe3DWarning
 
 #: The sub-command modules, in the order they are registered (and listed by ``--help``).
-COMMANDS = (patterns, capture, simulate, decode, calibrate, reconstruct, evaluate, strain, report, demo, experiment)
+COMMANDS = (patterns, capture, import_, simulate, decode, calibrate, reconstruct, evaluate, strain, report, demo,
+            experiment)
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_WRITE = 0, 1, 2, 3
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from fringe3d.decode import DecodeOptions, decode_sequence
+from fringe3d.decode import DecodeOptions, decode_sequence, with_method
 from fringe3d.io.capture import read_capture
 from fringe3d.optics import Rig
 from fringe3d.utils.console import (
@@ -46,6 +46,15 @@ def register(app: typer.Typer) -> None:
                                             "for modified FTP)."),
         ftp_flip: bool = typer.Option(False, "--ftp-flip",
                                       help="Flip the FTP phase sign (a mirrored view decoded without --rig)."),
+        method: str = typer.Option(None, "--method",
+                                   help="Unwrapping method for every direction, overriding the manifest's plans "
+                                        "(e.g. spatial for a single 3-step set; gray_code_only for codes)."),
+        white_thr: float = typer.Option(None, "--white-thr",
+                                        help="Code-only decoding: smallest code/inverse difference (counts; "
+                                             "default OpenCV's 5 at 8 bits, scaled to the bit depth)."),
+        black_thr: float = typer.Option(None, "--black-thr",
+                                        help="Code-only decoding: smallest white-black difference, the shadow "
+                                             "mask (counts; default OpenCV's 40 at 8 bits, scaled)."),
         json_: bool = typer.Option(False, "--json", help="Print one JSON summary instead of a table."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars or tables."),
     ) -> None:
@@ -60,7 +69,9 @@ def register(app: typer.Typer) -> None:
         t0 = time.perf_counter()
         cap = read_capture(capture, max_cycles=max_cycles)
         bits = bit_depth if bit_depth is not None else cap.meta.get("bit_depth")
-        opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1}
+        opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1,
+                "white_thr": white_thr, "black_thr": black_thr}
+        patterns = cap.patterns if method is None else with_method(cap.patterns, method)
         if ftp_window is not None:
             opts["ftp_window"] = ftp_window
         rig_obj = _load_rig(rig)
@@ -69,7 +80,7 @@ def register(app: typer.Typer) -> None:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             with progress_bar("decoding", n, enabled=n > 1) as advance:
-                for c, dec in enumerate(decode_sequence(cap.frames, cap.patterns, rig=rig_obj,
+                for c, dec in enumerate(decode_sequence(cap.frames, patterns, rig=rig_obj,
                                                                 options=DecodeOptions(z_min=z_min, **opts))):
                     folder = out if n == 1 else out / f"cycle_{c:05d}"
                     dec.save(folder)
@@ -79,7 +90,7 @@ def register(app: typer.Typer) -> None:
                     advance()
         for msg in dict.fromkeys(str(w.message) for w in caught):
             warn(msg)
-        summary = {"capture": str(capture), "out": str(out), "cycles": n, "patterns": cap.patterns.name,
+        summary = {"capture": str(capture), "out": str(out), "cycles": n, "patterns": patterns.name,
                    "frames": int(cap.frames.shape[0]), "shape": list(cap.frames.shape[1:]),
                    "seconds": round(time.perf_counter() - t0, 3), "results": results}
         if json_:

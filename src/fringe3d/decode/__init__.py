@@ -5,10 +5,10 @@ repeated cycles; :class:`DecodeOptions` are the typed options. Each fringe direc
 names a method of :data:`METHODS`, a function ``(DecodeContext) -> Unwrapped``.
 """
 from fringe3d.decode.context import DecodeContext, PhaseGroup
-from fringe3d.decode.decoder import decode, decode_sequence
+from fringe3d.decode.decoder import decode, decode_sequence, with_method
 from fringe3d.decode.methods import METHODS
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.decode.result import Decoded, Unwrapped
 
 __all__ = ["METHODS", "DecodeContext", "DecodeOptions", "Decoded", "PhaseGroup", "Unwrapped",
-           "decode", "decode_sequence"]
+           "decode", "decode_sequence", "with_method"]

@@ -9,6 +9,7 @@ calibration set) runs the fused single-pass kernel
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from typing import Any, Iterator
 
@@ -23,6 +24,26 @@ from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import quality
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.utils.console import progress_bar
+
+
+#: Methods that decode a direction from its code frames alone when it has no phase frames.
+CODE_METHODS = ("gray_code", "binary_code", "gray_code_only")
+
+
+def with_method(patterns: PatternSet, method: str) -> PatternSet:
+    """``patterns`` with every direction's plan (and a ``none`` plan for a direction without
+    one) set to ``method``, a key of :data:`fringe3d.decode.METHODS` (``ValueError`` naming
+    the known methods otherwise), e.g. ``"spatial"`` for a single 3-step set.
+
+    Examples
+    --------
+    >>> from fringe3d.patterns import sets
+    >>> with_method(sets.phase_shift(16, 3, "v", width=64, height=48), "spatial").plans[0].method
+    'spatial'
+    """
+    method_for(method)
+    return dataclasses.replace(patterns, plans=tuple(dataclasses.replace(p, method=method)
+                                                     for p in _plans(patterns)))
 
 
 def _check_count(n_frames: int, ps: PatternSet, sequence: bool) -> int:
@@ -133,17 +154,19 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     for plan in plans:
         ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig,
                             options=opts, min_modulation=min_mod)
-        if not groups_of[plan.direction]:
+        if not groups_of[plan.direction] and plan.method not in CODE_METHODS:
             raise ValueError(f"direction {plan.direction!r} has an unwrapping plan ({plan.method}) but no phase frames "
-                             "in the manifest; the decoder needs phase-shifted or FTP frames (a code-only set "
-                             "gives no phase: combine it with phase frames, e.g. psp_with_gray_code)")
+                             "in the manifest; the decoder needs phase-shifted or FTP frames, or code frames with "
+                             f"one of the code methods {list(CODE_METHODS)}")
         result = method_for(plan.method)(ctx)
         phi, mask = result.phase, result.mask
         # narrowest group of the plan (= ctx.groups_for_plan()[0] without re-reading the manifest thrice)
-        g = ctx.group_for_period(plan.periods[0]) if plan.periods else groups_of[plan.direction][0]
+        g = (None if not groups_of[plan.direction] else
+             ctx.group_for_period(plan.periods[0]) if plan.periods else groups_of[plan.direction][0])
         if result.wrapped is not None and result.modulation is not None:
             wrapped, modulation = result.wrapped, result.modulation
         else:
+            assert g is not None  # a code-only method returns wrapped and modulation
             pr = ctx.group_phase(g)
             wrapped = pr.phase if result.wrapped is None else result.wrapped
             modulation = pr.modulation if result.modulation is None else result.modulation
@@ -156,7 +179,7 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         out.phase[d], out.mask[d] = phase, mask
         out.wrapped[d] = np.asarray(wrapped, np.float32)
         out.modulation[d] = np.asarray(modulation, np.float32)
-        out.period[d] = float(g.period if result.period is None else result.period)
+        out.period[d] = float(result.period if result.period is not None else g.period)  # type: ignore[union-attr]
         out.angle[d] = float(plan.angle)
         out.method[d] = plan.method
         if first is None:
@@ -165,6 +188,7 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     ctx, g, result = first
     average = result.average
     if average is None:
+        assert g is not None  # a code-only method returns its average
         average = ctx.group_phase(g).average
     out.average = np.asarray(average, np.float32)
     white = ps.indices(kind="white")

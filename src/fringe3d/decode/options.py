@@ -40,6 +40,10 @@ class DecodeOptions:
         Object segmentation and motion options of the ``spatial``, ``histogram`` and
         ``hybrid`` methods (rim erosion in pixels, smallest object in pixels, contrast
         threshold, largest displacement in pixels, cross-fringe motion correction).
+    white_thr, black_thr : float, optional
+        Code-only decoding (``gray_code_only``): smallest accepted code/inverse difference and
+        smallest white - black difference (frames' units); default OpenCV's 5 and 40 counts of
+        an 8-bit camera, scaled to the frames' full scale.
     extra : mapping
         Further options for user-added methods (read as ``ctx.options.extra``).
 
@@ -63,4 +67,6 @@ class DecodeOptions:
     min_ratio: float | None = None
     max_shift: float | None = None
     cross_motion: bool | None = None
+    white_thr: float | None = None
+    black_thr: float | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)

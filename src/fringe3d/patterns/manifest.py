@@ -45,7 +45,7 @@ FRAME_KINDS = (
 FRAME_ROLES = ("phase", "code", "reference", "texture")
 #: Unwrapping methods a direction may name.
 UNWRAP_METHODS = (
-    "none", "hierarchical", "heterodyne", "gray_code", "binary_code",
+    "none", "hierarchical", "heterodyne", "gray_code", "binary_code", "gray_code_only",
     "geometric", "two_frequency_geometric", "hybrid", "spatial", "histogram",
 )
 

@@ -10,11 +10,12 @@ from __future__ import annotations
 from typing import Callable
 
 from fringe3d.decode.context import DecodeContext
+from fringe3d.decode.methods.code_only import unwrap_code, unwrap_code_only
 from fringe3d.decode.methods.geometric import unwrap_geometric, unwrap_two_frequency_geometric
 from fringe3d.decode.methods.histogram import unwrap_histogram
 from fringe3d.decode.methods.hybrid import unwrap_hybrid
 from fringe3d.decode.methods.spatial import unwrap_spatial
-from fringe3d.decode.methods.temporal import unwrap_gray_code, unwrap_heterodyne, unwrap_hierarchical, unwrap_none
+from fringe3d.decode.methods.temporal import unwrap_heterodyne, unwrap_hierarchical, unwrap_none
 from fringe3d.decode.result import Unwrapped
 
 Method = Callable[[DecodeContext], Unwrapped]
@@ -23,8 +24,9 @@ METHODS: dict[str, Method] = {
     "none": unwrap_none,
     "hierarchical": unwrap_hierarchical,
     "heterodyne": unwrap_heterodyne,
-    "gray_code": unwrap_gray_code,
-    "binary_code": unwrap_gray_code,
+    "gray_code": unwrap_code,
+    "binary_code": unwrap_code,
+    "gray_code_only": unwrap_code_only,
     "geometric": unwrap_geometric,
     "two_frequency_geometric": unwrap_two_frequency_geometric,
     "spatial": unwrap_spatial,

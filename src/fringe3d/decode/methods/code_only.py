@@ -1,0 +1,115 @@
+"""Decoding method ``gray_code_only``: a Gray- or binary-code capture without phase frames.
+
+Each code bit is 1 where the code frame is brighter than its inverse frame or, without
+inverse frames, than the mean of the white and black frames. The codeword selects the
+projector stripe (:func:`fringe3d.unwrap.temporal.code_centers`); the method returns the
+stripe centre ``c`` (px) as the absolute phase ``Phi = 2 pi c / T`` of the nominal period
+``T`` = the code's stripe width, so :meth:`fringe3d.decode.Decoded.projector_coordinate`
+gives ``c`` and triangulation works unchanged.
+
+Validity (as OpenCV's ``GrayCodePattern.getProjPixel``): every bit must be decided by at
+least ``white_thr`` (``|I - I_inv| >= white_thr``; without inverses ``|I - (W + B)/2| >=
+white_thr / 2``), and, when white and black frames are present, the pixel must be lit,
+``W - B >= black_thr`` (shadow mask). Defaults are OpenCV's, 5 and 40 counts of an 8-bit
+camera, scaled by ``full_scale / 255`` for other bit depths.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from fringe3d.decode.context import DecodeContext
+from fringe3d.decode.methods.temporal import code_frames, unwrap_gray_code
+from fringe3d.patterns.conventions import point_at_fringe_coordinate, w_range
+from fringe3d.patterns.render import sinusoid_value
+from fringe3d.decode.result import Unwrapped
+from fringe3d.phase import quality
+from fringe3d.unwrap.temporal import code_centers
+
+#: OpenCV's ``GrayCodePattern`` defaults, in counts of an 8-bit camera.
+DEFAULT_WHITE_THR = 5.0
+DEFAULT_BLACK_THR = 40.0
+
+
+def code_thresholds(ctx: DecodeContext) -> tuple[float, float]:
+    """(white_thr, black_thr) in the frames' units: the options', else OpenCV's defaults
+    scaled to the frames' full scale (:func:`fringe3d.phase.quality.full_scale`)."""
+    scale = quality.full_scale(ctx.frames, ctx.bit_depth) / 255.0
+    white = ctx.method_option("white_thr")
+    black = ctx.method_option("black_thr")
+    return (DEFAULT_WHITE_THR * scale if white is None else float(white),
+            DEFAULT_BLACK_THR * scale if black is None else float(black))
+
+
+def white_black(ctx: DecodeContext) -> tuple[np.ndarray, np.ndarray] | None:
+    """(white, black) float32 frames of the manifest, or None when either is missing."""
+    white = ctx.patterns.indices(kind="white")
+    black = ctx.patterns.indices(kind="black")
+    if not (white and black):
+        return None
+    return ctx.frames[white[0]].astype(np.float32), ctx.frames[black[0]].astype(np.float32)
+
+
+def pixel_code_centers(ctx: DecodeContext, direct: list[int]) -> np.ndarray:
+    """Codeword -> stripe centre (px) over the projector's pixel centres: the code frames
+    evaluated at integer fringe coordinates ``w`` (pixel centres of ``v``/``h`` stripes), so a
+    stripe of pixels ``c T .. c T + T - 1`` has centre ``c T + (T - 1) / 2`` (``c`` for
+    OpenCV's one-pixel stripes); cached in the context."""
+    key = ("pixel_code_centers", ctx.direction)
+    if key not in ctx.cache:
+        ps = ctx.patterns
+        lo, hi = w_range(ctx.plan.angle, ps.width, ps.height)
+        w = np.arange(np.ceil(lo), np.floor(hi) + 1.0)
+        u, v = point_at_fringe_coordinate(w, ctx.plan.angle)
+        images = np.stack([sinusoid_value(ps.frames[i], u, v, ps.width, ps.height) for i in direct])
+        ctx.cache[key] = code_centers(images, w)
+    return ctx.cache[key]
+
+
+def code_bits(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
+              wb: tuple[np.ndarray, np.ndarray] | None, white_thr: float) -> tuple[np.ndarray, np.ndarray,
+                                                                                    np.ndarray]:
+    """(bits (B, H, W) bool, decided (H, W) bool, contrast (H, W) float32): each bit, whether
+    every bit cleared ``white_thr``, and the smallest bit contrast ``|I - I_inv|``."""
+    code = ctx.frames[direct].astype(np.float32)
+    if inverse is not None:
+        diff = code - ctx.frames[inverse].astype(np.float32)
+        margin = white_thr
+    elif wb is not None:
+        diff = code - 0.5 * (wb[0] + wb[1])
+        margin = 0.5 * white_thr
+    else:
+        raise ValueError(f"direction {ctx.direction!r}: a code-only capture needs inverse code frames or a white "
+                         "and a black frame to threshold the code bits; the manifest has neither")
+    contrast = np.abs(diff).min(axis=0)
+    return diff > 0, contrast >= margin, (contrast if inverse is not None else 2.0 * contrast)
+
+
+def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
+    """Plan ``method="gray_code_only"`` (and ``gray_code`` / ``binary_code`` plans of a
+    direction without phase frames): the stripe centre from the code alone, as the absolute
+    phase of the nominal period ``T`` (the code frames' stripe width); see the module docstring."""
+    direct, inverse = code_frames(ctx)
+    period = float(ctx.patterns.frames[direct[0]].period)
+    white_thr, black_thr = code_thresholds(ctx)
+    wb = white_black(ctx)
+    bits, decided, contrast = code_bits(ctx, direct, inverse, wb, white_thr)
+    word = np.zeros(bits.shape[1:], np.int64)
+    for b in bits:
+        word = word * 2 + b
+    centre = pixel_code_centers(ctx, direct)[word]
+    mask = decided & np.isfinite(centre)
+    if wb is not None:
+        mask &= (wb[0] - wb[1]) >= black_thr
+    mask &= ~(ctx.frames[direct] >= quality.saturation_level(ctx.frames, ctx.bit_depth)).any(axis=0)
+    phase = np.where(mask, 2.0 * np.pi * centre / period, np.nan).astype(np.float32)
+    wrapped = np.angle(np.exp(1j * np.nan_to_num(phase))).astype(np.float32)
+    average = (0.5 * (wb[0] + wb[1]) if wb is not None else ctx.frames[direct].astype(np.float32).mean(axis=0))
+    return Unwrapped(phase, mask, wrapped=wrapped, modulation=contrast.astype(np.float32),
+                     average=np.asarray(average, np.float32), period=period, phase_is_masked=True)
+
+
+def unwrap_code(ctx: DecodeContext) -> Unwrapped:
+    """Plan ``method="gray_code"`` / ``"binary_code"``: code + phase
+    (:func:`fringe3d.decode.methods.temporal.unwrap_gray_code`) when the direction has phase
+    frames, else the code alone (:func:`unwrap_code_only`)."""
+    return unwrap_gray_code(ctx) if ctx.phase_groups() else unwrap_code_only(ctx)

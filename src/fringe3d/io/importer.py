@@ -1,0 +1,283 @@
+"""Import another lab's image sequence as a standard capture folder.
+
+:func:`import_capture` reads frames with any names (natural sort of a folder or glob, or an
+explicit list file), PNG, TIFF (single- and multi-page), BMP and JPEG, 8/10/12/16-bit, grey
+or colour, converts them with :func:`to_grey`, checks the count against the pattern layout
+and writes ``manifest.json``, ``frames/`` and ``capture.json`` (source files, conversion,
+bit depth) through :func:`fringe3d.io.capture.write_capture`.
+
+Colour conversion (the one place; the command line and the API both call it): ITU-R BT.601
+luma ``Y = 0.299 R + 0.587 G + 0.114 B``, rounded to the source dtype, or one channel
+(``channel="r" | "g" | "b"``).
+"""
+from __future__ import annotations
+
+import glob
+import os
+import re
+from dataclasses import replace
+from pathlib import Path
+from typing import Sequence
+
+import cv2
+import numpy as np
+import tifffile
+
+from fringe3d.io.capture import write_capture
+from fringe3d.patterns import sets
+from fringe3d.patterns.layouts import opencv_graycode, opencv_graycode_bits, opencv_graycode_count
+from fringe3d.patterns.manifest import PatternSet
+
+#: Image files the importer reads.
+IMPORT_SUFFIXES = (".png", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg")
+#: BT.601 luma weights (R, G, B).
+BT601 = (0.299, 0.587, 0.114)
+CHANNELS = {"r": 0, "g": 1, "b": 2}
+LAYOUTS = ("phase-shift", "gray-code", "opencv-graycode")
+
+
+def natural_key(path: Path) -> list:
+    """Sort key: digit runs compare as numbers (``img_2`` before ``img_10``)."""
+    return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", path.name)]
+
+
+def list_sources(src: str | os.PathLike, list_file: str | os.PathLike | None = None) -> list[Path]:
+    """Frame files in projection order: the lines of ``list_file`` (relative to its folder;
+    blank lines and ``#`` comments skipped), else the image files of folder ``src`` or of the
+    glob ``src``, naturally sorted. ``FileNotFoundError`` naming what is missing."""
+    if list_file is not None:
+        lf = Path(list_file)
+        if not lf.is_file():
+            raise FileNotFoundError(f"list file {lf} does not exist")
+        names = [ln.strip() for ln in lf.read_text().splitlines() if ln.strip() and not ln.startswith("#")]
+        files = [p if p.is_absolute() else lf.parent / p for p in map(Path, names)]
+        missing = [str(p) for p in files if not p.is_file()]
+        if missing:
+            raise FileNotFoundError(f"{lf} lists {len(missing)} file(s) that do not exist: {missing[:5]}")
+    else:
+        s = str(src)
+        if Path(s).is_dir():
+            files = [p for p in Path(s).iterdir() if p.suffix.lower() in IMPORT_SUFFIXES]
+        else:
+            files = [Path(p) for p in glob.glob(s) if Path(p).suffix.lower() in IMPORT_SUFFIXES]
+        files.sort(key=natural_key)
+    if not files:
+        raise FileNotFoundError(f"no image files ({', '.join(IMPORT_SUFFIXES)}) found at {src}")
+    return files
+
+
+def to_grey(img: np.ndarray, channel: str | None = None) -> np.ndarray:
+    """(H, W) grey image from (H, W) or RGB(A) (H, W, C) ``img`` (channels in R, G, B order):
+    BT.601 luma ``0.299 R + 0.587 G + 0.114 B`` rounded to the input dtype, or the
+    ``channel`` ``"r"``/``"g"``/``"b"``. Grey input is returned unchanged.
+
+    Examples
+    --------
+    >>> to_grey(np.array([[[100, 200, 50]]], np.uint8)).tolist()
+    [[153]]
+    """
+    if img.ndim == 2:
+        return img
+    if img.ndim != 3 or img.shape[2] not in (1, 3, 4):
+        raise ValueError(f"an image of shape {img.shape} is neither grey nor RGB(A)")
+    if img.shape[2] == 1:
+        return img[..., 0]
+    if channel is not None:
+        if channel not in CHANNELS:
+            raise ValueError(f"channel must be one of {sorted(CHANNELS)}, got {channel!r}")
+        return np.ascontiguousarray(img[..., CHANNELS[channel]])
+    y = img[..., :3].astype(np.float64) @ np.asarray(BT601)
+    if img.dtype.kind in "ui":
+        return np.clip(np.rint(y), 0, np.iinfo(img.dtype).max).astype(img.dtype)
+    return y.astype(img.dtype)
+
+
+def read_pages(path: Path) -> list[np.ndarray]:
+    """The images in one file, RGB channel order: every page of a TIFF, else one image
+    (OpenCV, BGR turned to RGB). ``ValueError`` naming the file when it cannot be read."""
+    try:
+        if path.suffix.lower() in (".tif", ".tiff"):
+            with tifffile.TiffFile(path) as tif:
+                pages = [page.asarray() for page in tif.pages]
+            # planar RGB pages (3, H, W) -> (H, W, 3)
+            return [np.moveaxis(p, 0, -1) if p.ndim == 3 and p.shape[0] in (3, 4) and p.shape[2] > 4 else p
+                    for p in pages]
+        img = cv2.imdecode(np.fromfile(path, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+    except Exception as e:  # decoders raise many types for corrupt files
+        raise ValueError(f"{path} is not a readable image ({type(e).__name__}: {e})") from None
+    if img is None:
+        raise ValueError(f"{path} is not a readable image (PNG, TIFF, BMP or JPEG expected)")
+    if img.ndim == 3 and img.shape[2] >= 3:
+        img = cv2.cvtColor(img, cv2.COLOR_BGRA2RGBA if img.shape[2] == 4 else cv2.COLOR_BGR2RGB)
+    return [img]
+
+
+def read_frames(files: Sequence[Path], channel: str | None = None) -> tuple[np.ndarray, list[str], bool]:
+    """((F, H, W) frames, source names ``file`` or ``file#page``, any colour input) of the
+    files in order, converted by :func:`to_grey`; ``ValueError`` naming the first file whose
+    size or dtype differs from the first frame's."""
+    frames: list[np.ndarray] = []
+    names: list[str] = []
+    colour = False
+    for f in files:
+        pages = read_pages(f)
+        for k, img in enumerate(pages):
+            colour |= img.ndim == 3 and img.shape[2] >= 3
+            g = to_grey(img, channel)
+            if frames and (g.shape != frames[0].shape or g.dtype != frames[0].dtype):
+                raise ValueError(f"{f}{f'#{k}' if len(pages) > 1 else ''} is {g.shape[1]}x{g.shape[0]} {g.dtype} "
+                                 f"but {names[0]} is {frames[0].shape[1]}x{frames[0].shape[0]} {frames[0].dtype}; "
+                                 "all frames must have one size and bit depth")
+            frames.append(g)
+            names.append(f"{f}#{k}" if len(pages) > 1 else str(f))
+    if frames[0].dtype not in (np.uint8, np.uint16):
+        raise ValueError(f"{names[0]} is {frames[0].dtype}; expected 8- or 16-bit integer images")
+    return np.stack(frames), names, colour
+
+
+def check_bit_depth(frames: np.ndarray, bit_depth: int | None) -> int:
+    """The frames' bit depth: ``bit_depth`` (8, 10, 12, 14 or 16; 10-14 stored in 16-bit
+    files, checked against the largest value) or the dtype's 8 / 16."""
+    native = 8 if frames.dtype == np.uint8 else 16
+    if bit_depth is None:
+        return native
+    if bit_depth not in (8, 10, 12, 14, 16) or bit_depth > native:
+        raise ValueError(f"bit depth {bit_depth} does not fit {frames.dtype} frames; expected 8 for 8-bit files, "
+                         "10, 12, 14 or 16 for 16-bit files")
+    top = int(frames.max())
+    if top >= 2 ** bit_depth:
+        raise ValueError(f"frames reach {top}, above the {bit_depth}-bit maximum {2 ** bit_depth - 1}; "
+                         "is the bit depth right (or are the values left-aligned in 16 bits)?")
+    return bit_depth
+
+
+def require_size(projector_size: tuple[int, int] | None, layout: str) -> tuple[int, int]:
+    """The projector size, or ``ValueError`` saying the layout needs it."""
+    if projector_size is None:
+        raise ValueError(f"--layout/--set {layout} needs the projector size (--projector-size WxH, e.g. 1024x768): "
+                         "it fixes the code bits and the unwrapping range and is not guessed")
+    return projector_size
+
+
+def layout_patterns(layout: str, projector_size: tuple[int, int] | None = None, steps: int = 3,
+                    period: float | None = None, direction: str = "v", shift_order: Sequence[int] | None = None,
+                    shift_sign: int = 1, unwrap: str | None = None, inverse: bool = True) -> PatternSet:
+    """The :class:`PatternSet` a layout describes: ``"phase-shift"`` (``steps`` frames of
+    ``period`` px along ``direction``; captured step order ``shift_order`` (frame i holds
+    step ``shift_order[i]``), ``shift_sign=-1`` for shifts ``-2 pi k / N``; plan method
+    ``unwrap``, default ``"none"``), ``"gray-code"`` (stripes of ``period`` px, with or
+    without inverses) or ``"opencv-graycode"`` (:func:`fringe3d.patterns.layouts.opencv_graycode`).
+    The projector size is required."""
+    if layout not in LAYOUTS:
+        raise ValueError(f"unknown layout {layout!r}; expected one of {LAYOUTS} or a manifest (--manifest)")
+    width, height = require_size(projector_size, layout)
+    if layout == "opencv-graycode":
+        return opencv_graycode(width, height)
+    if period is None:
+        raise ValueError(f"--set {layout} needs the fringe/stripe period in projector pixels (--period T)")
+    if layout == "gray-code":
+        ps = sets.gray_code(period, direction, width=width, height=height, inverse=inverse)
+    else:
+        ps = phase_shift_layout(sets.phase_shift(period, steps, direction, width=width, height=height),
+                                shift_order, shift_sign)
+    return ps if unwrap is None else replace(ps, plans=tuple(replace(p, method=unwrap) for p in ps.plans))
+
+
+def phase_shift_layout(ps: PatternSet, shift_order: Sequence[int] | None, shift_sign: int) -> PatternSet:
+    """``ps`` with its frames reordered (frame i = step ``shift_order[i]``) and shifts negated
+    for ``shift_sign=-1``."""
+    n = len(ps.frames)
+    order = list(range(n)) if shift_order is None else [int(k) for k in shift_order]
+    if sorted(order) != list(range(n)):
+        raise ValueError(f"--shift-order {order} must list the steps 0..{n - 1} once each")
+    if shift_sign not in (1, -1):
+        raise ValueError(f"--shift-sign must be +1 or -1, got {shift_sign}")
+    frames = tuple(replace(ps.frames[k], shift=shift_sign * ps.frames[k].shift) for k in order)
+    return replace(ps, frames=frames)
+
+
+def count_message(layout: str, patterns: PatternSet, got: int) -> str:
+    """What a layout expects, for a frame count that does not match."""
+    if layout == "opencv-graycode":
+        bu, bv = opencv_graycode_bits(patterns.width, patterns.height)
+        return (f"--layout opencv-graycode for a {patterns.width}x{patterns.height} projector expects "
+                f"2*({bu}+{bv})+2 = {opencv_graycode_count(patterns.width, patterns.height)} frames, got {got}")
+    return (f"{layout} ({patterns.name}) expects {len(patterns)} frames (or a multiple, for a sequence), got {got}")
+
+
+def check_output(out: Path, overwrite: bool) -> None:
+    """Refuse an output that is a file, or a non-empty folder unless ``overwrite``."""
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"output {out} exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()) and not overwrite:
+        raise ValueError(f"output folder {out} is not empty; choose an empty folder or pass --overwrite")
+
+
+def import_capture(files: Sequence[Path], out: str | os.PathLike, patterns: PatternSet, layout: str = "manifest",
+                   channel: str | None = None, bit_depth: int | None = None, overwrite: bool = False) -> dict:
+    """Read ``files`` (see :func:`list_sources`), convert (:func:`to_grey`) and write the
+    capture folder ``out`` for ``patterns``. Returns the summary written as ``capture.json``
+    (``source_files``, ``conversion``, ``bit_depth``, ``source_dtype``, ``layout``, ...).
+
+    Raises ``ValueError`` for a frame count that does not fit the layout (saying what was
+    expected), a non-empty output folder without ``overwrite``, unreadable or mismatched
+    frames and a wrong bit depth.
+    """
+    out = Path(out)
+    check_output(out, overwrite)
+    frames, names, colour = read_frames(files, channel)
+    if len(frames) % len(patterns):
+        raise ValueError(count_message(layout, patterns, len(frames)))
+    bits = check_bit_depth(frames, bit_depth)
+    conversion = ("none (grey input)" if not colour else f"channel {channel}" if channel
+                  else "ITU-R BT.601 luma 0.299 R + 0.587 G + 0.114 B")
+    meta = {"imported": True, "layout": layout, "source_files": names, "conversion": conversion,
+            "source_dtype": str(frames.dtype), "bit_depth": bits, "patterns": patterns.name}
+    write_capture(out, frames, patterns, meta)
+    return {**meta, "folder": str(out), "frames": int(len(frames)), "camera": [int(frames.shape[2]),
+                                                                                int(frames.shape[1])]}
+
+
+def parse_size(text: str | None) -> tuple[int, int] | None:
+    """``"1024x768"`` -> (1024, 768); None stays None; ``ValueError`` for anything else."""
+    if text is None:
+        return None
+    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
+    if m is None or int(m.group(1)) <= 0 or int(m.group(2)) <= 0:
+        raise ValueError(f"projector size {text!r} must be WIDTHxHEIGHT in pixels, e.g. 1024x768")
+    return int(m.group(1)), int(m.group(2))
+
+
+def import_images(src: str | os.PathLike, out: str | os.PathLike, *, list_file: str | os.PathLike | None = None,
+                  manifest: str | os.PathLike | None = None, layout: str | None = None,
+                  projector_size: tuple[int, int] | None = None, channel: str | None = None,
+                  bit_depth: int | None = None, overwrite: bool = False, **layout_options) -> dict:
+    """``fringe3d import``: frames of ``src`` (folder or glob; or ``list_file``) described by
+    a pattern ``manifest`` file or a ``layout`` (:func:`layout_patterns` with
+    ``projector_size`` and ``layout_options``) -> capture folder ``out`` (:func:`import_capture`).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from fringe3d.patterns import render_set
+    >>> ps = layout_patterns("phase-shift", (64, 48), steps=3, period=16)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     for i, img in enumerate(render_set(ps)):
+    ...         ok = cv2.imwrite(f"{tmp}/shot_{i + 1}.bmp", img)
+    ...     s = import_images(tmp, f"{tmp}/capture", layout="phase-shift", projector_size=(64, 48), steps=3,
+    ...                       period=16)
+    >>> s["frames"], s["bit_depth"], s["source_files"][0].endswith("shot_1.bmp")
+    (3, 8, True)
+    """
+    if (manifest is None) == (layout is None):
+        raise ValueError("describe what was projected with exactly one of --manifest FILE or --set/--layout "
+                         f"({', '.join(LAYOUTS)})")
+    if manifest is not None:
+        patterns = PatternSet.load(manifest)
+        name = f"manifest {manifest}"
+    else:
+        assert layout is not None
+        patterns = layout_patterns(layout, projector_size, **layout_options)
+        name = layout
+    files = list_sources(src, list_file)
+    return import_capture(files, out, patterns, name, channel=channel, bit_depth=bit_depth, overwrite=overwrite)

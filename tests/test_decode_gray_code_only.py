@@ -1,0 +1,153 @@
+"""Gray-code-only captures decode to projector columns and rows (issue 13, item 2).
+
+Truth: the simulator's projector coordinates and shadow mask (``sim.truth``), and OpenCV's
+documented ``GrayCodePattern`` layout transcribed below (opencv-contrib is not installed:
+the layout is checked against frames rendered by this NumPy transcription of
+``GrayCodePattern_Impl::generate``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from fringe3d.cli import main
+from fringe3d.decode import METHODS, DecodeOptions, decode, with_method
+from fringe3d.io.capture import read_capture, write_capture
+from fringe3d.pipeline import reconstruct_capture
+from fringe3d.patterns import render_set, sets
+from fringe3d.patterns.layouts import opencv_graycode
+from fringe3d.patterns.manifest import FrameSpec, PatternSet
+from fringe3d.patterns.synthetic import frames_from_coordinates
+from fringe3d.sim import presets
+from fringe3d.sim.render import render
+from fringe3d.sim.simulate import make_scene, simulate_capture
+from fringe3d.sim.truth import Truth
+
+STRIPE = 8.0
+
+
+def gray_sets(width: int, height: int, inverse: bool, white_black: bool = True):
+    ps = sets.gray_code(STRIPE, "v", width=width, height=height, inverse=inverse).concat(
+        sets.gray_code(STRIPE, "h", width=width, height=height, inverse=inverse))
+    if white_black:
+        ps = dataclasses.replace(ps, frames=ps.frames + (FrameSpec(kind="white", role="texture"),
+                                                         FrameSpec(kind="black", role="reference")))
+    return ps
+
+
+@pytest.fixture(scope="module")
+def tiny_noisy():
+    """The tiny rig with the well-designed preset's default sensor noise (read + shot)."""
+    p = presets.get("tiny")
+    ref = presets.get("well-designed").settings
+    return p, p.settings.replace(read_noise=ref.read_noise, shot_noise=ref.shot_noise, seed=3)
+
+
+def stripe_index(w: np.ndarray) -> np.ndarray:
+    """Stripe of projector coordinate ``w`` (pixel centres at integers, stripe c covers
+    pixels c*T .. c*T + T - 1)."""
+    return np.floor((w + 0.5) / STRIPE)
+
+
+@pytest.mark.parametrize("inverse", [True, False], ids=["inverses", "white-black-only"])
+def test_gray_code_only_capture_gives_exact_stripes_and_masks_the_shadow(tiny_noisy, inverse):
+    p, settings = tiny_noisy
+    ps = gray_sets(p.rig.projector.width, p.rig.projector.height, inverse)
+    frames, truth = render(make_scene("textured-spheres", p), p.rig, ps, settings, progress=False)
+    d = decode(frames, ps)
+    for direction, true_w in (("v", truth.up), ("h", truth.vp)):
+        mask = d.mask[direction]
+        assert not (mask & ~truth.mask).any()  # nothing shadowed or off the projector is kept
+        masked, shadow = 1 - mask.mean(), 1 - truth.mask.mean()
+        assert abs(masked - shadow) <= 0.01, (masked, shadow)
+        w = d.projector_coordinate(direction)
+        exact = stripe_index(w[mask]) == stripe_index(true_w[mask])
+        assert exact.mean() >= 0.999
+        assert d.period[direction] == STRIPE and d.method[direction] == "gray_code"
+
+
+def test_opencv_layout_matches_opencvs_documented_generate_order():
+    W, H = 40, 20
+    ps = opencv_graycode(W, H)
+    frames = render_set(ps)
+    ncol, nrow = int(np.ceil(np.log2(W))), int(np.ceil(np.log2(H)))
+    expect = np.zeros((2 * (ncol + nrow) + 2, H, W), np.uint8)
+    for j in range(W):  # transcription of GrayCodePattern_Impl::generate (vertical stripes)
+        num, prev = j, j % 2
+        for k in range(ncol):
+            num //= 2
+            rem = num % 2
+            flag = int(rem != prev)
+            expect[2 * ncol - 2 * k - 2, :, j] = 255 * flag
+            expect[2 * ncol - 2 * k - 1, :, j] = 255 * (1 - flag)
+            prev = rem
+    for i in range(H):  # horizontal stripes
+        num, prev = i, i % 2
+        for k in range(nrow):
+            num //= 2
+            rem = num % 2
+            flag = int(rem != prev)
+            expect[2 * ncol + 2 * nrow - 2 * k - 2, i, :] = 255 * flag
+            expect[2 * ncol + 2 * nrow - 2 * k - 1, i, :] = 255 * (1 - flag)
+            prev = rem
+    expect[-2] = 255  # getImagesForShadowMasks: white, then black
+    np.testing.assert_array_equal(frames, expect)
+
+
+def test_opencv_layout_decodes_to_the_projector_pixel():
+    ps = opencv_graycode(64, 48)
+    v_p, u_p = np.mgrid[0:24, 10:42].astype(float) + 0.2  # a camera seeing one projector pixel per pixel
+    frames = frames_from_coordinates(ps, u_p, 2 * v_p, dtype=np.uint8)
+    d = decode(frames, ps)
+    assert d.mask["v"].all() and d.mask["h"].all()
+    # the stripe index is the projector pixel (float32 phase: 1e-4 px rounding)
+    np.testing.assert_allclose(d.projector_coordinate("v"), np.round(u_p), atol=1e-4)
+    np.testing.assert_allclose(d.projector_coordinate("h"), np.round(2 * v_p), atol=1e-4)
+
+
+def test_patterns_gray_code_set_decodes_through_the_cli(tmp_path):
+    assert main(["patterns", "--set", "gray-code", "--period", "8", "--width", "64", "--height", "48",
+                 "-o", str(tmp_path / "pat"), "--quiet"]) == 0
+    ps = PatternSet.load(tmp_path / "pat" / "manifest.json")
+    v_p, u_p = np.mgrid[0:16, 3:60].astype(float)
+    write_capture(tmp_path / "cap", frames_from_coordinates(ps, u_p, v_p, dtype=np.uint8), ps)
+    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "out"), "--quiet"]) == 0
+    w = np.load(tmp_path / "out" / "decoded.npz")
+    phase = w[[k for k in w.files if k.startswith("phase")][0]]
+    np.testing.assert_array_equal(np.floor(phase * 8 / (2 * np.pi) / 8), np.floor((u_p + 0.5) / 8))
+
+
+def test_decode_method_overrides_the_plan_and_unknown_names_list_the_methods(tmp_path, capsys):
+    ps = sets.phase_shift(16, 3, "v", width=256, height=200)
+    simulate_capture(tmp_path / "cap", "tiny", "sphere", ps, progress=False)
+    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "o1"), "--method", "spatial",
+                 "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["results"][0]["directions"]["v"]["method"] == "spatial"
+    assert with_method(read_capture(tmp_path / "cap").patterns, "spatial").plans[0].method == "spatial"
+    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "o2"), "--method", "nope"]) == 2
+    err = capsys.readouterr().err
+    assert "nope" in err and all(m in err for m in METHODS)
+
+
+def test_code_thresholds_are_options(tiny_noisy):
+    ps = opencv_graycode(32, 16)
+    v_p, u_p = np.mgrid[0:8, 0:16].astype(float)
+    frames = frames_from_coordinates(ps, u_p, v_p, dtype=np.uint8) // 8 + 10  # contrast 31 counts
+    assert not decode(frames, ps).mask["v"].any()                     # below OpenCV's black_thr 40
+    assert decode(frames, ps, options=DecodeOptions(black_thr=20)).mask["v"].all()
+
+
+def test_opencv_gray_code_session_triangulates_unchanged(tmp_path):
+    p = presets.get("tiny")
+    simulate_capture(tmp_path, "tiny", "plane", opencv_graycode(256, 200), progress=False)
+    r = reconstruct_capture(tmp_path, p.rig)
+    truth = Truth.load(tmp_path / "truth")
+    m = np.isfinite(r.points[..., 2]) & truth.mask
+    err = np.linalg.norm(r.points[m] - truth.xyz[m], axis=1)
+    footprint = np.nanmedian(truth.depth) / p.rig.projector.K[0, 0]  # mm per projector pixel at the plane
+    assert m.mean() > 0.9
+    assert np.median(err) < 2 * footprint  # stripe centres are whole projector pixels (+-0.5 px)

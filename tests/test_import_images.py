@@ -1,0 +1,157 @@
+"""``fringe3d import``: other labs' image sequences become capture folders (issue 13, item 1).
+
+Frames come from the simulator (tiny preset) written by OpenCV / tifffile in the foreign
+formats; truth is the simulator's projector coordinates and the BT.601 closed form.
+"""
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+import tifffile
+
+from fringe3d.cli import main
+from fringe3d.decode import decode, with_method
+from fringe3d.io.capture import read_capture
+from fringe3d.io.importer import import_images, list_sources, natural_key, phase_shift_layout, to_grey
+from fringe3d.patterns import render_set, sets
+from fringe3d.patterns.layouts import opencv_graycode
+from fringe3d.patterns.synthetic import frames_from_coordinates
+from fringe3d.sim import presets
+from fringe3d.sim.render import render
+from fringe3d.sim.simulate import make_scene
+
+PERIOD = 16.0
+
+
+def cli(*args: str) -> int:
+    return main([str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def sim_frames():
+    """A 3-step T=16 set of the tiny rig on a sphere: (patterns, frames (3, H, W) uint8, truth)."""
+    p = presets.get("tiny")
+    ps = sets.phase_shift(PERIOD, 3, "v", width=p.rig.projector.width, height=p.rig.projector.height)
+    frames, truth = render(make_scene("sphere", p), p.rig, ps, p.settings, progress=False)
+    return ps, frames, truth
+
+
+def colour(img: np.ndarray) -> np.ndarray:
+    """An RGB image whose BT.601 luma is ``img`` within rounding: R = G = B = img, tinted."""
+    rgb = np.repeat(img[..., None], 3, axis=2).astype(np.int16)
+    rgb[..., 0] += 6
+    rgb[..., 2] -= 6
+    return np.clip(rgb, 0, 255).astype(np.uint8)
+
+
+def test_to_grey_is_bt601_luma_or_one_channel():
+    rgb = np.random.default_rng(0).integers(0, 65536, (5, 7, 3)).astype(np.uint16)
+    y = 0.299 * rgb[..., 0] + 0.587 * rgb[..., 1] + 0.114 * rgb[..., 2]
+    np.testing.assert_array_equal(to_grey(rgb), np.rint(y).astype(np.uint16))
+    np.testing.assert_array_equal(to_grey(rgb, "g"), rgb[..., 1])
+
+
+def test_rgb_jpeg_sequence_imports_and_decodes_identically_from_cli_and_api(tmp_path, sim_frames):
+    ps, frames, truth = sim_frames
+    src = tmp_path / "jpg"
+    src.mkdir()
+    for i, f in enumerate(frames):  # cv2 writes BGR: flip the RGB image
+        assert cv2.imwrite(str(src / f"img_{i + 1:04d}.jpg"), cv2.cvtColor(colour(f), cv2.COLOR_RGB2BGR),
+                           [cv2.IMWRITE_JPEG_QUALITY, 95])
+    size = f"{ps.width}x{ps.height}"
+    assert cli("import", src, "-o", tmp_path / "cap", "--set", "phase-shift", "--steps", 3, "--period", PERIOD,
+               "--projector-size", size, "--unwrap", "spatial", "--quiet") == 0
+    assert cli("decode", tmp_path / "cap", "-o", tmp_path / "dec", "--quiet") == 0
+    meta = json.loads((tmp_path / "cap" / "capture.json").read_text())
+    assert meta["conversion"].startswith("ITU-R BT.601") and meta["bit_depth"] == 8
+    assert [p.split("/")[-1] for p in meta["source_files"]] == ["img_0001.jpg", "img_0002.jpg", "img_0003.jpg"]
+    s = import_images(src, tmp_path / "api", layout="phase-shift", projector_size=(ps.width, ps.height), steps=3,
+                      period=PERIOD, unwrap="spatial")
+    api = decode(read_capture(s["folder"]).frames, with_method(ps, "spatial"))
+    cli_phase = np.load(tmp_path / "dec" / "decoded.npz")["phase_v"]
+    np.testing.assert_array_equal(cli_phase, api.phase["v"])
+    # the wrapped phase from the JPEG frames is the simulator's (mod 2 pi) on the object
+    m = api.mask["v"] & truth.mask
+    dphi = np.angle(np.exp(1j * (api.wrapped["v"] - truth.phase["v"])))
+    assert m.mean() > 0.5 and np.median(np.abs(dphi[m])) < 0.05
+
+
+def test_multipage_tiff_with_12_bit_frames_imports_and_decodes(tmp_path, sim_frames):
+    ps, frames, truth = sim_frames
+    frames12 = (frames.astype(np.uint16) * 16)  # 12-bit values in 16-bit pages
+    with tifffile.TiffWriter(tmp_path / "stack.tif") as tif:
+        for f in frames12:
+            tif.write(f, photometric="minisblack")
+    assert cli("import", tmp_path / "stack.tif", "-o", tmp_path / "cap", "--set", "phase-shift", "--period", PERIOD,
+               "--projector-size", f"{ps.width}x{ps.height}", "--bit-depth", 12, "--quiet") == 0
+    cap = read_capture(tmp_path / "cap")
+    np.testing.assert_array_equal(cap.frames, frames12)
+    assert cap.meta["bit_depth"] == 12 and cap.meta["source_files"][2].endswith("stack.tif#2")
+    d = decode(cap.frames, cap.patterns)
+    m = d.mask["v"] & truth.mask
+    assert np.median(np.abs(np.angle(np.exp(1j * (d.phase["v"] - truth.phase["v"]))))[m]) < 0.05
+
+
+def test_names_sort_naturally_and_a_list_file_sets_the_order(tmp_path):
+    names = ["f10.png", "f2.png", "f1.png"]
+    for k, n in enumerate(names):
+        cv2.imwrite(str(tmp_path / n), np.full((4, 4), k, np.uint8))
+    assert [p.name for p in list_sources(tmp_path)] == ["f1.png", "f2.png", "f10.png"]
+    assert sorted(names, key=lambda n: natural_key(tmp_path / n)) == ["f1.png", "f2.png", "f10.png"]
+    (tmp_path / "order.txt").write_text("# projection order\nf10.png\nf1.png\n\nf2.png\n")
+    assert [p.name for p in list_sources(tmp_path, tmp_path / "order.txt")] == ["f10.png", "f1.png", "f2.png"]
+
+
+def test_opencv_graycode_session_imports_and_decodes_to_projector_pixels(tmp_path):
+    ps = opencv_graycode(64, 32)
+    for i, f in enumerate(render_set(ps)):  # a camera seeing the projector 1:1, as BMP files
+        cv2.imwrite(str(tmp_path / f"pattern_{i}.bmp"), f[:, 8:40] // 2 + 40)
+    assert cli("import", tmp_path, "-o", tmp_path / "cap", "--layout", "opencv-graycode",
+               "--projector-size", "64x32", "--quiet") == 0
+    assert cli("decode", tmp_path / "cap", "-o", tmp_path / "dec", "--quiet") == 0
+    cap = read_capture(tmp_path / "cap")
+    d = decode(cap.frames, cap.patterns)
+    assert d.mask["v"].all()
+    np.testing.assert_allclose(d.projector_coordinate("v"), np.broadcast_to(np.arange(8, 40), (32, 32)), atol=1e-4)
+    np.testing.assert_allclose(d.projector_coordinate("h"), np.broadcast_to(np.arange(32)[:, None], (32, 32)),
+                               atol=1e-4)
+
+
+def test_bad_input_says_what_was_expected(tmp_path, capsys):
+    src = tmp_path / "src"
+    src.mkdir()
+    for i in range(41):
+        cv2.imwrite(str(src / f"{i}.png"), np.zeros((4, 4), np.uint8))
+    assert cli("import", src, "-o", tmp_path / "a", "--layout", "opencv-graycode",
+               "--projector-size", "1024x768") == 2
+    assert ("--layout opencv-graycode for a 1024x768 projector expects 2*(10+10)+2 = 42 frames, got 41"
+            in " ".join(capsys.readouterr().err.split()))
+    assert cli("import", src, "-o", tmp_path / "b", "--layout", "opencv-graycode") == 2
+    assert "--projector-size" in capsys.readouterr().err
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "keep.txt").write_text("mine")
+    assert cli("import", src, "-o", tmp_path / "full", "--set", "phase-shift", "--period", 16,
+               "--projector-size", "64x48") == 2
+    assert "not empty" in capsys.readouterr().err
+    assert (tmp_path / "full" / "keep.txt").read_text() == "mine"
+    assert cli("import", src, "-o", tmp_path / "c", "--set", "phase-shift", "--period", 16) == 2
+    assert "--projector-size" in capsys.readouterr().err
+
+
+def test_shift_order_and_sign_describe_frames_stored_in_another_step_order(tmp_path):
+    ps = sets.phase_shift(PERIOD, 4, "v", width=64, height=48)
+    negative = phase_shift_layout(ps, None, -1)  # what the other lab projected: shifts -2 pi k / 4
+    v_p, u_p = np.mgrid[0:24, 4:60].astype(float) + 0.3
+    frames = frames_from_coordinates(negative, u_p, v_p, dtype=np.uint8)
+    order = [2, 0, 3, 1]  # file i holds step order[i]
+    for i, k in enumerate(order):
+        cv2.imwrite(str(tmp_path / f"step{i}.png"), frames[k])
+    assert cli("import", tmp_path, "-o", tmp_path / "cap", "--set", "phase-shift", "--steps", 4, "--period", PERIOD,
+               "--projector-size", "64x48", "--shift-order", "2,0,3,1", "--shift-sign", -1, "--quiet") == 0
+    cap = read_capture(tmp_path / "cap")
+    d = decode(cap.frames, cap.patterns)
+    dphi = np.angle(np.exp(1j * (d.phase["v"] - 2 * np.pi * u_p / PERIOD)))
+    assert np.abs(dphi).max() < 0.02
