@@ -9,7 +9,7 @@ from fringe3d.decode.result import Unwrapped
 from fringe3d.phase.psp import PhaseResult
 from fringe3d.unwrap.geometric import cached_minimum_phase
 from fringe3d.unwrap.hybrid import carrier_from_minimum_phase, ftp_group_phase
-from fringe3d.unwrap.segmentation import foreground_mask, segment_objects
+from fringe3d.unwrap.segmentation import MODULATION_FRACTION, modulation_mask, segment_objects
 from fringe3d.unwrap.spatial import unwrap_objects
 
 
@@ -19,8 +19,11 @@ def unwrap_group_per_object(ctx: DecodeContext, group: PhaseGroup, phi_min: np.n
 
     FTP / modified-FTP groups (fewer than 3 frames) are analysed on the carrier the rig
     predicts (the gradient of ``phi_min``, the minimum-phase map of Eq. 4.19) when
-    ``phi_min`` is given; phase-shifted groups by least squares. Objects are the
-    foreground (option ``min_ratio``) split into connected regions of at least option
+    ``phi_min`` is given; phase-shifted groups by least squares. Objects are the valid pixels
+    whose modulation reaches the plan option ``min_modulation_fraction`` (default 0.05) of the robust
+    modulation level (:func:`fringe3d.unwrap.segmentation.modulation_mask`: modulation, i.e.
+    phase quality, never average brightness, so dark but well-modulated surfaces stay),
+    split into connected regions of at least option
     ``min_size`` (default ``min_size``) pixels, eroded by option ``erode`` (default
     ``erode``). Returns ``(phi_r (H, W) relative phase, NaN outside objects, labels (H, W)
     int, the group's PhaseResult)``.
@@ -32,7 +35,8 @@ def unwrap_group_per_object(ctx: DecodeContext, group: PhaseGroup, phi_min: np.n
     else:
         pr = ctx.group_phase(group)
         valid = ctx.group_mask(group)
-    fg = foreground_mask(pr.average, pr.modulation, float(ctx.method_option("min_ratio", 0.15))) & valid
+    fg = modulation_mask(pr.modulation, valid,
+                         float(ctx.plan.options.get("min_modulation_fraction", MODULATION_FRACTION)))
     labels = segment_objects(fg, min_size=int(ctx.method_option("min_size", min_size)),
                              erode=int(ctx.method_option("erode", erode)))
     phi_r, labels = unwrap_objects(pr.phase, labels=labels)
@@ -45,7 +49,7 @@ def unwrap_spatial(ctx: DecodeContext) -> Unwrapped:
     RELATIVE phase: each object is off by an unknown ``2π·k`` (Eq. 5.12); use ``"histogram"``,
     ``"hybrid"`` or a temporal method for absolute 3D. For FTP groups, a rig and ``z_min``
     (when given) fix the carrier and thus the phase's sign; without them the decoder's
-    carrier search decides it. Options: ``min_size``, ``erode``, ``min_ratio``,
+    carrier search decides it. Options: ``min_size``, ``erode``, ``min_modulation_fraction``,
     ``ftp_window``."""
     groups = sorted(ctx.groups_for_plan(), key=lambda g: g.period)
     if not groups:
