@@ -27,7 +27,7 @@ def test_three_frequency_is_9_step_18_plus_3_step_21_plus_3_step_144_with_beats(
 
 def test_three_frequency_rejects_a_projector_wider_than_the_equivalent_period():
     with pytest.raises(ValueError, match="1008"):
-        sets.three_frequency("v", width=1280, height=800)
+        sets.three_frequency("v", (18.0, 21.0, 144.0), width=1280, height=800)
 
 
 def test_calibration_set_is_white_plus_15_per_direction():

@@ -7,6 +7,7 @@ import typer
 
 from fringe3d.calibrate.calibration_file import load_calibration
 from fringe3d.calibrate.evaluation import compare_to_truth
+from fringe3d.calibrate.opencv_file import load_opencv_calibration, parse_node_map, parse_size
 from fringe3d.calibrate.session import board_from_options, calibrate_to_files
 from fringe3d.sim.calibration_session import simulate_session
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
@@ -15,7 +16,8 @@ from fringe3d.utils.console import console, info, make_table, print_json, set_qu
 def register(app: typer.Typer) -> None:
     @app.command("calibrate")
     def calibrate(
-        inputs: list[Path] = typer.Argument(..., help="Pose capture folders, or a session folder holding them."),
+        inputs: list[Path] = typer.Argument(None, help="Pose capture folders, or a session folder holding them "
+                                                       "(none with --import-opencv)."),
         output: Path = typer.Option(Path("calib.json"), "-o", "--output", help="Calibration JSON to write."),
         cols: int = typer.Option(9, help="Board circles per row."),
         rows: int = typer.Option(9, help="Board rows of circles."),
@@ -46,6 +48,16 @@ def register(app: typer.Typer) -> None:
         noise_free: bool = typer.Option(False, "--noise-free", help="--simulate: no sensor noise, 16-bit frames."),
         defocus: float = typer.Option(None, help="--simulate: projector defocus (projector px)."),
         camera_scale: float = typer.Option(1.0, help="--simulate: camera resolution factor (e.g. 0.5)."),
+        import_opencv: Path = typer.Option(None, "--import-opencv", help="Do not calibrate: read K/dist/R/T "
+                                           "from this OpenCV FileStorage YAML/XML and write the rig JSON to -o."),
+        node: list[str] = typer.Option(None, "--node", help="--import-opencv: KEY=NODE maps a node name, e.g. "
+                                                            "cam_int=K1 (keys: cam_int cam_dist proj_int proj_dist "
+                                                            "R T cam_size proj_size)."),
+        camera_size: str = typer.Option(None, "--camera-size", help="--import-opencv: camera WxH when the file "
+                                                                     "has no size node."),
+        projector_size: str = typer.Option(None, "--projector-size", help="--import-opencv: projector WxH when "
+                                                                           "the file has no size node."),
+        unit: str = typer.Option("mm", "--unit", help="--import-opencv: unit of T in the file (mm or m)."),
         json_: bool = typer.Option(False, "--json", help="Print the figures as one JSON object."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars or tables."),
     ) -> None:
@@ -58,6 +70,12 @@ def register(app: typer.Typer) -> None:
         Example (simulated): fringe3d calibrate sim-session/ --simulate macro --poses 12 --noise-free -o calib.json
         """
         set_quiet(quiet or json_)
+        if import_opencv is not None:
+            _import(import_opencv, output, node, camera_size, projector_size, unit, json_, quiet)
+            return
+        if not inputs:
+            raise ValueError("give the pose capture folders (or a session folder) to calibrate, "
+                             "or --import-opencv FILE")
         board = board_from_options(cols, rows, spacing, radius, asymmetric, bright)
         truth = None
         if simulate:
@@ -88,3 +106,18 @@ def register(app: typer.Typer) -> None:
             console.print(f"skipped (board not found): {name}")
         for k, v in s["written"].items():
             info(f"wrote {k}: {v}")
+
+
+def _import(path: Path, output: Path, node, camera_size, projector_size, unit: str, json_: bool,
+            quiet: bool) -> None:
+    """``--import-opencv``: OpenCV FileStorage calibration -> fringe3d rig JSON (``Rig.load`` reads it)."""
+    rig = load_opencv_calibration(path, parse_node_map(node), parse_size(camera_size, "--camera-size"),
+                                  parse_size(projector_size, "--projector-size"), unit)
+    rig.save(output)
+    s = {"imported": str(path), "written": {"rig": str(output)}, "baseline_mm": rig.baseline,
+         "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}
+    if json_:
+        print_json(s)
+    elif not quiet:
+        info(f"imported {path}: baseline {rig.baseline:.3f} mm")
+        info(f"wrote rig: {output}")

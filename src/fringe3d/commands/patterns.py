@@ -16,8 +16,10 @@ from fringe3d.utils.console import console, info, print_json, set_quiet
 
 SETS = ("phase-shift", "three-frequency", "hierarchical", "gray-code", "binary-code", "psp-gray", "ftp", "modified-ftp",
         "two-frequency", "hybrid", "calibration", "optimal-angle")
-DEFAULT_PERIODS = {"three-frequency": "18,21,144", "calibration": "18,21,144", "optimal-angle": "18,21,144",
-                   "two-frequency": "18,144", "hybrid": "18,144", "hierarchical": "18,144,1024"}
+#: Sets whose default periods adapt to the projector (sets.default_three_frequency_periods,
+#: sets.default_hierarchical_periods): 18/21/144 and 18/144/1024 whenever they cover it.
+ADAPTIVE_PERIODS = ("three-frequency", "calibration", "optimal-angle", "hierarchical")
+DEFAULT_PERIODS = {"two-frequency": "18,144", "hybrid": "18,144"}
 DEFAULT_STEPS = {"three-frequency": "9,3,3", "calibration": "9,3,3", "optimal-angle": "9,3,3",
                  "hierarchical": "9,3,3"}
 
@@ -35,6 +37,7 @@ def build_set(set_name: str, period: str | None, steps: str | None, direction: s
     if set_name not in SETS:
         raise ValueError(f"unknown pattern set {set_name!r}; choose one of {', '.join(SETS)}")
     periods = _numbers(period or DEFAULT_PERIODS.get(set_name, "18"), "period")
+    adaptive = period is None and set_name in ADAPTIVE_PERIODS  # the library picks them for this projector
     nsteps = _numbers(steps or DEFAULT_STEPS.get(set_name, "3"), "steps", int)
     angle = None if angle_deg is None else math.radians(angle_deg)
     common = dict(width=width, height=height)
@@ -42,8 +45,10 @@ def build_set(set_name: str, period: str | None, steps: str | None, direction: s
     if set_name == "phase-shift":
         return sets.phase_shift(periods[0], nsteps[0], direction, angle, **phase)
     if set_name == "three-frequency":
-        return sets.three_frequency(direction, periods, nsteps, angle=angle, **phase)
+        return sets.three_frequency(direction, None if adaptive else periods, nsteps, angle=angle, **phase)
     if set_name == "hierarchical":
+        if adaptive:
+            periods = list(sets.default_hierarchical_periods(sets.fringe_span(direction, angle, width, height)))
         return sets.hierarchical(periods, nsteps if len(nsteps) > 1 else nsteps[0], direction, angle, **phase)
     if set_name in ("gray-code", "binary-code"):
         return sets.gray_code(periods[0], direction, angle, code=set_name.split("-")[0], **common)
@@ -60,10 +65,12 @@ def build_set(set_name: str, period: str | None, steps: str | None, direction: s
         return build(periods[0], periods[1], direction, angle, **phase)
     if set_name == "calibration":
         dirs = ("v", "h") if direction in ("v", "vh", "both") else tuple(direction.split(","))
-        return sets.calibration(width, height, dirs, periods, nsteps, kind=kind, bit_depth=bits)
+        return sets.calibration(width, height, dirs, None if adaptive else periods, nsteps, kind=kind,
+                                bit_depth=bits)
     if angle is None:
         raise ValueError("--set optimal-angle needs --angle: the optimal fringe angle alpha_opt in degrees")
-    return sets.optimal_angle_calibration(angle, width, height, periods, nsteps, kind=kind, bit_depth=bits)
+    return sets.optimal_angle_calibration(angle, width, height, None if adaptive else periods, nsteps, kind=kind,
+                                          bit_depth=bits)
 
 
 def register(app: typer.Typer) -> None:
@@ -72,7 +79,9 @@ def register(app: typer.Typer) -> None:
         output: Path = typer.Option(..., "-o", "--output", help="Folder to write 00000.png ... and manifest.json."),
         set_name: str = typer.Option("three-frequency", "--set", help="Pattern set: " + ", ".join(SETS) + "."),
         period: str = typer.Option(None, help="Fringe period(s) in projector pixels, comma-separated "
-                                              "(three-frequency: 18,21,144; two-frequency/hybrid: HIGH,LOW)."),
+                                              "(three-frequency/calibration: 18,21,144 while the beat of 1008 px "
+                                              "covers the projector, else 18,21,T3 with a longer beat; "
+                                              "two-frequency/hybrid: HIGH,LOW)."),
         steps: str = typer.Option(None, help="Phase-shift steps, comma-separated per period (three-frequency: 9,3,3)."),
         direction: str = typer.Option("v", help="Fringe direction: v (vertical stripes, encodes u_p), h (horizontal), "
                                                 "or a label used with --angle; calibration takes v,h."),

@@ -41,6 +41,13 @@ from fringe3d.patterns.render import BINARY_PHASE_KINDS, PHASE_KINDS, code_origi
 DEFAULT_WIDTH = 800
 DEFAULT_HEIGHT = 600
 DIRECTION_ANGLES = {"v": math.pi / 2, "h": 0.0}
+#: The dissertation's three-frequency periods (ch. 2.2.4): beats 126 px and 1008 px.
+DISSERTATION_PERIODS = (18.0, 21.0, 144.0)
+#: The dissertation's hierarchical periods (18 / 144 / 1024 px).
+HIERARCHICAL_PERIODS = (18.0, 144.0, 1024.0)
+#: Adapted defaults leave the unambiguous period this much longer than the projector's span
+#: (span <= HEADROOM * period), so noise at the far edge does not wrap.
+HEADROOM = 0.9
 
 
 # -- helpers -----------------------------------------------------------------------
@@ -99,6 +106,56 @@ def _check_size(width: int, height: int) -> None:
         raise ValueError(f"projector size must be positive integers, got {width}x{height}")
 
 
+def fringe_span(direction: str, angle: float | None, width: int, height: int) -> float:
+    """``w_max - w_min`` (px): the extent of the fringe coordinate over the projector (Eq. 2.1)."""
+    lo, hi = w_range(direction_angle(direction, angle), width, height)
+    return hi - lo
+
+
+def default_three_frequency_periods(span: float) -> tuple[float, float, float]:
+    """Default heterodyne periods for a projector whose fringe coordinate spans ``span`` px.
+
+    The dissertation's 18 / 21 / 144 px (ch. 2.2.4: ``T12 = T1 T2 / (T2 - T1) = 126``,
+    ``T123 = T12 T3 / (T3 - T12) = 1008``) whenever ``1008 > span``, so every set up to 1008 px
+    is unchanged. For a wider span the measuring pair 18 / 21 (and so the phase noise of the
+    measurement and ``T12 = 126``) stays, and ``T3`` is the largest whole period whose beat with
+    ``T12`` covers the span with headroom, ``T123 >= span / HEADROOM``:
+    ``T3 = ceil(T12 X / (X - T12)) - 1`` with ``X = span / HEADROOM`` (e.g. 1280 px -> 138,
+    ``T123 = 1449``; 1920 px -> 133, ``T123 = 2394``).
+
+    Examples
+    --------
+    >>> default_three_frequency_periods(799.0), default_three_frequency_periods(1919.0)
+    ((18.0, 21.0, 144.0), (18.0, 21.0, 133.0))
+    """
+    t1, t2, t3 = DISSERTATION_PERIODS
+    t12 = beat_period(t1, t2)
+    if beat_period(t12, t3) > span:
+        return DISSERTATION_PERIODS
+    need = span / HEADROOM
+    t3_new = math.ceil(t12 * need / (need - t12)) - 1
+    if t3_new <= t12:
+        raise ValueError(f"a projector span of {span:g} px is too wide for an 18/21/T3 heterodyne set; "
+                         "give the periods explicitly")
+    return t1, t2, float(t3_new)
+
+
+def default_hierarchical_periods(span: float) -> tuple[float, float, float]:
+    """Default hierarchical periods: the dissertation's 18 / 144 / 1024 px when
+    ``span <= HEADROOM * 1024`` (the single coarse fringe must not wrap under noise at the far
+    edge, which a bare ``1024 > span`` allows), else 18 / 144 / the smallest multiple of 128 px
+    that is ``>= span / HEADROOM``.
+
+    Examples
+    --------
+    >>> default_hierarchical_periods(799.0), default_hierarchical_periods(1919.0)
+    ((18.0, 144.0, 1024.0), (18.0, 144.0, 2176.0))
+    """
+    if span <= HEADROOM * HIERARCHICAL_PERIODS[-1]:
+        return HIERARCHICAL_PERIODS
+    return HIERARCHICAL_PERIODS[0], HIERARCHICAL_PERIODS[1], 128.0 * math.ceil(span / HEADROOM / 128.0)
+
+
 # -- builders ----------------------------------------------------------------------
 def phase_shift(period: float, steps: int = 3, direction: str = "v", angle: float | None = None,
                 kind: str = "sinusoid", width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
@@ -122,19 +179,23 @@ def phase_shift(period: float, steps: int = 3, direction: str = "v", angle: floa
                       f"phase-shift-{steps}step-T{period:g}-{direction}")
 
 
-def three_frequency(direction: str = "v", periods=(18.0, 21.0, 144.0), steps=(9, 3, 3),
+def three_frequency(direction: str = "v", periods=None, steps=(9, 3, 3),
                     angle: float | None = None, kind: str = "sinusoid", width: int = DEFAULT_WIDTH,
                     height: int = DEFAULT_HEIGHT, bit_depth: int | None = None) -> PatternSet:
     """Three-frequency heterodyne set: 9-step T=18 + 3-step T=21 + 3-step T=144 (15 frames).
 
     T1, T2 beat to ``T12 = T1 T2/(T2-T1)`` (126), T12 and T3 to ``T123`` (1008), which must
-    span the projector's fringe coordinates. Plan ``"heterodyne"``, ``periods`` as given
-    (narrowest first), ``options["beats"] = [[T1, T2, T12], [T12, T3, T123]]``.
+    span the projector's fringe coordinates. ``periods=None`` picks
+    :func:`default_three_frequency_periods` for this direction's span (18/21/144 up to 1008 px).
+    Plan ``"heterodyne"``, ``periods`` as given (narrowest first),
+    ``options["beats"] = [[T1, T2, T12], [T12, T3, T123]]``.
     """
     _check_size(width, height)
+    a = direction_angle(direction, angle)
+    if periods is None:
+        periods = default_three_frequency_periods(fringe_span(direction, a, width, height))
     if len(periods) != 3 or len(steps) != 3:
         raise ValueError(f"three-frequency needs 3 periods and 3 step counts, got {periods}, {steps}")
-    a = direction_angle(direction, angle)
     t1, t2, t3 = (float(t) for t in periods)
     t12 = beat_period(t1, t2)
     t123 = beat_period(t12, t3)
@@ -318,10 +379,11 @@ def white_frame() -> FrameSpec:
 
 
 def calibration(width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT, directions=("v", "h"),
-                periods=(18.0, 21.0, 144.0), steps=(9, 3, 3), kind: str = "sinusoid",
+                periods=None, steps=(9, 3, 3), kind: str = "sinusoid",
                 bit_depth: int | None = None) -> PatternSet:
     """Calibration sequence per board pose (ch. 2.2.4): white frame + the 15-frame
-    three-frequency set for each direction (31 frames for ``("v", "h")``)."""
+    three-frequency set for each direction (31 frames for ``("v", "h")``); ``periods=None``
+    adapts per direction (:func:`default_three_frequency_periods`: 18/21/144 up to 1008 px)."""
     _check_size(width, height)
     frames = [white_frame()]
     plans: list[DirectionPlan] = []
@@ -334,11 +396,12 @@ def calibration(width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT, direct
 
 
 def optimal_angle_calibration(alpha_opt: float, width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
-                              periods=(18.0, 21.0, 144.0), steps=(9, 3, 3), kind: str = "sinusoid",
+                              periods=None, steps=(9, 3, 3), kind: str = "sinusoid",
                               bit_depth: int | None = None) -> PatternSet:
     """Optimal-angle calibration (Eq. 2.32-2.34): white + 15 frames at ``alpha_opt - pi/4``
     (direction ``"a1"``) + 15 at ``alpha_opt + pi/4`` (``"a2"``), angles taken modulo pi.
-    31 frames; each plan carries ``options["alpha_opt"]``."""
+    31 frames; each plan carries ``options["alpha_opt"]``; ``periods=None`` adapts per direction
+    as in :func:`calibration`."""
     _check_size(width, height)
     frames = [white_frame()]
     plans: list[DirectionPlan] = []

@@ -15,8 +15,11 @@ from fringe3d.utils.warning_types import DataQualityWarning
 
 #: Default modulation threshold as a fraction of the full scale.
 DEFAULT_MIN_MODULATION_FRACTION = 0.02
-#: A frame counts as dark when its brightest pixel is below this fraction of the full scale.
+#: A frame counts as (nearly) dark when its DARK_PERCENTILE-th percentile pixel is below this
+#: fraction of the full scale (a percentile, not the maximum, so a few hot pixels or noise
+#: spikes in an otherwise black frame do not hide it).
 DARK_FRACTION = 0.02
+DARK_PERCENTILE = 99.0
 #: Warn when more than this fraction of a frame's pixels are saturated.
 SATURATED_WARN_FRACTION = 0.05
 
@@ -97,7 +100,8 @@ def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = 
     """Warn (:class:`FrameQualityWarning`) about all-dark or heavily saturated frames.
 
     Returns ``{"dark": [frame indices], "saturated": [frame indices], "saturated_fraction":
-    [...]}``. Dark: brightest pixel < 2 % of full scale. Saturated: more than 5 % of pixels at
+    [...]}``. Dark (nearly black): the 99th-percentile pixel < 2 % of full scale, so hot pixels
+    and noise spikes do not hide a black frame. Saturated: more than 5 % of pixels at
     the maximum code. The pixels themselves are masked by :func:`validity_mask` (dark frames
     give no modulation), so results stay usable where the data allow.
     """
@@ -106,13 +110,16 @@ def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = 
     # per-frame statistics on a strided subsample of ~16k pixels (cheap on large frames)
     step = max(1, int(np.sqrt(frames.shape[1] * frames.shape[2] / 16384)))
     sub = frames[:, ::step, ::step]
-    peak = sub.max(axis=(1, 2))
-    dark = [int(i) for i in np.flatnonzero(peak < DARK_FRACTION * fs)]
+    # the DARK_PERCENTILE-th percentile is below the cut exactly when fewer than (100 - DARK_PERCENTILE) %
+    # of the pixels reach it: one comparison pass, as cheap as the maximum it replaces
+    lit_share = (sub >= DARK_FRACTION * fs).mean(axis=(1, 2))
+    dark = [int(i) for i in np.flatnonzero(lit_share < 1.0 - DARK_PERCENTILE / 100.0)]
     sat_frac = ((sub >= level).mean(axis=(1, 2)) if np.isfinite(level) else np.zeros(sub.shape[0]))
     sat = [int(i) for i in np.flatnonzero(sat_frac > SATURATED_WARN_FRACTION)]
     if dark:
-        msg = (f"all frames are dark (max < {DARK_FRACTION:.0%} of full scale {fs:g})" if len(dark) == len(peak)
-               else f"{len(dark)} dark frame(s) (max < {DARK_FRACTION:.0%} of full scale {fs:g}): {dark}")
+        cut = f"{DARK_PERCENTILE:g}th percentile < {DARK_FRACTION:.0%} of full scale {fs:g}"
+        msg = (f"all frames are dark (nearly black: {cut})" if len(dark) == len(lit_share)
+               else f"{len(dark)} dark frame(s) (nearly black: {cut}): {dark}")
         warnings.warn(f"{where}: {msg}; affected pixels are masked", FrameQualityWarning, stacklevel=3)
     if sat:
         worst = float(sat_frac.max())

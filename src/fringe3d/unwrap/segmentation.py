@@ -4,6 +4,9 @@ The hybrid FTP + PSP framework (Fig. 5.4) first separates the isolated objects o
 unwraps each one spatially, and compensates each object's motion between frames by the
 shift of its bounding-box centre. This module holds those three small steps:
 
+* :func:`modulation_mask` keeps the pixels whose fringes are well modulated relative to the
+  scene's robust modulation level (never a cut on average brightness, so a dark but
+  well-modulated surface stays);
 * :func:`segment_objects` labels the connected valid regions of a mask
   (``skimage.measure.label``) and drops the tiny ones;
 * :func:`box_centres` gives each label's bounding-box centre ``(u, v)`` in pixels;
@@ -65,6 +68,64 @@ def foreground_mask(average: np.ndarray, modulation: np.ndarray | None = None,
         with np.errstate(invalid="ignore"):
             mask &= modulation >= min_ratio * average
     return mask
+
+
+#: :func:`modulation_mask` defaults: keep ``B >= MODULATION_FRACTION * percentile_99(B)``.
+MODULATION_FRACTION = 0.05
+MODULATION_PERCENTILE = 99.0
+
+
+def modulation_mask(modulation: np.ndarray, valid: np.ndarray | None = None,
+                    fraction: float = MODULATION_FRACTION, percentile: float = MODULATION_PERCENTILE) -> np.ndarray:
+    """Pixels whose fringe modulation is a usable share of the scene's best: the object mask of
+    the per-object (spatial) unwrapper.
+
+    The N-step phase noise is ``sigma_phi = sqrt(2 / N) sigma_I / B`` (Eq. 2.3-2.4 with additive
+    noise ``sigma_I``), so the modulation ``B`` alone says how good a pixel's phase is, whatever its
+    albedo. A pixel is kept when ``B >= fraction * level`` with ``level`` the ``percentile`` of
+    ``B`` over the ``valid`` finite pixels (a robust "well lit" modulation: one hot pixel does not
+    move it): with the defaults its phase noise is at most 20 times that of the scene's
+    best-modulated pixels. Average brightness plays no part: a dark surface (albedo 0.1 beside
+    0.9) has a tenth of the modulation and stays, while the background (no fringes, ``B`` at the
+    noise floor) goes. The absolute floor (the decoder's ``min_modulation``, saturation) is the
+    ``valid`` mask's job.
+
+    Parameters
+    ----------
+    modulation : (H, W) float
+        ``B`` in the frames' units (``PhaseResult.modulation``).
+    valid : (H, W) bool, optional
+        Pixels that may be kept (e.g. the decoder's validity mask); default all finite ones.
+    fraction : float
+        Share of the robust level a pixel needs, in (0, 1].
+    percentile : float
+        Percentile of the valid modulation taken as the robust level, in (0, 100].
+
+    Returns
+    -------
+    (H, W) bool
+        All False when no pixel is valid.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> B = np.array([[60.0, 6.0], [0.5, 55.0]])   # bright, dark (albedo 0.1), background, bright
+    >>> modulation_mask(B)
+    array([[ True,  True],
+           [False,  True]])
+    """
+    modulation = np.asarray(modulation, np.float64)
+    if modulation.ndim != 2:
+        raise ValueError(f"modulation must be a 2-D (H, W) array, got shape {modulation.shape}")
+    if not 0 < fraction <= 1 or not 0 < percentile <= 100:
+        raise ValueError(f"fraction must be in (0, 1] and percentile in (0, 100], got {fraction}, {percentile}")
+    ok = np.isfinite(modulation)
+    if valid is not None:
+        ok &= _check_mask(valid, "valid")
+    if not ok.any():
+        return ok
+    level = float(np.percentile(modulation[ok], percentile))
+    return ok & (modulation >= fraction * level) & (modulation > 0)
 
 
 def segment_objects(mask: np.ndarray, min_size: int = 64, connectivity: int = 1,
