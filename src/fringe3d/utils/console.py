@@ -25,7 +25,7 @@ from rich.table import Table
 from fringe3d.utils.jsonfile import to_jsonable
 
 console = Console()
-err_console = Console(stderr=True)
+err_console = Console(stderr=True, soft_wrap=True)  # messages and paths stay on one line
 
 
 class _Settings:
