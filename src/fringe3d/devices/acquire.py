@@ -161,23 +161,8 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
     CaptureIncompleteError
         Frames were missing or duplicated; the folder is written but not marked complete.
     """
-    if sync not in SYNC_MODES:
-        raise ValueError(f"sync mode {sync!r} is not one of {', '.join(SYNC_MODES)}")
-    if cycles < 1:
-        raise ValueError(f"--cycles must be >= 1, got {cycles}")
-    images = list(images)
+    images, planes = _check_inputs(projector, patterns, images, planes, sync, cycles)
     n_pat = len(patterns)
-    planes = list(planes) if planes is not None else [1] * len(images)
-    if sum(planes) != n_pat or len(planes) != len(images):
-        raise ValueError(f"{len(images)} projector images carrying {sum(planes)} patterns do not match the "
-                         f"manifest's {n_pat} frames")
-    if max(planes) > 1 and sync != "hardware":
-        raise ValueError("packed bit-plane frames are shown as several patterns per video frame; only the "
-                         "projector's trigger output can time them: use --sync hardware")
-    if patterns.width > projector.width or patterns.height > projector.height:
-        raise ValueError(f"the patterns are {patterns.width}x{patterns.height} but the projector is "
-                         f"{projector.width}x{projector.height}; patterns larger than the screen cannot be shown 1:1")
-    images = [check_image_fits(im, projector.width, projector.height) for im in images]
     total = n_pat * cycles
     check = getattr(camera, "check_sequence", None)  # optional: a device that can vet the whole sequence first
     if callable(check):
@@ -194,16 +179,8 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
     plane_rate = frame_rate or (projector.refresh_rate * (PLANES_PER_FRAME if packed else 1))
     period = 1.0 / plane_rate if plane_rate else None
     camera.trigger_mode = sync
-    meta = {"format": CAPTURE_FORMAT, "complete": False, "status": "capturing", "started": _now(),
-            "frames_expected": total, "cycles": cycles, "camera_device": camera.describe(),
-            "projector": projector.describe(),
-            "sync": {"mode": sync, "latency": float(getattr(projector, "latency", 0.0)), "settle": settle,
-                     "timeout": timeout, "expected_period": period if sync == "hardware" else None}}
     bd = _bit_depth(camera)
-    if bd:
-        meta["bit_depth"] = bd
-    if max(planes) > 1:
-        meta["bitplanes"] = {"planes_per_video_frame": planes}
+    meta = _initial_meta(camera, projector, total, cycles, sync, settle, timeout, period, bd, planes)
     meta.update(extra_meta or {})
     patterns.save(folder / MANIFEST_NAME)
     write_json(folder / META_NAME, meta)
@@ -211,7 +188,6 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
     records: list[dict | None] = [None] * total
     missing: list[int] = []
     dups: list[int] = []
-    problems: list[str] = []
     shape = None
     received = 0
     try:
@@ -223,24 +199,7 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
                 shown = projector.show(img)
                 idx = [base + first + p for p in range(planes[j])]
                 first += planes[j]
-                if sync == "software":
-                    if settle > 0:
-                        time.sleep(settle)
-                    camera.trigger()
-                    try:
-                        got = [camera.grab(timeout)]
-                    except TimeoutError:
-                        got = []
-                    slots = got + [None] * (1 - len(got))
-                    burst_dups: list[int] = []
-                else:
-                    got = []
-                    for _ in range(planes[j]):
-                        try:
-                            got.append(camera.grab(timeout))
-                        except TimeoutError:
-                            break
-                    slots, burst_dups = _place_burst(got, planes[j], period)
+                slots, burst_dups = _grab_slots(camera, sync, planes[j], settle, timeout, period)
                 for s in burst_dups:
                     dups.append(idx[s])
                 for s, fr in enumerate(slots):
@@ -271,27 +230,12 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
                     finished=_now(), frames_received=received, frames=[r for r in records if r is not None])
         write_json(folder / META_NAME, meta)
         raise
-    for i in sorted(set(dups)):  # two frames in one burst slot
-        problems.append(f"{_frame_label(i, n_pat)} was received twice (duplicated)")
-    problems += _check_records(records, n_pat, period if sync == "hardware" else None, dups)
-    for i in missing:
-        problems.append(f"{_frame_label(i, n_pat)} was not received (dropped: no frame within {timeout:g} s "
-                        f"of its trigger)")
+    problems = _sequence_problems(records, missing, dups, n_pat, period if sync == "hardware" else None, timeout)
     complete = not problems and received == total
     meta.update(status="complete" if complete else "incomplete", finished=_now(), frames_received=received,
                 frames=[r for r in records if r is not None], missing_frames=sorted(missing),
                 duplicate_frames=sorted(set(dups)), problems=problems)
-    if shape is not None:
-        meta["camera"] = [int(shape[1]), int(shape[0])]
-    shown = [r["shown_at"] for r in records if r is not None]
-    if len(shown) > 1 and shown[-1] > shown[0]:
-        meta["sync"]["measured_frame_rate"] = (len(shown) - 1) / (shown[-1] - shown[0])  # host clock
-    if sync == "hardware" and period:
-        meta["frame_rate"] = 1.0 / period
-    elif frame_rate:
-        meta["frame_rate"] = float(frame_rate)
-    if bd is None and shape is not None:
-        meta["bit_depth"] = 8
+    _finish_meta(meta, records, shape, period if sync == "hardware" else None, frame_rate, bd)
     result = CaptureResult(folder=folder, expected=total, received=received, missing=sorted(missing),
                            duplicates=sorted(set(dups)), problems=problems, complete=complete, meta=meta)
     if complete:
@@ -403,3 +347,85 @@ def measure_latency(projector, camera, max_delay: float = 0.25, step: float | No
         camera.stop()
     raise DeviceError(f"the white flash never showed within {max_delay:g} s of show(); the display-to-camera delay "
                       f"is longer, or the camera is not triggered by software")
+
+
+def _grab_slots(camera, sync: str, n_planes: int, settle: float, timeout: float, period: float | None):
+    """The camera frames for one shown image, one slot per pattern (None: not received), and the
+    slots that received two frames. Software sync: wait ``settle``, trigger, grab one frame.
+    Hardware sync: grab the burst of ``n_planes`` frames the projector triggered and place them
+    by timestamp (:func:`_place_burst`)."""
+    if sync == "software":
+        if settle > 0:
+            time.sleep(settle)
+        camera.trigger()
+        try:
+            return [camera.grab(timeout)], []
+        except TimeoutError:
+            return [None], []
+    got = []
+    for _ in range(n_planes):
+        try:
+            got.append(camera.grab(timeout))
+        except TimeoutError:
+            break
+    return _place_burst(got, n_planes, period)
+
+
+def _sequence_problems(records, missing, dups, n_pat: int, period: float | None, timeout: float) -> list[str]:
+    """Every reason the sequence is incomplete, naming the frames: duplicated, out of period, dropped."""
+    problems = [f"{_frame_label(i, n_pat)} was received twice (duplicated)" for i in sorted(set(dups))]
+    problems += _check_records(records, n_pat, period, dups)
+    problems += [f"{_frame_label(i, n_pat)} was not received (dropped: no frame within {timeout:g} s "
+                 f"of its trigger)" for i in missing]
+    return problems
+
+
+def _finish_meta(meta: dict, records, shape, period: float | None, frame_rate: float | None, bit_depth) -> None:
+    """Camera size, measured and nominal frame rates and the bit depth into ``capture.json``."""
+    if shape is not None:
+        meta["camera"] = [int(shape[1]), int(shape[0])]
+    shown = [r["shown_at"] for r in records if r is not None]
+    if len(shown) > 1 and shown[-1] > shown[0]:
+        meta["sync"]["measured_frame_rate"] = (len(shown) - 1) / (shown[-1] - shown[0])  # host clock
+    if period:
+        meta["frame_rate"] = 1.0 / period
+    elif frame_rate:
+        meta["frame_rate"] = float(frame_rate)
+    if bit_depth is None and shape is not None:
+        meta["bit_depth"] = 8
+
+
+def _check_inputs(projector, patterns: PatternSet, images, planes, sync: str, cycles: int):
+    """``(images, planes)`` checked against the manifest, the sync mode and the screen size."""
+    if sync not in SYNC_MODES:
+        raise ValueError(f"sync mode {sync!r} is not one of {', '.join(SYNC_MODES)}")
+    if cycles < 1:
+        raise ValueError(f"--cycles must be >= 1, got {cycles}")
+    images = list(images)
+    n_pat = len(patterns)
+    planes = list(planes) if planes is not None else [1] * len(images)
+    if sum(planes) != n_pat or len(planes) != len(images):
+        raise ValueError(f"{len(images)} projector images carrying {sum(planes)} patterns do not match the "
+                         f"manifest's {n_pat} frames")
+    if max(planes) > 1 and sync != "hardware":
+        raise ValueError("packed bit-plane frames are shown as several patterns per video frame; only the "
+                         "projector's trigger output can time them: use --sync hardware")
+    if patterns.width > projector.width or patterns.height > projector.height:
+        raise ValueError(f"the patterns are {patterns.width}x{patterns.height} but the projector is "
+                         f"{projector.width}x{projector.height}; patterns larger than the screen cannot be shown 1:1")
+    return [check_image_fits(im, projector.width, projector.height) for im in images], planes
+
+
+def _initial_meta(camera, projector, total: int, cycles: int, sync: str, settle: float, timeout: float,
+                  period: float | None, bit_depth, planes: list[int]) -> dict:
+    """``capture.json`` as written before the first frame: marked incomplete, devices and sync."""
+    meta = {"format": CAPTURE_FORMAT, "complete": False, "status": "capturing", "started": _now(),
+            "frames_expected": total, "cycles": cycles, "camera_device": camera.describe(),
+            "projector": projector.describe(),
+            "sync": {"mode": sync, "latency": float(getattr(projector, "latency", 0.0)), "settle": settle,
+                     "timeout": timeout, "expected_period": period if sync == "hardware" else None}}
+    if bit_depth:
+        meta["bit_depth"] = bit_depth
+    if max(planes) > 1:
+        meta["bitplanes"] = {"planes_per_video_frame": planes}
+    return meta
