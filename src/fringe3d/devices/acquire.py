@@ -38,6 +38,7 @@ from fringe3d.io.images import write_image
 from fringe3d.patterns.bitplanes import PLANES_PER_FRAME
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.write_guard import guard_write
 
 from .base import PIXEL_FORMATS, DeviceError, check_image_fits
 
@@ -172,7 +173,7 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
     fdir.mkdir(parents=True, exist_ok=True)
     for stale in fdir.glob("*"):
         if stale.is_file():
-            stale.unlink()
+            guard_write(stale).unlink()
     packed = max(planes) > 1
     if packed and callable(getattr(projector, "configure_bitplanes", None)):
         projector.configure_bitplanes(planes)

@@ -28,6 +28,7 @@ from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.utils.console import progress_bar
 from fringe3d.utils.jsonfile import read_json, write_json
+from fringe3d.utils.write_guard import guard_write
 
 FRAMES_DIR = "frames"
 META_NAME = "capture.json"
@@ -239,7 +240,7 @@ def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: Patte
     for stale in fdir.iterdir():  # an older capture must not leave frames behind
         m = _FRAME_NAME.match(stale.name)
         if m and (int(m.group(1)) >= len(frames) or stale.suffix.lower() != f".{fmt}"):
-            stale.unlink()
+            guard_write(stale).unlink()
     with progress_bar(f"writing {len(frames)} frames", len(frames), enabled=len(frames) > 60) as advance, \
             ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
         for _ in pool.map(lambda i: write_image(fdir / f"{i:05d}.{fmt}", frames[i]), range(len(frames))):

@@ -12,6 +12,7 @@ from fringe3d.patterns.bitplanes import (CHANNELS, PACKED_DIR, PACKING_MODE, PLA
                                          packing_entry)
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.utils.jsonfile import read_json, write_json
+from fringe3d.utils.write_guard import guard_write
 
 
 def write_packed(folder: str | os.PathLike, ps: PatternSet, images: np.ndarray) -> list[Path]:
@@ -25,7 +26,7 @@ def write_packed(folder: str | os.PathLike, ps: PatternSet, images: np.ndarray) 
     pdir = folder / PACKED_DIR
     pdir.mkdir(parents=True, exist_ok=True)
     for stale in pdir.glob("*.png"):
-        stale.unlink()
+        guard_write(stale).unlink()
     paths = [write_image(pdir / f"{j:05d}.png", np.ascontiguousarray(f[..., ::-1])) for j, f in enumerate(packed)]
     d = ps.to_dict()
     d["packing"] = packing_entry(len(ps), [f"{PACKED_DIR}/{p.name}" for p in paths])

@@ -10,6 +10,7 @@ from fringe3d.patterns.gamma import precompensate
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.patterns.render import render_frame
 from fringe3d.utils.console import progress_bar
+from fringe3d.utils.write_guard import guard_write
 
 from .images import write_image
 
@@ -23,7 +24,7 @@ def write_pattern_folder(ps: PatternSet, out: Path, gamma: float | None = None, 
     out.mkdir(parents=True, exist_ok=True)
     for stale in out.glob("*.png"):  # a longer, older set must not leave frames behind
         if re.fullmatch(r"\d{5}\.png", stale.name) and int(stale.stem) >= len(ps):
-            stale.unlink()
+            guard_write(stale).unlink()
     paths = []
     with progress_bar(f"writing {len(ps)} patterns", len(ps), enabled=len(ps) > 4) as advance:
         for i, spec in enumerate(ps.frames):

@@ -23,7 +23,9 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Iterable
 
+from fringe3d.patterns.manifest_schema import ManifestModel
 from fringe3d.utils.jsonfile import read_json, write_json
+from fringe3d.utils.schema import validate
 
 MANIFEST_VERSION = 1
 MANIFEST_NAME = "manifest.json"
@@ -217,8 +219,15 @@ class PatternSet:
         }
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "PatternSet":
-        """Build from a parsed manifest, rejecting unknown or missing fields by name."""
+    def from_dict(cls, d: dict[str, Any], where: str = "manifest") -> "PatternSet":
+        """Build from a parsed manifest, rejecting unknown or missing fields by name.
+
+        The manifest is first validated against :class:`~fringe3d.patterns.manifest_schema.ManifestModel`
+        (types, finiteness, bounded sizes, labels safe as file names); ``where`` names the file in errors.
+        """
+        if not isinstance(d, dict):
+            raise ValueError(f"{where}: expected a JSON object, got {type(d).__name__}")
+        validate(ManifestModel, d, where)
         # "packing": bit-plane packing of a pattern folder (patterns.bitplanes), not part of the set
         top = {"format", "version", "name", "width", "height", "bit_depth", "frames", "plans", "packing"}
         _check_keys(d, top, required={"width", "height", "frames"}, where="manifest")
@@ -230,12 +239,18 @@ class PatternSet:
         pnames = {f.name for f in fields(DirectionPlan)}
         frames = []
         for i, fd in enumerate(d["frames"]):
-            _check_keys(fd, fnames, required={"kind"}, where=f"manifest frame {i}")
-            frames.append(FrameSpec(**fd))
+            _check_keys(fd, fnames, required={"kind"}, where=f"{where} frame {i}")
+            frames.append(_built(FrameSpec, fd, f"{where}: field frames[{i}]"))
         plans = []
         for i, pd in enumerate(d.get("plans", [])):
-            _check_keys(pd, pnames, required={"direction", "angle", "method"}, where=f"manifest plan {i}")
-            plans.append(DirectionPlan(**{**pd, "periods": tuple(pd.get("periods", ()))}))
+            _check_keys(pd, pnames, required={"direction", "angle", "method"}, where=f"{where} plan {i}")
+            plans.append(_built(DirectionPlan, {**pd, "periods": tuple(pd.get("periods", ()))},
+                                f"{where}: field plans[{i}]"))
+        planned = {p.direction for p in plans}
+        unplanned = sorted({f.direction for f in frames if f.role in ("phase", "code") and f.direction} - planned)
+        if unplanned:
+            raise ValueError(f"{where}: field plans: no unwrapping plan for direction(s) {unplanned}; every "
+                             "direction with phase or code frames needs a plan (direction, angle, method)")
         return cls(width=int(d["width"]), height=int(d["height"]), frames=tuple(frames),
                    plans=tuple(plans), bit_depth=int(d.get("bit_depth", 8)), name=d.get("name", ""))
 
@@ -253,7 +268,15 @@ class PatternSet:
         path = Path(path)
         if path.is_dir():
             path = path / MANIFEST_NAME
-        return cls.from_dict(read_json(path, "pattern manifest"))
+        return cls.from_dict(read_json(path, "pattern manifest"), where=f"manifest {path}")
+
+
+def _built(kind, fields_: dict[str, Any], where: str):
+    """``kind(**fields_)``, with the constructor's ValueError prefixed by ``where``."""
+    try:
+        return kind(**fields_)
+    except ValueError as e:
+        raise ValueError(f"{where}: {e}") from None
 
 
 def _check_keys(d: dict[str, Any], allowed: Iterable[str], required: Iterable[str], where: str) -> None:

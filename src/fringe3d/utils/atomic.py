@@ -11,15 +11,20 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
+from fringe3d.utils.write_guard import guard_write
+
 
 @contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; rename it onto ``path`` on success.
 
+    Inside an output block (:func:`fringe3d.utils.output_folder.open_output`) a ``path`` that
+    resolves outside the output raises :class:`~fringe3d.utils.write_guard.OutsideOutputError`.
     The temporary file keeps ``path``'s suffix (or ``suffix``) so writers that choose a
     format by extension still work. On an exception the temporary file is removed.
     """
     path = Path(path)
+    guard_write(path)  # inside an output block, refuse a path that resolves outside the output
     parent = path.parent if str(path.parent) else Path(".")
     try:
         parent.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,74 @@
+"""The manifest file's schema (``manifest.json``): types, ranges and sizes checked before use.
+
+Bounds keep a hostile or mistyped manifest from exhausting memory before anything is allocated:
+a projector side is at most :data:`~fringe3d.utils.schema.MAX_SIDE` pixels, a set holds at most
+:data:`MAX_FRAMES` frames, a phase-shift group at most :data:`MAX_STEPS` steps and a code at most
+:data:`MAX_BITS` bits. Direction labels become file names (``phase_<direction>.tif``), so they are
+:data:`~fringe3d.utils.schema.Label`\\ s; group labels may also hold ``/`` and ``.`` (``"v/T18"``).
+"""
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, StrictBool, StrictStr, field_validator
+
+from fringe3d.utils.schema import FiniteFloat, Label, Size, Strict, StrictInt
+
+MAX_FRAMES = 4096
+MAX_STEPS = 1024
+MAX_BITS = 32
+#: Largest projector frame (pixels) of a manifest: 2^28, a 16384 x 16384 DMD.
+MAX_PIXELS = 1 << 28
+
+Group = Annotated[str, Field(pattern=r"^[A-Za-z0-9_./-]*$", max_length=128)]
+Count = Annotated[StrictInt, Field(ge=0, le=MAX_STEPS)]
+
+
+class FrameModel(Strict):
+    kind: StrictStr
+    role: StrictStr = "phase"
+    direction: Label | Literal[""] = ""
+    angle: FiniteFloat = 0.0
+    period: Annotated[FiniteFloat, Field(ge=0, le=1e7)] = 0.0
+    shift: FiniteFloat = 0.0
+    step: Count = 0
+    steps: Count = 0
+    bit: Annotated[StrictInt, Field(ge=0, le=MAX_BITS)] = 0
+    bits: Annotated[StrictInt, Field(ge=0, le=MAX_BITS)] = 0
+    inverse: StrictBool = False
+    group: Group = ""
+
+    @field_validator("group")
+    @classmethod
+    def _no_parent(cls, v: str) -> str:
+        if ".." in v.split("/") or v.startswith("/"):
+            raise ValueError("a group label may not hold '..' or start with '/'")
+        return v
+
+
+class PlanModel(Strict):
+    direction: Label
+    angle: FiniteFloat
+    method: StrictStr
+    periods: Annotated[list[Annotated[FiniteFloat, Field(gt=0, le=1e7)]], Field(max_length=16)] = []
+    options: dict[str, Any] = {}
+
+
+class ManifestModel(Strict):
+    format: Literal["fringe3d-pattern-manifest"] = "fringe3d-pattern-manifest"
+    version: Annotated[StrictInt, Field(ge=1)] = 1
+    name: Annotated[StrictStr, Field(max_length=256)] = ""
+    width: Size
+    height: Size
+    bit_depth: Annotated[StrictInt, Field(ge=1, le=16)] = 8
+    frames: Annotated[list[FrameModel], Field(min_length=1, max_length=MAX_FRAMES)]
+    plans: Annotated[list[PlanModel], Field(max_length=64)] = []
+    packing: dict[str, Any] | None = None
+
+    @field_validator("height")
+    @classmethod
+    def _bounded_frame(cls, v: int, info) -> int:
+        w = info.data.get("width")
+        if isinstance(w, int) and w * v > MAX_PIXELS:
+            raise ValueError(f"a {w}x{v} projector frame exceeds {MAX_PIXELS} pixels")
+        return v
