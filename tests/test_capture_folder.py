@@ -126,7 +126,7 @@ def test_missing_frames_folder(tmp_path, ps):
 def test_bad_capture_json_fields(tmp_path, ps):
     write_capture(tmp_path, _frames(3), ps)
     (tmp_path / "capture.json").write_text(json.dumps({"frame_rate": -5}))
-    with pytest.raises(ValueError, match="frame_rate must be a positive number"):
+    with pytest.raises(ValueError, match=r"capture.json: field frame_rate: Input should be greater than 0 \(got -5\)"):
         read_capture(tmp_path)
     (tmp_path / "capture.json").write_text(json.dumps({"camera": [10, 10]}))
     with pytest.raises(ValueError, match="camera is 10x10 but the frames are 32x24"):

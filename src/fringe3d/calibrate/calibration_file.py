@@ -68,7 +68,7 @@ class Calibration:
     @classmethod
     def from_dict(cls, d: dict, where: str = "calibration file") -> "Calibration":
         validate(d, where)
-        rig = Rig.from_dict(d["rig"])
+        rig = Rig.from_dict(d["rig"], f"{where}: field rig")
         return cls(model=d["model"], rig=rig, camera=d["camera_stats"],
                    projector=d["projector_stats"], board=d["board"],
                    periods=d["periods"], angles=d["angles"], poses=d["poses"], rms=d["rms"],
@@ -108,10 +108,7 @@ def validate(d: dict, where: str = "calibration file") -> None:
     if model not in MODELS:
         raise ValueError(f"{where}: field 'model' is {model!r}, expected one of {MODELS}")
     _need(d, "rig", dict, where)
-    try:
-        rig = Rig.from_dict(d["rig"])
-    except (ValueError, TypeError) as e:
-        raise ValueError(f"{where}: invalid 'rig': {e}") from None
+    rig = Rig.from_dict(d["rig"], f"{where}: field rig")
     if rig.telecentric != (model == "telecentric"):
         raise ValueError(f"{where}: model {model!r} does not match the rig's camera kind")
     for dev in ("camera", "projector"):

@@ -23,11 +23,13 @@ from pathlib import Path
 
 import numpy as np
 
+from fringe3d.io.capture_schema import check_frame_values, validate_meta
 from fringe3d.io.images import IMAGE_SUFFIXES, read_image, write_image
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.utils.console import progress_bar
 from fringe3d.utils.jsonfile import read_json, write_json
+from fringe3d.utils.output_folder import check_complete
 from fringe3d.utils.write_guard import guard_write
 
 FRAMES_DIR = "frames"
@@ -121,18 +123,10 @@ def read_meta(folder: str | os.PathLike) -> dict:
     path = Path(folder) / META_NAME
     if not path.exists():
         return {}
-    meta = read_json(path, "capture metadata")
+    meta = validate_meta(read_json(path, "capture metadata"), f"capture metadata {path}")
     if meta.get("complete") is False:  # written by fringe3d capture until the last frame is in
         why = "; ".join(meta.get("problems") or []) or meta.get("interrupted") or meta.get("status", "not finished")
         raise ValueError(f"{path}: the capture is incomplete ({why}); it is not used, capture it again")
-    if "frame_rate" in meta and not (isinstance(meta["frame_rate"], (int, float)) and meta["frame_rate"] > 0):
-        raise ValueError(f"{path}: frame_rate must be a positive number (Hz), got {meta['frame_rate']!r}")
-    if "bit_depth" in meta and meta["bit_depth"] not in (1, 8, 10, 12, 14, 16):
-        raise ValueError(f"{path}: bit_depth must be one of 8, 10, 12, 14, 16, got {meta['bit_depth']!r}")
-    if "camera" in meta:
-        cam = meta["camera"]
-        if not (isinstance(cam, list) and len(cam) == 2 and all(isinstance(x, int) and x > 0 for x in cam)):
-            raise ValueError(f"{path}: camera must be [width, height] in pixels, got {cam!r}")
     return meta
 
 
@@ -182,6 +176,7 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
     if not (folder / MANIFEST_NAME).is_file():
         raise FileNotFoundError(f"capture folder {folder} has no {MANIFEST_NAME}; copy the pattern "
                                 f"manifest there (fringe3d patterns writes it next to the PNGs)")
+    check_complete(folder, "capture folder")
     patterns = PatternSet.load(folder / MANIFEST_NAME)
     meta = read_meta(folder)
     files = list_frame_files(folder)
@@ -211,6 +206,7 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
     if "camera" in meta and list(meta["camera"]) != [first.shape[1], first.shape[0]]:
         raise ValueError(f"{folder / META_NAME} says the camera is {meta['camera'][0]}x{meta['camera'][1]} "
                          f"but the frames are {first.shape[1]}x{first.shape[0]}")
+    check_frame_values(frames, meta.get("bit_depth"), str(folder / FRAMES_DIR))
     return Capture(frames=frames, patterns=patterns, meta=meta, folder=folder)
 
 

@@ -17,6 +17,7 @@ import numpy as np
 from fringe3d.utils.jsonfile import read_json, write_json
 
 from .pinhole import PinholeDevice
+from .rig_schema import validate_rig
 from .telecentric import TelecentricCamera
 
 RIG_FORMAT = "fringe3d-rig"
@@ -68,10 +69,9 @@ class Rig:
                 "projector": self.projector.to_dict()}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "Rig":
-        for key in ("camera", "projector"):
-            if key not in d:
-                raise ValueError(f"rig file: missing field {key!r}")
+    def from_dict(cls, d: dict[str, Any], where: str = "rig file") -> "Rig":
+        """A rig from its JSON form, validated first (:func:`~fringe3d.optics.rig_schema.validate_rig`)."""
+        validate_rig(d, where)
         return cls(camera=device_from_dict(d["camera"], "rig camera"),
                    projector=cast(PinholeDevice, device_from_dict(d["projector"], "rig projector")))
 
@@ -83,6 +83,7 @@ class Rig:
     @classmethod
     def load(cls, path: str | os.PathLike) -> "Rig":
         d = read_json(path, "rig file")
+        where = f"rig file {path}"
         if "rig" in d and "camera" not in d:  # a calibration file embeds a rig
-            d = d["rig"]
-        return cls.from_dict(d)
+            d, where = d["rig"], f"calibration file {path}: field rig"
+        return cls.from_dict(d, where)

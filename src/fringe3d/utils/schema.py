@@ -61,17 +61,33 @@ def _short(value: Any) -> str:
 
 _MESSAGES = {"extra_forbidden": "unknown field (not part of this file format)",
              "missing": "required field is missing"}
+#: Location parts that name a union member rather than a field; schema modules add their
+#: discriminator values (e.g. ``"pinhole"``).
+UNION_TAGS = {"float", "int", "str", "bool", "list", "dict", "none"}
+_TAG_PREFIXES = ("literal[", "constrained-", "function-", "nullable[", "lax-", "json-or-python[")
+
+
+def _clean(loc: tuple) -> tuple:
+    return tuple(p for p in loc if not (isinstance(p, str) and (p in UNION_TAGS or p.startswith(_TAG_PREFIXES))))
 
 
 def describe(error: pydantic.ValidationError, where: str, limit: int = 5) -> str:
-    """One message for a pydantic error: ``where: field PATH: what was expected (got VALUE)``, per problem."""
+    """One message for a pydantic error: ``where: field PATH: what was expected (got VALUE)``, per
+    problem; the alternatives of a union at one field are joined into one problem."""
+    grouped: dict[tuple, list[dict]] = {}
+    for e in error.errors():
+        grouped.setdefault(_clean(e["loc"]), []).append(e)
     parts = []
-    for e in error.errors()[:limit]:
-        loc = tuple(p for p in e["loc"] if not (isinstance(p, str) and p.endswith("]")))  # drop union tags
-        got = f" (got {_short(e['input'])})" if e.get("type") != "missing" and "input" in e else ""
-        msg = _MESSAGES.get(e["type"], e["msg"])
-        parts.append(f"field {field_path(loc)}: {msg}{got}")
-    more = error.error_count() - limit
+    for loc, errs in list(grouped.items())[:limit]:
+        types = {e["type"] for e in errs}
+        if {"float_type", "int_type"} <= types:
+            msgs = ["Input should be a number"]
+        else:
+            msgs = list(dict.fromkeys(_MESSAGES.get(e["type"], e["msg"]) for e in errs))
+        first = errs[0]
+        got = f" (got {_short(first['input'])})" if first.get("type") != "missing" and "input" in first else ""
+        parts.append(f"field {field_path(loc)}: {' or '.join(msgs)}{got}")
+    more = len(grouped) - limit
     if more > 0:
         parts.append(f"and {more} more problem(s)")
     return f"{where}: " + "; ".join(parts)
