@@ -6,9 +6,10 @@ adding a command touches only its module and that list. A command module that fa
 fails the whole CLI loudly instead of vanishing from it.
 
 Exit codes (documented in ``fringe3d --help``):
-  0 success · 1 unexpected internal error · 2 bad input or usage (the message says what was
+  0 success · 1 unexpected internal error (a bug: the message says where to report it;
+  ``fringe3d --debug ...`` shows the traceback) · 2 bad input or usage (the message says what was
   wrong and what was expected) · 3 an output could not be written · 4 a capture stopped or
-  lost frames (the folder is not marked complete).
+  lost frames (the folder is not marked complete) · 130 interrupted (Ctrl-C).
 """
 from __future__ import annotations
 
@@ -33,14 +34,19 @@ from fringe3d.commands import (
     simulate,
     strain,
 )
-from fringe3d.utils.console import err_console, set_quiet, warn
+from fringe3d.utils.console import err_console, set_quiet, settings, warn
 from fringe3d.utils.warning_types import Fringe3DWarning
 
 #: The sub-command modules, in the order they are registered (and listed by ``--help``).
 COMMANDS = (patterns, capture, import_, simulate, decode, calibrate, reconstruct, evaluate, strain, report, demo,
             experiment)
 
-EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_WRITE = 0, 1, 2, 3
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_WRITE, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+ISSUES_URL = "https://github.com/fringe3d/fringe3d/issues"
+
+
+class _Flags:
+    debug = False
 
 app = typer.Typer(
     name="fringe3d",
@@ -48,7 +54,7 @@ app = typer.Typer(
         "Superfast, high-accuracy 3D shape measurement with digital fringe projection, "
         "and a virtual camera-projector rig with ground truth.\n\n"
         "Exit codes: 0 ok, 1 internal error, 2 bad input or usage, 3 output not writable, "
-        "4 capture incomplete.\n\n"
+        "4 capture incomplete, 130 interrupted.\n\n"
         "Example: fringe3d demo -o demo-out"
     ),
     no_args_is_help=True,
@@ -60,10 +66,16 @@ app = typer.Typer(
 
 @app.callback()
 def _root(
-    version: bool = typer.Option(False, "--version", help="Print the fringe3d version and exit."),
+    version: bool = typer.Option(False, "--version", help="Print the fringe3d version and exit.", is_eager=True,
+                                 callback=lambda v: _print_version(v)),
+    debug: bool = typer.Option(False, "--debug", help="Show the Python traceback of an internal error."),
 ) -> None:
     """Superfast, high-accuracy 3D shape measurement with digital fringe projection."""
-    if version:
+    _Flags.debug = debug
+
+
+def _print_version(value: bool) -> None:
+    if value:
         typer.echo(__version__)
         raise typer.Exit()
 
@@ -84,17 +96,46 @@ def show_warning(message, category, filename, lineno, file=None, line=None) -> N
 _python_showwarning = warnings.showwarning
 
 
+def _interrupted() -> int:
+    """Message and exit code of Ctrl-C: how far the command got and how to go on."""
+    where = ""
+    if settings.progress is not None:
+        what, done, total = settings.progress
+        where = f"; {done} of {total} done ({what})" if total else f"; {done} done ({what})"
+    err_console.print(f"[bold red]interrupted[/]{escape(where)}. Nothing unfinished is marked complete: run the "
+                      "same command again to resume (sequences continue where they stopped) or with --overwrite "
+                      "to start over.")
+    return EXIT_INTERRUPTED
+
+
+def _internal(e: BaseException) -> int:
+    if _Flags.debug:
+        err_console.print_exception()
+    err_console.print(f"[bold red]internal error:[/] {escape(type(e).__name__)}: {escape(str(e))}. This is a bug "
+                      f"in fringe3d, not in your input: please report it at {ISSUES_URL} with the command line "
+                      "(run it again with `fringe3d --debug ...` for the traceback).")
+    return EXIT_INTERNAL
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point: run the app, turning known error types into clear messages and exit codes."""
     set_quiet(False)  # the command line shows progress; sub-commands' --quiet/--json silence it
+    settings.progress = None
+    _Flags.debug = False
     try:
         with warnings.catch_warnings():
             warnings.showwarning = show_warning
             app(args=argv, standalone_mode=False)
     except SystemExit as e:  # typer/click exit
         return int(e.code or 0)
-    except (ValueError, FileNotFoundError, KeyError) as e:
+    except KeyboardInterrupt:
+        return _interrupted()
+    except (ValueError, FileNotFoundError, KeyError, NotADirectoryError, IsADirectoryError) as e:
         err_console.print(f"[bold red]error:[/] {escape(str(e))}")
+        return EXIT_BAD_INPUT
+    except MemoryError:
+        err_console.print("[bold red]error:[/] not enough memory for this input; use smaller frames, fewer cycles "
+                          "(--max-cycles) or a machine with more memory")
         return EXIT_BAD_INPUT
     except PermissionError as e:
         err_console.print(f"[bold red]cannot write output:[/] {escape(str(e))}")
@@ -106,10 +147,9 @@ def main(argv: list[str] | None = None) -> int:
         if hasattr(e, "show") and hasattr(e, "exit_code"):  # ClickException / UsageError
             e.show()
             return EXIT_BAD_INPUT
-        if type(e).__name__ == "Abort":
-            err_console.print("aborted")
-            return EXIT_INTERNAL
-        raise
+        if type(e).__name__ == "Abort":  # click turns Ctrl-C into Abort
+            return _interrupted()
+        return _internal(e)
     return EXIT_OK
 
 

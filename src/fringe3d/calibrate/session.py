@@ -13,7 +13,6 @@ result in a :class:`Calibration`. Simulated sessions are rendered by
 """
 from __future__ import annotations
 
-import json
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +24,7 @@ from fringe3d.io.capture import read_capture
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.utils.console import progress_bar
 from fringe3d.utils.warning_types import CalibrationWarning
+from fringe3d.utils.jsonfile import read_json
 
 from .board_detection import find_board
 from .boards import CircleBoard
@@ -63,10 +63,7 @@ def find_pose_folders(paths) -> tuple[list[Path], dict]:
             raise ValueError(f"calibration input {p} is not a folder; expected a pose (capture) folder "
                              "or a session folder of pose folders")
         if (p / SESSION_NAME).is_file():
-            try:
-                meta = {**meta, **json.loads((p / SESSION_NAME).read_text())}
-            except json.JSONDecodeError as e:
-                raise ValueError(f"{p / SESSION_NAME} is not valid JSON: {e}") from None
+            meta = {**meta, **read_json(p / SESSION_NAME, "calibration session file")}
         if (p / MANIFEST_NAME).is_file():
             out.append(p)
             continue

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import zipfile
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,6 +16,7 @@ from fringe3d.patterns.conventions import phase_to_w
 
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.output_folder import check_complete
 
 NPZ_NAME = "decoded.npz"
 SUMMARY_NAME = "decoded.json"
@@ -140,6 +142,16 @@ class Decoded:
             path = path / NPZ_NAME
         if not path.exists():
             raise FileNotFoundError(f"no decoded phase file at {path}; expected the output of `fringe3d decode`")
+        if path.parent.is_dir():
+            check_complete(path.parent, "decode output")
+        try:
+            return cls._read(path)
+        except (KeyError, ValueError, TypeError, OSError, zipfile.BadZipFile, RecursionError) as e:
+            raise ValueError(f"decoded phase file {path} is damaged or not written by `fringe3d decode` "
+                             f"({type(e).__name__}: {e}); decode the capture again") from None
+
+    @classmethod
+    def _read(cls, path: Path) -> "Decoded":
         with np.load(path, allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))
             out = cls(period={k: float(v) for k, v in meta["period"].items()},

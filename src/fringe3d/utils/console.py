@@ -32,6 +32,9 @@ class _Settings:
     # Library functions are silent by default; the CLI turns output on (``fringe3d.cli.main``)
     # and each sub-command's ``--quiet``/``--json`` turns it off again.
     quiet: bool = True
+    #: (description, done, total) of the innermost progress bar, kept even when quiet, so an
+    #: interrupted command can say how far it got.
+    progress: tuple[str, int, int | None] | None = None
 
 
 settings = _Settings()
@@ -44,15 +47,26 @@ def set_quiet(quiet: bool) -> None:
 
 @contextmanager
 def progress_bar(description: str, total: int | None, enabled: bool = True) -> Iterator:
-    """A rich progress bar on stderr; yields ``advance(n=1)``. Disabled when quiet."""
+    """A rich progress bar on stderr; yields ``advance(n=1)``. Disabled when quiet; the count is
+    kept in ``settings.progress`` either way."""
+    settings.progress = (description, 0, total)
+
+    def count(n: int = 1) -> None:
+        d, done, tot = settings.progress or (description, 0, total)
+        settings.progress = (d, done + n, tot)
+
     if settings.quiet or not enabled:
-        yield lambda n=1: None
+        yield count
         return
     prog = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                     TimeElapsedColumn(), TimeRemainingColumn(), console=err_console, transient=True)
     with prog:
         task = prog.add_task(description, total=total)
-        yield lambda n=1: prog.advance(task, n)
+
+        def advance(n: int = 1) -> None:
+            count(n)
+            prog.advance(task, n)
+        yield advance
 
 
 def track(items: Iterable, description: str, total: int | None = None) -> Iterator:

@@ -11,6 +11,26 @@ import numpy as np
 from fringe3d.utils.atomic import atomic_write_text
 
 
+#: Largest JSON file fringe3d reads (bytes) and deepest nesting it accepts.
+MAX_JSON_BYTES = 64 << 20
+MAX_JSON_DEPTH = 32
+
+
+def _depth(obj, level: int = 1) -> int:
+    """Nesting depth of parsed JSON, iteratively (no recursion limit)."""
+    deepest, stack = 0, [(obj, level)]
+    while stack:
+        o, lv = stack.pop()
+        deepest = max(deepest, lv)
+        if lv > MAX_JSON_DEPTH:
+            break
+        if isinstance(o, dict):
+            stack.extend((v, lv + 1) for v in o.values())
+        elif isinstance(o, list):
+            stack.extend((v, lv + 1) for v in o)
+    return deepest
+
+
 def read_json(path: str | os.PathLike, what: str = "JSON file", require_object: bool = True):
     """Parse the JSON file ``path``.
 
@@ -18,6 +38,12 @@ def read_json(path: str | os.PathLike, what: str = "JSON file", require_object: 
     when it is not valid JSON or (``require_object``) not a JSON object.
     """
     path = Path(path)
+    try:
+        size = path.stat().st_size
+    except FileNotFoundError:
+        raise FileNotFoundError(f"no {what} at {path}") from None
+    if size > MAX_JSON_BYTES:
+        raise ValueError(f"{what} {path} is {size} bytes; fringe3d reads JSON files of at most {MAX_JSON_BYTES}")
     try:
         text = path.read_text()
     except FileNotFoundError:
@@ -30,6 +56,12 @@ def read_json(path: str | os.PathLike, what: str = "JSON file", require_object: 
         data = json.loads(text)
     except json.JSONDecodeError as e:
         raise ValueError(f"{what} {path} is not valid JSON: {e}") from None
+    except RecursionError:
+        raise ValueError(f"{what} {path} is nested too deeply (more than Python's recursion limit); "
+                         "expected a flat fringe3d JSON file") from None
+    depth = _depth(data)
+    if depth > MAX_JSON_DEPTH:
+        raise ValueError(f"{what} {path} is nested {depth} levels deep; fringe3d files nest at most {MAX_JSON_DEPTH}")
     if require_object and not isinstance(data, dict):
         raise ValueError(f"{what} {path} must hold a JSON object, got {type(data).__name__}")
     return data
