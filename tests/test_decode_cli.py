@@ -48,10 +48,14 @@ def test_decode_command_bad_capture_exits_2(tmp_path, capsys):
     assert "does not exist" in " ".join(capsys.readouterr().err.split())
 
 
-def test_decode_command_warns_on_dark_capture(tmp_path, capsys):
+def test_decode_of_a_dark_capture_warns_and_refuses_an_empty_result_unless_allowed(tmp_path, capsys):
     ps = sets.three_frequency("v")
     write_capture(tmp_path / "cap", np.zeros((15, H, W), np.uint8), ps)
-    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "out"), "--json"]) == 0
+    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "out"), "--json"]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "dark" in err and "no valid pixel in any direction" in err and "modulation threshold" in err
+    assert not (tmp_path / "out").exists()  # nothing written
+    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "out"), "--json", "--allow-empty"]) == 0
     captured = capsys.readouterr()
     assert "dark" in captured.err
     assert json.loads(captured.out)["results"][0]["directions"]["v"]["valid_fraction"] == 0.0

@@ -35,6 +35,7 @@ from fringe3d.commands import (
     strain,
 )
 from fringe3d.utils.console import err_console, set_quiet, settings, warn
+from fringe3d.utils.output_folder import set_command_line
 from fringe3d.utils.warning_types import Fringe3DWarning
 
 #: The sub-command modules, in the order they are registered (and listed by ``--help``).
@@ -122,6 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     set_quiet(False)  # the command line shows progress; sub-commands' --quiet/--json silence it
     settings.progress = None
     _Flags.debug = False
+    set_command_line(list(sys.argv[1:] if argv is None else argv))
     try:
         with warnings.catch_warnings():
             warnings.showwarning = show_warning

@@ -9,7 +9,12 @@ import typer
 
 from fringe3d.decode import DecodeOptions, decode_sequence, with_method
 from fringe3d.io.capture import read_capture
+from fringe3d.commands.output_options import allow_empty_option, overwrite_option
+from fringe3d.commands.checks import check_number
 from fringe3d.optics import Rig
+from fringe3d.decode.result import SUMMARY_NAME
+from fringe3d.utils.jsonfile import read_json
+from fringe3d.utils.output_folder import open_output
 from fringe3d.utils.console import (
     console,
     info,
@@ -25,6 +30,31 @@ def _load_rig(path: Path | None):
     if path is None:
         return None
     return Rig.load(path)
+
+
+def _decode_all(cap, patterns, rig, options: DecodeOptions, out: Path, capture: Path, results: list, *,
+                overwrite: bool, allow_empty: bool, inputs: list, fingerprint_options: dict) -> None:
+    """Decode every cycle into the guarded output ``out``, appending each cycle's summary to ``results``."""
+    n, length = cap.cycles, len(patterns)
+    with open_output(out, overwrite=overwrite, inputs=inputs, options=fingerprint_options, resumable=n > 1) as o, \
+            progress_bar("decoding", n, enabled=n > 1) as advance:
+        for c in range(n):
+            folder = o.path if n == 1 else o.path / f"cycle_{c:05d}"
+            if o.resumed and (folder / SUMMARY_NAME).is_file():  # written last by Decoded.save: this cycle is done
+                results.append({**read_json(folder / SUMMARY_NAME, "decode summary"), "cycle": c,
+                                "folder": str(o.final_of(folder)), "resumed": True})
+                advance()
+                continue
+            dec = next(decode_sequence(cap.frames[c * length:(c + 1) * length], patterns, rig=rig, options=options))
+            why = dec.empty_reason()
+            if why and not allow_empty:
+                raise ValueError(f"{capture}" + (f" cycle {c}" if n > 1 else "") + f": {why}. Nothing "
+                                 "was written (pass --allow-empty to write it anyway)")
+            dec.save(folder)
+            s = dec.summary()
+            s["cycle"], s["folder"] = c, str(o.final_of(folder))
+            results.append(s)
+            advance()
 
 
 def register(app: typer.Typer) -> None:
@@ -55,6 +85,8 @@ def register(app: typer.Typer) -> None:
         black_thr: float = typer.Option(None, "--black-thr",
                                         help="Code-only decoding: smallest white-black difference, the shadow "
                                              "mask (counts; default OpenCV's 40 at 8 bits, scaled)."),
+        overwrite: bool = overwrite_option(),
+        allow_empty: bool = allow_empty_option(),
         json_: bool = typer.Option(False, "--json", help="Print one JSON summary instead of a table."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars or tables."),
     ) -> None:
@@ -67,6 +99,7 @@ def register(app: typer.Typer) -> None:
         """
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
+        check_number(min_modulation, "--min-modulation", minimum=0)
         cap = read_capture(capture, max_cycles=max_cycles)
         bits = bit_depth if bit_depth is not None else cap.meta.get("bit_depth")
         opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1,
@@ -77,19 +110,16 @@ def register(app: typer.Typer) -> None:
         rig_obj = _load_rig(rig)
         n = cap.cycles
         results = []
+        options = {k: v for k, v in opts.items()} | {"z_min": z_min, "method": method, "max_cycles": max_cycles}
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            with progress_bar("decoding", n, enabled=n > 1) as advance:
-                for c, dec in enumerate(decode_sequence(cap.frames, patterns, rig=rig_obj,
-                                                                options=DecodeOptions(z_min=z_min, **opts))):
-                    folder = out if n == 1 else out / f"cycle_{c:05d}"
-                    dec.save(folder)
-                    s = dec.summary()
-                    s["cycle"], s["folder"] = c, str(folder)
-                    results.append(s)
-                    advance()
-        for msg in dict.fromkeys(str(w.message) for w in caught):
-            warn(msg)
+            try:
+                _decode_all(cap, patterns, rig_obj, DecodeOptions(z_min=z_min, **opts), out, capture, results,
+                            overwrite=overwrite, allow_empty=allow_empty, inputs=[capture, rig],
+                            fingerprint_options=options)
+            finally:
+                for msg in dict.fromkeys(str(w.message) for w in caught):
+                    warn(msg)
         summary = {"capture": str(capture), "out": str(out), "cycles": n, "patterns": patterns.name,
                    "frames": int(cap.frames.shape[0]), "shape": list(cap.frames.shape[1:]),
                    "seconds": round(time.perf_counter() - t0, 3), "results": results}

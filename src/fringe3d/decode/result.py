@@ -109,6 +109,23 @@ class Decoded:
         out["info"] = self.info
         return out
 
+    def empty_reason(self) -> str | None:
+        """Why no pixel is valid in any direction (None when some are): which check removed them."""
+        if any(self.mask[d].any() for d in self.directions):
+            return None
+        thr = self.info.get("min_modulation")
+        parts = []
+        for d in self.directions:
+            mod = self.modulation[d]
+            finite = mod[np.isfinite(mod)]
+            top = float(np.percentile(finite, 99)) if finite.size else float("nan")
+            parts.append(f"direction {d}: modulation at most ~{top:.3g} (99th percentile)")
+        why = "; ".join(parts)
+        if thr is not None:
+            why += f"; the modulation threshold is {thr:.3g} (lower it with --min-modulation, or check the exposure"
+            why += " and that the projector lit the scene)"
+        return f"no valid pixel in any direction: {why}"
+
     def save(self, folder: str | os.PathLike) -> Path:
         """Write ``decoded.npz``, ``decoded.json`` and one 32-bit float TIFF per map
         (``phase_<d>.tif``, ``wrapped_<d>.tif``, ``modulation_<d>.tif``, ``mask_<d>.tif`` as

@@ -24,8 +24,8 @@ import datetime as _dt
 import hashlib
 import json
 import os
+import shlex
 import shutil
-import sys
 import tempfile
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -35,12 +35,22 @@ from typing import Iterable, Iterator
 from fringe3d.utils.atomic import atomic_write_text
 from fringe3d.utils.write_guard import OutsideOutputError, guard_write, writing_into
 
-__all__ = ["open_output", "open_output_file", "check_complete", "read_marker", "fingerprint", "clean_partials",
+__all__ = ["open_output", "set_command_line", "open_output_file", "check_complete", "read_marker", "fingerprint", "clean_partials",
            "OutsideOutputError", "BusyOutputError", "guard_write", "MARKER_NAME"]
 
 MARKER_NAME = "fringe3d.json"
 LOCK_NAME = ".fringe3d.lock"
 MARKER_FORMAT = "fringe3d-output"
+
+
+class _CommandLine:
+    #: The command line recorded in markers; the CLI sets it (``fringe3d.cli.main``).
+    text = ""
+
+
+def set_command_line(argv: list[str]) -> None:
+    """Record ``fringe3d ARGV...`` as the command that writes outputs from now on."""
+    _CommandLine.text = "fringe3d " + " ".join(shlex.quote(a) for a in argv)
 
 class BusyOutputError(OSError):
     """Another fringe3d run holds the output's lock."""
@@ -128,6 +138,10 @@ class Output:
     final: Path
     resumed: bool = False
 
+    def final_of(self, p: str | os.PathLike) -> Path:
+        """Where ``p`` (a path under :attr:`path`) will be once the output is in place."""
+        return self.final / Path(p).resolve().relative_to(self.path.resolve())
+
 
 def _check_not_inputs(out: Path, inputs: Iterable[str | os.PathLike | None]) -> None:
     for p in inputs:
@@ -171,7 +185,7 @@ def clean_partials(folder: Path) -> int:
 
 
 @contextmanager
-def open_output(out: str | os.PathLike, *, command: str, overwrite: bool = False,
+def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = False,
                 inputs: Iterable[str | os.PathLike | None] = (), options: dict | None = None,
                 resumable: bool = False) -> Iterator[Output]:
     """Guarded writing of an output folder (see the module docstring).
@@ -179,7 +193,8 @@ def open_output(out: str | os.PathLike, *, command: str, overwrite: bool = False
     Parameters
     ----------
     out : output folder (created when missing)
-    command : the command line, recorded in ``fringe3d.json`` and quoted in messages
+    command : the command line, recorded in ``fringe3d.json`` and quoted in messages (default: the
+        one the CLI recorded with :func:`set_command_line`)
     overwrite : replace an existing non-empty folder (atomically, by a swap at the end)
     inputs : folders/files the command reads; the output may not be, hold or lie in one of them
     options : the options that shape the result, part of the fingerprint
@@ -194,8 +209,8 @@ def open_output(out: str | os.PathLike, *, command: str, overwrite: bool = False
         raise ValueError(f"output {out} is a file; expected a folder")
     _check_not_inputs(final, inputs)
     fp = fingerprint(inputs, options)
-    info = {"format": MARKER_FORMAT, "version": 1, "fringe3d": _version(), "command": command,
-            "argv": sys.argv[1:], "started": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+    info = {"format": MARKER_FORMAT, "version": 1, "fringe3d": _version(), "command": command or _CommandLine.text,
+            "started": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
             "complete": False, "inputs": [str(Path(p)) for p in inputs], "fingerprint": fp}
     nonempty = final.is_dir() and any(p.name != LOCK_NAME for p in final.iterdir())
     if nonempty and not overwrite:

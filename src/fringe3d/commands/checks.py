@@ -1,0 +1,19 @@
+"""Checks of command-line values that typer's types do not make (finite, in range)."""
+from __future__ import annotations
+
+import math
+
+
+def check_number(value: float | None, option: str, minimum: float | None = None, maximum: float | None = None,
+                 positive: bool = False) -> None:
+    """Refuse NaN/inf and out-of-range values of ``option`` (None passes: the option was not given)."""
+    if value is None:
+        return
+    if not math.isfinite(value):
+        raise ValueError(f"{option} must be a finite number, got {value}")
+    if positive and not value > 0:
+        raise ValueError(f"{option} must be positive, got {value:g}")
+    if minimum is not None and value < minimum:
+        raise ValueError(f"{option} must be at least {minimum:g}, got {value:g}")
+    if maximum is not None and value > maximum:
+        raise ValueError(f"{option} must be at most {maximum:g}, got {value:g}")
