@@ -26,6 +26,7 @@ from fringe3d.reconstruct.depth import depth_map
 from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
 from fringe3d.unwrap.geometric import propose_z_min
 from fringe3d.utils.atomic import atomic_path
+from fringe3d.io.arrays import load_array
 
 
 @dataclass
@@ -159,4 +160,4 @@ def reference_z_min(path: Path, margin: float) -> float:
     f = path / "points.npy" if path.is_dir() else path
     if not f.exists():
         raise FileNotFoundError(f"no reference point map at {f} (expected a .npy point map or a reconstruct folder)")
-    return propose_z_min(np.load(f), margin=margin)
+    return propose_z_min(load_array(f, "reference point map"), margin=margin)

@@ -12,6 +12,8 @@ from fringe3d.io.images import write_image
 from fringe3d.io.pointcloud import read_ply
 from fringe3d.io.store import PointMapStore
 from fringe3d.utils.jsonfile import read_json
+from fringe3d.io.arrays import load_array
+from fringe3d.utils.output_folder import check_complete
 
 from .fits import fit_plane, fit_sphere
 from .sections import segments, sphere_sections
@@ -27,11 +29,12 @@ def load_points(result: Path, frame: int = 0) -> tuple[np.ndarray, dict]:
         raise FileNotFoundError(f"no reconstruction at {result} (expected a reconstruct output folder, .npy or .ply)")
     info = {}
     if result.is_dir():
+        check_complete(result, "reconstruction")
         js = result / "reconstruct.json"
         if js.exists():
             info = read_json(js, "reconstruction summary")
         if (result / "points.npy").exists():
-            return check_point_map(np.load(result / "points.npy"), result), info
+            return check_point_map(load_array(result / "points.npy", "point map"), result), info
         if (result / "points.zarr").exists():
             st = PointMapStore.open_existing(result / "points.zarr")
             if not 0 <= frame < st.frames:
@@ -42,7 +45,7 @@ def load_points(result: Path, frame: int = 0) -> tuple[np.ndarray, dict]:
             return st.read(frame), info
         raise FileNotFoundError(f"{result} holds neither points.npy nor points.zarr; run fringe3d reconstruct first")
     if result.suffix == ".npy":
-        return check_point_map(np.load(result), result), info
+        return check_point_map(load_array(result, "point map"), result), info
     if result.suffix == ".ply":
         return read_ply(result).points, info
     raise ValueError(f"{result}: expected a reconstruct output folder, a .npy point map or a .ply file")

@@ -7,6 +7,8 @@ import typer
 
 from fringe3d import experiments
 from fringe3d.demo import run_demo
+from fringe3d.commands.output_options import overwrite_option
+from fringe3d.utils.output_folder import open_output
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
 
 
@@ -17,6 +19,7 @@ def register(app: typer.Typer) -> None:
         profile: str = typer.Option("default", help="'default' (macro rig, 1280x1024) or 'tiny' (seconds)."),
         seed: int = typer.Option(0, help="Random seed (board poses, noise): same seed, same figures."),
         full: bool = typer.Option(False, "--full", help="Also run the falling-ball and flapping-wing sequences."),
+        overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print the summary as one JSON object."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress output or tables."),
     ) -> None:
@@ -28,7 +31,8 @@ def register(app: typer.Typer) -> None:
         """
         set_quiet(quiet or json_)
         sequences = (lambda sd: experiments.run_sequences(sd, announce=info)) if full else None
-        s = run_demo(output, profile=profile, seed=seed, sequences=sequences, announce=info)
+        with open_output(output, overwrite=overwrite, options={"profile": profile, "seed": seed, "full": full}) as o:
+            s = o.final_paths(run_demo(o.path, profile=profile, seed=seed, sequences=sequences, announce=info))
         if json_:
             print_json(s)
             return

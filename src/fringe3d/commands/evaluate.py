@@ -9,6 +9,9 @@ from fringe3d.analyze.evaluation import evaluate_points, load_points, truth_fram
 from fringe3d.sim.truth import Truth
 from fringe3d.utils.console import console, make_table, print_json, set_quiet
 from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.output_folder import open_output_file
+from fringe3d.commands.checks import check_number
+from fringe3d.commands.output_options import overwrite_option
 
 
 def load_truth(folder: Path, info: dict, frame: int, shape) -> Truth:
@@ -35,6 +38,7 @@ def register(app: typer.Typer) -> None:
         frame: int = typer.Option(0, "--frame", help="3D frame of a sequence store."),
         exclude: float = typer.Option(0.0, "--exclude",
                                       help="Share of worst points to drop (<= 0.003, VDI/VDE 2634-2)."),
+        overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print one JSON object."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No tables."),
     ) -> None:
@@ -46,6 +50,11 @@ def register(app: typer.Typer) -> None:
         Example: fringe3d evaluate sphere-3d --sphere --truth sphere-capture --json
         """
         set_quiet(quiet or json_)
+        for value, option in ((diameter, "--diameter"), (distance, "--distance")):
+            check_number(value, option, positive=True)
+        check_number(exclude, "--exclude", minimum=0)
+        if result.is_dir() and (result / "evaluate.json").exists() and not overwrite:
+            raise ValueError(f"{result / 'evaluate.json'} exists; pass --overwrite to replace it")
         if sum([sphere, plane, ball_bar]) > 1:
             raise ValueError("choose one of --sphere, --plane, --ball-bar")
         points, info = load_points(result, frame)
@@ -58,7 +67,8 @@ def register(app: typer.Typer) -> None:
         out.update(evaluate_points(points, t, sphere=sphere, plane=plane, ball_bar=ball_bar, diameter=diameter,
                                    distance=distance, exclude=exclude, result=result))
         if result.is_dir():
-            write_json(result / "evaluate.json", out)
+            with open_output_file(result / "evaluate.json", overwrite=overwrite):
+                write_json(result / "evaluate.json", out)
         if json_:
             print_json(out)
             return

@@ -5,6 +5,8 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.commands.output_options import overwrite_option
+from fringe3d.utils.output_folder import open_output
 from fringe3d.io.importer import import_images, parse_size
 from fringe3d.utils.console import console, make_table, print_json, set_quiet
 
@@ -37,7 +39,7 @@ def register(app: typer.Typer) -> None:
                                                             "BT.601 luma of colour frames."),
         bit_depth: int = typer.Option(None, "--bit-depth", help="Camera bit depth (10/12/14 in 16-bit files); "
                                                                 "default the files' 8 / 16."),
-        overwrite: bool = typer.Option(False, "--overwrite", help="Write into a non-empty output folder."),
+        overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No table."),
     ) -> None:
@@ -55,9 +57,12 @@ def register(app: typer.Typer) -> None:
                             shift_order=None if shift_order is None else [int(k) for k in shift_order.split(",")])
             else:
                 opts["inverse"] = not no_inverse
-        summary = import_images(src, out, list_file=list_file, manifest=manifest, layout=layout,
-                                projector_size=parse_size(projector_size), channel=channel, bit_depth=bit_depth,
-                                overwrite=overwrite, **opts)
+        src_path = Path(src)
+        inputs = [p for p in (src_path if src_path.exists() else None, list_file, manifest) if p is not None]
+        with open_output(out, overwrite=overwrite, inputs=inputs, options={"src": src, "layout": layout, **opts}) as o:
+            summary = o.final_paths(import_images(src, o.path, list_file=list_file, manifest=manifest, layout=layout,
+                                                  projector_size=parse_size(projector_size), channel=channel,
+                                                  bit_depth=bit_depth, overwrite=True, **opts))
         if json_:
             print_json(summary)
             return

@@ -13,6 +13,8 @@ from fringe3d.io.pattern_folder import write_pattern_folder
 from fringe3d.patterns import sets
 from fringe3d.patterns.gamma import load_gamma
 from fringe3d.utils.console import console, info, print_json, set_quiet
+from fringe3d.commands.output_options import overwrite_option
+from fringe3d.utils.output_folder import open_output
 
 SETS = ("phase-shift", "three-frequency", "hierarchical", "gray-code", "binary-code", "psp-gray", "ftp", "modified-ftp",
         "two-frequency", "hybrid", "calibration", "optimal-angle")
@@ -97,6 +99,7 @@ def register(app: typer.Typer) -> None:
         pack_bitplanes: bool = typer.Option(False, "--pack-bitplanes", help="Also pack the 1-bit patterns into the "
                                             "bit-planes of RGB frames (24 per frame, bitplanes/*.png) for DLP video "
                                             "pattern mode; the manifest records which plane is which pattern."),
+        overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
     ) -> None:
@@ -118,9 +121,11 @@ def register(app: typer.Typer) -> None:
         if pack_bitplanes and ps.bit_depth != 1:
             raise ValueError("--pack-bitplanes packs 1-bit patterns; use a binary --kind (square, bayer, ...) or "
                              "--bits 1, or a Gray-code set")
-        paths = write_pattern_folder(ps, output, gamma=g, dither_size=dither_size)
-        if pack_bitplanes:
-            paths += write_packed(output, ps, np.stack([read_image(p) for p in paths]))
+        with open_output(output, overwrite=overwrite, inputs=[gamma],
+                         options={"manifest": ps.to_dict(), "gamma": g, "dither": dither_size}) as o:
+            paths = write_pattern_folder(ps, o.path, gamma=g, dither_size=dither_size)
+            if pack_bitplanes:
+                paths += write_packed(o.path, ps, np.stack([read_image(p) for p in paths]))
         summary = {"output": str(output), "name": ps.name, "frames": len(ps), "width": ps.width,
                    "height": ps.height, "bit_depth": ps.bit_depth, "directions": ps.directions(),
                    "plans": [{"direction": p.direction, "angle_deg": math.degrees(p.angle), "method": p.method,

@@ -5,7 +5,9 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.commands.output_options import overwrite_option
 from fringe3d.report import write_report
+from fringe3d.utils.output_folder import open_output_file
 from fringe3d.utils.console import console, print_json, set_quiet
 
 
@@ -15,6 +17,7 @@ def register(app: typer.Typer) -> None:
         results: Path = typer.Argument(...,
                                        help="Results folder (with summary.json), e.g. the output of `fringe3d demo`."),
         output: Path = typer.Option(None, "-o", "--output", help="HTML file to write [default: RESULTS/report.html]."),
+        overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print the written path as JSON."),
         quiet: bool = typer.Option(False, "--quiet", "-q"),
     ) -> None:
@@ -24,7 +27,9 @@ def register(app: typer.Typer) -> None:
         Example: fringe3d report demo-out -o demo-out/report.html
         """
         set_quiet(quiet)
-        path = write_report(results, output)
+        target = output if output is not None else results / "report.html"
+        with open_output_file(target, overwrite=overwrite, inputs=[results / "summary.json"]):
+            path = write_report(results, target)
         if json_:
             print_json({"report": str(path)})
         elif not quiet:

@@ -5,8 +5,20 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.commands.checks import check_number
+from fringe3d.commands.output_options import overwrite_option
+from fringe3d.utils.output_folder import open_output
 from fringe3d.sim.simulate import simulate_capture
 from fringe3d.utils.console import console, make_table, print_json, set_quiet
+
+
+#: Most frames one ``simulate`` run renders (it keeps them in memory: bounded before any allocation).
+MAX_SIM_FRAMES = 20000
+
+
+def locals_for_fingerprint(**options) -> dict:
+    """The options that shape the output, for its fingerprint."""
+    return options
 
 
 def register(app: typer.Typer) -> None:
@@ -27,6 +39,7 @@ def register(app: typer.Typer) -> None:
         bit_depth: int = typer.Option(0, "--bit-depth", help="Camera bit depth 8/10/12/16 (0: the preset's)."),
         ideal: bool = typer.Option(False, "--ideal", help="Analytic sinusoids, no projector pixelation or defocus."),
         seed: int = typer.Option(0, help="Noise seed: the same seed gives the same frames."),
+        overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
     ) -> None:
@@ -38,9 +51,20 @@ def register(app: typer.Typer) -> None:
         """
         set_quiet(quiet or json_)
         extra = {"ideal": True} if ideal else {}
-        summary = simulate_capture(out, preset, scene, patterns, frames=frames, frame_rate=frame_rate,
-                                   exposure=exposure, noise=noise, defocus=defocus, bit_depth=bit_depth,
-                                   seed=seed, progress=not (quiet or json_), **extra)
+        for value, option in ((frame_rate, "--frame-rate"), (exposure, "--exposure")):
+            check_number(value, option, positive=True)
+        check_number(noise, "--noise", minimum=0, maximum=1)
+        check_number(defocus, "--defocus", minimum=0)
+        if frames is not None and not 1 <= frames <= MAX_SIM_FRAMES:
+            raise ValueError(f"--frames must be between 1 and {MAX_SIM_FRAMES}, got {frames}")
+        inputs = [Path(x) for x in (scene, patterns) if x is not None and Path(x).suffix == ".json"]
+        with open_output(out, overwrite=overwrite, inputs=inputs, options=dict(locals_for_fingerprint(
+                preset=preset, scene=scene, patterns=patterns, frames=frames, frame_rate=frame_rate, exposure=exposure,
+                noise=noise, defocus=defocus, bit_depth=bit_depth, ideal=ideal, seed=seed))) as o:
+            summary = o.final_paths(simulate_capture(o.path, preset, scene, patterns, frames=frames,
+                                                     frame_rate=frame_rate, exposure=exposure, noise=noise,
+                                                     defocus=defocus, bit_depth=bit_depth, seed=seed,
+                                                     progress=not (quiet or json_), **extra))
         if json_:
             print_json(summary)
             return

@@ -20,6 +20,8 @@ from pathlib import Path
 import typer
 
 from fringe3d.analyze.wing_strain import run_strain
+from fringe3d.commands.output_options import overwrite_option
+from fringe3d.utils.output_folder import open_output
 from fringe3d.utils.console import console, make_table, print_json, set_quiet
 
 
@@ -39,6 +41,7 @@ def register(app: typer.Typer) -> None:
         fill_dots: int = typer.Option(8, "--fill-dots", help="Fill unreconstructed anchor-dot holes up to this "
                                                              "radius (px) from the surrounding surface; 0 = off."),
         no_figures: bool = typer.Option(False, "--no-figures", help="Skip the PNG maps and the GIF."),
+        overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
     ) -> None:
@@ -48,8 +51,11 @@ def register(app: typer.Typer) -> None:
         Example: fringe3d strain wing-points/ --anchors 120,80,300,82 -o wing-strain --json
         """
         set_quiet(quiet or json_)
-        summary = run_strain(sequence, anchors, out, thickness, window, step, wings, radius, reference,
-                             figures=not no_figures, fill_dots=fill_dots)
+        options = {"anchors": anchors, "thickness": thickness, "window": window, "step": step, "wings": wings,
+                   "radius": radius, "reference": reference, "figures": not no_figures, "fill_dots": fill_dots}
+        with open_output(out, overwrite=overwrite, inputs=[sequence], options=options) as o:
+            summary = o.final_paths(run_strain(sequence, anchors, o.path, thickness, window, step, wings, radius,
+                                               reference, figures=not no_figures, fill_dots=fill_dots))
         if json_:
             print_json(summary)
         elif not quiet:

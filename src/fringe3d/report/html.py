@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.utils.atomic import atomic_write_text
+from fringe3d.io.arrays import load_array
 
 from .results import load_summary
 
@@ -107,7 +108,7 @@ def build_report(folder: str | Path) -> str:
         if m.get("points") and (folder / m["points"]).exists():
             div = f"plot3d_{i}"
             parts.append(f'<div id="{div}" class="plot3d"></div>')
-            trace = _points_trace(np.load(folder / m["points"]), rng)
+            trace = _points_trace(load_array(folder / m["points"], "point map"), rng)
             layout = {"title": {"text": m["name"]}, "margin": {"l": 0, "r": 0, "t": 30, "b": 0},
                       "scene": {"aspectmode": "data", "xaxis": {"title": {"text": "x (mm)"}},
                                 "yaxis": {"title": {"text": "y (mm)"}},

@@ -18,6 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from fringe3d.utils.jsonfile import read_json, write_json
+from fringe3d.utils.output_folder import check_complete
 
 SUMMARY_NAME = "summary.json"
 
@@ -31,13 +32,37 @@ def load_summary(folder: str | Path) -> dict:
     if not path.exists():
         raise FileNotFoundError(f"{folder} has no {SUMMARY_NAME}: expected the output of `fringe3d demo` "
                                 "or a folder written by fringe3d.report.results.save_summary")
+    check_complete(folder, "results folder")
     summary = read_json(path, "results summary")
+    check_file_fields(summary, folder, path)
     if "title" not in summary:
         raise ValueError(f"{path}: missing field 'title'")
     for m in summary.get("measurements", []):
         if "name" not in m:
             raise ValueError(f"{path}: a measurement has no 'name'")
     return summary
+
+
+#: Suffixes of the files a summary may name (each must lie inside the results folder).
+FILE_SUFFIXES = (".png", ".jpg", ".gif", ".svg", ".npy", ".npz", ".ply", ".json", ".html", ".csv", ".tif", ".tiff",
+                 ".vtk", ".vtp", ".zarr", ".txt", ".yaml", ".yml")
+
+
+def check_file_fields(summary, folder: Path, path: Path, where: str = "") -> None:
+    """Refuse a summary that names a file outside ``folder`` (absolute, ``../``, or through a symlink):
+    a report embeds the files it names, so it must never read elsewhere."""
+    root = folder.resolve()
+    if isinstance(summary, dict):
+        for k, v in summary.items():
+            check_file_fields(v, folder, path, f"{where}.{k}" if where else str(k))
+    elif isinstance(summary, list):
+        for i, v in enumerate(summary):
+            check_file_fields(v, folder, path, f"{where}[{i}]")
+    elif isinstance(summary, str) and summary.lower().endswith(FILE_SUFFIXES):
+        target = (folder / summary).resolve()
+        if Path(summary).is_absolute() or (target != root and root not in target.parents):
+            raise ValueError(f"{path}: field {where}: {summary!r} is outside the results folder {folder}; a "
+                             "summary may only name files inside its folder (relative paths)")
 
 
 def save_summary(folder: str | Path, summary: dict) -> Path:

@@ -15,6 +15,7 @@ from fringe3d.optics import Rig
 from fringe3d.patterns.conventions import fringe_coordinate, w_to_phase
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.jsonfile import read_json, write_json
+from fringe3d.io.arrays import load_array
 
 TRUTH_FORMAT = "fringe3d-truth"
 ARRAY_FIELDS = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit", "material_uv")
@@ -113,13 +114,21 @@ class Truth:
             if not p.exists():
                 raise FileNotFoundError(f"no ground-truth file {p} (expected truth.npz and truth.json)")
         meta = read_json(js, "ground-truth metadata")
-        with np.load(npz) as z:
-            data = {k: z[k] for k in z.files}
+        try:
+            with load_array(npz, "ground-truth file") as z:
+                data = {k: z[k] for k in z.files}
+        except (ValueError, OSError, EOFError, zipfile.BadZipFile) as e:
+            raise ValueError(f"ground-truth file {npz} is damaged ({e}); simulate the capture again") from None
+        if not isinstance(meta.get("directions", []), list) or not isinstance(meta.get("extras", []), list):
+            raise ValueError(f"{js}: fields directions and extras must be lists of labels")
         missing = [n for n in ARRAY_FIELDS if n != "material_uv" and n not in data]
         if missing:
             raise ValueError(f"{npz}: missing array(s) {missing}")
-        phase = {d: data[f"phase_{d}"] for d in meta.get("directions", [])}
-        extras = {n: data[f"extra_{n}"] for n in meta.get("extras", [])}
+        try:
+            phase = {d: data[f"phase_{d}"] for d in meta.get("directions", [])}
+            extras = {n: data[f"extra_{n}"] for n in meta.get("extras", [])}
+        except (KeyError, TypeError) as e:
+            raise ValueError(f"{npz}: no array for {e} named in {js}") from None
         for k in ("format", "version", "directions", "extras", "shape", "units"):
             meta.pop(k, None)
         return cls(xyz=data["xyz"], depth=data["depth"], up=data["up"], vp=data["vp"], phase=phase,

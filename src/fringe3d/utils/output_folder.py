@@ -35,8 +35,8 @@ from typing import Iterable, Iterator
 from fringe3d.utils.atomic import atomic_write_text
 from fringe3d.utils.write_guard import OutsideOutputError, guard_write, writing_into
 
-__all__ = ["open_output", "set_command_line", "open_output_file", "check_complete", "read_marker", "fingerprint", "clean_partials",
-           "OutsideOutputError", "BusyOutputError", "guard_write", "MARKER_NAME"]
+__all__ = ["open_output", "set_command_line", "open_output_file", "check_complete", "read_marker", "fingerprint",
+           "clean_partials", "OutsideOutputError", "BusyOutputError", "guard_write", "MARKER_NAME"]
 
 MARKER_NAME = "fringe3d.json"
 LOCK_NAME = ".fringe3d.lock"
@@ -137,6 +137,24 @@ class Output:
     path: Path
     final: Path
     resumed: bool = False
+
+    def final_paths(self, obj):
+        """``obj`` (a summary: dicts, lists, strings) with every path under :attr:`path` rewritten to
+        where it will be once the output is in place (they differ while ``--overwrite`` builds aside)."""
+        if self.path == self.final:
+            return obj
+        if isinstance(obj, dict):
+            return {k: self.final_paths(v) for k, v in obj.items()}
+        if isinstance(obj, (list, tuple)):
+            return type(obj)(self.final_paths(v) for v in obj)
+        if isinstance(obj, (str, Path)):
+            text, tmp = str(obj), str(self.path)
+            if text == tmp or text.startswith(tmp + os.sep):
+                return type(obj)(str(self.final) + text[len(tmp):])
+            abs_tmp = str(self.path.resolve())
+            if text.startswith(abs_tmp + os.sep) or text == abs_tmp:
+                return type(obj)(str(self.final) + text[len(abs_tmp):])
+        return obj
 
     def final_of(self, p: str | os.PathLike) -> Path:
         """Where ``p`` (a path under :attr:`path`) will be once the output is in place."""
