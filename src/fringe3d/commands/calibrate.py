@@ -11,6 +11,14 @@ from fringe3d.calibrate.opencv_file import load_opencv_calibration, parse_node_m
 from fringe3d.calibrate.session import board_from_options, calibrate_to_files
 from fringe3d.sim.calibration_session import simulate_session
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
+from fringe3d.commands.checks import check_number
+from fringe3d.commands.output_options import overwrite_option
+from fringe3d.utils.output_folder import open_output, open_output_file
+
+
+#: Largest board side (circles) and pose count accepted: bounds OpenCV's grid search and memory.
+MAX_BOARD_SIDE = 100
+MAX_POSES = 500
 
 
 def register(app: typer.Typer) -> None:
@@ -58,6 +66,7 @@ def register(app: typer.Typer) -> None:
         projector_size: str = typer.Option(None, "--projector-size", help="--import-opencv: projector WxH when "
                                                                            "the file has no size node."),
         unit: str = typer.Option("mm", "--unit", help="--import-opencv: unit of T in the file (mm or m)."),
+        overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print the figures as one JSON object."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars or tables."),
     ) -> None:
@@ -71,8 +80,18 @@ def register(app: typer.Typer) -> None:
         """
         set_quiet(quiet or json_)
         if import_opencv is not None:
-            _import(import_opencv, output, node, camera_size, projector_size, unit, json_, quiet)
+            with open_output_file(output, overwrite=overwrite, inputs=[import_opencv]):
+                _import(import_opencv, output, node, camera_size, projector_size, unit, json_, quiet)
             return
+        for value, option in ((spacing, "--spacing"), (radius, "--radius"), (camera_scale, "--camera-scale")):
+            check_number(value, option, positive=True)
+        check_number(min_modulation, "--min-modulation", minimum=0, maximum=1)
+        check_number(defocus, "--defocus", minimum=0)
+        for value, option in ((cols, "--cols"), (rows, "--rows")):
+            if not 2 <= value <= MAX_BOARD_SIDE:
+                raise ValueError(f"{option} must be between 2 and {MAX_BOARD_SIDE} circles, got {value}")
+        if not 1 <= poses <= MAX_POSES:
+            raise ValueError(f"--poses must be between 1 and {MAX_POSES}, got {poses}")
         if not inputs:
             raise ValueError("give the pose capture folders (or a session folder) to calibrate, "
                              "or --import-opencv FILE")
@@ -81,14 +100,19 @@ def register(app: typer.Typer) -> None:
         if simulate:
             if len(inputs) != 1:
                 raise ValueError("--simulate writes one session folder: give exactly one input folder")
-            ss = simulate_session(simulate, n_poses=poses, seed=seed, defocus=defocus, board=board,
-                                  camera_scale=camera_scale, noise=not noise_free, folder=inputs[0],
-                                  progress=not (quiet or json_))
+            with open_output(inputs[0], overwrite=overwrite,
+                             options={"preset": simulate, "poses": poses, "seed": seed, "defocus": defocus,
+                                      "board": [cols, rows, spacing, radius, asymmetric, bright],
+                                      "camera_scale": camera_scale, "noise_free": noise_free}) as o:
+                ss = simulate_session(simulate, n_poses=poses, seed=seed, defocus=defocus, board=board,
+                                      camera_scale=camera_scale, noise=not noise_free, folder=o.path,
+                                      progress=not (quiet or json_))
             truth = ss.rig
         plot_path = None if no_plot else (plot or output.with_suffix(".png"))
-        s = calibrate_to_files(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
-                               min_modulation, progress=not (quiet or json_), refine=not no_refine,
-                               phase_window=phase_window)
+        with open_output_file(output, plot_path, yaml, overwrite=overwrite, inputs=inputs):
+            s = calibrate_to_files(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
+                                   min_modulation, progress=not (quiet or json_), refine=not no_refine,
+                                   phase_window=phase_window)
         if truth is not None:
             s["truth_comparison"] = compare_to_truth(load_calibration(output).rig, truth)
         if json_:

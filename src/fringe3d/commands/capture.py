@@ -5,6 +5,8 @@ gamma.json) and ``--session DIR --poses N`` (calibration capture with a live pre
 """
 from __future__ import annotations
 
+from contextlib import ExitStack
+
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +39,8 @@ from fringe3d.utils.console import (
     set_quiet,
 )
 from fringe3d.utils.jsonfile import write_json
+from fringe3d.commands.output_options import overwrite_option
+from fringe3d.utils.output_folder import open_output, open_output_file
 
 #: Exit code of a capture that stopped or lost frames (the folder is not marked complete).
 EXIT_INCOMPLETE = 4
@@ -148,6 +152,7 @@ def register(app: typer.Typer) -> None:
         cols: int = typer.Option(9, help="--session: board circles per row."),
         rows: int = typer.Option(9, help="--session: board rows."),
         spacing: float = typer.Option(None, help="--session: circle spacing (mm, recorded in session.json)."),
+        overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
     ) -> None:
@@ -176,7 +181,7 @@ def register(app: typer.Typer) -> None:
 
 def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gain, pixel_format, roi, camera_feature,
                 frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto, still, pose_timeout, preview,
-                cols, rows, spacing, json_, quiet) -> None:
+                cols, rows, spacing, overwrite, json_, quiet) -> None:
     """The body of ``fringe3d capture`` (see its --help)."""
 
     set_quiet(quiet or json_)
@@ -196,6 +201,26 @@ def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gai
             raise ValueError("-o/--output CAPTURE is required")
     if gamma and output is None:
         raise ValueError("--gamma needs -o gamma.json")
+    if cycles < 1:
+        raise ValueError(f"--cycles must be at least 1, got {cycles}")
+    with ExitStack() as outputs:
+        if latency or gamma:
+            outputs.enter_context(open_output_file(output, overwrite=overwrite, inputs=[patterns]))
+        elif session is not None:
+            session = outputs.enter_context(open_output(session, overwrite=overwrite, inputs=[patterns],
+                                                        options={"camera": camera, "poses": poses})).path
+        else:
+            output = outputs.enter_context(open_output(output, overwrite=overwrite, inputs=[patterns],
+                                                       options={"camera": camera, "cycles": cycles})).path
+        _run_with_devices(ps, images, packed, output, projector, camera, sync, cycles, exposure, gain, pixel_format,
+                          roi_v, features, frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto,
+                          still, pose_timeout, preview, cols, rows, spacing, patterns, json_, quiet)
+
+
+def _run_with_devices(ps, images, packed, output, projector, camera, sync, cycles, exposure, gain, pixel_format,
+                      roi_v, features, frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto,
+                      still, pose_timeout, preview, cols, rows, spacing, patterns, json_, quiet) -> None:
+    """Open the rig and run the chosen mode, writing into the (guarded) output."""
     proj, cam = open_rig(projector, camera, patterns=ps, features=features)
     try:
         configure_camera(cam, pixel_format=pixel_format, roi=roi_v, exposure=None, gain=gain)

@@ -314,17 +314,20 @@ def _replace(final: Path, info: dict):
 
 
 @contextmanager
-def open_output_file(path: str | os.PathLike, *, overwrite: bool = False,
+def open_output_file(*paths: str | os.PathLike | None, overwrite: bool = False,
                      inputs: Iterable[str | os.PathLike | None] = ()) -> Iterator[Path]:
-    """Guarded writing of one output file: refused when it exists (unless ``overwrite``), is a
-    folder, or is one of ``inputs``; writes elsewhere are refused while the block runs."""
-    target = Path(path).resolve()
-    if target.is_dir():
-        raise ValueError(f"output {path} is a folder; expected a file name")
-    for p in inputs:
-        if p is not None and Path(p).resolve() == target:
-            raise ValueError(f"output {path} is also an input; choose another file name")
-    if target.exists() and not overwrite:
-        raise ValueError(f"output file {path} exists; choose another name or pass --overwrite to replace it")
-    with writing_into(target):
-        yield target
+    """Guarded writing of output files: each is refused when it exists (unless ``overwrite``), is a
+    folder, or is one of ``inputs``; writes elsewhere are refused while the block runs. Yields the
+    first path, resolved. ``None`` paths (outputs not asked for) are skipped."""
+    targets = [Path(p) for p in paths if p is not None]
+    inputs = [Path(p).resolve() for p in inputs if p is not None]
+    for path in targets:
+        target = path.resolve()
+        if target.is_dir():
+            raise ValueError(f"output {path} is a folder; expected a file name")
+        if any(target == p or p in target.parents for p in inputs):
+            raise ValueError(f"output {path} is also an input (or inside one); choose another file name")
+        if target.exists() and not overwrite:
+            raise ValueError(f"output file {path} exists; choose another name or pass --overwrite to replace it")
+    with writing_into(*targets) as first:
+        yield first

@@ -13,7 +13,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
-_ROOT: contextvars.ContextVar[Path | None] = contextvars.ContextVar("fringe3d_output_root", default=None)
+_ROOTS: contextvars.ContextVar[tuple[Path, ...] | None] = contextvars.ContextVar("fringe3d_output_roots",
+                                                                                default=None)
 
 
 class OutsideOutputError(PermissionError):
@@ -23,19 +24,21 @@ class OutsideOutputError(PermissionError):
 def guard_write(path: str | os.PathLike) -> Path:
     """Return ``path`` resolved, or raise :class:`OutsideOutputError` when an output block is
     active and ``path`` does not resolve inside it (symlinks followed)."""
-    root = _ROOT.get()
+    roots = _ROOTS.get()
     resolved = Path(path).resolve()
-    if root is not None and resolved != root and root not in resolved.parents:
-        raise OutsideOutputError(f"refusing to write {path}: it resolves to {resolved}, outside the output {root}")
+    if roots is not None and not any(resolved == r or r in resolved.parents for r in roots):
+        shown = ", ".join(map(str, roots))
+        raise OutsideOutputError(f"refusing to write {path}: it resolves to {resolved}, outside the output {shown}")
     return resolved
 
 
 @contextmanager
-def writing_into(root: str | os.PathLike) -> Iterator[Path]:
-    """Activate the guard for ``root`` (a folder or a single output file) inside the block."""
-    resolved = Path(root).resolve()
-    token = _ROOT.set(resolved)
+def writing_into(*roots: str | os.PathLike) -> Iterator[Path]:
+    """Activate the guard for ``roots`` (output folders or single output files) inside the block;
+    yields the first, resolved."""
+    resolved = tuple(Path(r).resolve() for r in roots)
+    token = _ROOTS.set(resolved)
     try:
-        yield resolved
+        yield resolved[0]
     finally:
-        _ROOT.reset(token)
+        _ROOTS.reset(token)
