@@ -44,7 +44,8 @@ class PinholeModel(Strict):
         if len(self.dist) not in DIST_LENGTHS:
             raise ValueError(f"dist: expected {', '.join(map(str, DIST_LENGTHS))} coefficients, got {len(self.dist)}")
         R = np.asarray(self.R, float)
-        err = float(np.abs(R.T @ R - np.eye(3)).max())
+        with np.errstate(over="ignore", invalid="ignore"):  # huge entries: err is inf, and refused
+            err = float(np.abs(R.T @ R - np.eye(3)).max())
         if err > ORTHONORMAL_TOL or np.linalg.det(R) < 0:
             raise ValueError(f"R: expected a rotation (orthonormal, determinant +1); |R^T R - I| = {err:.3g}, "
                              f"det = {np.linalg.det(R):.6g}")

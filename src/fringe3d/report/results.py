@@ -17,10 +17,44 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from typing import Any
+
+from pydantic import StrictStr
+
 from fringe3d.utils.jsonfile import read_json, write_json
+from fringe3d.utils.schema import FiniteFloat, Open, validate
 from fringe3d.utils.output_folder import check_complete
 
 SUMMARY_NAME = "summary.json"
+
+
+class _Stage(Open):
+    name: StrictStr
+    seconds: FiniteFloat | None = None
+
+
+class _Measurement(Open):
+    name: StrictStr
+    points: StrictStr | None = None
+    ply: StrictStr | None = None
+    error_map: StrictStr | None = None
+    metrics: dict[str, Any] | None = None
+
+
+class _Accuracy(Open):
+    quantity: StrictStr
+    value: FiniteFloat | None = None
+    unit: StrictStr = ""
+
+
+class SummaryModel(Open):
+    """``summary.json``: the fields a report reads are typed; others are kept as free metadata."""
+
+    title: StrictStr
+    stages: list[_Stage] = []
+    calibration: dict[str, Any] | None = None
+    measurements: list[_Measurement] = []
+    accuracy: list[_Accuracy] = []
 
 
 def load_summary(folder: str | Path) -> dict:
@@ -35,11 +69,7 @@ def load_summary(folder: str | Path) -> dict:
     check_complete(folder, "results folder")
     summary = read_json(path, "results summary")
     check_file_fields(summary, folder, path)
-    if "title" not in summary:
-        raise ValueError(f"{path}: missing field 'title'")
-    for m in summary.get("measurements", []):
-        if "name" not in m:
-            raise ValueError(f"{path}: a measurement has no 'name'")
+    validate(SummaryModel, summary, f"results summary {path}")
     return summary
 
 

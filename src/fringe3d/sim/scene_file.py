@@ -177,7 +177,7 @@ def object_from_dict(d, at: str = "object", base: Path | None = None) -> SceneOb
     if "type" not in d:
         raise ValueError(f"{at}: missing field 'type' (one of {sorted(SCHEMAS)})")
     kind = d["type"]
-    if kind not in SCHEMAS:
+    if not isinstance(kind, str) or kind not in SCHEMAS:
         raise ValueError(f"{at}.type: unknown object type {kind!r}; expected one of {sorted(SCHEMAS)}")
     schema = SCHEMAS[kind]
     given = {k: v for k, v in d.items() if k != "type"}
