@@ -109,7 +109,7 @@ def test_opencv_graycode_session_imports_and_decodes_to_projector_pixels(tmp_pat
     ps = opencv_graycode(64, 32)
     for i, f in enumerate(render_set(ps)):  # a camera seeing the projector 1:1, as BMP files
         cv2.imwrite(str(tmp_path / f"pattern_{i}.bmp"), f[:, 8:40] // 2 + 40)
-    assert cli("import", tmp_path, "-o", tmp_path / "cap", "--layout", "opencv-graycode",
+    assert cli("import", tmp_path / "pattern_*.bmp", "-o", tmp_path / "cap", "--layout", "opencv-graycode",
                "--projector-size", "64x32", "--quiet") == 0
     assert cli("decode", tmp_path / "cap", "-o", tmp_path / "dec", "--quiet") == 0
     cap = read_capture(tmp_path / "cap")
@@ -149,7 +149,7 @@ def test_shift_order_and_sign_describe_frames_stored_in_another_step_order(tmp_p
     order = [2, 0, 3, 1]  # file i holds step order[i]
     for i, k in enumerate(order):
         cv2.imwrite(str(tmp_path / f"step{i}.png"), frames[k])
-    assert cli("import", tmp_path, "-o", tmp_path / "cap", "--set", "phase-shift", "--steps", 4, "--period", PERIOD,
+    assert cli("import", tmp_path / "step*.png", "-o", tmp_path / "cap", "--set", "phase-shift", "--steps", 4, "--period", PERIOD,
                "--projector-size", "64x48", "--shift-order", "2,0,3,1", "--shift-sign", -1, "--quiet") == 0
     cap = read_capture(tmp_path / "cap")
     d = decode(cap.frames, cap.patterns)

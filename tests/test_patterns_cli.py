@@ -47,10 +47,14 @@ def test_patterns_command_rejects_unknown_set_and_sinusoid_at_one_bit(tmp_path, 
     assert "1-bit output needs a binary kind" in capsys.readouterr().err
 
 
-def test_rewriting_a_shorter_set_removes_stale_pngs(tmp_path):
+def test_rewriting_a_set_needs_overwrite_and_then_leaves_no_stale_pngs(tmp_path):
     assert main(["patterns", "--set", "three-frequency", "--width", "40", "--height", "30",
                  "-o", str(tmp_path), "-q"]) == 0
-    assert main(["patterns", "--set", "ftp", "--width", "40", "--height", "30", "-o", str(tmp_path), "-q"]) == 0
+    before = sorted(f.name for f in tmp_path.glob("*.png"))
+    assert main(["patterns", "--set", "ftp", "--width", "40", "--height", "30", "-o", str(tmp_path), "-q"]) == 2
+    assert sorted(f.name for f in tmp_path.glob("*.png")) == before and len(before) == 15
+    assert main(["patterns", "--set", "ftp", "--width", "40", "--height", "30", "-o", str(tmp_path), "-q",
+                 "--overwrite"]) == 0
     assert [f.name for f in tmp_path.glob("*.png")] == ["00000.png"]
 
 

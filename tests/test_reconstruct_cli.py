@@ -85,7 +85,7 @@ def test_geometric_method_on_noisy_3step_capture_fast_path(noisy_capture, tmp_pa
     assert ev["truth"]["median_mm"] < 1.5
     assert abs(ev["sphere"]["size"]) < 0.5 and ev["sphere"]["rms"] < 1.5
     # without truth, the sphere is found by segmentation (rim pixels may differ from the truth ids)
-    code, stdout, err = run(["evaluate", str(out), "--sphere", "--json"], capsys)
+    code, stdout, err = run(["evaluate", str(out), "--sphere", "--json", "--overwrite"], capsys)
     assert json.loads(stdout)["sphere"]["diameter"] == pytest.approx(ev["sphere"]["diameter"], abs=0.1)
 
 
@@ -171,6 +171,6 @@ def test_ball_bar_evaluation_on_noise_free_spheres(tmp_path, capsys):
     assert abs(ev["error"]) < 1e-3 and ev["true_distance"] > 10.0
     assert all(abs(s["size"]) < 1e-3 for s in ev["spheres"])
     # without truth the two spheres are found by segmentation: the same distance
-    code, stdout, err = run(["evaluate", str(out), "--ball-bar", "--json"], capsys)
+    code, stdout, err = run(["evaluate", str(out), "--ball-bar", "--json", "--overwrite"], capsys)
     assert code == 0, err
     assert json.loads(stdout)["ball_bar"]["distance"] == pytest.approx(ev["distance"], abs=1e-3)

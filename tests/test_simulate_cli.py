@@ -59,7 +59,7 @@ def test_scene_file_round_trip(tmp_path):
 
 @pytest.mark.parametrize("args,message", [
     (["--preset", "mega"], "unknown preset 'mega'"),
-    (["--frame-rate", "0"], "frame rate must be a positive"),
+    (["--frame-rate", "0"], "--frame-rate must be positive"),
     (["--frame-rate", "100", "--exposure", "0.5"], "longer than the frame period"),
     (["--scene", "teapot"], "unknown scene 'teapot'"),
     (["--patterns", "zigzag"], "unknown pattern set 'zigzag'"),

@@ -95,13 +95,13 @@ def test_anchors_not_found_without_dots(tmp_path, sequence, capsys):
 def test_frames_of_different_sizes_are_rejected(tmp_path, capsys):
     np.save(tmp_path / "points_00000.npy", np.zeros((20, 30, 3), np.float32))
     np.save(tmp_path / "points_00001.npy", np.zeros((20, 31, 3), np.float32))
-    out = tmp_path / "o"
+    out = tmp_path.with_name(tmp_path.name + "-out")  # outside the input folder
     _expect_error(["strain", str(tmp_path), "--anchors", "5,5,10,5", "-o", str(out)], out, capsys, "differ in size")
 
 
 def test_too_short_or_missing_or_malformed_sequences_are_rejected(tmp_path, capsys):
     np.save(tmp_path / "points_00000.npy", np.zeros((20, 30, 3), np.float32))
-    out = tmp_path / "o"
+    out = tmp_path.with_name(tmp_path.name + "-out")  # outside the input folder
     _expect_error(["strain", str(tmp_path), "--anchors", "5,5,10,5", "-o", str(out)], out, capsys, "at least 2")
     _expect_error(["strain", str(tmp_path / "nope"), "--anchors", "5,5,10,5", "-o", str(out)], out, capsys,
                   "does not exist")

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Iterable, Iterator
 
 from fringe3d.utils.atomic import atomic_write_text
-from fringe3d.utils.write_guard import OutsideOutputError, guard_write, writing_into
+from fringe3d.utils.write_guard import OutsideOutputError, guard_write, is_being_written, writing_into
 
 __all__ = ["open_output", "set_command_line", "open_output_file", "check_complete", "read_marker", "fingerprint",
            "clean_partials", "OutsideOutputError", "BusyOutputError", "guard_write", "MARKER_NAME"]
@@ -108,7 +108,10 @@ def read_marker(folder: str | os.PathLike) -> dict | None:
 
 
 def check_complete(folder: str | os.PathLike, what: str = "output folder") -> None:
-    """Refuse a set whose writer did not finish (``fringe3d.json`` says ``complete: false``)."""
+    """Refuse a set whose writer did not finish (``fringe3d.json`` says ``complete: false``); the
+    output this process is writing (a command reading back its own files) passes."""
+    if is_being_written(folder):
+        return
     d = read_marker(folder)
     if d is not None and d.get("complete") is not True:
         cmd = d.get("command") or "the command"

@@ -32,6 +32,13 @@ def guard_write(path: str | os.PathLike) -> Path:
     return resolved
 
 
+def is_being_written(path: str | os.PathLike) -> bool:
+    """True when ``path`` is (inside) an output this process is writing right now."""
+    roots = _ROOTS.get() or ()
+    resolved = Path(path).resolve()
+    return any(resolved == r or r in resolved.parents for r in roots)
+
+
 @contextmanager
 def writing_into(*roots: str | os.PathLike) -> Iterator[Path]:
     """Activate the guard for ``roots`` (output folders or single output files) inside the block;
