@@ -13,6 +13,7 @@ Exit codes (documented in ``fringe3d --help``):
 """
 from __future__ import annotations
 
+import signal
 import sys
 import warnings
 
@@ -35,7 +36,7 @@ from fringe3d.commands import (
     strain,
 )
 from fringe3d.utils.console import err_console, set_quiet, settings, warn
-from fringe3d.utils.output_folder import set_command_line
+from fringe3d.utils.output_folder import interrupt_requested, request_interrupt, set_command_line
 from fringe3d.utils.warning_types import Fringe3DWarning
 
 #: The sub-command modules, in the order they are registered (and listed by ``--help``).
@@ -118,8 +119,26 @@ def _internal(e: BaseException) -> int:
     return EXIT_INTERNAL
 
 
+def _on_sigint(signum, frame) -> None:
+    request_interrupt()
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point: run the app, turning known error types into clear messages and exit codes."""
+    request_interrupt(False)
+    try:
+        previous = signal.signal(signal.SIGINT, _on_sigint)
+    except ValueError:  # not the main thread: keep Python's handler
+        previous = None
+    try:
+        return _run(argv)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
+def _run(argv: list[str] | None) -> int:
     set_quiet(False)  # the command line shows progress; sub-commands' --quiet/--json silence it
     settings.progress = None
     _Flags.debug = False
@@ -127,7 +146,13 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with warnings.catch_warnings():
             warnings.showwarning = show_warning
-            app(args=argv, standalone_mode=False)
+            rc = app(args=argv, standalone_mode=False)
+        if rc == EXIT_INTERRUPTED:  # typer turns Ctrl-C into Exit(130) and returns the code
+            return _interrupted()
+        if isinstance(rc, int) and not isinstance(rc, bool) and rc != 0:
+            return rc
+        if interrupt_requested():  # a Ctrl-C that a C callback swallowed
+            return _interrupted()
     except SystemExit as e:  # typer/click exit
         return int(e.code or 0)
     except KeyboardInterrupt:

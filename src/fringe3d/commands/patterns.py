@@ -15,6 +15,8 @@ from fringe3d.patterns.gamma import load_gamma
 from fringe3d.utils.console import console, info, print_json, set_quiet
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
+from fringe3d.patterns.manifest_schema import MAX_PIXELS
+from fringe3d.utils.schema import MAX_SIDE
 
 SETS = ("phase-shift", "three-frequency", "hierarchical", "gray-code", "binary-code", "psp-gray", "ftp", "modified-ftp",
         "two-frequency", "hybrid", "calibration", "optimal-angle")
@@ -38,6 +40,9 @@ def build_set(set_name: str, period: str | None, steps: str | None, direction: s
     """The :class:`PatternSet` the command-line options describe (see ``fringe3d patterns --help``)."""
     if set_name not in SETS:
         raise ValueError(f"unknown pattern set {set_name!r}; choose one of {', '.join(SETS)}")
+    if not (1 <= width <= MAX_SIDE and 1 <= height <= MAX_SIDE) or width * height > MAX_PIXELS:
+        raise ValueError(f"--width/--height {width}x{height}: a projector side must be 1..{MAX_SIDE} pixels and a "
+                         f"frame at most {MAX_PIXELS} pixels")
     periods = _numbers(period or DEFAULT_PERIODS.get(set_name, "18"), "period")
     adaptive = period is None and set_name in ADAPTIVE_PERIODS  # the library picks them for this projector
     nsteps = _numbers(steps or DEFAULT_STEPS.get(set_name, "3"), "steps", int)

@@ -35,7 +35,7 @@ from typing import Iterable, Iterator
 from fringe3d.utils.atomic import atomic_write_text
 from fringe3d.utils.write_guard import OutsideOutputError, guard_write, is_being_written, writing_into
 
-__all__ = ["open_output", "set_command_line", "open_output_file", "check_complete", "read_marker", "fingerprint",
+__all__ = ["open_output", "set_command_line", "request_interrupt", "interrupt_requested", "open_output_file", "check_complete", "read_marker", "fingerprint",
            "clean_partials", "OutsideOutputError", "BusyOutputError", "guard_write", "MARKER_NAME"]
 
 MARKER_NAME = "fringe3d.json"
@@ -46,6 +46,21 @@ MARKER_FORMAT = "fringe3d-output"
 class _CommandLine:
     #: The command line recorded in markers; the CLI sets it (``fringe3d.cli.main``).
     text = ""
+
+
+class _Interrupt:
+    #: Set by the CLI's SIGINT handler: a Ctrl-C swallowed somewhere (a C callback) still stops
+    #: the output from being marked complete.
+    requested = False
+
+
+def request_interrupt(flag: bool = True) -> None:
+    """Note (or clear) that the user asked to stop; :func:`open_output` then never marks complete."""
+    _Interrupt.requested = flag
+
+
+def interrupt_requested() -> bool:
+    return _Interrupt.requested
 
 
 def set_command_line(argv: list[str]) -> None:
@@ -251,6 +266,8 @@ def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = 
 
 
 def _finish(folder: Path, info: dict) -> None:
+    if _Interrupt.requested:
+        raise KeyboardInterrupt
     info = {**info, "complete": True,
             "finished": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
             "files": _file_list(folder)}
