@@ -84,7 +84,8 @@ RECONSTRUCT = ["reconstruct", "{cap}", "-c", "{cap}/rig.json", "-o", "{out}"]
 DECODE = ["decode", "{cap}", "-o", "{out}"]
 
 CASES = {
-    "rig with NaN K": (_rig(_set(("camera", "K", 0, 0), float("nan"))), RECONSTRUCT, r"rig.json.*field camera.K\[0\]\[0\]"),
+    "rig with NaN K": (_rig(_set(("camera", "K", 0, 0), float("nan"))), RECONSTRUCT,
+                       r"rig.json.*field camera.K\[0\]\[0\]"),
     "rig with zero K": (_rig(_set(("camera", "K"), [[0, 0, 0], [0, 0, 0], [0, 0, 1]])), RECONSTRUCT,
                         "focal lengths"),
     "rig with a singular projector K": (_rig(_set(("projector", "K"), [[1, 0, 0], [0, 0, 0], [0, 0, 1]])),

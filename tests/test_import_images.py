@@ -149,7 +149,8 @@ def test_shift_order_and_sign_describe_frames_stored_in_another_step_order(tmp_p
     order = [2, 0, 3, 1]  # file i holds step order[i]
     for i, k in enumerate(order):
         cv2.imwrite(str(tmp_path / f"step{i}.png"), frames[k])
-    assert cli("import", tmp_path / "step*.png", "-o", tmp_path / "cap", "--set", "phase-shift", "--steps", 4, "--period", PERIOD,
+    assert cli("import", tmp_path / "step*.png", "-o", tmp_path / "cap", "--set", "phase-shift", "--steps", 4,
+               "--period", PERIOD,
                "--projector-size", "64x48", "--shift-order", "2,0,3,1", "--shift-sign", -1, "--quiet") == 0
     cap = read_capture(tmp_path / "cap")
     d = decode(cap.frames, cap.patterns)

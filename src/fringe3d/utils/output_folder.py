@@ -35,7 +35,8 @@ from typing import Iterable, Iterator
 from fringe3d.utils.atomic import atomic_write_text
 from fringe3d.utils.write_guard import OutsideOutputError, guard_write, is_being_written, writing_into
 
-__all__ = ["open_output", "set_command_line", "request_interrupt", "interrupt_requested", "open_output_file", "check_complete", "read_marker", "fingerprint",
+__all__ = ["open_output", "set_command_line", "request_interrupt", "interrupt_requested",
+           "open_output_file", "check_complete", "read_marker", "fingerprint",
            "clean_partials", "OutsideOutputError", "BusyOutputError", "guard_write", "MARKER_NAME"]
 
 MARKER_NAME = "fringe3d.json"
