@@ -124,6 +124,16 @@ def _on_sigint(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
+def _unraisable(hook):
+    """``sys.unraisablehook`` that stays silent about a Ctrl-C raised inside a C callback (numba's
+    compiler): the interrupt is recorded and reported once, without a stray traceback."""
+    def quiet(u) -> None:
+        if u.exc_type is not None and issubclass(u.exc_type, KeyboardInterrupt):
+            return
+        hook(u)
+    return quiet
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point: run the app, turning known error types into clear messages and exit codes."""
     request_interrupt(False)
@@ -131,9 +141,11 @@ def main(argv: list[str] | None = None) -> int:
         previous = signal.signal(signal.SIGINT, _on_sigint)
     except ValueError:  # not the main thread: keep Python's handler
         previous = None
+    hook, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
     try:
         return _run(argv)
     finally:
+        sys.unraisablehook = hook
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
 

@@ -180,6 +180,13 @@ class Output:
         return self.final / Path(p).resolve().relative_to(self.path.resolve())
 
 
+def _refuse_symlink(out: str | os.PathLike) -> None:
+    """An output that is itself a symbolic link would write (or, with --overwrite, replace) its target."""
+    if Path(out).is_symlink():
+        raise ValueError(f"output {out} is a symbolic link (to {os.readlink(out)}); give the real path of a "
+                         "folder or file to write")
+
+
 def _check_not_inputs(out: Path, inputs: Iterable[str | os.PathLike | None]) -> None:
     for p in inputs:
         if p is None:
@@ -241,6 +248,7 @@ def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = 
     other inputs), :class:`BusyOutputError` (another run holds the lock).
     """
     inputs = [p for p in inputs if p is not None]
+    _refuse_symlink(out)
     final = Path(out).resolve()
     if final.exists() and not final.is_dir():
         raise ValueError(f"output {out} is a file; expected a folder")
@@ -342,6 +350,8 @@ def open_output_file(*paths: str | os.PathLike | None, overwrite: bool = False,
     first path, resolved. ``None`` paths (outputs not asked for) are skipped."""
     targets = [Path(p) for p in paths if p is not None]
     inputs = [Path(p).resolve() for p in inputs if p is not None]
+    for path in targets:
+        _refuse_symlink(path)
     for path in targets:
         target = path.resolve()
         if target.is_dir():
