@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/fringe3d demo
+	$(VENV)/bin/fringe3d demo --overwrite  # demo-out/ is the demo's own output: replaced as a whole
 
 # The checks CI runs (.ci/run): layer contracts, lint, types, then the tests and docstring examples.
 test: $(STAMP)
