@@ -4,11 +4,13 @@ from __future__ import annotations
 import os
 import zipfile
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
 
-def load_array(path: str | os.PathLike, what: str = "array file", mmap_mode: str | None = None):
+def load_array(path: str | os.PathLike, what: str = "array file",
+               mmap_mode: Literal["r+", "r", "w+", "c"] | None = None):
     """``np.load(path)`` without pickles; ``ValueError`` naming ``what`` and ``path`` when the file is
     empty, truncated, not a ``.npy``/``.npz`` or holds objects; ``FileNotFoundError`` when missing."""
     path = Path(path)

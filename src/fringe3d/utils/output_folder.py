@@ -183,7 +183,7 @@ class Output:
 def _refuse_symlink(out: str | os.PathLike) -> None:
     """An output that is itself a symbolic link would write (or, with --overwrite, replace) its target."""
     if Path(out).is_symlink():
-        raise ValueError(f"output {out} is a symbolic link (to {os.readlink(out)}); give the real path of a "
+        raise ValueError(f"output {out} is a symbolic link (to {os.readlink(Path(out))}); give the real path of a "
                          "folder or file to write")
 
 
@@ -247,16 +247,16 @@ def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = 
     Raises ``ValueError`` (bad request: non-empty folder, output in an input, an unfinished set of
     other inputs), :class:`BusyOutputError` (another run holds the lock).
     """
-    inputs = [p for p in inputs if p is not None]
+    inputs_: list[str | os.PathLike] = [p for p in inputs if p is not None]
     _refuse_symlink(out)
     final = Path(out).resolve()
     if final.exists() and not final.is_dir():
         raise ValueError(f"output {out} is a file; expected a folder")
-    _check_not_inputs(final, inputs)
-    fp = fingerprint(inputs, options)
+    _check_not_inputs(final, inputs_)
+    fp = fingerprint(inputs_, options)
     info = {"format": MARKER_FORMAT, "version": 1, "fringe3d": _version(), "command": command or _CommandLine.text,
             "started": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-            "complete": False, "inputs": [str(Path(p)) for p in inputs], "fingerprint": fp}
+            "complete": False, "inputs": [str(Path(p)) for p in inputs_], "fingerprint": fp}
     nonempty = final.is_dir() and any(p.name != LOCK_NAME for p in final.iterdir())
     if nonempty and not overwrite:
         marker = read_marker(final)

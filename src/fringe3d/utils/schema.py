@@ -74,7 +74,7 @@ def _clean(loc: tuple) -> tuple:
 def describe(error: pydantic.ValidationError, where: str, limit: int = 5) -> str:
     """One message for a pydantic error: ``where: field PATH: what was expected (got VALUE)``, per
     problem; the alternatives of a union at one field are joined into one problem."""
-    grouped: dict[tuple, list[dict]] = {}
+    grouped: dict[tuple, list[Any]] = {}
     for e in error.errors():
         grouped.setdefault(_clean(e["loc"]), []).append(e)
     parts = []
