@@ -9,6 +9,7 @@ import typer
 
 from fringe3d.decode import DecodeOptions
 from fringe3d.io.capture import list_frame_files, read_capture
+from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.decode import decode
@@ -46,6 +47,18 @@ def empty_reason(cap, patterns, rig, min_modulation) -> str:
                    "calibration belongs to this rig and the depth limits (--z-min)")
 
 
+def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOptions, window, ply: bool, store: bool,
+              progress: bool, triangulation: str, client, chunk: int) -> dict:
+    """The sequence branch: in this process, or on Dask when a ``client`` is given."""
+    mode = "window" if window else "cycle"
+    if client is not None:
+        return reconstruct_capture_on_dask(capture, ps, rig, out, options, limit=limit, mode=mode, step=window,
+                                           ply=ply, store=store, triangulation=triangulation, client=client,
+                                           chunk=chunk, progress=progress)
+    return reconstruct_sequence(CaptureFrames(capture, limit=limit), ps, rig, out, options=options, mode=mode,
+                                step=window, ply=ply, store=store, progress=progress, triangulation=triangulation)
+
+
 def register(app: typer.Typer) -> None:
     @app.command("reconstruct")
     def reconstruct_cmd(
@@ -70,6 +83,13 @@ def register(app: typer.Typer) -> None:
                                           help="auto, fast (closed form) or lsq (Eq. 2.37)."),
         min_modulation: float = typer.Option(None, "--min-modulation", help="Modulation threshold (camera counts)."),
         max_cycles: int = typer.Option(None, "--max-cycles", help="Use only the first N pattern cycles."),
+        workers: int = typer.Option(None, "--workers",
+                                    help="Sequences: run on a local Dask cluster of N worker processes "
+                                         "(fringe3d[dask]); default: in this process."),
+        scheduler: str = typer.Option(None, "--scheduler",
+                                      help="Sequences: run on an existing dask.distributed scheduler, e.g. "
+                                           "tcp://HOST:8786 (its workers must read the capture at the same path)."),
+        chunk: int = typer.Option(8, "--chunk", help="Sequences on Dask: 3D frames per task."),
         overwrite: bool = overwrite_option(),
         allow_empty: bool = allow_empty_option(),
         json_: bool = typer.Option(False, "--json", help="Print one JSON summary."),
@@ -92,6 +112,10 @@ def register(app: typer.Typer) -> None:
         check_number(z_margin, "--z-margin", minimum=0)
         if max_cycles is not None and max_cycles < 1:
             raise ValueError(f"--max-cycles must be at least 1, got {max_cycles}")
+        if workers is not None and workers < 1:
+            raise ValueError(f"--workers must be at least 1, got {workers}")
+        if chunk < 1:
+            raise ValueError(f"--chunk must be at least 1 3D frame, got {chunk}")
         if window is not None and window < 1:
             raise ValueError(f"--window must be at least 1 frame, got {window}")
         if triangulation not in ("auto", "fast", "lsq"):
@@ -115,30 +139,33 @@ def register(app: typer.Typer) -> None:
         sequence = not (cycles == 1 and window is None)
         fp_options = {"method": method, "z_min": z_min, "window": window, "triangulation": triangulation,
                       "min_modulation": min_modulation, "cycles": cycles, "ply": ply, "store": store}
-        with open_output(out, overwrite=overwrite, inputs=[capture, calibration, z_min_from], options=fp_options,
-                         resumable=sequence) as o:
-            if not sequence:
-                r = reconstruct_cycle(cap, rig, method, z_min, triangulation=triangulation,
-                                      min_modulation=min_modulation)
-                if not r.mask.any() and not allow_empty:
-                    raise ValueError(f"{capture}: no valid 3D point: {empty_reason(cap, ps, rig, min_modulation)}. "
-                                     "Nothing was written (pass --allow-empty to write it anyway)")
-                summary["files"] = {k: str(Path(v).relative_to(o.path)) for k, v in r.save(o.path, ply).items()}
-                summary.update(r.summary())
-                summary["path"] = r.path
-            else:
-                frames = CaptureFrames(capture, limit=cycles * len(ps))
-                seq = reconstruct_sequence(frames, ps, rig, o.path, options=DecodeOptions(z_min=z_min, **opts),
-                                           mode="window" if window else "cycle",
-                                           step=window, ply=ply, store=store, progress=not (quiet or json_),
-                                           triangulation=triangulation)
-                seq = {k: (str(o.final_of(v)) if k in ("out", "store", "ply_dir") and v else v) for k, v in seq.items()}
-                summary.update(seq)
-                if seq.get("empty_frames") == seq.get("frames_3d") and not allow_empty:
-                    raise ValueError(f"{capture}: no valid 3D point in any frame of the sequence: "
-                                     f"{empty_reason(cap, ps, rig, min_modulation)} (pass --allow-empty to keep it)")
-            summary["seconds"] = round(time.perf_counter() - t0, 3)
-            write_json(o.path / "reconstruct.json", summary)
+        client = connect(scheduler, workers) if sequence and (workers or scheduler) else None  # before writing
+        try:
+            with open_output(out, overwrite=overwrite, inputs=[capture, calibration, z_min_from],
+                             options=fp_options, resumable=sequence) as o:
+                if not sequence:
+                    r = reconstruct_cycle(cap, rig, method, z_min, triangulation=triangulation,
+                                          min_modulation=min_modulation)
+                    if not r.mask.any() and not allow_empty:
+                        raise ValueError(f"{capture}: no valid 3D point: "
+                                         f"{empty_reason(cap, ps, rig, min_modulation)}. "
+                                         "Nothing was written (pass --allow-empty to write it anyway)")
+                    summary["files"] = {k: str(Path(v).relative_to(o.path)) for k, v in r.save(o.path, ply).items()}
+                    summary.update(r.summary())
+                    summary["path"] = r.path
+                else:
+                    seq = _sequence(o.path, capture, cycles * len(ps), ps, rig, DecodeOptions(z_min=z_min, **opts),
+                                    window, ply, store, not (quiet or json_), triangulation, client, chunk)
+                    summary.update(o.final_paths(seq))
+                    if seq.get("empty_frames") == seq.get("frames_3d") and not allow_empty:
+                        raise ValueError(f"{capture}: no valid 3D point in any frame of the sequence: "
+                                         f"{empty_reason(cap, ps, rig, min_modulation)} (pass --allow-empty to "
+                                         "keep it)")
+                summary["seconds"] = round(time.perf_counter() - t0, 3)
+                write_json(o.path / "reconstruct.json", summary)
+        finally:
+            if client is not None:
+                close(client, own_cluster=scheduler is None)
         if json_:
             print_json(summary)
             return

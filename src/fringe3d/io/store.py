@@ -112,14 +112,24 @@ class PointMapStore:
     # -- data ---------------------------------------------------------------------------
     def write(self, k: int, points: np.ndarray) -> None:
         """Store frame ``k`` (``(H, W, 3)`` float32 mm) and then mark it complete."""
+        self.write_points(k, points)
+        self.mark_done([k])
+
+    def write_points(self, k: int, points: np.ndarray) -> None:
+        """Store frame ``k``'s chunk without marking it done (a worker's write; the client marks
+        it with :meth:`mark_done` once the task has returned)."""
         P = np.asarray(points, np.float32)
         if P.shape != self.shape + (3,):
             raise ValueError(f"point map of frame {k} has shape {P.shape}, the store holds {self.shape + (3,)}")
         if not 0 <= k < self.frames:
             raise ValueError(f"frame index {k} outside the store's 0..{self.frames - 1}")
         self.points[k] = P
-        self.done_array[k] = 1
-        self._done[k] = True
+
+    def mark_done(self, ks) -> None:
+        """Mark frames ``ks`` complete (their chunks are written)."""
+        for k in ks:
+            self.done_array[int(k)] = 1
+            self._done[int(k)] = True
         self.group.attrs["completed"] = self.completed
 
     def read(self, k: int) -> np.ndarray:

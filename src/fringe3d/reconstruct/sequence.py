@@ -232,6 +232,31 @@ def ply_name(k: int) -> str:
     return f"frame_{k:05d}.ply"
 
 
+def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out: Path,
+                     options: DecodeOptions | None, mode: str, step: int | None, ply: bool,
+                     store: bool) -> tuple[list[int], PointMapStore | None]:
+    """Check a sequence of frames of ``shape`` (F, H, W) against the rig, create (or resume) the
+    point store and the PLY folder in ``out``; returns the windows' first frames and the store."""
+    if not (ply or store):
+        raise ValueError("nothing to write: ask for the point store and/or PLY files")
+    if len(shape) != 3:
+        raise ValueError(f"frames must be an (F, H, W) stack, got shape {tuple(shape)}")
+    H, W = shape[1:]
+    ch, cw = camera_shape(rig)
+    if (ch, cw) != (H, W):
+        raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is {cw}x"
+                         f"{ch}: calibration and capture sizes disagree")
+    z_min = (options or DecodeOptions()).z_min
+    starts = window_starts(shape[0], len(patterns), mode, step)
+    out.mkdir(parents=True, exist_ok=True)
+    meta = {"patterns": patterns.name, "mode": mode, "step": step, "z_min": z_min, "rig": rig.to_dict(),
+            "window_starts": [starts[0], starts[-1], len(starts)]}
+    st = PointMapStore.open(out / STORE_NAME, len(starts), H, W, meta=meta) if store else None
+    if ply:
+        (out / PLY_DIR).mkdir(exist_ok=True)
+    return starts, st
+
+
 def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out,
                          options: DecodeOptions | None = None, mode: str = "cycle", step: int | None = None,
                          ply: bool = False, store: bool = True, progress: bool = True, triangulation: str = "auto",
@@ -251,30 +276,12 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
 
     Returns a summary dict (3D frames, done now / before, seconds, 3D frames per second, path).
     """
-    if not (ply or store):
-        raise ValueError("nothing to write: ask for the point store and/or PLY files")
-    if not hasattr(frames, "shape"):
-        frames = np.asarray(frames)
-    if len(frames.shape) != 3:
-        raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
-    H, W = frames.shape[1:]
-    ch, cw = camera_shape(rig)
-    if (ch, cw) != (H, W):
-        raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is {cw}x"
-                         f"{ch}: calibration and capture sizes disagree")
-    options = options or DecodeOptions()
-    z_min = options.z_min
-    n = len(patterns)
-    starts = window_starts(frames.shape[0], n, mode, step)
+    frames = frames if hasattr(frames, "shape") else np.asarray(frames)
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    meta = {"patterns": patterns.name, "mode": mode, "step": step, "z_min": z_min, "rig": rig.to_dict(),
-            "window_starts": [starts[0], starts[-1], len(starts)]}
-    st = None
-    if store:
-        st = PointMapStore.open(out / STORE_NAME, len(starts), H, W, meta=meta)
-    if ply:
-        (out / PLY_DIR).mkdir(exist_ok=True)
+    starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store)
+    options = options or DecodeOptions()
+    n = len(patterns)
+    H, W = frames.shape[1:]
 
     def done(k):
         return (st is None or st.is_done(k)) and (not ply or (out / PLY_DIR / ply_name(k)).exists())

@@ -1,0 +1,81 @@
+"""The task a Dask worker runs: reconstruct a chunk of 3D frames and write them into the store.
+
+Workers read the capture themselves (from a path they share with the client) and write each
+point map into its own zarr chunk (one chunk per 3D frame, so writers never share a chunk); the
+client alone marks frames done, once their task has returned. A worker that dies mid-chunk
+leaves frames that are written but not marked: they are simply computed again.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fringe3d.decode.options import DecodeOptions
+from fringe3d.io.pointcloud import write_ply
+from fringe3d.io.store import PointMapStore
+from fringe3d.optics.rig import Rig
+from fringe3d.patterns.manifest import PatternSet
+from fringe3d.reconstruct.sequence import CaptureFrames, FrameReconstructor, ply_name, window_index
+
+
+@dataclass(frozen=True)
+class SequenceJob:
+    """Everything a worker needs to reconstruct any 3D frame of a sequence (picklable).
+
+    ``capture`` is a capture folder the worker can read; ``limit`` the number of frames used;
+    ``starts`` the first frame of each 3D frame's window; ``store`` the zarr point store (or None)
+    and ``ply_dir`` the PLY folder (or None). ``key`` identifies the job (its fingerprint) so a
+    worker builds the reconstructor (minimum phase, ray coefficients) once per job.
+    """
+
+    key: str
+    capture: str
+    limit: int
+    patterns: PatternSet
+    rig: Rig
+    options: DecodeOptions
+    starts: tuple[int, ...]
+    triangulation: str = "auto"
+    store: str | None = None
+    ply_dir: str | None = None
+
+
+_WORKER_CACHE: dict[str, tuple[FrameReconstructor, CaptureFrames, PointMapStore | None]] = {}
+
+
+def _worker_state(job: SequenceJob):
+    """The job's reconstructor, frame reader and store, built once per worker process."""
+    if job.key not in _WORKER_CACHE:
+        _WORKER_CACHE.clear()  # one job at a time per worker: drop the previous job's tables
+        rec = FrameReconstructor(job.patterns, job.rig, job.options, triangulation=job.triangulation)
+        frames = CaptureFrames(job.capture, limit=job.limit)
+        store = PointMapStore.open_existing(job.store) if job.store else None
+        _WORKER_CACHE[job.key] = (rec, frames, store)
+    return _WORKER_CACHE[job.key]
+
+
+def run_chunk(job: SequenceJob, ks: list[int]) -> dict:
+    """Reconstruct the 3D frames ``ks`` of ``job`` and write them; returns ``{"done": ks, "empty": n}``.
+
+    Frames whose phase mask is empty are written as all-NaN point maps and counted.
+    """
+    rec, frames, store = _worker_state(job)
+    n = len(job.patterns)
+    H, W = frames.shape[1:]
+    empty = 0
+    for k in ks:
+        cyc = np.ascontiguousarray(frames[window_index(job.starts[k], n)])
+        try:
+            pts, tex = rec(cyc, with_texture=True)
+        except ValueError as e:
+            if "mask is empty" not in str(e):
+                raise
+            pts, tex = np.full((H, W, 3), np.nan, np.float32), None
+            empty += 1
+        if job.ply_dir is not None and np.isfinite(pts[..., 0]).any():
+            write_ply(Path(job.ply_dir) / ply_name(k), pts, colors=tex)
+        if store is not None:
+            store.write_points(k, pts)
+    return {"done": list(ks), "empty": empty}
