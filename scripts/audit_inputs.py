@@ -35,7 +35,9 @@ import numpy as np
 from fringe3d.cli import main
 from fringe3d.io.capture import read_capture
 
-ROOT = Path(__file__).resolve().parents[1]
+import fringe3d  # noqa: E402
+
+ROOT = Path(fringe3d.__file__).resolve().parents[2]  # the checkout whose fringe3d is audited (subprocesses too)
 HOSTILE_VALUES = [None, True, False, 0, -1, 1e9, -1e300, float("nan"), float("inf"), "", "abc", "../../x",
                   "/etc/passwd", [], [1, 2], {}, {"a": 1}, [[1, 2], [3]], 2 ** 70]
 

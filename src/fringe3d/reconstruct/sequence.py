@@ -17,7 +17,9 @@ Outputs: a resumable zarr store (:class:`fringe3d.io.store.PointMapStore`) and/o
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -195,6 +197,9 @@ class FrameReconstructor:
 
 
 # ----------------------------------------------------------------------------- sequences
+_READ_POOL = ThreadPoolExecutor(max_workers=min(8, os.cpu_count() or 1), thread_name_prefix="fringe3d-read")
+
+
 class CaptureFrames:
     """The frames of a capture folder, read on demand: ``frames[idx]`` reads only those files.
 
@@ -225,7 +230,11 @@ class CaptureFrames:
     def __getitem__(self, idx):
         if np.ndim(idx) == 0:
             return self._one(int(idx))
-        return np.stack([self._one(int(k)) for k in np.asarray(idx).ravel()])
+        ks = [int(k) for k in np.asarray(idx).ravel()]
+        if len(ks) < 2:
+            return np.stack([self._one(k) for k in ks])
+        # PNG/TIFF decoders release the GIL: a cycle's frames decode in parallel
+        return np.stack(list(_READ_POOL.map(self._one, ks)))
 
 
 def ply_name(k: int) -> str:
