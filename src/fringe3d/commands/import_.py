@@ -12,8 +12,9 @@ from fringe3d.utils.console import console, make_table, print_json, set_quiet
 def register(app: typer.Typer) -> None:
     @app.command("import")
     def import_cmd(
-        src: str = typer.Argument(..., help="Folder or glob of frames (PNG, TIFF incl. multi-page, BMP, JPEG), "
-                                            "naturally sorted (img_2 before img_10)."),
+        src: str = typer.Argument(..., help="Folder or glob of frames (PNG, TIFF, BMP, JPEG), naturally sorted "
+                                            "(img_2 before img_10); or a camera file, referenced not converted: "
+                                            "Photron .cih/.cihx/.mraw, a multi-page .tif, a zarr store."),
         out: Path = typer.Option(..., "--out", "-o", help="Capture folder to write (must be empty)."),
         list_file: Path = typer.Option(None, "--list", help="Text file listing the frames in projection order "
                                                             "(one path a line, relative to the file)."),
@@ -37,6 +38,12 @@ def register(app: typer.Typer) -> None:
                                                             "BT.601 luma of colour frames."),
         bit_depth: int = typer.Option(None, "--bit-depth", help="Camera bit depth (10/12/14 in 16-bit files); "
                                                                 "default the files' 8 / 16."),
+        first_frame: int = typer.Option(0, "--first-frame", help="Camera file: frame where the first pattern "
+                                                                 "cycle starts."),
+        frame_count: int = typer.Option(None, "--frame-count", help="Camera file: frames to use (a multiple of "
+                                                                    "the cycle; default the whole cycles left)."),
+        copy_frames: bool = typer.Option(False, "--copy-frames", help="Camera file: write the frames as PNGs "
+                                                                      "into frames/ instead of referencing it."),
         overwrite: bool = typer.Option(False, "--overwrite", help="Write into a non-empty output folder."),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No table."),
@@ -57,11 +64,13 @@ def register(app: typer.Typer) -> None:
                 opts["inverse"] = not no_inverse
         summary = import_images(src, out, list_file=list_file, manifest=manifest, layout=layout,
                                 projector_size=parse_size(projector_size), channel=channel, bit_depth=bit_depth,
-                                overwrite=overwrite, **opts)
+                                overwrite=overwrite, first_frame=first_frame, frame_count=frame_count,
+                                copy_frames=copy_frames, **opts)
         if json_:
             print_json(summary)
             return
         if not quiet:
             rows = [[k, str(v)] for k, v in summary.items() if k != "source_files"]
-            rows.append(["source_files", f"{summary['source_files'][0]} ... ({len(summary['source_files'])})"])
+            if "source_files" in summary:
+                rows.append(["source_files", f"{summary['source_files'][0]} ... ({len(summary['source_files'])})"])
             console.print(make_table(f"imported {src} -> {out}", ["field", "value"], rows))

@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 
 from fringe3d.decode import DecodeOptions
-from fringe3d.io.capture import list_frame_files, read_capture
+from fringe3d.io.capture import list_frame_files, open_frames, read_capture
 from fringe3d.optics import Rig
 from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
 from fringe3d.reconstruct.sequence import (
@@ -79,7 +79,8 @@ def register(app: typer.Typer) -> None:
         rig = Rig.load(calibration)
         cap = read_capture(capture, max_cycles=1)  # checks the folder; the rest is read on demand
         check_sizes(rig, cap.frames, calibration)
-        n_files = len(list_frame_files(capture))
+        referenced = open_frames(capture)  # a camera file (capture.json source), read on demand; else None
+        n_files = len(referenced) if referenced is not None else len(list_frame_files(capture))
         cycles = n_files // len(cap.patterns) if max_cycles is None else min(max_cycles, n_files // len(cap.patterns))
         ps = with_method(cap.patterns, method)
         opts = {"bit_depth": cap.meta.get("bit_depth"), "min_modulation": min_modulation}
@@ -93,7 +94,8 @@ def register(app: typer.Typer) -> None:
             summary.update(r.summary())
             summary["path"] = r.path
         else:
-            frames = CaptureFrames(capture, limit=cycles * len(ps))
+            frames = (open_frames(capture, limit=cycles * len(ps)) if referenced is not None
+                      else CaptureFrames(capture, limit=cycles * len(ps)))
             seq = reconstruct_sequence(frames, ps, rig, out, options=DecodeOptions(z_min=z_min, **opts),
                                        mode="window" if window else "cycle",
                                        step=window, ply=ply, store=store, progress=not (quiet or json_),

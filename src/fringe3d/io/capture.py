@@ -10,6 +10,11 @@ Layout::
       capture.json         optional: frame_rate (Hz), bit_depth, camera [width, height], free metadata
       truth/               optional: simulator ground truth (not read here)
 
+Instead of ``frames/``, ``capture.json`` may hold a ``source`` object referencing a camera file
+(Photron MRAW, multi-page TIFF, zarr; :mod:`fringe3d.io.capture_source`), read lazily:
+:func:`open_frames` gives an array-like over it and :meth:`Capture.iter_cycles` reads one
+cycle at a time.
+
 :func:`read_capture` checks everything a decoder relies on and says exactly what is wrong;
 :func:`write_capture` writes each file atomically.
 """
@@ -20,9 +25,12 @@ import re
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
+from fringe3d.io.capture_source import open_source_frames, parse_source
+from fringe3d.io.frame_sources import FrameRange
 from fringe3d.io.images import IMAGE_SUFFIXES, read_image, write_image
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.phase.frames import as_frame_stack
@@ -47,12 +55,25 @@ class Capture:
     meta : dict
         Contents of ``capture.json`` (empty if absent).
     folder : Path or None
+    source : FrameRange or None
+        For a folder that references a camera file: all its frames (``first_frame`` /
+        ``frame_count`` applied), read on demand; ``frames`` holds the cycles read.
     """
 
     frames: np.ndarray
     patterns: PatternSet
     meta: dict = field(default_factory=dict)
     folder: Path | None = None
+    source: FrameRange | None = None
+
+    def iter_cycles(self, max_cycles: int | None = None) -> Iterator[np.ndarray]:
+        """Each cycle's frames ``(len(patterns), H, W)`` in turn, read from the camera file on
+        demand for a referenced source (memory: one cycle), else sliced from ``frames``."""
+        n = len(self.patterns)
+        frames = self.source if self.source is not None else self.frames
+        total = len(frames) // n
+        for c in range(total if max_cycles is None else min(total, max_cycles)):
+            yield np.asarray(frames[c * n:(c + 1) * n])
 
     @property
     def cycles(self) -> int:
@@ -128,6 +149,8 @@ def read_meta(folder: str | os.PathLike) -> dict:
         raise ValueError(f"{path}: frame_rate must be a positive number (Hz), got {meta['frame_rate']!r}")
     if "bit_depth" in meta and meta["bit_depth"] not in (1, 8, 10, 12, 14, 16):
         raise ValueError(f"{path}: bit_depth must be one of 8, 10, 12, 14, 16, got {meta['bit_depth']!r}")
+    if "source" in meta:
+        meta["source"] = parse_source(meta["source"], path)
     if "camera" in meta:
         cam = meta["camera"]
         if not (isinstance(cam, list) and len(cam) == 2 and all(isinstance(x, int) and x > 0 for x in cam)):
@@ -183,6 +206,8 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
                                 f"manifest there (fringe3d patterns writes it next to the PNGs)")
     patterns = PatternSet.load(folder / MANIFEST_NAME)
     meta = read_meta(folder)
+    if "source" in meta:
+        return _read_source_capture(folder, patterns, meta, max_cycles)
     files = list_frame_files(folder)
     msg = frame_count_error(len(files), len(patterns))
     if msg:
@@ -211,6 +236,31 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
         raise ValueError(f"{folder / META_NAME} says the camera is {meta['camera'][0]}x{meta['camera'][1]} "
                          f"but the frames are {first.shape[1]}x{first.shape[0]}")
     return Capture(frames=frames, patterns=patterns, meta=meta, folder=folder)
+
+
+def _read_source_capture(folder: Path, patterns: PatternSet, meta: dict, max_cycles: int | None) -> Capture:
+    """:func:`read_capture` for a folder whose ``capture.json`` references a camera file."""
+    source = open_source_frames(folder, meta, folder / META_NAME)
+    msg = frame_count_error(len(source), len(patterns))
+    if msg:
+        raise ValueError(f"{folder / META_NAME}: source {source.source.path} frames {source.first}.."
+                         f"{source.first + source.count - 1}: {msg}")
+    n = len(source) if max_cycles is None else min(len(source), max(1, max_cycles) * len(patterns))
+    return Capture(frames=source.read(0, n), patterns=patterns, meta=meta, folder=folder, source=source)
+
+
+def open_frames(folder: str | os.PathLike, limit: int | None = None):
+    """The frames of a capture folder as an array-like, read on demand: a :class:`FrameRange`
+    over the referenced camera file, or None for a folder with ``frames/`` (read those with
+    the file-based readers). ``limit`` keeps only the first frames."""
+    folder = Path(folder)
+    meta = read_meta(folder)
+    if "source" not in meta:
+        return None
+    frames = open_source_frames(folder, meta, folder / META_NAME)
+    if limit is not None and limit < len(frames):
+        frames = FrameRange(frames.source, frames.first, limit)
+    return frames
 
 
 def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: PatternSet, meta: dict | None = None,
