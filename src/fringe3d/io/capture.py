@@ -177,13 +177,17 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
 
     Returns
     -------
-    Capture with ``frames`` (F, H, W) in the files' dtype.
+    Capture with ``frames`` (F, H, W) in the files' dtype. For a folder whose ``capture.json``
+    references a camera file (``source``), ``frames`` holds the cycles read and ``source`` the
+    whole range, read on demand (:meth:`Capture.iter_cycles`).
 
     Raises
     ------
     FileNotFoundError
-        Missing folder, ``manifest.json`` or ``frames/``.
+        Missing folder, ``manifest.json``, ``frames/`` or referenced camera file.
     ValueError
+        A camera file whose header disagrees with ``capture.json`` or a frame range beyond it
+        (naming the file and field);
         Unknown manifest fields, a frame count that is not a multiple of the manifest's length,
         frames of different shapes or dtypes, unreadable or non-image files, bad capture.json.
 

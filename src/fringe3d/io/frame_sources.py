@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+import tifffile
 
 #: Source kinds that ``capture.json``'s ``source.kind`` may name.
 SOURCE_KINDS = ("mraw", "tiff", "zarr")
@@ -172,8 +173,6 @@ class TiffSource:
     kind = "tiff"
 
     def __init__(self, path: str | os.PathLike):
-        import tifffile
-
         self.path = Path(path)
         if not self.path.is_file():
             raise FileNotFoundError(f"TIFF stack {self.path} does not exist")
