@@ -188,7 +188,7 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
     ValueError
         A camera file whose header disagrees with ``capture.json`` or a frame range beyond it
         (naming the file and field);
-        Unknown manifest fields, a frame count that is not a multiple of the manifest's length,
+        unknown manifest fields, a frame count that is not a multiple of the manifest's length,
         frames of different shapes or dtypes, unreadable or non-image files, bad capture.json.
 
     Examples
