@@ -185,6 +185,9 @@ def test_reads_are_bounded_by_the_range_asked_for(tmp_path, sim, monkeypatch):
     lazy = open_frames(tmp_path / "cap")
     np.testing.assert_array_equal(lazy[np.array([6, 4, 5])], frames[[6, 4, 5]])  # a sliding window
     assert calls == [(4, 7)]
+    calls.clear()
+    assert cli("decode", tmp_path / "cap", "-o", tmp_path / "dec", "--quiet") == 0  # one cycle at a time
+    assert calls == [(0, 3), (0, 3), (3, 6), (6, 9)]
     # the MRAW reader maps only the bytes of the range: an offset memmap of those frames
     cih = write_mraw(tmp_path / "run.mraw", frames)
     maps = []

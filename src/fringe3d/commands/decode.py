@@ -7,8 +7,8 @@ from pathlib import Path
 
 import typer
 
-from fringe3d.decode import DecodeOptions, decode_sequence, with_method
-from fringe3d.io.capture import read_capture
+from fringe3d.decode import DecodeOptions, decode, decode_sequence, with_method
+from fringe3d.io.capture import read_capture, read_meta
 from fringe3d.optics import Rig
 from fringe3d.utils.console import (
     console,
@@ -67,7 +67,8 @@ def register(app: typer.Typer) -> None:
         """
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
-        cap = read_capture(capture, max_cycles=max_cycles)
+        referenced = "source" in read_meta(capture)  # a camera file: decode it one cycle at a time
+        cap = read_capture(capture, max_cycles=1 if referenced else max_cycles)
         bits = bit_depth if bit_depth is not None else cap.meta.get("bit_depth")
         opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1,
                 "white_thr": white_thr, "black_thr": black_thr}
@@ -76,12 +77,17 @@ def register(app: typer.Typer) -> None:
             opts["ftp_window"] = ftp_window
         rig_obj = _load_rig(rig)
         n = cap.cycles
+        if cap.source is not None:
+            total = len(cap.source) // len(patterns)
+            n = total if max_cycles is None else min(max(1, max_cycles), total)
+        options = DecodeOptions(z_min=z_min, **opts)
+        decoded = (decode_sequence(cap.frames, patterns, rig=rig_obj, options=options) if cap.source is None
+                   else (decode(c, patterns, rig=rig_obj, options=options) for c in cap.iter_cycles(n)))
         results = []
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             with progress_bar("decoding", n, enabled=n > 1) as advance:
-                for c, dec in enumerate(decode_sequence(cap.frames, patterns, rig=rig_obj,
-                                                                options=DecodeOptions(z_min=z_min, **opts))):
+                for c, dec in enumerate(decoded):
                     folder = out if n == 1 else out / f"cycle_{c:05d}"
                     dec.save(folder)
                     s = dec.summary()
@@ -91,7 +97,7 @@ def register(app: typer.Typer) -> None:
         for msg in dict.fromkeys(str(w.message) for w in caught):
             warn(msg)
         summary = {"capture": str(capture), "out": str(out), "cycles": n, "patterns": patterns.name,
-                   "frames": int(cap.frames.shape[0]), "shape": list(cap.frames.shape[1:]),
+                   "frames": n * len(patterns), "shape": list(cap.frames.shape[1:]),
                    "seconds": round(time.perf_counter() - t0, 3), "results": results}
         if json_:
             print_json(summary)
