@@ -298,3 +298,34 @@ def test_bad_source_fields_and_missing_files_are_named(tmp_path, sim):
     (tmp_path / "x.cih").replace(tmp_path / "run.cih")
     with pytest.raises(ValueError, match=r"run.mraw holds 10 bytes but the header run.cih says Total Frame 9"):
         MrawSource(tmp_path / "run.cih")
+
+
+CIHX = """<?xml version="1.0" encoding="UTF-8" ?>
+<cih>
+<fileInfo><date>2026/12/01</date></fileInfo>
+<basicInfo><comment>written by the test</comment></basicInfo>
+<deviceInfo><deviceName>none (hand-written header)</deviceName></deviceInfo>
+<recordInfo><recordRate>{rate}</recordRate><shutterSpeed>0.0001</shutterSpeed></recordInfo>
+<frameInfo><totalFrame>{F}</totalFrame><recordedFrame>{F}</recordedFrame></frameInfo>
+<imageDataInfo><resolution><width>{W}</width><height>{H}</height></resolution>
+<effectiveBit><depth>{bits}</depth><side>Higher</side></effectiveBit><colorInfo><bit>16</bit></colorInfo>
+</imageDataInfo>
+<imageFileInfo><fileFormat>MRaw</fileFormat></imageFileInfo>
+</cih>
+"""
+
+
+def test_cihx_header_and_high_side_values_read_like_the_lower_side_file(tmp_path, sim):
+    """A .cihx (XML) header, the .mraw path given, 12-bit values stored in the high bits."""
+    ps, frames = sim
+    frames12 = frames.astype(np.uint16) * 16
+    (frames12 << 4).tofile(tmp_path / "run.mraw")  # EffectiveBit Side: Higher -> left-aligned in 16 bits
+    F, H, W = frames.shape
+    (tmp_path / "run.cihx").write_text(CIHX.format(rate=50000, F=F, W=W, H=H, bits=12))
+    src = MrawSource(tmp_path / "run.mraw")
+    assert src.path.name == "run.cihx" and (src.shape, src.bit_depth, src.frame_rate) == (frames.shape, 12, 50000.0)
+    np.testing.assert_array_equal(src.read(2, 5), frames12[2:5])
+    assert import_(tmp_path / "run.mraw", tmp_path / "cap", ps) == 0
+    cap = read_capture(tmp_path / "cap")
+    assert cap.meta["source"]["path"] == "../run.cihx" and cap.meta["bit_depth"] == 12
+    np.testing.assert_array_equal(cap.frames, frames12)

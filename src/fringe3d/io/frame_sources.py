@@ -165,9 +165,9 @@ def _unpack12(raw: np.ndarray) -> np.ndarray:
 class TiffSource:
     """A multi-page (or BigTIFF) stack of grey pages, one frame a page, read page by page.
 
-    The file stays open (``close()``, or use as a context manager) so page offsets are walked
-    once. Bit depth: ``capture.json`` may say 10/12/14 for 16-bit pages; the file's is its
-    sample size.
+    The file stays open (until ``close()``, the end of a ``with`` block or the reader's deletion)
+    so the page offsets are indexed once (8 bytes a page; pages themselves are not cached). Bit depth:
+    ``capture.json`` may say 10/12/14 for 16-bit pages; the file's is its sample size.
     """
 
     kind = "tiff"
@@ -209,6 +209,11 @@ class TiffSource:
 
     def close(self) -> None:
         self._tif.close()
+
+    def __del__(self) -> None:  # the reader is dropped with its capture: close the file then
+        tif = getattr(self, "_tif", None)
+        if tif is not None:
+            tif.close()
 
     def __enter__(self) -> TiffSource:
         return self
