@@ -28,9 +28,10 @@ import cv2
 import numpy as np
 import tifffile
 
-from fringe3d.io.capture import META_NAME, write_capture
+from fringe3d.io.capture import FRAMES_DIR, META_NAME, write_capture
 from fringe3d.io.capture_source import check_header, make_source
 from fringe3d.io.frame_sources import FrameRange, FrameSource, guess_kind, open_source
+from fringe3d.io.images import write_image
 from fringe3d.patterns import sets
 from fringe3d.patterns.layouts import opencv_graycode, opencv_graycode_bits, opencv_graycode_count
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
@@ -289,6 +290,19 @@ def source_bit_depth(frames: FrameRange, bit_depth: int | None) -> int:
     return bit_depth
 
 
+def copy_to_png(frames: FrameRange, out: Path, chunk: int = 64) -> None:
+    """Write ``frames`` as ``out/frames/00000.png ...``, ``chunk`` frames at a time (memory: one
+    chunk), removing numbered frames an older capture left beyond them."""
+    fdir = out / FRAMES_DIR
+    fdir.mkdir(parents=True, exist_ok=True)
+    for stale in fdir.iterdir():
+        if stale.stem.isdigit() and int(stale.stem) >= len(frames):
+            stale.unlink()
+    for a in range(0, len(frames), chunk):
+        for k, img in enumerate(frames.read(a, min(a + chunk, len(frames))), start=a):
+            write_image(fdir / f"{k:05d}.png", img)
+
+
 def import_camera_file(path: str | os.PathLike, out: str | os.PathLike, patterns: PatternSet,
                        layout: str = "manifest", kind: str | None = None, bit_depth: int | None = None,
                        first_frame: int = 0, frame_count: int | None = None, copy_frames: bool = False,
@@ -319,15 +333,15 @@ def import_camera_file(path: str | os.PathLike, out: str | os.PathLike, patterns
     if src.frame_rate is not None:
         meta["frame_rate"] = src.frame_rate
     spec = make_source(kind, src.path, out, frames.first, frames.count, file_frames=F)
+    out.mkdir(parents=True, exist_ok=True)
     if copy_frames:
-        meta["source_file"] = {**spec, "path": str(Path(src.path).resolve())}
-        write_capture(out, frames.read(0, len(frames)), patterns, meta)
+        meta.update(conversion="none (frames copied to PNG)", source_file={**spec, "path": str(src.path.resolve())})
+        copy_to_png(frames, out)
     else:
         meta["source"] = spec
         check_header(src, meta, out / META_NAME)
-        out.mkdir(parents=True, exist_ok=True)
-        patterns.save(out / MANIFEST_NAME)
-        write_json(out / META_NAME, meta)
+    patterns.save(out / MANIFEST_NAME)
+    write_json(out / META_NAME, meta)
     return {**meta, "folder": str(out), "frames": int(len(frames))}
 
 
