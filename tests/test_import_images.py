@@ -86,7 +86,7 @@ def test_multipage_tiff_with_12_bit_frames_imports_and_decodes(tmp_path, sim_fra
         for f in frames12:
             tif.write(f, photometric="minisblack")
     assert cli("import", tmp_path / "stack.tif", "-o", tmp_path / "cap", "--set", "phase-shift", "--period", PERIOD,
-               "--projector-size", f"{ps.width}x{ps.height}", "--bit-depth", 12, "--quiet") == 0
+               "--projector-size", f"{ps.width}x{ps.height}", "--bit-depth", 12, "--copy-frames", "--quiet") == 0
     cap = read_capture(tmp_path / "cap")
     np.testing.assert_array_equal(cap.frames, frames12)
     assert cap.meta["bit_depth"] == 12 and cap.meta["source_files"][2].endswith("stack.tif#2")

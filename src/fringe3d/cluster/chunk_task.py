@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.decode.options import DecodeOptions
+from fringe3d.io.capture import open_frames
 from fringe3d.io.pointcloud import write_ply
 from fringe3d.io.store import PointMapStore
 from fringe3d.optics.rig import Rig
@@ -42,7 +43,7 @@ class SequenceJob:
     ply_dir: str | None = None
 
 
-_WORKER_CACHE: dict[str, tuple[FrameReconstructor, CaptureFrames, PointMapStore | None]] = {}
+_WORKER_CACHE: dict[str, tuple] = {}  # job key -> (reconstructor, frames, store)
 
 
 def _worker_state(job: SequenceJob):
@@ -50,7 +51,8 @@ def _worker_state(job: SequenceJob):
     if job.key not in _WORKER_CACHE:
         _WORKER_CACHE.clear()  # one job at a time per worker: drop the previous job's tables
         rec = FrameReconstructor(job.patterns, job.rig, job.options, triangulation=job.triangulation)
-        frames = CaptureFrames(job.capture, limit=job.limit)
+        frames = open_frames(job.capture, limit=job.limit)  # a referenced camera file, else frames/ files
+        frames = frames if frames is not None else CaptureFrames(job.capture, limit=job.limit)
         store = PointMapStore.open_existing(job.store) if job.store else None
         _WORKER_CACHE[job.key] = (rec, frames, store)
     return _WORKER_CACHE[job.key]

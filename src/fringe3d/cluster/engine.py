@@ -13,6 +13,7 @@ from pathlib import Path
 
 from fringe3d.cluster.chunk_task import SequenceJob, run_chunk
 from fringe3d.decode.options import DecodeOptions
+from fringe3d.io.capture import open_frames
 from fringe3d.io.store import PointMapStore
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import PatternSet
@@ -104,7 +105,8 @@ def reconstruct_capture_on_dask(capture: str | os.PathLike, patterns: PatternSet
     Same store, same point maps (bit-identical: the same per-window code runs on the workers),
     same summary, plus ``workers`` and ``tasks``. ``client`` from :func:`connect`.
     """
-    frames = CaptureFrames(capture, limit=limit)
+    frames = open_frames(capture, limit=limit)
+    frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
     out = Path(out)
     options = options or DecodeOptions()
     starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store)

@@ -5,12 +5,13 @@ import time
 import warnings
 from pathlib import Path
 
+import numpy as np
 import typer
 
-from fringe3d.decode import DecodeOptions, decode_sequence, with_method
-from fringe3d.io.capture import read_capture
-from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.checks import check_number
+from fringe3d.commands.output_options import allow_empty_option, overwrite_option
+from fringe3d.decode import DecodeOptions, decode, with_method
+from fringe3d.io.capture import read_capture, read_meta
 from fringe3d.optics import Rig
 from fringe3d.decode.result import SUMMARY_NAME
 from fringe3d.utils.jsonfile import read_json
@@ -32,10 +33,12 @@ def _load_rig(path: Path | None):
     return Rig.load(path)
 
 
-def _decode_all(cap, patterns, rig, options: DecodeOptions, out: Path, capture: Path, results: list, *,
+def _decode_all(cap, n: int, patterns, rig, options: DecodeOptions, out: Path, capture: Path, results: list, *,
                 overwrite: bool, allow_empty: bool, inputs: list, fingerprint_options: dict) -> None:
-    """Decode every cycle into the guarded output ``out``, appending each cycle's summary to ``results``."""
-    n, length = cap.cycles, len(patterns)
+    """Decode the first ``n`` cycles into the guarded output ``out`` (a referenced camera file is
+    read one cycle at a time), appending each cycle's summary to ``results``."""
+    length = len(patterns)
+    frames = cap.source if cap.source is not None else cap.frames
     with open_output(out, overwrite=overwrite, inputs=inputs, options=fingerprint_options, resumable=n > 1) as o, \
             progress_bar("decoding", n, enabled=n > 1) as advance:
         for c in range(n):
@@ -45,7 +48,7 @@ def _decode_all(cap, patterns, rig, options: DecodeOptions, out: Path, capture: 
                                 "folder": str(o.final_of(folder)), "resumed": True})
                 advance()
                 continue
-            dec = next(decode_sequence(cap.frames[c * length:(c + 1) * length], patterns, rig=rig, options=options))
+            dec = decode(np.asarray(frames[c * length:(c + 1) * length]), patterns, rig=rig, options=options)
             why = dec.empty_reason()
             if why and not allow_empty:
                 raise ValueError(f"{capture}" + (f" cycle {c}" if n > 1 else "") + f": {why}. Nothing "
@@ -100,7 +103,8 @@ def register(app: typer.Typer) -> None:
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
         check_number(min_modulation, "--min-modulation", minimum=0)
-        cap = read_capture(capture, max_cycles=max_cycles)
+        referenced = "source" in read_meta(capture)  # a camera file: decode it one cycle at a time
+        cap = read_capture(capture, max_cycles=1 if referenced else max_cycles)
         bits = bit_depth if bit_depth is not None else cap.meta.get("bit_depth")
         opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1,
                 "white_thr": white_thr, "black_thr": black_thr}
@@ -109,19 +113,22 @@ def register(app: typer.Typer) -> None:
             opts["ftp_window"] = ftp_window
         rig_obj = _load_rig(rig)
         n = cap.cycles
+        if cap.source is not None:
+            total = len(cap.source) // len(patterns)
+            n = total if max_cycles is None else min(max(1, max_cycles), total)
         results = []
         options = {k: v for k, v in opts.items()} | {"z_min": z_min, "method": method, "max_cycles": max_cycles}
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                _decode_all(cap, patterns, rig_obj, DecodeOptions(z_min=z_min, **opts), out, capture, results,
+                _decode_all(cap, n, patterns, rig_obj, DecodeOptions(z_min=z_min, **opts), out, capture, results,
                             overwrite=overwrite, allow_empty=allow_empty, inputs=[capture, rig],
                             fingerprint_options=options)
             finally:
                 for msg in dict.fromkeys(str(w.message) for w in caught):
                     warn(msg)
         summary = {"capture": str(capture), "out": str(out), "cycles": n, "patterns": patterns.name,
-                   "frames": int(cap.frames.shape[0]), "shape": list(cap.frames.shape[1:]),
+                   "frames": n * len(patterns), "shape": list(cap.frames.shape[1:]),
                    "seconds": round(time.perf_counter() - t0, 3), "results": results}
         if json_:
             print_json(summary)

@@ -14,8 +14,9 @@ from fringe3d.utils.console import console, make_table, print_json, set_quiet
 def register(app: typer.Typer) -> None:
     @app.command("import")
     def import_cmd(
-        src: str = typer.Argument(..., help="Folder or glob of frames (PNG, TIFF incl. multi-page, BMP, JPEG), "
-                                            "naturally sorted (img_2 before img_10)."),
+        src: str = typer.Argument(..., help="Folder or glob of frames (PNG, TIFF, BMP, JPEG), naturally sorted "
+                                            "(img_2 before img_10); or a camera file, referenced not converted: "
+                                            "Photron .cih/.cihx/.mraw, a multi-page .tif, a zarr store."),
         out: Path = typer.Option(..., "--out", "-o", help="Capture folder to write (must be empty)."),
         list_file: Path = typer.Option(None, "--list", help="Text file listing the frames in projection order "
                                                             "(one path a line, relative to the file)."),
@@ -39,6 +40,12 @@ def register(app: typer.Typer) -> None:
                                                             "BT.601 luma of colour frames."),
         bit_depth: int = typer.Option(None, "--bit-depth", help="Camera bit depth (10/12/14 in 16-bit files); "
                                                                 "default the files' 8 / 16."),
+        first_frame: int = typer.Option(0, "--first-frame", help="Camera file: frame where the first pattern "
+                                                                 "cycle starts."),
+        frame_count: int = typer.Option(None, "--frame-count", help="Camera file: frames to use (a multiple of "
+                                                                    "the cycle; default the whole cycles left)."),
+        copy_frames: bool = typer.Option(False, "--copy-frames", help="Camera file: write the frames as PNGs "
+                                                                      "into frames/ instead of referencing it."),
         overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No table."),
@@ -59,14 +66,18 @@ def register(app: typer.Typer) -> None:
                 opts["inverse"] = not no_inverse
         src_path = Path(src)
         inputs = [p for p in (src_path if src_path.exists() else None, list_file, manifest) if p is not None]
-        with open_output(out, overwrite=overwrite, inputs=inputs, options={"src": src, "layout": layout, **opts}) as o:
+        with open_output(out, overwrite=overwrite, inputs=inputs,
+                         options={"src": src, "layout": layout, "first_frame": first_frame,
+                                  "frame_count": frame_count, "copy_frames": copy_frames, **opts}) as o:
             summary = o.final_paths(import_images(src, o.path, list_file=list_file, manifest=manifest, layout=layout,
                                                   projector_size=parse_size(projector_size), channel=channel,
-                                                  bit_depth=bit_depth, overwrite=True, **opts))
+                                                  bit_depth=bit_depth, overwrite=True, first_frame=first_frame,
+                                                  frame_count=frame_count, copy_frames=copy_frames, **opts))
         if json_:
             print_json(summary)
             return
         if not quiet:
             rows = [[k, str(v)] for k, v in summary.items() if k != "source_files"]
-            rows.append(["source_files", f"{summary['source_files'][0]} ... ({len(summary['source_files'])})"])
+            if "source_files" in summary:
+                rows.append(["source_files", f"{summary['source_files'][0]} ... ({len(summary['source_files'])})"])
             console.print(make_table(f"imported {src} -> {out}", ["field", "value"], rows))

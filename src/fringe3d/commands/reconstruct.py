@@ -8,11 +8,11 @@ from pathlib import Path
 import typer
 
 from fringe3d.decode import DecodeOptions
-from fringe3d.io.capture import list_frame_files, read_capture
 from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.decode import decode
+from fringe3d.io.capture import list_frame_files, open_frames, read_capture
 from fringe3d.optics import Rig
 from fringe3d.utils.output_folder import open_output
 from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
@@ -55,8 +55,10 @@ def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOpti
         return reconstruct_capture_on_dask(capture, ps, rig, out, options, limit=limit, mode=mode, step=window,
                                            ply=ply, store=store, triangulation=triangulation, client=client,
                                            chunk=chunk, progress=progress)
-    return reconstruct_sequence(CaptureFrames(capture, limit=limit), ps, rig, out, options=options, mode=mode,
-                                step=window, ply=ply, store=store, progress=progress, triangulation=triangulation)
+    frames = open_frames(capture, limit=limit)  # a referenced camera file, read on demand; else None
+    frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
+    return reconstruct_sequence(frames, ps, rig, out, options=options, mode=mode, step=window, ply=ply,
+                                store=store, progress=progress, triangulation=triangulation)
 
 
 def register(app: typer.Typer) -> None:
@@ -128,7 +130,8 @@ def register(app: typer.Typer) -> None:
         rig = Rig.load(calibration)
         cap = read_capture(capture, max_cycles=1)  # checks the folder; the rest is read on demand
         check_sizes(rig, cap.frames, calibration)
-        n_files = len(list_frame_files(capture))
+        referenced = open_frames(capture)  # a camera file (capture.json source), read on demand; else None
+        n_files = len(referenced) if referenced is not None else len(list_frame_files(capture))
         cycles = n_files // len(cap.patterns) if max_cycles is None else min(max_cycles, n_files // len(cap.patterns))
         ps = with_method(cap.patterns, method)
         opts = {"bit_depth": cap.meta.get("bit_depth"), "min_modulation": min_modulation}

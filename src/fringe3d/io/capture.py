@@ -10,6 +10,11 @@ Layout::
       capture.json         optional: frame_rate (Hz), bit_depth, camera [width, height], free metadata
       truth/               optional: simulator ground truth (not read here)
 
+Instead of ``frames/``, ``capture.json`` may hold a ``source`` object referencing a camera file
+(Photron MRAW, multi-page TIFF, zarr; :mod:`fringe3d.io.capture_source`), read lazily:
+:func:`open_frames` gives an array-like over it and :meth:`Capture.iter_cycles` reads one
+cycle at a time.
+
 :func:`read_capture` checks everything a decoder relies on and says exactly what is wrong;
 :func:`write_capture` writes each file atomically.
 """
@@ -20,10 +25,13 @@ import re
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
 from fringe3d.io.capture_schema import check_frame_values, validate_meta
+from fringe3d.io.capture_source import open_source_frames, parse_source
+from fringe3d.io.frame_sources import FrameRange
 from fringe3d.io.images import IMAGE_SUFFIXES, read_image, write_image
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.phase.frames import as_frame_stack
@@ -50,12 +58,25 @@ class Capture:
     meta : dict
         Contents of ``capture.json`` (empty if absent).
     folder : Path or None
+    source : FrameRange or None
+        For a folder that references a camera file: all its frames (``first_frame`` /
+        ``frame_count`` applied), read on demand; ``frames`` holds the cycles read.
     """
 
     frames: np.ndarray
     patterns: PatternSet
     meta: dict = field(default_factory=dict)
     folder: Path | None = None
+    source: FrameRange | None = None
+
+    def iter_cycles(self, max_cycles: int | None = None) -> Iterator[np.ndarray]:
+        """Each cycle's frames ``(len(patterns), H, W)`` in turn, read from the camera file on
+        demand for a referenced source (memory: one cycle), else sliced from ``frames``."""
+        n = len(self.patterns)
+        frames = self.source if self.source is not None else self.frames
+        total = len(frames) // n
+        for c in range(total if max_cycles is None else min(total, max_cycles)):
+            yield np.asarray(frames[c * n:(c + 1) * n])
 
     @property
     def cycles(self) -> int:
@@ -127,6 +148,8 @@ def read_meta(folder: str | os.PathLike) -> dict:
     if meta.get("complete") is False:  # written by fringe3d capture until the last frame is in
         why = "; ".join(meta.get("problems") or []) or meta.get("interrupted") or meta.get("status", "not finished")
         raise ValueError(f"{path}: the capture is incomplete ({why}); it is not used, capture it again")
+    if "source" in meta:
+        meta["source"] = parse_source(meta["source"], path)
     return meta
 
 
@@ -149,14 +172,18 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
 
     Returns
     -------
-    Capture with ``frames`` (F, H, W) in the files' dtype.
+    Capture with ``frames`` (F, H, W) in the files' dtype. For a folder whose ``capture.json``
+    references a camera file (``source``), ``frames`` holds the cycles read and ``source`` the
+    whole range, read on demand (:meth:`Capture.iter_cycles`).
 
     Raises
     ------
     FileNotFoundError
-        Missing folder, ``manifest.json`` or ``frames/``.
+        Missing folder, ``manifest.json``, ``frames/`` or referenced camera file.
     ValueError
-        Unknown manifest fields, a frame count that is not a multiple of the manifest's length,
+        A camera file whose header disagrees with ``capture.json`` or a frame range beyond it
+        (naming the file and field);
+        unknown manifest fields, a frame count that is not a multiple of the manifest's length,
         frames of different shapes or dtypes, unreadable or non-image files, bad capture.json.
 
     Examples
@@ -179,6 +206,8 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
     check_complete(folder, "capture folder")
     patterns = PatternSet.load(folder / MANIFEST_NAME)
     meta = read_meta(folder)
+    if "source" in meta:
+        return _read_source_capture(folder, patterns, meta, max_cycles)
     files = list_frame_files(folder)
     msg = frame_count_error(len(files), len(patterns))
     if msg:
@@ -208,6 +237,31 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
                          f"but the frames are {first.shape[1]}x{first.shape[0]}")
     check_frame_values(frames, meta.get("bit_depth"), str(folder / FRAMES_DIR))
     return Capture(frames=frames, patterns=patterns, meta=meta, folder=folder)
+
+
+def _read_source_capture(folder: Path, patterns: PatternSet, meta: dict, max_cycles: int | None) -> Capture:
+    """:func:`read_capture` for a folder whose ``capture.json`` references a camera file."""
+    source = open_source_frames(folder, meta, folder / META_NAME)
+    msg = frame_count_error(len(source), len(patterns))
+    if msg:
+        raise ValueError(f"{folder / META_NAME}: source {source.source.path} frames {source.first}.."
+                         f"{source.first + source.count - 1}: {msg}")
+    n = len(source) if max_cycles is None else min(len(source), max(1, max_cycles) * len(patterns))
+    return Capture(frames=source.read(0, n), patterns=patterns, meta=meta, folder=folder, source=source)
+
+
+def open_frames(folder: str | os.PathLike, limit: int | None = None):
+    """The frames of a capture folder as an array-like, read on demand: a :class:`FrameRange`
+    over the referenced camera file, or None for a folder with ``frames/`` (read those with
+    the file-based readers). ``limit`` keeps only the first frames."""
+    folder = Path(folder)
+    meta = read_meta(folder)
+    if "source" not in meta:
+        return None
+    frames = open_source_frames(folder, meta, folder / META_NAME)
+    if limit is not None and limit < len(frames):
+        frames = FrameRange(frames.source, frames.first, limit)
+    return frames
 
 
 def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: PatternSet, meta: dict | None = None,

@@ -6,6 +6,10 @@ or colour, converts them with :func:`to_grey`, checks the count against the patt
 and writes ``manifest.json``, ``frames/`` and ``capture.json`` (source files, conversion,
 bit depth) through :func:`fringe3d.io.capture.write_capture`.
 
+A camera file — Photron MRAW (``.cih``/``.cihx`` + ``.mraw``), a multi-page TIFF stack, a
+zarr frame store — is not converted: :func:`import_camera_file` writes ``manifest.json`` and a
+``capture.json`` whose ``source`` references the file (``copy_frames=True`` writes PNGs).
+
 Colour conversion (the one place; the command line and the API both call it): ITU-R BT.601
 luma ``Y = 0.299 R + 0.587 G + 0.114 B``, rounded to the source dtype, or one channel
 (``channel="r" | "g" | "b"``).
@@ -15,6 +19,7 @@ from __future__ import annotations
 import glob
 import os
 import re
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import Sequence
@@ -23,10 +28,15 @@ import cv2
 import numpy as np
 import tifffile
 
-from fringe3d.io.capture import write_capture
+from fringe3d.io.capture import FRAMES_DIR, META_NAME, write_capture
+from fringe3d.io.capture_source import check_header, make_source
+from fringe3d.io.frame_sources import FrameRange, FrameSource, guess_kind, open_source
+from fringe3d.io.images import write_image
 from fringe3d.patterns import sets
 from fringe3d.patterns.layouts import opencv_graycode, opencv_graycode_bits, opencv_graycode_count
-from fringe3d.patterns.manifest import PatternSet
+from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
+from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.warning_types import DataQualityWarning
 
 #: Image files the importer reads.
 IMPORT_SUFFIXES = (".png", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg")
@@ -238,6 +248,103 @@ def import_capture(files: Sequence[Path], out: str | os.PathLike, patterns: Patt
                                                                                 int(frames.shape[1])]}
 
 
+def source_range(src: FrameSource, patterns: PatternSet, layout: str, first_frame: int,
+                 frame_count: int | None) -> FrameRange:
+    """The frames of ``src`` to use: ``frame_count`` from ``first_frame`` (a multiple of the
+    manifest), or, when None, the whole cycles after ``first_frame`` (trailing frames dropped
+    with a :class:`DataQualityWarning`). ``ValueError`` for a range beyond the file."""
+    n = len(patterns)
+    if frame_count is None:
+        rest = len(src) - first_frame
+        if first_frame < 0 or rest < n:
+            raise ValueError(f"{src.path}: first_frame {first_frame} leaves {max(rest, 0)} of the file's {len(src)} "
+                             f"frames, fewer than one {n}-frame cycle; expected first_frame <= {len(src) - n}")
+        frame_count = rest // n * n
+        if frame_count < rest:
+            warnings.warn(f"{src.path}: {rest - frame_count} trailing frame(s) after the last whole {n}-frame "
+                          f"cycle are not used", DataQualityWarning, stacklevel=3)
+    elif frame_count % n:
+        raise ValueError(f"{src.path}: {count_message(layout, patterns, frame_count)} (frame_count)")
+    return FrameRange(src, first_frame, frame_count)
+
+
+def range_max(frames: FrameRange, chunk: int = 64) -> int:
+    """Largest value of ``frames``, read ``chunk`` frames at a time (memory: one chunk)."""
+    top = 0
+    for a in range(0, len(frames), chunk):
+        top = max(top, int(frames.read(a, min(a + chunk, len(frames))).max()))
+    return top
+
+
+def source_bit_depth(frames: FrameRange, bit_depth: int | None) -> int:
+    """The capture's bit depth: the header's, or ``bit_depth`` (10-14 in 16-bit files, checked
+    against the largest value, read in chunks); ``ValueError`` if the header disagrees."""
+    src = frames.source
+    if bit_depth is None or bit_depth == src.bit_depth:
+        return src.bit_depth
+    native = 8 * src.dtype.itemsize
+    if src.bit_depth != native:
+        raise ValueError(f"{src.path}: the header says bit depth {src.bit_depth} but --bit-depth is {bit_depth}; "
+                         f"expected {src.bit_depth} (or leave --bit-depth out)")
+    check_bit_depth(np.array([range_max(frames)], src.dtype), bit_depth)
+    return bit_depth
+
+
+def copy_to_png(frames: FrameRange, out: Path, chunk: int = 64) -> None:
+    """Write ``frames`` as ``out/frames/00000.png ...``, ``chunk`` frames at a time (memory: one
+    chunk), removing numbered frames an older capture left beyond them."""
+    fdir = out / FRAMES_DIR
+    fdir.mkdir(parents=True, exist_ok=True)
+    for stale in fdir.iterdir():
+        if stale.stem.isdigit() and int(stale.stem) >= len(frames):
+            stale.unlink()
+    for a in range(0, len(frames), chunk):
+        for k, img in enumerate(frames.read(a, min(a + chunk, len(frames))), start=a):
+            write_image(fdir / f"{k:05d}.png", img)
+
+
+def import_camera_file(path: str | os.PathLike, out: str | os.PathLike, patterns: PatternSet,
+                       layout: str = "manifest", kind: str | None = None, bit_depth: int | None = None,
+                       first_frame: int = 0, frame_count: int | None = None, copy_frames: bool = False,
+                       overwrite: bool = False) -> dict:
+    """Capture folder ``out`` referencing the camera file ``path`` (no conversion).
+
+    Parameters
+    ----------
+    path : .cih / .cihx / .mraw, multi-page .tif, or zarr store folder (array ``frames``)
+    kind : ``"mraw"``, ``"tiff"`` or ``"zarr"``; default from the name (:func:`guess_kind`)
+    first_frame, frame_count : file frame of the first pattern cycle; frames used (a multiple
+        of ``len(patterns)``; None: the whole cycles that follow)
+    copy_frames : write the frames as PNGs into ``frames/`` instead of referencing the file
+
+    Returns the summary (``capture.json`` plus ``folder``, ``frames``, ``camera``).
+    """
+    out = Path(out)
+    check_output(out, overwrite)
+    kind = kind or guess_kind(path)
+    if kind is None:
+        raise ValueError(f"{path} is not a camera file fringe3d reads (.cih/.cihx/.mraw, .tif, zarr store)")
+    src = open_source(kind, path)
+    frames = source_range(src, patterns, layout, first_frame, frame_count)
+    bits = source_bit_depth(frames, bit_depth)
+    F, H, W = src.shape
+    meta: dict = {"imported": True, "layout": layout, "conversion": "none (camera file referenced)",
+                  "source_dtype": str(src.dtype), "bit_depth": bits, "camera": [W, H], "patterns": patterns.name}
+    if src.frame_rate is not None:
+        meta["frame_rate"] = src.frame_rate
+    spec = make_source(kind, src.path, out, frames.first, frames.count, file_frames=F)
+    out.mkdir(parents=True, exist_ok=True)
+    if copy_frames:
+        meta.update(conversion="none (frames copied to PNG)", source_file={**spec, "path": str(src.path.resolve())})
+        copy_to_png(frames, out)
+    else:
+        meta["source"] = spec
+        check_header(src, meta, out / META_NAME)
+    patterns.save(out / MANIFEST_NAME)
+    write_json(out / META_NAME, meta)
+    return {**meta, "folder": str(out), "frames": int(len(frames))}
+
+
 def parse_size(text: str | None) -> tuple[int, int] | None:
     """``"1024x768"`` -> (1024, 768); None stays None; ``ValueError`` for anything else."""
     if text is None:
@@ -251,10 +358,13 @@ def parse_size(text: str | None) -> tuple[int, int] | None:
 def import_images(src: str | os.PathLike, out: str | os.PathLike, *, list_file: str | os.PathLike | None = None,
                   manifest: str | os.PathLike | None = None, layout: str | None = None,
                   projector_size: tuple[int, int] | None = None, channel: str | None = None,
-                  bit_depth: int | None = None, overwrite: bool = False, **layout_options) -> dict:
+                  bit_depth: int | None = None, overwrite: bool = False, first_frame: int = 0,
+                  frame_count: int | None = None, copy_frames: bool = False, **layout_options) -> dict:
     """``fringe3d import``: frames of ``src`` (folder or glob; or ``list_file``) described by
     a pattern ``manifest`` file or a ``layout`` (:func:`layout_patterns` with
     ``projector_size`` and ``layout_options``) -> capture folder ``out`` (:func:`import_capture`).
+    A camera file ``src`` (:func:`guess_kind`) is referenced, not converted
+    (:func:`import_camera_file` with ``first_frame``, ``frame_count``, ``copy_frames``).
 
     Examples
     --------
@@ -279,5 +389,18 @@ def import_images(src: str | os.PathLike, out: str | os.PathLike, *, list_file: 
         assert layout is not None
         patterns = layout_patterns(layout, projector_size, **layout_options)
         name = layout
+    kind = guess_kind(src) if list_file is None else None
+    ranged = (first_frame, frame_count) != (0, None)
+    if kind == "tiff" and copy_frames and not ranged:
+        kind = None  # converted page by page like any image file (colour, source_files)
+    if kind is not None:
+        if kind == "tiff" and channel is not None:
+            raise ValueError(f"{src}: --channel converts colour frames; a referenced TIFF stack is read as grey "
+                             "pages (add --copy-frames to convert it)")
+        return import_camera_file(src, out, patterns, name, bit_depth=bit_depth, first_frame=first_frame,
+                                  frame_count=frame_count, copy_frames=copy_frames, overwrite=overwrite)
+    if ranged:
+        raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .tif, zarr); "
+                         f"{src} is a folder or glob of images")
     files = list_sources(src, list_file)
     return import_capture(files, out, patterns, name, channel=channel, bit_depth=bit_depth, overwrite=overwrite)

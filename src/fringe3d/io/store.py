@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -23,7 +24,8 @@ STORE_FORMAT = "fringe3d-point-store"
 #: level 3 (about 24 vs 83 ms) for about 7 % more bytes (11.3 vs 10.6 MB; noisy float32 xyz
 #: compress poorly either way): writing is on the critical path of a sequence
 #: (``benchmarks/bench_sequence.py`` measures both).
-CODEC, CODEC_LEVEL = "lz4", 5
+CODEC: Literal["lz4", "zstd"] = "lz4"
+CODEC_LEVEL = 5
 
 
 class PointMapStore:
