@@ -149,7 +149,7 @@ class Audit:
             else:
                 read_capture(tmp / "c")
             return True
-        except (ValueError, FileNotFoundError):
+        except Exception:  # refused (or, on old code, crashed): not a valid input
             return False
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
