@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections import deque
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -299,11 +300,13 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
     rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, fast=fast)
     t0 = time.perf_counter()
     empty = 0
-    with progress_bar("reconstructing 3D frames", len(todo), enabled=progress and len(todo) > 1) as advance:
+    writes: deque = deque()  # store writes run behind the next frame's compute (compression is off the critical path)
+    with progress_bar("reconstructing 3D frames", len(todo), enabled=progress and len(todo) > 1) as advance, \
+            ThreadPoolExecutor(max_workers=1, thread_name_prefix="fringe3d-store") as writer:
         for k in todo:
             cyc = np.ascontiguousarray(frames[window_index(starts[k], n)])
             try:
-                pts, tex = rec(cyc, with_texture=True)
+                pts, tex = rec(cyc, with_texture=True) if ply else (rec(cyc), None)
             except ValueError as e:
                 if "mask is empty" not in str(e):
                     raise
@@ -312,8 +315,12 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
             if ply and np.isfinite(pts[..., 0]).any():
                 write_ply(out / PLY_DIR / ply_name(k), pts, colors=tex)
             if st is not None:
-                st.write(k, pts)
+                writes.append(writer.submit(st.write, k, pts))
+                while len(writes) > 2:  # at most two frames in flight: bounded memory
+                    writes.popleft().result()
             advance()
+        while writes:
+            writes.popleft().result()
     dt = time.perf_counter() - t0
     return {"out": str(out), "frames_3d": len(starts), "done_now": len(todo), "done_before": len(starts) - len(todo),
             "empty_frames": empty, "seconds": round(dt, 3),
