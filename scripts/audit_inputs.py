@@ -253,8 +253,14 @@ class Audit:
                 self.count("concurrency", "presented_complete")  # both "won", or none did
             if any("Traceback" in e for _, e in results):
                 self.count("concurrency", "tracebacks")
-            cap = read_capture(case / "out")
             winner = [s for s, (code, _) in zip((1, 2), results) if code == 0]
+            try:
+                cap = read_capture(case / "out")
+            except (ValueError, FileNotFoundError) as e:
+                if winner:  # a run said it succeeded, but its output is unreadable
+                    self.count("concurrency", "files_lost")
+                    print(f"  concurrency: {e}; exit codes {[c for c, _ in results]}", file=sys.stderr)
+                continue
             ref = case / "ref"
             subprocess.run(argv[:5] + [str(ref)] + argv[6:] + ["--seed", str(winner[0])], env=env, check=True)
             if not np.array_equal(cap.frames, read_capture(ref).frames):
