@@ -9,13 +9,13 @@ calibration set) runs the fused single-pass kernel
 """
 from __future__ import annotations
 
-import dataclasses
 import warnings
 from typing import Any, Iterator
 
 import numpy as np
 
 from fringe3d.decode.context import DecodeContext, phase_groups
+from fringe3d.decode.method_plans import with_method  # noqa: F401  (re-exported: fringe3d.decode.with_method)
 from fringe3d.decode.methods import method_for
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.decode.result import Decoded, Unwrapped
@@ -28,22 +28,6 @@ from fringe3d.utils.console import progress_bar
 
 #: Methods that decode a direction from its code frames alone when it has no phase frames.
 CODE_METHODS = ("gray_code", "binary_code", "gray_code_only")
-
-
-def with_method(patterns: PatternSet, method: str) -> PatternSet:
-    """``patterns`` with every direction's plan (and a ``none`` plan for a direction without
-    one) set to ``method``, a key of :data:`fringe3d.decode.METHODS` (``ValueError`` naming
-    the known methods otherwise), e.g. ``"spatial"`` for a single 3-step set.
-
-    Examples
-    --------
-    >>> from fringe3d.patterns import sets
-    >>> with_method(sets.phase_shift(16, 3, "v", width=64, height=48), "spatial").plans[0].method
-    'spatial'
-    """
-    method_for(method)
-    return dataclasses.replace(patterns, plans=tuple(dataclasses.replace(p, method=method)
-                                                     for p in _plans(patterns)))
 
 
 def _check_count(n_frames: int, ps: PatternSet, sequence: bool) -> int:

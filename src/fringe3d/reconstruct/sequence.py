@@ -26,6 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.decode.context import phase_groups
+from fringe3d.decode.method_plans import METHOD_NEEDS, plan_for_method  # noqa: F401  (re-exported)
+from fringe3d.decode.method_plans import with_method as plans_with_method
 from fringe3d.decode.decoder import decode
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.io.capture import list_frame_files
@@ -35,7 +37,7 @@ from fringe3d.io.store import PointMapStore
 from fringe3d.optics.rays import camera_shape, projector_fringe_coordinate
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import w_to_phase
-from fringe3d.patterns.manifest import DirectionPlan, PatternSet
+from fringe3d.patterns.manifest import PatternSet
 from fringe3d.phase.quality import default_min_modulation, full_scale
 from fringe3d.reconstruct.depth import points_from_decoded
 from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator
@@ -45,58 +47,17 @@ from fringe3d.utils.console import progress_bar
 STORE_NAME = "points.zarr"
 PLY_DIR = "ply"
 
-#: What each unwrapping method needs from a direction: (minimum phase groups, code kind or None).
-METHOD_NEEDS = {
-    "none": (1, None), "geometric": (1, None), "spatial": (1, None), "histogram": (1, None),
-    "two_frequency_geometric": (2, None), "hierarchical": (2, None), "heterodyne": (2, None),
-    "hybrid": (2, None), "gray_code": (1, "gray_code"), "binary_code": (1, "binary_code"),
-}
-
-
 # ----------------------------------------------------------------------------- plans
-def _group_periods(ps: PatternSet, direction: str) -> list[float]:
-    return [g.period for g in phase_groups(ps, direction)]
-
-
-def plan_for_method(ps: PatternSet, direction: str, method: str) -> DirectionPlan:
-    """A plan that unwraps ``direction`` of ``ps`` with ``method``, or a ValueError saying what
-    the manifest lacks ("a method the manifest cannot feed")."""
-    if method not in METHOD_NEEDS:
-        raise ValueError(f"unknown unwrapping method {method!r}; expected one of {sorted(METHOD_NEEDS)}")
-    for p in ps.plans:
-        if p.direction == direction and p.method == method:
-            return p
-    need_groups, code = METHOD_NEEDS[method]
-    periods = sorted(_group_periods(ps, direction))
-    label = ps.name or "unnamed set"
-    if len(periods) < need_groups:
-        raise ValueError(f"method {method!r} needs {need_groups} phase groups (fringe periods) in direction "
-                         f"{direction!r}, but the manifest ({label}) has {len(periods)} "
-                         f"(periods {periods}); choose a method the pattern set can feed")
-    if code and not ps.indices(kind=code, direction=direction):
-        raise ValueError(f"method {method!r} needs {code} frames for direction {direction!r}, but the manifest "
-                         f"({label}) has none; choose a method the pattern set can feed")
-    chosen: tuple[float, ...]
-    if method in ("two_frequency_geometric", "hybrid"):
-        chosen = (periods[0], periods[-1])
-    elif method in ("hierarchical", "heterodyne"):
-        chosen = tuple(periods)
-    else:
-        chosen = (periods[0],)
-    angle = ps.frames[ps.indices(direction=direction, role="phase")[0]].angle
-    old = [p for p in ps.plans if p.direction == direction]
-    options = dict(old[0].options) if old else {}  # keep e.g. the phase method and w_range
-    return DirectionPlan(direction=direction, angle=angle, method=method, periods=chosen, options=options)
-
-
 def with_method(ps: PatternSet, method: str | None) -> PatternSet:
-    """``ps`` with every fringe direction's plan replaced by ``method`` (None: unchanged)."""
+    """:func:`fringe3d.decode.method_plans.with_method`, keeping only the directions with phase
+    frames (the ones that triangulate); ``ValueError`` when the manifest has none."""
     if method is None:
         return ps
     dirs = [d for d in ps.directions() if ps.groups(direction=d, role="phase")]
     if not dirs:
         raise ValueError(f"the manifest ({ps.name or 'unnamed set'}) has no phase frames; nothing to reconstruct")
-    return dataclasses.replace(ps, plans=tuple(plan_for_method(ps, d, method) for d in dirs))
+    chosen = plans_with_method(ps, method)
+    return dataclasses.replace(chosen, plans=tuple(p for p in chosen.plans if p.direction in dirs))
 
 
 # ----------------------------------------------------------------------------- windows
