@@ -1,0 +1,103 @@
+"""Peak memory of long sequences: does it grow with the number of frames?
+
+Run: ``.venv/bin/python benchmarks/bench_memory.py [--short 999] [--long 3999] [--json]``
+(not a test). For each stage, the command runs twice in a child process, on a short and a
+long take, and the child's peak resident set size (``ru_maxrss`` from ``os.wait4``) is reported:
+
+- ``reconstruct``: a 3-step + geometric sequence read from an MRAW file (``fringe3d import``
+  references it), written to the zarr point store;
+- ``simulate``: rendering the take itself (``fringe3d simulate``, which keeps frames and truth in
+  memory until it writes them);
+- ``strain``: ``fringe3d strain`` over the point store of the reconstructed take (a static plane,
+  so tracking is trivial; the point is the memory).
+
+Frames are the ``tiny`` rig's 160x128; flat memory at this size is flat at any size, since what
+grows is per-frame buffers.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pyMRAW
+
+from fringe3d.io.capture import read_capture
+from fringe3d.io.store import PointMapStore
+from fringe3d.patterns import sets
+from fringe3d.sim import simulate_capture
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def peak_rss_mb(argv: list[str]) -> tuple[float, int]:
+    """Run ``python -m fringe3d ARGV`` in a child; (its peak RSS in MB, its exit code)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    proc = subprocess.Popen([sys.executable, "-m", "fringe3d", *argv], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        print(proc.stderr.read().decode()[-2000:], file=sys.stderr)
+    return usage.ru_maxrss / 1024, proc.returncode
+
+
+def anchors(store: Path) -> str:
+    """Two anchor pixels on the measured surface (the wall row through the most valid pixels)."""
+    P = PointMapStore.open_existing(store).read(0)
+    ok = np.isfinite(P[..., 2])
+    row = int(np.argmax(ok.sum(axis=1)))
+    cols = np.flatnonzero(ok[row])
+    return f"{cols[len(cols) // 8]},{row},{cols[-len(cols) // 8]},{row}"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--short", type=int, default=999, help="frames of the short take (a multiple of 3)")
+    ap.add_argument("--long", type=int, default=3999, help="frames of the long take (a multiple of 3)")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    out: dict = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        one = work / "one"
+        simulate_capture(one, preset="tiny", scene="sphere", patterns=sets.phase_shift(64, 3, "v", width=256,
+                                                                                        height=200),
+                         seed=0, progress=False)
+        cycle = read_capture(one).frames
+        z_min = 340.0
+        for name, n in (("short", args.short), ("long", args.long)):
+            frames = np.tile(cycle, (n // 3, 1, 1))
+            mraw, _ = pyMRAW.save_mraw(frames, str(work / f"{name}.mraw"), bit_depth=8)
+            cap = work / f"{name}-cap"
+            import_args = ["import", str(Path(mraw).with_suffix(".cih")), "-o", str(cap), "--manifest",
+                           str(one / "manifest.json"), "-q"]
+            subprocess.run([sys.executable, "-m", "fringe3d", *import_args],
+                           env={**os.environ, "PYTHONPATH": str(ROOT / "src")}, check=True)
+            row = {"frames": n}
+            row["reconstruct_mb"], _ = peak_rss_mb(["reconstruct", str(cap), "-c", str(one / "rig.json"), "-o",
+                                                    str(work / f"{name}-3d"), "--method", "geometric",
+                                                    "--z-min", str(z_min), "-q"])
+            row["simulate_mb"], _ = peak_rss_mb(["simulate", "-o", str(work / f"{name}-sim"), "--preset", "tiny",
+                                                 "--scene", "sphere", "--patterns", str(one / "manifest.json"),
+                                                 "--frames", str(n), "-q"])
+            row["strain_mb"], code = peak_rss_mb(["strain", str(work / f"{name}-3d" / "points.zarr"), "--anchors",
+                                                  anchors(work / f"{name}-3d" / "points.zarr"), "-o",
+                                                  str(work / f"{name}-strain"), "--no-figures", "-q"])
+            row["strain_exit"] = code
+            out[name] = row
+    if args.json:
+        print(json.dumps(out, indent=1))
+        return
+    print(f"{'stage':12s} {'short (MB)':>12s} {'long (MB)':>12s}   frames {args.short} vs {args.long}")
+    for stage in ("reconstruct", "simulate", "strain"):
+        print(f"{stage:12s} {out['short'][stage + '_mb']:12.1f} {out['long'][stage + '_mb']:12.1f}")
+
+
+if __name__ == "__main__":
+    main()
