@@ -8,6 +8,8 @@ on the same synthetic point map, in one process.
 Scene: an organized 1000 x 1000 map of a tilted plane at z ~ 500 mm, 0.1 mm pitch, Gaussian
 noise sigma = 0.01 mm along the normal (no outliers, so both paths must agree): the figures
 (flatness F, plane RMS) must match within 1 % and equal the injected noise's range / std.
+``--truth-objects`` also times picking the sphere out of a 1 M-pixel simulator-style truth (a
+sphere in front of a wall, object ids 0 and 1), old and current ``truth_objects``.
 With ``--outliers N`` that many pixels are also moved 40 mm off the plane (the old path then
 reports F ~ 40 mm; the current default drops them by the robust rule).
 
@@ -23,18 +25,19 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
-from fringe3d.analyze.evaluation import evaluate_points
+from fringe3d.analyze.evaluation import evaluate_points, truth_objects
 
 OLD_REV = "f658f7a"
 OLD_FILES = ("fits", "vdi", "sections", "evaluation")
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def old_evaluate_points(rev: str = OLD_REV):
-    """``evaluate_points`` of revision ``rev``, loaded from git into a temporary package."""
+def old_module(rev: str = OLD_REV):
+    """``analyze.evaluation`` of revision ``rev``, loaded from git into a temporary package."""
     tmp = Path(tempfile.mkdtemp(prefix="fringe3d-old-eval-"))
     pkg = tmp / f"old_analyze_{rev}"
     pkg.mkdir()
@@ -44,7 +47,21 @@ def old_evaluate_points(rev: str = OLD_REV):
                               check=True, capture_output=True, text=True).stdout
         (pkg / f"{name}.py").write_text(text)
     sys.path.insert(0, str(tmp))
-    return importlib.import_module(f"{pkg.name}.evaluation").evaluate_points
+    return importlib.import_module(f"{pkg.name}.evaluation")
+
+
+def sphere_wall_truth(size: int):
+    """Truth-like namespace (``xyz``, ``mask``, ``object_id``) of a sphere (r = 40 mm, z = 450)
+    in front of a wall at z = 600 mm, seen by a pinhole camera with f = 2.5 * size px."""
+    v, u = np.mgrid[0:size, 0:size].astype(np.float64)
+    d = np.stack([(u - size / 2) / (2.5 * size), (v - size / 2) / (2.5 * size), np.ones_like(u)], -1)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    c, r = np.array([0.0, 0.0, 450.0]), 40.0
+    b = d @ c
+    disc = b ** 2 - (c @ c - r * r)
+    hit = disc > 0
+    s = np.where(hit, b - np.sqrt(np.clip(disc, 0, None)), 600.0 / d[..., 2])
+    return SimpleNamespace(xyz=s[..., None] * d, mask=np.ones(hit.shape, bool), object_id=np.where(hit, 1, 0))
 
 
 def plane_map(size: int, sigma: float, outliers: int = 0, seed: int = 0):
@@ -75,6 +92,7 @@ def main(argv=None) -> int:
     ap.add_argument("--sigma", type=float, default=0.01, help="noise std along the normal (mm)")
     ap.add_argument("--outliers", type=int, default=0, help="pixels moved 40 mm off the plane")
     ap.add_argument("--skip-old", action="store_true", help="time only the current path")
+    ap.add_argument("--truth-objects", action="store_true", help="also time truth_objects(kind='sphere')")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args(argv)
     P, noise = plane_map(a.size, a.sigma, a.outliers)
@@ -83,13 +101,21 @@ def main(argv=None) -> int:
            "noise_range_mm": float(np.ptp(noise)), "noise_std_mm": float(np.std(noise)),
            "new": {"seconds": t_new, "flatness": new["plane"]["flatness"], "rms": new["plane"]["rms"]}}
     if not a.skip_old:
-        old, t_old = timed(old_evaluate_points(), P, plane=True)
+        old_mod = old_module()
+        old, t_old = timed(old_mod.evaluate_points, P, plane=True)
         rep["old"] = {"revision": OLD_REV, "seconds": t_old, "flatness": old["plane"]["flatness"],
                       "rms": old["plane"]["rms"]}
         rep["speedup"] = t_old / t_new
         if not a.outliers:
             for k in ("flatness", "rms"):
                 rep[f"{k}_rel_diff"] = abs(new["plane"][k] - old["plane"][k]) / old["plane"][k]
+    if a.truth_objects:
+        t = sphere_wall_truth(a.size)
+        objs, t_objs = timed(truth_objects, t, "sphere")
+        rep["truth_objects"] = {"new_seconds": t_objs, "new_ids": [o for o, _ in objs]}
+        if not a.skip_old:
+            objs, t_objs = timed(old_mod.truth_objects, t, "sphere")
+            rep["truth_objects"].update(old_seconds=t_objs, old_ids=[o for o, _ in objs])
     if a.json:
         print(json.dumps(rep, indent=1))
     else:

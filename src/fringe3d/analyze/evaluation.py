@@ -136,6 +136,12 @@ def sphere_figures(points, mask, true_diameter, exclude: float | None = None) ->
     """Probing errors (VDI/VDE 2634-2), fit RMS and, for organized maps, the row / column
     cross sections of a sphere (mm). One geometric sphere fit under the outlier rule
     ``exclude`` (None: robust, a share: VDI/VDE 2634-2; :mod:`fringe3d.analyze.outliers`)."""
+    figs, _ = sphere_figures_and_fit(points, mask, true_diameter, exclude)
+    return figs
+
+
+def sphere_figures_and_fit(points, mask, true_diameter, exclude: float | None = None):
+    """:func:`sphere_figures` and the :class:`~fringe3d.analyze.fits.SphereFit` behind them."""
     fit, rule = fit_with_outliers(fit_sphere, points, mask, exclude)
     figs = probing_errors(points, mask, true_diameter, fit=fit).as_dict()
     figs["fit_rms"] = fit.rms
@@ -149,7 +155,14 @@ def sphere_figures(points, mask, true_diameter, exclude: float | None = None) ->
                                     "points": sec[a].fit.n_points} for a in ("row", "column")}
         except ValueError as e:
             figs["sections"] = {"error": str(e)}
-    return figs
+    return figs, fit
+
+
+def _write_map(result, name: str, values: np.ndarray) -> str | None:
+    """Write an (H, W) float32 map (mm, NaN = no value) into a reconstruct output folder; its name."""
+    if not (isinstance(result, Path) and result.is_dir()):
+        return None
+    return write_image(result / name, np.asarray(values, np.float32)).name
 
 
 def plane_figures(points, mask, exclude: float | None = None):
@@ -221,6 +234,10 @@ def evaluate_points(points: np.ndarray, truth=None, *, sphere: bool = False, pla
         if not organized:
             raise ValueError("--truth needs an organized point map (points.npy / points.zarr), not a PLY cloud")
         out["truth"] = truth_errors(points, t)
+        ok = np.isfinite(points[..., 0]) & t.mask
+        err = np.where(ok, np.linalg.norm(np.where(ok[..., None], points - t.xyz, 0.0), axis=-1), np.nan)
+        if name := _write_map(result, "truth_error.tif", err):
+            out["truth"]["error_map"] = name
     valid = np.all(np.isfinite(points), axis=-1)
 
     def objects(kind, n):
@@ -253,17 +270,20 @@ def evaluate_points(points: np.ndarray, truth=None, *, sphere: bool = False, pla
             tf = true_fit(oid, m)
             d_true = None if tf is None else tf.diameter
         mm = None if m is None else (m & valid)
-        out["sphere"] = {"object_id": oid, "true_diameter": d_true,
-                         **sphere_figures(points, mm, d_true, exclude)}
+        figs, fit = sphere_figures_and_fit(points, mm, d_true, exclude)
+        out["sphere"] = {"object_id": oid, "true_diameter": d_true, **figs}
+        if organized and (name := _write_map(result, "sphere_residuals.tif", fit.residual_map)):
+            out["sphere"]["residual_map"] = name
     if plane:
         (m, oid), = objects("plane", 1)
         mm = None if m is None else (m & valid)
         fig, fit = plane_figures(points, mm, exclude)
         out["plane"] = {"object_id": oid, **fig}
-        if organized and isinstance(result, Path) and result.is_dir():
+        if organized:
             # every point of the piece, excluded ones included, against the plane fitted without them
-            res = np.where(mm if mm is not None else valid, fit.distance(points), np.nan).astype(np.float32)
-            out["plane"]["residual_map"] = str(write_image(result / "plane_residuals.tif", res))
+            res = np.where(mm if mm is not None else valid, fit.distance(points), np.nan)
+            if name := _write_map(result, "plane_residuals.tif", res):
+                out["plane"]["residual_map"] = name
     if ball_bar:
         (ma, oa), (mb, ob) = objects("sphere", 2)
         L, d_true = distance, diameter

@@ -1,6 +1,9 @@
 """One self-contained HTML page per results folder: no network needed to view it.
 
-Plotly's JavaScript bundle is inlined once; images are embedded as base64 data URIs.
+Plotly's JavaScript bundle is inlined once; images are embedded as base64 data URIs. A folder
+with a ``summary.json`` that has a ``title`` (``fringe3d demo``) gets the demo page; any other
+output (decode, reconstruct + evaluate, calibrate, strain) gets the page :mod:`.page` builds
+from what :mod:`.discover` finds.
 """
 from __future__ import annotations
 
@@ -15,7 +18,7 @@ import numpy as np
 from fringe3d.utils.atomic import atomic_write_text
 from fringe3d.io.arrays import load_array
 
-from .results import load_summary
+from .results import SUMMARY_NAME, load_summary
 
 MAX_POINTS_3D = 40_000
 
@@ -71,11 +74,28 @@ def _points_trace(points: np.ndarray, rng: np.random.Generator) -> dict:
             "marker": {"size": 1.5, "color": np.round(pts[:, 2], 3).tolist(), "colorscale": "Viridis"}}
 
 
+def is_demo_folder(folder: Path) -> bool:
+    """Whether ``folder`` holds a demo-style ``summary.json`` (a JSON object with a ``title``)."""
+    path = Path(folder) / SUMMARY_NAME
+    if not path.is_file():
+        return False
+    try:
+        d = json.loads(path.read_text())
+    except (OSError, ValueError, RecursionError):
+        return True  # let load_summary name the damage
+    return isinstance(d, dict) and "title" in d
+
+
 def build_report(folder: str | Path) -> str:
-    """Return the HTML text of the report for a results folder (see :mod:`.results`)."""
+    """Return the HTML text of the report for a results folder (or a calibration JSON)."""
     import plotly.offline  # heavy (~1 s): only when a report is built
 
     folder = Path(folder)
+    if not is_demo_folder(folder):
+        from .discover import discover
+        from .page import build_page
+
+        return build_page(discover(folder), _table, _CSS, plotly.offline.get_plotlyjs())
     s = load_summary(folder)
     rng = np.random.default_rng(0)
     parts = [f"<h1>{html.escape(s['title'])}</h1>"]
@@ -141,9 +161,15 @@ def build_report(folder: str | Path) -> str:
             + f"<script>{scripts}</script></body></html>")
 
 
+def default_output(results: Path) -> Path:
+    """``RESULTS/report.html`` for a folder, ``RESULTS.html`` beside a file."""
+    return results.with_suffix(".html") if results.is_file() else results / "report.html"
+
+
 def write_report(folder: str | Path, out: str | Path | None = None) -> Path:
-    """Build the report for ``folder`` and write it atomically (default ``folder/report.html``)."""
+    """Build the report for ``folder`` and write it atomically (default ``folder/report.html``,
+    ``NAME.html`` beside a calibration JSON)."""
     folder = Path(folder)
-    out = Path(out) if out else folder / "report.html"
+    out = Path(out) if out else default_output(folder)
     atomic_write_text(out, build_report(folder))
     return out
