@@ -87,3 +87,13 @@ def test_reconstruct_evaluate_report_renders_at_two_widths(evaluated: Path):
             assert shot.stat().st_size > 20_000
         browser.close()
     assert errors == []
+
+
+def test_report_of_a_decode_folder(evaluated: Path):
+    dec = evaluated.parent / "dec"
+    assert main(["decode", str(evaluated.parent / "cap"), "-o", str(dec), "-q"]) == 0
+    assert main(["report", str(dec), "-q"]) == 0
+    page = (dec / "report.html").read_text()
+    for name in ("phase_v.tif", "modulation_v.tif", "mask_v.tif"):
+        assert f'title="{name}"' in page
+    assert "decoded.json" in page and "fringe3d decode" in page

@@ -39,7 +39,7 @@ MAP_KINDS = (
     ("mask", "valid-pixel mask", "", "Greys", False),
     ("depth", "depth", "mm", "Viridis", False),
     ("phase", "absolute phase", "rad", "Viridis", False),
-    ("wrapped", "wrapped phase", "rad", "Twilight", False),
+    ("wrapped", "wrapped phase", "rad", "RdBu", False),
     ("average", "average intensity", "counts", "Greys", False),
     ("texture", "texture", "counts", "Greys", False),
 )
