@@ -19,6 +19,8 @@ import numpy as np
 from fringe3d.decode import DecodeOptions
 from fringe3d.io.capture import Capture, read_capture
 from fringe3d.io.images import write_image
+from fringe3d.io.grid_mesh import local_roughness
+from fringe3d.io.ply_standard import write_standard_ply
 from fringe3d.io.pointcloud import write_ply
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import PatternSet
@@ -26,6 +28,7 @@ from fringe3d.reconstruct.depth import depth_map
 from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
 from fringe3d.unwrap.geometric import propose_z_min
 from fringe3d.utils.atomic import atomic_path
+from fringe3d.utils.output_folder import provenance_comments
 from fringe3d.io.arrays import load_array
 
 
@@ -57,10 +60,10 @@ class Reconstruction:
         """Write the valid points as a PLY cloud coloured by the texture; returns the path."""
         return write_ply(Path(path), self.points, colors=self.texture)
 
-    def save(self, out: str | os.PathLike, ply: bool = False) -> dict:
-        """Write ``points.npy``, ``depth.tif``, ``texture.tif`` (+ ``points.ply``) into ``out``;
-        see :func:`write_point_maps`."""
-        return write_point_maps(Path(out), self.points, self.texture, ply)
+    def save(self, out: str | os.PathLike, ply: bool = False, mesh: bool = False) -> dict:
+        """Write ``points.npy``, ``depth.tif``, ``texture.tif`` (+ ``points.ply``, with faces
+        when ``mesh``) into ``out``; see :func:`write_point_maps`."""
+        return write_point_maps(Path(out), self.points, self.texture, ply, mesh)
 
     def summary(self) -> dict:
         """Valid share / count and depth range; see :func:`point_summary`."""
@@ -131,9 +134,15 @@ def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLik
                              min_modulation=min_modulation)
 
 
-def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool) -> dict:
+def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool,
+                     mesh: bool = False) -> dict:
     """points.npy, depth.tif (float32 mm, NaN invalid), texture.tif and optionally points.ply,
-    all written atomically; returns ``{kind: path}``."""
+    all written atomically; returns ``{kind: path}``.
+
+    The PLY (:func:`fringe3d.io.ply_standard.write_standard_ply`) carries normals from the grid,
+    the texture as colour, a ``quality`` scalar (local roughness in mm,
+    :func:`fringe3d.io.grid_mesh.local_roughness`), units and provenance in its header and, with
+    ``mesh``, the grid's triangles."""
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "points.npy") as tmp:
         with open(tmp, "wb") as f:
@@ -141,8 +150,11 @@ def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, 
     files = {"points": str(out / "points.npy"), "depth": str(write_image(out / "depth.tif", depth_map(points)))}
     if texture is not None:
         files["texture"] = str(write_image(out / "texture.tif", texture.astype(np.float32)))
-    if ply:
-        files["ply"] = str(write_ply(out / "points.ply", points, colors=texture))
+    if ply or mesh:
+        comments = [*provenance_comments(), "frame: camera coordinates (camera centre at the origin, z along its axis)"]
+        files["ply"] = str(write_standard_ply(out / "points.ply", points, texture, quality=local_roughness(points),
+                                              quality_name="local roughness (mm): RMS distance of the 3x3 "
+                                              "neighbourhood to its best plane", faces=mesh, comments=comments))
     return files
 
 
