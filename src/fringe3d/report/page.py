@@ -87,7 +87,9 @@ def _map_trace(m, div: str) -> str:
             f"Plotly.newPlot({json.dumps(div)},[t],{json.dumps(layout)},{{responsive:true}});}})();")
 
 
-def _points_script(points: np.ndarray, div: str, title: str) -> str:
+def points_script(points: np.ndarray, div: str, title: str) -> str:
+    """JavaScript drawing at most :data:`MAX_POINTS_3D` of ``points`` as a plotly scatter3d
+    (coordinates as base64 float32, coloured by z), seen from the camera's side."""
     p = sample_points(points, MAX_POINTS_3D)
     data = {ax: b64_float32(p[:, i]) for i, ax in enumerate("xyz")}
     span = np.ptp(p, axis=0) if len(p) else np.ones(3)
@@ -128,7 +130,7 @@ def build_page(c: FolderContents, table, css: str, plotly_js: str) -> str:
         parts.append(f"<h2>3D points</h2><p class='muted'>{html.escape(str(c.points_source))}: {n} valid points"
                      f"{f', {MAX_POINTS_3D} shown' if n > MAX_POINTS_3D else ''}</p>"
                      '<div id="plot3d_0" class="plot3d"></div>')
-        scripts.append(_points_script(c.points, "plot3d_0", str(c.points_source)))
+        scripts.append(points_script(c.points, "plot3d_0", str(c.points_source)))
     for p in c.pngs:
         data = base64.b64encode(p.read_bytes()).decode()
         parts.append(f"<h3>{html.escape(p.name)}</h3>"
