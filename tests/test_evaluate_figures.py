@@ -106,18 +106,21 @@ def test_truth_as_points_gives_point_to_surface_error():
     assert err["max_mm"] == pytest.approx(np.abs(noise).max(), rel=0.01)
 
 
-def test_evaluate_cli_with_a_truth_point_file(tmp_path, capsys):
+@pytest.mark.parametrize("suffix", [".npy", ".ply"])
+def test_evaluate_cli_with_a_truth_point_file(tmp_path, capsys, suffix):
+    from fringe3d.io.pointcloud import write_ply
+
     P, hit, noise = sphere_before_wall()
     np.save(tmp_path / "points.npy", P.astype(np.float32))
     rng = np.random.default_rng(5)
     d = rng.normal(size=(200_000, 3))
     true = np.array([0.0, 0.0, 300.0]) + 10.0 * d / np.linalg.norm(d, axis=1, keepdims=True)
-    np.save(tmp_path / "truth.npy", true)
-    code = main(["evaluate", str(tmp_path / "points.npy"), "--sphere", "--truth", str(tmp_path / "truth.npy"),
-                 "--json"])
+    truth = tmp_path / f"truth{suffix}"
+    np.save(truth, true) if suffix == ".npy" else write_ply(truth, true)
+    code = main(["evaluate", str(tmp_path / "points.npy"), "--sphere", "--truth", str(truth), "--json"])
     ev = json.loads(capsys.readouterr().out)
     assert code == 0
-    assert ev["sphere"]["true_diameter"] == pytest.approx(20.0, abs=1e-6)
+    assert ev["sphere"]["true_diameter"] == pytest.approx(20.0, abs=1e-4)  # PLY stores float32
     assert abs(ev["sphere"]["size"]) < 0.01
     assert ev["truth"]["points"] == int(np.isfinite(P[..., 0]).sum())
     code = main(["evaluate", str(tmp_path / "points.npy"), "--sphere", "--truth", str(tmp_path / "points.npy")])
