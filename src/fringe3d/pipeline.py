@@ -19,8 +19,7 @@ import numpy as np
 from fringe3d.decode import DecodeOptions
 from fringe3d.io.capture import Capture, read_capture
 from fringe3d.io.images import write_image
-from fringe3d.io.grid_mesh import local_roughness
-from fringe3d.io.ply_standard import write_standard_ply
+from fringe3d.io.ply_standard import write_measurement_ply
 from fringe3d.io.pointcloud import write_ply
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import PatternSet
@@ -28,7 +27,6 @@ from fringe3d.reconstruct.depth import depth_map
 from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
 from fringe3d.unwrap.geometric import propose_z_min
 from fringe3d.utils.atomic import atomic_path
-from fringe3d.utils.output_folder import provenance_comments
 from fringe3d.io.arrays import load_array
 
 
@@ -139,10 +137,9 @@ def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, 
     """points.npy, depth.tif (float32 mm, NaN invalid), texture.tif and optionally points.ply,
     all written atomically; returns ``{kind: path}``.
 
-    The PLY (:func:`fringe3d.io.ply_standard.write_standard_ply`) carries normals from the grid,
-    the texture as colour, a ``quality`` scalar (local roughness in mm,
-    :func:`fringe3d.io.grid_mesh.local_roughness`), units and provenance in its header and, with
-    ``mesh``, the grid's triangles."""
+    The PLY (:func:`fringe3d.io.ply_standard.write_measurement_ply`) carries normals from the
+    grid, the texture as colour, a ``quality`` scalar (local roughness, mm), units and provenance
+    in its header and, with ``mesh``, the grid's triangles."""
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "points.npy") as tmp:
         with open(tmp, "wb") as f:
@@ -151,10 +148,7 @@ def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, 
     if texture is not None:
         files["texture"] = str(write_image(out / "texture.tif", texture.astype(np.float32)))
     if ply or mesh:
-        comments = [*provenance_comments(), "frame: camera coordinates (camera centre at the origin, z along its axis)"]
-        files["ply"] = str(write_standard_ply(out / "points.ply", points, texture, quality=local_roughness(points),
-                                              quality_name="local roughness (mm): RMS distance of the 3x3 "
-                                              "neighbourhood to its best plane", faces=mesh, comments=comments))
+        files["ply"] = str(write_measurement_ply(out / "points.ply", points, texture, faces=mesh))
     return files
 
 

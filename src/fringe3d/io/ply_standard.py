@@ -28,8 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.utils.atomic import atomic_path
+from fringe3d.utils.output_folder import provenance_comments
 
-from .grid_mesh import grid_faces
+from .grid_mesh import grid_faces, local_roughness
 from .pointcloud import _colors, organized_normals
 
 
@@ -116,3 +117,15 @@ def _body(vert: np.ndarray, F: np.ndarray | None, binary: bool) -> bytes:
     if F is not None:
         rows += [f"3 {a} {b} {c}" for a, b, c in F.tolist()]
     return ("\n".join(rows) + "\n").encode("ascii")
+
+
+ROUGHNESS_NAME = "local roughness (mm): RMS distance of the 3x3 neighbourhood to its best plane"
+CAMERA_FRAME = "frame: camera coordinates (camera centre at the origin, z along its axis)"
+
+
+def write_measurement_ply(path: str | os.PathLike, points, texture=None, faces: bool = False) -> Path:
+    """A reconstructed point map as a standard PLY: normals, texture colour, ``quality`` = local
+    roughness (mm, :func:`fringe3d.io.grid_mesh.local_roughness`), the version and command in the
+    header and, with ``faces``, the grid's triangles."""
+    return write_standard_ply(path, points, texture, quality=local_roughness(points), quality_name=ROUGHNESS_NAME,
+                              faces=faces, comments=[*provenance_comments(), CAMERA_FRAME])

@@ -19,15 +19,16 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 STORE_FORMAT = "fringe3d-point-store"
 #: zarr v3 ``dimension_names`` (what ``xarray.open_zarr`` names the dimensions)
 POINT_DIMS = ("frame", "row", "column", "axis")
-POINT_ATTRS = {"units": "mm", "long_name": "camera-frame 3D point per pixel (NaN: no point)",
+POINT_ATTRS: dict[str, Any] = {"units": "mm", "long_name": "camera-frame 3D point per pixel (NaN: no point)",
                "axis_labels": ["x", "y", "z"]}
-DONE_ATTRS = {"long_name": "1 once the frame's point map is completely written", "flag_values": [0, 1]}
+DONE_ATTRS: dict[str, Any] = {"long_name": "1 once the frame's point map is completely written", "flag_values": [0, 1]}
 
 
 class PointMapStore:
