@@ -10,6 +10,9 @@ noise sigma = 0.01 mm along the normal (no outliers, so both paths must agree): 
 (flatness F, plane RMS) must match within 1 % and equal the injected noise's range / std.
 ``--truth-objects`` also times picking the sphere out of a 1 M-pixel simulator-style truth (a
 sphere in front of a wall, object ids 0 and 1), old and current ``truth_objects``.
+``--streak`` also evaluates the plane picked by a simulator-style truth (object id 0, noise-free
+plane) after moving a 2 x 20-pixel streak 40 mm off it (a fringe-order error inside the object):
+the old path reports F ~ 40 mm, the current robust default the noise's range.
 With ``--outliers N`` that many pixels are also moved 40 mm off the plane (the old path then
 reports F ~ 40 mm; the current default drops them by the robust rule).
 
@@ -64,13 +67,18 @@ def sphere_wall_truth(size: int):
     return SimpleNamespace(xyz=s[..., None] * d, mask=np.ones(hit.shape, bool), object_id=np.where(hit, 1, 0))
 
 
+def plane_normal() -> np.ndarray:
+    """Unit normal of the benchmark plane (facing the camera)."""
+    n = np.array([0.1, -0.05, -1.0])
+    return n / np.linalg.norm(n)
+
+
 def plane_map(size: int, sigma: float, outliers: int = 0, seed: int = 0):
     """(size, size, 3) float32 map of a tilted plane and the injected normal noise (mm)."""
     rng = np.random.default_rng(seed)
     v, u = np.mgrid[0:size, 0:size].astype(np.float64)
     x, y = (u - size / 2) * 0.1, (v - size / 2) * 0.1
-    n = np.array([0.1, -0.05, -1.0])
-    n /= np.linalg.norm(n)
+    n = plane_normal()
     z = 500.0 - (n[0] * x + n[1] * y) / n[2]
     noise = rng.normal(0, sigma, (size, size))
     P = np.stack([x, y, z], -1) + noise[..., None] * n
@@ -95,6 +103,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=1, help="runs of the current path (best time kept); the old "
                     "path runs once")
     ap.add_argument("--truth-objects", action="store_true", help="also time truth_objects(kind='sphere')")
+    ap.add_argument("--streak", action="store_true", help="also compare F with a 40 mm streak inside the truth's plane")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args(argv)
     P, noise = plane_map(a.size, a.sigma, a.outliers)
@@ -119,6 +128,15 @@ def main(argv=None) -> int:
         if not a.skip_old:
             objs, t_objs = timed(old_mod.truth_objects, t, "sphere")
             rep["truth_objects"].update(old_seconds=t_objs, old_ids=[o for o, _ in objs])
+    if a.streak:
+        n = plane_normal()
+        clean = P.astype(np.float64) - noise[..., None] * n
+        t = SimpleNamespace(xyz=clean, mask=np.ones(noise.shape, bool), object_id=np.zeros(noise.shape, int))
+        Q = P.copy()
+        Q[50:52, 60:80] += (40.0 * n).astype(np.float32)
+        rep["streak"] = {"new_flatness": evaluate_points(Q, t, plane=True)["plane"]["flatness"]}
+        if not a.skip_old:
+            rep["streak"]["old_flatness"] = old_mod.evaluate_points(Q, t, plane=True)["plane"]["flatness"]
     if a.json:
         print(json.dumps(rep, indent=1))
     else:
