@@ -51,7 +51,8 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Accuracy figures of a reconstruction: fits, VDI/VDE 2634-2-style errors, error vs truth.
 
-        Writes RESULT/evaluate.json (folders only). With --truth the objects are picked from the
+        Writes RESULT/evaluate.json and the maps plane_residuals.tif / sphere_residuals.tif /
+        truth_error.tif (mm; folders only). With --truth the objects are picked from the
         simulator's object ids and the true sizes come from the noise-free truth surface; with a
         point file (.npy (N, 3) mm or .ply) the error is each point's distance to that surface.
         Outliers: by default points beyond 5 robust sigmas (1.4826 MAD) of the fit are dropped;
