@@ -55,6 +55,10 @@ def test_strain_command_writes_csv_vtk_maps_and_matches_the_analytic_strain(sequ
     n = int(vtk[4].split()[1])
     assert n == int((data["frame"] == 2).sum())
     assert "SCALARS E_dominant double 1" in vtk
+    # the report of a strain folder shows its provenance, summary and strain maps
+    assert main(["report", str(out), "-q"]) == 0
+    page = (out / "report.html").read_text()
+    assert "fringe3d strain" in page and "strain_00001.png" in page and "tracked_fraction" in page
 
 
 def test_auto_anchors_find_the_dots(sequence, tmp_path, capsys):

@@ -19,6 +19,7 @@ import numpy as np
 from fringe3d.decode import DecodeOptions
 from fringe3d.io.capture import Capture, read_capture
 from fringe3d.io.images import write_image
+from fringe3d.io.ply_standard import write_measurement_ply
 from fringe3d.io.pointcloud import write_ply
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import PatternSet
@@ -57,10 +58,10 @@ class Reconstruction:
         """Write the valid points as a PLY cloud coloured by the texture; returns the path."""
         return write_ply(Path(path), self.points, colors=self.texture)
 
-    def save(self, out: str | os.PathLike, ply: bool = False) -> dict:
-        """Write ``points.npy``, ``depth.tif``, ``texture.tif`` (+ ``points.ply``) into ``out``;
-        see :func:`write_point_maps`."""
-        return write_point_maps(Path(out), self.points, self.texture, ply)
+    def save(self, out: str | os.PathLike, ply: bool = False, mesh: bool = False) -> dict:
+        """Write ``points.npy``, ``depth.tif``, ``texture.tif`` (+ ``points.ply``, with faces
+        when ``mesh``) into ``out``; see :func:`write_point_maps`."""
+        return write_point_maps(Path(out), self.points, self.texture, ply, mesh)
 
     def summary(self) -> dict:
         """Valid share / count and depth range; see :func:`point_summary`."""
@@ -131,9 +132,14 @@ def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLik
                              min_modulation=min_modulation)
 
 
-def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool) -> dict:
+def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool,
+                     mesh: bool = False) -> dict:
     """points.npy, depth.tif (float32 mm, NaN invalid), texture.tif and optionally points.ply,
-    all written atomically; returns ``{kind: path}``."""
+    all written atomically; returns ``{kind: path}``.
+
+    The PLY (:func:`fringe3d.io.ply_standard.write_measurement_ply`) carries normals from the
+    grid, the texture as colour, a ``quality`` scalar (local roughness, mm), units and provenance
+    in its header and, with ``mesh``, the grid's triangles."""
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "points.npy") as tmp:
         with open(tmp, "wb") as f:
@@ -141,8 +147,8 @@ def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, 
     files = {"points": str(out / "points.npy"), "depth": str(write_image(out / "depth.tif", depth_map(points)))}
     if texture is not None:
         files["texture"] = str(write_image(out / "texture.tif", texture.astype(np.float32)))
-    if ply:
-        files["ply"] = str(write_ply(out / "points.ply", points, colors=texture))
+    if ply or mesh:
+        files["ply"] = str(write_measurement_ply(out / "points.ply", points, texture, faces=mesh))
     return files
 
 

@@ -1,7 +1,11 @@
 """Accuracy figures of a reconstruction (what ``fringe3d evaluate`` reports): point maps from a
 reconstruct output, the objects to judge (from the simulator's object ids or by shape), and
 VDI/VDE 2634-2-style figures (probing errors, flatness, sphere spacing) plus the 3D error
-against ground truth."""
+against ground truth.
+
+Objects are classified with closed-form fits (:mod:`fringe3d.analyze.classify`); only the
+model chosen is refined by geometric least squares, once, under the outlier rule of
+:mod:`fringe3d.analyze.outliers`."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -15,9 +19,14 @@ from fringe3d.utils.jsonfile import read_json
 from fringe3d.io.arrays import load_array
 from fringe3d.utils.output_folder import check_complete
 
+from fringe3d.utils.console import progress_bar
+
+from .classify import guess_shape, is_exact
 from .fits import fit_plane, fit_sphere
+from .outliers import fit_with_outliers, form_warning
 from .sections import segments, sphere_sections
-from .vdi import flatness, probing_errors, sphere_spacing
+from .truth_points import TruthPoints, true_sphere, truth_point_errors
+from .vdi import SpacingFigures, flatness, probing_errors
 
 
 # ----------------------------------------------------------------------------- inputs
@@ -68,40 +77,39 @@ def truth_frame_index(info: dict, frame: int) -> int:
 # ----------------------------------------------------------------------------- objects
 def truth_objects(truth, kind: str) -> list[tuple[int, np.ndarray]]:
     """Object ids (with their truth masks) whose true surface is a ``kind`` ("sphere"/"plane"),
-    largest first, judged by fitting the noise-free truth points."""
+    largest first, judged by closed-form fits of the noise-free truth points
+    (:func:`fringe3d.analyze.classify.is_exact`)."""
     out = []
-    for oid in np.unique(truth.object_id[truth.mask]):
-        m = truth.mask & (truth.object_id == oid)
-        if m.sum() < 20:
-            continue
-        try:
-            f = fit_sphere(truth.xyz, m) if kind == "sphere" else fit_plane(truth.xyz, m)
-        except ValueError:
-            continue
-        scale = f.radius if kind == "sphere" else 1.0
-        if f.rms < 1e-4 * max(scale, 1.0) and (kind != "sphere" or f.radius < 1e5):
-            out.append((int(oid), m))
+    ids = np.unique(truth.object_id[truth.mask])
+    with progress_bar(f"finding {kind}s in the truth", len(ids)) as advance:
+        for oid in ids:
+            m = truth.mask & (truth.object_id == oid)
+            if m.sum() >= 20 and is_exact(truth.xyz[m], kind):
+                out.append((int(oid), m))
+            advance()
     return sorted(out, key=lambda t: -int(t[1].sum()))
 
 
 def measured_objects(points: np.ndarray, kind: str) -> list[np.ndarray]:
     """Masks of smooth pieces of the map that look like ``kind`` (no truth available), largest
-    first. A piece is sphere-like when a sphere of radius below twice the piece's extent fits
-    it with less than half the plane fit's RMS; every other piece is plane-like."""
+    first. A piece is sphere-like when an algebraic sphere of radius below twice the piece's
+    extent fits it with less than half the plane fit's RMS; every other piece is plane-like
+    (:func:`fringe3d.analyze.classify.guess_shape`)."""
     labels = segments(points)
+    n = int(labels.max()) + 1
     cands = []
-    for k in range(int(labels.max()) + 1):
-        m = labels == k
-        try:
-            pl = fit_plane(points, m)
-            sp = fit_sphere(points, m)
-        except ValueError:
-            continue
-        xyz = points[m]
-        extent = float(np.linalg.norm(np.nanmax(xyz, axis=0) - np.nanmin(xyz, axis=0)))
-        sphere_like = sp.radius < 2 * extent and sp.rms < 0.5 * pl.rms
-        if sphere_like == (kind == "sphere"):
-            cands.append(m)
+    flat = labels.ravel()
+    order = np.argsort(flat, kind="stable")
+    bounds = np.searchsorted(flat[order], np.arange(n + 1))
+    xyz = points.reshape(-1, 3)
+    with progress_bar(f"classifying {n} surface pieces", n) as advance:
+        for k in range(n):
+            idx = order[bounds[k]:bounds[k + 1]]
+            if len(idx) >= 4 and guess_shape(xyz[idx]).kind == kind:
+                m = np.zeros(flat.size, bool)
+                m[idx] = True
+                cands.append(m.reshape(labels.shape))
+            advance()
     return cands
 
 
@@ -117,40 +125,98 @@ def truth_errors(points: np.ndarray, truth) -> dict:
             "share_over_1mm": float(np.mean(e > 1.0)), "points": int(ok.sum())}
 
 
-def sphere_figures(points, mask, true_diameter, exclude) -> dict:
+def _warned(figs: dict, what: str, form: float, rms: float) -> dict:
+    msg = form_warning(what, form, rms)
+    if msg:
+        figs.setdefault("warnings", []).append(msg)
+    return figs
+
+
+def sphere_figures(points, mask, true_diameter, exclude: float | None = None) -> dict:
     """Probing errors (VDI/VDE 2634-2), fit RMS and, for organized maps, the row / column
-    cross sections of a sphere (mm)."""
-    fit = fit_sphere(points, mask)
-    figs = probing_errors(points, mask, true_diameter, exclude).as_dict()
+    cross sections of a sphere (mm). One geometric sphere fit under the outlier rule
+    ``exclude`` (None: robust, a share: VDI/VDE 2634-2; :mod:`fringe3d.analyze.outliers`)."""
+    figs, _ = sphere_figures_and_fit(points, mask, true_diameter, exclude)
+    return figs
+
+
+def sphere_figures_and_fit(points, mask, true_diameter, exclude: float | None = None):
+    """:func:`sphere_figures` and the :class:`~fringe3d.analyze.fits.SphereFit` behind them."""
+    fit, rule = fit_with_outliers(fit_sphere, points, mask, exclude)
+    figs = probing_errors(points, mask, true_diameter, fit=fit).as_dict()
     figs["fit_rms"] = fit.rms
+    figs["outliers"] = rule
+    _warned(figs, "sphere P_F", figs["form"], fit.rms)
     if np.ndim(points) == 3:
         try:
-            sec = sphere_sections(np.where(mask[..., None], points, np.nan) if mask is not None else points)
+            used = np.isfinite(fit.residual_map)
+            sec = sphere_sections(np.where(used[..., None], points, np.nan), sphere=fit)
             figs["sections"] = {a: {"index": sec[a].index, "radius": sec[a].fit.radius, "rms": sec[a].fit.rms,
                                     "points": sec[a].fit.n_points} for a in ("row", "column")}
         except ValueError as e:
             figs["sections"] = {"error": str(e)}
-    return figs
+    return figs, fit
+
+
+def _write_map(result, name: str, values: np.ndarray) -> str | None:
+    """Write an (H, W) float32 map (mm, NaN = no value) into a reconstruct output folder; its name."""
+    if not (isinstance(result, Path) and result.is_dir()):
+        return None
+    return write_image(result / name, np.asarray(values, np.float32)).name
+
+
+def plane_figures(points, mask, exclude: float | None = None):
+    """Flatness ``F`` (VDI/VDE 2634-2) and RMS of one plane fit under the outlier rule; returns
+    ``(figures, fit)``."""
+    fit, rule = fit_with_outliers(fit_plane, points, mask, exclude)
+    figs = flatness(points, mask, fit=fit).as_dict()
+    figs["outliers"] = rule
+    return _warned(figs, "flatness F", figs["flatness"], fit.rms), fit
+
+
+def spacing_figures(points, mask_a, mask_b, true_distance, true_diameter, exclude: float | None = None) -> dict:
+    """Sphere-spacing error ``SD`` of a ball bar: both spheres fitted (free radius) under the
+    outlier rule, ``SD = |c_a - c_b| - L``."""
+    figs, centres, rules = [], [], []
+    for name, m in (("first", mask_a), ("second", mask_b)):
+        try:
+            fit, rule = fit_with_outliers(fit_sphere, points, m, exclude)
+        except ValueError as e:
+            raise ValueError(f"ball bar, {name} sphere: {e}") from None
+        figs.append(probing_errors(points, m, true_diameter, fit=fit))
+        centres.append(fit.center)
+        rules.append(rule)
+    dist = float(np.linalg.norm(centres[0] - centres[1]))
+    err = None if true_distance is None else dist - float(true_distance)
+    out = SpacingFigures(err, dist, tuple(figs)).as_dict()
+    out["outliers"] = rules
+    for k, f in enumerate(figs):
+        _warned(out, f"ball-bar sphere {k} P_F", f.form, f.rms)
+    return out
 
 
 def evaluate_points(points: np.ndarray, truth=None, *, sphere: bool = False, plane: bool = False,
                     ball_bar: bool = False, diameter: float | None = None, distance: float | None = None,
-                    exclude: float = 0.0, result: Path | None = None) -> dict:
+                    exclude: float | None = None, result: Path | None = None) -> dict:
     """Accuracy figures of a point map (what ``fringe3d evaluate`` reports), in mm.
 
     Parameters
     ----------
     points : (H, W, 3) or (N, 3) float
         Organized point map (NaN invalid) or an unorganized cloud.
-    truth : Truth-like, optional
+    truth : Truth-like or TruthPoints, optional
         ``xyz (H, W, 3)``, ``mask (H, W)`` and ``object_id (H, W)`` of the simulator's ground
-        truth; objects are then picked by id and true sizes come from the truth surface.
+        truth (objects are then picked by id and true sizes come from the truth surface), or
+        :class:`~fringe3d.analyze.truth_points.TruthPoints` (true surface points ``(N, 3)``:
+        errors are point-to-surface distances, objects are found by shape and true sphere
+        sizes come from the true points nearest the measured sphere).
     sphere, plane, ball_bar : bool
         Which figures: probing errors (VDI/VDE 2634-2), flatness, sphere spacing.
     diameter, distance : float, optional
         Calibrated sphere diameter / ball-bar length (default from the truth).
-    exclude : float
-        Share of worst points to drop (<= 0.003, VDI/VDE 2634-2).
+    exclude : float or None
+        None: robust outlier rule (default); a share <= 0.003: drop that share of the worst
+        points (VDI/VDE 2634-2). See :mod:`fringe3d.analyze.outliers`.
     result : Path, optional
         A reconstruct output folder: the plane's residual map is written there.
 
@@ -160,11 +226,18 @@ def evaluate_points(points: np.ndarray, truth=None, *, sphere: bool = False, pla
     """
     organized = points.ndim == 3
     out: dict = {}
-    t = truth
-    if t is not None:
+    points_truth = isinstance(truth, TruthPoints)
+    t = None if points_truth else truth
+    if points_truth:
+        out["truth"] = truth_point_errors(points, truth)
+    elif t is not None:
         if not organized:
             raise ValueError("--truth needs an organized point map (points.npy / points.zarr), not a PLY cloud")
         out["truth"] = truth_errors(points, t)
+        ok = np.isfinite(points[..., 0]) & t.mask
+        err = np.where(ok, np.linalg.norm(np.where(ok[..., None], points - t.xyz, 0.0), axis=-1), np.nan)
+        if name := _write_map(result, "truth_error.tif", err):
+            out["truth"]["error_map"] = name
     valid = np.all(np.isfinite(points), axis=-1)
 
     def objects(kind, n):
@@ -183,31 +256,42 @@ def evaluate_points(points: np.ndarray, truth=None, *, sphere: bool = False, pla
                              "(pass --truth to pick objects from the simulator's ids)")
         return [(m, None) for m in objs[:n]]
 
+    def true_fit(oid, m):
+        if t is not None:
+            return fit_sphere(t.xyz, t.mask & (t.object_id == oid))
+        if points_truth:
+            return true_sphere(truth, points[m] if m is not None else points)
+        return None
+
     if sphere:
         (m, oid), = objects("sphere", 1)
         d_true = diameter
-        if d_true is None and t is not None:
-            d_true = fit_sphere(t.xyz, t.mask & (t.object_id == oid)).diameter
+        if d_true is None:
+            tf = true_fit(oid, m)
+            d_true = None if tf is None else tf.diameter
         mm = None if m is None else (m & valid)
-        out["sphere"] = {"object_id": oid, "true_diameter": d_true,
-                         **sphere_figures(points, mm, d_true, exclude)}
+        figs, fit = sphere_figures_and_fit(points, mm, d_true, exclude)
+        out["sphere"] = {"object_id": oid, "true_diameter": d_true, **figs}
+        if organized and (name := _write_map(result, "sphere_residuals.tif", fit.residual_map)):
+            out["sphere"]["residual_map"] = name
     if plane:
         (m, oid), = objects("plane", 1)
         mm = None if m is None else (m & valid)
-        fig = flatness(points, mm, exclude).as_dict()
+        fig, fit = plane_figures(points, mm, exclude)
         out["plane"] = {"object_id": oid, **fig}
         if organized:
-            fit = fit_plane(points, mm)
-            if isinstance(result, Path) and result.is_dir():
-                out["plane"]["residual_map"] = str(write_image(result / "plane_residuals.tif", fit.residual_map))
+            # every point of the piece, excluded ones included, against the plane fitted without them
+            res = np.where(mm if mm is not None else valid, fit.distance(points), np.nan)
+            if name := _write_map(result, "plane_residuals.tif", res):
+                out["plane"]["residual_map"] = name
     if ball_bar:
         (ma, oa), (mb, ob) = objects("sphere", 2)
         L, d_true = distance, diameter
-        if t is not None:
-            fa = fit_sphere(t.xyz, t.mask & (t.object_id == oa))
-            fb = fit_sphere(t.xyz, t.mask & (t.object_id == ob))
+        fa, fb = true_fit(oa, ma), true_fit(ob, mb)
+        if fa is not None and fb is not None:
             L = L if L is not None else float(np.linalg.norm(fa.center - fb.center))
-            d_true = d_true if d_true is not None or abs(fa.radius - fb.radius) > 1e-6 else fa.diameter
+            same = abs(fa.radius - fb.radius) <= (1e-3 if points_truth else 1e-6) * max(fa.radius, 1.0)
+            d_true = d_true if d_true is not None or not same else fa.diameter
         out["ball_bar"] = {"object_ids": [oa, ob], "true_distance": L,
-                           **sphere_spacing(points, ma & valid, mb & valid, L, d_true, exclude).as_dict()}
+                           **spacing_figures(points, ma & valid, mb & valid, L, d_true, exclude)}
     return out

@@ -8,7 +8,9 @@ difference between the measured points and the fitted ideal shape (sphere RMS, p
 
 * Plane: total least squares (SVD of the centred points); residual = signed distance.
 * Sphere: algebraic (linear) initialisation, then geometric Levenberg-Marquardt on
-  ``|p - c| - r`` (``scipy.optimize.least_squares``); residual = radial distance.
+  ``|p - c| - r`` (``scipy.optimize.least_squares`` with the analytic Jacobian
+  ``[-(p - c)/|p - c|, -1]``); residual = radial distance. :func:`sphere_residuals` gives the
+  radial residuals of the algebraic fit alone (one linear solve, used to classify shapes).
 * Circle in 3D: plane fit, then an algebraic + geometric LM circle fit in that plane;
   residual = in-plane radial distance (the out-of-plane part is the plane's residual).
 """
@@ -152,6 +154,25 @@ def sphere_algebraic(xyz: np.ndarray) -> tuple[np.ndarray, float]:
     return algebraic_fit(xyz, "sphere")
 
 
+def sphere_algebraic_rms(xyz: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Algebraic sphere and the RMS of its geometric residuals, without iterating.
+
+    Parameters
+    ----------
+    xyz : (N, 3) float, mm
+
+    Returns
+    -------
+    ``(center (3,), radius, rms)`` in mm, with ``rms = sqrt(mean((|p - c| - r)^2))`` for the
+    Kasa solution of ``|p|^2 = 2 c.p + (r^2 - |c|^2)`` (exact on noise-free sphere points; biased
+    by at most O(sigma^2 / r) with noise, enough to tell a sphere from a plane).
+    """
+    o = xyz.mean(axis=0)
+    c, r = algebraic_fit(xyz - o, "sphere")
+    resid = np.linalg.norm(xyz - o - c, axis=1) - r
+    return c + o, r, _rms(resid)
+
+
 def fit_sphere(points, mask=None, radius: float | None = None) -> SphereFit:
     """Geometric least-squares sphere (Levenberg-Marquardt from the algebraic fit).
 
@@ -175,21 +196,34 @@ def fit_sphere(points, mask=None, radius: float | None = None) -> SphereFit:
     fp = collect_points(points, mask, 4, "sphere fit")
     xyz = fp.xyz
     c0, r0 = sphere_algebraic(xyz)
+    # centre the cloud: better conditioned normal equations, same solution
+    o = xyz.mean(axis=0)
+    q = xyz - o
     if radius is None:
         def res(p):
-            return np.linalg.norm(xyz - p[:3], axis=1) - p[3]
+            return np.linalg.norm(q - p[:3], axis=1) - p[3]
 
-        sol = least_squares(res, np.r_[c0, r0], method="lm", xtol=1e-14, ftol=1e-14)
-        c, r = sol.x[:3], float(sol.x[3])
+        def jac(p):
+            # d(|q - c| - r)/dc = -(q - c)/|q - c|, d/dr = -1 (analytic: one pass per iteration)
+            d = q - p[:3]
+            u = d / np.maximum(np.linalg.norm(d, axis=1), 1e-300)[:, None]
+            return np.hstack([-u, -np.ones((len(q), 1))])
+
+        sol = least_squares(res, np.r_[c0 - o, r0], jac=jac, method="lm", xtol=1e-14, ftol=1e-14)
+        c, r = sol.x[:3] + o, float(sol.x[3])
     else:
         if not radius > 0:
             raise ValueError(f"sphere fit: a fixed radius must be positive (mm), got {radius}")
 
         def res(p):
-            return np.linalg.norm(xyz - p, axis=1) - radius
+            return np.linalg.norm(q - p, axis=1) - radius
 
-        sol = least_squares(res, c0, method="lm", xtol=1e-14, ftol=1e-14)
-        c, r = sol.x, float(radius)
+        def jac(p):
+            d = q - p
+            return -d / np.maximum(np.linalg.norm(d, axis=1), 1e-300)[:, None]
+
+        sol = least_squares(res, c0 - o, jac=jac, method="lm", xtol=1e-14, ftol=1e-14)
+        c, r = sol.x + o, float(radius)
     resid = np.linalg.norm(xyz - c, axis=1) - r
     return SphereFit(c, abs(r), _rms(resid), resid, fp.to_map(resid), len(resid), (c0, r0))
 
@@ -271,6 +305,14 @@ def keep_smallest(residuals: np.ndarray, share: float) -> np.ndarray:
     return np.sort(np.argsort(np.abs(r))[: r.size - n_drop])
 
 
+def fit_residuals(fit, xyz: np.ndarray) -> np.ndarray:
+    """Residuals of points ``xyz (N, 3)`` against a :class:`PlaneFit` (signed distance) or a
+    :class:`SphereFit` (``|p - c| - r``), mm."""
+    if isinstance(fit, SphereFit):
+        return np.linalg.norm(xyz - fit.center, axis=1) - fit.radius
+    return fit.distance(xyz)
+
+
 def robust_fit(fit_fn, pts: np.ndarray, mask: np.ndarray | None, k: float = 5.0, passes: int = 2, *,
                drop_share: float | None = None):
     """Fit (:func:`fit_sphere` or :func:`fit_plane`) after discarding gross outliers.
@@ -280,8 +322,10 @@ def robust_fit(fit_fn, pts: np.ndarray, mask: np.ndarray | None, k: float = 5.0,
     fit_fn : callable ``(points, mask) -> fit`` with ``residuals`` (and ``residual_map``)
     pts : (H, W, 3) or (N, 3) float, mm
     mask : bool map or None (every finite point)
-    k, passes : default mode: points whose residual exceeds ``k`` robust sigmas (1.4826 MAD)
-        of the previous fit are dropped, up to ``passes`` times (isolated fringe-order errors).
+    k, passes : default mode: points whose residual from the previous fit is farther than ``k``
+        robust sigmas from the median, ``|r - med(r)| > k * 1.4826 * MAD``, are dropped and the
+        model refitted, up to ``passes`` times (isolated fringe-order errors); each pass judges
+        all candidate points again.
     drop_share : float, optional
         Instead, fit once, drop this share of the points with the largest ``|residual|``
         (:func:`keep_smallest`) and fit once more (the outlier rule of VDI/VDE 2634-2);
@@ -303,14 +347,23 @@ def robust_fit(fit_fn, pts: np.ndarray, mask: np.ndarray | None, k: float = 5.0,
             used = keep.reshape(used.shape)
             fit = fit_fn(pts, used)
         return fit, used, 1.0 - used.sum() / max(n0, 1)
-    used = np.asarray(mask, bool) & np.all(np.isfinite(pts), -1)
-    n0 = int(used.sum())
-    fit = fit_fn(pts, used)
+    first = np.all(np.isfinite(pts), -1)
+    if mask is not None:
+        first = first & np.asarray(mask, bool)
+    n0 = int(first.sum())
+    fit = fit_fn(pts, first)
+    used = first
+    xyz = np.asarray(pts, np.float64)[first]
     for _ in range(passes):
-        res = fit.residual_map
-        mad = np.nanmedian(np.abs(res[used] - np.nanmedian(res[used])))
-        keep = used & (np.abs(res) <= k * 1.4826 * max(mad, 1e-12))
-        if keep.sum() == used.sum():
+        # every candidate point is judged against the latest fit, so a point dropped while gross
+        # outliers still tilted the fit comes back once they are gone
+        res = fit_residuals(fit, xyz)
+        med = np.median(res[used[first]])
+        mad = np.median(np.abs(res[used[first]] - med))
+        ok = np.abs(res - med) <= k * 1.4826 * max(mad, 1e-12)
+        keep = np.zeros(first.shape, bool)
+        keep[first] = ok
+        if np.array_equal(keep, used):
             break
         used = keep
         fit = fit_fn(pts, used)

@@ -1,21 +1,26 @@
 """``fringe3d evaluate RESULT --sphere/--plane/--ball-bar [--truth DIR]``: accuracy figures."""
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import typer
 
 from fringe3d.analyze.evaluation import evaluate_points, load_points, truth_frame_index
+from fringe3d.analyze.truth_points import TruthPoints, load_truth_points
 from fringe3d.sim.truth import Truth
-from fringe3d.utils.console import console, make_table, print_json, set_quiet
+from fringe3d.utils.console import console, make_table, print_json, set_quiet, warn
 from fringe3d.utils.jsonfile import write_json
 from fringe3d.utils.output_folder import open_output_file
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import overwrite_option
 
 
-def load_truth(folder: Path, info: dict, frame: int, shape) -> Truth:
-    """The simulator's truth for 3D frame ``frame`` of a reconstruction, checked against its size."""
+def load_truth(folder: Path, info: dict, frame: int, shape) -> Truth | TruthPoints:
+    """The simulator's truth for 3D frame ``frame`` of a reconstruction, checked against its size,
+    or true surface points from a ``.npy`` (N, 3) mm / ``.ply`` file."""
+    if folder.is_file() or folder.suffix in (".npy", ".ply"):
+        return load_truth_points(folder)
     t = Truth.load(folder)
     if t.per_frame:
         t = t.frame(truth_frame_index(info, frame))
@@ -32,20 +37,27 @@ def register(app: typer.Typer) -> None:
         sphere: bool = typer.Option(False, "--sphere", help="Probing error form/size and cross sections of a sphere."),
         plane: bool = typer.Option(False, "--plane", help="Flatness error and plane RMS."),
         ball_bar: bool = typer.Option(False, "--ball-bar", help="Sphere-spacing error of two spheres."),
-        truth: Path = typer.Option(None, "--truth", help="Simulated capture (or its truth/ folder) for ground truth."),
+        truth: Path = typer.Option(None, "--truth", help="Simulated capture (or its truth/ folder), or true surface "
+                                   "points: .npy (N, 3) mm or .ply."),
         diameter: float = typer.Option(None, "--diameter", help="Calibrated sphere diameter (mm); default from truth."),
         distance: float = typer.Option(None, "--distance", help="Calibrated ball-bar length (mm); default from truth."),
         frame: int = typer.Option(0, "--frame", help="3D frame of a sequence store."),
-        exclude: float = typer.Option(0.0, "--exclude",
-                                      help="Share of worst points to drop (<= 0.003, VDI/VDE 2634-2)."),
+        exclude: float = typer.Option(None, "--exclude",
+                                      help="Share of worst points to drop (<= 0.003, VDI/VDE 2634-2); default: "
+                                      "drop points beyond 5 robust sigmas."),
         overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print one JSON object."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No tables."),
     ) -> None:
         """Accuracy figures of a reconstruction: fits, VDI/VDE 2634-2-style errors, error vs truth.
 
-        Writes RESULT/evaluate.json (folders only). With --truth the objects are picked from the
-        simulator's object ids and the true sizes come from the noise-free truth surface.
+        Writes RESULT/evaluate.json and the maps plane_residuals.tif / sphere_residuals.tif /
+        truth_error.tif (mm; folders only). With --truth the objects are picked from the
+        simulator's object ids and the true sizes come from the noise-free truth surface; with a
+        point file (.npy (N, 3) mm or .ply) the error is each point's distance to that surface.
+        Outliers: by default points beyond 5 robust sigmas (1.4826 MAD) of the fit are dropped;
+        --exclude SHARE applies the VDI/VDE 2634-2 rule instead. A warning flags a form error far
+        above the fit RMS.
 
         Example: fringe3d evaluate sphere-3d --sphere --truth sphere-capture --json
         """
@@ -60,12 +72,19 @@ def register(app: typer.Typer) -> None:
         points, info = load_points(result, frame)
         out: dict = {"result": str(result), "frame": frame}
         t = None
-        if truth is not None:
+        if truth is not None and (truth.is_file() or truth.suffix in (".npy", ".ply")):
+            t = load_truth(truth, info, frame, points.shape[:2])
+        elif truth is not None:
             if points.ndim != 3:
                 raise ValueError("--truth needs an organized point map (points.npy / points.zarr), not a PLY cloud")
             t = load_truth(truth, info, frame, points.shape[:2])
-        out.update(evaluate_points(points, t, sphere=sphere, plane=plane, ball_bar=ball_bar, diameter=diameter,
-                                   distance=distance, exclude=exclude, result=result))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the figures carry their warnings; printed below
+            out.update(evaluate_points(points, t, sphere=sphere, plane=plane, ball_bar=ball_bar, diameter=diameter,
+                                       distance=distance, exclude=exclude, result=result))
+        for sect in ("sphere", "plane", "ball_bar"):
+            for msg in out.get(sect, {}).get("warnings", []):
+                warn(msg)
         if result.is_dir():
             with open_output_file(result / "evaluate.json", overwrite=overwrite):
                 write_json(result / "evaluate.json", out)

@@ -77,6 +77,8 @@ def register(app: typer.Typer) -> None:
                                              "output folder): its nearest depth minus --z-margin."),
         z_margin: float = typer.Option(5.0, "--z-margin", help="Margin (mm) below the reference's nearest depth."),
         ply: bool = typer.Option(False, "--ply", help="Also write PLY point clouds (coloured by the texture)."),
+        mesh: bool = typer.Option(False, "--mesh", help="One cycle: points.ply also holds the pixel grid's triangles "
+                                  "(implies --ply)."),
         store: bool = typer.Option(True, "--store/--no-store", help="Sequences: write the zarr point store."),
         window: int = typer.Option(None, "--window",
                                    help="Sequences: a 3D frame every N captured frames (sliding window) instead of "
@@ -100,7 +102,8 @@ def register(app: typer.Typer) -> None:
         """Reconstruct absolute 3D point maps from a capture and a calibration.
 
         One pattern cycle: OUT/points.npy ((H, W, 3) float32 mm, NaN invalid), OUT/depth.tif,
-        OUT/texture.tif (+ OUT/points.ply with --ply) and OUT/reconstruct.json. A sequence:
+        OUT/texture.tif (+ OUT/points.ply with --ply: normals, colour, a quality scalar,
+        units and provenance in the header; --mesh adds the grid's triangles) and OUT/reconstruct.json. A sequence:
         OUT/points.zarr (one point map per cycle or window; resumable) and/or OUT/ply/.
 
         Example: fringe3d reconstruct sphere-capture --calibration calib.json -o sphere-3d --ply
@@ -140,8 +143,11 @@ def register(app: typer.Typer) -> None:
                    "z_min": z_min, "cycles": cycles, "cycle_length": len(ps), "step": window,
                    "shape": list(cap.frames.shape[1:])}
         sequence = not (cycles == 1 and window is None)
+        if mesh and sequence:
+            raise ValueError("--mesh writes the faces into one cycle's points.ply; a sequence's ply/frame_*.ply "
+                             "files hold points only (drop --mesh, or reconstruct one cycle with --max-cycles 1)")
         fp_options = {"method": method, "z_min": z_min, "window": window, "triangulation": triangulation,
-                      "min_modulation": min_modulation, "cycles": cycles, "ply": ply, "store": store}
+                      "min_modulation": min_modulation, "cycles": cycles, "ply": ply, "mesh": mesh, "store": store}
         client = connect(scheduler, workers) if sequence and (workers or scheduler) else None  # before writing
         try:
             with open_output(out, overwrite=overwrite, inputs=[capture, calibration, z_min_from],
@@ -153,7 +159,8 @@ def register(app: typer.Typer) -> None:
                         raise ValueError(f"{capture}: no valid 3D point: "
                                          f"{empty_reason(cap, ps, rig, min_modulation)}. "
                                          "Nothing was written (pass --allow-empty to write it anyway)")
-                    summary["files"] = {k: str(Path(v).relative_to(o.path)) for k, v in r.save(o.path, ply).items()}
+                    summary["files"] = {k: str(Path(v).relative_to(o.path))
+                                        for k, v in r.save(o.path, ply, mesh).items()}
                     summary.update(r.summary())
                     summary["path"] = r.path
                 else:

@@ -7,6 +7,7 @@ import typer
 
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.report import write_report
+from fringe3d.report.html import default_output
 from fringe3d.utils.output_folder import open_output_file
 from fringe3d.utils.console import console, print_json, set_quiet
 
@@ -15,20 +16,24 @@ def register(app: typer.Typer) -> None:
     @app.command("report")
     def report(
         results: Path = typer.Argument(...,
-                                       help="Results folder (with summary.json), e.g. the output of `fringe3d demo`."),
+                                       help="Results folder of any command (demo, decode, reconstruct + evaluate, "
+                                       "strain) or a calibration JSON."),
         output: Path = typer.Option(None, "-o", "--output", help="HTML file to write [default: RESULTS/report.html]."),
         overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print the written path as JSON."),
         quiet: bool = typer.Option(False, "--quiet", "-q"),
     ) -> None:
-        """Write one self-contained HTML page: calibration summary, residual plots, interactive 3D
-        point clouds, error maps and the accuracy table. It needs no network to view.
+        """Write one self-contained HTML page from what RESULTS holds: provenance (fringe3d.json),
+        calibration parameters, measurement figures with their definitions (evaluate.json), error
+        and quality maps with colour bars and an interactive 3D view of the points. It needs no
+        network to view.
 
         Example: fringe3d report demo-out -o demo-out/report.html
         """
         set_quiet(quiet)
-        target = output if output is not None else results / "report.html"
-        with open_output_file(target, overwrite=overwrite, inputs=[results / "summary.json"]):
+        target = output if output is not None else default_output(results)
+        read = [results] if results.is_file() else sorted(results.glob("*.json"))
+        with open_output_file(target, overwrite=overwrite, inputs=read):
             path = write_report(results, target)
         if json_:
             print_json({"report": str(path)})

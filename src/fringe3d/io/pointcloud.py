@@ -137,8 +137,8 @@ def read_ply(path: str | os.PathLike) -> PointCloudData:
         names = raw.dtype.names
     normals = None
     if {"nx", "ny", "nz"} <= set(names):
-        normals = np.stack([raw["nx"], raw["ny"], raw["nz"]], axis=-1).astype(np.float32)
+        normals = np.stack([np.ravel(raw[k]) for k in ("nx", "ny", "nz")], axis=-1).astype(np.float32)
     colors = None
     if {"red", "green", "blue"} <= set(names):
-        colors = np.stack([raw["red"], raw["green"], raw["blue"]], axis=-1).astype(np.uint8)
+        colors = np.stack([np.ravel(raw[k]) for k in ("red", "green", "blue")], axis=-1).astype(np.uint8)
     return PointCloudData(pts, colors, normals)

@@ -3,19 +3,23 @@
 Layout (a zarr v3 group on disk)::
 
     OUT.zarr/
-      points   (F, H, W, 3) float32, one chunk per frame, Blosc/lz4 (byte shuffle), NaN fill
-      done     (F,) uint8: 1 once frame k is completely written
+      points   (F, H, W, 3) float32, one chunk per frame, Blosc/lz4 (byte shuffle), NaN fill;
+               dimension_names (frame, row, column, axis), attrs units = "mm", axis_labels x/y/z
+      done     (F,) uint8: 1 once frame k is completely written; dimension_names (frame,)
       attrs    {"format": "fringe3d-point-store", "frames", "height", "width",
                 "completed", "meta": {...}}
 
 A frame is marked done only after its chunk has been written, so an interrupted run resumes
 by rewriting exactly the frames not marked done (:meth:`PointMapStore.pending`).
+
+With the dimension names, ``xarray.open_zarr(path, consolidated=False)`` opens the store as a
+Dataset with variables ``points (frame, row, column, axis)`` and ``done (frame)``.
 """
 from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -26,6 +30,11 @@ STORE_FORMAT = "fringe3d-point-store"
 #: (``benchmarks/bench_sequence.py`` measures both).
 CODEC: Literal["lz4", "zstd"] = "lz4"
 CODEC_LEVEL = 5
+#: zarr v3 ``dimension_names`` (what ``xarray.open_zarr`` names the dimensions)
+POINT_DIMS = ("frame", "row", "column", "axis")
+POINT_ATTRS: dict[str, Any] = {"units": "mm", "long_name": "camera-frame 3D point per pixel (NaN: no point)",
+               "axis_labels": ["x", "y", "z"]}
+DONE_ATTRS: dict[str, Any] = {"long_name": "1 once the frame's point map is completely written", "flag_values": [0, 1]}
 
 
 class PointMapStore:
@@ -73,9 +82,13 @@ class PointMapStore:
                                  f"of {width}x{height}; use a new output folder to start over")
             return cls(g, path)
         g = zarr.open_group(str(path), mode="w")
-        g.create_array("points", shape=(frames, height, width, 3), chunks=(1, height, width, 3), dtype="float32",
-                       fill_value=np.nan, compressors=BloscCodec(cname=CODEC, clevel=CODEC_LEVEL, shuffle="shuffle"))
-        g.create_array("done", shape=(frames,), chunks=(min(frames, 65536),), dtype="uint8", fill_value=0)
+        pts = g.create_array("points", shape=(frames, height, width, 3), chunks=(1, height, width, 3),
+                             dtype="float32", fill_value=np.nan, dimension_names=POINT_DIMS,
+                             compressors=BloscCodec(cname=CODEC, clevel=CODEC_LEVEL, shuffle="shuffle"))
+        pts.attrs.update(POINT_ATTRS)
+        done = g.create_array("done", shape=(frames,), chunks=(min(frames, 65536),), dtype="uint8", fill_value=0,
+                              dimension_names=POINT_DIMS[:1])
+        done.attrs.update(DONE_ATTRS)
         g.attrs.update({"format": STORE_FORMAT, "version": 1, "frames": frames, "height": height, "width": width,
                         "completed": 0, "meta": meta or {}})
         return cls(g, path)

@@ -32,7 +32,7 @@ from fringe3d.decode.decoder import decode
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.io.capture import list_frame_files
 from fringe3d.io.images import read_image
-from fringe3d.io.pointcloud import write_ply
+from fringe3d.io.ply_standard import write_measurement_ply
 from fringe3d.io.store import PointMapStore
 from fringe3d.optics.rays import camera_shape, projector_fringe_coordinate
 from fringe3d.optics.rig import Rig
@@ -274,7 +274,7 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
                 pts, tex = np.full((H, W, 3), np.nan, np.float32), None
                 empty += 1
             if ply and np.isfinite(pts[..., 0]).any():
-                write_ply(out / PLY_DIR / ply_name(k), pts, colors=tex)
+                write_measurement_ply(out / PLY_DIR / ply_name(k), pts, tex)
             if st is not None:
                 writes.append(writer.submit(st.write, k, pts))
                 while len(writes) > 2:  # at most two frames in flight: bounded memory

@@ -1,6 +1,10 @@
 """One self-contained HTML page per results folder: no network needed to view it.
 
-Plotly's JavaScript bundle is inlined once; images are embedded as base64 data URIs.
+Plotly's JavaScript bundle is inlined once; images are embedded as base64 data URIs and point
+clouds as base64 float32 arrays (:mod:`.typed`). A folder
+with a ``summary.json`` that has a ``title`` (``fringe3d demo``) gets the demo page; any other
+output (decode, reconstruct + evaluate, calibrate, strain) gets the page :mod:`.page` builds
+from what :mod:`.discover` finds.
 """
 from __future__ import annotations
 
@@ -15,9 +19,10 @@ import numpy as np
 from fringe3d.utils.atomic import atomic_write_text
 from fringe3d.io.arrays import load_array
 
-from .results import load_summary
+from .page import build_page, points_script
+from .results import SUMMARY_NAME, load_summary
+from .typed import JS_DECODE
 
-MAX_POINTS_3D = 40_000
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:2em auto;max-width:1100px;color:#222}
@@ -58,26 +63,28 @@ def _img(folder: Path, name: str | None, alt: str) -> str:
     return f'<img class="fig" alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
 
 
-def _points_trace(points: np.ndarray, rng: np.random.Generator) -> dict:
-    """Subsample an organised H×W×3 map (NaN invalid) to a plotly scatter3d trace."""
-    pts = points.reshape(-1, 3)
-    pts = pts[np.isfinite(pts).all(axis=1)]
-    if len(pts) > MAX_POINTS_3D:
-        pts = pts[rng.choice(len(pts), MAX_POINTS_3D, replace=False)]
-    pts = pts.astype(np.float32)
-    return {"type": "scatter3d", "mode": "markers",
-            "x": np.round(pts[:, 0], 3).tolist(), "y": np.round(pts[:, 1], 3).tolist(),
-            "z": np.round(pts[:, 2], 3).tolist(),
-            "marker": {"size": 1.5, "color": np.round(pts[:, 2], 3).tolist(), "colorscale": "Viridis"}}
+def is_demo_folder(folder: Path) -> bool:
+    """Whether ``folder`` holds a demo-style ``summary.json`` (a JSON object with a ``title``)."""
+    path = Path(folder) / SUMMARY_NAME
+    if not path.is_file():
+        return False
+    try:
+        d = json.loads(path.read_text())
+    except (OSError, ValueError, RecursionError):
+        return True  # let load_summary name the damage
+    return isinstance(d, dict) and "title" in d
 
 
 def build_report(folder: str | Path) -> str:
-    """Return the HTML text of the report for a results folder (see :mod:`.results`)."""
+    """Return the HTML text of the report for a results folder (or a calibration JSON)."""
     import plotly.offline  # heavy (~1 s): only when a report is built
 
     folder = Path(folder)
+    if not is_demo_folder(folder):
+        from .discover import discover
+
+        return build_page(discover(folder), _table, _CSS, plotly.offline.get_plotlyjs())
     s = load_summary(folder)
-    rng = np.random.default_rng(0)
     parts = [f"<h1>{html.escape(s['title'])}</h1>"]
     if s.get("subtitle"):
         parts.append(f'<p class="muted">{html.escape(s["subtitle"])}</p>')
@@ -108,13 +115,7 @@ def build_report(folder: str | Path) -> str:
         if m.get("points") and (folder / m["points"]).exists():
             div = f"plot3d_{i}"
             parts.append(f'<div id="{div}" class="plot3d"></div>')
-            trace = _points_trace(load_array(folder / m["points"], "point map"), rng)
-            layout = {"title": {"text": m["name"]}, "margin": {"l": 0, "r": 0, "t": 30, "b": 0},
-                      "scene": {"aspectmode": "data", "xaxis": {"title": {"text": "x (mm)"}},
-                                "yaxis": {"title": {"text": "y (mm)"}},
-                                "zaxis": {"title": {"text": "z (mm)"}, "autorange": "reversed"},
-                                "camera": {"up": {"x": 0, "y": -1, "z": 0}, "eye": {"x": 1.1, "y": -1.1, "z": -1.6}}}}
-            plots.append((div, trace, layout))
+            plots.append(points_script(load_array(folder / m["points"], "point map"), div, m["name"]))
         parts.append(_img(folder, m.get("error_map"), f"error map {m['name']}"))
 
     for name, seq in s.get("sequences", {}).items():
@@ -130,9 +131,7 @@ def build_report(folder: str | Path) -> str:
         rows = [[st["name"], st.get("seconds", float("nan"))] for st in s["stages"]]
         parts.append("<h2>Time per stage</h2>" + _table(rows, ["stage", "seconds"], "stages"))
 
-    scripts = "".join(
-        f"Plotly.newPlot({json.dumps(div)}, [{json.dumps(tr)}], {json.dumps(lay)}, {{responsive: true}});"
-        for div, tr, lay in plots)
+    scripts = JS_DECODE + "".join(plots)
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             f"<title>{html.escape(s['title'])}</title><style>{_CSS}</style>"
             f"<script type='text/javascript'>{plotly.offline.get_plotlyjs()}</script></head><body>"
@@ -141,9 +140,15 @@ def build_report(folder: str | Path) -> str:
             + f"<script>{scripts}</script></body></html>")
 
 
+def default_output(results: Path) -> Path:
+    """``RESULTS/report.html`` for a folder, ``RESULTS.html`` beside a file."""
+    return results.with_suffix(".html") if results.is_file() else results / "report.html"
+
+
 def write_report(folder: str | Path, out: str | Path | None = None) -> Path:
-    """Build the report for ``folder`` and write it atomically (default ``folder/report.html``)."""
+    """Build the report for ``folder`` and write it atomically (default ``folder/report.html``,
+    ``NAME.html`` beside a calibration JSON)."""
     folder = Path(folder)
-    out = Path(out) if out else folder / "report.html"
+    out = Path(out) if out else default_output(folder)
     atomic_write_text(out, build_report(folder))
     return out

@@ -72,6 +72,11 @@ class BusyOutputError(OSError):
     """Another fringe3d run holds the output's lock."""
 
 
+def provenance_comments() -> list[str]:
+    """``fringe3d <version>`` and the command line now writing outputs, for file-header comments."""
+    return [f"fringe3d {_version()}", f"command: {_CommandLine.text}"]
+
+
 def _version() -> str:
     try:
         from importlib.metadata import version

@@ -1,0 +1,147 @@
+"""The report page of any results folder, built from what :func:`.discover.discover` found:
+provenance, calibration, measurement figures with their definitions, maps with colour bars and
+a 3D view of the points. Point and map data travel as base64 float32 (:mod:`.typed`)."""
+from __future__ import annotations
+
+import base64
+import html
+import json
+
+import numpy as np
+
+from .calibration_view import calibration_tables
+from .definitions import DEFINITIONS, SECTION_TITLES
+from .discover import FolderContents
+from .typed import JS_DECODE, b64_float32, sample_points, shrink_map
+
+MAX_POINTS_3D = 60_000
+MAX_MAP_SIDE = 400
+
+PAGE_CSS = """
+.maps{display:grid;grid-template-columns:repeat(auto-fit,minmax(340px,1fr));gap:12px}
+.map{height:360px;border:1px solid #eee} .warn{background:#fff4d6;border-left:4px solid #e0a800;padding:.4em .8em}
+table.provenance td,table.summary td{text-align:left} .scroll{overflow-x:auto}
+table.figures td:last-child{text-align:left;color:#555;max-width:520px}
+@media (max-width:900px){body{margin:1em .6em} .plot3d{height:420px}}
+"""
+
+
+def _scalar_rows(d: dict, prefix: str = "") -> list[list]:
+    rows = []
+    for k, v in d.items():
+        if isinstance(v, dict):
+            rows += _scalar_rows(v, f"{prefix}{k}.")
+        elif not isinstance(v, list):
+            rows.append([f"{prefix}{k}", v])
+    return rows
+
+
+def provenance_rows(marker: dict | None) -> list[list]:
+    """Rows of ``fringe3d.json``: version, command, times, inputs, fingerprint, completeness."""
+    if not marker:
+        return [["provenance", "no fringe3d.json (a folder not written by fringe3d)"]]
+    rows = [["fringe3d version", marker.get("fringe3d")], ["command", marker.get("command")],
+            ["started", marker.get("started")], ["finished", marker.get("finished")],
+            ["complete", marker.get("complete")], ["inputs", ", ".join(map(str, marker.get("inputs") or []))],
+            ["input fingerprint", marker.get("fingerprint")], ["files", len(marker.get("files") or [])]]
+    return [r for r in rows if r[1] is not None]
+
+
+def evaluation_parts(ev: dict, table) -> list[str]:
+    """One table per evaluated section, each figure with its unit and definition."""
+    parts = ["<h2>Measurement figures</h2>"]
+    for sect, title in SECTION_TITLES.items():
+        figs = ev.get(sect)
+        if not isinstance(figs, dict):
+            continue
+        defs = DEFINITIONS.get(sect, {})
+        rows = [[defs[k][0], figs[k], defs[k][1], defs[k][2]] for k in defs if k in figs]
+        if sect == "ball_bar":
+            for i, sp in enumerate(figs.get("spheres", [])):
+                rows += [[f"sphere {i} {DEFINITIONS['sphere'][k][0]}", sp[k], "mm", DEFINITIONS["sphere"][k][2]]
+                         for k in ("form", "size", "rms") if sp.get(k) is not None]
+        rule = figs.get("outliers")
+        rules = rule if isinstance(rule, list) else [rule] if rule else []
+        for r in rules:
+            rows.append(["outliers excluded", f"{r.get('excluded_points')} ({100 * r.get('excluded_share', 0):.3g} %)",
+                         "", r.get("rule", "")])
+        parts.append(f"<h3>{html.escape(title)}</h3>")
+        parts += [f'<p class="warn">{html.escape(w)}</p>' for w in figs.get("warnings", [])]
+        parts.append('<div class="scroll">' + table(rows, ["figure", "value", "unit", "definition"],
+                                                     f"figures {sect}") + "</div>")
+    return parts
+
+
+def _map_trace(m, div: str) -> str:
+    v = shrink_map(m.values, MAX_MAP_SIDE)
+    h, w = v.shape
+    finite = v[np.isfinite(v)]
+    trace = {"type": "heatmap", "colorscale": m.colorscale, "hoverongaps": False,
+             "colorbar": {"title": {"text": m.unit, "side": "right"}}}
+    if m.centred and finite.size:
+        a = float(np.max(np.abs(finite)))
+        trace.update(zmin=-a, zmax=a)
+    layout = {"title": {"text": m.title, "font": {"size": 13}}, "margin": {"l": 40, "r": 10, "t": 34, "b": 30},
+              "yaxis": {"autorange": "reversed", "scaleanchor": "x"}, "xaxis": {"constrain": "domain"}}
+    return (f"(function(){{const t={json.dumps(trace)};t.z=grid({json.dumps(b64_float32(v))},{h},{w});"
+            f"Plotly.newPlot({json.dumps(div)},[t],{json.dumps(layout)},{{responsive:true}});}})();")
+
+
+def points_script(points: np.ndarray, div: str, title: str) -> str:
+    """JavaScript drawing at most :data:`MAX_POINTS_3D` of ``points`` as a plotly scatter3d
+    (coordinates as base64 float32, coloured by z), seen from the camera's side."""
+    p = sample_points(points, MAX_POINTS_3D)
+    data = {ax: b64_float32(p[:, i]) for i, ax in enumerate("xyz")}
+    span = np.ptp(p, axis=0) if len(p) else np.ones(3)
+    ratio = np.maximum(span / max(float(span.max()), 1e-12), 0.25)  # a flat plane stays visible
+    layout = {"title": {"text": title}, "margin": {"l": 0, "r": 0, "t": 30, "b": 0},
+              "scene": {"aspectmode": "manual", "aspectratio": dict(zip("xyz", map(float, ratio))),
+                        "xaxis": {"title": {"text": "x (mm)"}},
+                        "yaxis": {"title": {"text": "y (mm)"}},
+                        "zaxis": {"title": {"text": "z (mm)"}},
+                        # seen from the camera's side (camera at the origin looking along +z, image y down)
+                        "camera": {"up": {"x": 0, "y": -1, "z": 0}, "eye": {"x": 0.5, "y": -0.5, "z": -1.7}}}}
+    return (f"(function(){{const d={json.dumps(data)};const x=arr(d.x),y=arr(d.y),z=arr(d.z);"
+            "Plotly.newPlot(" + json.dumps(div) + ",[{type:'scatter3d',mode:'markers',x:x,y:y,z:z,"
+            "marker:{size:1.5,color:z,colorscale:'Viridis',colorbar:{title:{text:'z (mm)'}}}}],"
+            f"{json.dumps(layout)},{{responsive:true}});}})();")
+
+
+def build_page(c: FolderContents, table, css: str, plotly_js: str) -> str:
+    """HTML text of the report of ``c`` (``table(rows, header, cls)`` renders a table)."""
+    title = f"fringe3d report: {c.folder.name}"
+    parts = [f"<h1>{html.escape(title)}</h1>", "<h2>Provenance</h2>",
+             table(provenance_rows(c.marker), ["item", "value"], "provenance")]
+    scripts = [JS_DECODE]
+    if c.calibration is not None:
+        parts.append(f"<h2>Calibration</h2><p class='muted'>from {html.escape(str(c.calibration_source))}</p>")
+        for t, header, rows in calibration_tables(c.calibration):
+            parts.append(f"<h3>{html.escape(t)}</h3><div class='scroll'>{table(rows, header, 'calibration')}</div>")
+    if c.evaluation:
+        parts += evaluation_parts(c.evaluation, table)
+    if c.maps:
+        parts.append("<h2>Error and quality maps</h2><div class='maps'>")
+        for i, m in enumerate(c.maps):
+            parts.append(f'<div id="map_{i}" class="map" title="{html.escape(m.name)}"></div>')
+            scripts.append(_map_trace(m, f"map_{i}"))
+        parts.append("</div>")
+    if c.points is not None:
+        n = int(np.isfinite(np.asarray(c.points)).all(axis=-1).sum())
+        parts.append(f"<h2>3D points</h2><p class='muted'>{html.escape(str(c.points_source))}: {n} valid points"
+                     f"{f', {MAX_POINTS_3D} shown' if n > MAX_POINTS_3D else ''}</p>"
+                     '<div id="plot3d_0" class="plot3d"></div>')
+        scripts.append(points_script(c.points, "plot3d_0", str(c.points_source)))
+    for p in c.pngs:
+        data = base64.b64encode(p.read_bytes()).decode()
+        parts.append(f"<h3>{html.escape(p.name)}</h3>"
+                     f'<img class="fig" alt="{html.escape(p.name)}" src="data:image/png;base64,{data}">')
+    for name, summ in c.summaries.items():
+        parts.append(f"<h2>{html.escape(name)}</h2><div class='scroll'>"
+                     + table(_scalar_rows(summ), ["field", "value"], "summary") + "</div>")
+    return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+            "<meta name='viewport' content='width=device-width, initial-scale=1'>"
+            f"<title>{html.escape(title)}</title><style>{css}{PAGE_CSS}</style>"
+            f"<script type='text/javascript'>{plotly_js}</script></head><body>"
+            + "\n".join(parts)
+            + "<p class='muted'>fringe3d report · self-contained, no network needed</p>"
+            + f"<script>{''.join(scripts)}</script></body></html>")
