@@ -317,30 +317,97 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
 
 
 @numba.njit(cache=True)
-def _step_table_kernel(pts, valid, offsets, bezier, gt, gw, cr, cc_, cw):
+def _step_table_kernel(pts, valid, offsets, opposite, bezier, gt, gw, cr, cc_, cw):
     """Compact index (H, W) int64 of the valid nodes (−1 invalid) and their step lengths
-    ``(n_valid, n_offsets)`` mm (−1 where the step is invalid), each computed once."""
+    ``(n_valid, n_offsets)`` mm (−1 where the step is invalid), each computed once.
+
+    A step and its reverse x + o → x share their four control points in reverse order (P1 of
+    the reverse is P2 of the step), hence the arc length (the Gauss–Legendre nodes are
+    symmetric): only the offsets with ``opposite[o] > o`` are evaluated."""
     h, w = valid.shape
     index = np.full((h, w), -1, dtype=np.int64)
     nv = 0
+    r_lo, r_hi, c_lo, c_hi = h, 0, w, 0   # bounding box of the valid nodes
     for r in range(h):
         for c in range(w):
             if valid[r, c]:
                 index[r, c] = nv
                 nv += 1
+                r_lo = min(r_lo, r)
+                r_hi = max(r_hi, r + 1)
+                c_lo = min(c_lo, c)
+                c_hi = max(c_hi, c + 1)
     nofs = offsets.shape[0]
-    table = np.empty((nv, nofs))
-    p0 = np.empty(3)
-    p1 = np.empty(3)
-    p2 = np.empty(3)
-    p3 = np.empty(3)
-    for r in range(h):
-        for c in range(w):
-            k = index[r, c]
-            if k < 0:
-                continue
-            for o in range(nofs):
-                table[k, o] = _step_length(pts, valid, r, c, o, offsets, bezier, gt, gw, cr, cc_, cw, p0, p1, p2, p3)
+    table = np.full((nv, nofs), -1.0)   # steps ending outside the valid region stay −1
+    ng = gt.shape[0]
+    for o in range(nofs):   # offset outer: its stencil is loop-invariant
+        if opposite[o] < o:
+            continue
+        dr = offsets[o, 0]
+        dc = offsets[o, 1]
+        ob = opposite[o]
+        for r in range(max(r_lo, -dr), min(r_hi, h - dr)):
+            for c in range(max(c_lo, -dc), min(c_hi, w - dc)):
+                k = index[r, c]
+                k3 = index[r + dr, c + dc]
+                if k < 0 or k3 < 0:
+                    continue
+                ok = True
+                for q in range(4):
+                    if not (valid[r + cr[o, 0, q], c + cc_[o, 0, q]] and valid[r + cr[o, 1, q], c + cc_[o, 1, q]]):
+                        ok = False
+                        break
+                if not ok:
+                    continue
+                if bezier:
+                    a0x = a0y = a0z = a1x = a1y = a1z = a2x = a2y = a2z = 0.0
+                    for q in range(4):
+                        w1 = cw[o, 0, q]
+                        w2 = cw[o, 1, q]
+                        r1 = r + cr[o, 0, q]
+                        c1 = c + cc_[o, 0, q]
+                        r2 = r + cr[o, 1, q]
+                        c2 = c + cc_[o, 1, q]
+                        a0x += w1 * pts[r1, c1, 0]
+                        a0y += w1 * pts[r1, c1, 1]
+                        a0z += w1 * pts[r1, c1, 2]
+                        a1x += w2 * pts[r2, c2, 0]
+                        a1y += w2 * pts[r2, c2, 1]
+                        a1z += w2 * pts[r2, c2, 2]
+                    # P1 = (a0x, a0y, a0z), P2 = (a1x, a1y, a1z): differences P1−P0, P2−P1, P3−P2
+                    p0x = pts[r, c, 0]
+                    p0y = pts[r, c, 1]
+                    p0z = pts[r, c, 2]
+                    p3x = pts[r + dr, c + dc, 0]
+                    p3y = pts[r + dr, c + dc, 1]
+                    p3z = pts[r + dr, c + dc, 2]
+                    a2x = p3x - a1x
+                    a2y = p3y - a1y
+                    a2z = p3z - a1z
+                    a1x -= a0x
+                    a1y -= a0y
+                    a1z -= a0z
+                    a0x -= p0x
+                    a0y -= p0y
+                    a0z -= p0z
+                    ln = 0.0
+                    for g in range(ng):
+                        t = gt[g]
+                        u = 1.0 - t
+                        c0 = 3.0 * u * u
+                        c1_ = 6.0 * u * t
+                        c2 = 3.0 * t * t
+                        dx = c0 * a0x + c1_ * a1x + c2 * a2x
+                        dy = c0 * a0y + c1_ * a1y + c2 * a2y
+                        dz = c0 * a0z + c1_ * a1z + c2 * a2z
+                        ln += gw[g] * math.sqrt(dx * dx + dy * dy + dz * dz)
+                else:
+                    dx = pts[r + dr, c + dc, 0] - pts[r, c, 0]
+                    dy = pts[r + dr, c + dc, 1] - pts[r, c, 1]
+                    dz = pts[r + dr, c + dc, 2] - pts[r, c, 2]
+                    ln = math.sqrt(dx * dx + dy * dy + dz * dz)
+                table[k, o] = ln
+                table[k3, ob] = ln
     return index, table
 
 
@@ -466,14 +533,17 @@ def step_table(points: np.ndarray, radius: int = 3, bezier: bool = True) -> Step
     offsets = MARCH_OFFSETS if radius == 3 else _march_offsets(int(radius))
     filled = np.where(valid[..., None], pts, 0.0)
     cr, cc, cw = _control_stencils(offsets)
-    index, lengths = _step_table_kernel(filled, valid, offsets, bool(bezier), _GL_T, _GL_W, cr, cc, cw)
+    lut = _wavefront_tables(offsets)[1]
+    R = (lut.shape[0] - 1) // 2
+    opposite = lut[R - offsets[:, 0], R - offsets[:, 1]]
+    index, lengths = _step_table_kernel(filled, valid, offsets, opposite, bool(bezier), _GL_T, _GL_W, cr, cc, cw)
     n = valid.size
     work = (np.empty(n), np.empty(n, np.bool_), np.empty(n, np.int64), np.empty(n, np.int64))
     return StepTable(pts, valid, index, lengths, offsets, bool(bezier), work)
 
 
 def _run_table(steps: StepTable, source, wavefront, seed_radius, stop_distance):
-    idx, d = seeds_from_pixel(steps.points, source, seed_radius)
+    idx, d = _seeds(steps.points, steps.valid, source, seed_radius)
     nbr, lut = _wavefront_tables(steps.offsets)
     stop = np.inf if stop_distance is None else float(stop_distance)
     return _dijkstra_table(steps.valid, steps.index, steps.lengths, idx, d, steps.offsets, nbr, lut,
@@ -532,11 +602,15 @@ def seeds_from_pixel(points: np.ndarray, uv, radius: float = 1.0) -> tuple[np.nd
     Raises ``ValueError`` when the source is outside the map or on invalid pixels.
     """
     pts = check_point_map(points)
+    return _seeds(pts, np.isfinite(pts).all(axis=2), uv, radius)
+
+
+def _seeds(pts, valid, uv, radius):
+    """:func:`seeds_from_pixel` on a checked map and its validity mask (H, W) bool."""
     h, w, _ = pts.shape
     u, v = float(uv[0]), float(uv[1])
     if not (0.0 <= u <= w - 1 and 0.0 <= v <= h - 1):
         raise ValueError(f"source pixel (u={u:.2f}, v={v:.2f}) is outside the {w}×{h} point map")
-    valid = np.isfinite(pts).all(axis=2)
     src = np.empty(3)
     if not _bilinear(pts, valid, v, u, src):
         raise ValueError(f"source pixel (u={u:.2f}, v={v:.2f}) lies on invalid (NaN) pixels of the point map; "
