@@ -30,6 +30,12 @@ grid, in three flavours:
 
 All three return an ``(H, W)`` float64 map of distances in mm, ``inf`` where a node is
 unreachable or invalid.
+
+Per frame, :func:`step_table` computes every Bézier step length once (a step and its reverse
+share their control points, so half the offsets suffice) into an ``(n_valid, 32)`` table that the
+searches of all sources on that frame read instead of recomputing 32 + 64 lengths per settled
+node; ``bezier_geodesic(..., steps=table, stop_distance=d)`` runs on it and stops once every node
+within ``d`` mm is settled (same values there as the full search).
 """
 from __future__ import annotations
 
