@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fringe3d.analyze.geodesic import (MARCH_OFFSETS, bezier_arc_length, bezier_geodesic, grid_geodesic,
-                                       heat_geodesic, heat_time_coefficient)
+                                       heat_geodesic, heat_time_coefficient, step_table)
 
 
 def cylinder_map(h=128, w=160, radius=40.0, pitch=0.3, z0=300.0):
@@ -167,3 +167,41 @@ def test_heat_method_time_step_grows_with_the_map_so_the_far_field_survives():
     e_auto = rel_error(heat_geodesic(pts, (5, 20)), truth, far)
     e_h2 = rel_error(heat_geodesic(pts, (5, 20), t_coef=1.0), truth, far)
     assert e_h2.mean() > 0.25 and e_auto.mean() < 0.1
+
+
+@pytest.mark.parametrize("wavefront", [True, False])
+def test_step_table_search_gives_the_full_search_distances(wavefront):
+    pts, _, _ = cylinder_map()
+    pts[40:50, 60:75] = np.nan                               # a hole the front must go around
+    pts[np.random.default_rng(3).random(pts.shape[:2]) < 0.01] = np.nan
+    full = bezier_geodesic(pts, (20.3, 64.6), wavefront=wavefront)
+    steps = step_table(pts)
+    tab = bezier_geodesic(pts, (20.3, 64.6), wavefront=wavefront, steps=steps)
+    assert np.array_equal(np.isfinite(tab), np.isfinite(full))
+    f = np.isfinite(full)
+    np.testing.assert_allclose(tab[f], full[f], rtol=1e-12, atol=1e-12)
+    # the same table serves a second source on the same frame
+    np.testing.assert_allclose(bezier_geodesic(pts, (120.0, 30.0), steps=steps)[f],
+                               bezier_geodesic(pts, (120.0, 30.0))[f], rtol=1e-12, atol=1e-12)
+
+
+def test_bounded_search_matches_the_full_search_within_the_stop_distance():
+    pts, s, y = cylinder_map()
+    src = (30.0, 64.0)
+    full = bezier_geodesic(pts, src)
+    stop = 15.0
+    bounded = bezier_geodesic(pts, src, stop_distance=stop)
+    near = full <= stop
+    assert near.sum() > 1000 and (~near).sum() > 1000
+    np.testing.assert_allclose(bounded[near], full[near], rtol=1e-12, atol=1e-12)
+    assert np.isinf(bounded[~near]).all()                   # nothing beyond the stop distance is settled
+    # and against the cylinder's closed form (unrolled plane distance) at the query points
+    truth = np.hypot(s - s[64, 30], y - y[64, 30])
+    q = near & (truth > 3.0)
+    assert np.max(np.abs(bounded[q] - truth[q]) / truth[q]) < 1e-3
+
+
+def test_step_table_must_match_the_requested_window():
+    pts, _, _ = cylinder_map(32, 40)
+    with pytest.raises(ValueError, match="another window"):
+        bezier_geodesic(pts, (5, 5), radius=2, steps=step_table(pts, radius=3))

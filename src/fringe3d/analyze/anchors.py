@@ -10,7 +10,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import measure
 
-from fringe3d.analyze.geodesic import bezier_geodesic, check_point_map, grid_geodesic
+from fringe3d.analyze.geodesic import bezier_geodesic, check_point_map, grid_geodesic, step_table
 from fringe3d.io.point_sequence import PointSequence
 
 __all__ = ["dark_dots", "fill_dot_holes", "find_anchor_dots", "check_anchor", "distance_maps", "pair_anchors",
@@ -105,22 +105,27 @@ def check_anchor(points: np.ndarray, uv, radius: int = 1) -> None:
 
 
 def distance_maps(points: np.ndarray, anchors_uv: np.ndarray, method: str = "bezier",
-                  radius: int = 3) -> tuple[np.ndarray, np.ndarray]:
+                  radius: int = 3, stop_distance=None) -> tuple[np.ndarray, np.ndarray]:
     """Geodesic distance maps (D1, D2), each (H, W) mm, from the two anchors (2, 2) (u, v).
 
     method "bezier" (Eq. 6.7–6.8, marching window (2·radius+1)², 7×7 by default, with the
     virtual-source wavefront update), "bezier-edges" (the dissertation's edge-only scheme) or
-    "grid" (8-neighbour Dijkstra)."""
-    if method in ("bezier", "bezier-edges"):
-        wave = method == "bezier"
-        fn = lambda p, a: bezier_geodesic(p, a, radius=radius, wavefront=wave)  # noqa: E731
-    elif method == "grid":
-        fn = grid_geodesic
-    else:
+    "grid" (8-neighbour Dijkstra). For the Bézier methods the step lengths are computed once
+    (:func:`fringe3d.analyze.geodesic.step_table`) and shared by both anchors.
+    stop_distance : None (whole map), a distance (mm) or one per anchor (2,): each search stops
+    beyond it (:func:`fringe3d.analyze.geodesic.bezier_geodesic`), nodes farther are ``inf``;
+    ignored by "grid"."""
+    if method not in ("bezier", "bezier-edges", "grid"):
         raise ValueError(f"unknown geodesic method {method!r}; expected 'bezier', 'bezier-edges' or 'grid'")
     for a in anchors_uv:
         check_anchor(points, a)
-    return fn(points, anchors_uv[0]), fn(points, anchors_uv[1])
+    if method in ("bezier", "bezier-edges"):
+        wave = method == "bezier"
+        steps = step_table(points, radius)
+        stops = np.broadcast_to(np.asarray(np.inf if stop_distance is None else stop_distance, float), (2,))
+        return tuple(bezier_geodesic(points, a, radius=radius, wavefront=wave, steps=steps,
+                                     stop_distance=float(s)) for a, s in zip(anchors_uv[:2], stops))
+    return grid_geodesic(points, anchors_uv[0]), grid_geodesic(points, anchors_uv[1])
 
 
 def fill_dot_holes(points: np.ndarray, anchors_uv: np.ndarray, max_radius: int = 8, ring: int = 5) -> np.ndarray:

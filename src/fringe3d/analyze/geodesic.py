@@ -30,6 +30,12 @@ grid, in three flavours:
 
 All three return an ``(H, W)`` float64 map of distances in mm, ``inf`` where a node is
 unreachable or invalid.
+
+Per frame, :func:`step_table` computes every Bézier step length once (a step and its reverse
+share their control points, so half the offsets suffice) into an ``(n_valid, 32)`` table that the
+searches of all sources on that frame read instead of recomputing 32 + 64 lengths per settled
+node; ``bezier_geodesic(..., steps=table, stop_distance=d)`` runs on it and stops once every node
+within ``d`` mm is settled (same values there as the full search).
 """
 from __future__ import annotations
 
@@ -48,6 +54,8 @@ __all__ = [
     "heat_time_coefficient",
     "check_point_map",
     "seeds_from_pixel",
+    "StepTable",
+    "step_table",
 ]
 
 
@@ -314,6 +322,240 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
     return dist.reshape(h, w)
 
 
+@numba.njit(cache=True)
+def _step_table_kernel(pts, valid, offsets, opposite, bezier, gt, gw, cr, cc_, cw):
+    """Compact index (H, W) int64 of the valid nodes (−1 invalid) and their step lengths
+    ``(n_valid, n_offsets)`` mm (−1 where the step is invalid), each computed once.
+
+    A step and its reverse x + o → x share their four control points in reverse order (P1 of
+    the reverse is P2 of the step), hence the arc length (the Gauss–Legendre nodes are
+    symmetric): only the offsets with ``opposite[o] > o`` are evaluated."""
+    h, w = valid.shape
+    index = np.full((h, w), -1, dtype=np.int64)
+    nv = 0
+    r_lo, r_hi, c_lo, c_hi = h, 0, w, 0   # bounding box of the valid nodes
+    for r in range(h):
+        for c in range(w):
+            if valid[r, c]:
+                index[r, c] = nv
+                nv += 1
+                r_lo = min(r_lo, r)
+                r_hi = max(r_hi, r + 1)
+                c_lo = min(c_lo, c)
+                c_hi = max(c_hi, c + 1)
+    nofs = offsets.shape[0]
+    table = np.full((nv, nofs), -1.0)   # steps ending outside the valid region stay −1
+    ng = gt.shape[0]
+    for o in range(nofs):   # offset outer: its stencil is loop-invariant
+        if opposite[o] < o:
+            continue
+        dr = offsets[o, 0]
+        dc = offsets[o, 1]
+        ob = opposite[o]
+        for r in range(max(r_lo, -dr), min(r_hi, h - dr)):
+            for c in range(max(c_lo, -dc), min(c_hi, w - dc)):
+                k = index[r, c]
+                k3 = index[r + dr, c + dc]
+                if k < 0 or k3 < 0:
+                    continue
+                ok = True
+                for q in range(4):
+                    if not (valid[r + cr[o, 0, q], c + cc_[o, 0, q]] and valid[r + cr[o, 1, q], c + cc_[o, 1, q]]):
+                        ok = False
+                        break
+                if not ok:
+                    continue
+                if bezier:
+                    a0x = a0y = a0z = a1x = a1y = a1z = a2x = a2y = a2z = 0.0
+                    for q in range(4):
+                        w1 = cw[o, 0, q]
+                        w2 = cw[o, 1, q]
+                        r1 = r + cr[o, 0, q]
+                        c1 = c + cc_[o, 0, q]
+                        r2 = r + cr[o, 1, q]
+                        c2 = c + cc_[o, 1, q]
+                        a0x += w1 * pts[r1, c1, 0]
+                        a0y += w1 * pts[r1, c1, 1]
+                        a0z += w1 * pts[r1, c1, 2]
+                        a1x += w2 * pts[r2, c2, 0]
+                        a1y += w2 * pts[r2, c2, 1]
+                        a1z += w2 * pts[r2, c2, 2]
+                    # P1 = (a0x, a0y, a0z), P2 = (a1x, a1y, a1z): differences P1−P0, P2−P1, P3−P2
+                    p0x = pts[r, c, 0]
+                    p0y = pts[r, c, 1]
+                    p0z = pts[r, c, 2]
+                    p3x = pts[r + dr, c + dc, 0]
+                    p3y = pts[r + dr, c + dc, 1]
+                    p3z = pts[r + dr, c + dc, 2]
+                    a2x = p3x - a1x
+                    a2y = p3y - a1y
+                    a2z = p3z - a1z
+                    a1x -= a0x
+                    a1y -= a0y
+                    a1z -= a0z
+                    a0x -= p0x
+                    a0y -= p0y
+                    a0z -= p0z
+                    ln = 0.0
+                    for g in range(ng):
+                        t = gt[g]
+                        u = 1.0 - t
+                        c0 = 3.0 * u * u
+                        c1_ = 6.0 * u * t
+                        c2 = 3.0 * t * t
+                        dx = c0 * a0x + c1_ * a1x + c2 * a2x
+                        dy = c0 * a0y + c1_ * a1y + c2 * a2y
+                        dz = c0 * a0z + c1_ * a1z + c2 * a2z
+                        ln += gw[g] * math.sqrt(dx * dx + dy * dy + dz * dz)
+                else:
+                    dx = pts[r + dr, c + dc, 0] - pts[r, c, 0]
+                    dy = pts[r + dr, c + dc, 1] - pts[r, c, 1]
+                    dz = pts[r + dr, c + dc, 2] - pts[r, c, 2]
+                    ln = math.sqrt(dx * dx + dy * dy + dz * dz)
+                table[k, o] = ln
+                table[k3, ob] = ln
+    return index, table
+
+
+@numba.njit(cache=True)
+def _dijkstra_table(valid, index, table, seed_idx, seed_dist, offsets, nbr, lut, wavefront, stop,
+                    dist, done, pos, heap):
+    """:func:`_dijkstra` on precomputed step lengths (``index``, ``table`` of
+    :func:`_step_table_kernel`), stopping once the smallest open distance exceeds ``stop`` (mm);
+    ``dist``, ``done``, ``pos``, ``heap`` (n = H·W) are caller-owned work arrays, reset here."""
+    h, w = valid.shape
+    R = (lut.shape[0] - 1) // 2
+    dist[:] = np.inf
+    done[:] = False
+    pos[:] = -1
+    size = 0
+    for s in range(seed_idx.shape[0]):
+        i = seed_idx[s]
+        if seed_dist[s] < dist[i]:
+            dist[i] = seed_dist[s]
+            if pos[i] < 0:
+                heap[size] = i
+                pos[i] = size
+                size += 1
+            _sift_up(heap, pos, dist, pos[i])
+    nofs = offsets.shape[0]
+    while size > 0:
+        node = heap[0]
+        d0 = dist[node]
+        if d0 > stop:
+            break
+        size -= 1
+        if size > 0:
+            heap[0] = heap[size]
+            pos[heap[0]] = 0
+            _sift_down(heap, pos, dist, 0, size)
+        done[node] = True
+        r = node // w
+        c = node - r * w
+        kn = index[r, c]
+        for o in range(nofs):
+            rr = r + offsets[o, 0]
+            cc = c + offsets[o, 1]
+            if rr < 0 or cc < 0 or rr >= h or cc >= w:
+                continue
+            nb = rr * w + cc
+            if done[nb] or not valid[rr, cc]:
+                continue
+            la = table[kn, o]
+            if la < 0.0:
+                continue
+            best = dist[nb]
+            if d0 + la < best:
+                best = d0 + la
+            if wavefront:
+                for e in range(2):
+                    ob = nbr[o, e]
+                    br = rr - offsets[ob, 0]
+                    bc = cc - offsets[ob, 1]
+                    if br < 0 or bc < 0 or br >= h or bc >= w or not done[br * w + bc]:
+                        continue
+                    oc = lut[br - r + R, bc - c + R]
+                    if oc < 0:
+                        continue
+                    lcc = table[kn, oc]
+                    if lcc < 0.0:
+                        continue
+                    lb = table[index[br, bc], ob]
+                    if lb < 0.0:
+                        continue
+                    vs = _virtual_source(la, lb, lcc, d0, dist[br * w + bc])
+                    if vs < best:
+                        best = vs
+            if best < dist[nb]:
+                dist[nb] = best
+                if pos[nb] < 0:
+                    heap[size] = nb
+                    pos[nb] = size
+                    size += 1
+                _sift_up(heap, pos, dist, pos[nb])
+    out = dist.reshape(h, w).copy()
+    for i in range(h * w):
+        if not done[i]:
+            out.flat[i] = np.inf
+    return out
+
+
+@dataclass
+class StepTable:
+    """Per-frame step lengths of one point map, shared by every source on that frame.
+
+    ``index`` (H, W) int64 compact node id (−1 invalid); ``lengths`` (n_valid, n_offsets) float64
+    mm, the Bézier arc length (Eq. 6.8) or chord of every marching step (−1 invalid);
+    ``offsets`` (n_offsets, 2) the marching directions; ``bezier`` whether Bézier lengths.
+    The Dijkstra work arrays (n = H·W) are allocated once and reused by every search.
+    """
+    points: np.ndarray
+    valid: np.ndarray
+    index: np.ndarray
+    lengths: np.ndarray
+    offsets: np.ndarray
+    bezier: bool
+    work: tuple
+
+
+def step_table(points: np.ndarray, radius: int = 3, bezier: bool = True) -> StepTable:
+    """Compute every marching step length of ``points`` once (Eq. 6.7–6.8), for
+    :func:`bezier_geodesic` ``steps=`` (two anchors on one frame then share the work).
+
+    Parameters
+    ----------
+    points : (H, W, 3) float, mm, NaN where invalid.
+    radius : marching window half-size (3 = 7×7, 32 directions); 1 with ``bezier=False`` is the
+        8-neighbour grid of :func:`grid_geodesic`.
+    bezier : Bézier arc lengths (True) or chords.
+
+    Returns
+    -------
+    StepTable ; memory 8·32 B per valid pixel for the 7×7 window (plus 25 B per pixel of work
+    arrays).
+    """
+    pts = check_point_map(points)
+    valid = np.isfinite(pts).all(axis=2)
+    offsets = MARCH_OFFSETS if radius == 3 else _march_offsets(int(radius))
+    filled = np.where(valid[..., None], pts, 0.0)
+    cr, cc, cw = _control_stencils(offsets)
+    lut = _wavefront_tables(offsets)[1]
+    R = (lut.shape[0] - 1) // 2
+    opposite = lut[R - offsets[:, 0], R - offsets[:, 1]]
+    index, lengths = _step_table_kernel(filled, valid, offsets, opposite, bool(bezier), _GL_T, _GL_W, cr, cc, cw)
+    n = valid.size
+    work = (np.empty(n), np.empty(n, np.bool_), np.empty(n, np.int64), np.empty(n, np.int64))
+    return StepTable(pts, valid, index, lengths, offsets, bool(bezier), work)
+
+
+def _run_table(steps: StepTable, source, wavefront, seed_radius, stop_distance):
+    idx, d = _seeds(steps.points, steps.valid, source, seed_radius)
+    nbr, lut = _wavefront_tables(steps.offsets)
+    stop = np.inf if stop_distance is None else float(stop_distance)
+    return _dijkstra_table(steps.valid, steps.index, steps.lengths, idx, d, steps.offsets, nbr, lut,
+                           bool(wavefront), stop, *steps.work)
+
+
 def _wavefront_tables(offsets: np.ndarray):
     """Angular neighbours ``(n, 2)`` of every marching direction (consecutive directions of a
     primitive stencil form unimodular "Farey" pairs, so the triangle (x, x − a, x − b) holds no
@@ -366,11 +608,15 @@ def seeds_from_pixel(points: np.ndarray, uv, radius: float = 1.0) -> tuple[np.nd
     Raises ``ValueError`` when the source is outside the map or on invalid pixels.
     """
     pts = check_point_map(points)
+    return _seeds(pts, np.isfinite(pts).all(axis=2), uv, radius)
+
+
+def _seeds(pts, valid, uv, radius):
+    """:func:`seeds_from_pixel` on a checked map and its validity mask (H, W) bool."""
     h, w, _ = pts.shape
     u, v = float(uv[0]), float(uv[1])
     if not (0.0 <= u <= w - 1 and 0.0 <= v <= h - 1):
         raise ValueError(f"source pixel (u={u:.2f}, v={v:.2f}) is outside the {w}×{h} point map")
-    valid = np.isfinite(pts).all(axis=2)
     src = np.empty(3)
     if not _bilinear(pts, valid, v, u, src):
         raise ValueError(f"source pixel (u={u:.2f}, v={v:.2f}) lies on invalid (NaN) pixels of the point map; "
@@ -401,7 +647,8 @@ def _run(points, source, offsets, bezier, wavefront=False, seed_radius=1.0):
 
 
 def bezier_geodesic(points: np.ndarray, source, radius: int = 3, wavefront: bool = True,
-                    seed_radius: float = 3.0) -> np.ndarray:
+                    seed_radius: float = 3.0, stop_distance: float | None = None,
+                    steps: StepTable | None = None) -> np.ndarray:
     """Geodesic distance map from ``source`` by the 7×7 Bézier Dijkstra (Eq. 6.7–6.8).
 
     Parameters
@@ -421,10 +668,17 @@ def bezier_geodesic(points: np.ndarray, source, radius: int = 3, wavefront: bool
         uniformly spread directions). Costs about 2× the edge-only run.
     seed_radius : pixels around the sub-pixel source whose nodes start at their exact (chord)
         distance to it (:func:`seeds_from_pixel`); 1 seeds only the source's cell.
+    stop_distance : mm or None. The search stops once the smallest open distance exceeds it:
+        every node with D ≤ stop_distance gets exactly the full search's value (Dijkstra settles
+        nodes in increasing D), farther nodes are ``inf``. None searches the whole map.
+    steps : optional :func:`step_table` of ``points`` (same ``radius``, Bézier): the step lengths
+        are then computed once per frame and shared by every source, and the search runs on the
+        table (same distances as without it; ``points`` is then not re-read).
 
     Returns
     -------
-    (H, W) float64 geodesic distance in mm; ``inf`` at invalid or unreachable pixels.
+    (H, W) float64 geodesic distance in mm; ``inf`` at invalid or unreachable pixels (and, with
+    ``stop_distance``, beyond it).
 
     Example
     -------
@@ -437,6 +691,13 @@ def bezier_geodesic(points: np.ndarray, source, radius: int = 3, wavefront: bool
     """
     if not (isinstance(radius, (int, np.integer)) and 1 <= radius <= 10):
         raise ValueError(f"radius must be an integer in 1..10 (pixels); got {radius!r}")
+    if steps is not None or stop_distance is not None:
+        if steps is None:
+            steps = step_table(points, radius)
+        elif not steps.bezier or len(steps.offsets) != len(_march_offsets(int(radius))):
+            raise ValueError(f"steps were computed for another window or step kind; expected radius={radius}, "
+                             "Bézier lengths")
+        return _run_table(steps, source, wavefront, seed_radius, stop_distance)
     return _run(points, source, MARCH_OFFSETS if radius == 3 else _march_offsets(int(radius)), True, wavefront,
                 seed_radius)
 

@@ -311,7 +311,7 @@ class WingSequence:
 
 def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, window: int = 11,
                   reference: int = 0, method: str = "bezier", radius: int = 3, fill_dots: int = 0,
-                  progress=None) -> WingSequence:
+                  progress=None, stop_margin: float | None = 0.1) -> WingSequence:
     """Track ``query_uv`` (N,2) of the reference frame through ``frames`` and compute strain.
 
     frames : sequence of F point maps (H, W, 3) mm (or a callable i -> map, with ``len``).
@@ -323,6 +323,12 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
     Tracking: Eq. 6.9 (:func:`fringe3d.analyze.tracking.track_points`); strain: Eq. 6.11–6.21
     with the direction towards the farther anchor as the material direction.
     ``progress``: optional callable advanced once per frame.
+    stop_margin : on the deformed frames each anchor's geodesic search stops at
+        ``(1 + stop_margin) · max_k d_k`` (mm), the farthest query point's reference distance
+        plus a relative margin (an inextensible wing keeps its geodesic distances; the margin
+        covers noise and the tracker's sub-pixel neighbourhood); None searches the whole map.
+    Frames are read one at a time (``frames[i]``), so memory does not grow with F beyond the
+    (F, N) result arrays.
     """
     anchors = np.asarray(anchors, dtype=np.float64)
     nf = len(frames)
@@ -339,6 +345,10 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
     side = side_of_line(q, *anchors[reference])
     # material direction: towards the farther anchor (well defined, same choice in every frame)
     far = np.where(d[:, 0] >= d[:, 1], 0, 1)
+    stop = None
+    if stop_margin is not None:
+        dmax = np.array([np.max(c[np.isfinite(c)], initial=0.0) for c in d.T])
+        stop = np.where(dmax > 0, (1.0 + float(stop_margin)) * dmax, np.inf)
 
     def toward(pts, a):
         return sample_bilinear(pts, a, **SURFACE_SAMPLING)[far]
@@ -358,7 +368,7 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
             res, okt = np.zeros(n), np.isfinite(d).all(axis=1)
         else:
             try:
-                D1, D2 = distance_maps(pts, anchors[f], method, radius)
+                D1, D2 = distance_maps(pts, anchors[f], method, radius, stop_distance=stop)
             except ValueError as e:
                 raise ValueError(f"frame {f}: {e}") from None
             tr = track_points(d[:, 0], d[:, 1], D1, D2, side, anchors[f])

@@ -29,6 +29,26 @@ from .anchors import (
 from .strain import wing_sequence
 
 
+class _StrainImages:
+    """The per-frame dominant-strain images (H, W) float, NaN off the wings, drawn on demand from
+    the tracked points (so the GIF does not hold F full-resolution maps in memory)."""
+
+    def __init__(self, results, shape, radius: int, frames: int):
+        self.results, self.shape, self.radius, self.frames = results, shape, radius, frames
+
+    def __len__(self) -> int:
+        return self.frames
+
+    def __getitem__(self, f: int) -> np.ndarray:
+        if not 0 <= f < self.frames:
+            raise IndexError(f)
+        img = np.full(self.shape, np.nan)
+        for r in self.results:
+            part = scatter_to_image(r.uv[f][r.ok[f]], r.dominant[f][r.ok[f]], self.shape, radius=self.radius)
+            img = np.where(np.isfinite(part), part, img)
+        return img
+
+
 def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window: int = 11, step: int = 4,
                wings: int = 1, radius: int = 3, reference: int = 0, figures: bool = True, fill_dots: int = 8) -> dict:
     """Track a wing sequence and map its bending strain (Eq. 6.9-6.21): everything
@@ -54,14 +74,14 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         for x in a:
             check_anchor(filled, x)
     per_frame = follow_anchors(seq.texture if seq.has_texture else None, len(seq), start)
-    maps = [seq[i] for i in range(len(seq))]  # loads and checks every frame's shape up front
     results = []
     with progress_bar("tracking + strain", total=len(seq) * len(start)) as advance:
         for w, a in enumerate(start):
             q = query_grid(ref, a, step, margin=window // 2)
             if len(q) == 0:
                 raise ValueError(f"wing {w}: no surface pixels around the anchors to track")
-            results.append(wing_sequence(maps, per_frame[:, w], q, thickness, window, reference, radius=radius,
+            # frames streamed: wing_sequence reads seq[i] (checked shape, float64) one at a time
+            results.append(wing_sequence(seq, per_frame[:, w], q, thickness, window, reference, radius=radius,
                                          fill_dots=fill_dots, progress=advance))
     # outputs (each file atomic)
     out = Path(out)
@@ -79,15 +99,10 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
     if figures:
         allv = np.concatenate([np.abs(r.dominant[r.ok]) for r in results])
         vmax = float(np.percentile(allv, 99)) if allv.size else 1e-6
-        images = []
+        images = _StrainImages(results, seq.shape[:2], max(step // 2, 1), len(seq))
         for f in range(len(seq)):
-            img = np.full(seq.shape[:2], np.nan)
-            for r in results:
-                part = scatter_to_image(r.uv[f][r.ok[f]], r.dominant[f][r.ok[f]], seq.shape[:2],
-                                        radius=max(step // 2, 1))
-                img = np.where(np.isfinite(part), part, img)
-            images.append(img)
-            strain_map_png(out / "maps" / f"strain_{f:05d}.png", img, f"dominant bending strain, frame {f}", vmax)
+            strain_map_png(out / "maps" / f"strain_{f:05d}.png", images[f], f"dominant bending strain, frame {f}",
+                           vmax)
         strain_animation(out / "strain.gif", images, [f"frame {f}" for f in range(len(seq))], vmax)
     summary = {
         "frames": len(seq), "wings": len(results), "points_per_wing": [int(len(r.ref_uv)) for r in results],
