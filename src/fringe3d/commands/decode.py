@@ -10,6 +10,7 @@ import typer
 from fringe3d.decode import DecodeOptions, decode_sequence, with_method
 from fringe3d.io.capture import read_capture
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
+from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.commands.checks import check_number
 from fringe3d.optics import Rig
 from fringe3d.decode.result import SUMMARY_NAME
@@ -85,6 +86,8 @@ def register(app: typer.Typer) -> None:
         black_thr: float = typer.Option(None, "--black-thr",
                                         help="Code-only decoding: smallest white-black difference, the shadow "
                                              "mask (counts; default OpenCV's 40 at 8 bits, scaled)."),
+        edge_mask: bool = edge_mask_option(),
+        edge_margin: float = edge_margin_option(),
         overwrite: bool = overwrite_option(),
         allow_empty: bool = allow_empty_option(),
         json_: bool = typer.Option(False, "--json", help="Print one JSON summary instead of a table."),
@@ -100,10 +103,11 @@ def register(app: typer.Typer) -> None:
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
         check_number(min_modulation, "--min-modulation", minimum=0)
+        check_number(edge_margin, "--edge-margin", minimum=0)
         cap = read_capture(capture, max_cycles=max_cycles)
         bits = bit_depth if bit_depth is not None else cap.meta.get("bit_depth")
         opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1,
-                "white_thr": white_thr, "black_thr": black_thr}
+                "white_thr": white_thr, "black_thr": black_thr, "edge_mask": edge_mask, "edge_margin": edge_margin}
         patterns = cap.patterns if method is None else with_method(cap.patterns, method)
         if ftp_window is not None:
             opts["ftp_window"] = ftp_window

@@ -15,6 +15,7 @@ from typing import Any, Iterator
 
 import numpy as np
 
+from fringe3d.decode.assess import assess
 from fringe3d.decode.context import DecodeContext, phase_groups
 from fringe3d.decode.methods import method_for
 from fringe3d.decode.options import DecodeOptions
@@ -176,10 +177,19 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
             mask = np.asarray(mask, dtype=bool) & np.isfinite(phi)
             phase = np.where(mask, phi, np.nan).astype(np.float32)
         d = plan.direction
+        period = float(result.period if result.period is not None else g.period)  # type: ignore[union-attr]
+        average = result.average if result.average is not None or g is None else ctx.group_phase(g).average
+        a = assess(ctx, phase, mask, np.asarray(modulation, np.float32),
+                   np.asarray(average if average is not None else modulation, np.float32), period)
+        if opts.edge_mask:
+            mask = mask & (a.quality == 0)
+            phase = np.where(mask, phase, np.float32(np.nan)).astype(np.float32, copy=False)
+        out.quality[d], out.phase_sigma[d] = a.quality, a.phase_sigma
+        out.info.setdefault("quality", {})[d] = a.info
         out.phase[d], out.mask[d] = phase, mask
         out.wrapped[d] = np.asarray(wrapped, np.float32)
         out.modulation[d] = np.asarray(modulation, np.float32)
-        out.period[d] = float(result.period if result.period is not None else g.period)  # type: ignore[union-attr]
+        out.period[d] = period
         out.angle[d] = float(plan.angle)
         out.method[d] = plan.method
         if first is None:
