@@ -8,8 +8,11 @@ On the macro rig (camera scaled to 320 x 256, same field of view), blurred proje
   (true ``u_p`` within the margin of the border) without and with the edge mask; flatness
   (VDI/VDE 2634-2 ``F``, range of residuals) with the defaults vs on clean pixels only; the
   largest distance of a kept point from the true plane;
-* a sphere (r = 40 mm) in front of a plane: ``P_F`` and fit RMS with the defaults, without the
-  mask, and on clean pixels (true object = sphere, away from its silhouette and shadow);
+* a sphere (r = 40 mm, z = 450 mm) 70 mm in front of a plane, with a 0.5 px camera blur (the
+  simulator samples each pixel at its centre; the blur mixes neighbouring pixels as a real pixel
+  footprint and lens do, which makes mixed silhouette / shadow-edge pixels): ``P_F`` and fit RMS
+  with the defaults, without the mask, and on clean pixels (true object = sphere, 3 px inside its
+  silhouette and shadow), with the preset's noise and noise-free (16 bit);
 * predicted ``sigma_z`` vs the observed per-pixel spread of z over ``--seeds`` noise seeds
   (the noiseless irradiance is rendered once; each seed runs the simulator's sensor model).
 
@@ -59,6 +62,13 @@ def noisy(irr: np.ndarray, settings, seed: int) -> np.ndarray:
     return np.stack([sense(irr[k], s, k) for k in range(irr.shape[0])])
 
 
+def reconstruct_both(rig, ps, settings, frames):
+    """(with the default masks, without the edge / mixed-pixel masks) :class:`Cycle` s of ``frames``."""
+    on = FrameReconstructor(ps, rig, DecodeOptions(bit_depth=settings.bit_depth)).reconstruct(frames, False)
+    off = FrameReconstructor(ps, rig, DecodeOptions(bit_depth=settings.bit_depth, edge_mask=False))
+    return on, off.reconstruct(frames, False)
+
+
 def plane_scene():
     return Scene([Plane((0.0, 0.0, Z_PLANE), NORMAL, albedo=0.8)])
 
@@ -71,8 +81,7 @@ def plane_distance(pts: np.ndarray) -> np.ndarray:
 def plane_figures(rig, ps, settings, seed: int = 1) -> dict:
     irr, truth = irradiance(plane_scene(), rig, ps, settings)
     frames = noisy(irr, settings, seed)
-    on = FrameReconstructor(ps, rig, DecodeOptions(bit_depth=8)).reconstruct(frames)
-    off = FrameReconstructor(ps, rig, DecodeOptions(bit_depth=8, edge_mask=False)).reconstruct(frames, False)
+    on, off = reconstruct_both(rig, ps, settings, frames)
     up = np.asarray(truth.up, np.float64)
     lo, hi = -0.5, rig.projector.width - 0.5
     margin = 6.0  # 2 px + 2 sigma_b for the 2 px blur
@@ -103,10 +112,10 @@ def sphere_scene():
 
 
 def sphere_figures(rig, ps, settings, seed: int = 1) -> dict:
+    settings = settings.replace(camera_blur=0.5)
     irr, truth = irradiance(sphere_scene(), rig, ps, settings)
     frames = noisy(irr, settings, seed)
-    on = FrameReconstructor(ps, rig, DecodeOptions(bit_depth=8)).reconstruct(frames, False)
-    off = FrameReconstructor(ps, rig, DecodeOptions(bit_depth=8, edge_mask=False)).reconstruct(frames, False)
+    on, off = reconstruct_both(rig, ps, settings, frames)
     sphere = np.asarray(truth.object_id) == 0
     lit = np.asarray(truth.mask, bool)
     clean = ndimage.binary_erosion(sphere & lit & np.isfinite(off.points[..., 0]), iterations=3)
@@ -119,7 +128,7 @@ def sphere_figures(rig, ps, settings, seed: int = 1) -> dict:
 
 def sigma_figures(rig, ps, settings, seeds: int) -> dict:
     irr, _ = irradiance(plane_scene(), rig, ps, settings)
-    rec = FrameReconstructor(ps, rig, DecodeOptions(bit_depth=8))
+    rec = FrameReconstructor(ps, rig, DecodeOptions(bit_depth=settings.bit_depth))
     zs, sig = [], []
     for s in range(seeds):
         c = rec.reconstruct(noisy(irr, settings, 100 + s))
@@ -142,7 +151,9 @@ def main() -> None:
     ap.add_argument("--scale", type=float, default=0.25)
     a = ap.parse_args()
     rig, ps, st = setup(a.scale)
+    quiet = st.replace(shot_noise=False, read_noise=0.0, bit_depth=16)
     print(json.dumps({"plane": plane_figures(rig, ps, st), "sphere": sphere_figures(rig, ps, st),
+                      "sphere_noise_free": sphere_figures(rig, ps, quiet),
                       "sigma_z": sigma_figures(rig, ps, st, a.seeds)}, indent=1))
 
 

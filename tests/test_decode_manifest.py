@@ -11,7 +11,7 @@ from fringe3d.decode import DecodeOptions, Decoded, Unwrapped, decode, decode_se
 from fringe3d.patterns import sets
 from fringe3d.patterns.render import sinusoid_value
 from fringe3d.phase.quality import FrameQualityWarning
-from fringe3d.decode import methods
+from fringe3d.decode import edges, methods
 
 H, W = 96, 128
 A, B = 110.0, 80.0
@@ -147,7 +147,8 @@ def test_saturated_frames_warn_and_saturated_pixels_are_masked():
     with pytest.warns(FrameQualityWarning, match="saturated"):
         d = decode(frames, ps)
     assert not d.mask["v"][:, : W // 2].any()
-    assert d.mask["v"][:, W // 2:].all()
+    assert d.mask["v"][:, W // 2 + 1:].all()
+    assert (d.quality["v"][:, W // 2] == edges.RIM).all()  # the one-pixel rim next to the saturated half
 
 
 def test_unknown_method_error_names_method_and_known_ones(monkeypatch):

@@ -15,8 +15,8 @@ from fringe3d.phase.psp import wrapped_phase
 
 
 def test_bits_are_distinct_powers_of_two_and_named():
-    bits = [edges.INVALID, edges.EDGE, edges.INCONSISTENT, edges.GRADIENT, edges.MOD_DROP]
-    assert bits == [1, 2, 4, 8, 16] and set(edges.BITS) == set(bits)
+    bits = [edges.INVALID, edges.EDGE, edges.INCONSISTENT, edges.GRADIENT, edges.MOD_DROP, edges.RIM]
+    assert bits == [1, 2, 4, 8, 16, 32] and set(edges.BITS) == set(bits)
 
 
 def test_edge_band_marks_coordinates_within_the_margin_of_the_extent():
@@ -45,10 +45,10 @@ def test_gradient_and_modulation_tests_mark_a_depth_step_and_a_dim_pixel():
     w[:, 10:] += 40.0                           # a depth edge between columns 9 and 10
     valid = np.ones(w.shape, bool)
     jump = edges.gradient_jump(w, valid, 4.0, 1.0)
-    assert jump[:, 9:11].all() and not jump[:, :9].any() and not jump[:, 11:].any()
+    assert jump[:, 8:12].all() and not jump[:, :8].any() and not jump[:, 12:].any()  # both sides, grown by 1
     mod = np.full(w.shape, 50.0, np.float32)
     mod[5, 5] = 20.0
-    drop = edges.modulation_drop(mod, valid, 0.5)
+    drop = edges.modulation_drop(mod, np.full(w.shape, 100.0), valid, 0.5)
     assert drop[5, 5] and drop.sum() == 1
 
 

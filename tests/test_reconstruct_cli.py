@@ -48,9 +48,10 @@ def test_noise_free_capture_reconstructs_truth_within_1um(ideal_capture, tmp_pat
     P = np.load(out / "points.npy")
     t = Truth.load(ideal_capture)
     ok = np.isfinite(P[..., 0]) & t.mask
-    # 99 % before issue 15: the default edge / mixed-pixel mask also drops the projector-border band
-    # and the silhouette pixels (~1.7 % of the lit pixels), which this ideal render gets right
-    assert ok.sum() > 0.98 * t.mask.sum()
+    # 99 % before issue 15: the default edge / mixed-pixel mask also drops the projector-border band,
+    # the silhouette pixels and a one-pixel rim around unlit / shadowed pixels (~3.6 % of the lit
+    # pixels), which this ideal render (point-sampled pixels, no blur) gets right
+    assert ok.sum() > 0.95 * t.mask.sum()
     assert np.max(np.linalg.norm(P[ok] - t.xyz[ok], axis=-1)) < 1e-3  # mm
     quality = tifffile.imread(out / "quality.tif")
     assert quality.dtype == np.uint8 and np.array_equal(quality == 0, np.isfinite(P[..., 0]))

@@ -86,8 +86,8 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
                                       [g.period for g in coarse])
     margin = edges.BASE_MARGIN + 2.0 * blur if opts.edge_margin is None else float(opts.edge_margin)
     lo, hi = ctx.w_range()
-    q = edges.quality_map(mask, w, (lo - 0.5, hi + 0.5), margin, modulation, residual,
+    q = edges.quality_map(mask, w, (lo - 0.5, hi + 0.5), margin, modulation, average, residual,
                           max_disagreement=float(opts.max_disagreement), gradient_ratio=float(opts.gradient_ratio),
-                          modulation_ratio=float(opts.modulation_ratio))
+                          modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim))
     info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})
     return Assessment(q, sigma_phi, info)

@@ -13,9 +13,13 @@ EDGE          2      fringe coordinate ``w`` within ``margin`` of the pattern's 
 INCONSISTENT  4      the multi-frequency phases disagree: ``max_g |wrap(phi_g - Phi T_0/T_g)|``
                      above ``max_disagreement`` rad (the unwrapping residual)
 GRADIENT      8      ``w`` jumps to a 4-neighbour by more than ``gradient_ratio`` times the
-                     local (5 x 5 median) jump and ``gradient_floor`` px (depth edges)
-MOD_DROP      16     modulation below ``modulation_ratio`` times the local (5 x 5 median)
-                     modulation of valid pixels (silhouette and shadow-edge mixed pixels)
+                     local (5 x 5 median) jump and ``gradient_floor`` px (depth edges),
+                     grown by one pixel
+MOD_DROP      16     fringe contrast ``B / A`` below ``modulation_ratio`` times the largest
+                     contrast of the valid 5 x 5 neighbours (silhouette, shadow-edge and
+                     spill pixels; independent of the albedo)
+RIM           32     within ``rim`` pixels (4-connected) of an INVALID pixel: the rim of a
+                     silhouette, shadow or unlit region, mixed by the pixel footprint and blur
 ============  =====  ==================================================================
 
 The pattern extent along the fringe direction is ``[w_min - 1/2, w_max + 1/2]`` (pixel edges
@@ -36,9 +40,11 @@ EDGE = 2
 INCONSISTENT = 4
 GRADIENT = 8
 MOD_DROP = 16
+RIM = 32
 
 #: Bit -> name, for summaries and docs.
-BITS = {INVALID: "invalid", EDGE: "edge", INCONSISTENT: "inconsistent", GRADIENT: "gradient", MOD_DROP: "mod_drop"}
+BITS = {INVALID: "invalid", EDGE: "edge", INCONSISTENT: "inconsistent", GRADIENT: "gradient", MOD_DROP: "mod_drop",
+        RIM: "rim"}
 
 #: Base margin (projector px) added to the blur width.
 BASE_MARGIN = 2.0
@@ -100,26 +106,34 @@ def _neighbour_jump(w: np.ndarray, valid: np.ndarray) -> np.ndarray:
 
 def gradient_jump(w: np.ndarray, valid: np.ndarray, ratio: float, floor: float) -> np.ndarray:
     """(H, W) bool: the jump of ``w`` (px) to a valid 4-neighbour exceeds ``ratio`` times its
-    5 x 5 median and ``floor`` px (depth discontinuities; both sides of the jump are set)."""
+    5 x 5 median and ``floor`` px (depth discontinuities; both sides of the jump are set), grown
+    by one pixel (8-connected)."""
     g = _neighbour_jump(w, valid)
     ref = ndimage.median_filter(g, size=5, mode="nearest")
-    return valid & (g > np.maximum(ratio * ref, floor))
+    # grown by one pixel: a mixed pixel halfway up a step has two half-size jumps, its neighbours a full one
+    return valid & ndimage.binary_dilation(valid & (g > np.maximum(ratio * ref, floor)), np.ones((3, 3), bool))
 
 
-def modulation_drop(modulation: np.ndarray, valid: np.ndarray, ratio: float) -> np.ndarray:
-    """(H, W) bool: modulation below ``ratio`` times the 5 x 5 median of the valid pixels'
-    modulation (invalid pixels count as 0, so a pixel with only half its neighbours valid and
-    half their modulation is set)."""
-    b = np.where(valid, modulation, 0.0).astype(np.float32)
-    ref = ndimage.median_filter(b, size=5, mode="nearest")
-    return valid & (b < ratio * ref)
+def modulation_drop(modulation: np.ndarray, average: np.ndarray, valid: np.ndarray, ratio: float) -> np.ndarray:
+    """(H, W) bool: fringe contrast ``B / A`` below ``ratio`` times the largest contrast of the
+    valid pixels in the 5 x 5 neighbourhood.
+
+    The contrast does not depend on the albedo, so texture does not trigger it; it drops where a
+    pixel mixes two phases (a silhouette before a lit background: the fringes partly cancel while
+    the averages add) and where the light is projector spill beyond its border.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = np.where(valid & (average > 0), modulation / average, 0.0).astype(np.float32)
+    ref = ndimage.grey_dilation(c, size=(5, 5), mode="nearest")
+    return valid & (c < ratio * ref)
 
 
 def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[float, float] | None = None,
                 margin: float = BASE_MARGIN, modulation: np.ndarray | None = None,
-                residual: np.ndarray | None = None, max_disagreement: float = math.inf,
+                average: np.ndarray | None = None, residual: np.ndarray | None = None,
+                max_disagreement: float = math.inf,
                 gradient_ratio: float = 4.0, gradient_floor: float = 1.0,
-                modulation_ratio: float = 0.5) -> np.ndarray:
+                modulation_ratio: float = 0.5, rim: int = 1) -> np.ndarray:
     """(H, W) uint8 quality map (bits of the module docstring) of one direction.
 
     Parameters
@@ -132,12 +146,14 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
         The pattern's extent along ``w`` (px); None skips EDGE.
     margin : float
         EDGE band width (projector px).
-    modulation : (H, W) float, optional
-        Modulation ``B``; None skips MOD_DROP.
+    modulation, average : (H, W) float, optional
+        Modulation ``B`` and average ``A``; None skips MOD_DROP.
     residual : (H, W) float, optional
         Unwrapping residual (rad, :func:`disagreement`); None skips INCONSISTENT.
     max_disagreement, gradient_ratio, gradient_floor, modulation_ratio : float
         Thresholds of INCONSISTENT (rad), GRADIENT (ratio, px) and MOD_DROP (ratio).
+    rim : int
+        RIM width in pixels (0: off).
     """
     valid = np.asarray(mask, bool)
     q = np.where(valid, 0, INVALID).astype(np.uint8)
@@ -148,9 +164,17 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
             q |= np.where(valid & (residual > max_disagreement), INCONSISTENT, 0).astype(np.uint8)
     if w is not None:
         q |= np.where(gradient_jump(w, valid, gradient_ratio, gradient_floor), GRADIENT, 0).astype(np.uint8)
-    if modulation is not None:
-        q |= np.where(modulation_drop(modulation, valid, modulation_ratio), MOD_DROP, 0).astype(np.uint8)
+    if modulation is not None and average is not None:
+        q |= np.where(modulation_drop(modulation, average, valid, modulation_ratio), MOD_DROP, 0).astype(np.uint8)
+    if rim > 0:
+        q |= np.where(rim_of_invalid(valid, rim), RIM, 0).astype(np.uint8)
     return q
+
+
+def rim_of_invalid(valid: np.ndarray, width: int) -> np.ndarray:
+    """(H, W) bool: valid pixels within ``width`` 4-connected steps of an invalid one (the image's
+    own border does not count)."""
+    return valid & ~ndimage.binary_erosion(valid, iterations=int(width), border_value=1)
 
 
 def bit_counts(q: np.ndarray) -> dict[str, int]:

@@ -59,7 +59,11 @@ class DecodeOptions:
         Phase-gradient test: a jump of ``w`` to a neighbour above this times the local median
         jump (and 1 projector px) is a depth edge (default 4).
     modulation_ratio : float
-        Modulation-drop test: modulation below this share of the local median (default 0.5).
+        Modulation-drop test: fringe contrast ``B / A`` below this share of the largest in the
+        5 x 5 neighbourhood (default 0.5).
+    rim : int
+        Mask this many pixels around every pixel the method's mask removed (silhouette, shadow
+        and unlit rims, mixed by the pixel footprint and blur; default 1, 0 turns it off).
     extra : mapping
         Further options for user-added methods (read as ``ctx.options.extra``).
 
@@ -90,4 +94,5 @@ class DecodeOptions:
     max_disagreement: float = 0.6
     gradient_ratio: float = 4.0
     modulation_ratio: float = 0.5
+    rim: int = 1
     extra: Mapping[str, Any] = field(default_factory=dict)

@@ -42,9 +42,9 @@ def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shi
     pr = wrapped_phase(frames, shifts=shifts, index=index)
     if options.edge_mask:
         margin = edges.BASE_MARGIN if options.edge_margin is None else float(options.edge_margin)
-        q = edges.quality_map(valid, w, extent, margin, pr.modulation, None,
+        q = edges.quality_map(valid, w, extent, margin, pr.modulation, pr.average, None,
                               gradient_ratio=float(options.gradient_ratio),
-                              modulation_ratio=float(options.modulation_ratio))
+                              modulation_ratio=float(options.modulation_ratio), rim=int(options.rim))
         points[q != 0] = np.nan
     else:
         q = np.where(valid, 0, edges.INVALID).astype(np.uint8)
