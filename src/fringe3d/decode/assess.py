@@ -14,6 +14,10 @@ from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase import noise
 
 
+#: Methods whose phase is relative (per object, Eq. 5.12), not a projector coordinate.
+RELATIVE_METHODS = ("spatial",)
+
+
 class Assessment(NamedTuple):
     """Quality map (H, W) uint8, phase sigma (H, W) float32 rad (NaN where unknown) and a
     small JSON-friendly dict (blur, margin, noise model, bit counts)."""
@@ -53,20 +57,23 @@ def noise_model(ctx: DecodeContext, groups: list[PhaseGroup], average: np.ndarra
 
 
 def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: np.ndarray,
-           average: np.ndarray, period: float) -> Assessment:
+           average: np.ndarray | None, period: float) -> Assessment:
     """Quality map and phase sigma of one direction.
 
     ``phase`` (H, W) absolute phase (rad, of ``period`` px), ``mask`` the method's mask,
-    ``modulation`` / ``average`` of the narrowest group. Only the INVALID bit is set with
-    ``ctx.options.edge_mask`` False, for code-only methods (no phase groups: the stripes' ``w``
-    steps by design) and for ``method="none"`` (a wrapped phase is not a fringe coordinate).
+    ``modulation`` / ``average`` of the narrowest group (``average`` None: a code-only method,
+    no phase groups). Only the INVALID bit is set with
+    ``ctx.options.edge_mask`` False, for code-only methods and FTP groups (no phase-shifted group
+    of 3 or more steps; code stripes' ``w`` steps by design) and for ``method="none"`` (a wrapped
+    phase is not a fringe coordinate).
     """
     opts = ctx.options
-    groups = _psp_groups(ctx)
+    groups = _psp_groups(ctx) if average is not None else []
     info: dict[str, Any] = {}
     mask = np.asarray(mask, bool)
     sigma_phi = np.full(mask.shape, np.nan, np.float32)
     if groups:
+        assert average is not None
         model, source = noise_model(ctx, groups, average, mask)
         info["noise"] = {"c0": model[0] if math.isfinite(model[0]) else None,
                          "c1": model[1] if math.isfinite(model[1]) else None, "source": source}
@@ -86,7 +93,9 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
                                       [g.period for g in coarse])
     margin = edges.BASE_MARGIN + 2.0 * blur if opts.edge_margin is None else float(opts.edge_margin)
     lo, hi = ctx.w_range()
-    q = edges.quality_map(mask, w, (lo - 0.5, hi + 0.5), margin, modulation, average, residual,
+    # a relative phase (one unknown 2 pi k per object) has no place on the projector: no EDGE test
+    extent = None if ctx.plan.method in RELATIVE_METHODS else (lo - 0.5, hi + 0.5)
+    q = edges.quality_map(mask, w, extent, margin, modulation, average, residual,
                           max_disagreement=float(opts.max_disagreement), gradient_ratio=float(opts.gradient_ratio),
                           modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim))
     info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})

@@ -179,8 +179,7 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         d = plan.direction
         period = float(result.period if result.period is not None else g.period)  # type: ignore[union-attr]
         average = result.average if result.average is not None or g is None else ctx.group_phase(g).average
-        a = assess(ctx, phase, mask, np.asarray(modulation, np.float32),
-                   np.asarray(average if average is not None else modulation, np.float32), period)
+        a = assess(ctx, phase, mask, np.asarray(modulation, np.float32), average, period)
         if opts.edge_mask:
             mask = mask & (a.quality == 0)
             phase = np.where(mask, phase, np.float32(np.nan)).astype(np.float32, copy=False)

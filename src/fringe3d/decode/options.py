@@ -49,6 +49,8 @@ class DecodeOptions:
         coordinate within ``edge_margin`` of the pattern's extent, multi-frequency phases that
         disagree by more than ``max_disagreement``, phase-gradient jumps and modulation drops.
         Each reason is a bit of ``Decoded.quality``; False keeps only the method's own mask.
+        Applies to directions with a phase-shifted group of 3 or more steps and an absolute phase
+        (not to code-only, FTP-only or ``method="none"`` directions).
     edge_margin : float, optional
         Width (projector px) of the masked band at the pattern's border; default
         ``2 + 2 sigma_b`` with ``sigma_b`` the blur estimated from two periods' modulation ratio
