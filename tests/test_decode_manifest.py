@@ -11,7 +11,7 @@ from fringe3d.decode import DecodeOptions, Decoded, Unwrapped, decode, decode_se
 from fringe3d.patterns import sets
 from fringe3d.patterns.render import sinusoid_value
 from fringe3d.phase.quality import FrameQualityWarning
-from fringe3d.decode import methods
+from fringe3d.decode import edges, methods
 
 H, W = 96, 128
 A, B = 110.0, 80.0
@@ -67,9 +67,17 @@ def test_calibration_set_both_directions_uint8_with_noise_exact_orders():
     ps = sets.calibration()
     frames = synthesize(ps, sigma=3.0, seed=1)
     d = decode(frames, ps)
-    for direction in ("v", "h"):
-        assert d.mask[direction].all()
-        assert not order_errors(d.phase[direction], true_phase(ps, direction)).any()
+    up, vp = projector_coords()
+    for direction, w, size in (("v", up, ps.width), ("h", vp, ps.height)):
+        # the closed-form frames carry fringes beyond the projector (v_p < 0 in the top-right
+        # corner), which no projector lights: exactly those and the edge band are masked
+        margin = d.info["quality"][direction]["edge_margin"]
+        band = (w < -0.5 + margin) | (w > size - 0.5 - margin)
+        inner = (w < -0.5 + margin - 0.1) | (w > size - 0.5 - margin + 0.1)  # decoded w carries noise
+        assert not (~d.mask[direction] & ~band).any() and not (inner & d.mask[direction]).any()
+        assert not order_errors(d.phase[direction], true_phase(ps, direction))[d.mask[direction]].any()
+    off = decode(frames, ps, options=DecodeOptions(edge_mask=False))  # the method's own mask only
+    assert off.mask["h"].all() and not order_errors(off.phase["h"], true_phase(ps, "h")).any()
     white = ps.indices(kind="white")[0]
     assert np.array_equal(d.texture, frames[white].astype(np.float32))
 
@@ -77,8 +85,11 @@ def test_calibration_set_both_directions_uint8_with_noise_exact_orders():
 def test_hierarchical_set_exact_orders_with_noise():
     ps = sets.hierarchical((16, 128, 1024), (4, 4, 4), "h")
     d = decode(synthesize(ps, sigma=3.0, seed=2), ps)
-    assert d.mask["h"].all()
-    assert not order_errors(d.phase["h"], true_phase(ps, "h")).any()
+    vp = projector_coords()[1]  # v_p < 0 in the top-right corner: off the projector, masked as edge
+    margin = d.info["quality"]["h"]["edge_margin"]
+    assert not (d.mask["h"] & (vp < -0.6 + margin)).any()
+    assert d.mask["h"][vp > -0.4 + margin].all()
+    assert not order_errors(d.phase["h"], true_phase(ps, "h"))[d.mask["h"]].any()
 
 
 def test_phase_plus_half_period_gray_code_exact_orders_with_noise():
@@ -136,7 +147,8 @@ def test_saturated_frames_warn_and_saturated_pixels_are_masked():
     with pytest.warns(FrameQualityWarning, match="saturated"):
         d = decode(frames, ps)
     assert not d.mask["v"][:, : W // 2].any()
-    assert d.mask["v"][:, W // 2:].all()
+    assert d.mask["v"][:, W // 2 + 1:].all()
+    assert (d.quality["v"][:, W // 2] == edges.RIM).all()  # the one-pixel rim next to the saturated half
 
 
 def test_unknown_method_error_names_method_and_known_ones(monkeypatch):
@@ -184,7 +196,11 @@ def test_decode_sequence_yields_one_result_per_cycle():
     results = list(decode_sequence(frames, ps))
     assert len(results) == 3
     for s, d in zip((0, 5, 10), results):
-        assert not order_errors(d.phase["v"], true_phase(ps, "v", shift=s)).any()
+        m = d.mask["v"]
+        assert not order_errors(d.phase["v"], true_phase(ps, "v", shift=s))[m].any()
+        # shifted by 10 px the view reaches the projector's right border: only that band is masked
+        margin = d.info["quality"]["v"]["edge_margin"]
+        assert (projector_coords(s)[0][~m] > ps.width - 0.5 - margin - 0.1).all()
     with pytest.raises(ValueError, match="not a whole number of cycles"):
         list(decode_sequence(frames[:-1], ps))
 
@@ -207,8 +223,9 @@ def test_max_residual_option_masks_exactly_the_pixels_with_large_unwrapping_resi
     ps = sets.three_frequency("v")
     frames = synthesize(ps, sigma=25.0, seed=3, dtype=np.float32)
     truth = true_phase(ps, "v")
-    strict = decode(frames, ps, options=DecodeOptions(min_modulation=1.0))
-    loose = decode(frames, ps, options=DecodeOptions(min_modulation=1.0, max_residual=math.pi))
+    # the fused kernel's residual check alone: the decoder's edge/mixed-pixel tests are off
+    strict = decode(frames, ps, options=DecodeOptions(min_modulation=1.0, edge_mask=False))
+    loose = decode(frames, ps, options=DecodeOptions(min_modulation=1.0, max_residual=math.pi, edge_mask=False))
     wrong_loose = loose.mask["v"] & (order_errors(loose.phase["v"], truth) != 0)
     wrong_strict = strict.mask["v"] & (order_errors(strict.phase["v"], truth) != 0)
     assert loose.mask["v"].all()          # only the residual check can mask here

@@ -5,6 +5,7 @@ import json
 
 import numpy as np
 import pytest
+import tifffile
 
 from fringe3d.cli import main
 from fringe3d.io.capture import read_capture, write_capture
@@ -47,8 +48,15 @@ def test_noise_free_capture_reconstructs_truth_within_1um(ideal_capture, tmp_pat
     P = np.load(out / "points.npy")
     t = Truth.load(ideal_capture)
     ok = np.isfinite(P[..., 0]) & t.mask
-    assert ok.sum() > 0.99 * t.mask.sum()
+    # 99 % before issue 15: the default edge / mixed-pixel mask also drops the projector-border band,
+    # the silhouette pixels and a one-pixel rim around unlit / shadowed pixels (~3.6 % of the lit
+    # pixels), which this ideal render (point-sampled pixels, no blur) gets right
+    assert ok.sum() > 0.95 * t.mask.sum()
     assert np.max(np.linalg.norm(P[ok] - t.xyz[ok], axis=-1)) < 1e-3  # mm
+    quality = tifffile.imread(out / "quality.tif")
+    assert quality.dtype == np.uint8 and np.array_equal(quality == 0, np.isfinite(P[..., 0]))
+    sigma_z = tifffile.imread(out / "sigma_z.tif")
+    assert np.array_equal(np.isfinite(sigma_z), np.isfinite(P[..., 0]))
     for name in ("depth.tif", "texture.tif", "points.ply", "reconstruct.json"):
         assert (out / name).exists()
     code, stdout, err = run(["evaluate", str(out), "--sphere", "--truth", str(ideal_capture), "--json"], capsys)

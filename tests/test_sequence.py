@@ -47,7 +47,11 @@ def test_window_index_puts_frames_in_manifest_order():
 
 def max_error(P, truth):
     ok = np.isfinite(P[..., 0]) & truth.mask
-    assert ok.sum() > 0.99 * truth.mask.sum()
+    # 99 % before issue 15; the default edge / mixed-pixel mask now also drops the projector-border
+    # band (~0.8 % here), the sphere's silhouette pixels (~0.9 %) and a one-pixel rim around the
+    # unlit and shadowed pixels (~1.9 %), which this ideal render (analytic sinusoids, point-sampled
+    # pixels, no blur) happens to get right
+    assert ok.sum() > 0.95 * truth.mask.sum()
     return float(np.max(np.linalg.norm(P[ok] - truth.xyz[ok], axis=-1)))
 
 

@@ -46,6 +46,13 @@ class Reconstruction:
         The manifest as decoded (after any method override).
     path : str
         Which code path reconstructed it (fused kernel or decode + triangulate).
+    quality : (H, W) uint8 or None
+        Why a pixel has no point, one bit per reason (OR over the fringe directions): 1 invalid
+        (modulation, saturation, code), 2 projector-edge band, 4 multi-frequency disagreement,
+        8 phase-gradient jump, 16 modulation drop (:mod:`fringe3d.decode.edges`); 0 = kept.
+    sigma_xyz : (H, W, 3) float32 or None
+        Predicted standard deviation of each coordinate (mm) from the phase noise
+        (:mod:`fringe3d.reconstruct.uncertainty`); NaN where invalid.
     """
 
     points: np.ndarray
@@ -53,15 +60,28 @@ class Reconstruction:
     mask: np.ndarray
     patterns: PatternSet
     path: str
+    quality: np.ndarray | None = None
+    sigma_xyz: np.ndarray | None = None
+
+    @property
+    def sigma_z(self) -> np.ndarray | None:
+        """(H, W) float32 predicted depth standard deviation (mm), NaN where invalid."""
+        return None if self.sigma_xyz is None else np.ascontiguousarray(self.sigma_xyz[..., 2])
 
     def save_ply(self, path: str | os.PathLike) -> Path:
         """Write the valid points as a PLY cloud coloured by the texture; returns the path."""
         return write_ply(Path(path), self.points, colors=self.texture)
 
     def save(self, out: str | os.PathLike, ply: bool = False, mesh: bool = False) -> dict:
-        """Write ``points.npy``, ``depth.tif``, ``texture.tif`` (+ ``points.ply``, with faces
-        when ``mesh``) into ``out``; see :func:`write_point_maps`."""
-        return write_point_maps(Path(out), self.points, self.texture, ply, mesh)
+        """Write ``points.npy``, ``depth.tif``, ``texture.tif``, ``quality.tif`` (uint8 bits),
+        ``sigma_z.tif`` (float32 mm) (+ ``points.ply``, with faces when ``mesh``) into ``out``;
+        see :func:`write_point_maps`."""
+        files = write_point_maps(Path(out), self.points, self.texture, ply, mesh)
+        if self.quality is not None:
+            files["quality"] = str(write_image(Path(out) / "quality.tif", self.quality.astype(np.uint8)))
+        if self.sigma_z is not None:
+            files["sigma_z"] = str(write_image(Path(out) / "sigma_z.tif", self.sigma_z.astype(np.float32)))
+        return files
 
     def summary(self) -> dict:
         """Valid share / count and depth range; see :func:`point_summary`."""
@@ -78,7 +98,8 @@ def check_sizes(rig: Rig, frames: np.ndarray, calibration) -> None:
 
 
 def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: float | None = None,
-                      triangulation: str = "auto", min_modulation: float | None = None) -> Reconstruction:
+                      triangulation: str = "auto", min_modulation: float | None = None, edge_mask: bool = True,
+                      edge_margin: float | None = None) -> Reconstruction:
     """Reconstruct the first pattern cycle of a capture in memory.
 
     Parameters
@@ -95,18 +116,24 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
         Closed form or least squares (Eq. 2.37).
     min_modulation : float, optional
         Modulation threshold (camera counts); default from the bit depth.
+    edge_mask : bool
+        Mask edge and mixed pixels (:class:`fringe3d.decode.DecodeOptions` ``edge_mask``).
+    edge_margin : float, optional
+        Projector-edge band (projector px); default 2 px + twice the estimated blur.
     """
     ps = with_method(cap.patterns, method)
-    options = DecodeOptions(z_min=z_min, bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation)
+    options = DecodeOptions(z_min=z_min, bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation,
+                            edge_mask=edge_mask, edge_margin=edge_margin)
     rec = FrameReconstructor(ps, rig, options, triangulation=triangulation)
-    points, texture = rec(np.ascontiguousarray(cap.frames), with_texture=True)
-    return Reconstruction(points=points, texture=texture, mask=np.isfinite(points[..., 0]), patterns=ps,
-                          path=rec.path)
+    c = rec.reconstruct(np.ascontiguousarray(cap.frames))
+    return Reconstruction(points=c.points, texture=c.texture, mask=np.isfinite(c.points[..., 0]), patterns=ps,
+                          path=rec.path, quality=c.quality, sigma_xyz=c.sigma_xyz)
 
 
 def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLike | Rig, method: str | None = None,
                         z_min: float | None = None, triangulation: str = "auto",
-                        min_modulation: float | None = None) -> Reconstruction:
+                        min_modulation: float | None = None, edge_mask: bool = True,
+                        edge_margin: float | None = None) -> Reconstruction:
     """A capture folder's first pattern cycle as a point map.
 
     Parameters
@@ -115,21 +142,22 @@ def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLik
         Capture folder (``manifest.json`` + frames).
     calibration : path or Rig
         Calibration JSON (with a ``rig`` entry) or rig JSON, or a :class:`Rig`.
-    method, z_min, triangulation, min_modulation
+    method, z_min, triangulation, min_modulation, edge_mask, edge_margin
         As in :func:`reconstruct_cycle`: the unwrapping method overriding the manifest's plan,
-        the nearest depth for the geometric constraint (mm), closed form or least squares, and
-        the modulation threshold (camera counts).
+        the nearest depth for the geometric constraint (mm), closed form or least squares, the
+        modulation threshold (camera counts) and the edge / mixed-pixel masking.
 
     Returns
     -------
     Reconstruction
-        ``points`` (H, W, 3) float32 mm (NaN where invalid), ``texture``, ``mask``.
+        ``points`` (H, W, 3) float32 mm (NaN where invalid), ``texture``, ``mask``, ``quality``,
+        ``sigma_xyz`` / ``sigma_z``.
     """
     rig = calibration if isinstance(calibration, Rig) else Rig.load(calibration)
     cap = read_capture(folder, max_cycles=1)
     check_sizes(rig, cap.frames, calibration)
     return reconstruct_cycle(cap, rig, method=method, z_min=z_min, triangulation=triangulation,
-                             min_modulation=min_modulation)
+                             min_modulation=min_modulation, edge_mask=edge_mask, edge_margin=edge_margin)
 
 
 def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool,

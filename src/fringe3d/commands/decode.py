@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.decode import DecodeOptions, decode, with_method
@@ -88,6 +89,8 @@ def register(app: typer.Typer) -> None:
         black_thr: float = typer.Option(None, "--black-thr",
                                         help="Code-only decoding: smallest white-black difference, the shadow "
                                              "mask (counts; default OpenCV's 40 at 8 bits, scaled)."),
+        edge_mask: bool = edge_mask_option(),
+        edge_margin: float = edge_margin_option(),
         overwrite: bool = overwrite_option(),
         allow_empty: bool = allow_empty_option(),
         json_: bool = typer.Option(False, "--json", help="Print one JSON summary instead of a table."),
@@ -103,11 +106,12 @@ def register(app: typer.Typer) -> None:
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
         check_number(min_modulation, "--min-modulation", minimum=0)
+        check_number(edge_margin, "--edge-margin", minimum=0)
         referenced = "source" in read_meta(capture)  # a camera file: decode it one cycle at a time
         cap = read_capture(capture, max_cycles=1 if referenced else max_cycles)
         bits = bit_depth if bit_depth is not None else cap.meta.get("bit_depth")
         opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1,
-                "white_thr": white_thr, "black_thr": black_thr}
+                "white_thr": white_thr, "black_thr": black_thr, "edge_mask": edge_mask, "edge_margin": edge_margin}
         patterns = cap.patterns if method is None else with_method(cap.patterns, method)
         if ftp_window is not None:
             opts["ftp_window"] = ftp_window

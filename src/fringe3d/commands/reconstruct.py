@@ -11,6 +11,7 @@ from fringe3d.decode import DecodeOptions
 from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
+from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.decode import decode
 from fringe3d.io.capture import list_frame_files, open_frames, read_capture
 from fringe3d.optics import Rig
@@ -94,6 +95,8 @@ def register(app: typer.Typer) -> None:
                                       help="Sequences: run on an existing dask.distributed scheduler, e.g. "
                                            "tcp://HOST:8786 (its workers must read the capture at the same path)."),
         chunk: int = typer.Option(8, "--chunk", help="Sequences on Dask: 3D frames per task."),
+        edge_mask: bool = edge_mask_option(),
+        edge_margin: float = edge_margin_option(),
         overwrite: bool = overwrite_option(),
         allow_empty: bool = allow_empty_option(),
         json_: bool = typer.Option(False, "--json", help="Print one JSON summary."),
@@ -115,6 +118,7 @@ def register(app: typer.Typer) -> None:
         check_number(min_modulation, "--min-modulation", minimum=0)
         check_number(z_min, "--z-min")
         check_number(z_margin, "--z-margin", minimum=0)
+        check_number(edge_margin, "--edge-margin", minimum=0)
         if max_cycles is not None and max_cycles < 1:
             raise ValueError(f"--max-cycles must be at least 1, got {max_cycles}")
         if workers is not None and workers < 1:
@@ -137,7 +141,8 @@ def register(app: typer.Typer) -> None:
         n_files = len(referenced) if referenced is not None else len(list_frame_files(capture))
         cycles = n_files // len(cap.patterns) if max_cycles is None else min(max_cycles, n_files // len(cap.patterns))
         ps = with_method(cap.patterns, method)
-        opts = {"bit_depth": cap.meta.get("bit_depth"), "min_modulation": min_modulation}
+        opts = {"bit_depth": cap.meta.get("bit_depth"), "min_modulation": min_modulation, "edge_mask": edge_mask,
+                "edge_margin": edge_margin}
         methods = {p.direction: p.method for p in ps.plans}
         summary = {"capture": str(capture), "calibration": str(calibration), "out": str(out), "methods": methods,
                    "z_min": z_min, "cycles": cycles, "cycle_length": len(ps), "step": window,
@@ -147,14 +152,16 @@ def register(app: typer.Typer) -> None:
             raise ValueError("--mesh writes the faces into one cycle's points.ply; a sequence's ply/frame_*.ply "
                              "files hold points only (drop --mesh, or reconstruct one cycle with --max-cycles 1)")
         fp_options = {"method": method, "z_min": z_min, "window": window, "triangulation": triangulation,
-                      "min_modulation": min_modulation, "cycles": cycles, "ply": ply, "mesh": mesh, "store": store}
+                      "min_modulation": min_modulation, "cycles": cycles, "ply": ply, "mesh": mesh, "store": store,
+                      "edge_mask": edge_mask, "edge_margin": edge_margin}
         client = connect(scheduler, workers) if sequence and (workers or scheduler) else None  # before writing
         try:
             with open_output(out, overwrite=overwrite, inputs=[capture, calibration, z_min_from],
                              options=fp_options, resumable=sequence) as o:
                 if not sequence:
                     r = reconstruct_cycle(cap, rig, method, z_min, triangulation=triangulation,
-                                          min_modulation=min_modulation)
+                                          min_modulation=min_modulation, edge_mask=edge_mask,
+                                          edge_margin=edge_margin)
                     if not r.mask.any() and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point: "
                                          f"{empty_reason(cap, ps, rig, min_modulation)}. "

@@ -14,6 +14,7 @@ from typing import Any, Iterator
 
 import numpy as np
 
+from fringe3d.decode.assess import assess
 from fringe3d.decode.context import DecodeContext, phase_groups
 from fringe3d.decode.method_plans import with_method  # noqa: F401  (re-exported: fringe3d.decode.with_method)
 from fringe3d.decode.methods import method_for
@@ -160,10 +161,18 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
             mask = np.asarray(mask, dtype=bool) & np.isfinite(phi)
             phase = np.where(mask, phi, np.nan).astype(np.float32)
         d = plan.direction
+        period = float(result.period if result.period is not None else g.period)  # type: ignore[union-attr]
+        average = result.average if result.average is not None or g is None else ctx.group_phase(g).average
+        a = assess(ctx, phase, mask, np.asarray(modulation, np.float32), average, period)
+        if opts.edge_mask:
+            mask = mask & (a.quality == 0)
+            phase = np.where(mask, phase, np.float32(np.nan)).astype(np.float32, copy=False)
+        out.quality[d], out.phase_sigma[d] = a.quality, a.phase_sigma
+        out.info.setdefault("quality", {})[d] = a.info
         out.phase[d], out.mask[d] = phase, mask
         out.wrapped[d] = np.asarray(wrapped, np.float32)
         out.modulation[d] = np.asarray(modulation, np.float32)
-        out.period[d] = float(result.period if result.period is not None else g.period)  # type: ignore[union-attr]
+        out.period[d] = period
         out.angle[d] = float(plan.angle)
         out.method[d] = plan.method
         if first is None:

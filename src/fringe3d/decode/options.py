@@ -44,6 +44,28 @@ class DecodeOptions:
         Code-only decoding (``gray_code_only``): smallest accepted code/inverse difference and
         smallest white - black difference (frames' units); default OpenCV's 5 and 40 counts of
         an 8-bit camera, scaled to the frames' full scale.
+    edge_mask : bool
+        Mask edge and mixed pixels (default True; :mod:`fringe3d.decode.edges`): the fringe
+        coordinate within ``edge_margin`` of the pattern's extent, multi-frequency phases that
+        disagree by more than ``max_disagreement``, phase-gradient jumps and modulation drops.
+        Each reason is a bit of ``Decoded.quality``; False keeps only the method's own mask.
+        Applies to directions with a phase-shifted group of 3 or more steps and an absolute phase
+        (not to code-only, FTP-only or ``method="none"`` directions).
+    edge_margin : float, optional
+        Width (projector px) of the masked band at the pattern's border; default
+        ``2 + 2 sigma_b`` with ``sigma_b`` the blur estimated from two periods' modulation ratio
+        (:func:`fringe3d.decode.edges.estimate_blur`; 0 with one period).
+    max_disagreement : float
+        Largest accepted multi-frequency unwrapping residual (rad of the coarser period, default 0.6).
+    gradient_ratio : float
+        Phase-gradient test: a jump of ``w`` to a neighbour above this times the local median
+        jump (and 1 projector px) is a depth edge (default 4).
+    modulation_ratio : float
+        Modulation-drop test: fringe contrast ``B / A`` below this share of the largest in the
+        5 x 5 neighbourhood (default 0.5).
+    rim : int
+        Mask this many pixels around every pixel the method's mask removed (silhouette, shadow
+        and unlit rims, mixed by the pixel footprint and blur; default 1, 0 turns it off).
     extra : mapping
         Further options for user-added methods (read as ``ctx.options.extra``).
 
@@ -69,4 +91,10 @@ class DecodeOptions:
     cross_motion: bool | None = None
     white_thr: float | None = None
     black_thr: float | None = None
+    edge_mask: bool = True
+    edge_margin: float | None = None
+    max_disagreement: float = 0.6
+    gradient_ratio: float = 4.0
+    modulation_ratio: float = 0.5
+    rim: int = 1
     extra: Mapping[str, Any] = field(default_factory=dict)

@@ -21,6 +21,8 @@ from fringe3d.utils.output_folder import check_complete
 NPZ_NAME = "decoded.npz"
 SUMMARY_NAME = "decoded.json"
 _PER_DIRECTION = ("phase", "wrapped", "modulation", "mask")
+#: Per-direction maps that older decode outputs lack (read when present).
+_OPTIONAL = ("quality", "phase_sigma")
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,8 +71,12 @@ class Decoded:
     ``phase[d]`` absolute phase float32 rad (NaN where invalid; ``u_p = phase * period / 2pi``
     for direction ``"v"``), ``wrapped[d]`` wrapped phase float32 in (-pi, pi],
     ``modulation[d]`` float32 (frames' units), ``mask[d]`` bool; ``period[d]`` (px),
-    ``angle[d]`` (rad), ``method[d]`` (unwrapping method). Plus ``average`` and ``texture``
-    (H, W) float32 and ``info`` (frame checks, warnings).
+    ``angle[d]`` (rad), ``method[d]`` (unwrapping method), ``quality[d]`` uint8 (0 = good;
+    one bit per reason a pixel is masked: 1 invalid, 2 projector-edge band, 4 multi-frequency
+    disagreement, 8 phase-gradient jump, 16 modulation drop; :mod:`fringe3d.decode.edges`),
+    ``phase_sigma[d]`` float32 predicted phase standard deviation (rad, ``sqrt(2/N) sigma / B``;
+    NaN where unknown). Plus ``average`` and ``texture`` (H, W) float32 and ``info`` (frame
+    checks, warnings, per-direction ``quality`` info: blur, margin, noise model, bit counts).
     """
 
     phase: dict[str, np.ndarray] = field(default_factory=dict)
@@ -80,6 +86,8 @@ class Decoded:
     period: dict[str, float] = field(default_factory=dict)
     angle: dict[str, float] = field(default_factory=dict)
     method: dict[str, str] = field(default_factory=dict)
+    quality: dict[str, np.ndarray] = field(default_factory=dict)
+    phase_sigma: dict[str, np.ndarray] = field(default_factory=dict)
     average: np.ndarray | None = None
     texture: np.ndarray | None = None
     info: dict[str, Any] = field(default_factory=dict)
@@ -129,7 +137,8 @@ class Decoded:
     def save(self, folder: str | os.PathLike) -> Path:
         """Write ``decoded.npz``, ``decoded.json`` and one 32-bit float TIFF per map
         (``phase_<d>.tif``, ``wrapped_<d>.tif``, ``modulation_<d>.tif``, ``mask_<d>.tif`` as
-        0/1, ``average.tif``, ``texture.tif``), each atomically. Returns the folder."""
+        0/1, ``phase_sigma_<d>.tif``, ``average.tif``, ``texture.tif``) plus ``quality_<d>.tif``
+        as uint8 bits, each atomically. Returns the folder."""
 
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
@@ -137,6 +146,9 @@ class Decoded:
         for d in self.directions:
             for name in _PER_DIRECTION:
                 arrays[f"{name}_{d}"] = getattr(self, name)[d]
+            for name in _OPTIONAL:
+                if d in getattr(self, name):
+                    arrays[f"{name}_{d}"] = getattr(self, name)[d]
         for name in ("average", "texture"):
             if getattr(self, name) is not None:
                 arrays[name] = getattr(self, name)
@@ -147,7 +159,7 @@ class Decoded:
                 np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
         for key, arr in arrays.items():
             with atomic_path(folder / f"{key}.tif") as tmp:
-                tifffile.imwrite(tmp, np.asarray(arr, dtype=np.float32))
+                tifffile.imwrite(tmp, np.asarray(arr, dtype=np.uint8 if key.startswith("quality_") else np.float32))
         write_json(folder / SUMMARY_NAME, self.summary())
         return folder
 
@@ -176,6 +188,9 @@ class Decoded:
             for d in meta["directions"]:
                 for name in _PER_DIRECTION:
                     getattr(out, name)[d] = z[f"{name}_{d}"]
+                for name in _OPTIONAL:
+                    if f"{name}_{d}" in z:
+                        getattr(out, name)[d] = z[f"{name}_{d}"]
             out.average = z["average"] if "average" in z else None
             out.texture = z["texture"] if "texture" in z else None
         return out

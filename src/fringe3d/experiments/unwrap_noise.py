@@ -124,9 +124,10 @@ def run(quick: bool = False, seed: int = 0) -> dict:
             clean[name] = len(ps)
             for sg in sigmas:
                 frames = (base + sg * field).astype(np.float32)
-                # max_residual=pi: no residual masking, so every wrong order is counted (the rate
-                # measures unwrapping itself; the decoder's default pi/2 masks likely errors)
-                d = decode(frames, ps, options=DecodeOptions(min_modulation=1.0, max_residual=math.pi))
+                # max_residual=pi and no edge / mixed-pixel masks: every wrong order is counted (the
+                # rate measures unwrapping itself; the decoder's defaults mask likely errors)
+                d = decode(frames, ps, options=DecodeOptions(min_modulation=1.0, max_residual=math.pi,
+                                                             edge_mask=False))
                 phi, mask = d.phase["v"], d.mask["v"]
                 wrong = mask & (np.abs(phi - truth) > np.pi)
                 rates[name].append(float(wrong.sum() / mask.size))

@@ -22,6 +22,7 @@ from collections import deque
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -29,6 +30,7 @@ from fringe3d.decode.context import phase_groups
 from fringe3d.decode.method_plans import METHOD_NEEDS, plan_for_method  # noqa: F401  (re-exported)
 from fringe3d.decode.method_plans import with_method as plans_with_method
 from fringe3d.decode.decoder import decode
+from fringe3d.decode.edges import INVALID
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.io.capture import list_frame_files
 from fringe3d.io.images import read_image
@@ -36,11 +38,13 @@ from fringe3d.io.ply_standard import write_measurement_ply
 from fringe3d.io.store import PointMapStore
 from fringe3d.optics.rays import camera_shape, projector_fringe_coordinate
 from fringe3d.optics.rig import Rig
-from fringe3d.patterns.conventions import w_to_phase
+from fringe3d.patterns.conventions import w_range, w_to_phase
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.phase.quality import default_min_modulation, full_scale
 from fringe3d.reconstruct.depth import points_from_decoded
+from fringe3d.reconstruct.fast_quality import fast_quality
 from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator
+from fringe3d.reconstruct.uncertainty import point_sigma
 from fringe3d.unwrap.geometric import cached_minimum_phase, check_wrap_around
 from fringe3d.utils.console import progress_bar
 
@@ -89,13 +93,25 @@ def window_index(start: int, cycle: int) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- one 3D frame
+class Cycle(NamedTuple):
+    """One reconstructed cycle: ``points`` (H, W, 3) float32 mm (NaN invalid), ``texture``
+    (H, W) float32 in [0, 1], ``quality`` (H, W) uint8 bits (:mod:`fringe3d.decode.edges`; 0 =
+    kept) and ``sigma_xyz`` (H, W, 3) float32 mm predicted standard deviations (or None)."""
+
+    points: np.ndarray
+    texture: np.ndarray
+    quality: np.ndarray
+    sigma_xyz: np.ndarray | None
+
+
 class FrameReconstructor:
     """Turns one cycle of frames (manifest order) into an ``(H, W, 3)`` float32 point map.
 
     Built once per rig and manifest: the minimum phase map and ray coefficients are computed
     once. ``fast=True`` takes the fused :class:`FastThreeStep` kernel when the manifest is one
     3-step direction unwrapped by ``"geometric"`` and the projector has no distortion (it masks by
-    modulation only; saturation is not checked on that path).
+    modulation, then the edge and mixed-pixel tests of :mod:`fringe3d.reconstruct.fast_quality`;
+    saturation is not checked on that path).
     """
 
     def __init__(self, patterns: PatternSet, rig: Rig, options: DecodeOptions | None = None,
@@ -125,12 +141,24 @@ class FrameReconstructor:
         g = groups[0]
         mp = cached_minimum_phase(self.rig, self.z_min, g.period, g.angle)
         self._fast_index = np.asarray(g.indices, np.int64)
+        self._fast_shifts = g.shifts
+        wr = plans[0].options.get("w_range")
+        lo, hi = (float(wr[0]), float(wr[1])) if wr is not None else w_range(g.angle, ps.width, ps.height)
+        self._fast_extent = (lo - 0.5, hi + 0.5)
         self._fast_min_mod = self.options.min_modulation
         return FastThreeStep(Triangulator(self.rig, g.angle, warn_distortion=False), mp, g.shifts,
                              min_modulation=0.0)
 
     def __call__(self, frames: np.ndarray, with_texture: bool = False):
         """Points ``(H, W, 3)`` float32 (and the texture ``(H, W)`` float32 in [0, 1] if asked)."""
+        c = self.reconstruct(frames, uncertainty=False)
+        return (c.points, c.texture) if with_texture else c.points
+
+    def reconstruct(self, frames: np.ndarray, uncertainty: bool = True) -> Cycle:
+        """One cycle (manifest order) -> :class:`Cycle`: points, texture, quality map (OR of the
+        directions' bits, :mod:`fringe3d.decode.edges`) and, with ``uncertainty``, ``sigma_xyz``
+        (:mod:`fringe3d.reconstruct.uncertainty`). Both paths mask edge and mixed pixels unless
+        ``options.edge_mask`` is False."""
         bit_depth = self.options.bit_depth
         if self.fast is not None:
             mm = self._fast_min_mod
@@ -146,16 +174,19 @@ class FrameReconstructor:
                 w = projector_fringe_coordinate(self.rig, X, mp.angle)
                 check_wrap_around(np.where(valid, w_to_phase(w, mp.period, scale_first=True), np.nan), mp, valid)
                 self._range_checked = True
-            if not with_texture:
-                return pts
+            fq = fast_quality(self.fast, frames, self._fast_index, self._fast_shifts, pts, self._fast_extent,
+                              self.options, uncertainty)
             tex = frames[self._fast_index].mean(axis=0, dtype=np.float32) / full_scale(frames, bit_depth)
-            return pts, np.clip(tex, 0, 1).astype(np.float32)
+            return Cycle(pts, np.clip(tex, 0, 1).astype(np.float32), fq.quality, fq.sigma_xyz)
         dec = decode(frames, self.patterns, rig=self.rig, options=self.options)
         pts = points_from_decoded(dec, self.rig, method=self.triangulation)
-        if not with_texture:
-            return pts
         tex = np.asarray(dec.texture, np.float32) / full_scale(frames, bit_depth)
-        return pts, np.clip(np.nan_to_num(tex), 0, 1).astype(np.float32)
+        quality = np.zeros(pts.shape[:2], np.uint8)
+        for q in dec.quality.values():
+            quality |= q
+        quality[~np.isfinite(pts[..., 0]) & (quality == 0)] |= INVALID  # e.g. behind the camera
+        sigma = point_sigma(dec, self.rig, method=self.triangulation) if uncertainty else None
+        return Cycle(pts, np.clip(np.nan_to_num(tex), 0, 1).astype(np.float32), quality, sigma)
 
 
 # ----------------------------------------------------------------------------- sequences

@@ -1,0 +1,102 @@
+"""Per-direction quality and phase noise of a decoded direction (what the decoder adds after
+the method ran): the quality map of :mod:`fringe3d.decode.edges` and ``sigma_phi`` of
+:mod:`fringe3d.phase.noise`."""
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from fringe3d.decode import edges
+from fringe3d.decode.context import DecodeContext, PhaseGroup
+from fringe3d.patterns.conventions import phase_to_w
+from fringe3d.phase import noise
+
+
+#: Methods whose phase is relative (per object, Eq. 5.12), not a projector coordinate.
+RELATIVE_METHODS = ("spatial",)
+
+
+class Assessment(NamedTuple):
+    """Quality map (H, W) uint8, phase sigma (H, W) float32 rad (NaN where unknown) and a
+    small JSON-friendly dict (blur, margin, noise model, bit counts)."""
+
+    quality: np.ndarray
+    phase_sigma: np.ndarray
+    info: dict[str, Any]
+
+
+def _psp_groups(ctx: DecodeContext) -> list[PhaseGroup]:
+    try:
+        groups = ctx.groups_for_plan() if ctx.phase_groups() else []
+    except ValueError:
+        return []
+    return [g for g in groups if len(g.indices) >= 3]
+
+
+def noise_model(ctx: DecodeContext, groups: list[PhaseGroup], average: np.ndarray,
+                mask: np.ndarray) -> tuple[tuple[float, float], str]:
+    """``((c0, c1), source)``: the capture's noise model ``sigma^2 = c0 + c1 A`` (frames' units)
+    from the first ``N >= 4``-step group's fit residual, else two 3-step groups' averages, else
+    the Laplacian high-pass of the average image (``c1 = 0``); see :mod:`fringe3d.phase.noise`."""
+    four = [g for g in groups if len(g.indices) >= 4]
+    if four:
+        g = four[0]
+        var = noise.fit_residual_variance(ctx.frames, g.indices, g.shifts)
+        return noise.fit_noise_model(var, average, mask), f"fit residual ({g.name}, {len(g.indices)} steps)"
+    if len(groups) >= 2:
+        a, b = groups[0], groups[1]
+        var = noise.average_difference_variance(ctx.group_phase(a).average, len(a.indices),
+                                                ctx.group_phase(b).average, len(b.indices))
+        return noise.fit_noise_model(var, average, mask), f"average difference ({a.name}, {b.name})"
+    s = noise.laplacian_noise(average, mask)
+    # the average of N frames carries sigma / sqrt(N)
+    n = len(groups[0].indices) if groups else 1
+    return (s * s * n, 0.0), "Laplacian of the average image"
+
+
+def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: np.ndarray,
+           average: np.ndarray | None, period: float) -> Assessment:
+    """Quality map and phase sigma of one direction.
+
+    ``phase`` (H, W) absolute phase (rad, of ``period`` px), ``mask`` the method's mask,
+    ``modulation`` / ``average`` of the narrowest group (``average`` None: a code-only method,
+    no phase groups). Only the INVALID bit is set with
+    ``ctx.options.edge_mask`` False, for code-only methods and FTP groups (no phase-shifted group
+    of 3 or more steps; code stripes' ``w`` steps by design) and for ``method="none"`` (a wrapped
+    phase is not a fringe coordinate).
+    """
+    opts = ctx.options
+    groups = _psp_groups(ctx) if average is not None else []
+    info: dict[str, Any] = {}
+    mask = np.asarray(mask, bool)
+    sigma_phi = np.full(mask.shape, np.nan, np.float32)
+    if groups:
+        assert average is not None
+        model, source = noise_model(ctx, groups, average, mask)
+        info["noise"] = {"c0": model[0] if math.isfinite(model[0]) else None,
+                         "c1": model[1] if math.isfinite(model[1]) else None, "source": source}
+        if math.isfinite(model[0]):
+            sigma_phi = noise.phase_sigma(noise.noise_sigma(model, average), modulation, len(groups[0].indices))
+    if not opts.edge_mask or not groups or ctx.plan.method == "none":
+        # code-only stripes and wrapped ("none") phases have no continuous w to test
+        return Assessment(np.where(mask, 0, edges.INVALID).astype(np.uint8), sigma_phi, info)
+    w = phase_to_w(np.where(mask, phase, np.nan), period).astype(np.float32)
+    coarse = [g for g in groups if g.period > period * (1 + 1e-9)]
+    blur = 0.0
+    residual = None
+    if coarse:
+        c = coarse[-1]
+        blur = edges.estimate_blur(modulation, ctx.group_phase(c).modulation, period, c.period, mask)
+        residual = edges.disagreement(phase, period, [ctx.group_phase(g).phase for g in coarse],
+                                      [g.period for g in coarse])
+    margin = edges.BASE_MARGIN + 2.0 * blur if opts.edge_margin is None else float(opts.edge_margin)
+    lo, hi = ctx.w_range()
+    # a relative phase (one unknown 2 pi k per object) has no place on the projector: no EDGE test
+    extent = None if ctx.plan.method in RELATIVE_METHODS else (lo - 0.5, hi + 0.5)
+    q = edges.quality_map(mask, w, extent, margin, modulation, average, residual,
+                          max_disagreement=float(opts.max_disagreement), gradient_ratio=float(opts.gradient_ratio),
+                          modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim))
+    info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})
+    return Assessment(q, sigma_phi, info)

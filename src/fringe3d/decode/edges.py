@@ -1,0 +1,182 @@
+"""Edge and mixed-pixel masking: the per-pixel quality map of a decoded direction.
+
+A pixel whose phase is not the nominal sinusoid's gives a wrong point however good the rest
+of the chain is. Four tests find such pixels; each sets one bit of a uint8 quality map
+(0 = good, the point is kept):
+
+============  =====  ==================================================================
+bit           value  reason
+============  =====  ==================================================================
+INVALID       1      the method's own mask: low modulation, saturated, undecodable code
+EDGE          2      fringe coordinate ``w`` within ``margin`` of the pattern's extent
+                     (lit within a blur width of the projector's border, or by its spill)
+INCONSISTENT  4      the multi-frequency phases disagree: ``max_g |wrap(phi_g - Phi T_0/T_g)|``
+                     above ``max_disagreement`` rad (the unwrapping residual)
+GRADIENT      8      ``w`` jumps to a 4-neighbour by more than ``gradient_ratio`` times the
+                     local (5 x 5 median) jump and ``gradient_floor`` px (depth edges),
+                     grown by one pixel
+MOD_DROP      16     fringe contrast ``B / A`` below ``modulation_ratio`` times the largest
+                     contrast of the valid 5 x 5 neighbours (silhouette, shadow-edge and
+                     spill pixels; independent of the albedo)
+RIM           32     within ``rim`` pixels (4-connected) of an INVALID pixel: the rim of a
+                     silhouette, shadow or unlit region, mixed by the pixel footprint and blur
+============  =====  ==================================================================
+
+The pattern extent along the fringe direction is ``[w_min - 1/2, w_max + 1/2]`` (pixel edges
+of the projector, :func:`fringe3d.patterns.conventions.w_range` gives the centres). The default
+margin is ``2 px + 2 sigma_b`` with ``sigma_b`` the effective Gaussian blur (projector px)
+estimated from the modulation ratio of two periods (:func:`estimate_blur`).
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+from scipy import ndimage
+
+INVALID = 1
+EDGE = 2
+INCONSISTENT = 4
+GRADIENT = 8
+MOD_DROP = 16
+RIM = 32
+
+#: Bit -> name, for summaries and docs.
+BITS = {INVALID: "invalid", EDGE: "edge", INCONSISTENT: "inconsistent", GRADIENT: "gradient", MOD_DROP: "mod_drop",
+        RIM: "rim"}
+
+#: Base margin (projector px) added to the blur width.
+BASE_MARGIN = 2.0
+
+
+def estimate_blur(mod_fine: np.ndarray, mod_coarse: np.ndarray, period_fine: float, period_coarse: float,
+                  mask: np.ndarray) -> float:
+    """Effective Gaussian blur ``sigma_b`` (projector px) from the modulation ratio of two periods.
+
+    A Gaussian blur of ``sigma_b`` multiplies the modulation of period ``T`` by
+    ``exp(-2 pi^2 sigma_b^2 / T^2)``, so with ``r = median(B_fine / B_coarse)`` over ``mask``:
+    ``sigma_b = sqrt(-ln r / (2 pi^2 (1/T_fine^2 - 1/T_coarse^2)))`` (0 when ``r >= 1``). It
+    lumps projector defocus, camera blur and pixel integration, as seen in projector pixels.
+    """
+    m = np.asarray(mask, bool) & (mod_coarse > 0)
+    if not m.any() or not period_coarse > period_fine:
+        return 0.0
+    r = float(np.median(mod_fine[m] / mod_coarse[m]))
+    if not 0 < r < 1:
+        return 0.0
+    den = 2 * math.pi ** 2 * (1 / period_fine ** 2 - 1 / period_coarse ** 2)
+    return float(min(math.sqrt(-math.log(r) / den), period_fine))
+
+
+def edge_band(w: np.ndarray, extent: tuple[float, float], margin: float) -> np.ndarray:
+    """(H, W) bool: ``w`` (px) within ``margin`` of ``extent = (lo, hi)`` or outside it (NaN: False)."""
+    lo, hi = extent
+    with np.errstate(invalid="ignore"):
+        return (w < lo + margin) | (w > hi - margin)
+
+
+def disagreement(phase: np.ndarray, period: float, wrapped: Sequence[np.ndarray],
+                 periods: Sequence[float]) -> np.ndarray:
+    """(H, W) float32 largest unwrapping residual (rad) over the coarser groups:
+    ``max_g |wrap(phi_g - Phi T_0 / T_g)|`` with ``Phi`` the absolute phase of period ``T_0``."""
+    out = np.zeros(np.shape(phase), np.float32)
+    for phi_g, t_g in zip(wrapped, periods):
+        r = np.angle(np.exp(1j * (np.asarray(phi_g, np.float64) - np.asarray(phase, np.float64) * (period / t_g))))
+        out = np.fmax(out, np.abs(r).astype(np.float32))
+    return out
+
+
+def _neighbour_jump(w: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """(H, W) largest ``|w - w_neighbour|`` over the valid 4-neighbours (0 without any)."""
+    g = np.zeros(w.shape, np.float32)
+    wz = np.where(valid, w, 0.0).astype(np.float32)
+    for axis in (0, 1):
+        d = np.abs(np.diff(wz, axis=axis))
+        ok = np.logical_and(np.take(valid, range(1, w.shape[axis]), axis=axis),
+                            np.take(valid, range(0, w.shape[axis] - 1), axis=axis))
+        d = np.where(ok, d, 0.0)
+        sl_hi = [slice(None)] * 2
+        sl_lo = [slice(None)] * 2
+        sl_hi[axis], sl_lo[axis] = slice(1, None), slice(0, -1)
+        g[tuple(sl_hi)] = np.maximum(g[tuple(sl_hi)], d)
+        g[tuple(sl_lo)] = np.maximum(g[tuple(sl_lo)], d)
+    return g
+
+
+def gradient_jump(w: np.ndarray, valid: np.ndarray, ratio: float, floor: float) -> np.ndarray:
+    """(H, W) bool: the jump of ``w`` (px) to a valid 4-neighbour exceeds ``ratio`` times its
+    5 x 5 median and ``floor`` px (depth discontinuities; both sides of the jump are set), grown
+    by one pixel (8-connected)."""
+    g = _neighbour_jump(w, valid)
+    ref = ndimage.median_filter(g, size=5, mode="nearest")
+    # grown by one pixel: a mixed pixel halfway up a step has two half-size jumps, its neighbours a full one
+    return valid & ndimage.binary_dilation(valid & (g > np.maximum(ratio * ref, floor)), np.ones((3, 3), bool))
+
+
+def modulation_drop(modulation: np.ndarray, average: np.ndarray, valid: np.ndarray, ratio: float) -> np.ndarray:
+    """(H, W) bool: fringe contrast ``B / A`` below ``ratio`` times the largest contrast of the
+    valid pixels in the 5 x 5 neighbourhood.
+
+    The contrast does not depend on the albedo, so texture does not trigger it; it drops where a
+    pixel mixes two phases (a silhouette before a lit background: the fringes partly cancel while
+    the averages add) and where the light is projector spill beyond its border.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = np.where(valid & (average > 0), modulation / average, 0.0).astype(np.float32)
+    ref = ndimage.grey_dilation(c, size=(5, 5), mode="nearest")
+    return valid & (c < ratio * ref)
+
+
+def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[float, float] | None = None,
+                margin: float = BASE_MARGIN, modulation: np.ndarray | None = None,
+                average: np.ndarray | None = None, residual: np.ndarray | None = None,
+                max_disagreement: float = math.inf,
+                gradient_ratio: float = 4.0, gradient_floor: float = 1.0,
+                modulation_ratio: float = 0.5, rim: int = 1) -> np.ndarray:
+    """(H, W) uint8 quality map (bits of the module docstring) of one direction.
+
+    Parameters
+    ----------
+    mask : (H, W) bool
+        The method's validity mask (False sets INVALID).
+    w : (H, W) float, optional
+        Projector fringe coordinate ``w = Phi T / 2 pi`` (px); None skips EDGE and GRADIENT.
+    extent : (lo, hi), optional
+        The pattern's extent along ``w`` (px); None skips EDGE.
+    margin : float
+        EDGE band width (projector px).
+    modulation, average : (H, W) float, optional
+        Modulation ``B`` and average ``A``; None skips MOD_DROP.
+    residual : (H, W) float, optional
+        Unwrapping residual (rad, :func:`disagreement`); None skips INCONSISTENT.
+    max_disagreement, gradient_ratio, gradient_floor, modulation_ratio : float
+        Thresholds of INCONSISTENT (rad), GRADIENT (ratio, px) and MOD_DROP (ratio).
+    rim : int
+        RIM width in pixels (0: off).
+    """
+    valid = np.asarray(mask, bool)
+    q = np.where(valid, 0, INVALID).astype(np.uint8)
+    if w is not None and extent is not None:
+        q |= np.where(valid & edge_band(w, extent, margin), EDGE, 0).astype(np.uint8)
+    if residual is not None and math.isfinite(max_disagreement):
+        with np.errstate(invalid="ignore"):
+            q |= np.where(valid & (residual > max_disagreement), INCONSISTENT, 0).astype(np.uint8)
+    if w is not None:
+        q |= np.where(gradient_jump(w, valid, gradient_ratio, gradient_floor), GRADIENT, 0).astype(np.uint8)
+    if modulation is not None and average is not None:
+        q |= np.where(modulation_drop(modulation, average, valid, modulation_ratio), MOD_DROP, 0).astype(np.uint8)
+    if rim > 0:
+        q |= np.where(rim_of_invalid(valid, rim), RIM, 0).astype(np.uint8)
+    return q
+
+
+def rim_of_invalid(valid: np.ndarray, width: int) -> np.ndarray:
+    """(H, W) bool: valid pixels within ``width`` 4-connected steps of an invalid one (the image's
+    own border does not count)."""
+    return valid & ~ndimage.binary_erosion(valid, iterations=int(width), border_value=1)
+
+
+def bit_counts(q: np.ndarray) -> dict[str, int]:
+    """Pixels per reason (a pixel may count under several)."""
+    return {name: int(np.count_nonzero(q & bit)) for bit, name in BITS.items()}

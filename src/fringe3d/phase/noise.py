@@ -1,0 +1,103 @@
+"""Camera noise of one capture from its own frames, and the phase noise it gives.
+
+The noise model is heteroscedastic, ``sigma^2(A) = c0 + c1 A`` (read noise plus shot noise,
+frames' units, ``A`` the average intensity), fitted once per capture to per-pixel variance
+estimates (:func:`fit_noise_model`). The per-pixel variance estimates come from:
+
+* an ``N >= 4``-step group: the residual of the least-squares sinusoid fit (Eq. 2.4),
+  ``s^2 = sum_k (I_k - a - b cos d_k - c sin d_k)^2 / (N - 3)`` (:func:`fit_residual_variance`);
+* 3-step groups only (no residual degree of freedom): the spread of the averages of two
+  groups, which see the same ``A``: ``s^2 = (A_1 - A_2)^2 / (1/N_1 + 1/N_2)``
+  (:func:`average_difference_variance`);
+* a single 3-step group: the Laplacian high-pass of its average image (Immerkaer 1996,
+  :func:`laplacian_noise`), which over-estimates on textured scenes.
+
+The phase noise of an ``N``-step least-squares phase is ``sigma_phi = sqrt(2/N) sigma / B``
+(:func:`phase_sigma`).
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+from scipy import ndimage
+
+from fringe3d.phase.psp import lsq_coefficients
+
+
+def fit_residual_variance(frames: np.ndarray, index: Sequence[int], shifts: Sequence[float]) -> np.ndarray:
+    """(H, W) float32 per-pixel noise variance (frames' units squared) from an ``N >= 4``-step group.
+
+    ``s^2 = |I - D P I|^2 / (N - 3)`` with ``D`` (N, 3) the design ``[1, cos d_k, sin d_k]`` and
+    ``P`` its pseudo-inverse (:func:`fringe3d.phase.psp.lsq_coefficients`); unbiased for white noise.
+    """
+    idx = list(index)
+    if len(idx) < 4:
+        raise ValueError(f"a fit residual needs at least 4 phase steps, got {len(idx)}")
+    d = np.asarray(shifts, np.float64)
+    design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1)
+    proj = (np.eye(d.size) - design @ lsq_coefficients(d)).astype(np.float32)  # (N, N) residual maker
+    stack = np.asarray(frames)[idx].astype(np.float32)
+    res = np.tensordot(proj, stack, axes=1)
+    return np.einsum("khw,khw->hw", res, res) / np.float32(d.size - 3)
+
+
+def average_difference_variance(avg1: np.ndarray, n1: int, avg2: np.ndarray, n2: int) -> np.ndarray:
+    """(H, W) float32 per-pixel variance from two groups' averages ``A_1``, ``A_2`` of ``n1``, ``n2``
+    equally spaced steps: ``(A_1 - A_2)^2 / (1/n1 + 1/n2)`` (each average carries ``sigma^2 / n``)."""
+    diff = np.asarray(avg1, np.float32) - np.asarray(avg2, np.float32)
+    return diff * diff / np.float32(1.0 / n1 + 1.0 / n2)
+
+
+def laplacian_noise(image: np.ndarray, mask: np.ndarray | None = None) -> float:
+    """Noise sigma (image units) of one image by Immerkaer's Laplacian-difference estimate.
+
+    ``sigma = sqrt(pi/2) mean|I * L| / 6`` with ``L = [[1, -2, 1], [-2, 4, -2], [1, -2, 1]]``,
+    over the pixels of ``mask`` (default all) away from the border.
+    """
+    kern = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float64)
+    resp = np.abs(ndimage.convolve(np.asarray(image, np.float64), kern, mode="nearest"))
+    keep = np.ones(resp.shape, bool) if mask is None else ndimage.binary_erosion(mask, iterations=1)
+    if not keep.any():
+        return float("nan")
+    return float(math.sqrt(math.pi / 2.0) * resp[keep].mean() / 6.0)
+
+
+def fit_noise_model(variance: np.ndarray, average: np.ndarray, mask: np.ndarray) -> tuple[float, float]:
+    """``(c0, c1)`` of ``sigma^2 = c0 + c1 A`` fitted to per-pixel variances over ``mask``.
+
+    A robust two-step fit: ordinary least squares, then again on the pixels whose variance is
+    within 5 times the first model (drops mixed and moving pixels). ``c1`` is clipped at 0
+    (then ``c0`` is the mean variance); ``(nan, nan)`` when fewer than 10 pixels are valid.
+    """
+    m = np.asarray(mask, bool) & np.isfinite(variance) & np.isfinite(average)
+    if m.sum() < 10:
+        return float("nan"), float("nan")
+    v = np.asarray(variance, np.float64)[m]
+    a = np.asarray(average, np.float64)[m]
+    keep = np.ones(v.size, bool)
+    c0 = c1 = 0.0
+    for _ in range(2):
+        design = np.stack([np.ones(keep.sum()), a[keep]], axis=1)
+        c0, c1 = np.linalg.lstsq(design, v[keep], rcond=None)[0]
+        if c1 < 0:
+            c0, c1 = float(v[keep].mean()), 0.0
+        model = np.maximum(c0 + c1 * a, 1e-12)
+        keep = v < 5.0 * model
+    return float(c0), float(c1)
+
+
+def noise_sigma(model: tuple[float, float], average: np.ndarray) -> np.ndarray:
+    """(H, W) float32 noise sigma ``sqrt(max(c0 + c1 A, 0))`` (frames' units) of the model."""
+    c0, c1 = model
+    return np.sqrt(np.maximum(c0 + c1 * np.asarray(average, np.float32), 0.0)).astype(np.float32)
+
+
+def phase_sigma(sigma: np.ndarray | float, modulation: np.ndarray, steps: int) -> np.ndarray:
+    """(H, W) float32 standard deviation (rad) of an ``N``-step least-squares phase,
+    ``sigma_phi = sqrt(2/N) sigma / B`` (``B`` the modulation, same units as ``sigma``); inf where B <= 0."""
+    b = np.asarray(modulation, np.float32)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.float32(math.sqrt(2.0 / steps)) * np.asarray(sigma, np.float32) / b
+    return np.where(b > 0, out, np.inf).astype(np.float32)
