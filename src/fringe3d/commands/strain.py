@@ -19,6 +19,7 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.analyze.wing_strain import run_strain
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
@@ -26,12 +27,12 @@ from fringe3d.utils.console import console, make_table, print_json, set_quiet
 
 
 def register(app: typer.Typer) -> None:
-    @app.command("strain")
+    @app.command("strain", cls=AliasCommand)
     def strain(
         sequence: Path = typer.Argument(..., help="Folder of points_*.npy, a .npy/.npz (F,H,W,3) or a zarr store."),
         anchors: str = typer.Option(..., "--anchors", help="'u1,v1,u2,v2' pixel anchors (';' between wings) "
                                                            "or 'auto' (dark dots in the texture)."),
-        out: Path = typer.Option(..., "--out", "-o", help="Output folder."),
+        out: Path = typer.Option(..., "-o", "--output", help="Output folder."),
         thickness: float = typer.Option(0.1, help="Membrane thickness h (mm) for E = (h/2)·κ (Eq. 6.11)."),
         window: int = typer.Option(11, help="Quadratic-fit neighbourhood (odd, pixels)."),
         step: int = typer.Option(4, help="Track every STEP-th pixel of the reference frame."),
