@@ -9,8 +9,9 @@ SEQUENCE (read by :func:`fringe3d.io.point_sequence.read_point_sequence`) is one
   holding such a ``points.zarr``.
 
 Outputs in OUT (each written atomically, and only after every input check has passed):
-``strain.csv`` (all frames, wings and points), ``vtk/frame_00000.vtk`` (one legacy VTK polydata
-per frame), ``maps/strain_00000.png`` (dominant strain maps with a colour bar),
+``strain.csv`` (all frames, wings and points; units in the header), ``vtk/frame_00000.vtu`` (one
+binary VTK XML grid per frame: the tracked points' triangles and their strain) with
+``strain.pvd`` (the time series for ParaView), ``maps/strain_00000.png`` (dominant strain maps with a colour bar),
 ``strain.gif`` (animation) and ``summary.json``.
 """
 from __future__ import annotations
@@ -47,7 +48,7 @@ def register(app: typer.Typer) -> None:
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
     ) -> None:
         """Track every point of an inextensible wing by geodesic distances (Eq. 6.9) and map its
-        Kirchhoff–Love bending strain (Eq. 6.10–6.21): CSV, VTK, PNG maps, GIF.
+        Kirchhoff–Love bending strain (Eq. 6.10–6.21): CSV, VTU + PVD, PNG maps, GIF.
 
         Example: fringe3d strain wing-points/ --anchors 120,80,300,82 -o wing-strain --json
         """
