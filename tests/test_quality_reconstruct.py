@@ -79,12 +79,12 @@ def test_cli_edge_mask_switches(three_step, tmp_path, capsys):
     q = tifffile.imread(tmp_path / "on" / "quality.tif")
     assert q.dtype == np.uint8 and (q & edges.EDGE).any()
     assert tifffile.imread(tmp_path / "on" / "sigma_z.tif").dtype == np.float32
-    assert main(["decode", str(three_step), "-o", str(tmp_path / "dec"), "--rig", rig, "--z-min", "340",
+    assert main(["decode", str(three_step), "-o", str(tmp_path / "dec"), "--calibration", rig, "--z-min", "340",
                  "--method", "geometric", "--edge-margin", "5", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["results"][0]["info"]["quality"]["v"]["edge_margin"] == 5.0
     assert (tmp_path / "dec" / "quality_v.tif").exists()
-    assert main(["decode", str(three_step), "-o", str(tmp_path / "dec2"), "--rig", rig, "--z-min", "340",
+    assert main(["decode", str(three_step), "-o", str(tmp_path / "dec2"), "--calibration", rig, "--z-min", "340",
                  "--method", "geometric", "--no-edge-mask", "--quiet"]) == 0
     q2 = tifffile.imread(tmp_path / "dec2" / "quality_v.tif")
     assert not (q2 & ~np.uint8(edges.INVALID)).any()

@@ -41,7 +41,8 @@ def test_strain_command_writes_csv_vtk_maps_and_matches_the_analytic_strain(sequ
                  "--step", "6", "--window", "9"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["frames"] == 3 and summary["tracked_fraction"] > 0.85
-    for name in ["strain.csv", "strain.gif", "summary.json", "vtk/frame_00002.vtk", "maps/strain_00001.png"]:
+    for name in ["strain.csv", "strain.gif", "summary.json", "vtk/frame_00002.vtu", "strain.pvd",
+                 "maps/strain_00001.png"]:
         assert (out / name).stat().st_size > 0
     assert not list(out.rglob(".*.part*"))          # no temporary leftovers
     data = np.genfromtxt(out / "strain.csv", delimiter=",", names=True)
@@ -51,10 +52,13 @@ def test_strain_command_writes_csv_vtk_maps_and_matches_the_analytic_strain(sequ
     assert np.sqrt(np.mean(err[ok] ** 2)) < 0.05 * peak      # goal: ≤ 5 % noise-free
     assert np.abs(err[ok]).max() < 0.10 * peak              # worst points: fit windows at the wing edge
     # tracked xyz of each reference pixel lies on the wing surface at its material point
-    vtk = (out / "vtk" / "frame_00002.vtk").read_text().splitlines()
-    n = int(vtk[4].split()[1])
-    assert n == int((data["frame"] == 2).sum())
-    assert "SCALARS E_dominant double 1" in vtk
+    assert not list(out.rglob("*.vtk"))  # the legacy ASCII files are gone
+    import meshio
+    frame2 = meshio.read(out / "vtk" / "frame_00002.vtu")
+    assert len(frame2.points) == int((data["frame"] == 2).sum()) and len(frame2.cells_dict["triangle"]) > 0
+    np.testing.assert_allclose(frame2.point_data["E_dominant"], data["E_dominant"][data["frame"] == 2], rtol=1e-6)
+    header = (out / "strain.csv").read_text().splitlines()[0].split(",")
+    assert header[:5] == ["frame", "wing", "x_mm", "y_mm", "z_mm"] and "u_px" in header and "residual_mm" in header
     # the report of a strain folder shows its provenance, summary and strain maps
     assert main(["report", str(out), "-q"]) == 0
     page = (out / "report.html").read_text()

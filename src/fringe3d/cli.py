@@ -60,7 +60,7 @@ app = typer.Typer(
         "Example: fringe3d demo -o demo-out"
     ),
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,
     pretty_exceptions_enable=False,
     context_settings={"help_option_names": ["-h", "--help"]},
 )

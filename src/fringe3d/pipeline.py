@@ -20,7 +20,7 @@ from fringe3d.decode import DecodeOptions
 from fringe3d.io.capture import Capture, read_capture
 from fringe3d.io.images import write_image
 from fringe3d.io.ply_standard import write_measurement_ply
-from fringe3d.io.pointcloud import write_ply
+from fringe3d.io.pointcloud import _colors, organized_normals, write_ply
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.reconstruct.depth import depth_map
@@ -71,6 +71,76 @@ class Reconstruction:
     def save_ply(self, path: str | os.PathLike) -> Path:
         """Write the valid points as a PLY cloud coloured by the texture; returns the path."""
         return write_ply(Path(path), self.points, colors=self.texture)
+
+    def _valid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Valid points ``(N, 3)`` float64, their unit normals ``(N, 3)`` (NaN-free: 0 where the grid
+        has none) and RGB colours ``(N, 3)`` float64 in [0, 1] (grey texture; mid-grey without one)."""
+        m = self.mask & np.isfinite(self.points).all(axis=-1)
+        pts = np.asarray(self.points, np.float64)[m]
+        normals = np.nan_to_num(organized_normals(self.points)[m].astype(np.float64))
+        if self.texture is None:
+            colors = np.full_like(pts, 0.5)
+        else:
+            colors = _colors(self.texture, self.mask.shape)[m].astype(np.float64) / 255.0
+        return pts, normals, colors
+
+    def to_open3d(self):
+        """The valid points as an ``open3d.geometry.PointCloud`` (mm, camera frame).
+
+        Returns
+        -------
+        open3d.geometry.PointCloud
+            Points, colours from the texture (RGB in [0, 1]) and unit normals from the organized
+            grid (oriented towards the camera; zero where a neighbour is missing).
+
+        Raises
+        ------
+        ImportError
+            When open3d is not installed (``pip install "fringe3d[open3d]"``).
+        """
+        try:
+            import open3d as o3d
+        except ImportError as e:
+            raise ImportError("Reconstruction.to_open3d needs open3d: pip install \"fringe3d[open3d]\" "
+                              f"(or pip install open3d) ({e})") from e
+        pts, normals, colors = self._valid()
+        pcd = o3d.geometry.PointCloud()
+        pcd.points = o3d.utility.Vector3dVector(pts)
+        pcd.colors = o3d.utility.Vector3dVector(colors)
+        pcd.normals = o3d.utility.Vector3dVector(normals)
+        return pcd
+
+    def to_pyvista(self):
+        """The valid points as a ``pyvista.PolyData`` (mm, camera frame; one vertex cell per point).
+
+        Returns
+        -------
+        pyvista.PolyData
+            Point data ``rgb`` (uint8 colours from the texture), ``normals`` (unit, zero where the
+            grid has none), ``quality`` (uint8 bits, :attr:`quality`) and ``sigma_z`` (float32 mm,
+            :attr:`sigma_z`) where those are known.
+
+        Raises
+        ------
+        ImportError
+            When pyvista is not installed (``pip install "fringe3d[pyvista]"``).
+        """
+        try:
+            import pyvista as pv
+        except ImportError as e:
+            raise ImportError("Reconstruction.to_pyvista needs pyvista: pip install \"fringe3d[pyvista]\" "
+                              f"(or pip install pyvista) ({e})") from e
+        m = self.mask & np.isfinite(self.points).all(axis=-1)
+        pts, normals, colors = self._valid()
+        cloud = pv.PolyData(pts)
+        cloud.point_data["rgb"] = np.round(colors * 255.0).astype(np.uint8)
+        cloud.point_data["normals"] = normals
+        if self.quality is not None:
+            cloud.point_data["quality"] = np.asarray(self.quality, np.uint8)[m]
+        sigma_z = self.sigma_z
+        if sigma_z is not None:
+            cloud.point_data["sigma_z"] = np.asarray(sigma_z, np.float32)[m]
+        return cloud
 
     def save(self, out: str | os.PathLike, ply: bool = False, mesh: bool = False) -> dict:
         """Write ``points.npy``, ``depth.tif``, ``texture.tif``, ``quality.tif`` (uint8 bits),

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.export_vtk import strain_table, write_strain_csv, write_strain_vtk
+from fringe3d.io.export_vtk import grid_triangles, strain_table, write_strain_csv, write_strain_frame, write_strain_pvd
 from fringe3d.io.point_sequence import read_point_sequence
 from fringe3d.io.strain_figures import (
     scatter_to_image,
@@ -53,7 +53,7 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
                wings: int = 1, radius: int = 3, reference: int = 0, figures: bool = True, fill_dots: int = 8) -> dict:
     """Track a wing sequence and map its bending strain (Eq. 6.9-6.21): everything
     ``fringe3d strain`` does; returns the JSON summary. Validates all inputs before any file
-    is written (``strain.csv``, ``vtk/frame_*.vtk``, ``maps/strain_*.png``, ``strain.gif``,
+    is written (``strain.csv``, ``vtk/frame_*.vtu`` + ``strain.pvd``, ``maps/strain_*.png``, ``strain.gif``,
     ``summary.json`` in ``out``, each atomically)."""
     t0 = time.perf_counter()
     if not (thickness > 0):
@@ -93,9 +93,14 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
             frame_col.append(np.full(len(tab), f))
             wing_col.append(np.full(len(tab), w))
     write_strain_csv(out / "strain.csv", np.vstack(tables), np.concatenate(frame_col), np.concatenate(wing_col))
+    frame_files = []
     for f in range(len(seq)):
         frame_tab = np.vstack([tables[f * len(results) + w] for w in range(len(results))])
-        write_strain_vtk(out / "vtk" / f"frame_{f:05d}.vtk", frame_tab, title=f"fringe3d strain frame {f}")
+        offsets = np.cumsum([0] + [len(r.ref_uv) for r in results])
+        tri = np.concatenate([grid_triangles(r.ref_uv, step, r.ok[f] & np.isfinite(r.xyz[f]).all(axis=-1)) + o
+                              for r, o in zip(results, offsets)])
+        frame_files.append(write_strain_frame(out / "vtk" / f"frame_{f:05d}.vtu", frame_tab, tri))
+    write_strain_pvd(out / "strain.pvd", frame_files)
     if figures:
         allv = np.concatenate([np.abs(r.dominant[r.ok]) for r in results])
         vmax = float(np.percentile(allv, 99)) if allv.size else 1e-6

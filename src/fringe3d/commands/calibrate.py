@@ -5,6 +5,7 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.calibrate.calibration_file import load_calibration
 from fringe3d.calibrate.evaluation import compare_to_truth
 from fringe3d.calibrate.opencv_file import load_opencv_calibration, parse_node_map, parse_size
@@ -22,7 +23,7 @@ MAX_POSES = 500
 
 
 def register(app: typer.Typer) -> None:
-    @app.command("calibrate")
+    @app.command("calibrate", cls=AliasCommand)
     def calibrate(
         inputs: list[Path] = typer.Argument(None, help="Pose capture folders, or a session folder holding them "
                                                        "(none with --import-opencv)."),
@@ -37,8 +38,10 @@ def register(app: typer.Typer) -> None:
                                              "frame = world); default from session.json or pinhole."),
         camera_dist: str = typer.Option("k1k2p", help="Camera distortion: none, k1, k1k2, k1k2p, full."),
         projector_dist: str = typer.Option("none", help="Projector distortion (linear model = none)."),
-        min_modulation: float = typer.Option(0.1, help="Reject centres whose modulation is below this "
-                                                       "fraction of the image's 95th percentile."),
+        min_modulation: float = typer.Option(0.1, "--min-modulation-share",
+                                             help="Reject centres whose modulation is below this share (a "
+                                                  "fraction, 0-1) of the image's 95th-percentile modulation "
+                                                  "(--min-modulation: deprecated spelling)."),
         phase_window: str = typer.Option("bilinear", help="Phase at each circle centre: 'bilinear' (Eq. 2.30-2.31), "
                                                           "or a modulation-weighted local fit over a radius: 'auto' "
                                                           "(half the circle spacing) or a number of pixels."),
@@ -85,7 +88,7 @@ def register(app: typer.Typer) -> None:
             return
         for value, option in ((spacing, "--spacing"), (radius, "--radius"), (camera_scale, "--camera-scale")):
             check_number(value, option, positive=True)
-        check_number(min_modulation, "--min-modulation", minimum=0, maximum=1)
+        check_number(min_modulation, "--min-modulation-share", minimum=0, maximum=1)
         check_number(defocus, "--defocus", minimum=0)
         for value, option in ((cols, "--cols"), (rows, "--rows")):
             if not 2 <= value <= MAX_BOARD_SIDE:

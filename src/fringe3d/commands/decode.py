@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
@@ -62,16 +63,18 @@ def _decode_all(cap, n: int, patterns, rig, options: DecodeOptions, out: Path, c
 
 
 def register(app: typer.Typer) -> None:
-    @app.command("decode")
+    @app.command("decode", cls=AliasCommand)
     def decode_cmd(
         capture: Path = typer.Argument(..., help="Capture folder: manifest.json + frames/00000.png ... "
                                                  "(+ capture.json)."),
-        out: Path = typer.Option(..., "--out", "-o",
+        out: Path = typer.Option(..., "-o", "--output",
                                  help="Output folder (decoded.npz, 32-bit float TIFFs, decoded.json)."),
-        rig: Path = typer.Option(None, "--rig", help="Rig or calibration JSON, for geometric/hybrid unwrapping."),
+        rig: Path = typer.Option(None, "-c", "--calibration",
+                                 help="Calibration JSON (with a 'rig' entry) or rig JSON, for geometric/hybrid "
+                                      "unwrapping (--rig: deprecated spelling)."),
         z_min: float = typer.Option(None, "--z-min", help="Nearest depth (mm) for geometric-constraint unwrapping."),
         min_modulation: float = typer.Option(None, "--min-modulation",
-                                             help="Modulation threshold in camera counts (default 2% of full scale)."),
+                                             help="Modulation threshold, camera counts (default 2% of full scale)."),
         bit_depth: int = typer.Option(None, "--bit-depth",
                                       help="Camera bit depth (default capture.json or the PNG dtype)."),
         max_cycles: int = typer.Option(None, "--max-cycles", help="Decode only the first N pattern cycles."),
@@ -79,7 +82,7 @@ def register(app: typer.Typer) -> None:
                                        help="FTP band-pass window: hanning or circular (default hanning; circular "
                                             "for modified FTP)."),
         ftp_flip: bool = typer.Option(False, "--ftp-flip",
-                                      help="Flip the FTP phase sign (a mirrored view decoded without --rig)."),
+                                      help="Flip the FTP phase sign (a mirrored view decoded without --calibration)."),
         method: str = typer.Option(None, "--method",
                                    help="Unwrapping method for every direction, overriding the manifest's plans "
                                         "(e.g. spatial for a single 3-step set; gray_code_only for codes)."),

@@ -26,6 +26,9 @@ def register(app: typer.Typer) -> None:
         set_quiet(quiet or json_)
         if list_ or not name:
             rows = [[n, getattr(m, "SUMMARY", "")] for n, m in experiments.available().items()]
+            if json_:
+                print_json({"experiments": [{"name": n, "summary": d} for n, d in rows]})
+                return
             console.print(make_table("experiments", ["name", "what it reproduces"], rows))
             return
         mod = experiments.get(name)

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
 from fringe3d.io.importer import import_images, parse_size
@@ -12,12 +13,12 @@ from fringe3d.utils.console import console, make_table, print_json, set_quiet
 
 
 def register(app: typer.Typer) -> None:
-    @app.command("import")
+    @app.command("import", cls=AliasCommand)
     def import_cmd(
         src: str = typer.Argument(..., help="Folder or glob of frames (PNG, TIFF, BMP, JPEG), naturally sorted "
                                             "(img_2 before img_10); or a camera file, referenced not converted: "
                                             "Photron .cih/.cihx/.mraw, a multi-page .tif, a zarr store."),
-        out: Path = typer.Option(..., "--out", "-o", help="Capture folder to write (must be empty)."),
+        out: Path = typer.Option(..., "-o", "--output", help="Capture folder to write (must be empty)."),
         list_file: Path = typer.Option(None, "--list", help="Text file listing the frames in projection order "
                                                             "(one path a line, relative to the file)."),
         manifest: Path = typer.Option(None, "--manifest", help="Pattern manifest (manifest.json) of what was "

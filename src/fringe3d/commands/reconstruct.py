@@ -7,6 +7,7 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.decode import DecodeOptions
 from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
 from fringe3d.commands.checks import check_number
@@ -63,12 +64,12 @@ def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOpti
 
 
 def register(app: typer.Typer) -> None:
-    @app.command("reconstruct")
+    @app.command("reconstruct", cls=AliasCommand)
     def reconstruct_cmd(
         capture: Path = typer.Argument(..., help="Capture folder: manifest.json + frames/ (+ capture.json)."),
         calibration: Path = typer.Option(..., "--calibration", "-c",
                                          help="Calibration JSON (with a 'rig' entry) or rig JSON."),
-        out: Path = typer.Option(..., "--out", "-o", help="Output folder."),
+        out: Path = typer.Option(..., "-o", "--output", help="Output folder."),
         method: str = typer.Option(None, "--method", "-m",
                                    help=f"Unwrapping method for every direction (default: the manifest's plans). "
                                         f"One of: {', '.join(METHODS)}."),
@@ -86,7 +87,8 @@ def register(app: typer.Typer) -> None:
                                         "one per pattern cycle."),
         triangulation: str = typer.Option("auto", "--triangulation",
                                           help="auto, fast (closed form) or lsq (Eq. 2.37)."),
-        min_modulation: float = typer.Option(None, "--min-modulation", help="Modulation threshold (camera counts)."),
+        min_modulation: float = typer.Option(None, "--min-modulation",
+                                             help="Modulation threshold, camera counts (default 2% of full scale)."),
         max_cycles: int = typer.Option(None, "--max-cycles", help="Use only the first N pattern cycles."),
         workers: int = typer.Option(None, "--workers",
                                     help="Sequences: run on a local Dask cluster of N worker processes "

@@ -21,7 +21,7 @@ def register(app: typer.Typer) -> None:
         output: Path = typer.Option(None, "-o", "--output", help="HTML file to write [default: RESULTS/report.html]."),
         overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print the written path as JSON."),
-        quiet: bool = typer.Option(False, "--quiet", "-q"),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="Print nothing but errors (and --json output)."),
     ) -> None:
         """Write one self-contained HTML page from what RESULTS holds: provenance (fringe3d.json),
         calibration parameters, measurement figures with their definitions (evaluate.json), error
@@ -30,7 +30,7 @@ def register(app: typer.Typer) -> None:
 
         Example: fringe3d report demo-out -o demo-out/report.html
         """
-        set_quiet(quiet)
+        set_quiet(quiet or json_)
         target = output if output is not None else default_output(results)
         read = [results] if results.is_file() else sorted(results.glob("*.json"))
         with open_output_file(target, overwrite=overwrite, inputs=read):

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
@@ -22,9 +23,9 @@ def locals_for_fingerprint(**options) -> dict:
 
 
 def register(app: typer.Typer) -> None:
-    @app.command("simulate")
+    @app.command("simulate", cls=AliasCommand)
     def simulate(
-        out: Path = typer.Option(..., "--out", "-o", help="Output capture folder."),
+        out: Path = typer.Option(..., "-o", "--output", help="Output capture folder."),
         preset: str = typer.Option("tiny", help="Rig preset: macro, well-designed, microscope, high-speed, tiny."),
         scene: str = typer.Option(None, help="Scene name (sphere, plane, spheres, step, board, sculpture, mesh, "
                                              "falling-balls, wing, textured-spheres) or a JSON scene file; "

@@ -9,8 +9,9 @@ SEQUENCE (read by :func:`fringe3d.io.point_sequence.read_point_sequence`) is one
   holding such a ``points.zarr``.
 
 Outputs in OUT (each written atomically, and only after every input check has passed):
-``strain.csv`` (all frames, wings and points), ``vtk/frame_00000.vtk`` (one legacy VTK polydata
-per frame), ``maps/strain_00000.png`` (dominant strain maps with a colour bar),
+``strain.csv`` (all frames, wings and points; units in the header), ``vtk/frame_00000.vtu`` (one
+binary VTK XML grid per frame: the tracked points' triangles and their strain) with
+``strain.pvd`` (the time series for ParaView), ``maps/strain_00000.png`` (dominant strain maps with a colour bar),
 ``strain.gif`` (animation) and ``summary.json``.
 """
 from __future__ import annotations
@@ -19,6 +20,7 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.analyze.wing_strain import run_strain
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
@@ -26,12 +28,12 @@ from fringe3d.utils.console import console, make_table, print_json, set_quiet
 
 
 def register(app: typer.Typer) -> None:
-    @app.command("strain")
+    @app.command("strain", cls=AliasCommand)
     def strain(
         sequence: Path = typer.Argument(..., help="Folder of points_*.npy, a .npy/.npz (F,H,W,3) or a zarr store."),
         anchors: str = typer.Option(..., "--anchors", help="'u1,v1,u2,v2' pixel anchors (';' between wings) "
                                                            "or 'auto' (dark dots in the texture)."),
-        out: Path = typer.Option(..., "--out", "-o", help="Output folder."),
+        out: Path = typer.Option(..., "-o", "--output", help="Output folder."),
         thickness: float = typer.Option(0.1, help="Membrane thickness h (mm) for E = (h/2)·κ (Eq. 6.11)."),
         window: int = typer.Option(11, help="Quadratic-fit neighbourhood (odd, pixels)."),
         step: int = typer.Option(4, help="Track every STEP-th pixel of the reference frame."),
@@ -46,7 +48,7 @@ def register(app: typer.Typer) -> None:
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
     ) -> None:
         """Track every point of an inextensible wing by geodesic distances (Eq. 6.9) and map its
-        Kirchhoff–Love bending strain (Eq. 6.10–6.21): CSV, VTK, PNG maps, GIF.
+        Kirchhoff–Love bending strain (Eq. 6.10–6.21): CSV, VTU + PVD, PNG maps, GIF.
 
         Example: fringe3d strain wing-points/ --anchors 120,80,300,82 -o wing-strain --json
         """

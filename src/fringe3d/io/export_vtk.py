@@ -1,23 +1,51 @@
-"""Export tracked points with their strain: CSV and legacy-ASCII VTK polydata (ParaView, VisIt).
+"""Export tracked points with their strain: a CSV with units, and binary VTK XML per frame (meshio)
+with a ParaView ``.pvd`` time series.
 
-Both writers go through :func:`fringe3d.utils.atomic.atomic_path`, so a reader never sees a
-half-written file. Columns / point-data arrays: ``x, y, z`` (mm), the strain components
-``E11, E12, E22`` (material basis), the principal values ``E_min, E_max``, the dominant
-principal value ``E_dominant``, the image position ``u, v`` (px), the tracking residual (mm)
-and ``ok`` (1 = tracked and fitted, 0 = flagged).
+Every writer goes through :func:`fringe3d.utils.atomic.atomic_path`, so a reader never sees a
+half-written file. Columns / point-data arrays (:data:`FIELDS`, units in :data:`UNITS`): ``x, y,
+z`` (mm), the strain components ``E11, E12, E22`` (material basis), the principal values ``E_min,
+E_max`` and the dominant principal value ``E_dominant`` (all dimensionless, mm/mm), the image
+position ``u, v`` (px), the tracking residual (mm) and ``ok`` (1 = tracked and fitted, 0 = flagged).
+The CSV header spells the unit into each name (``x_mm``, ``E11``, ``u_px``, ...; see :func:`csv_names`).
+
+The per-frame files are VTK XML unstructured grids (``.vtu``, binary, zlib-compressed): meshio
+writes no ``.vtp`` polydata, and ``.vtu`` opens the same way in ParaView, VisIt, pyvista and meshio.
+Their cells are the triangles of the organized grid of tracked points (two per grid square whose
+four corners were tracked in that frame; :func:`grid_triangles`), else one vertex per point.
 """
 from __future__ import annotations
 
 import os
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 from fringe3d.utils.atomic import atomic_path
 
-__all__ = ["strain_table", "write_strain_csv", "write_strain_vtk", "FIELDS"]
+__all__ = ["strain_table", "write_strain_csv", "write_strain_frame", "write_strain_pvd", "grid_triangles",
+           "csv_names", "FIELDS", "UNITS"]
 
 FIELDS = ["x", "y", "z", "E11", "E12", "E22", "E_min", "E_max", "E_dominant", "u", "v", "residual", "ok"]
+#: Unit of each column of :data:`FIELDS` ("" = dimensionless strain or a flag).
+UNITS = {"x": "mm", "y": "mm", "z": "mm", "E11": "", "E12": "", "E22": "", "E_min": "", "E_max": "",
+         "E_dominant": "", "u": "px", "v": "px", "residual": "mm", "ok": ""}
 
+
+def csv_names(fields: list[str] | None = None) -> list[str]:
+    """CSV column names with their unit: ``x_mm``, ``u_px``, ``residual_mm``; strain and ``ok`` as is.
+
+    Parameters
+    ----------
+    fields : list of str, optional
+        Column names (default :data:`FIELDS`).
+
+    Returns
+    -------
+    list of str
+        ``name_unit`` where the column has a unit, else ``name``.
+    """
+    return [f"{n}_{UNITS[n]}" if UNITS.get(n) else n for n in (FIELDS if fields is None else fields)]
 
 def strain_table(xyz, E, principal, dominant, uv, residual, ok) -> np.ndarray:
     """Stack per-point quantities of one frame into an (N, 13) float64 table (columns FIELDS)."""
@@ -32,7 +60,17 @@ def strain_table(xyz, E, principal, dominant, uv, residual, ok) -> np.ndarray:
 
 def write_strain_csv(path: str | os.PathLike, table: np.ndarray, frame: np.ndarray | None = None,
                      wing: np.ndarray | None = None) -> None:
-    """CSV with a header row; optional leading integer columns ``frame`` and ``wing``."""
+    """Write the strain table as CSV, the units in the header row (:func:`csv_names`).
+
+    Parameters
+    ----------
+    path : path-like
+        CSV file to write (atomically).
+    table : (N, 13) float
+        From :func:`strain_table` (columns :data:`FIELDS`).
+    frame, wing : (N,) int, optional
+        Leading integer columns ``frame`` and ``wing``.
+    """
     table = np.asarray(table, float)
     if table.ndim != 2 or table.shape[1] != len(FIELDS):
         raise ValueError(f"table must have shape (N, {len(FIELDS)}); got {table.shape}")
@@ -42,37 +80,111 @@ def write_strain_csv(path: str | os.PathLike, table: np.ndarray, frame: np.ndarr
             lead.append(np.asarray(col).reshape(-1, 1))
             names.append(name)
     with atomic_path(path) as tmp, open(tmp, "w") as fh:
-        fh.write(",".join(names + FIELDS) + "\n")
+        fh.write(",".join(names + csv_names()) + "\n")
         for i in range(table.shape[0]):
             head = [str(int(c[i, 0])) for c in lead]
             vals = [("nan" if not np.isfinite(x) else f"{x:.9g}") for x in table[i, :-1]]
             fh.write(",".join(head + vals + [str(int(table[i, -1]))]) + "\n")
 
 
-def write_strain_vtk(path: str | os.PathLike, table: np.ndarray, title: str = "fringe3d tracked points") -> None:
-    """Legacy ASCII VTK POLYDATA: one vertex per point, every FIELDS column as POINT_DATA scalars.
+def grid_triangles(uv: np.ndarray, step: int, ok: np.ndarray | None = None) -> np.ndarray:
+    """Triangles ``(M, 3)`` of tracked points that sit on a regular reference grid.
 
-    Points with non-finite coordinates are written at the origin with ``ok = 0`` so indices
-    stay aligned with the CSV.
+    Parameters
+    ----------
+    uv : (N, 2) float
+        Reference pixel of each point (multiples of ``step``, as :func:`fringe3d.analyze.anchors.query_grid`
+        makes them).
+    step : int
+        Grid spacing (px).
+    ok : (N,) bool, optional
+        Points usable in this frame; a square with an unusable corner gets no triangles.
+
+    Returns
+    -------
+    (M, 3) int64
+        Point indices, two triangles per grid square whose four corners are present (and ok).
     """
+    uv = np.asarray(uv, float).reshape(-1, 2)
+    if len(uv) == 0:
+        return np.zeros((0, 3), np.int64)
+    g = np.round(uv / max(int(step), 1)).astype(np.int64)
+    g -= g.min(axis=0)
+    index = np.full((int(g[:, 1].max()) + 2, int(g[:, 0].max()) + 2), -1, np.int64)
+    use = np.ones(len(uv), bool) if ok is None else np.asarray(ok, bool).reshape(-1)
+    index[g[use, 1], g[use, 0]] = np.flatnonzero(use)
+    a, b, c, d = index[:-1, :-1], index[:-1, 1:], index[1:, :-1], index[1:, 1:]
+    full = (a >= 0) & (b >= 0) & (c >= 0) & (d >= 0)
+    a, b, c, d = a[full], b[full], c[full], d[full]
+    return np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)]).astype(np.int64)
+
+
+def write_strain_frame(path: str | os.PathLike, table: np.ndarray, triangles: np.ndarray | None = None) -> Path:
+    """One frame's tracked points as a binary VTK XML unstructured grid (``.vtu``, meshio).
+
+    Parameters
+    ----------
+    path : path-like
+        File to write (atomically); ``.vtu``.
+    table : (N, 13) float
+        From :func:`strain_table`; every column but ``x, y, z`` becomes point data (``ok`` as int32).
+        Points with non-finite coordinates are written at the origin with ``ok = 0`` so indices
+        stay aligned with the CSV.
+    triangles : (M, 3) int, optional
+        Surface cells (:func:`grid_triangles`); none or empty: one vertex cell per point.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    import meshio
+
     table = np.asarray(table, float)
     if table.ndim != 2 or table.shape[1] != len(FIELDS):
         raise ValueError(f"table must have shape (N, {len(FIELDS)}); got {table.shape}")
     n = table.shape[0]
-    xyz = np.nan_to_num(table[:, :3], nan=0.0, posinf=0.0, neginf=0.0)
-    ok = table[:, -1] * np.isfinite(table[:, :3]).all(axis=1)
-    lines = ["# vtk DataFile Version 3.0", title[:255].replace("\n", " "), "ASCII", "DATASET POLYDATA",
-             f"POINTS {n} double"]
-    lines += [f"{a:.9g} {b:.9g} {c:.9g}" for a, b, c in xyz]
-    lines += [f"VERTICES {n} {2 * n}"] + [f"1 {i}" for i in range(n)]
-    lines += [f"POINT_DATA {n}"]
-    for j, name in enumerate(FIELDS[3:], start=3):
-        col = ok if name == "ok" else table[:, j]
-        typ = "int" if name == "ok" else "double"
-        lines += [f"SCALARS {name} {typ} 1", "LOOKUP_TABLE default"]
-        if name == "ok":
-            lines += [str(int(x)) for x in col]
-        else:
-            lines += [("nan" if not np.isfinite(x) else f"{x:.9g}") for x in col]
+    finite = np.isfinite(table[:, :3]).all(axis=1)
+    xyz = np.where(finite[:, None], table[:, :3], 0.0)
+    ok = (table[:, -1] * finite).astype(np.int32)
+    if triangles is not None and len(triangles):
+        cells = [("triangle", np.asarray(triangles, np.int64).reshape(-1, 3))]
+    else:
+        cells = [("vertex", np.arange(n, dtype=np.int64).reshape(-1, 1))]
+    data = {name: (ok if name == "ok" else np.ascontiguousarray(table[:, j])) for j, name in enumerate(FIELDS)
+            if j >= 3}
+    path = Path(path)
     with atomic_path(path) as tmp:
-        tmp.write_text("\n".join(lines) + "\n")
+        meshio.write(tmp, meshio.Mesh(xyz, cells, point_data=data), file_format="vtu", binary=True,
+                     compression="zlib")
+    return path
+
+
+def write_strain_pvd(path: str | os.PathLike, files: list[str | os.PathLike], times: list[float] | None = None) -> Path:
+    """A ParaView ``.pvd`` collection: the per-frame files as one time series.
+
+    Parameters
+    ----------
+    path : path-like
+        ``.pvd`` file to write (atomically); the frame files are referenced relative to its folder.
+    files : list of path-like
+        Per-frame files in frame order (:func:`write_strain_frame`).
+    times : list of float, optional
+        Time of each frame (default: the frame index).
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    path = Path(path)
+    times = list(range(len(files))) if times is None else list(times)
+    if len(times) != len(files):
+        raise ValueError(f"{len(files)} frame files but {len(times)} times")
+    rows = [f'    <DataSet timestep="{t:.9g}" group="" part="0" file={quoteattr(os.path.relpath(f, path.parent))}/>'
+            for t, f in zip(times, files)]
+    text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+            "  <Collection>\n" + "\n".join(rows) + "\n  </Collection>\n</VTKFile>\n")
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(text)
+    return path

@@ -75,7 +75,7 @@ def load_summary(folder: str | Path) -> dict:
 
 #: Suffixes of the files a summary may name (each must lie inside the results folder).
 FILE_SUFFIXES = (".png", ".jpg", ".gif", ".svg", ".npy", ".npz", ".ply", ".json", ".html", ".csv", ".tif", ".tiff",
-                 ".vtk", ".vtp", ".zarr", ".txt", ".yaml", ".yml")
+                 ".vtk", ".vtp", ".vtu", ".pvd", ".zarr", ".txt", ".yaml", ".yml")
 
 
 def check_file_fields(summary, folder: Path, path: Path, where: str = "") -> None:
