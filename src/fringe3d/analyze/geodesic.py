@@ -232,15 +232,9 @@ def _virtual_source(la, lb, lc, da, db):
     return math.sqrt((xx - sx) ** 2 + (xy - sy) ** 2)
 
 
-@numba.njit(cache=True)
-def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_, cw, nbr, lut, wavefront):
-    h, w = valid.shape
-    n = h * w
-    R = (lut.shape[0] - 1) // 2
-    dist = np.full(n, np.inf)
-    done = np.zeros(n, dtype=np.bool_)
-    pos = np.full(n, -1, dtype=np.int64)   # -1 never queued, >= 0 heap slot
-    heap = np.empty(n, dtype=np.int64)
+@numba.njit(cache=True, inline="always")
+def _seed_heap(heap, pos, dist, seed_idx, seed_dist):
+    """Queue the seeds (pixel index, start distance) in an empty heap; returns the heap size."""
     size = 0
     for s in range(seed_idx.shape[0]):
         i = seed_idx[s]
@@ -251,6 +245,19 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
                 pos[i] = size
                 size += 1
             _sift_up(heap, pos, dist, pos[i])
+    return size
+
+
+@numba.njit(cache=True)
+def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_, cw, nbr, lut, wavefront):
+    h, w = valid.shape
+    n = h * w
+    R = (lut.shape[0] - 1) // 2
+    dist = np.full(n, np.inf)
+    done = np.zeros(n, dtype=np.bool_)
+    pos = np.full(n, -1, dtype=np.int64)   # -1 never queued, >= 0 heap slot
+    heap = np.empty(n, dtype=np.int64)
+    size = _seed_heap(heap, pos, dist, seed_idx, seed_dist)
     p1 = np.empty(3)
     p2 = np.empty(3)
     p0 = np.empty(3)
@@ -428,16 +435,7 @@ def _dijkstra_table(valid, index, table, seed_idx, seed_dist, offsets, nbr, lut,
     dist[:] = np.inf
     done[:] = False
     pos[:] = -1
-    size = 0
-    for s in range(seed_idx.shape[0]):
-        i = seed_idx[s]
-        if seed_dist[s] < dist[i]:
-            dist[i] = seed_dist[s]
-            if pos[i] < 0:
-                heap[size] = i
-                pos[i] = size
-                size += 1
-            _sift_up(heap, pos, dist, pos[i])
+    size = _seed_heap(heap, pos, dist, seed_idx, seed_dist)
     nofs = offsets.shape[0]
     while size > 0:
         node = heap[0]
