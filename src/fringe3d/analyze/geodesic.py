@@ -233,18 +233,25 @@ def _virtual_source(la, lb, lc, da, db):
 
 
 @numba.njit(cache=True, inline="always")
+def _lower(heap, pos, dist, i, d, size):
+    """Set ``dist[i] = d`` (smaller than before), queueing ``i`` if it is new; returns the heap size."""
+    dist[i] = d
+    if pos[i] < 0:
+        heap[size] = i
+        pos[i] = size
+        size += 1
+    _sift_up(heap, pos, dist, pos[i])
+    return size
+
+
+@numba.njit(cache=True, inline="always")
 def _seed_heap(heap, pos, dist, seed_idx, seed_dist):
     """Queue the seeds (pixel index, start distance) in an empty heap; returns the heap size."""
     size = 0
     for s in range(seed_idx.shape[0]):
         i = seed_idx[s]
         if seed_dist[s] < dist[i]:
-            dist[i] = seed_dist[s]
-            if pos[i] < 0:
-                heap[size] = i
-                pos[i] = size
-                size += 1
-            _sift_up(heap, pos, dist, pos[i])
+            size = _lower(heap, pos, dist, i, seed_dist[s], size)
     return size
 
 
@@ -320,12 +327,7 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
                     if vs < best:
                         best = vs
             if best < dist[nb]:
-                dist[nb] = best
-                if pos[nb] < 0:
-                    heap[size] = nb
-                    pos[nb] = size
-                    size += 1
-                _sift_up(heap, pos, dist, pos[nb])
+                size = _lower(heap, pos, dist, nb, best, size)
     return dist.reshape(h, w)
 
 
@@ -485,12 +487,7 @@ def _dijkstra_table(valid, index, table, seed_idx, seed_dist, offsets, nbr, lut,
                     if vs < best:
                         best = vs
             if best < dist[nb]:
-                dist[nb] = best
-                if pos[nb] < 0:
-                    heap[size] = nb
-                    pos[nb] = size
-                    size += 1
-                _sift_up(heap, pos, dist, pos[nb])
+                size = _lower(heap, pos, dist, nb, best, size)
     out = dist.reshape(h, w).copy()
     for i in range(h * w):
         if not done[i]:
