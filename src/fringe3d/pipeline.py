@@ -98,11 +98,7 @@ class Reconstruction:
         ImportError
             When open3d is not installed (``pip install "fringe3d[open3d]"``).
         """
-        try:
-            import open3d as o3d
-        except ImportError as e:
-            raise ImportError("Reconstruction.to_open3d needs open3d: pip install \"fringe3d[open3d]\" "
-                              f"(or pip install open3d) ({e})") from e
+        o3d = _optional("open3d", "to_open3d")
         pts, normals, colors = self._valid()
         pcd = o3d.geometry.PointCloud()
         pcd.points = o3d.utility.Vector3dVector(pts)
@@ -125,11 +121,7 @@ class Reconstruction:
         ImportError
             When pyvista is not installed (``pip install "fringe3d[pyvista]"``).
         """
-        try:
-            import pyvista as pv
-        except ImportError as e:
-            raise ImportError("Reconstruction.to_pyvista needs pyvista: pip install \"fringe3d[pyvista]\" "
-                              f"(or pip install pyvista) ({e})") from e
+        pv = _optional("pyvista", "to_pyvista")
         m = self.mask & np.isfinite(self.points).all(axis=-1)
         pts, normals, colors = self._valid()
         cloud = pv.PolyData(pts)
@@ -156,6 +148,16 @@ class Reconstruction:
     def summary(self) -> dict:
         """Valid share / count and depth range; see :func:`point_summary`."""
         return point_summary(self.points)
+
+
+def _optional(module: str, method: str):
+    """The optional library ``module`` (also the name of its extra), or an ImportError saying how
+    to install it for ``Reconstruction.<method>``."""
+    try:
+        return __import__(module)  # a top-level package name: the module itself
+    except ImportError as e:
+        raise ImportError(f"Reconstruction.{method} needs {module}: pip install \"fringe3d[{module}]\" "
+                          f"(or pip install {module}) ({e})") from e
 
 
 def check_sizes(rig: Rig, frames: np.ndarray, calibration) -> None:

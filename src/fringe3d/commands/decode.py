@@ -47,7 +47,7 @@ def _decode_all(cap, n: int, patterns, rig, options: DecodeOptions, out: Path, c
             folder = o.path if n == 1 else o.path / f"cycle_{c:05d}"
             if o.resumed and (folder / SUMMARY_NAME).is_file():  # written last by Decoded.save: this cycle is done
                 results.append({**read_json(folder / SUMMARY_NAME, "decode summary"), "cycle": c,
-                                "folder": str(o.final_of(folder)), "resumed": True})
+                                "folder": str(o.final_paths(folder)), "resumed": True})
                 advance()
                 continue
             dec = decode(np.asarray(frames[c * length:(c + 1) * length]), patterns, rig=rig, options=options)
@@ -57,7 +57,7 @@ def _decode_all(cap, n: int, patterns, rig, options: DecodeOptions, out: Path, c
                                  "was written (pass --allow-empty to write it anyway)")
             dec.save(folder)
             s = dec.summary()
-            s["cycle"], s["folder"] = c, str(o.final_of(folder))
+            s["cycle"], s["folder"] = c, str(o.final_paths(folder))
             results.append(s)
             advance()
 

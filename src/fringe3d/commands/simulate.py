@@ -17,11 +17,6 @@ from fringe3d.utils.console import console, make_table, print_json, set_quiet
 MAX_SIM_FRAMES = 20000
 
 
-def locals_for_fingerprint(**options) -> dict:
-    """The options that shape the output, for its fingerprint."""
-    return options
-
-
 def register(app: typer.Typer) -> None:
     @app.command("simulate", cls=AliasCommand)
     def simulate(
@@ -59,9 +54,9 @@ def register(app: typer.Typer) -> None:
         if frames is not None and not 1 <= frames <= MAX_SIM_FRAMES:
             raise ValueError(f"--frames must be between 1 and {MAX_SIM_FRAMES}, got {frames}")
         inputs = [Path(x) for x in (scene, patterns) if x is not None and Path(x).suffix == ".json"]
-        with open_output(out, overwrite=overwrite, inputs=inputs, options=dict(locals_for_fingerprint(
+        with open_output(out, overwrite=overwrite, inputs=inputs, options=dict(
                 preset=preset, scene=scene, patterns=patterns, frames=frames, frame_rate=frame_rate, exposure=exposure,
-                noise=noise, defocus=defocus, bit_depth=bit_depth, ideal=ideal, seed=seed))) as o:
+                noise=noise, defocus=defocus, bit_depth=bit_depth, ideal=ideal, seed=seed)) as o:
             summary = o.final_paths(simulate_capture(o.path, preset, scene, patterns, frames=frames,
                                                      frame_rate=frame_rate, exposure=exposure, noise=noise,
                                                      defocus=defocus, bit_depth=bit_depth, seed=seed,

@@ -180,10 +180,6 @@ class Output:
                 return type(obj)(str(self.final) + text[len(abs_tmp):])
         return obj
 
-    def final_of(self, p: str | os.PathLike) -> Path:
-        """Where ``p`` (a path under :attr:`path`) will be once the output is in place."""
-        return self.final / Path(p).resolve().relative_to(self.path.resolve())
-
 
 def _refuse_symlink(out: str | os.PathLike) -> None:
     """An output that is itself a symbolic link would write (or, with --overwrite, replace) its target."""
