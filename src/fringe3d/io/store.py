@@ -24,10 +24,10 @@ from typing import Any, Literal
 import numpy as np
 
 STORE_FORMAT = "fringe3d-point-store"
-#: Blosc codec of the point chunks. lz4 writes a 1280x1024 point map about 3.5x faster than zstd
-#: level 3 (about 24 vs 83 ms) for about 7 % more bytes (11.3 vs 10.6 MB; noisy float32 xyz
-#: compress poorly either way): writing is on the critical path of a sequence
-#: (``benchmarks/bench_sequence.py`` measures both).
+#: Blosc codec of the point chunks. In ``benchmarks/bench_sequence.py`` (1280x1024) lz4 wrote a
+#: point map 3x faster than zstd level 3 (69 vs 210 ms, a loaded 2-core machine) for 16 % more
+#: bytes (10.7 vs 9.3 MB; noisy float32 xyz compress poorly either way): writing is on the
+#: critical path of a sequence.
 CODEC: Literal["lz4", "zstd"] = "lz4"
 CODEC_LEVEL = 5
 #: zarr v3 ``dimension_names`` (what ``xarray.open_zarr`` names the dimensions)
