@@ -20,6 +20,7 @@ from fringe3d.decode.method_plans import with_method  # noqa: F401  (re-exported
 from fringe3d.decode.methods import method_for
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.decode.result import Decoded, Unwrapped
+from fringe3d.decode.texture import as_fraction
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import quality
@@ -186,9 +187,10 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     out.average = np.asarray(average, np.float32)
     white = ps.indices(kind="white")
     if white:
-        out.texture = frames[white[0]].astype(np.float32)
+        raw = frames[white[0]]
     elif result.texture is not None:  # the fused kernel wrote average + modulation
-        out.texture = np.asarray(result.texture, np.float32)
+        raw = result.texture
     else:
-        out.texture = np.add(out.average, out.modulation[plans[0].direction], dtype=np.float32)  # one pass
+        raw = np.add(out.average, out.modulation[plans[0].direction], dtype=np.float32)  # one pass
+    out.texture = as_fraction(raw, frames, bit_depth)  # one meaning everywhere (fringe3d.decode.texture)
     return out

@@ -10,8 +10,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import tifffile
 
+from fringe3d.io.images import write_tiff
 from fringe3d.patterns.conventions import phase_to_w
 
 from fringe3d.utils.atomic import atomic_path
@@ -23,6 +23,15 @@ SUMMARY_NAME = "decoded.json"
 _PER_DIRECTION = ("phase", "wrapped", "modulation", "mask")
 #: Per-direction maps that older decode outputs lack (read when present).
 _OPTIONAL = ("quality", "phase_sigma")
+#: Unit of each saved map (the TIFFs' descriptions). The texture is the scene under full projector
+#: illumination as a fraction of the camera's full scale (:mod:`fringe3d.decode.texture`).
+MAP_UNITS = {"phase": "rad", "wrapped": "rad", "modulation": "camera counts", "mask": "1 valid, 0 invalid",
+             "quality": "bit flags (fringe3d.decode.edges)", "phase_sigma": "rad", "average": "camera counts",
+             "texture": "fraction of full scale"}
+#: Units of decoded.json's fields.
+SUMMARY_UNITS = {"period": "projector px", "angle": "rad", "phase_min": "rad", "phase_max": "rad",
+                 "median_modulation": "camera counts", "valid_fraction": "1", "shape": "px (rows, columns)",
+                 "edge_margin": "projector px", "blur": "projector px", "min_modulation": "camera counts"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,9 +167,10 @@ class Decoded:
             with open(tmp, "wb") as fh:
                 np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
         for key, arr in arrays.items():
-            with atomic_path(folder / f"{key}.tif") as tmp:
-                tifffile.imwrite(tmp, np.asarray(arr, dtype=np.uint8 if key.startswith("quality_") else np.float32))
-        write_json(folder / SUMMARY_NAME, self.summary())
+            quantity = key.rsplit("_", 1)[0] if key not in MAP_UNITS else key
+            write_tiff(folder / f"{key}.tif", np.asarray(arr, dtype=np.uint8 if key.startswith("quality_") else np.float32),
+                       key, MAP_UNITS[quantity])
+        write_json(folder / SUMMARY_NAME, self.summary(), units=SUMMARY_UNITS)
         return folder
 
     @classmethod

@@ -42,6 +42,9 @@ from fringe3d.utils.write_guard import guard_write
 
 FRAMES_DIR = "frames"
 META_NAME = "capture.json"
+#: Units of capture.json's fields (its ``provenance``).
+CAPTURE_UNITS = {"frame_rate": "Hz", "exposure": "s", "camera": "px (width, height)", "bit_depth": "bits",
+                 "volume": "mm", "board_t": "mm", "board_R": "rotation matrix", "intensity": "camera counts"}
 TRUTH_DIR = "truth"
 _FRAME_NAME = re.compile(r"^(\d+)\.(png|tif|tiff)$", re.IGNORECASE)
 
@@ -300,5 +303,5 @@ def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: Patte
     meta.setdefault("camera", [int(frames.shape[2]), int(frames.shape[1])])
     if frames.dtype in (np.uint8, np.uint16):
         meta.setdefault("bit_depth", 8 if frames.dtype == np.uint8 else 16)
-    write_json(folder / META_NAME, meta)
+    write_json(folder / META_NAME, meta, units=CAPTURE_UNITS)
     return folder

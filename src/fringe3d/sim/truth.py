@@ -100,7 +100,7 @@ class Truth:
                 "shape": list(self.depth.shape),
                 "units": {"xyz": "mm", "depth": "mm", "up": "projector px", "vp": "projector px",
                           "phase": "rad"}}
-        write_json(folder / "truth.json", meta)
+        write_json(folder / "truth.json", meta, units={**meta["units"], "times": "s"})
         return folder
 
     @classmethod
