@@ -168,8 +168,8 @@ class Decoded:
                 np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
         for key, arr in arrays.items():
             quantity = key.rsplit("_", 1)[0] if key not in MAP_UNITS else key
-            write_tiff(folder / f"{key}.tif", np.asarray(arr, dtype=np.uint8 if key.startswith("quality_") else np.float32),
-                       key, MAP_UNITS[quantity])
+            dtype = np.uint8 if key.startswith("quality_") else np.float32
+            write_tiff(folder / f"{key}.tif", np.asarray(arr, dtype=dtype), key, MAP_UNITS[quantity])
         write_json(folder / SUMMARY_NAME, self.summary(), units=SUMMARY_UNITS)
         return folder
 

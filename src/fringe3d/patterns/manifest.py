@@ -233,7 +233,8 @@ class PatternSet:
             raise ValueError(f"{where}: expected a JSON object, got {type(d).__name__}")
         validate(ManifestModel, d, where)
         # "packing": bit-plane packing of a pattern folder (patterns.bitplanes), not part of the set
-        top = {"format", "version", "name", "width", "height", "bit_depth", "frames", "plans", "packing", PROVENANCE_KEY}
+        top = {"format", "version", "name", "width", "height", "bit_depth", "frames", "plans", "packing",
+               PROVENANCE_KEY}
         _check_keys(d, top, required={"width", "height", "frames"}, where="manifest")
         if d.get("format", "fringe3d-pattern-manifest") != "fringe3d-pattern-manifest":
             raise ValueError(f"manifest: 'format' is {d['format']!r}, expected 'fringe3d-pattern-manifest'")
