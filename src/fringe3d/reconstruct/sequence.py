@@ -181,7 +181,7 @@ class FrameReconstructor:
             return Cycle(pts, tex, fq.quality, fq.sigma_xyz)
         dec = decode(frames, self.patterns, rig=self.rig, options=self.options)
         pts = points_from_decoded(dec, self.rig, method=self.triangulation)
-        tex = dec.texture  # a fraction of full scale (fringe3d.decode.texture)
+        tex = np.asarray(dec.texture, np.float32)  # a fraction of full scale already (fringe3d.decode.texture)
         quality = np.zeros(pts.shape[:2], np.uint8)
         for q in dec.quality.values():
             quality |= q

@@ -73,7 +73,7 @@ def read_tiff_description(path) -> dict | None:
     import tifffile
 
     with tifffile.TiffFile(path) as tif:
-        text = tif.pages[0].description if tif.pages else ""
+        text = getattr(tif.pages[0], "description", "") if tif.pages else ""
     try:
         d = json.loads(text)
     except (ValueError, TypeError):
