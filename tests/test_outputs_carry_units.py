@@ -75,3 +75,27 @@ def test_decode_and_reconstruct_write_the_same_texture_a_fraction_of_full_scale(
     white = cap.patterns.indices(kind="white")[0]  # the tiny preset's set has a white frame
     np.testing.assert_allclose(a, cap.frames[white] / 255.0, atol=1e-7)  # 8-bit camera
     assert read_tiff_description(chain / "dec" / "texture.tif")["unit"] == "fraction of full scale"
+
+
+def test_fused_three_step_path_gives_decode_s_texture_a_plus_b(tmp_path):
+    """Without a white frame the texture is A + B (the fringe peak) on both reconstruct paths."""
+    from fringe3d.decode import DecodeOptions, decode
+    from fringe3d.io.capture import read_capture
+    from fringe3d.optics import Rig
+    from fringe3d.patterns import sets
+    from fringe3d.phase.psp import wrapped_phase
+    from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
+    from fringe3d.sim import simulate_capture
+
+    ps = sets.phase_shift(64, 3, "v", width=256, height=200)
+    simulate_capture(tmp_path / "cap", preset="tiny", scene="sphere", patterns=ps, seed=7, progress=False)
+    cap = read_capture(tmp_path / "cap")
+    rig = Rig.load(tmp_path / "cap" / "rig.json")
+    ps = with_method(cap.patterns, "geometric")
+    opts = DecodeOptions(z_min=340.0, bit_depth=8)
+    fast = FrameReconstructor(ps, rig, opts)
+    assert fast.fast is not None  # the fused 3-step kernel
+    tex = fast.reconstruct(cap.frames, uncertainty=False).texture
+    pr = wrapped_phase(cap.frames, shifts=[f.shift for f in ps.frames])
+    np.testing.assert_allclose(tex, np.clip((pr.average + pr.modulation) / 255.0, 0, 1), atol=1e-5)
+    np.testing.assert_allclose(decode(cap.frames, ps, rig=rig, options=opts).texture, tex, atol=1e-5)
