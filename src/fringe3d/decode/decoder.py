@@ -210,8 +210,9 @@ def _spans_projector(plan: DirectionPlan, ps: PatternSet) -> bool:
 def mask_projector_border(out: Decoded, ps: PatternSet, plans: list[DirectionPlan]) -> None:
     """With two non-parallel absolute directions decoded, set EDGE in every direction where the
     projector pixel ``(u_p, v_p)`` (:func:`fringe3d.decode.edges.projector_position`) lies within
-    the larger edge margin of any projector border (in place; mask and phase follow). One
-    oblique direction alone sees only part of that band (:mod:`fringe3d.decode.edges`)."""
+    the larger edge margin of any projector border, or where one direction's own band test set
+    EDGE (the same projector pixel lights the pixel in every direction), in place; mask and phase
+    follow. One oblique direction alone sees only part of that band (:mod:`fringe3d.decode.edges`)."""
     usable = [p for p in plans if p.method not in RELATIVE_METHODS and _spans_projector(p, ps)
               and "edge_margin" in out.info.get("quality", {}).get(p.direction, {})]
     pair = next(((a, b) for i, a in enumerate(usable) for b in usable[i + 1:]
@@ -223,6 +224,8 @@ def mask_projector_border(out: Decoded, ps: PatternSet, plans: list[DirectionPla
                                     out.projector_coordinate(b.direction), b.angle)
     margin = max(out.info["quality"][p.direction]["edge_margin"] for p in pair)
     band = edges.border_band(u, v, ps.width, ps.height, margin) & out.mask[a.direction] & out.mask[b.direction]
+    for p in usable:  # one direction's band is a fact about the projector pixel: it holds for all
+        band |= (out.quality[p.direction] & edges.EDGE) != 0
     if not band.any():
         return
     for d in out.directions:
