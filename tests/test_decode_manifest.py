@@ -69,12 +69,13 @@ def test_calibration_set_both_directions_uint8_with_noise_exact_orders():
     frames = synthesize(ps, sigma=3.0, seed=1)
     d = decode(frames, ps)
     up, vp = projector_coords()
-    for direction, w, size in (("v", up, ps.width), ("h", vp, ps.height)):
-        # the closed-form frames carry fringes beyond the projector (v_p < 0 in the top-right
-        # corner), which no projector lights: exactly those and the edge band are masked
-        margin = d.info["quality"][direction]["edge_margin"]
-        band = (w < -0.5 + margin) | (w > size - 0.5 - margin)
-        inner = (w < -0.5 + margin - 0.1) | (w > size - 0.5 - margin + 0.1)  # decoded w carries noise
+    # the closed-form frames carry fringes beyond the projector (v_p < 0 in the top-right
+    # corner), which no projector lights: exactly those and the edge band along every border
+    # (both coordinates decoded) are masked in both directions
+    margin = max(d.info["quality"][k]["edge_margin"] for k in ("v", "h"))
+    band = edges.border_band(up, vp, ps.width, ps.height, margin)
+    inner = edges.border_band(up, vp, ps.width, ps.height, margin - 0.1)  # decoded w carries noise
+    for direction in ("v", "h"):
         assert not (~d.mask[direction] & ~band).any() and not (inner & d.mask[direction]).any()
         assert not order_errors(d.phase[direction], true_phase(ps, direction))[d.mask[direction]].any()
     off = decode(frames, ps, options=DecodeOptions(edge_mask=False))  # the method's own mask only
