@@ -40,7 +40,8 @@ class Reconstruction:
     points : (H, W, 3) float32
         Camera-frame points (mm), NaN where invalid.
     texture : (H, W) float32 or None
-        Texture in [0, 1].
+        Texture: the scene under full projector light as a fraction of the camera's full scale,
+        in [0, 1] (:mod:`fringe3d.decode.texture`; the same as ``decode``'s).
     mask : (H, W) bool
         Valid points (``isfinite(points[..., 0])``).
     patterns : PatternSet

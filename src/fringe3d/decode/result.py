@@ -48,7 +48,8 @@ class Unwrapped:
         Override the decoder's wrapped phase, modulation and average of the direction (e.g. an
         FTP-based method's own analysis); None: the narrowest group's.
     texture : (H, W) float, optional
-        Texture computed on the way (the fused kernel's average + modulation).
+        Texture computed on the way (the fused kernel's average + modulation, frames' units; the
+        decoder turns it into a fraction of full scale).
     period : float, optional
         Fringe period (projector pixels) of ``phase`` when it is not the plan's narrowest.
     phase_is_masked : bool
@@ -84,7 +85,8 @@ class Decoded:
     one bit per reason a pixel is masked: 1 invalid, 2 projector-edge band, 4 multi-frequency
     disagreement, 8 phase-gradient jump, 16 modulation drop; :mod:`fringe3d.decode.edges`),
     ``phase_sigma[d]`` float32 predicted phase standard deviation (rad, ``sqrt(2/N) sigma / B``;
-    NaN where unknown). Plus ``average`` and ``texture`` (H, W) float32 and ``info`` (frame
+    NaN where unknown). Plus ``average`` (H, W) float32 (frames' units) and ``texture`` (H, W)
+    float32, a fraction of full scale in [0, 1] (:mod:`fringe3d.decode.texture`), and ``info`` (frame
     checks, warnings, per-direction ``quality`` info: blur, margin, noise model, bit counts).
     """
 
