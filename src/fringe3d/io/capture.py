@@ -296,7 +296,9 @@ def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: Patte
             guard_write(stale).unlink()
     with progress_bar(f"writing {len(frames)} frames", len(frames), enabled=len(frames) > 60) as advance, \
             ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
-        for _ in pool.map(lambda i: write_image(fdir / f"{i:05d}.{fmt}", frames[i]), range(len(frames))):
+        unit = "camera counts" if frames.dtype.kind in "ui" else "camera intensity (float, as given)"
+        for _ in pool.map(lambda i: write_image(fdir / f"{i:05d}.{fmt}", frames[i], f"camera frame {i}", unit),
+                          range(len(frames))):
             advance()
     patterns.save(folder / MANIFEST_NAME)
     meta = dict(meta or {})
