@@ -4,7 +4,6 @@ time, the command line and units; each TIFF a description with its quantity and 
 when a new output forgets them). And one meaning for ``texture``: decode's equals reconstruct's."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +12,7 @@ import tifffile
 
 from fringe3d.cli import main
 from fringe3d.utils.provenance import read_tiff_description
+from output_checks import check_json_provenance, check_ply_header, check_tiff_description, outputs
 
 
 @pytest.fixture(scope="module")
@@ -27,42 +27,27 @@ def chain(tmp_path_factory) -> Path:
     return root
 
 
-def _outputs(root: Path, suffixes) -> list[Path]:
-    return [f for f in sorted(root.rglob("*")) if f.suffix in suffixes and "frames" not in f.parts]
-
-
 def test_every_json_carries_version_time_command_and_units(chain):
-    files = _outputs(chain, (".json",))
+    files = outputs(chain, (".json",))
     assert {f.name for f in files} >= {"capture.json", "manifest.json", "rig.json", "truth.json", "decoded.json",
                                        "reconstruct.json", "evaluate.json", "fringe3d.json"}
     for f in files:
-        d = json.loads(f.read_text())
-        if f.name == "fringe3d.json":  # the folder marker: its own version, command and times
-            assert d["fringe3d"] and d["command"].startswith("fringe3d ") and d["finished"], f
-            assert d["units"]["length"] == "mm", f
-            continue
-        p = d.get("provenance")
-        assert isinstance(p, dict), f"{f} has no provenance"
-        assert p["fringe3d_version"] and p["written"] and p["command"].startswith("fringe3d "), f
-        assert isinstance(p["units"], dict) and p["units"], f"{f} names no units"
+        check_json_provenance(f)
 
 
 def test_every_tiff_names_its_quantity_and_unit(chain):
-    files = _outputs(chain, (".tif", ".tiff"))
+    files = outputs(chain, (".tif", ".tiff"))
     assert {"texture.tif", "depth.tif", "phase_v.tif", "sigma_z.tif", "sphere_residuals.tif"} <= {f.name for f in files}
     for f in files:
-        d = read_tiff_description(f)
-        assert d is not None, f"{f} has no fringe3d description"
-        assert d["quantity"] and d["unit"] and d["fringe3d_version"] and d["command"].startswith("fringe3d "), f
+        check_tiff_description(f)
     assert read_tiff_description(chain / "rec" / "depth.tif")["unit"] == "mm"
 
 
 def test_every_ply_header_names_the_unit_and_the_command(chain):
-    files = _outputs(chain, (".ply",))
+    files = outputs(chain, (".ply",))
     assert files
     for f in files:
-        head = f.read_bytes()[:4096].split(b"end_header")[0].decode("ascii")
-        assert "comment units: mm" in head and "comment command: fringe3d reconstruct" in head, f
+        check_ply_header(f, "reconstruct")
 
 
 def test_decode_and_reconstruct_write_the_same_texture_a_fraction_of_full_scale(chain):
