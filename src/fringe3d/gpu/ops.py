@@ -117,7 +117,8 @@ def geometric_unwrap(wrapped, phi_min: np.ndarray, sign: np.ndarray, mask=None, 
     if tuple(np.shape(phi_min)) != hw:
         raise ValueError(f"wrapped phase is {hw} but the minimum phase map is {np.shape(phi_min)}")
     n_cyc, p = d_w.shape
-    d_m = _per_cycle_maps(cuda, mask, "mask", np.bool_)[0] if mask is not None else cuda.to_device(np.ones((1, 1), bool))
+    d_m = (_per_cycle_maps(cuda, mask, "mask", np.bool_)[0] if mask is not None
+           else cuda.to_device(np.ones((1, 1), bool)))
     if mask is not None and tuple(d_m.shape) != (n_cyc, p):
         raise ValueError(f"mask {tuple(mask.shape)} must match the wrapped phase {tuple(wrapped.shape)}")
     d_pm = cuda.to_device(np.ascontiguousarray(phi_min, np.float32).ravel())

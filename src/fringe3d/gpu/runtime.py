@@ -17,6 +17,10 @@ class CudaUnavailableError(RuntimeError):
     installed, or there is no CUDA driver or device. The message says which."""
 
 
+_ADVICE = ("run with the cpu backend (--device cpu, backend='cpu'), or check the NVIDIA driver and "
+           "CUDA_VISIBLE_DEVICES")
+
+
 def check_backend(backend: str) -> str:
     """``backend`` if it is one of :data:`BACKENDS`, else ``ValueError`` naming the choices."""
     if backend not in BACKENDS:
@@ -38,16 +42,19 @@ def cuda_module():
     except ImportError as e:
         raise CudaUnavailableError(f"the CUDA backend needs numba-cuda, which is not installed ({e}); install "
                                    "it with: pip install 'fringe3d[cuda]'") from None
+    except Exception as e:  # numba.cuda checks NUMBA_CUDA_DRIVER & co. on import  # noqa: BLE001
+        raise CudaUnavailableError(f"the CUDA backend found no usable CUDA driver ({type(e).__name__}: {e}); "
+                                   f"{_ADVICE}") from None
     if simulator_enabled():
         return cuda
     try:
         ok = bool(cuda.is_available())
     except Exception as e:  # a broken driver install raises from inside numba  # noqa: BLE001
-        raise CudaUnavailableError(f"the CUDA backend cannot start: {type(e).__name__}: {e}") from None
+        raise CudaUnavailableError(f"the CUDA backend found no usable CUDA driver ({type(e).__name__}: {e}); "
+                                   f"{_ADVICE}") from None
     if not ok:
         raise CudaUnavailableError("the CUDA backend found no CUDA driver or no CUDA device on this machine "
-                                   "(numba.cuda.is_available() is False); run with the cpu backend "
-                                   "(--device cpu), or check the NVIDIA driver and CUDA_VISIBLE_DEVICES")
+                                   f"(numba.cuda.is_available() is False); {_ADVICE}")
     return cuda
 
 
