@@ -167,10 +167,20 @@ def central_points(w, mask, O, D_planes, Q, P3, device_output: bool = False):
     return _maps(res, n_cyc, hw, single, device_output, (3,))
 
 
+def three_step_constants(coef, phi_min, sign, O, D_planes, Q, P3) -> tuple:
+    """The per-rig inputs of :func:`three_step_points` uploaded once (``constants=``): a
+    sequence reuses them instead of sending the ray planes (12 bytes a pixel) every call."""
+    cuda = cuda_module()
+    return ((D_planes.shape[1], D_planes.shape[2]), cuda.to_device(np.ascontiguousarray(coef, np.float64)),
+            cuda.to_device(np.ascontiguousarray(phi_min, np.float32).ravel()),
+            cuda.to_device(np.ascontiguousarray(sign, np.int8).ravel())) + _ray_constants(cuda, O, D_planes, Q, P3)
+
+
 def three_step_points(frames, index, coef, min_mod2: float, phi_min, sign, scale: float, O, D_planes, Q, P3,
-                      chunk: int = DEFAULT_CHUNK, device_output: bool = False):
+                      chunk: int = DEFAULT_CHUNK, device_output: bool = False, constants: tuple | None = None):
     """The fused 3-step + geometric + triangulation kernel on the device (the arguments of
     :func:`fringe3d.reconstruct._kernels.three_step_kernel`); frames (F, H, W) or (C, F, H, W).
+    ``constants`` from :func:`three_step_constants` (else uploaded now).
     Returns (H, W, 3) or (C, H, W, 3) float32 mm, NaN invalid."""
     cuda = cuda_module()
     stack, hw, single = _cycles(frames)
@@ -178,10 +188,10 @@ def three_step_points(frames, index, coef, min_mod2: float, phi_min, sign, scale
         raise ValueError(f"frames are {hw[1]}x{hw[0]} pixels but the camera is {D_planes.shape[2]}x"
                          f"{D_planes.shape[1]}: calibration and capture sizes disagree")
     d_idx = cuda.to_device(_check_index(index, stack.shape[1]))
-    d_coef = cuda.to_device(np.ascontiguousarray(coef, np.float64))
-    d_pm = cuda.to_device(np.ascontiguousarray(phi_min, np.float32).ravel())
-    d_sg = cuda.to_device(np.ascontiguousarray(sign, np.int8).ravel())
-    rays = _ray_constants(cuda, O, D_planes, Q, P3)
+    if constants is None:
+        constants = three_step_constants(coef, phi_min, sign, O, D_planes, Q, P3)
+    _, d_coef, d_pm, d_sg = constants[:4]
+    rays = constants[4:]
     mm2 = float(min_mod2)
     sc = float(scale)
     from fringe3d.gpu.triangulate_kernels import three_step_kernel

@@ -125,7 +125,7 @@ def _wrapped_phase_cuda(frames, shifts, index, saturation_level, return_saturate
     """:func:`wrapped_phase` on the CUDA backend (one (F, H, W) cycle or (C, F, H, W) cycles)."""
     from fringe3d.gpu import ops
 
-    n_frames = frames.shape[-3] if hasattr(frames, "shape") and len(frames.shape) >= 3 else len(frames)
+    n_frames = tuple(frames.shape)[-3] if hasattr(frames, "shape") and len(frames.shape) >= 3 else len(frames)
     idx = np.arange(n_frames) if index is None else np.asarray(index, dtype=np.int64)
     d = default_shifts(idx.size) if shifts is None else np.asarray(shifts, dtype=np.float64)
     if d.size != idx.size:

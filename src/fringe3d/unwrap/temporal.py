@@ -264,8 +264,8 @@ def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]],
         raise ValueError("three_frequency_decode needs exactly three groups (indices, shifts, periods)")
     idx = [np.asarray(i, dtype=np.int64) for i in indices]
     for i in idx:
-        if i.size and (i.min() < 0 or i.max() >= frames.shape[-3]):
-            raise ValueError(f"frame index {i.tolist()} out of range for {frames.shape[-3]} frames")
+        if i.size and (i.min() < 0 or i.max() >= tuple(frames.shape)[-3]):
+            raise ValueError(f"frame index {i.tolist()} out of range for {tuple(frames.shape)[-3]} frames")
     coef = [lsq_coefficients(s).astype(np.float32) for s in shifts]
     for i, c in zip(idx, coef):
         if c.shape[1] != i.size:
