@@ -186,6 +186,8 @@ class FrameReconstructor:
         return out
 
     def _set_min_modulation(self, frames: np.ndarray) -> None:
+        """The fused path's modulation threshold for ``frames`` (default: from their bit depth)."""
+        assert self.fast is not None
         mm = self._fast_min_mod
         self.fast.min_mod2 = (default_min_modulation(frames, self.options.bit_depth) if mm is None else mm) ** 2
 
