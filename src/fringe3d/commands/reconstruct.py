@@ -166,8 +166,9 @@ def register(app: typer.Typer) -> None:
         fp_options = {"method": method, "z_min": z_min, "window": window, "triangulation": triangulation,
                       "min_modulation": min_modulation, "cycles": cycles, "ply": ply, "mesh": mesh, "store": store,
                       "edge_mask": edge_mask, "edge_margin": edge_margin}
-        client = (connect(scheduler, workers, gpu=device == "cuda") if sequence and (workers or scheduler)
-                  else None)  # before writing
+        client = None  # connected before anything is written
+        if sequence and (workers or scheduler):
+            client = connect(scheduler, workers, gpu=True) if device == "cuda" else connect(scheduler, workers)
         try:
             with open_output(out, overwrite=overwrite, inputs=[capture, calibration, z_min_from],
                              options=fp_options, resumable=sequence) as o:

@@ -32,7 +32,7 @@ def group_sums64(frames, cyc, idx, coef, p):
         a += coef[0, k] * x
         b += coef[1, k] * x
         c += coef[2, k] * x
-        peak = max(peak, x)
+        peak = x if x > peak else peak  # not max(): the built-in numba.cuda target cannot type it
     return a, b, c, peak
 
 
@@ -48,8 +48,20 @@ def group_sums32(frames, cyc, idx, coef, p):
         a += coef[0, k] * x
         b += coef[1, k] * x
         c += coef[2, k] * x
-        peak = max(peak, x)
+        peak = x if x > peak else peak  # not max(): the built-in numba.cuda target cannot type it
     return a, b, c, peak
+
+
+@cuda.jit(device=True)
+def smaller(a, b):
+    """``min(a, b)`` (the builtin does not compile on numba's built-in CUDA target)."""
+    return a if a < b else b
+
+
+@cuda.jit(device=True)
+def larger(a, b):
+    """``max(a, b)``."""
+    return a if a > b else b
 
 
 @cuda.jit(device=True)

@@ -22,7 +22,11 @@ DEFAULT_CHUNK = 8
 
 
 def launch_grid(n_pixels: int, n_cycles: int) -> tuple[tuple[int, int], tuple[int, int]]:
-    """(blocks, threads) of a 2D launch: x over ``n_pixels`` in blocks of :data:`THREADS`, y over cycles."""
+    """(blocks, threads) of a 2D launch: x over ``n_pixels`` in blocks of :data:`THREADS`, y over cycles
+    (at most 65,535, CUDA's limit of the grid's y dimension)."""
+    if n_cycles > 65535:
+        raise ValueError(f"{n_cycles} cycles in one launch; at most 65535 (pass host frames, which go up in "
+                         "chunks, or split the device stack)")
     return ((n_pixels + THREADS - 1) // THREADS, max(1, n_cycles)), (THREADS, 1)
 
 

@@ -12,7 +12,8 @@ import math
 import numpy as np
 from numba import cuda
 
-from fringe3d.gpu.device_math import F2PI, FHALF, FINV2PI, TWO_PI, ceil_f, floor_f, floor_f32, group_sums32, mod_2pi_f32
+from fringe3d.gpu.device_math import (F2PI, FHALF, FINV2PI, TWO_PI, ceil_f, floor_f, floor_f32, group_sums32, larger,
+                                      mod_2pi_f32, smaller)
 
 
 @cuda.jit
@@ -74,7 +75,7 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
     k2 = floor_f32(d2 * FINV2PI + FHALF)
     absolute = p1 + F2PI * k2
     consistent = (abs(d1 - F2PI * k1) <= max_res) and (abs(d2 - F2PI * k2) <= max_res)
-    ok = (min(m1, min(m2, m3)) >= min_mod2) and (max(pk1, max(pk2, pk3)) < sat_level) and consistent
+    ok = (smaller(m1, smaller(m2, m3)) >= min_mod2) and (larger(pk1, larger(pk2, pk3)) < sat_level) and consistent
     bm = math.sqrt(m1)
     wrapped[cyc, p] = p1
     modulation[cyc, p] = bm
