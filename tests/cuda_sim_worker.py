@@ -11,6 +11,7 @@ import math
 import sys
 import tempfile
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -145,6 +146,23 @@ def main(out_path: str) -> None:
             stores[backend] = np.stack([st.read(k) for k in range(res["frames_3d"])])
             r[f"seq_{backend}_path"] = np.array(res["path"])
     r["seq_cpu"], r["seq_cuda"] = stores["cpu"], stores["cuda"]
+
+    # -- the same sequence as a capture folder on a one-worker Dask cluster declaring GPU=1
+    from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
+    from fringe3d.io.capture import write_capture
+
+    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cap = write_capture(f"{tmp}/cap", seq, ps3)
+        client = connect(workers=1, gpu=True)  # its worker process inherits NUMBA_ENABLE_CUDASIM
+        try:
+            res = reconstruct_capture_on_dask(cap, ps3, rig, Path(f"{tmp}/out"), opts, client=client, chunk=1,
+                                              progress=False, backend="cuda")
+        finally:
+            close(client, own_cluster=True)
+        st = PointMapStore.open_existing(f"{tmp}/out/points.zarr")
+        r["dask_cuda"] = np.stack([st.read(k) for k in range(res["frames_3d"])])
+        r["dask_tasks"] = np.array(res["tasks"])
     np.savez(out_path, **r)
 
 

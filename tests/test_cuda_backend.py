@@ -104,6 +104,35 @@ def test_sequence_on_the_cuda_backend_writes_the_cpu_point_maps(sim):
     same_points(sim["seq_cpu"], sim["seq_cuda"])
 
 
+def test_dask_gpu_worker_writes_the_cpu_point_maps(sim):
+    assert int(sim["dask_tasks"]) == 2  # 2 cycles, one task each, on the worker declaring GPU=1
+    same_points(sim["seq_cpu"], sim["dask_cuda"])
+
+
+class _Client:
+    """Stands in for a distributed.Client: workers and their declared resources only."""
+
+    def __init__(self, resources):
+        self.resources = resources
+
+    def scheduler_info(self):
+        return {"workers": {f"tcp://w{i}": {"resources": r} for i, r in enumerate(self.resources)}}
+
+    def submit(self, *a, **k):  # pragma: no cover - must not be reached
+        raise AssertionError("no task may be submitted without a GPU worker")
+
+
+def test_cuda_job_on_a_cluster_without_gpu_workers_is_a_clear_error():
+    from fringe3d.cluster.chunk_task import SequenceJob
+    from fringe3d.cluster.engine import gpu_workers, reconstruct_on_dask
+
+    assert gpu_workers(_Client([{}, {"GPU": 1}])) == ["tcp://w1"]
+    job = SequenceJob(key="k", capture="cap", limit=3, patterns=None, rig=None, options=None,  # type: ignore[arg-type]
+                      starts=(0,), backend="cuda")
+    with pytest.raises(ValueError, match="--resources GPU=1"):
+        reconstruct_on_dask(job, _Client([{}, {"CPU": 4}]), progress=False)
+
+
 def test_unknown_backend_is_a_value_error():
     with pytest.raises(ValueError, match="expected one of cpu, cuda"):
         runtime.check_backend("gpu")
