@@ -94,6 +94,9 @@ def main(out_path: str) -> None:
     r["fused_gpu_resident_is_device"] = np.array(hasattr(d_pts, "copy_to_host") and not isinstance(d_pts, np.ndarray))
     r["fused_gpu_resident"] = d_pts.copy_to_host()
     r["fused_gpu_one_cycle"] = gpu_fast.points(f3[1])
+    d_chunked = ops.three_step_points(f3, idx3, gpu_fast.coef, gpu_fast.min_mod2, gpu_fast.phi_min, gpu_fast.sign,
+                                      gpu_fast.scale, tri.O, tri.D_planes, tri.Q, tri.P3, chunk=2, device_output=True)
+    r["fused_gpu_chunk2_device"] = d_chunked.copy_to_host()  # host frames up in chunks, results left on the device
 
     # wrapped phase (3-step), geometric unwrap, closed-form triangulation
     cpu_ph = [wrapped_phase(f, shifts=shifts3) for f in f3]
@@ -110,6 +113,14 @@ def main(out_path: str) -> None:
     r["geo_cpu"] = np.stack([g[0] for g in geo_cpu])
     r["geo_cpu_mask"] = np.stack([g[1] for g in geo_cpu])
     r["geo_gpu"], r["geo_gpu_mask"] = geo_gpu
+    # the same two steps with everything on the device: frames, wrapped phase, absolute phase
+    ph_dev = wrapped_phase(cuda.to_device(f3), shifts=shifts3, backend="cuda", device_output=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        phi_dev, valid_dev = geometric_unwrap(ph_dev.phase, mp, backend="cuda", device_output=True)
+        r["geo_nomask_cpu"] = np.stack([geometric_unwrap(p, mp)[0] for p in r["psp3_cpu"]])
+    r["geo_dev_is_device"] = np.array(hasattr(phi_dev, "copy_to_host") and hasattr(valid_dev, "copy_to_host"))
+    r["geo_dev"] = phi_dev.copy_to_host()
     w = r["geo_cpu"].astype(np.float64) * 18.0 / (2 * math.pi)
     r["tri_cpu"] = np.stack([tri.points(wi, mi) for wi, mi in zip(w, r["geo_cpu_mask"])])
     r["tri_gpu"] = tri.points(w, r["geo_cpu_mask"], backend="cuda")
@@ -147,9 +158,21 @@ def main(out_path: str) -> None:
             r[f"seq_{backend}_path"] = np.array(res["path"])
     r["seq_cpu"], r["seq_cuda"] = stores["cpu"], stores["cuda"]
 
-    # -- the same sequence as a capture folder on a one-worker Dask cluster declaring GPU=1
+    # -- the same sequence as a capture folder: `fringe3d reconstruct --device cuda` and --device cpu
+    from fringe3d.cli import main as cli
     from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
     from fringe3d.io.capture import write_capture
+
+    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cap = write_capture(f"{tmp}/cap", seq, ps3)
+        rig.save(f"{tmp}/rig.json")
+        for device in ("cpu", "cuda"):
+            code = cli(["reconstruct", str(cap), "-c", f"{tmp}/rig.json", "-o", f"{tmp}/{device}", "--z-min",
+                        str(Z_MIN), "-q", "--device", device])
+            st = PointMapStore.open_existing(f"{tmp}/{device}/points.zarr")
+            r[f"cli_{device}"] = np.stack([st.read(k) for k in range(st.frames)])
+            r[f"cli_{device}_code"] = np.array(code)
 
     with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -58,8 +58,16 @@ def test_fused_three_step_kernel_equals_cpu_for_streamed_chunked_and_resident_fr
     same_points(sim["fused_cpu"][1], sim["fused_gpu_one_cycle"])
 
 
-def test_resident_frames_give_device_arrays(sim):
-    assert bool(sim["fused_gpu_resident_is_device"])
+def test_results_can_stay_on_the_device(sim):
+    assert bool(sim["fused_gpu_resident_is_device"]) and bool(sim["geo_dev_is_device"])
+    same_points(sim["fused_cpu"], sim["fused_gpu_chunk2_device"])  # host frames in chunks, device results
+
+
+def test_wrapped_phase_and_geometric_unwrap_chained_on_the_device_equal_cpu(sim):
+    cpu, dev = sim["geo_nomask_cpu"], sim["geo_dev"]
+    ok = np.isfinite(cpu) & (sim["psp3_mod_cpu"] >= 5.0)
+    assert ok.mean() > 0.5 and np.array_equal(np.isnan(cpu), np.isnan(dev))
+    assert np.abs(cpu[ok] - dev[ok]).max() <= PHASE_TOL
 
 
 def test_fused_three_step_kernel_equals_truth_on_a_noise_free_render(sim):
@@ -102,6 +110,11 @@ def test_three_frequency_decode_equals_cpu(sim):
 def test_sequence_on_the_cuda_backend_writes_the_cpu_point_maps(sim):
     assert str(sim["seq_cuda_path"]) == str(sim["seq_cpu_path"])
     same_points(sim["seq_cpu"], sim["seq_cuda"])
+
+
+def test_cli_device_cuda_writes_the_cpu_point_maps(sim):
+    assert int(sim["cli_cpu_code"]) == 0 and int(sim["cli_cuda_code"]) == 0
+    same_points(sim["cli_cpu"], sim["cli_cuda"])
 
 
 def test_dask_gpu_worker_writes_the_cpu_point_maps(sim):
