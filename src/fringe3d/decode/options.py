@@ -68,6 +68,9 @@ class DecodeOptions:
         and unlit rims, mixed by the pixel footprint and blur; default 1, 0 turns it off).
     extra : mapping
         Further options for user-added methods (read as ``ctx.options.extra``).
+    backend : {"cpu", "cuda"}
+        Where the fused three-frequency kernel runs (``"cuda"``: :mod:`fringe3d.gpu`; the rest
+        of the decode stays on the CPU).
 
     Examples
     --------
@@ -98,3 +101,4 @@ class DecodeOptions:
     modulation_ratio: float = 0.5
     rim: int = 1
     extra: Mapping[str, Any] = field(default_factory=dict)
+    backend: str = "cpu"
