@@ -55,7 +55,8 @@ def main() -> None:
                         off = float(np.abs(err[~same & near]).max(initial=0.0))
                         kind = "sub-stripe" if sub else "centre    "
                         print(f"{scene:16s} T={T:g} inverses={inv!s:5s} {kind} {k}: "
-                              f"exact {100 * ex:.3f} % (others off by <= {off:.2f} px)  within {100 * near.mean():.3f} %  "
+                              f"exact {100 * ex:.3f} % (others off by <= {off:.2f} px)  "
+                              f"within {100 * near.mean():.3f} %  "
                               f"rms {np.sqrt(np.mean(err[near] ** 2)):.3f} px  masked {100 * (1 - m.mean()):.2f} %  "
                               f"shadow {100 * (1 - t.mask.mean()):.2f} %  "
                               f"kept-but-shadowed {int((m & ~t.mask).sum())}")
