@@ -37,8 +37,9 @@ def test_every_schema_field_is_documented(model):
 def test_every_calibration_file_field_is_documented():
     rig = presets.get("tiny").rig
     stats = {"width": 1, "height": 1, "dist_model": "k1k2", "rms_px": 0.1, "per_pose_rms_px": [0.1]}
+    board = CircleBoard(cols=7, rows=5, spacing=10.0, radius=2.0).to_dict()
     cal = calibration_file.Calibration(model="pinhole", rig=rig, camera=stats, projector=stats,
-                                       board=CircleBoard(cols=7, rows=5, spacing=10.0, radius=2.0).to_dict(), periods={"v": 18.0},
+                                       board=board, periods={"v": 18.0},
                                        angles={"v": 0.0}, poses=[], rms={"camera_px": 0.1, "projector_px": 0.1})
     fields = (set(cal.to_dict()) | set(calibration_file._DEVICE_FIELDS) | set(calibration_file._POSE_FIELDS)
               | set(cal.board))
