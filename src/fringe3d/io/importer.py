@@ -394,11 +394,11 @@ def load_images(src: str | os.PathLike, *, list_file: str | os.PathLike | None =
         if channel is not None:
             raise ValueError(f"{src}: --channel converts colour frames; a camera file is read as grey frames")
         source = open_source(kind, src)
-        frames = source_range(source, patterns, name, first_frame, frame_count)
+        used = source_range(source, patterns, name, first_frame, frame_count)
         meta = {"imported": True, "layout": name, "conversion": "none (camera file read)",
-                "source_dtype": str(source.dtype), "bit_depth": source_bit_depth(frames, bit_depth),
+                "source_dtype": str(source.dtype), "bit_depth": source_bit_depth(used, bit_depth),
                 "patterns": patterns.name}
-        return Capture(np.asarray(frames[:len(patterns)]), patterns, meta, source=frames)
+        return Capture(np.asarray(used[:len(patterns)]), patterns, meta, source=used)
     if (first_frame, frame_count) != (0, None):
         raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .tif, zarr); "
                          f"{src} is a folder or glob of images")
