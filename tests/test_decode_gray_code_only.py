@@ -181,4 +181,6 @@ def test_opencv_gray_code_session_triangulates_unchanged(tmp_path):
     err = np.linalg.norm(r.points[m] - truth.xyz[m], axis=1)
     footprint = np.nanmedian(truth.depth) / p.rig.projector.K[0, 0]  # mm per projector pixel at the plane
     assert m.mean() > 0.9
-    assert np.median(err) < 2 * footprint  # stripe centres are whole projector pixels (+-0.5 px)
+    # one-pixel stripes: the stripe centre alone is off by up to half a projector pixel in each
+    # coordinate (median 3D error ~1.2 footprints); the sub-stripe coordinate is well inside it
+    assert np.median(err) < 0.5 * footprint
