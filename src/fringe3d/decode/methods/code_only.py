@@ -2,16 +2,20 @@
 
 Each code bit is 1 where the code frame is brighter than its inverse frame or, without
 inverse frames, than the mean of the white and black frames. The codeword selects the
-projector stripe (:func:`fringe3d.unwrap.temporal.code_centers`); the method returns the
-stripe centre ``c`` (px) as the absolute phase ``Phi = 2 pi c / T`` of the nominal period
-``T`` = the code's stripe width, so :meth:`fringe3d.decode.Decoded.projector_coordinate`
-gives ``c`` and triangulation works unchanged.
+projector stripe (:func:`fringe3d.unwrap.temporal.code_centers`), of centre ``c`` (px); the
+projector coordinate ``w`` is then refined within the stripe from the zero crossings of the bit
+differences between neighbouring pixels (:func:`fringe3d.unwrap.sub_stripe.sub_stripe_coordinate`;
+method option ``sub_stripe=False`` keeps ``w = c``). The method returns ``w`` as the absolute
+phase ``Phi = 2 pi w / T`` of the nominal period ``T`` = the code's stripe width, so
+:meth:`fringe3d.decode.Decoded.projector_coordinate` gives ``w`` and triangulation works unchanged.
 
 Validity (as OpenCV's ``GrayCodePattern.getProjPixel``): every bit must be decided by at
 least ``white_thr`` (``|I - I_inv| >= white_thr``; without inverses ``|I - (W + B)/2| >=
-white_thr / 2``), and, when white and black frames are present, the pixel must be lit,
-``W - B >= black_thr`` (shadow mask). Defaults are OpenCV's, 5 and 40 counts of an 8-bit
-camera, scaled by ``full_scale / 255`` for other bit depths.
+white_thr / 2``), except that one undecided bit is accepted when flipping it gives the
+neighbouring stripe (the pixel straddles that stripe edge; :func:`decide_edges`); and, when
+white and black frames are present, the pixel must be lit, ``W - B >= black_thr`` (shadow
+mask). Defaults are OpenCV's, 5 and 40 counts of an 8-bit camera, scaled by ``full_scale /
+255`` for other bit depths.
 """
 from __future__ import annotations
 
