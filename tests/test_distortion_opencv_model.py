@@ -95,3 +95,19 @@ def test_rig_with_full_opencv_distortion_reconstructs_a_plane_computed_with_cv2(
     up = cv2.projectPoints(X.reshape(-1, 3), cv2.Rodrigues(R)[0], T, K2, None)[0].reshape(120, 160, 2)[..., 0]
     fast = triangulator_for(ideal, np.pi / 2).points(up, np.ones(up.shape, bool))  # w = u (Eq. 2.1)
     np.testing.assert_allclose(fast, X, atol=2e-3)
+
+
+def test_rig_file_refuses_a_distortion_vector_of_another_length_naming_the_lengths(tmp_path):
+    path = write_rig_with_dist(tmp_path, [0.0] * 6)
+    with pytest.raises(ValueError, match=r"dist: expected 0, 4, 5, 8, 12, 14 coefficients .*k1 k2 p1 p2"):
+        Rig.load(path)
+
+
+def write_rig_with_dist(tmp_path, dist):
+    import json
+
+    from fringe3d.sim import presets
+    d = presets.get("tiny").rig.to_dict()
+    d["camera"]["dist"] = dist
+    (tmp_path / "rig.json").write_text(json.dumps(d))
+    return tmp_path / "rig.json"
