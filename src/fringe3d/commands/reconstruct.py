@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import time
+import warnings
 from pathlib import Path
 
 import typer
@@ -19,6 +20,7 @@ from fringe3d.io.capture import list_frame_files, open_frames, read_capture
 from fringe3d.optics import Rig
 from fringe3d.utils.output_folder import open_output
 from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
+from fringe3d.reconstruct.depth import EmptyMaskError
 from fringe3d.reconstruct.sequence import (
     CaptureFrames,
     reconstruct_sequence,
@@ -43,7 +45,9 @@ def empty_reason(cap, patterns, rig, min_modulation) -> str:
     opts = DecodeOptions(bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation)
     first = cap.frames[:len(patterns)]
     try:
-        why = decode(first, patterns, rig=rig, options=opts).empty_reason()
+        with warnings.catch_warnings():  # the reconstruction already gave the frames' warnings
+            warnings.simplefilter("ignore")
+            why = decode(first, patterns, rig=rig, options=opts).empty_reason()
     except ValueError as e:  # the decoder could not even start (e.g. geometric without z_min)
         return str(e)
     return why or ("the phase is valid but no pixel triangulated inside the calibrated volume; check that the "
@@ -173,9 +177,13 @@ def register(app: typer.Typer) -> None:
             with open_output(out, overwrite=overwrite, inputs=[capture, calibration, z_min_from],
                              options=fp_options, resumable=sequence) as o:
                 if not sequence:
-                    r = reconstruct_cycle(cap, rig, method, z_min, triangulation=triangulation,
-                                          min_modulation=min_modulation, edge_mask=edge_mask,
-                                          edge_margin=edge_margin, backend=device)
+                    try:
+                        r = reconstruct_cycle(cap, rig, method, z_min, triangulation=triangulation,
+                                              min_modulation=min_modulation, edge_mask=edge_mask,
+                                              edge_margin=edge_margin, backend=device)
+                    except EmptyMaskError:
+                        raise ValueError(f"{capture}: no valid 3D point: "
+                                         f"{empty_reason(cap, ps, rig, min_modulation)}. Nothing was written") from None
                     if not r.mask.any() and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point: "
                                          f"{empty_reason(cap, ps, rig, min_modulation)}. "

@@ -42,7 +42,7 @@ from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import w_range, w_to_phase
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.phase.quality import default_min_modulation, full_scale
-from fringe3d.reconstruct.depth import points_from_decoded
+from fringe3d.reconstruct.depth import EmptyMaskError, points_from_decoded
 from fringe3d.reconstruct.fast_quality import fast_quality
 from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator
 from fringe3d.reconstruct.uncertainty import point_sigma
@@ -206,7 +206,7 @@ class FrameReconstructor:
                 pts = np.array(points, np.float32)
             valid = np.isfinite(pts[..., 0])
             if not valid.any():
-                raise ValueError("the decoded phase mask is empty: no pixel has enough fringe modulation "
+                raise EmptyMaskError("the decoded phase mask is empty: no pixel has enough fringe modulation "
                                  "(check exposure, modulation threshold and that the scene is lit by the projector)")
             if not self._range_checked:  # once: the depth-range warning the decode path gives
                 mp = self.fast.mp
