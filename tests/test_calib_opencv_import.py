@@ -115,7 +115,7 @@ def test_missing_node_names_the_node_and_the_file(tmp_path, capsys):
         load_opencv_calibration(yaml)
 
 
-def test_long_distortion_vectors_load_when_the_extra_terms_are_zero(tmp_path):
+def test_long_distortion_vectors_load_and_keep_their_extra_terms(tmp_path):
     d8 = np.array([[0.1, -0.02, 0.001, 0.002, 0.003, 0, 0, 0]])
     nodes = {"K1": np.diag([100.0, 100, 1]), "D1": d8, "K2": np.diag([90.0, 90, 1]), "D2": np.zeros((1, 14)),
              "R": np.eye(3), "T": np.array([[50.0], [0], [0]]), "cam_size": np.array([[64, 48]])}
@@ -124,5 +124,9 @@ def test_long_distortion_vectors_load_when_the_extra_terms_are_zero(tmp_path):
     assert np.array_equal(rig.camera.dist, d8.ravel()[:5]) and rig.projector.size == (80, 60)
     nodes["D1"] = np.array([[0.1, -0.02, 0.001, 0.002, 0.003, 0.5, 0, 0]])
     _write_filestorage(tmp_path / "b.xml", {**nodes, "proj_size": np.array([[80, 60]])})
-    with pytest.raises(ValueError, match=r"b\.xml.*'D1'.*k4=0\.5"):
-        load_opencv_calibration(tmp_path / "b.xml")
+    d = load_opencv_calibration(tmp_path / "b.xml").camera.dist
+    assert d.size == 14 and d[5] == 0.5 and np.array_equal(d[:8], nodes["D1"].ravel())
+    nodes["D1"] = np.zeros((1, 6))
+    _write_filestorage(tmp_path / "c.yaml", {**nodes, "proj_size": np.array([[80, 60]])})
+    with pytest.raises(ValueError, match=r"c\.yaml.*'D1'.*\(12,\) or \(14,\), got 6 values"):
+        load_opencv_calibration(tmp_path / "c.yaml")

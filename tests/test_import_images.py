@@ -93,6 +93,12 @@ def test_multipage_tiff_with_12_bit_frames_imports_and_decodes(tmp_path, sim_fra
     d = decode(cap.frames, cap.patterns)
     m = d.mask["v"] & truth.mask
     assert np.median(np.abs(np.angle(np.exp(1j * (d.phase["v"] - truth.phase["v"]))))[m]) < 0.05
+    # decoded straight from the stack (read on demand), as from the imported capture
+    assert cli("decode", tmp_path / "stack.tif", "-o", tmp_path / "dec", "--set", "phase-shift", "--period", PERIOD,
+               "--projector-size", f"{ps.width}x{ps.height}", "--bit-depth", 12, "--quiet") == 0
+    assert cli("decode", tmp_path / "cap", "-o", tmp_path / "dec-cap", "--quiet") == 0
+    np.testing.assert_array_equal(np.load(tmp_path / "dec" / "decoded.npz")["phase_v"],
+                                  np.load(tmp_path / "dec-cap" / "decoded.npz")["phase_v"])
 
 
 def test_names_sort_naturally_and_a_list_file_sets_the_order(tmp_path):
@@ -156,3 +162,40 @@ def test_shift_order_and_sign_describe_frames_stored_in_another_step_order(tmp_p
     d = decode(cap.frames, cap.patterns)
     dphi = np.angle(np.exp(1j * (d.phase["v"] - 2 * np.pi * u_p / PERIOD)))
     assert np.abs(dphi).max() < 0.02
+
+
+def test_decode_reads_a_folder_of_frames_with_the_import_options_and_writes_only_its_output(tmp_path, sim_frames,
+                                                                                            capsys):
+    ps, frames, _ = sim_frames
+    src = tmp_path / "png"
+    src.mkdir()
+    for i, f in enumerate(frames):
+        assert cv2.imwrite(str(src / f"shot_{i + 1}.png"), colour(f))
+    opts = ["--set", "phase-shift", "--steps", 3, "--period", PERIOD, "--projector-size", f"{ps.width}x{ps.height}",
+            "--unwrap", "spatial", "--channel", "g"]
+    before = sorted(p.name for p in src.iterdir())
+    assert cli("decode", src, "-o", tmp_path / "direct", *opts, "--quiet") == 0
+    assert sorted(p.name for p in src.iterdir()) == before  # nothing written beside the frames
+    assert cli("import", src, "-o", tmp_path / "cap", *opts, "--quiet") == 0
+    assert cli("decode", tmp_path / "cap", "-o", tmp_path / "via-import", "--quiet") == 0
+    for name in ("phase_v", "mask_v", "modulation_v"):
+        np.testing.assert_array_equal(np.load(tmp_path / "direct" / "decoded.npz")[name],
+                                      np.load(tmp_path / "via-import" / "decoded.npz")[name])
+    # the same folder without a description says what is missing
+    capsys.readouterr()
+    assert cli("decode", src, "-o", tmp_path / "bare") == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "no manifest.json" in err and "--set" in err and not (tmp_path / "bare").exists()
+
+
+def test_import_and_decode_share_one_definition_of_the_import_options():
+    import typer.main
+
+    from fringe3d.cli import app
+    params = {c.name: {p.name: p for p in typer.main.get_command(app).commands[c.name].params}
+              for c in app.registered_commands if c.name in ("import", "decode")}
+    shared = ("list_file", "manifest", "layout", "projector_size", "steps", "period", "direction", "shift_order",
+              "shift_sign", "unwrap", "no_inverse", "channel", "bit_depth", "first_frame", "frame_count")
+    for name in shared:
+        a, b = params["import"][name], params["decode"][name]
+        assert (a.opts, a.help, a.default) == (b.opts, b.help, b.default), name

@@ -35,6 +35,7 @@ from fringe3d.commands import (
     simulate,
     strain,
 )
+from fringe3d.gpu.runtime import CudaUnavailableError
 from fringe3d.utils.console import err_console, set_quiet, settings, warn
 from fringe3d.utils.output_folder import interrupt_requested, request_interrupt, set_command_line
 from fringe3d.utils.warning_types import Fringe3DWarning
@@ -169,7 +170,7 @@ def _run(argv: list[str] | None) -> int:
         return int(e.code or 0)
     except KeyboardInterrupt:
         return _interrupted()
-    except (ValueError, FileNotFoundError, KeyError, NotADirectoryError, IsADirectoryError) as e:
+    except (ValueError, FileNotFoundError, KeyError, NotADirectoryError, IsADirectoryError, CudaUnavailableError) as e:
         err_console.print(f"[bold red]error:[/] {escape(str(e))}")
         return EXIT_BAD_INPUT
     except MemoryError:

@@ -175,7 +175,7 @@ def check_sizes(rig: Rig, frames: np.ndarray, calibration) -> None:
 
 def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: float | None = None,
                       triangulation: str = "auto", min_modulation: float | None = None, edge_mask: bool = True,
-                      edge_margin: float | None = None) -> Reconstruction:
+                      edge_margin: float | None = None, backend: str = "cpu") -> Reconstruction:
     """Reconstruct the first pattern cycle of a capture in memory.
 
     Parameters
@@ -196,11 +196,13 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
         Mask edge and mixed pixels (:class:`fringe3d.decode.DecodeOptions` ``edge_mask``).
     edge_margin : float, optional
         Projector-edge band (projector px); default 2 px + twice the estimated blur.
+    backend : {"cpu", "cuda"}
+        Where the per-pixel kernels run (:class:`fringe3d.reconstruct.sequence.FrameReconstructor`).
     """
     ps = with_method(cap.patterns, method)
     options = DecodeOptions(z_min=z_min, bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation,
                             edge_mask=edge_mask, edge_margin=edge_margin)
-    rec = FrameReconstructor(ps, rig, options, triangulation=triangulation)
+    rec = FrameReconstructor(ps, rig, options, triangulation=triangulation, backend=backend)
     c = rec.reconstruct(np.ascontiguousarray(cap.frames))
     return Reconstruction(points=c.points, texture=c.texture, mask=np.isfinite(c.points[..., 0]), patterns=ps,
                           path=rec.path, quality=c.quality, sigma_xyz=c.sigma_xyz)

@@ -24,9 +24,9 @@ camera) to the projector's, ``X_p = R X_c + T``, which is fringe3d's pinhole-rig
 A ``R`` given as a 3-vector is a Rodrigues rotation vector.
 
 Distortion vectors may have OpenCV's 4, 5, 8, 12 or 14 coefficients (``k1 k2 p1 p2 [k3 [k4 k5 k6
-[s1 s2 s3 s4 [tau_x tau_y]]]]``). fringe3d's model is the 5-coefficient Brown-Conrady one
-(:mod:`fringe3d.optics.distortion`), so longer vectors are accepted only when every coefficient
-past ``k3`` is zero; otherwise the error names the node, the file and the non-zero coefficients.
+[s1 s2 s3 s4 [tau_x tau_y]]]]``): the rational, thin-prism and tilted terms are modelled as
+``cv2.projectPoints`` does (:mod:`fringe3d.optics.distortion`) and kept in the rig; any other
+length is refused, naming the node and the file.
 """
 from __future__ import annotations
 
@@ -36,6 +36,7 @@ import cv2
 import numpy as np
 
 from fringe3d.optics import PinholeDevice, Rig
+from fringe3d.optics.distortion import COEFFICIENT_NAMES, OPENCV_LENGTHS
 
 NODE_CANDIDATES: dict[str, tuple[str, ...]] = {
     "cam_int": ("cam_int", "camera_K", "K1", "M1", "camera_matrix", "K"),
@@ -48,8 +49,6 @@ NODE_CANDIDATES: dict[str, tuple[str, ...]] = {
     "proj_size": ("proj_size", "projector_size"),
 }
 _SIZE_PAIRS = {"cam_size": ("image_width", "image_height"), "proj_size": ("projector_width", "projector_height")}
-_OPENCV_DIST_SIZES = (4, 5, 8, 12, 14)
-_DIST_NAMES = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6", "s1", "s2", "s3", "s4", "tau_x", "tau_y")
 UNITS = {"mm": 1.0, "m": 1000.0}
 
 
@@ -108,26 +107,17 @@ def _read_matrix(fs, key: str, names: dict[str, str], path: Path, shapes: tuple[
     return name, m
 
 
-def five_coefficients(dist: np.ndarray, node: str, path: Path) -> np.ndarray:
-    """OpenCV's 4/5/8/12/14-coefficient vector as fringe3d's ``(k1, k2, p1, p2, k3)``.
+def opencv_coefficients(dist: np.ndarray, node: str, path: Path) -> np.ndarray:
+    """OpenCV's 4/5/8/12/14-coefficient vector (order of
+    :data:`fringe3d.optics.distortion.COEFFICIENT_NAMES`) as float64, unchanged.
 
-    Raises ValueError naming ``node`` and ``path`` when the length is not an OpenCV one, or when a
-    coefficient past ``k3`` (rational, thin-prism or tilt terms) is non-zero: fringe3d's model
-    (:mod:`fringe3d.optics.distortion`) has only the five.
+    Raises ValueError naming ``node`` and ``path`` when the length is not an OpenCV one.
     """
     d = np.asarray(dist, np.float64).ravel()
-    if d.size not in _OPENCV_DIST_SIZES:
+    if d.size not in OPENCV_LENGTHS:
         raise ValueError(f"{path}: node {node!r} has {d.size} distortion coefficients; expected one of OpenCV's "
-                         f"{', '.join(map(str, _OPENCV_DIST_SIZES))}")
-    extra = {_DIST_NAMES[i]: float(d[i]) for i in range(5, d.size) if d[i] != 0.0}
-    if extra:
-        raise ValueError(f"{path}: node {node!r} has non-zero coefficients beyond k1 k2 p1 p2 k3 "
-                         f"({', '.join(f'{k}={v:g}' for k, v in extra.items())}); fringe3d's distortion model "
-                         "supports only the 5-coefficient Brown-Conrady model (recalibrate without "
-                         "CALIB_RATIONAL_MODEL / CALIB_THIN_PRISM_MODEL / CALIB_TILTED_MODEL)")
-    out = np.zeros(5)
-    out[: min(d.size, 5)] = d[:5]
-    return out
+                         f"{', '.join(map(str, OPENCV_LENGTHS))} ({' '.join(COEFFICIENT_NAMES)})")
+    return d
 
 
 def _read_size(fs, key: str, names: dict[str, str], path: Path, given, option: str) -> tuple[int, int]:
@@ -179,8 +169,8 @@ def load_opencv_calibration(path, names: dict[str, str] | None = None, camera_si
     FileNotFoundError
         The file does not exist.
     ValueError
-        A node is missing (named, with the file), has the wrong shape, or has distortion terms
-        fringe3d cannot model; an unknown ``unit``.
+        A node is missing (named, with the file), has the wrong shape (a distortion vector not
+        of 4, 5, 8, 12 or 14 coefficients); an unknown ``unit``.
 
     Examples
     --------
@@ -206,16 +196,16 @@ def load_opencv_calibration(path, names: dict[str, str] | None = None, camera_si
         raise ValueError(f"{path}: not readable as an OpenCV FileStorage YAML/XML file")
     try:
         _, Kc = _read_matrix(fs, "cam_int", names, path, ((3, 3),))
-        ncd, dc = _read_matrix(fs, "cam_dist", names, path, tuple((n,) for n in _OPENCV_DIST_SIZES))
+        ncd, dc = _read_matrix(fs, "cam_dist", names, path, tuple((n,) for n in OPENCV_LENGTHS))
         _, Kp = _read_matrix(fs, "proj_int", names, path, ((3, 3),))
-        npd, dp = _read_matrix(fs, "proj_dist", names, path, tuple((n,) for n in _OPENCV_DIST_SIZES))
+        npd, dp = _read_matrix(fs, "proj_dist", names, path, tuple((n,) for n in OPENCV_LENGTHS))
         nR, Rm = _read_matrix(fs, "R", names, path, ((3, 3), (3,)))
         _, T = _read_matrix(fs, "T", names, path, ((3,),))
         cw, ch = _read_size(fs, "cam_size", names, path, camera_size, "--camera-size")
         pw, ph = _read_size(fs, "proj_size", names, path, projector_size, "--projector-size")
     finally:
         fs.release()
-    cam = PinholeDevice(K=Kc.reshape(3, 3), dist=five_coefficients(dc, ncd, path), width=cw, height=ch)
-    prj = PinholeDevice(K=Kp.reshape(3, 3), dist=five_coefficients(dp, npd, path), width=pw, height=ph,
+    cam = PinholeDevice(K=Kc.reshape(3, 3), dist=opencv_coefficients(dc, ncd, path), width=cw, height=ch)
+    prj = PinholeDevice(K=Kp.reshape(3, 3), dist=opencv_coefficients(dp, npd, path), width=pw, height=ph,
                         R=_rotation(Rm, nR, path), t=T.ravel() * UNITS[unit])
     return Rig(camera=cam, projector=prj)

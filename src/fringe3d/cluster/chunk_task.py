@@ -28,7 +28,9 @@ class SequenceJob:
     ``capture`` is a capture folder the worker can read; ``limit`` the number of frames used;
     ``starts`` the first frame of each 3D frame's window; ``store`` the zarr point store (or None)
     and ``ply_dir`` the PLY folder (or None). ``key`` identifies the job (its fingerprint) so a
-    worker builds the reconstructor (minimum phase, ray coefficients) once per job.
+    worker builds the reconstructor (minimum phase, ray coefficients) once per job. ``backend``
+    ``"cuda"`` runs the per-pixel kernels on the worker's GPU (its tasks ask for the worker
+    resource ``{"GPU": 1}``, see :mod:`fringe3d.cluster.engine`), a chunk's cycles in one launch.
     """
 
     key: str
@@ -41,6 +43,7 @@ class SequenceJob:
     triangulation: str = "auto"
     store: str | None = None
     ply_dir: str | None = None
+    backend: str = "cpu"
 
 
 _WORKER_CACHE: dict[str, tuple] = {}  # job key -> (reconstructor, frames, store)
@@ -50,7 +53,8 @@ def _worker_state(job: SequenceJob):
     """The job's reconstructor, frame reader and store, built once per worker process."""
     if job.key not in _WORKER_CACHE:
         _WORKER_CACHE.clear()  # one job at a time per worker: drop the previous job's tables
-        rec = FrameReconstructor(job.patterns, job.rig, job.options, triangulation=job.triangulation)
+        rec = FrameReconstructor(job.patterns, job.rig, job.options, triangulation=job.triangulation,
+                                 backend=job.backend)
         frames = open_frames(job.capture, limit=job.limit)  # a referenced camera file, else frames/ files
         frames = frames if frames is not None else CaptureFrames(job.capture, limit=job.limit)
         store = PointMapStore.open_existing(job.store) if job.store else None
@@ -67,15 +71,13 @@ def run_chunk(job: SequenceJob, ks: list[int]) -> dict:
     n = len(job.patterns)
     H, W = frames.shape[1:]
     empty = 0
-    for k in ks:
-        cyc = np.ascontiguousarray(frames[window_index(job.starts[k], n)])
-        try:
-            pts, tex = rec(cyc, with_texture=True)
-        except ValueError as e:
-            if "mask is empty" not in str(e):
-                raise
+    results = rec.many([np.ascontiguousarray(frames[window_index(job.starts[k], n)]) for k in ks], with_texture=True)
+    for k, res in zip(ks, results):
+        if res is None:
             pts, tex = np.full((H, W, 3), np.nan, np.float32), None
             empty += 1
+        else:
+            pts, tex = res
         if job.ply_dir is not None and np.isfinite(pts[..., 0]).any():
             write_ply(Path(job.ply_dir) / ply_name(k), pts, colors=tex)
         if store is not None:

@@ -32,9 +32,15 @@ from fringe3d.utils.output_folder import fingerprint
 DEFAULT_CHUNK = 8
 
 
-def connect(scheduler: str | None = None, workers: int | None = None, timeout: float = 10.0):
+#: The Dask worker resource a ``backend="cuda"`` task asks for (start GPU workers with
+#: ``dask worker tcp://HOST:8786 --resources GPU=1``).
+GPU_RESOURCE = {"GPU": 1}
+
+
+def connect(scheduler: str | None = None, workers: int | None = None, timeout: float = 10.0, gpu: bool = False):
     """A ``distributed.Client``: to ``scheduler`` if given, else to a new ``LocalCluster`` of
-    ``workers`` single-threaded worker processes (default: one per core).
+    ``workers`` single-threaded worker processes (default: one per core; with ``gpu`` one worker
+    by default, each declaring :data:`GPU_RESOURCE`).
 
     Raises ``ValueError`` naming the address when the scheduler cannot be reached.
     """
@@ -46,9 +52,9 @@ def connect(scheduler: str | None = None, workers: int | None = None, timeout: f
         except (OSError, TimeoutError) as e:
             raise ValueError(f"cannot reach the Dask scheduler at {scheduler} ({type(e).__name__}: {e}); start "
                              "one with `dask scheduler` or check the address (tcp://HOST:8786)") from None
-    n = workers or os.cpu_count() or 1
+    n = workers or (1 if gpu else os.cpu_count() or 1)
     cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                                       silence_logs=40)
+                                       silence_logs=40, resources=dict(GPU_RESOURCE) if gpu else None)
     return distributed.Client(cluster)
 
 
@@ -65,12 +71,28 @@ def chunks_of(pending: list[int], size: int) -> list[list[int]]:
     return [pending[i:i + size] for i in range(0, len(pending), size)]
 
 
+def gpu_workers(client) -> list[str]:
+    """Addresses of ``client``'s workers that declare the ``GPU`` resource."""
+    workers = client.scheduler_info().get("workers", {})
+    return [a for a, w in workers.items() if (w.get("resources") or {}).get("GPU", 0) >= 1]
+
+
 def reconstruct_on_dask(job: SequenceJob, client, chunk: int = DEFAULT_CHUNK, progress: bool = True,
                         retries: int = 3) -> dict:
     """Reconstruct every pending 3D frame of ``job`` on ``client``'s workers.
 
+    A ``job.backend == "cuda"`` job's tasks ask for :data:`GPU_RESOURCE`, so they run only on
+    workers that declare it, one task per GPU at a time; ``ValueError`` when no worker does.
+
     Returns ``{"done_now", "done_before", "empty_frames", "seconds", "frames_3d_per_s", "tasks"}``.
     """
+    resources = None
+    if job.backend == "cuda":
+        if not gpu_workers(client):
+            raise ValueError("the CUDA backend on Dask needs workers that declare a GPU: none of the cluster's "
+                             "workers has the resource GPU; start them with `dask worker SCHEDULER --resources "
+                             "GPU=1` on the GPU machines")
+        resources = dict(GPU_RESOURCE)
     store = PointMapStore.open_existing(job.store) if job.store else None
     if store is not None:
         pending = store.pending()
@@ -82,7 +104,7 @@ def reconstruct_on_dask(job: SequenceJob, client, chunk: int = DEFAULT_CHUNK, pr
     empty = 0
     import distributed  # optional extra, see connect()
 
-    futures = [client.submit(run_chunk, job, ks, retries=retries, pure=False) for ks in parts]
+    futures = [client.submit(run_chunk, job, ks, retries=retries, pure=False, resources=resources) for ks in parts]
     with progress_bar("reconstructing 3D frames", len(pending), enabled=progress and len(pending) > 1) as advance:
         for fut in distributed.as_completed(futures):
             res = fut.result()
@@ -99,11 +121,12 @@ def reconstruct_capture_on_dask(capture: str | os.PathLike, patterns: PatternSet
                                 options: DecodeOptions | None = None, *, limit: int | None = None,
                                 mode: str = "cycle", step: int | None = None, ply: bool = False, store: bool = True,
                                 triangulation: str = "auto", client=None, chunk: int = DEFAULT_CHUNK,
-                                progress: bool = True) -> dict:
+                                progress: bool = True, backend: str = "cpu") -> dict:
     """:func:`fringe3d.reconstruct.sequence.reconstruct_sequence` of a capture folder, on Dask.
 
     Same store, same point maps (bit-identical: the same per-window code runs on the workers),
-    same summary, plus ``workers`` and ``tasks``. ``client`` from :func:`connect`.
+    same summary, plus ``workers`` and ``tasks``. ``client`` from :func:`connect`; ``backend``
+    as :class:`~fringe3d.cluster.chunk_task.SequenceJob`.
     """
     frames = open_frames(capture, limit=limit)
     frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
@@ -115,9 +138,9 @@ def reconstruct_capture_on_dask(capture: str | os.PathLike, patterns: PatternSet
     job = SequenceJob(key=key, capture=str(Path(capture).resolve()), limit=len(frames), patterns=patterns, rig=rig,
                       options=options, starts=tuple(starts), triangulation=triangulation,
                       store=str((out / STORE_NAME).resolve()) if st is not None else None,
-                      ply_dir=str((out / PLY_DIR).resolve()) if ply else None)
+                      ply_dir=str((out / PLY_DIR).resolve()) if ply else None, backend=backend)
     res = reconstruct_on_dask(job, client, chunk=chunk, progress=progress)
     path = FrameReconstructor(patterns, rig, options, triangulation=triangulation).path
-    return {"out": str(out), "frames_3d": len(starts), **res, "path": path, "mode": mode,
+    return {"out": str(out), "frames_3d": len(starts), **res, "path": path, "mode": mode, "backend": backend,
             "store": str(out / STORE_NAME) if store else None, "ply_dir": str(out / PLY_DIR) if ply else None,
             "workers": len(client.scheduler_info().get("workers", {}))}

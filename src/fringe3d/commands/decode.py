@@ -8,12 +8,16 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from fringe3d.commands import import_options as io
 from fringe3d.commands.deprecated import AliasCommand
+from fringe3d.commands.import_options import SRC_HELP
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.decode import DecodeOptions, decode, with_method
 from fringe3d.io.capture import read_capture, read_meta
+from fringe3d.io.importer import load_images, parse_size
+from fringe3d.patterns.manifest import MANIFEST_NAME
 from fringe3d.optics import Rig
 from fringe3d.decode.result import SUMMARY_NAME
 from fringe3d.utils.jsonfile import read_json
@@ -65,8 +69,9 @@ def _decode_all(cap, n: int, patterns, rig, options: DecodeOptions, out: Path, c
 def register(app: typer.Typer) -> None:
     @app.command("decode", cls=AliasCommand)
     def decode_cmd(
-        capture: Path = typer.Argument(..., help="Capture folder: manifest.json + frames/00000.png ... "
-                                                 "(+ capture.json)."),
+        capture: str = typer.Argument(..., help="Capture folder: manifest.json + frames/00000.png ... "
+                                                "(+ capture.json); or, with --set/--manifest/--list, what "
+                                                "fringe3d import reads: " + SRC_HELP),
         out: Path = typer.Option(..., "-o", "--output",
                                  help="Output folder (decoded.npz, 32-bit float TIFFs, decoded.json)."),
         rig: Path = typer.Option(None, "-c", "--calibration",
@@ -75,8 +80,21 @@ def register(app: typer.Typer) -> None:
         z_min: float = typer.Option(None, "--z-min", help="Nearest depth (mm) for geometric-constraint unwrapping."),
         min_modulation: float = typer.Option(None, "--min-modulation",
                                              help="Modulation threshold, camera counts (default 2% of full scale)."),
-        bit_depth: int = typer.Option(None, "--bit-depth",
-                                      help="Camera bit depth (default capture.json or the PNG dtype)."),
+        bit_depth: int = io.bit_depth_option(),
+        list_file: Path = io.list_option(),
+        manifest: Path = io.manifest_option(),
+        layout: str = io.layout_option(),
+        projector_size: str = io.projector_size_option(),
+        steps: int = io.steps_option(),
+        period: float = io.period_option(),
+        direction: str = io.direction_option(),
+        shift_order: str = io.shift_order_option(),
+        shift_sign: int = io.shift_sign_option(),
+        unwrap: str = io.unwrap_option(),
+        no_inverse: bool = io.no_inverse_option(),
+        channel: str = io.channel_option(),
+        first_frame: int = io.first_frame_option(),
+        frame_count: int = io.frame_count_option(),
         max_cycles: int = typer.Option(None, "--max-cycles", help="Decode only the first N pattern cycles."),
         ftp_window: str = typer.Option(None, "--ftp-window",
                                        help="FTP band-pass window: hanning or circular (default hanning; circular "
@@ -104,14 +122,35 @@ def register(app: typer.Typer) -> None:
         A single pattern cycle is written to OUT; a sequence (the manifest repeated) to
         OUT/cycle_00000, OUT/cycle_00001, ... Invalid pixels are NaN in the phase and 0 in the mask.
 
+        Frames that are not a capture folder decode directly with the options of fringe3d import
+        (nothing is written but OUT).
+
         Example: fringe3d decode sphere-capture -o sphere-decoded --json
+
+        Example: fringe3d decode 'scan/img_*.png' --set gray-code --period 8 --projector-size 1280x800 -o scan-decoded
         """
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
         check_number(min_modulation, "--min-modulation", minimum=0)
         check_number(edge_margin, "--edge-margin", minimum=0)
-        referenced = "source" in read_meta(capture)  # a camera file: decode it one cycle at a time
-        cap = read_capture(capture, max_cycles=1 if referenced else max_cycles)
+        described = layout is not None or manifest is not None or list_file is not None
+        if described:  # what fringe3d import reads, in memory
+            cap = load_images(capture, list_file=list_file, manifest=manifest, layout=layout,
+                              projector_size=parse_size(projector_size), channel=channel, bit_depth=bit_depth,
+                              first_frame=first_frame, frame_count=frame_count,
+                              **io.layout_arguments(layout, steps=steps, period=period, direction=direction,
+                                                    shift_order=shift_order, shift_sign=shift_sign, unwrap=unwrap,
+                                                    no_inverse=no_inverse))
+            if cap.source is None and max_cycles is not None:
+                cap.frames = cap.frames[:max(1, max_cycles) * len(cap.patterns)]
+        else:
+            folder = Path(capture)
+            if folder.is_dir() and not (folder / MANIFEST_NAME).is_file():
+                raise ValueError(f"{folder} has no {MANIFEST_NAME}, so it is not a capture folder; to decode a "
+                                 "folder of frames say what was projected with --set (phase-shift, gray-code, "
+                                 "opencv-graycode) or --manifest FILE, as for fringe3d import")
+            referenced = "source" in read_meta(folder)  # a camera file: decode it one cycle at a time
+            cap = read_capture(folder, max_cycles=1 if referenced else max_cycles)
         bits = bit_depth if bit_depth is not None else cap.meta.get("bit_depth")
         opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1,
                 "white_thr": white_thr, "black_thr": black_thr, "edge_mask": edge_mask, "edge_margin": edge_margin}
@@ -125,11 +164,19 @@ def register(app: typer.Typer) -> None:
             n = total if max_cycles is None else min(max(1, max_cycles), total)
         results = []
         options = {k: v for k, v in opts.items()} | {"z_min": z_min, "method": method, "max_cycles": max_cycles}
+        inputs = [Path(capture), rig]
+        if described:
+            options |= {"src": capture, "layout": layout, "projector_size": projector_size, "channel": channel,
+                        "first_frame": first_frame, "frame_count": frame_count, "steps": steps, "period": period,
+                        "direction": direction, "shift_order": shift_order, "shift_sign": shift_sign,
+                        "unwrap": unwrap, "no_inverse": no_inverse}
+            inputs = [p for p in (Path(capture) if Path(capture).exists() else None, list_file, manifest, rig)
+                      if p is not None]
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
                 _decode_all(cap, n, patterns, rig_obj, DecodeOptions(z_min=z_min, **opts), out, capture, results,
-                            overwrite=overwrite, allow_empty=allow_empty, inputs=[capture, rig],
+                            overwrite=overwrite, allow_empty=allow_empty, inputs=inputs,
                             fingerprint_options=options)
             finally:
                 for msg in dict.fromkeys(str(w.message) for w in caught):

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import time
+import warnings
 from pathlib import Path
 
 import typer
@@ -14,10 +15,12 @@ from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.decode import decode
+from fringe3d.gpu import BACKENDS, cuda_module
 from fringe3d.io.capture import list_frame_files, open_frames, read_capture
 from fringe3d.optics import Rig
 from fringe3d.utils.output_folder import open_output
 from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
+from fringe3d.reconstruct.depth import EmptyMaskError
 from fringe3d.reconstruct.sequence import (
     CaptureFrames,
     reconstruct_sequence,
@@ -45,7 +48,9 @@ def empty_reason(cap, patterns, rig, min_modulation) -> str:
     opts = DecodeOptions(bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation)
     first = cap.frames[:len(patterns)]
     try:
-        why = decode(first, patterns, rig=rig, options=opts).empty_reason()
+        with warnings.catch_warnings():  # the reconstruction already gave the frames' warnings
+            warnings.simplefilter("ignore")
+            why = decode(first, patterns, rig=rig, options=opts).empty_reason()
     except ValueError as e:  # the decoder could not even start (e.g. geometric without z_min)
         return str(e)
     return why or ("the phase is valid but no pixel triangulated inside the calibrated volume; check that the "
@@ -53,17 +58,17 @@ def empty_reason(cap, patterns, rig, min_modulation) -> str:
 
 
 def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOptions, window, ply: bool, store: bool,
-              progress: bool, triangulation: str, client, chunk: int) -> dict:
+              progress: bool, triangulation: str, client, chunk: int, backend: str = "cpu") -> dict:
     """The sequence branch: in this process, or on Dask when a ``client`` is given."""
     mode = "window" if window else "cycle"
     if client is not None:
         return reconstruct_capture_on_dask(capture, ps, rig, out, options, limit=limit, mode=mode, step=window,
                                            ply=ply, store=store, triangulation=triangulation, client=client,
-                                           chunk=chunk, progress=progress)
+                                           chunk=chunk, progress=progress, backend=backend)
     frames = open_frames(capture, limit=limit)  # a referenced camera file, read on demand; else None
     frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
     return reconstruct_sequence(frames, ps, rig, out, options=options, mode=mode, step=window, ply=ply,
-                                store=store, progress=progress, triangulation=triangulation)
+                                store=store, progress=progress, triangulation=triangulation, backend=backend)
 
 
 def register(app: typer.Typer) -> None:
@@ -100,6 +105,10 @@ def register(app: typer.Typer) -> None:
                                       help="Sequences: run on an existing dask.distributed scheduler, e.g. "
                                            "tcp://HOST:8786 (its workers must read the capture at the same path)."),
         chunk: int = typer.Option(8, "--chunk", help="Sequences on Dask: 3D frames per task."),
+        device: str = typer.Option("cpu", "--device",
+                                   help="Where the per-pixel kernels run: cpu, or cuda (an NVIDIA GPU with "
+                                        "fringe3d[cuda]; docs/gpu.md). On Dask, cuda tasks go to workers "
+                                        "started with --resources GPU=1."),
         edge_mask: bool = edge_mask_option(),
         edge_margin: float = edge_margin_option(),
         overwrite: bool = overwrite_option(),
@@ -134,6 +143,10 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--window must be at least 1 frame, got {window}")
         if triangulation not in ("auto", "fast", "lsq"):
             raise ValueError(f"--triangulation must be auto, fast or lsq, got {triangulation!r}")
+        if device not in BACKENDS:
+            raise ValueError(f"--device must be one of {', '.join(BACKENDS)}, got {device!r}")
+        if device == "cuda" and scheduler is None:
+            cuda_module()  # no driver / device / numba-cuda: CudaUnavailableError before anything is written
         if z_min_from is not None:
             if z_min is not None:
                 raise ValueError("give either --z-min or --z-min-from, not both")
@@ -150,6 +163,7 @@ def register(app: typer.Typer) -> None:
                 "edge_margin": edge_margin}
         methods = {p.direction: p.method for p in ps.plans}
         summary = {"capture": str(capture), "calibration": str(calibration), "out": str(out), "methods": methods,
+                   "device": device,
                    "z_min": z_min, "cycles": cycles, "cycle_length": len(ps), "step": window,
                    "shape": list(cap.frames.shape[1:])}
         sequence = not (cycles == 1 and window is None)
@@ -159,14 +173,20 @@ def register(app: typer.Typer) -> None:
         fp_options = {"method": method, "z_min": z_min, "window": window, "triangulation": triangulation,
                       "min_modulation": min_modulation, "cycles": cycles, "ply": ply, "mesh": mesh, "store": store,
                       "edge_mask": edge_mask, "edge_margin": edge_margin}
-        client = connect(scheduler, workers) if sequence and (workers or scheduler) else None  # before writing
+        client = None  # connected before anything is written
+        if sequence and (workers or scheduler):
+            client = connect(scheduler, workers, gpu=True) if device == "cuda" else connect(scheduler, workers)
         try:
             with open_output(out, overwrite=overwrite, inputs=[capture, calibration, z_min_from],
                              options=fp_options, resumable=sequence) as o:
                 if not sequence:
-                    r = reconstruct_cycle(cap, rig, method, z_min, triangulation=triangulation,
-                                          min_modulation=min_modulation, edge_mask=edge_mask,
-                                          edge_margin=edge_margin)
+                    try:
+                        r = reconstruct_cycle(cap, rig, method, z_min, triangulation=triangulation,
+                                              min_modulation=min_modulation, edge_mask=edge_mask,
+                                              edge_margin=edge_margin, backend=device)
+                    except EmptyMaskError:
+                        raise ValueError(f"{capture}: no valid 3D point: "
+                                         f"{empty_reason(cap, ps, rig, min_modulation)}. Nothing was written") from None
                     if not r.mask.any() and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point: "
                                          f"{empty_reason(cap, ps, rig, min_modulation)}. "
@@ -177,7 +197,7 @@ def register(app: typer.Typer) -> None:
                     summary["path"] = r.path
                 else:
                     seq = _sequence(o.path, capture, cycles * len(ps), ps, rig, DecodeOptions(z_min=z_min, **opts),
-                                    window, ply, store, not (quiet or json_), triangulation, client, chunk)
+                                    window, ply, store, not (quiet or json_), triangulation, client, chunk, device)
                     summary.update(o.final_paths(seq))
                     if seq.get("empty_frames") == seq.get("frames_3d") and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point in any frame of the sequence: "

@@ -44,6 +44,10 @@ class DecodeOptions:
         Code-only decoding (``gray_code_only``): smallest accepted code/inverse difference and
         smallest white - black difference (frames' units); default OpenCV's 5 and 40 counts of
         an 8-bit camera, scaled to the frames' full scale.
+    sub_stripe : bool, optional
+        Code-only decoding with inverse frames: refine the projector coordinate within the
+        stripe from the code/inverse zero crossings (:mod:`fringe3d.unwrap.sub_stripe`; default
+        True); False gives the stripe centre.
     edge_mask : bool
         Mask edge and mixed pixels (default True; :mod:`fringe3d.decode.edges`): the fringe
         coordinate within ``edge_margin`` of the pattern's extent, multi-frequency phases that
@@ -68,6 +72,9 @@ class DecodeOptions:
         and unlit rims, mixed by the pixel footprint and blur; default 1, 0 turns it off).
     extra : mapping
         Further options for user-added methods (read as ``ctx.options.extra``).
+    backend : {"cpu", "cuda"}
+        Where the fused three-frequency kernel runs (``"cuda"``: :mod:`fringe3d.gpu`; the rest
+        of the decode stays on the CPU).
 
     Examples
     --------
@@ -91,6 +98,7 @@ class DecodeOptions:
     cross_motion: bool | None = None
     white_thr: float | None = None
     black_thr: float | None = None
+    sub_stripe: bool | None = None
     edge_mask: bool = True
     edge_margin: float | None = None
     max_disagreement: float = 0.6
@@ -98,3 +106,4 @@ class DecodeOptions:
     modulation_ratio: float = 0.5
     rim: int = 1
     extra: Mapping[str, Any] = field(default_factory=dict)
+    backend: str = "cpu"

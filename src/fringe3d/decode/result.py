@@ -13,6 +13,7 @@ import numpy as np
 
 from fringe3d.io.images import write_tiff
 from fringe3d.patterns.conventions import phase_to_w
+from fringe3d.phase.quality import DARK_FRACTION, DARK_PERCENTILE
 
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.jsonfile import write_json
@@ -143,6 +144,11 @@ class Decoded:
         if thr is not None:
             why += f"; the modulation threshold is {thr:.3g} (lower it with --min-modulation, or check the exposure"
             why += " and that the projector lit the scene)"
+        checks = self.info.get("frame_checks") or {}
+        if checks.get("frames") and len(checks.get("dark", ())) == checks["frames"]:
+            why = (f"the frames are nearly black (in every frame at least {DARK_PERCENTILE:g} % of the pixels are "
+                   f"below {DARK_FRACTION:.0%} of full scale {checks['full_scale']:g}; check the exposure, the "
+                   f"aperture and that the projector lit the scene); {why}")
         return f"no valid pixel in any direction: {why}"
 
     def save(self, folder: str | os.PathLike) -> Path:

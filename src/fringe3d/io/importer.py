@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 import tifffile
 
-from fringe3d.io.capture import CAPTURE_UNITS, FRAMES_DIR, META_NAME, write_capture
+from fringe3d.io.capture import CAPTURE_UNITS, FRAMES_DIR, META_NAME, Capture, write_capture
 from fringe3d.io.capture_source import check_header, make_source
 from fringe3d.io.frame_sources import FrameRange, FrameSource, guess_kind, open_source
 from fringe3d.io.images import write_image
@@ -223,26 +223,37 @@ def check_output(out: Path, overwrite: bool) -> None:
         raise ValueError(f"output folder {out} is not empty; choose an empty folder or pass --overwrite")
 
 
-def import_capture(files: Sequence[Path], out: str | os.PathLike, patterns: PatternSet, layout: str = "manifest",
-                   channel: str | None = None, bit_depth: int | None = None, overwrite: bool = False) -> dict:
-    """Read ``files`` (see :func:`list_sources`), convert (:func:`to_grey`) and write the
-    capture folder ``out`` for ``patterns``. Returns the summary written as ``capture.json``
-    (``source_files``, ``conversion``, ``bit_depth``, ``source_dtype``, ``layout``, ...).
+def read_images(files: Sequence[Path], patterns: PatternSet, layout: str = "manifest",
+                channel: str | None = None, bit_depth: int | None = None) -> tuple[np.ndarray, dict]:
+    """Read ``files`` (see :func:`list_sources`) and convert them (:func:`to_grey`) for ``patterns``.
 
-    Raises ``ValueError`` for a frame count that does not fit the layout (saying what was
-    expected), a non-empty output folder without ``overwrite``, unreadable or mismatched
-    frames and a wrong bit depth.
+    Returns the frames (F, H, W) and the ``capture.json`` summary (``source_files``,
+    ``conversion``, ``bit_depth``, ``source_dtype``, ``layout``, ...). Raises ``ValueError`` for
+    a frame count that does not fit the layout (saying what was expected), unreadable or
+    mismatched frames and a wrong bit depth.
     """
-    out = Path(out)
-    check_output(out, overwrite)
     frames, names, colour = read_frames(files, channel)
     if len(frames) % len(patterns):
         raise ValueError(count_message(layout, patterns, len(frames)))
     bits = check_bit_depth(frames, bit_depth)
     conversion = ("none (grey input)" if not colour else f"channel {channel}" if channel
                   else "ITU-R BT.601 luma 0.299 R + 0.587 G + 0.114 B")
-    meta = {"imported": True, "layout": layout, "source_files": names, "conversion": conversion,
-            "source_dtype": str(frames.dtype), "bit_depth": bits, "patterns": patterns.name}
+    return frames, {"imported": True, "layout": layout, "source_files": names, "conversion": conversion,
+                    "source_dtype": str(frames.dtype), "bit_depth": bits, "patterns": patterns.name}
+
+
+def import_capture(files: Sequence[Path], out: str | os.PathLike, patterns: PatternSet, layout: str = "manifest",
+                   channel: str | None = None, bit_depth: int | None = None, overwrite: bool = False) -> dict:
+    """Read ``files`` (:func:`read_images`) and write the capture folder ``out`` for
+    ``patterns``. Returns the summary written as ``capture.json`` plus ``folder``, ``frames``
+    and ``camera``.
+
+    Raises ``ValueError`` as :func:`read_images`, and for a non-empty output folder without
+    ``overwrite``.
+    """
+    out = Path(out)
+    check_output(out, overwrite)
+    frames, meta = read_images(files, patterns, layout, channel, bit_depth)
     write_capture(out, frames, patterns, meta)
     return {**meta, "folder": str(out), "frames": int(len(frames)), "camera": [int(frames.shape[2]),
                                                                                 int(frames.shape[1])]}
@@ -355,6 +366,46 @@ def parse_size(text: str | None) -> tuple[int, int] | None:
     return int(m.group(1)), int(m.group(2))
 
 
+def described_patterns(manifest: str | os.PathLike | None, layout: str | None,
+                       projector_size: tuple[int, int] | None = None, **layout_options) -> tuple[PatternSet, str]:
+    """(patterns, name) of what was projected: the pattern ``manifest`` file or the ``layout``
+    (:func:`layout_patterns`); exactly one must be given."""
+    if (manifest is None) == (layout is None):
+        raise ValueError("describe what was projected with exactly one of --manifest FILE or --set/--layout "
+                         f"({', '.join(LAYOUTS)})")
+    if manifest is not None:
+        return PatternSet.load(manifest), f"manifest {manifest}"
+    assert layout is not None
+    return layout_patterns(layout, projector_size, **layout_options), layout
+
+
+def load_images(src: str | os.PathLike, *, list_file: str | os.PathLike | None = None,
+                manifest: str | os.PathLike | None = None, layout: str | None = None,
+                projector_size: tuple[int, int] | None = None, channel: str | None = None,
+                bit_depth: int | None = None, first_frame: int = 0, frame_count: int | None = None,
+                **layout_options) -> Capture:
+    """What :func:`import_images` would write, in memory and writing nothing: a
+    :class:`fringe3d.io.capture.Capture` of the frames of ``src`` (a folder or glob of images,
+    or ``list_file``; a camera file is read on demand as its ``source``) described by
+    ``manifest`` or ``layout``. Same arguments and errors as :func:`import_images`."""
+    patterns, name = described_patterns(manifest, layout, projector_size, **layout_options)
+    kind = guess_kind(src) if list_file is None else None
+    if kind is not None:
+        if channel is not None:
+            raise ValueError(f"{src}: --channel converts colour frames; a camera file is read as grey frames")
+        source = open_source(kind, src)
+        used = source_range(source, patterns, name, first_frame, frame_count)
+        meta = {"imported": True, "layout": name, "conversion": "none (camera file read)",
+                "source_dtype": str(source.dtype), "bit_depth": source_bit_depth(used, bit_depth),
+                "patterns": patterns.name}
+        return Capture(np.asarray(used[:len(patterns)]), patterns, meta, source=used)
+    if (first_frame, frame_count) != (0, None):
+        raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .tif, zarr); "
+                         f"{src} is a folder or glob of images")
+    frames, meta = read_images(list_sources(src, list_file), patterns, name, channel, bit_depth)
+    return Capture(frames, patterns, meta)
+
+
 def import_images(src: str | os.PathLike, out: str | os.PathLike, *, list_file: str | os.PathLike | None = None,
                   manifest: str | os.PathLike | None = None, layout: str | None = None,
                   projector_size: tuple[int, int] | None = None, channel: str | None = None,
@@ -379,16 +430,7 @@ def import_images(src: str | os.PathLike, out: str | os.PathLike, *, list_file: 
     >>> s["frames"], s["bit_depth"], s["source_files"][0].endswith("shot_1.bmp")
     (3, 8, True)
     """
-    if (manifest is None) == (layout is None):
-        raise ValueError("describe what was projected with exactly one of --manifest FILE or --set/--layout "
-                         f"({', '.join(LAYOUTS)})")
-    if manifest is not None:
-        patterns = PatternSet.load(manifest)
-        name = f"manifest {manifest}"
-    else:
-        assert layout is not None
-        patterns = layout_patterns(layout, projector_size, **layout_options)
-        name = layout
+    patterns, name = described_patterns(manifest, layout, projector_size, **layout_options)
     kind = guess_kind(src) if list_file is None else None
     ranged = (first_frame, frame_count) != (0, None)
     if kind == "tiff" and copy_frames and not ranged:

@@ -32,8 +32,10 @@ class PinholeDevice:
     ----------
     K : (3, 3) float
         Intrinsic matrix in pixels.
-    dist : (5,) float
-        Distortion ``k1 k2 p1 p2 k3`` (OpenCV order).
+    dist : (5,) or (14,) float
+        Distortion ``k1 k2 p1 p2 k3`` (OpenCV order); OpenCV's full 14 (``... k4 k5 k6 s1 s2 s3 s4
+        tau_x tau_y``) when an 8/12/14-vector with a non-zero extra term is given
+        (:func:`fringe3d.optics.distortion.as_coeffs`).
     width, height : int
         Sensor (or DMD) size in pixels.
     R : (3, 3) float, t : (3,) float

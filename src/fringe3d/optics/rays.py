@@ -22,6 +22,7 @@ from typing import Any, overload
 
 import numpy as np
 
+from fringe3d.gpu.runtime import check_backend
 from fringe3d.optics._ray_kernels import central_kernel, parallel_kernel
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import fringe_coordinate
@@ -160,12 +161,27 @@ class RayGeometry:
             return self.O, np.moveaxis(self.D_planes, 0, -1)
         return np.moveaxis(self.O_planes, 0, -1), self.D
 
-    def points(self, w: np.ndarray, mask: np.ndarray | None = None, out: np.ndarray | None = None) -> np.ndarray:
+    def points(self, w: np.ndarray, mask: np.ndarray | None = None, out: np.ndarray | None = None,
+               backend: str = "cpu", device_output: bool = False) -> np.ndarray:
         """3D points from the projector coordinate ``w`` (H, W) (``u_p`` for vertical fringes).
 
         Returns ``(H, W, 3)`` float32 in mm, NaN where ``w`` is NaN, ``mask`` is False, or the
         point falls behind a pinhole camera. ``out`` may be a preallocated float32 array.
+        ``backend="cuda"`` (pinhole cameras): :func:`fringe3d.gpu.ops.central_points` on a CUDA
+        device, which also takes (C, H, W) stacks and returns (C, H, W, 3), kept on the device
+        with ``device_output``.
         """
+        if check_backend(backend) == "cuda":
+            if not self.central:
+                raise ValueError("the CUDA triangulation supports pinhole cameras; use backend='cpu' for "
+                                 "telecentric rigs")
+            from fringe3d.gpu import ops
+
+            pts = ops.central_points(w, mask, self.O, self.D_planes, self.Q, self.P3, device_output=device_output)
+            if out is not None and not device_output:
+                out[...] = pts
+                return out
+            return pts
         w = check_map(w, self.shape, "projector coordinate map")
         if w.dtype not in (np.float32, np.float64):
             w = w.astype(np.float32)

@@ -42,7 +42,8 @@ class PinholeModel(Strict):
         if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
             raise ValueError("K: expected an intrinsic matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]]")
         if len(self.dist) not in DIST_LENGTHS:
-            raise ValueError(f"dist: expected {', '.join(map(str, DIST_LENGTHS))} coefficients, got {len(self.dist)}")
+            raise ValueError(f"dist: expected {', '.join(map(str, DIST_LENGTHS))} coefficients (OpenCV's order k1 k2 "
+                             f"p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4 [tau_x tau_y]]]]), got {len(self.dist)}")
         R = np.asarray(self.R, float)
         with np.errstate(over="ignore", invalid="ignore"):  # huge entries: err is inf, and refused
             err = float(np.abs(R.T @ R - np.eye(3)).max())

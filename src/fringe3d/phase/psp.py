@@ -21,6 +21,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
+from fringe3d.gpu.runtime import check_backend
 from fringe3d.phase import _kernels
 from fringe3d.phase.frames import as_frame_stack
 
@@ -64,7 +65,7 @@ def _lsq_coefficients(shifts: tuple[float, ...]) -> np.ndarray:
 
 
 def wrapped_phase(frames, shifts=None, index=None, saturation_level: float | None = None,
-                  return_saturated: bool = False):
+                  return_saturated: bool = False, backend: str = "cpu", device_output: bool = False):
     """N-step least-squares wrapped phase, average and modulation (Eq. 2.4), fused numba kernel.
 
     Parameters
@@ -78,6 +79,12 @@ def wrapped_phase(frames, shifts=None, index=None, saturation_level: float | Non
         of a whole capture without copying it.
     saturation_level : float, optional
         Flag pixels where any used frame is >= this value (returned when ``return_saturated``).
+    backend : {"cpu", "cuda"}
+        ``"cuda"`` runs :func:`fringe3d.gpu.ops.wrapped_phase` on a CUDA device (raises
+        :class:`fringe3d.gpu.CudaUnavailableError` without one); it also takes many cycles at
+        once, ``frames (C, F, H, W)`` (host or device array), and returns (C, H, W) maps.
+    device_output : bool
+        ``backend="cuda"`` only: leave the outputs on the device (numba device arrays).
 
     Returns
     -------
@@ -93,6 +100,8 @@ def wrapped_phase(frames, shifts=None, index=None, saturation_level: float | Non
     >>> float(wrapped_phase(f).phase[0, 0])  # doctest: +ELLIPSIS
     0.3...
     """
+    if check_backend(backend) == "cuda":
+        return _wrapped_phase_cuda(frames, shifts, index, saturation_level, return_saturated, device_output)
     frames = as_frame_stack(frames, layout="(N, H, W)")
     idx = np.arange(frames.shape[0]) if index is None else np.asarray(index, dtype=np.int64)
     if idx.size and (idx.min() < 0 or idx.max() >= frames.shape[0]):
@@ -108,6 +117,24 @@ def wrapped_phase(frames, shifts=None, index=None, saturation_level: float | Non
     saturated = np.zeros((h, w), np.bool_)
     sat = math.inf if saturation_level is None else float(saturation_level)
     _kernels.psp_kernel(frames, idx.astype(np.int64), coef, sat, phase, average, modulation, saturated)
+    result = PhaseResult(phase, average, modulation)
+    return (result, saturated) if return_saturated else result
+
+
+def _wrapped_phase_cuda(frames, shifts, index, saturation_level, return_saturated, device_output):
+    """:func:`wrapped_phase` on the CUDA backend (one (F, H, W) cycle or (C, F, H, W) cycles)."""
+    from fringe3d.gpu import ops
+
+    n_frames = tuple(frames.shape)[-3] if hasattr(frames, "shape") and len(frames.shape) >= 3 else len(frames)
+    idx = np.arange(n_frames) if index is None else np.asarray(index, dtype=np.int64)
+    d = default_shifts(idx.size) if shifts is None else np.asarray(shifts, dtype=np.float64)
+    if d.size != idx.size:
+        raise ValueError(f"got {d.size} phase shifts for {idx.size} frames; expected one shift per frame")
+    if not hasattr(frames, "copy_to_host"):
+        frames = np.asarray(frames)
+    sat = math.inf if saturation_level is None else float(saturation_level)
+    phase, average, modulation, saturated = ops.wrapped_phase(frames, lsq_coefficients(d), idx, sat,
+                                                              device_output=device_output)
     result = PhaseResult(phase, average, modulation)
     return (result, saturated) if return_saturated else result
 

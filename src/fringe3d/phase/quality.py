@@ -100,7 +100,8 @@ def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = 
     """Warn (:class:`FrameQualityWarning`) about all-dark or heavily saturated frames.
 
     Returns ``{"dark": [frame indices], "saturated": [frame indices], "saturated_fraction":
-    [...]}``. Dark (nearly black): the 99th-percentile pixel < 2 % of full scale, so hot pixels
+    [...], "frames": F, "full_scale": counts}``. Dark (nearly black): the 99th-percentile pixel
+    < 2 % of full scale, so hot pixels
     and noise spikes do not hide a black frame. Saturated: more than 5 % of pixels at
     the maximum code. The pixels themselves are masked by :func:`validity_mask` (dark frames
     give no modulation), so results stay usable where the data allow.
@@ -126,4 +127,5 @@ def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = 
         warnings.warn(f"{where}: {len(sat)} frame(s) with more than {SATURATED_WARN_FRACTION:.0%} saturated "
                       f"pixels (worst {worst:.0%} at level {level:g}): {sat}; saturated pixels are masked",
                       FrameQualityWarning, stacklevel=3)
-    return {"dark": dark, "saturated": sat, "saturated_fraction": [float(x) for x in sat_frac]}
+    return {"dark": dark, "saturated": sat, "saturated_fraction": [float(x) for x in sat_frac],
+            "frames": int(frames.shape[0]), "full_scale": float(fs)}

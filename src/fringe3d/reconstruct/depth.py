@@ -22,6 +22,10 @@ from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.reconstruct.triangulate import Triangulator, triangulate
 
 
+class EmptyMaskError(ValueError):
+    """No pixel of the decoded phase is valid, so there is nothing to triangulate."""
+
+
 def depth_map(points: np.ndarray) -> np.ndarray:
     """Depth map ``(H, W)`` float32 (mm): the world z of an organized point map
     ``(H, W, 3)``; NaN where the point is invalid. For pinhole rigs world = camera frame, so this
@@ -95,7 +99,7 @@ def points_from_decoded(decoded: Decoded, rig: Rig, method: str = "auto", direct
         raise ValueError(f"the capture is {pc['mask'].shape[1]}x{pc['mask'].shape[0]} pixels but the "
                          f"calibration's camera is {shape[1]}x{shape[0]}: calibration and capture sizes disagree")
     if not pc["mask"].any():
-        raise ValueError("the decoded phase mask is empty: no pixel has a valid absolute phase "
+        raise EmptyMaskError("the decoded phase mask is empty: no pixel has a valid absolute phase "
                          "(check exposure, modulation threshold and that the scene is lit by the projector)")
     names = list(pc["w"])
     if method == "auto":

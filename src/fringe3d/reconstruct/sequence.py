@@ -33,6 +33,7 @@ from fringe3d.decode.decoder import decode
 from fringe3d.decode.edges import INVALID
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.decode.texture import fringe_texture
+from fringe3d.gpu.runtime import check_backend
 from fringe3d.io.capture import list_frame_files
 from fringe3d.io.images import read_image
 from fringe3d.io.ply_standard import write_measurement_ply
@@ -42,7 +43,7 @@ from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import w_range, w_to_phase
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.phase.quality import default_min_modulation
-from fringe3d.reconstruct.depth import points_from_decoded
+from fringe3d.reconstruct.depth import EmptyMaskError, points_from_decoded
 from fringe3d.reconstruct.fast_quality import fast_quality
 from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator
 from fringe3d.reconstruct.uncertainty import point_sigma
@@ -113,13 +114,19 @@ class FrameReconstructor:
     3-step direction unwrapped by ``"geometric"`` and the projector has no distortion (it masks by
     modulation, then the edge and mixed-pixel tests of :mod:`fringe3d.reconstruct.fast_quality`;
     saturation is not checked on that path).
+
+    ``backend="cuda"`` runs the per-pixel kernels on a CUDA device (:mod:`fringe3d.gpu`): the
+    fused kernel on the fused path, the fused three-frequency kernel on the decode path
+    (``DecodeOptions.backend``); the quality tests, texture and everything else stay on the CPU,
+    so the results equal the CPU backend's to float rounding.
     """
 
     def __init__(self, patterns: PatternSet, rig: Rig, options: DecodeOptions | None = None,
-                 triangulation: str = "auto", fast: bool = True):
+                 triangulation: str = "auto", fast: bool = True, backend: str = "cpu"):
         self.patterns = patterns
         self.rig = rig
-        self.options = options or DecodeOptions()
+        self.backend = check_backend(backend)
+        self.options = dataclasses.replace(options or DecodeOptions(), backend=self.backend)
         self.z_min = self.options.z_min
         self.triangulation = triangulation
         self._range_checked = False
@@ -148,26 +155,59 @@ class FrameReconstructor:
         self._fast_extent = (lo - 0.5, hi + 0.5)
         self._fast_min_mod = self.options.min_modulation
         return FastThreeStep(Triangulator(self.rig, g.angle, warn_distortion=False), mp, g.shifts,
-                             min_modulation=0.0)
+                             min_modulation=0.0, backend=self.backend)
 
     def __call__(self, frames: np.ndarray, with_texture: bool = False):
         """Points ``(H, W, 3)`` float32 (and the texture ``(H, W)`` float32 in [0, 1] if asked)."""
         c = self.reconstruct(frames, uncertainty=False)
         return (c.points, c.texture) if with_texture else c.points
 
-    def reconstruct(self, frames: np.ndarray, uncertainty: bool = True) -> Cycle:
+    def many(self, cycles: list[np.ndarray], with_texture: bool = False) -> list:
+        """Several cycles (each (n, H, W), manifest order) -> one ``points`` (or ``(points,
+        texture)``) per cycle, ``None`` where the phase mask is empty. On the CUDA fused path
+        all cycles go to the device in one batched launch."""
+        pre = None
+        if self.fast is not None and self.backend == "cuda" and len(cycles) > 1:
+            self._set_min_modulation(cycles[0])
+            pre = self.fast.points(np.stack(cycles), index=self._fast_index)
+        out: list = []
+        for i, cyc in enumerate(cycles):
+            try:
+                if pre is None:
+                    res = self(cyc, with_texture=True)
+                else:
+                    c = self.reconstruct(cyc, uncertainty=False, points=pre[i])
+                    res = (c.points, c.texture)
+            except ValueError as e:
+                if "mask is empty" not in str(e):
+                    raise
+                out.append(None)
+                continue
+            out.append(res if with_texture else res[0])
+        return out
+
+    def _set_min_modulation(self, frames: np.ndarray) -> None:
+        """The fused path's modulation threshold for ``frames`` (default: from their bit depth)."""
+        assert self.fast is not None
+        mm = self._fast_min_mod
+        self.fast.min_mod2 = (default_min_modulation(frames, self.options.bit_depth) if mm is None else mm) ** 2
+
+    def reconstruct(self, frames: np.ndarray, uncertainty: bool = True, points: np.ndarray | None = None) -> Cycle:
         """One cycle (manifest order) -> :class:`Cycle`: points, texture, quality map (OR of the
         directions' bits, :mod:`fringe3d.decode.edges`) and, with ``uncertainty``, ``sigma_xyz``
         (:mod:`fringe3d.reconstruct.uncertainty`). Both paths mask edge and mixed pixels unless
-        ``options.edge_mask`` is False."""
+        ``options.edge_mask`` is False. ``points``: the fused kernel's output for these frames,
+        already computed (by :meth:`many`)."""
         bit_depth = self.options.bit_depth
         if self.fast is not None:
-            mm = self._fast_min_mod
-            self.fast.min_mod2 = (default_min_modulation(frames, bit_depth) if mm is None else mm) ** 2
-            pts = self.fast.points(frames, index=self._fast_index)
+            if points is None:
+                self._set_min_modulation(frames)
+                pts = self.fast.points(frames, index=self._fast_index)
+            else:
+                pts = np.array(points, np.float32)
             valid = np.isfinite(pts[..., 0])
             if not valid.any():
-                raise ValueError("the decoded phase mask is empty: no pixel has enough fringe modulation "
+                raise EmptyMaskError("the decoded phase mask is empty: no pixel has enough fringe modulation "
                                  "(check exposure, modulation threshold and that the scene is lit by the projector)")
             if not self._range_checked:  # once: the depth-range warning the decode path gives
                 mp = self.fast.mp
@@ -260,10 +300,14 @@ def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out
     return starts, st
 
 
+#: Cycles per batched launch on the CUDA backend (one cycle at a time on the CPU).
+CUDA_BATCH = 32
+
+
 def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out,
                          options: DecodeOptions | None = None, mode: str = "cycle", step: int | None = None,
                          ply: bool = False, store: bool = True, progress: bool = True, triangulation: str = "auto",
-                         fast: bool = True) -> dict:
+                         fast: bool = True, backend: str = "cpu") -> dict:
     """Reconstruct every 3D frame of a sequence into ``out`` (resumable).
 
     Parameters
@@ -276,6 +320,8 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
     out : output folder: ``points.zarr`` and/or ``ply/frame_00000.ply`` ...
     mode, step : ``"cycle"`` or ``"window"`` (one 3D frame every ``step`` captured frames)
     ply, store : which outputs to write (at least one)
+    backend : ``"cpu"`` or ``"cuda"`` (:class:`FrameReconstructor`; on the CUDA fused path
+        :data:`CUDA_BATCH` cycles go to the device per launch)
 
     Returns a summary dict (3D frames, done now / before, seconds, 3D frames per second, path).
     """
@@ -290,32 +336,35 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
         return (st is None or st.is_done(k)) and (not ply or (out / PLY_DIR / ply_name(k)).exists())
 
     todo = [k for k in range(len(starts)) if not done(k)]
-    rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, fast=fast)
+    rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, fast=fast, backend=backend)
+    batch = CUDA_BATCH if backend == "cuda" else 1
     t0 = time.perf_counter()
     empty = 0
     writes: deque = deque()  # store writes run behind the next frame's compute (compression is off the critical path)
     with progress_bar("reconstructing 3D frames", len(todo), enabled=progress and len(todo) > 1) as advance, \
             ThreadPoolExecutor(max_workers=1, thread_name_prefix="fringe3d-store") as writer:
-        for k in todo:
-            cyc = np.ascontiguousarray(frames[window_index(starts[k], n)])
-            try:
-                pts, tex = rec(cyc, with_texture=True) if ply else (rec(cyc), None)
-            except ValueError as e:
-                if "mask is empty" not in str(e):
-                    raise
-                pts, tex = np.full((H, W, 3), np.nan, np.float32), None
-                empty += 1
-            if ply and np.isfinite(pts[..., 0]).any():
-                write_measurement_ply(out / PLY_DIR / ply_name(k), pts, tex)
-            if st is not None:
-                writes.append(writer.submit(st.write, k, pts))
-                while len(writes) > 2:  # at most two frames in flight: bounded memory
-                    writes.popleft().result()
-            advance()
+        for b0 in range(0, len(todo), batch):
+            ks = todo[b0:b0 + batch]
+            results = rec.many([np.ascontiguousarray(frames[window_index(starts[k], n)]) for k in ks],
+                               with_texture=True)
+            for k, res in zip(ks, results):
+                if res is None:
+                    pts, tex = np.full((H, W, 3), np.nan, np.float32), None
+                    empty += 1
+                else:
+                    pts, tex = res
+                if ply and np.isfinite(pts[..., 0]).any():
+                    write_measurement_ply(out / PLY_DIR / ply_name(k), pts, tex)
+                if st is not None:
+                    writes.append(writer.submit(st.write, k, pts))
+                    while len(writes) > 2:  # at most two frames in flight: bounded memory
+                        writes.popleft().result()
+                advance()
         while writes:
             writes.popleft().result()
     dt = time.perf_counter() - t0
     return {"out": str(out), "frames_3d": len(starts), "done_now": len(todo), "done_before": len(starts) - len(todo),
             "empty_frames": empty, "seconds": round(dt, 3),
             "frames_3d_per_s": (len(todo) / dt) if todo and dt > 0 else None, "path": rec.path, "mode": mode,
+            "backend": backend,
             "store": str(out / STORE_NAME) if store else None, "ply_dir": str(out / PLY_DIR) if ply else None}

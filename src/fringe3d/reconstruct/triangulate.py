@@ -25,6 +25,7 @@ import warnings
 
 import numpy as np
 
+from fringe3d.gpu.runtime import check_backend
 from fringe3d.optics.rays import ANGLE_UP, ANGLE_VP, RayGeometry, camera_normalized, camera_shape, check_map
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import phase_to_w
@@ -206,11 +207,17 @@ class FastThreeStep:
         Phase shift of each frame (default ``-2pi/3, 0, 2pi/3``, Eq. 1.1-1.3).
     min_modulation : float
         Pixels whose modulation ``I''`` (frames' units) is below this are NaN.
+    backend : {"cpu", "cuda"}
+        ``"cuda"`` runs the same fused kernel on a CUDA device
+        (:func:`fringe3d.gpu.ops.three_step_points`); :meth:`points` then also takes many cycles
+        ``(C, F, H, W)`` at once (host frames stream up in double-buffered chunks; device frames
+        are used in place) and returns ``(C, H, W, 3)``.
     """
 
     def __init__(self, triangulator: Triangulator, minimum_phase: MinimumPhase,
                  shifts=(-2 * math.pi / 3, 0.0, 2 * math.pi / 3),
-                 min_modulation: float = 0.0):
+                 min_modulation: float = 0.0, backend: str = "cpu"):
+        self.backend = check_backend(backend)
         if not triangulator.central:
             raise ValueError("FastThreeStep supports pinhole cameras; use Triangulator for telecentric rigs")
         if abs(triangulator.angle - minimum_phase.angle) > 1e-12 or minimum_phase.shape != triangulator.shape:
@@ -225,9 +232,12 @@ class FastThreeStep:
         self.sign = np.ascontiguousarray(minimum_phase.sign, np.int8)
         self.scale = minimum_phase.period / (2 * math.pi)
 
-    def points(self, frames, index=(0, 1, 2), out=None) -> np.ndarray:
+    def points(self, frames, index=(0, 1, 2), out=None, device_output: bool = False) -> np.ndarray:
         """``(H, W, 3)`` float32 points (mm, NaN invalid) from ``frames[index]`` of an
-        ``(F, H, W)`` stack; ``out`` may be a preallocated float32 array."""
+        ``(F, H, W)`` stack; ``out`` may be a preallocated float32 array. With the CUDA backend
+        also ``(C, F, H, W)`` -> ``(C, H, W, 3)``; ``device_output`` keeps them on the device."""
+        if self.backend == "cuda":
+            return self._points_cuda(frames, index, out, device_output)
         frames = np.asarray(frames)
         H, W = self.tri.shape
         if frames.ndim != 3 or frames.shape[1:] != (H, W):
@@ -242,3 +252,18 @@ class FastThreeStep:
         three_step_kernel(frames, idx, self.coef, self.min_mod2, self.phi_min, self.sign, self.scale,
                            self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, out)
         return out
+
+    def _points_cuda(self, frames, index, out, device_output: bool):
+        from fringe3d.gpu import ops
+
+        if getattr(self, "_cuda_constants", None) is None:  # the ray planes and phi_min go up once
+            self._cuda_constants = ops.three_step_constants(self.coef, self.phi_min, self.sign, self.tri.O,
+                                                            self.tri.D_planes, self.tri.Q, self.tri.P3)
+        pts = ops.three_step_points(frames if hasattr(frames, "copy_to_host") else np.asarray(frames),
+                                    np.asarray(index, np.int64), self.coef, self.min_mod2, self.phi_min, self.sign,
+                                    self.scale, self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3,
+                                    device_output=device_output, constants=self._cuda_constants)
+        if out is not None and not device_output:
+            out[...] = pts
+            return out
+        return pts

@@ -158,6 +158,9 @@ def cast(scene: Scene, rig: Rig, origins: np.ndarray, dirs: np.ndarray, depth_of
     ``work``: a dict of buffers to write the Geometry's per-pixel arrays into (reused across
     calls with the same dict, so an earlier Geometry cast with it is overwritten).
     """
+    if rig.projector.dist.size > 5:
+        raise ValueError("the simulator models projector distortion k1 k2 p1 p2 k3 only; this projector has "
+                         "OpenCV's rational / thin-prism / tilt terms (k4 .. tau_y)")
     h = intersect_culled(scene, origins, dirs, time)
     n_pix = dirs.shape[0]
     oid = np.ascontiguousarray(h.object_id, dtype=np.int32)

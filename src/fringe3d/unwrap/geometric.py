@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fringe3d.gpu.runtime import check_backend
 from fringe3d.optics.rays import RayGeometry, check_map, projector_fringe_coordinate
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import TWO_PI, w_to_phase
@@ -115,7 +116,8 @@ def fringe_order(wrapped: np.ndarray, mp: MinimumPhase) -> np.ndarray:
     return k.astype(np.float32)
 
 
-def geometric_unwrap(wrapped: np.ndarray, mp: MinimumPhase, mask=None, check: bool = True):
+def geometric_unwrap(wrapped: np.ndarray, mp: MinimumPhase, mask=None, check: bool = True, backend: str = "cpu",
+                     device_output: bool = False):
     """Absolute phase ``Phi = phi + 2*pi*k`` by the geometric constraint, Eq. (4.21).
 
     Parameters
@@ -128,11 +130,25 @@ def geometric_unwrap(wrapped: np.ndarray, mp: MinimumPhase, mask=None, check: bo
         Valid pixels (e.g. modulation mask).
     check : bool
         Run :func:`check_wrap_around` and warn when the scene seems to exceed the depth range.
+    backend : {"cpu", "cuda"}
+        ``"cuda"``: :func:`fringe3d.gpu.ops.geometric_unwrap` on a CUDA device; ``wrapped`` and
+        ``mask`` may then also be (C, H, W) stacks of cycles (host or device arrays), and the
+        wrap-around check runs on host results only.
+    device_output : bool
+        ``backend="cuda"`` only: leave ``(Phi, mask)`` on the device.
 
     Returns
     -------
     (Phi, mask) : (H, W) float32 rad (NaN invalid), (H, W) bool
     """
+    if check_backend(backend) == "cuda":
+        from fringe3d.gpu import ops
+
+        Phi, valid = ops.geometric_unwrap(wrapped, mp.phi_min, mp.sign, mask, device_output=device_output)
+        if check and not device_output:
+            for p, v in zip(Phi.reshape((-1,) + mp.shape), valid.reshape((-1,) + mp.shape)):
+                check_wrap_around(p, mp, v)
+        return Phi, valid
     k = fringe_order(wrapped, mp)
     Phi = (np.asarray(wrapped, np.float64) + TWO_PI * k).astype(np.float32)
     valid = np.isfinite(Phi)

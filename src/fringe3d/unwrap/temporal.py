@@ -22,6 +22,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
+from fringe3d.gpu.runtime import check_backend
 from fringe3d.patterns.conventions import beat_period, w_to_phase
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.phase.psp import lsq_coefficients
@@ -235,7 +236,8 @@ def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]],
                            periods: Sequence[float] = (18.0, 21.0, 144.0),
                            w_range: tuple[float, float] | None = None, min_modulation: float = 0.0,
                            saturation_level: float = math.inf,
-                           max_residual: float = 0.5 * math.pi) -> FusedResult:
+                           max_residual: float = 0.5 * math.pi, backend: str = "cpu",
+                           device_output: bool = False) -> FusedResult:
     """Three-frequency heterodyne decode of raw frames in one fused pass (numba).
 
     Per pixel: the three least-squares wrapped phases (Eq. 2.4; e.g. 9 + 3 + 3 steps), the
@@ -249,14 +251,21 @@ def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]],
     frames (F, H, W) uint8/uint16/float; ``indices[g]`` / ``shifts[g]`` the frame indices and
     shifts (rad) of group g, narrowest period first. Equals :func:`heterodyne` applied to
     :func:`fringe3d.phase.psp.wrapped_phase` results (tested).
+
+    ``backend="cuda"`` runs the same decode on a CUDA device (:func:`fringe3d.gpu.ops.three_frequency`;
+    :class:`fringe3d.gpu.CudaUnavailableError` without one); it also takes ``(C, F, H, W)``
+    cycles (host or device array) and returns (C, H, W) maps, left on the device with
+    ``device_output``.
     """
-    frames = as_frame_stack(frames)
+    cuda = check_backend(backend) == "cuda"
+    if not cuda:
+        frames = as_frame_stack(frames)
     if len(indices) != 3 or len(shifts) != 3 or len(periods) != 3:
         raise ValueError("three_frequency_decode needs exactly three groups (indices, shifts, periods)")
     idx = [np.asarray(i, dtype=np.int64) for i in indices]
     for i in idx:
-        if i.size and (i.min() < 0 or i.max() >= frames.shape[0]):
-            raise ValueError(f"frame index {i.tolist()} out of range for {frames.shape[0]} frames")
+        if i.size and (i.min() < 0 or i.max() >= tuple(frames.shape)[-3]):
+            raise ValueError(f"frame index {i.tolist()} out of range for {tuple(frames.shape)[-3]} frames")
     coef = [lsq_coefficients(s).astype(np.float32) for s in shifts]
     for i, c in zip(idx, coef):
         if c.shape[1] != i.size:
@@ -266,6 +275,10 @@ def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]],
     params = np.array([signs[0], signs[1], beats[1] / beats[0], beats[0] / periods[0], lower,
                        float(min_modulation), min(float(saturation_level), 3e38), float(max_residual)],
                       dtype=np.float32)
+    if cuda:
+        from fringe3d.gpu import ops
+
+        return FusedResult(*ops.three_frequency(frames, idx, coef, params, device_output=device_output))
     h, w = frames.shape[1:]
     out = FusedResult(np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.float32),
                       np.empty((h, w), np.float32), np.empty((h, w), np.bool_), np.empty((h, w), np.float32))

@@ -2,16 +2,20 @@
 
 Each code bit is 1 where the code frame is brighter than its inverse frame or, without
 inverse frames, than the mean of the white and black frames. The codeword selects the
-projector stripe (:func:`fringe3d.unwrap.temporal.code_centers`); the method returns the
-stripe centre ``c`` (px) as the absolute phase ``Phi = 2 pi c / T`` of the nominal period
-``T`` = the code's stripe width, so :meth:`fringe3d.decode.Decoded.projector_coordinate`
-gives ``c`` and triangulation works unchanged.
+projector stripe (:func:`fringe3d.unwrap.temporal.code_centers`), of centre ``c`` (px); the
+projector coordinate ``w`` is then refined within the stripe from the zero crossings of the bit
+differences between neighbouring pixels (:func:`fringe3d.unwrap.sub_stripe.sub_stripe_coordinate`;
+method option ``sub_stripe=False`` keeps ``w = c``). The method returns ``w`` as the absolute
+phase ``Phi = 2 pi w / T`` of the nominal period ``T`` = the code's stripe width, so
+:meth:`fringe3d.decode.Decoded.projector_coordinate` gives ``w`` and triangulation works unchanged.
 
 Validity (as OpenCV's ``GrayCodePattern.getProjPixel``): every bit must be decided by at
 least ``white_thr`` (``|I - I_inv| >= white_thr``; without inverses ``|I - (W + B)/2| >=
-white_thr / 2``), and, when white and black frames are present, the pixel must be lit,
-``W - B >= black_thr`` (shadow mask). Defaults are OpenCV's, 5 and 40 counts of an 8-bit
-camera, scaled by ``full_scale / 255`` for other bit depths.
+white_thr / 2``), except that one undecided bit is accepted when flipping it gives the
+neighbouring stripe (the pixel straddles that stripe edge; :func:`decide_edges`); and, when
+white and black frames are present, the pixel must be lit, ``W - B >= black_thr`` (shadow
+mask). Defaults are OpenCV's, 5 and 40 counts of an 8-bit camera, scaled by ``full_scale /
+255`` for other bit depths.
 """
 from __future__ import annotations
 
@@ -23,6 +27,7 @@ from fringe3d.patterns.conventions import point_at_fringe_coordinate, w_range
 from fringe3d.patterns.render import sinusoid_value
 from fringe3d.decode.result import Unwrapped
 from fringe3d.phase import quality
+from fringe3d.unwrap.sub_stripe import sub_stripe_coordinate
 from fringe3d.unwrap.temporal import code_centers
 
 #: OpenCV's ``GrayCodePattern`` defaults, in counts of an 8-bit camera.
@@ -65,46 +70,79 @@ def pixel_code_centers(ctx: DecodeContext, direct: list[int]) -> np.ndarray:
     return ctx.cache[key]
 
 
-def code_bits(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
-              wb: tuple[np.ndarray, np.ndarray] | None, white_thr: float) -> tuple[np.ndarray, np.ndarray,
-                                                                                    np.ndarray]:
-    """(bits (B, H, W) bool, decided (H, W) bool, contrast (H, W) float32): each bit, whether
-    every bit cleared ``white_thr``, and the smallest bit contrast ``|I - I_inv|``."""
+def code_differences(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
+                     wb: tuple[np.ndarray, np.ndarray] | None, white_thr: float) -> tuple[np.ndarray, float]:
+    """(diff (B, H, W) float32, margin): each bit's ``I - I_inv`` (without inverses ``I - (W + B)/2``)
+    and the smallest ``|diff|`` that decides a bit (``white_thr``; ``white_thr / 2`` without inverses)."""
     code = ctx.frames[direct].astype(np.float32)
     if inverse is not None:
-        diff = code - ctx.frames[inverse].astype(np.float32)
-        margin = white_thr
-    elif wb is not None:
-        diff = code - 0.5 * (wb[0] + wb[1])
-        margin = 0.5 * white_thr
-    else:
-        raise ValueError(f"direction {ctx.direction!r}: a code-only capture needs inverse code frames or a white "
-                         "and a black frame to threshold the code bits; the manifest has neither")
-    contrast = np.abs(diff).min(axis=0)
-    return diff > 0, contrast >= margin, (contrast if inverse is not None else 2.0 * contrast)
+        return code - ctx.frames[inverse].astype(np.float32), white_thr
+    if wb is not None:
+        return code - 0.5 * (wb[0] + wb[1]), 0.5 * white_thr
+    raise ValueError(f"direction {ctx.direction!r}: a code-only capture needs inverse code frames or a white "
+                     "and a black frame to threshold the code bits; the manifest has neither")
+
+
+def codeword(bits: np.ndarray) -> np.ndarray:
+    """(B, H, W) bool bits, most significant first -> (H, W) int64 raw codeword."""
+    word = np.zeros(bits.shape[1:], np.int64)
+    for b in bits:
+        word = word * 2 + b
+    return word
+
+
+def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: float) -> tuple[np.ndarray,
+                                                                                              np.ndarray]:
+    """(decided (H, W) bool, contrast (H, W) float32): which pixels' codewords are trusted.
+
+    A pixel is decided when every bit clears ``margin`` (``|diff| >= margin``), or when exactly
+    one bit does not and flipping that bit selects the adjacent stripe (stripe centres
+    ``centres`` one ``period`` apart): the pixel then straddles that stripe edge, where the bit's
+    difference is near zero by construction rather than from a lack of light, and its sign
+    places the pixel (the sub-stripe coordinate of :mod:`fringe3d.unwrap.sub_stripe` refines it).
+    ``contrast`` is the smallest ``|diff|`` of the bits that cleared the margin (of all bits
+    where none did)."""
+    nb = diff.shape[0]
+    size = np.abs(diff)
+    weak = size < margin
+    n_weak = weak.sum(axis=0)
+    word = codeword(diff > 0)
+    flip_bit = (nb - 1 - np.argmax(weak, axis=0)).astype(np.int64)
+    with np.errstate(invalid="ignore"):
+        step = np.abs(centres[word] - centres[word ^ (np.int64(1) << flip_bit)])
+    edge = (n_weak == 1) & (step > 0.5 * period) & (step < 1.5 * period)
+    strong = np.where(weak, np.inf, size).min(axis=0)
+    contrast = np.where(np.isfinite(strong), strong, size.min(axis=0))
+    return (n_weak == 0) | edge, contrast.astype(np.float32)
 
 
 def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
     """Plan ``method="gray_code_only"`` (and ``gray_code`` / ``binary_code`` plans of a
-    direction without phase frames): the stripe centre from the code alone, as the absolute
-    phase of the nominal period ``T`` (the code frames' stripe width); see the module docstring."""
+    direction without phase frames): the projector coordinate from the code alone, as the
+    absolute phase of the nominal period ``T`` (the code frames' stripe width); see the module
+    docstring. With inverse frames (and method option ``sub_stripe``, default True) the
+    coordinate is refined within the stripe (:func:`fringe3d.unwrap.sub_stripe.sub_stripe_coordinate`)."""
     direct, inverse = code_frames(ctx)
     period = float(ctx.patterns.frames[direct[0]].period)
     white_thr, black_thr = code_thresholds(ctx)
     wb = white_black(ctx)
-    bits, decided, contrast = code_bits(ctx, direct, inverse, wb, white_thr)
-    word = np.zeros(bits.shape[1:], np.int64)
-    for b in bits:
-        word = word * 2 + b
-    centre = pixel_code_centers(ctx, direct)[word]
+    diff, margin = code_differences(ctx, direct, inverse, wb, white_thr)
+    centres = pixel_code_centers(ctx, direct)
+    decided, contrast = decide_edges(diff, margin, centres, period)
+    centre = centres[codeword(diff > 0)]
     mask = decided & np.isfinite(centre)
     if wb is not None:
         mask &= (wb[0] - wb[1]) >= black_thr
     mask &= ~(ctx.frames[direct] >= quality.saturation_level(ctx.frames, ctx.bit_depth)).any(axis=0)
-    phase = np.where(mask, 2.0 * np.pi * centre / period, np.nan).astype(np.float32)
+    if ctx.method_option("sub_stripe", True):
+        coordinate, _ = sub_stripe_coordinate(np.where(mask, centre, np.nan), diff, period)
+    else:
+        coordinate = centre
+    phase = np.where(mask, 2.0 * np.pi * coordinate / period, np.nan).astype(np.float32)
     wrapped = np.angle(np.exp(1j * np.nan_to_num(phase))).astype(np.float32)
     average = (0.5 * (wb[0] + wb[1]) if wb is not None else ctx.frames[direct].astype(np.float32).mean(axis=0))
-    return Unwrapped(phase, mask, wrapped=wrapped, modulation=contrast.astype(np.float32),
+    modulation = contrast if inverse is not None else 2.0 * contrast
+    return Unwrapped(phase, mask, wrapped=wrapped, modulation=modulation.astype(np.float32),
                      average=np.asarray(average, np.float32), period=period, phase_is_masked=True)
 
 

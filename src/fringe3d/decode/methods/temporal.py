@@ -37,7 +37,7 @@ def unwrap_heterodyne(ctx: DecodeContext) -> Unwrapped:
                                    [g.period for g in groups], w_range=ctx.w_range(),
                                    min_modulation=ctx.min_modulation,
                                    saturation_level=quality.saturation_level(ctx.frames, ctx.bit_depth),
-                                   max_residual=float(ctx.options.max_residual))
+                                   max_residual=float(ctx.options.max_residual), backend=ctx.options.backend)
         return Unwrapped(r.phase, r.mask, wrapped=r.wrapped, modulation=r.modulation, average=r.average,
                          texture=r.texture, phase_is_masked=True)
     phases = [ctx.group_phase(g).phase for g in groups]

@@ -1,0 +1,248 @@
+"""Benchmark of the CUDA backend (:mod:`fringe3d.gpu`) at 1280 x 1024, beside the device's copy
+bandwidth and the CPU kernels on the same machine. Not run in CI; needs an NVIDIA GPU and
+``pip install 'fringe3d[cuda]'`` (``--smoke`` runs it at 16 x 12 pixels under numba's CUDA
+simulator, only to prove that the script works).
+
+Two workloads, uint8 frames in, per 3D frame:
+
+* ``fused 3-step``: 3 frames -> wrapped phase -> geometric constraint -> closed-form point
+  (:class:`fringe3d.reconstruct.FastThreeStep` ``backend="cuda"``); out (H, W, 3) float32.
+* ``three-frequency``: the 15-frame (9 + 3 + 3 step) heterodyne decode
+  (:func:`fringe3d.unwrap.temporal.three_frequency_decode` ``backend="cuda"``); out absolute
+  phase, wrapped phase, modulation, average, texture (float32) and the mask (bool).
+
+Each is timed (fixed repeat counts after one warm-up launch, which also compiles):
+
+* ``resident``: frames already on the device, outputs left there (one launch over ``--cycles``);
+* ``with transfers``: host frames in, host outputs back (pinned, double-buffered chunks on two
+  streams, :func:`fringe3d.gpu.streaming.run_batched`);
+* ``bound (device)``: a device-to-device copy of the same bytes (input + output of ``--cycles``
+  3D frames); the kernel cannot beat reading its input and writing its output once;
+* ``bound (host<->device)``: pinned host-to-device copy of the input plus device-to-host copy of
+  the output (sequential: the transfer-inclusive rate cannot beat it unless the two directions
+  overlap);
+* ``cpu``: the numba CPU kernels on all cores, one 3D frame per call.
+
+Targets (issue 17): >= 10,000 3D frames/s resident, >= 2,000 with transfers, resident within 3x
+of the device bound. Sized so one run takes about 4 minutes or less on an H200.
+
+Run: ``python benchmarks/bench_cuda.py --out cuda.json`` (``--smoke`` for the simulator check).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import sys
+import time
+
+TARGET_RESIDENT = 10_000.0
+TARGET_TRANSFER = 2_000.0
+TARGET_BOUND_RATIO = 3.0
+SHIFTS3 = (-2 * math.pi / 3, 0.0, 2 * math.pi / 3)
+PERIOD3 = 36.0
+PERIODS15 = (18.0, 21.0, 144.0)
+STEPS15 = (9, 3, 3)
+
+
+def parse(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", required=True, help="JSON results file (written; not overwritten without --overwrite)")
+    ap.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    ap.add_argument("--smoke", action="store_true", help="16 x 12 pixels under numba's CUDA simulator (no GPU)")
+    ap.add_argument("--cycles", type=int, default=None, help="3D frames per launch (default 256; smoke 2)")
+    ap.add_argument("--repeat", type=int, default=None, help="timed repeats (default 10; smoke 1)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the camera noise added to the frames")
+    return ap.parse_args(argv)
+
+
+def build_rig(width: int, height: int):
+    """A pinhole camera of ``width`` x ``height`` pixels (f = 1.1 width) 150 mm beside a
+    1280 x 800 projector (f = 1000 px) converging at 400 mm: the scene spans ~900 projector
+    columns, inside the three-frequency set's 1008 px beat."""
+    from fringe3d.optics import PinholeDevice, Rig, intrinsics
+    from fringe3d.sim.presets import look_at
+
+    f = 1.1 * width
+    cam = PinholeDevice(K=intrinsics(f, f, (width - 1) / 2, (height - 1) / 2), width=width, height=height)
+    R, t = look_at([150.0, 0.0, 0.0], [0.0, 0.0, 400.0])
+    proj = PinholeDevice(K=intrinsics(1000.0, 1000.0, 639.5, 399.5), width=1280, height=800, R=R, t=t)
+    return Rig(cam, proj)
+
+
+def scene_w(rig):
+    """Projector column ``u_p`` seen by every camera pixel on a tilted plane near z = 400 mm."""
+    import numpy as np
+
+    from fringe3d.optics.rays import RayGeometry, projector_fringe_coordinate
+
+    geo = RayGeometry(rig, math.pi / 2)
+    h, w = geo.shape
+    v, u = np.mgrid[0:h, 0:w]
+    z = 400.0 + 20.0 * (u / w - 0.5) + 10.0 * (v / h - 0.5)
+    X = geo.ray_points_at_z(z)
+    return projector_fringe_coordinate(rig, X, math.pi / 2)
+
+
+def fringe_frames(w, periods, steps, shifts, rng):
+    """uint8 frames ``127.5 + 100 cos(2 pi w / T + delta) + noise`` of each group, in order."""
+    import numpy as np
+
+    out = []
+    for T, n, d in zip(periods, steps, shifts):
+        for dk in d[:n]:
+            f = 127.5 + 100.0 * np.cos(2 * math.pi * w / T + dk) + rng.normal(0.0, 1.0, w.shape)
+            out.append(np.clip(np.round(f), 0, 255).astype(np.uint8))
+    return np.stack(out)
+
+
+def timed(fn, repeat: int, sync) -> float:
+    """Median wall seconds of ``repeat`` calls of ``fn`` (each followed by ``sync()``), after one warm-up."""
+    import numpy as np
+
+    fn()
+    sync()
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        sync()
+        times.append(time.perf_counter() - t)
+    return float(np.median(times))
+
+
+def copy_bounds(cuda, in_bytes: int, out_bytes: int, repeat: int) -> dict:
+    """Seconds for a device-to-device copy of ``in_bytes + out_bytes``, a pinned host-to-device
+    copy of ``in_bytes`` and a device-to-host copy of ``out_bytes`` into pinned memory."""
+    import numpy as np
+
+    total = in_bytes + out_bytes
+    d_a = cuda.device_array(total, np.uint8)
+    d_b = cuda.device_array(total, np.uint8)
+    h_in = cuda.pinned_array(in_bytes, np.uint8)
+    h_in[:] = 1
+    h_out = cuda.pinned_array(out_bytes, np.uint8)
+    d_in = d_a[:in_bytes]
+    d_out = d_b[:out_bytes]
+    sync = cuda.synchronize
+    return {"d2d_s": timed(lambda: d_b.copy_to_device(d_a), repeat, sync),
+            "h2d_s": timed(lambda: d_in.copy_to_device(h_in), repeat, sync),
+            "d2h_s": timed(lambda: d_out.copy_to_host(h_out), repeat, sync)}
+
+
+def workload(name, cuda, cycles_host, run_gpu, run_cpu, in_bytes, out_bytes, repeat, cpu_repeat) -> dict:
+    """Times one workload; rates in 3D frames per second."""
+    n = cycles_host.shape[0]
+    resident = [cuda.to_device(cycles_host)]
+    res = {"workload": name, "cycles": n, "in_bytes_per_frame": in_bytes, "out_bytes_per_frame": out_bytes}
+    t_res = timed(lambda: run_gpu(resident[0], True), repeat, cuda.synchronize)
+    resident.clear()  # free the device copy before the copy bounds allocate theirs
+    t_xfer = timed(lambda: run_gpu(cycles_host, False), max(1, repeat // 3), cuda.synchronize)
+    b = copy_bounds(cuda, in_bytes * n, out_bytes * n, repeat)
+    t_cpu = timed(lambda: run_cpu(cycles_host[0]), cpu_repeat, lambda: None)
+    res.update({
+        "resident_fps": n / t_res,
+        "with_transfers_fps": n / t_xfer,
+        "bound_device_fps": n / b["d2d_s"],
+        "bound_host_device_fps": n / (b["h2d_s"] + b["d2h_s"]),
+        "d2d_GBps": 2 * (in_bytes + out_bytes) * n / b["d2d_s"] / 1e9,  # read + write
+        "h2d_GBps": in_bytes * n / b["h2d_s"] / 1e9,
+        "d2h_GBps": out_bytes * n / b["d2h_s"] / 1e9,
+        "cpu_fps": 1.0 / t_cpu,
+    })
+    res["resident_vs_bound"] = res["bound_device_fps"] / res["resident_fps"]
+    res["meets"] = {"resident>=10000": res["resident_fps"] >= TARGET_RESIDENT,
+                    "with_transfers>=2000": res["with_transfers_fps"] >= TARGET_TRANSFER,
+                    "resident_within_3x_of_bound": res["resident_vs_bound"] <= TARGET_BOUND_RATIO}
+    return res
+
+
+def main(argv=None) -> int:
+    args = parse(argv)
+    if os.path.exists(args.out) and not args.overwrite:
+        print(f"error: {args.out} exists; pass --overwrite to replace it", file=sys.stderr)
+        return 2
+    if args.smoke:
+        os.environ["NUMBA_ENABLE_CUDASIM"] = "1"  # before numba is imported
+    import numpy as np
+
+    from fringe3d.gpu import CudaUnavailableError, cuda_module
+    from fringe3d.phase.psp import default_shifts
+    from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator
+    from fringe3d.unwrap.geometric import minimum_phase
+    from fringe3d.unwrap.temporal import three_frequency_decode
+
+    try:
+        cuda = cuda_module()
+    except CudaUnavailableError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    width, height = (16, 12) if args.smoke else (1280, 1024)
+    cycles = args.cycles or (2 if args.smoke else 256)
+    repeat = args.repeat or (1 if args.smoke else 10)
+    cpu_repeat = 1 if args.smoke else 10
+    rng = np.random.default_rng(args.seed)
+    rig = build_rig(width, height)
+    w = scene_w(rig)
+    px = width * height
+
+    # fused 3-step + geometric + triangulation
+    f3 = fringe_frames(w, [PERIOD3], [3], [SHIFTS3], rng)
+    frames3 = np.broadcast_to(f3, (cycles,) + f3.shape).copy()
+    z_min = float(np.nanmin(Triangulator(rig).points(w)[..., 2])) - 5.0
+    mp = minimum_phase(rig, z_min, PERIOD3)
+    tri = Triangulator(rig)
+    gpu3 = FastThreeStep(tri, mp, SHIFTS3, min_modulation=5.0, backend="cuda")
+    cpu3 = FastThreeStep(tri, mp, SHIFTS3, min_modulation=5.0)
+    check = gpu3.points(frames3[:1])[0]
+    ref = cpu3.points(frames3[0])
+    ok = np.isfinite(ref[..., 0])
+    err3 = float(np.nanmax(np.abs(check[ok] - ref[ok]))) if ok.any() else float("nan")
+    r3 = workload("fused 3-step + geometric + triangulation", cuda, frames3,
+                  lambda fr, dev: gpu3.points(fr, device_output=dev), lambda fr: cpu3.points(fr),
+                  3 * px, 12 * px, repeat, cpu_repeat)
+    r3["max_abs_diff_vs_cpu_mm"] = err3
+    del frames3
+
+    # 15-frame three-frequency decode
+    shifts = [default_shifts(n) for n in STEPS15]
+    f15 = fringe_frames(w, PERIODS15, STEPS15, shifts, rng)
+    cyc15 = max(1, cycles // 4)
+    frames15 = np.broadcast_to(f15, (cyc15,) + f15.shape).copy()
+    idx = [list(range(0, 9)), list(range(9, 12)), list(range(12, 15))]
+    kw = dict(w_range=(float(np.nanmin(w)) - 1.0, float(np.nanmax(w)) + 1.0), min_modulation=5.0,
+              saturation_level=255.0)  # the scene's span, within the 1008 px beat
+    tf_gpu = three_frequency_decode(frames15[:1], idx, shifts, PERIODS15, backend="cuda", **kw)
+    tf_cpu = three_frequency_decode(f15, idx, shifts, PERIODS15, **kw)
+    m = tf_cpu.mask & tf_gpu.mask[0]
+    err15 = float(np.max(np.abs(tf_gpu.phase[0][m] - tf_cpu.phase[m]))) if m.any() else float("nan")
+    r15 = workload("three-frequency 15-frame decode", cuda, frames15,
+                   lambda fr, dev: three_frequency_decode(fr, idx, shifts, PERIODS15, backend="cuda",
+                                                          device_output=dev, **kw),
+                   lambda fr: three_frequency_decode(fr, idx, shifts, PERIODS15, **kw),
+                   15 * px, 21 * px, repeat, cpu_repeat)
+    r15["max_abs_diff_vs_cpu_rad"] = err15
+
+    dev = "numba CUDA simulator (not a GPU)" if args.smoke else str(cuda.get_current_device().name)
+    report = {"device": dev, "smoke": bool(args.smoke), "size": [width, height], "seed": args.seed,
+              "repeat": repeat, "cpu": platform.processor() or platform.machine(), "cpu_cores": os.cpu_count(),
+              "targets": {"resident_fps": TARGET_RESIDENT, "with_transfers_fps": TARGET_TRANSFER,
+                          "resident_vs_bound": TARGET_BOUND_RATIO},
+              "results": [r3, r15]}
+    cols = ["resident_fps", "with_transfers_fps", "bound_device_fps", "bound_host_device_fps", "cpu_fps",
+            "resident_vs_bound"]
+    print(f"device: {dev}   {width}x{height}   (3D frames/s; resident_vs_bound = bound / resident)")
+    print(f"{'workload':42s}" + "".join(f"{c:>22s}" for c in cols))
+    for r in report["results"]:
+        print(f"{r['workload']:42s}" + "".join(f"{r[c]:22.1f}" for c in cols))
+        print(f"{'':42s}  meets: {r['meets']}")
+    with open(args.out, "w") as fh:
+        json.dump(report, fh, indent=2)
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

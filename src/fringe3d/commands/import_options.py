@@ -1,0 +1,95 @@
+"""The options that describe another lab's frames, shared by ``fringe3d import`` and ``fringe3d
+decode`` (one definition each): the frame list, what was projected (``--manifest`` or
+``--set/--layout`` with its parameters), the colour channel, bit depth and camera-file range."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+SRC_HELP = ("Folder or glob of frames (PNG, TIFF, BMP, JPEG), naturally sorted (img_2 before img_10); or a camera "
+            "file: Photron .cih/.cihx/.mraw, a multi-page .tif, a zarr store.")
+
+
+def list_option() -> Path:
+    return typer.Option(None, "--list", help="Text file listing the frames in projection order (one path a line, "
+                                             "relative to the file).")
+
+
+def manifest_option() -> Path:
+    return typer.Option(None, "--manifest", help="Pattern manifest (manifest.json) of what was projected.")
+
+
+def layout_option() -> str:
+    return typer.Option(None, "--set", "--layout",
+                        help="What was projected instead of a manifest: phase-shift, gray-code, opencv-graycode "
+                             "(OpenCV GrayCodePattern: column pairs, row pairs, white, black).")
+
+
+def projector_size_option() -> str:
+    return typer.Option(None, "--projector-size", help="Projector WIDTHxHEIGHT (px), e.g. 1024x768; required with "
+                                                       "--set/--layout.")
+
+
+def steps_option() -> int:
+    return typer.Option(3, "--steps", help="Phase-shift steps N.")
+
+
+def period_option() -> float:
+    return typer.Option(None, "--period", help="Fringe period / stripe width (projector px).")
+
+
+def direction_option() -> str:
+    return typer.Option("v", "--direction", help="v (vertical stripes, columns) or h (rows).")
+
+
+def shift_order_option() -> str:
+    return typer.Option(None, "--shift-order", help="Step held by each captured frame, e.g. 2,0,1.")
+
+
+def shift_sign_option() -> int:
+    return typer.Option(1, "--shift-sign", help="-1 when the shifts are -2 pi k / N.")
+
+
+def unwrap_option() -> str:
+    return typer.Option(None, "--unwrap", help="Unwrapping method of the plan (none, spatial, histogram, ...; "
+                                               "default none).")
+
+
+def no_inverse_option() -> bool:
+    return typer.Option(False, "--no-inverse", help="gray-code: no inverse frames.")
+
+
+def channel_option() -> str:
+    return typer.Option(None, "--channel", help="Use one colour channel (r, g, b) instead of the BT.601 luma of "
+                                                "colour frames.")
+
+
+def bit_depth_option() -> int:
+    return typer.Option(None, "--bit-depth", help="Camera bit depth (10/12/14 in 16-bit files); default "
+                                                  "capture.json, else the files' 8 / 16.")
+
+
+def first_frame_option() -> int:
+    return typer.Option(0, "--first-frame", help="Camera file: frame where the first pattern cycle starts.")
+
+
+def frame_count_option() -> int:
+    return typer.Option(None, "--frame-count", help="Camera file: frames to use (a multiple of the cycle; default "
+                                                    "the whole cycles left).")
+
+
+def layout_arguments(layout: str | None, *, steps: int, period: float | None, direction: str,
+                     shift_order: str | None, shift_sign: int, unwrap: str | None, no_inverse: bool) -> dict:
+    """The ``--set`` parameters as keyword arguments of
+    :func:`fringe3d.io.importer.layout_patterns` (none for a manifest or ``opencv-graycode``)."""
+    if layout is None or layout == "opencv-graycode":
+        return {}
+    opts: dict = {"period": period, "direction": direction, "unwrap": unwrap}
+    if layout == "phase-shift":
+        opts.update(steps=steps, shift_sign=shift_sign,
+                    shift_order=None if shift_order is None else [int(k) for k in shift_order.split(",")])
+    else:
+        opts["inverse"] = not no_inverse
+    return opts
+

@@ -1,0 +1,101 @@
+"""Batched launches over many pattern cycles, with the upload overlapping the compute.
+
+Host frames ``(C, F, P)`` are cut into chunks of cycles. Each chunk is copied into one of two
+pinned (page-locked) host buffers, uploaded asynchronously on its own stream, processed there
+and (unless the results stay on the device) downloaded into a pinned buffer on the same stream.
+While stream 0 computes chunk ``i``, the host fills the other pinned buffer with chunk ``i + 1``
+and stream 1 uploads it: the copies hide behind the kernels (double buffering). Frames already
+on the device are processed in one launch.
+"""
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+import numpy as np
+
+from fringe3d.gpu.runtime import is_device_array
+
+#: Threads per block along the pixels (the grid's y axis runs over the cycles of a chunk).
+THREADS = 256
+#: Cycles per chunk of a host-to-device stream: 8 cycles of 15 frames at 1280x1024 uint8 are 157 MB.
+DEFAULT_CHUNK = 8
+
+
+def launch_grid(n_pixels: int, n_cycles: int) -> tuple[tuple[int, int], tuple[int, int]]:
+    """(blocks, threads) of a 2D launch: x over ``n_pixels`` in blocks of :data:`THREADS`, y over cycles
+    (at most 65,535, CUDA's limit of the grid's y dimension)."""
+    if n_cycles > 65535:
+        raise ValueError(f"{n_cycles} cycles in one launch; at most 65535 (pass host frames, which go up in "
+                         "chunks, or split the device stack)")
+    return ((n_pixels + THREADS - 1) // THREADS, max(1, n_cycles)), (THREADS, 1)
+
+
+OutSpec = tuple[tuple[int, ...], type]  # per-cycle shape and dtype of one output
+
+
+def run_batched(cuda, frames, launch: Callable, outputs: Sequence[OutSpec], chunk: int = DEFAULT_CHUNK,
+                device_output: bool = False) -> list:
+    """Run ``launch(d_frames, d_outputs, stream)`` over every cycle of ``frames``.
+
+    Parameters
+    ----------
+    cuda : the ``numba.cuda`` module (from :func:`fringe3d.gpu.runtime.cuda_module`)
+    frames : (C, F, P) host array, or a device array (processed in one launch)
+    launch : callable
+        Launches the kernel for a ``(n, F, P)`` device chunk, writing the ``(n, ...)`` device
+        outputs, on ``stream``.
+    outputs : per-cycle ``(shape, dtype)`` of each output
+    chunk : cycles per upload (host frames)
+    device_output : keep the ``(C, ...)`` outputs on the device instead of copying them back
+
+    Returns
+    -------
+    list of (C, ...) arrays, host (numpy) or device ones.
+    """
+    n_cyc = frames.shape[0]
+    if is_device_array(frames):
+        d_out = [cuda.device_array((n_cyc,) + tuple(s), dt) for s, dt in outputs]
+        stream = cuda.stream()
+        launch(frames, d_out, stream)
+        stream.synchronize()
+        return d_out if device_output else [d.copy_to_host() for d in d_out]
+    chunk = max(1, min(int(chunk), n_cyc))
+    per = tuple(frames.shape[1:])
+    streams = [cuda.stream(), cuda.stream()]
+    pin_in = [cuda.pinned_array((chunk,) + per, frames.dtype) for _ in range(2)]
+    d_in = [cuda.device_array((chunk,) + per, frames.dtype) for _ in range(2)]
+    if device_output:
+        full = [cuda.device_array((n_cyc,) + tuple(s), dt) for s, dt in outputs]
+    else:
+        host = [np.empty((n_cyc,) + tuple(s), dt) for s, dt in outputs]
+        d_out = [[cuda.device_array((chunk,) + tuple(s), dt) for s, dt in outputs] for _ in range(2)]
+        pin_out = [[cuda.pinned_array((chunk,) + tuple(s), dt) for s, dt in outputs] for _ in range(2)]
+    pending: list = [None, None]  # (c0, n) of the chunk whose results wait in pin_out[b]
+
+    def flush(b: int) -> None:
+        if pending[b] is not None:
+            c0, n = pending[b]
+            for h, po in zip(host, pin_out[b]):
+                h[c0:c0 + n] = po[:n]
+            pending[b] = None
+
+    for i, c0 in enumerate(range(0, n_cyc, chunk)):
+        b = i % 2
+        n = min(chunk, n_cyc - c0)
+        streams[b].synchronize()  # this buffer's previous chunk is uploaded, computed and downloaded
+        if not device_output:
+            flush(b)
+        pin_in[b][:n] = frames[c0:c0 + n]  # overlaps the other stream's upload and kernel
+        src = d_in[b][:n]
+        src.copy_to_device(pin_in[b][:n], stream=streams[b])
+        outs = [d[c0:c0 + n] for d in full] if device_output else [d[:n] for d in d_out[b]]
+        launch(src, outs, streams[b])
+        if not device_output:
+            for d, po in zip(outs, pin_out[b]):
+                d.copy_to_host(po[:n], stream=streams[b])
+            pending[b] = (c0, n)
+    for b in range(2):
+        streams[b].synchronize()
+        if not device_output:
+            flush(b)
+    return full if device_output else host
