@@ -3,56 +3,38 @@ band is masked along every projector border (both coordinates known); one obliqu
 masks what its single coordinate allows (:mod:`fringe3d.decode.edges`)."""
 from __future__ import annotations
 
+import importlib.util
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-import fringe3d.decode.decoder as decoder
-from fringe3d.decode import DecodeOptions, decode, edges
+from fringe3d.decode import edges
 from fringe3d.patterns import sets
-from fringe3d.sim import presets, render
-from fringe3d.sim.primitives import Plane
-from fringe3d.sim.scene import Scene
+
+
+SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "border_figures.py"
 
 
 @pytest.fixture(scope="module")
-def oblique_capture():
-    """Tiny rig, a plane wider than the projector's light (its top-left border in view), a blurred
-    projector (Gaussian defocus 2 px) and two fringe directions at pi/3 -+ pi/4."""
-    p = presets.get("tiny")
-    ps = sets.optimal_angle_calibration(math.pi / 3, width=p.rig.projector.width, height=p.rig.projector.height)
-    s = p.settings.replace(defocus="gaussian", defocus_size=2.0, seed=1)
-    frames, truth = render(Scene([Plane((0, 0, 700.0), (0, 0, -1.0), albedo=0.8)]), p.rig, ps, s, progress=False)
-    return p.rig, ps, frames, truth
+def figures():
+    """scripts/border_figures.py's oblique edge-band figures: tiny rig, a plane wider than the
+    projector's light, Gaussian projector defocus 2 px, directions pi/3 -+ pi/4."""
+    spec = importlib.util.spec_from_file_location("border_figures", SCRIPT)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.oblique_band_figures()
 
 
-def _figures(ps, d, truth):
-    """Per direction: (kept pixels, RMS of the w error (px)) in the true border band and inside."""
-    up, vp = truth.up, truth.vp
-    m = d.info["quality"]["a1"]["edge_margin"]
-    lit = np.isfinite(up)
-    band = edges.border_band(up, vp, ps.width, ps.height, m) & lit
-    inner = ~edges.border_band(up, vp, ps.width, ps.height, m + 3) & lit
-    out = {}
-    for p in ps.plans:
-        err = d.projector_coordinate(p.direction) - (vp * math.cos(p.angle) + up * math.sin(p.angle))
-        for name, sel in (("band", band), ("inner", inner)):
-            v = err[sel & d.mask[p.direction]]
-            out[p.direction, name] = (v.size, float(np.sqrt(np.mean(v ** 2))) if v.size else 0.0)
-    return out
-
-
-def test_two_oblique_directions_mask_the_band_along_every_projector_border(oblique_capture, monkeypatch):
-    _, ps, frames, truth = oblique_capture
-    after = _figures(ps, decode(frames, ps, options=DecodeOptions(bit_depth=8)), truth)
-    monkeypatch.setattr(decoder, "mask_projector_border", lambda *a: None)  # each direction's own band only
-    before = _figures(ps, decode(frames, ps, options=DecodeOptions(bit_depth=8)), truth)
+def test_two_oblique_directions_mask_the_band_along_every_projector_border(figures):
+    before, after = figures["before"], figures["after"]  # each direction's own band test / both coordinates
     for d in ("a1", "a2"):
-        n_before, rms_before = before[d, "band"]
-        assert n_before > 300 and rms_before > 10 * before[d, "inner"][1]   # the band is bad and was kept
-        assert after[d, "band"][0] == 0                                      # now masked
-        assert after[d, "inner"] == before[d, "inner"]                       # the interior is untouched
+        n_before, rms_before = before[d]["band"]
+        assert n_before > 300 and rms_before > 10 * before[d]["inner"][1]   # the band is bad and was kept
+        assert after[d]["band"][0] == 0                                      # now masked
+        assert after[d]["inner"] == before[d]["inner"]                       # the interior is untouched
 
 
 def test_projector_position_inverts_the_fringe_coordinates_of_two_directions():
