@@ -18,9 +18,8 @@ On the macro rig (camera scaled to 320 x 256, same field of view), blurred proje
   the three-frequency set (noise from the 9-step fit residual), three 3-step groups (noise from
   the groups' averages) and one 3-step group on the fused path (Laplacian of the average).
 
-The plane uses no camera blur: the simulator's camera blur pads the image with its edge values
-(``mode="nearest"``), which biases the phase of the outermost column by ~1 mm on this tilted plane,
-an artefact of the simulator, not of a real sensor.
+The plane uses no camera blur (the simulator once padded the blurred image with its edge values,
+biasing the outermost column; it now renders a margin beyond the sensor and crops).
 
 Run: ``PYTHONPATH=src python scripts/quality_figures.py --seeds 20`` (prints one JSON).
 """

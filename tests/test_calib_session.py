@@ -42,6 +42,8 @@ def test_calibrate_command_writes_json_yaml_plot_and_rig_loads(tiny_session, tmp
     summary = json.loads(capsys.readouterr().out)
     assert [p["name"] for p in summary["poses"]] == [f"pose_{k:02d}" for k in range(5)]
     assert (tmp_path / "calib.png").stat().st_size > 1000
+    from output_checks import check_json_provenance
+    check_json_provenance(out)                       # version, time, command line, units
     rig = Rig.load(out)
     # the tiny rig (160x128 camera) still lands near the true projector position
     assert np.linalg.norm(rig.projector.t - tiny_session.rig.projector.t) < 2.0

@@ -54,13 +54,14 @@ def order_errors(phase, truth):
 @pytest.mark.parametrize("fused", [True, False])
 def test_three_frequency_set_decodes_exact_absolute_phase(fused):
     ps = sets.three_frequency("v")
-    d = decode(synthesize(ps, dtype=np.float64), ps, options=DecodeOptions(fused=fused))
+    d = decode(synthesize(ps, dtype=np.float64), ps, options=DecodeOptions(fused=fused, bit_depth=8))
     truth = true_phase(ps, "v")
     assert d.mask["v"].all()
     assert np.abs(d.phase["v"] - truth).max() < 1e-4   # float32 output, phase up to 280 rad
     assert d.period["v"] == 18.0 and d.method["v"] == "heterodyne"
     assert np.allclose(d.modulation["v"], B, atol=1e-3) and np.allclose(d.average, A, atol=1e-3)
-    assert np.allclose(d.texture, A + B, atol=2e-3)   # no white frame: texture = A + B
+    # no white frame: texture = A + B as a fraction of full scale (255 for 8 bits)
+    assert np.allclose(d.texture, (A + B) / 255, atol=1e-5)
 
 
 def test_calibration_set_both_directions_uint8_with_noise_exact_orders():
@@ -68,18 +69,19 @@ def test_calibration_set_both_directions_uint8_with_noise_exact_orders():
     frames = synthesize(ps, sigma=3.0, seed=1)
     d = decode(frames, ps)
     up, vp = projector_coords()
-    for direction, w, size in (("v", up, ps.width), ("h", vp, ps.height)):
-        # the closed-form frames carry fringes beyond the projector (v_p < 0 in the top-right
-        # corner), which no projector lights: exactly those and the edge band are masked
-        margin = d.info["quality"][direction]["edge_margin"]
-        band = (w < -0.5 + margin) | (w > size - 0.5 - margin)
-        inner = (w < -0.5 + margin - 0.1) | (w > size - 0.5 - margin + 0.1)  # decoded w carries noise
+    # the closed-form frames carry fringes beyond the projector (v_p < 0 in the top-right
+    # corner), which no projector lights: exactly those and the edge band along every border
+    # (both coordinates decoded) are masked in both directions
+    margin = max(d.info["quality"][k]["edge_margin"] for k in ("v", "h"))
+    band = edges.border_band(up, vp, ps.width, ps.height, margin)
+    inner = edges.border_band(up, vp, ps.width, ps.height, margin - 0.1)  # decoded w carries noise
+    for direction in ("v", "h"):
         assert not (~d.mask[direction] & ~band).any() and not (inner & d.mask[direction]).any()
         assert not order_errors(d.phase[direction], true_phase(ps, direction))[d.mask[direction]].any()
     off = decode(frames, ps, options=DecodeOptions(edge_mask=False))  # the method's own mask only
     assert off.mask["h"].all() and not order_errors(off.phase["h"], true_phase(ps, "h")).any()
     white = ps.indices(kind="white")[0]
-    assert np.array_equal(d.texture, frames[white].astype(np.float32))
+    assert np.allclose(d.texture, frames[white] / 255.0, atol=1e-7)  # a fraction of full scale
 
 
 def test_hierarchical_set_exact_orders_with_noise():

@@ -30,6 +30,13 @@ def test_demo_writes_calibration_clouds_figures_and_report(tiny_demo):
     assert not list(out.glob("*.part*")), "temporary files left behind"
 
 
+def test_demo_files_carry_units_and_provenance(tiny_demo):
+    from output_checks import check_folder
+
+    out, _ = tiny_demo
+    check_folder(out, "demo")
+
+
 def test_demo_calibration_is_close_to_the_true_rig(tiny_demo):
     _, s = tiny_demo
     figs = s["calibration"]["figures"]

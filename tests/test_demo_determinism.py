@@ -6,10 +6,18 @@ import re
 
 from fringe3d.cli import main
 
+COMMAND = re.compile(rb"comment command: [^\n]*\n")
 TIMES = re.compile(r"<h2>Time per stage</h2>.*?</table>", re.S)
 
 
 def _without_times(name: str, data: bytes) -> bytes:
+    if name.endswith(".json") and name != "fringe3d.json":  # provenance: when and by which command line
+        d = json.loads(data)
+        for key in ("written", "command"):  # the runs write to different folders
+            d.get("provenance", {}).pop(key, None)
+        data = json.dumps(d).encode()
+    if name.endswith(".ply"):
+        data = COMMAND.sub(b"", data)
     if name == "fringe3d.json":  # the completion marker: start and finish times, file sizes
         d = json.loads(data)
         return json.dumps({k: v for k, v in d.items() if k not in ("started", "finished", "files", "command")}).encode()

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from fringe3d.cli import main
-from fringe3d.report.typed import b64_float32, decode_float32
+from fringe3d.report.typed import b64_float32, b64_uint16, decode_float32, decode_uint16
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
@@ -32,6 +32,15 @@ def test_typed_arrays_round_trip_with_nan():
     np.testing.assert_array_equal(decode_float32(b64_float32(a)), a)
 
 
+def test_quantised_coordinates_round_trip_within_half_a_step():
+    x = np.random.default_rng(0).uniform(-120.0, 80.0, 5000)
+    text, lo, step = b64_uint16(x)
+    assert step == pytest.approx(200.0 / 65535, rel=1e-3)
+    assert np.abs(decode_uint16(text, lo, step) - x).max() <= step / 2 + 1e-12
+    flat, lo1, step1 = b64_uint16(np.full(4, 7.0))  # a constant coordinate: step 0
+    np.testing.assert_array_equal(decode_uint16(flat, lo1, step1), np.full(4, 7.0))
+
+
 def test_report_of_a_reconstruct_and_evaluate_folder(evaluated: Path):
     assert main(["report", str(evaluated), "-q"]) == 0
     page = (evaluated / "report.html").read_text()
@@ -42,9 +51,9 @@ def test_report_of_a_reconstruct_and_evaluate_folder(evaluated: Path):
     assert "VDI/VDE 2634-2" in page
     for name in ("truth_error.tif", "sphere_residuals.tif", "depth.tif"):
         assert f'title="{name}"' in page  # maps with colour bars
-    # point data travel as base64 float32, not JSON numbers
+    # point data travel as base64 typed arrays, not JSON numbers; plotly.js gzip-compressed
     assert re.search(r'"x": "[A-Za-z0-9+/=]{1000,}"', page)
-    assert (evaluated / "report.html").stat().st_size < 8_000_000
+    assert (evaluated / "report.html").stat().st_size < 3_500_000
     assert main(["report", str(evaluated), "-q"]) == 2  # an existing report needs --overwrite
     calibration = json.loads((evaluated / "reconstruct.json").read_text())["calibration"]
     shutil.copy(calibration, evaluated / Path(calibration).name)  # a copy inside the folder is shown

@@ -45,6 +45,8 @@ def test_strain_command_writes_csv_vtk_maps_and_matches_the_analytic_strain(sequ
                  "maps/strain_00001.png"]:
         assert (out / name).stat().st_size > 0
     assert not list(out.rglob(".*.part*"))          # no temporary leftovers
+    from output_checks import check_folder
+    check_folder(out, "strain")                      # summary.json and the marker: units, provenance
     data = np.genfromtxt(out / "strain.csv", delimiter=",", names=True)
     ok = data["ok"] == 1
     peak = abs(wing.bending_strain(TIMES[-1], 0, H))

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.decode import DecodeOptions
+from fringe3d.decode.texture import TEXTURE_UNIT
 from fringe3d.io.capture import Capture, read_capture
 from fringe3d.io.images import write_image
 from fringe3d.io.ply_standard import write_measurement_ply
@@ -39,7 +40,8 @@ class Reconstruction:
     points : (H, W, 3) float32
         Camera-frame points (mm), NaN where invalid.
     texture : (H, W) float32 or None
-        Texture in [0, 1].
+        Texture: the scene under full projector light as a fraction of the camera's full scale,
+        in [0, 1] (:mod:`fringe3d.decode.texture`; the same as ``decode``'s).
     mask : (H, W) bool
         Valid points (``isfinite(points[..., 0])``).
     patterns : PatternSet
@@ -140,9 +142,11 @@ class Reconstruction:
         see :func:`write_point_maps`."""
         files = write_point_maps(Path(out), self.points, self.texture, ply, mesh)
         if self.quality is not None:
-            files["quality"] = str(write_image(Path(out) / "quality.tif", self.quality.astype(np.uint8)))
+            files["quality"] = str(write_image(Path(out) / "quality.tif", self.quality.astype(np.uint8),
+                                                       "quality", "bit flags (fringe3d.decode.edges)"))
         if self.sigma_z is not None:
-            files["sigma_z"] = str(write_image(Path(out) / "sigma_z.tif", self.sigma_z.astype(np.float32)))
+            files["sigma_z"] = str(write_image(Path(out) / "sigma_z.tif", self.sigma_z.astype(np.float32),
+                                                       "sigma_z (predicted depth standard deviation)", "mm"))
         return files
 
     def summary(self) -> dict:
@@ -246,9 +250,11 @@ def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, 
     with atomic_path(out / "points.npy") as tmp:
         with open(tmp, "wb") as f:
             np.save(f, points)
-    files = {"points": str(out / "points.npy"), "depth": str(write_image(out / "depth.tif", depth_map(points)))}
+    files = {"points": str(out / "points.npy"), "depth": str(write_image(out / "depth.tif", depth_map(points),
+                                                                                 "depth (camera-frame z)", "mm"))}
     if texture is not None:
-        files["texture"] = str(write_image(out / "texture.tif", texture.astype(np.float32)))
+        files["texture"] = str(write_image(out / "texture.tif", texture.astype(np.float32), "texture",
+                                                   TEXTURE_UNIT))
     if ply or mesh:
         files["ply"] = str(write_measurement_ply(out / "points.ply", points, texture, faces=mesh))
     return files

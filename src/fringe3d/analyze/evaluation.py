@@ -162,7 +162,7 @@ def _write_map(result, name: str, values: np.ndarray) -> str | None:
     """Write an (H, W) float32 map (mm, NaN = no value) into a reconstruct output folder; its name."""
     if not (isinstance(result, Path) and result.is_dir()):
         return None
-    return write_image(result / name, np.asarray(values, np.float32)).name
+    return write_image(result / name, np.asarray(values, np.float32), name.removesuffix(".tif"), "mm").name
 
 
 def plane_figures(points, mask, exclude: float | None = None):

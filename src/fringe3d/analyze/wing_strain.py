@@ -117,5 +117,7 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         "thickness_mm": thickness, "window_px": window, "step_px": step, "geodesic_window_px": 2 * radius + 1,
         "seconds": round(time.perf_counter() - t0, 2), "output": str(out),
     }
-    write_json(out / "summary.json", summary)
+    write_json(out / "summary.json", summary, units={"median_residual_mm": "mm", "thickness_mm": "mm",
+                                                     "dominant_strain_p99": "1 (strain)", "window_px": "px",
+                                                     "step_px": "px", "geodesic_window_px": "px", "seconds": "s"})
     return summary

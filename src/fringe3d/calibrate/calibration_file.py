@@ -62,7 +62,7 @@ class Calibration:
     def save(self, path) -> Path:
         """Write the JSON atomically; returns the path."""
         path = Path(path)
-        write_json(path, self.to_dict(), allow_nan=False)
+        write_json(path, self.to_dict(), allow_nan=False, units=CALIBRATION_UNITS)
         return path
 
     @classmethod
@@ -76,6 +76,11 @@ class Calibration:
 
     def export_opencv_yaml(self, path) -> Path:
         return export_opencv_yaml(self, path)
+
+
+#: Units of a calibration file's fields (its ``provenance``); the rig's as in a rig file.
+CALIBRATION_UNITS = {"length": "mm", "rig": "as a rig file (K px, t mm)", "rms": "px (reprojection)",
+                     "periods": "projector px", "angles": "rad", "spacing": "mm"}
 
 
 def _need(d: dict, key: str, typ, where: str):

@@ -238,7 +238,7 @@ def _run_with_devices(ps, images, packed, output, projector, camera, sync, cycle
         if latency:
             res = measure_latency(proj, cam, timeout=timeout)
             if output is not None:
-                write_json(output, res)
+                write_json(output, res, units={"latency": "s", "step": "s"})
             if json_:
                 print_json(res)
             else:

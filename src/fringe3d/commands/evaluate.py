@@ -15,6 +15,9 @@ from fringe3d.utils.output_folder import open_output_file
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import overwrite_option
 
+#: Units of evaluate.json: lengths (fits, errors, residuals) in mm; each figure may name its own.
+EVALUATE_UNITS = {"length": "mm", "rms": "mm", "residuals": "mm", "angle": "rad", "share": "1"}
+
 
 def load_truth(folder: Path, info: dict, frame: int, shape) -> Truth | TruthPoints:
     """The simulator's truth for 3D frame ``frame`` of a reconstruction, checked against its size,
@@ -87,7 +90,7 @@ def register(app: typer.Typer) -> None:
                 warn(msg)
         if result.is_dir():
             with open_output_file(result / "evaluate.json", overwrite=overwrite):
-                write_json(result / "evaluate.json", out)
+                write_json(result / "evaluate.json", out, units=EVALUATE_UNITS)
         if json_:
             print_json(out)
             return

@@ -36,6 +36,9 @@ from fringe3d.utils.console import (
 )
 from fringe3d.utils.jsonfile import write_json
 
+#: Units of reconstruct.json's fields.
+RECONSTRUCT_UNITS = {"depth_min": "mm", "depth_max": "mm", "z_min": "mm", "valid_share": "1",
+                     "shape": "px (rows, columns)", "seconds": "s", "points": "mm (camera frame)"}
 METHODS = ("none", "geometric", "two_frequency_geometric", "hierarchical", "heterodyne", "gray_code",
            "binary_code", "hybrid", "spatial", "histogram")
 
@@ -201,7 +204,7 @@ def register(app: typer.Typer) -> None:
                                          f"{empty_reason(cap, ps, rig, min_modulation)} (pass --allow-empty to "
                                          "keep it)")
                 summary["seconds"] = round(time.perf_counter() - t0, 3)
-                write_json(o.path / "reconstruct.json", summary)
+                write_json(o.path / "reconstruct.json", summary, units=RECONSTRUCT_UNITS)
         finally:
             if client is not None:
                 close(client, own_cluster=scheduler is None)

@@ -93,9 +93,10 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
                                       [g.period for g in coarse])
     margin = edges.BASE_MARGIN + 2.0 * blur if opts.edge_margin is None else float(opts.edge_margin)
     lo, hi = ctx.w_range()
+    f = edges.oblique_factor(ctx.plan.angle)  # w-extent of a pixel, w-width of the band (edges docstring)
     # a relative phase (one unknown 2 pi k per object) has no place on the projector: no EDGE test
-    extent = None if ctx.plan.method in RELATIVE_METHODS else (lo - 0.5, hi + 0.5)
-    q = edges.quality_map(mask, w, extent, margin, modulation, average, residual,
+    extent = None if ctx.plan.method in RELATIVE_METHODS else (lo - 0.5 * f, hi + 0.5 * f)
+    q = edges.quality_map(mask, w, extent, margin * f, modulation, average, residual,
                           max_disagreement=float(opts.max_disagreement), gradient_ratio=float(opts.gradient_ratio),
                           modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim))
     info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})

@@ -9,18 +9,22 @@ calibration set) runs the fused single-pass kernel
 """
 from __future__ import annotations
 
+import math
 import warnings
 from typing import Any, Iterator
 
 import numpy as np
 
-from fringe3d.decode.assess import assess
+from fringe3d.decode import edges
+from fringe3d.decode.assess import RELATIVE_METHODS, assess
 from fringe3d.decode.context import DecodeContext, phase_groups
 from fringe3d.decode.method_plans import with_method  # noqa: F401  (re-exported: fringe3d.decode.with_method)
 from fringe3d.decode.methods import method_for
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.decode.result import Decoded, Unwrapped
+from fringe3d.decode.texture import as_fraction
 from fringe3d.optics.rig import Rig
+from fringe3d.patterns.conventions import w_range
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import quality
 from fringe3d.phase.frames import as_frame_stack
@@ -186,9 +190,48 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     out.average = np.asarray(average, np.float32)
     white = ps.indices(kind="white")
     if white:
-        out.texture = frames[white[0]].astype(np.float32)
+        raw = frames[white[0]]
     elif result.texture is not None:  # the fused kernel wrote average + modulation
-        out.texture = np.asarray(result.texture, np.float32)
+        raw = result.texture
     else:
-        out.texture = np.add(out.average, out.modulation[plans[0].direction], dtype=np.float32)  # one pass
+        raw = np.add(out.average, out.modulation[plans[0].direction], dtype=np.float32)  # one pass
+    out.texture = as_fraction(raw, frames, bit_depth)  # one meaning everywhere (fringe3d.decode.texture)
+    if opts.edge_mask:
+        mask_projector_border(out, ps, plans)
     return out
+
+
+def _spans_projector(plan: DirectionPlan, ps: PatternSet) -> bool:
+    """The plan's fringes cover the whole projector (no ``w_range`` narrower than its extent)."""
+    wr = plan.options.get("w_range")
+    return wr is None or bool(np.allclose(wr, w_range(plan.angle, ps.width, ps.height), atol=1e-6))
+
+
+def mask_projector_border(out: Decoded, ps: PatternSet, plans: list[DirectionPlan]) -> None:
+    """With two non-parallel absolute directions decoded, set EDGE in every direction where the
+    projector pixel ``(u_p, v_p)`` (:func:`fringe3d.decode.edges.projector_position`) lies within
+    the larger edge margin of any projector border, or where one direction's own band test set
+    EDGE (the same projector pixel lights the pixel in every direction), in place; mask and phase
+    follow. One oblique direction alone sees only part of that band (:mod:`fringe3d.decode.edges`)."""
+    usable = [p for p in plans if p.method not in RELATIVE_METHODS and _spans_projector(p, ps)
+              and "edge_margin" in out.info.get("quality", {}).get(p.direction, {})]
+    pair = next(((a, b) for i, a in enumerate(usable) for b in usable[i + 1:]
+                 if abs(math.sin(a.angle - b.angle)) > 0.1), None)
+    if pair is None:
+        return
+    a, b = pair
+    u, v = edges.projector_position(out.projector_coordinate(a.direction), a.angle,
+                                    out.projector_coordinate(b.direction), b.angle)
+    margin = max(out.info["quality"][p.direction]["edge_margin"] for p in pair)
+    band = edges.border_band(u, v, ps.width, ps.height, margin) & out.mask[a.direction] & out.mask[b.direction]
+    for p in usable:  # one direction's band is a fact about the projector pixel: it holds for all
+        band |= (out.quality[p.direction] & edges.EDGE) != 0
+    if not band.any():
+        return
+    for d in out.directions:
+        hit = band & out.mask[d]
+        out.quality[d] = out.quality[d] | np.where(hit, edges.EDGE, 0).astype(np.uint8)
+        out.mask[d] = out.mask[d] & ~hit
+        out.phase[d] = np.where(out.mask[d], out.phase[d], np.float32(np.nan)).astype(np.float32, copy=False)
+        if d in out.info.get("quality", {}):
+            out.info["quality"][d]["masked"] = edges.bit_counts(out.quality[d])

@@ -22,10 +22,19 @@ RIM           32     within ``rim`` pixels (4-connected) of an INVALID pixel: th
                      silhouette, shadow or unlit region, mixed by the pixel footprint and blur
 ============  =====  ==================================================================
 
-The pattern extent along the fringe direction is ``[w_min - 1/2, w_max + 1/2]`` (pixel edges
-of the projector, :func:`fringe3d.patterns.conventions.w_range` gives the centres). The default
-margin is ``2 px + 2 sigma_b`` with ``sigma_b`` the effective Gaussian blur (projector px)
-estimated from the modulation ratio of two periods (:func:`estimate_blur`).
+The EDGE band holds the pixels lit by projector pixels within ``margin`` (projector px) of the
+projector's border. With one fringe direction of angle ``a`` only ``w = v_p cos a + u_p sin a`` is
+known: a pixel is in the band when the line ``w = const`` misses the projector shrunk by
+``margin`` on every side, i.e. ``w`` lies within ``margin (|cos a| + |sin a|)``
+(:func:`oblique_factor`) of the extent ``[w_min, w_max] +- (|cos a| + |sin a|) / 2`` (pixel edges
+of the projector; :func:`fringe3d.patterns.conventions.w_range` gives the centres). For a
+vertical or horizontal direction that is the whole band; for an oblique one it is only the band
+near the two corners the line reaches last: a pixel near the other borders has a ``w`` the
+projector's interior also has, so one coordinate cannot tell. With two non-parallel directions
+decoded both coordinates ``(u_p, v_p)`` are known (:func:`projector_position`) and the decoder
+marks the band along every border (:func:`border_band`). The default margin is
+``2 px + 2 sigma_b`` with ``sigma_b`` the effective Gaussian blur (projector px) estimated from the
+modulation ratio of two periods (:func:`estimate_blur`).
 """
 from __future__ import annotations
 
@@ -74,6 +83,32 @@ def edge_band(w: np.ndarray, extent: tuple[float, float], margin: float) -> np.n
     lo, hi = extent
     with np.errstate(invalid="ignore"):
         return (w < lo + margin) | (w > hi - margin)
+
+
+def oblique_factor(angle: float) -> float:
+    """``|cos a| + |sin a|``: the range of ``w = v cos a + u sin a`` over a unit square (1 for a
+    vertical or horizontal direction, sqrt 2 at 45 deg); scales margins and pixel extents along ``w``."""
+    return float(round(abs(math.cos(angle)) + abs(math.sin(angle)), 12))
+
+
+def projector_position(w1: np.ndarray, angle1: float, w2: np.ndarray, angle2: float) -> tuple[np.ndarray, np.ndarray]:
+    """(u_p, v_p) (H, W) float32 projector pixel from the fringe coordinates of two non-parallel
+    directions: solves ``w_i = v_p cos a_i + u_p sin a_i`` (Eq. 2.1) for both."""
+    c1, s1, c2, s2 = math.cos(angle1), math.sin(angle1), math.cos(angle2), math.sin(angle2)
+    det = s1 * c2 - s2 * c1
+    if abs(det) < 1e-6:
+        raise ValueError(f"fringe directions at {angle1:.4g} and {angle2:.4g} rad are parallel; "
+                         "they do not locate a projector pixel")
+    w1, w2 = np.asarray(w1, np.float64), np.asarray(w2, np.float64)
+    return ((w1 * c2 - w2 * c1) / det).astype(np.float32), ((s1 * w2 - s2 * w1) / det).astype(np.float32)
+
+
+def border_band(u: np.ndarray, v: np.ndarray, width: int, height: int, margin: float) -> np.ndarray:
+    """(H, W) bool: projector pixel ``(u, v)`` within ``margin`` px of the border of a
+    ``width x height`` projector (pixel edges at -1/2 and size - 1/2) or outside it (NaN: False)."""
+    with np.errstate(invalid="ignore"):
+        return ((u < -0.5 + margin) | (u > width - 0.5 - margin)
+                | (v < -0.5 + margin) | (v > height - 0.5 - margin))
 
 
 def disagreement(phase: np.ndarray, period: float, wrapped: Sequence[np.ndarray],

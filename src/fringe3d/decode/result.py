@@ -10,8 +10,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import tifffile
 
+from fringe3d.io.images import write_tiff
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.quality import DARK_FRACTION, DARK_PERCENTILE
 
@@ -24,6 +24,15 @@ SUMMARY_NAME = "decoded.json"
 _PER_DIRECTION = ("phase", "wrapped", "modulation", "mask")
 #: Per-direction maps that older decode outputs lack (read when present).
 _OPTIONAL = ("quality", "phase_sigma")
+#: Unit of each saved map (the TIFFs' descriptions). The texture is the scene under full projector
+#: illumination as a fraction of the camera's full scale (:mod:`fringe3d.decode.texture`).
+MAP_UNITS = {"phase": "rad", "wrapped": "rad", "modulation": "camera counts", "mask": "1 valid, 0 invalid",
+             "quality": "bit flags (fringe3d.decode.edges)", "phase_sigma": "rad", "average": "camera counts",
+             "texture": "fraction of full scale"}
+#: Units of decoded.json's fields.
+SUMMARY_UNITS = {"period": "projector px", "angle": "rad", "phase_min": "rad", "phase_max": "rad",
+                 "median_modulation": "camera counts", "valid_fraction": "1", "shape": "px (rows, columns)",
+                 "edge_margin": "projector px", "blur": "projector px", "min_modulation": "camera counts"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,7 +49,8 @@ class Unwrapped:
         Override the decoder's wrapped phase, modulation and average of the direction (e.g. an
         FTP-based method's own analysis); None: the narrowest group's.
     texture : (H, W) float, optional
-        Texture computed on the way (the fused kernel's average + modulation).
+        Texture computed on the way (the fused kernel's average + modulation, frames' units; the
+        decoder turns it into a fraction of full scale).
     period : float, optional
         Fringe period (projector pixels) of ``phase`` when it is not the plan's narrowest.
     phase_is_masked : bool
@@ -76,7 +86,8 @@ class Decoded:
     one bit per reason a pixel is masked: 1 invalid, 2 projector-edge band, 4 multi-frequency
     disagreement, 8 phase-gradient jump, 16 modulation drop; :mod:`fringe3d.decode.edges`),
     ``phase_sigma[d]`` float32 predicted phase standard deviation (rad, ``sqrt(2/N) sigma / B``;
-    NaN where unknown). Plus ``average`` and ``texture`` (H, W) float32 and ``info`` (frame
+    NaN where unknown). Plus ``average`` (H, W) float32 (frames' units) and ``texture`` (H, W)
+    float32, a fraction of full scale in [0, 1] (:mod:`fringe3d.decode.texture`), and ``info`` (frame
     checks, warnings, per-direction ``quality`` info: blur, margin, noise model, bit counts).
     """
 
@@ -164,9 +175,10 @@ class Decoded:
             with open(tmp, "wb") as fh:
                 np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
         for key, arr in arrays.items():
-            with atomic_path(folder / f"{key}.tif") as tmp:
-                tifffile.imwrite(tmp, np.asarray(arr, dtype=np.uint8 if key.startswith("quality_") else np.float32))
-        write_json(folder / SUMMARY_NAME, self.summary())
+            quantity = key.rsplit("_", 1)[0] if key not in MAP_UNITS else key
+            dtype = np.uint8 if key.startswith("quality_") else np.float32
+            write_tiff(folder / f"{key}.tif", np.asarray(arr, dtype=dtype), key, MAP_UNITS[quantity])
+        write_json(folder / SUMMARY_NAME, self.summary(), units=SUMMARY_UNITS)
         return folder
 
     @classmethod

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.capture import FRAMES_DIR, META_NAME
+from fringe3d.io.capture import CAPTURE_UNITS, FRAMES_DIR, META_NAME
 from fringe3d.io.images import write_image
 from fringe3d.patterns.bitplanes import PLANES_PER_FRAME
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
@@ -184,7 +184,7 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
     meta = _initial_meta(camera, projector, total, cycles, sync, settle, timeout, period, bd, planes)
     meta.update(extra_meta or {})
     patterns.save(folder / MANIFEST_NAME)
-    write_json(folder / META_NAME, meta)
+    write_json(folder / META_NAME, meta, units=CAPTURE_UNITS)
 
     records: list[dict | None] = [None] * total
     missing: list[int] = []
@@ -229,7 +229,7 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
             pass
         meta.update(status="interrupted", interrupted=f"{type(e).__name__}: {e}" if str(e) else type(e).__name__,
                     finished=_now(), frames_received=received, frames=[r for r in records if r is not None])
-        write_json(folder / META_NAME, meta)
+        write_json(folder / META_NAME, meta, units=CAPTURE_UNITS)
         raise
     problems = _sequence_problems(records, missing, dups, n_pat, period if sync == "hardware" else None, timeout)
     complete = not problems and received == total
@@ -241,9 +241,9 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
                            duplicates=sorted(set(dups)), problems=problems, complete=complete, meta=meta)
     if complete:
         meta["complete"] = True
-        write_json(folder / META_NAME, meta)  # the completion marker: written last
+        write_json(folder / META_NAME, meta, units=CAPTURE_UNITS)  # the completion marker: written last
         return result
-    write_json(folder / META_NAME, meta)
+    write_json(folder / META_NAME, meta, units=CAPTURE_UNITS)
     raise CaptureIncompleteError(f"capture {folder} is incomplete ({received} of {total} frames): "
                                  + "; ".join(problems), result)
 

@@ -184,7 +184,7 @@ def capture_session(projector, camera, patterns, images, folder, poses: int, *, 
     meta = {"format": "fringe3d-session", "poses": taken, "captured_with": "fringe3d capture --session"}
     if spacing:
         meta["board"] = board.to_dict()
-    write_json(folder / "session.json", meta)
+    write_json(folder / "session.json", meta, units={"spacing": "mm"})
     return {"folder": str(folder), "poses": len(taken), "pose_folders": taken, "preview_frames": frames_per_pose}
 
 

@@ -42,6 +42,9 @@ from fringe3d.utils.write_guard import guard_write
 
 FRAMES_DIR = "frames"
 META_NAME = "capture.json"
+#: Units of capture.json's fields (its ``provenance``).
+CAPTURE_UNITS = {"frame_rate": "Hz", "exposure": "s", "camera": "px (width, height)", "bit_depth": "bits",
+                 "volume": "mm", "board_t": "mm", "board_R": "rotation matrix", "intensity": "camera counts"}
 TRUTH_DIR = "truth"
 _FRAME_NAME = re.compile(r"^(\d+)\.(png|tif|tiff)$", re.IGNORECASE)
 
@@ -293,12 +296,14 @@ def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: Patte
             guard_write(stale).unlink()
     with progress_bar(f"writing {len(frames)} frames", len(frames), enabled=len(frames) > 60) as advance, \
             ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
-        for _ in pool.map(lambda i: write_image(fdir / f"{i:05d}.{fmt}", frames[i]), range(len(frames))):
+        unit = "camera counts" if frames.dtype.kind in "ui" else "camera intensity (float, as given)"
+        for _ in pool.map(lambda i: write_image(fdir / f"{i:05d}.{fmt}", frames[i], f"camera frame {i}", unit),
+                          range(len(frames))):
             advance()
     patterns.save(folder / MANIFEST_NAME)
     meta = dict(meta or {})
     meta.setdefault("camera", [int(frames.shape[2]), int(frames.shape[1])])
     if frames.dtype in (np.uint8, np.uint16):
         meta.setdefault("bit_depth", 8 if frames.dtype == np.uint8 else 16)
-    write_json(folder / META_NAME, meta)
+    write_json(folder / META_NAME, meta, units=CAPTURE_UNITS)
     return folder

@@ -12,6 +12,7 @@ import numpy as np
 import tifffile
 
 from fringe3d.utils.atomic import atomic_path, atomic_write_bytes
+from fringe3d.utils.provenance import tiff_description
 
 PNG_SUFFIXES = (".png",)
 TIFF_SUFFIXES = (".tif", ".tiff")
@@ -61,17 +62,18 @@ def read_image(path: str | os.PathLike, grey: bool = True) -> np.ndarray:
     return img
 
 
-def write_image(path: str | os.PathLike, img: np.ndarray) -> Path:
+def write_image(path: str | os.PathLike, img: np.ndarray, quantity: str = "", unit: str = "") -> Path:
     """Write ``img`` (H, W) or (H, W, 3) atomically. PNG needs uint8/uint16; TIFF takes any dtype.
 
+    A TIFF carries the JSON description :func:`fringe3d.utils.provenance.tiff_description`
+    (``quantity``, ``unit``, fringe3d version, command line); a measurement map must name both.
     Raises ``ValueError`` for a dtype the format cannot hold or an unknown suffix.
     """
     path = Path(path)
     img = np.asarray(img)
     suffix = path.suffix.lower()
     if suffix in TIFF_SUFFIXES:
-        with atomic_path(path) as tmp:
-            tifffile.imwrite(tmp, img)
+        write_tiff(path, img, quantity, unit)
         return path
     if suffix in PNG_SUFFIXES:
         if img.dtype not in (np.uint8, np.uint16):
@@ -83,3 +85,12 @@ def write_image(path: str | os.PathLike, img: np.ndarray) -> Path:
         atomic_write_bytes(path, buf.tobytes())
         return path
     raise ValueError(f"unsupported image suffix {path.suffix!r} for {path}; use .png or .tif")
+
+
+def write_tiff(path: str | os.PathLike, img: np.ndarray, quantity: str, unit: str) -> Path:
+    """Write ``img`` as a TIFF atomically with the description naming ``quantity`` and ``unit``
+    (:func:`fringe3d.utils.provenance.tiff_description`); returns the path."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        tifffile.imwrite(tmp, np.asarray(img), description=tiff_description(quantity, unit), metadata=None)
+    return path

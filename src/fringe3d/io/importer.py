@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 import tifffile
 
-from fringe3d.io.capture import FRAMES_DIR, META_NAME, Capture, write_capture
+from fringe3d.io.capture import CAPTURE_UNITS, FRAMES_DIR, META_NAME, Capture, write_capture
 from fringe3d.io.capture_source import check_header, make_source
 from fringe3d.io.frame_sources import FrameRange, FrameSource, guess_kind, open_source
 from fringe3d.io.images import write_image
@@ -352,7 +352,7 @@ def import_camera_file(path: str | os.PathLike, out: str | os.PathLike, patterns
         meta["source"] = spec
         check_header(src, meta, out / META_NAME)
     patterns.save(out / MANIFEST_NAME)
-    write_json(out / META_NAME, meta)
+    write_json(out / META_NAME, meta, units=CAPTURE_UNITS)
     return {**meta, "folder": str(out), "frames": int(len(frames))}
 
 

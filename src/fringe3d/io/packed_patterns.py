@@ -10,7 +10,7 @@ import numpy as np
 from fringe3d.io.images import read_image, write_image
 from fringe3d.patterns.bitplanes import (CHANNELS, PACKED_DIR, PACKING_MODE, PLANE_ORDER, pack_bitplanes,
                                          packing_entry)
-from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
+from fringe3d.patterns.manifest import MANIFEST_NAME, MANIFEST_UNITS, PatternSet
 from fringe3d.utils.jsonfile import read_json, write_json
 from fringe3d.utils.write_guard import guard_write
 
@@ -30,7 +30,7 @@ def write_packed(folder: str | os.PathLike, ps: PatternSet, images: np.ndarray) 
     paths = [write_image(pdir / f"{j:05d}.png", np.ascontiguousarray(f[..., ::-1])) for j, f in enumerate(packed)]
     d = ps.to_dict()
     d["packing"] = packing_entry(len(ps), [f"{PACKED_DIR}/{p.name}" for p in paths])
-    write_json(folder / MANIFEST_NAME, d)
+    write_json(folder / MANIFEST_NAME, d, units=MANIFEST_UNITS)
     return paths
 
 

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from fringe3d.utils.atomic import atomic_path
+from fringe3d.utils.output_folder import provenance_comments
 
 
 @dataclass
@@ -57,6 +58,15 @@ def _colors(colors, shape) -> np.ndarray:
     if c.dtype.kind == "f":
         c = np.clip(np.nan_to_num(c) * 255.0 + 0.5, 0, 255)
     return c.astype(np.uint8)
+
+
+def with_provenance_header(ply: bytes) -> bytes:
+    """``ply`` (a PLY file's bytes) with ``comment units: mm`` and the fringe3d version and command
+    line (:func:`fringe3d.utils.output_folder.provenance_comments`) after its ``format`` line."""
+    lines = ["units: mm", *provenance_comments()]
+    extra = "".join(f"comment {' '.join(c.split())}\n" for c in lines).encode("ascii", "replace")
+    first = ply.index(b"\n", ply.index(b"format")) + 1
+    return ply[:first] + extra + ply[first:]
 
 
 def write_ply(path: str | os.PathLike, points, colors=None, normals=None, mask=None, binary: bool = True) -> Path:
@@ -107,7 +117,7 @@ def write_ply(path: str | os.PathLike, points, colors=None, normals=None, mask=N
         data = export_ply(cloud, encoding="binary" if binary else "ascii")
     path = Path(path)
     with atomic_path(path) as tmp:
-        _write_bytes(tmp, data)
+        _write_bytes(tmp, with_provenance_header(data))
     return path
 
 

@@ -21,6 +21,10 @@ from .rig_schema import validate_rig
 from .telecentric import TelecentricCamera
 
 RIG_FORMAT = "fringe3d-rig"
+#: Units of a rig file's fields (its ``provenance``): pinhole ``K`` px, ``t`` mm, ``R`` world ->
+#: device; telecentric ``M`` px per mm; ``dist`` Brown coefficients of normalised coordinates.
+RIG_UNITS = {"length": "mm", "K": "px", "t": "mm", "R": "rotation matrix (world -> device)",
+             "M": "px/mm (rows 0-1), px (column 3)", "dist": "1 (Brown k1 k2 p1 p2 k3)", "width": "px", "height": "px"}
 #: A rig camera: pinhole (Eq. 2.8-2.18) or telecentric (Eq. 3.1-3.3).
 Camera = PinholeDevice | TelecentricCamera
 
@@ -77,7 +81,7 @@ class Rig:
 
     def save(self, path: str | os.PathLike) -> Path:
         path = Path(path)
-        write_json(path, self.to_dict())
+        write_json(path, self.to_dict(), units=RIG_UNITS)
         return path
 
     @classmethod

@@ -75,7 +75,8 @@ def fit_gamma(levels, frames, full_scale: float | None = None, min_contrast: flo
 
 
 def save_gamma(path: str | os.PathLike, fit: dict) -> None:
-    write_json(path, fit)
+    write_json(path, fit, units={"levels": "projector grey level (0-255)", "response": "fraction of camera full scale",
+                                 "rms_residual": "fraction of camera full scale", "gamma": "1"})
 
 
 def load_gamma(path: str | os.PathLike) -> float:

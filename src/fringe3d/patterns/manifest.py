@@ -25,10 +25,14 @@ from typing import Any, Iterable
 
 from fringe3d.patterns.manifest_schema import ManifestModel
 from fringe3d.utils.jsonfile import read_json, write_json
+from fringe3d.utils.provenance import PROVENANCE_KEY
 from fringe3d.utils.schema import validate
 
 MANIFEST_VERSION = 1
 MANIFEST_NAME = "manifest.json"
+#: Units of a manifest's fields (its ``provenance``).
+MANIFEST_UNITS = {"width": "projector px", "height": "projector px", "period": "projector px",
+                  "angle": "rad", "shift": "rad", "bit_depth": "bits"}
 
 #: Frame kinds a manifest may hold.
 FRAME_KINDS = (
@@ -229,7 +233,8 @@ class PatternSet:
             raise ValueError(f"{where}: expected a JSON object, got {type(d).__name__}")
         validate(ManifestModel, d, where)
         # "packing": bit-plane packing of a pattern folder (patterns.bitplanes), not part of the set
-        top = {"format", "version", "name", "width", "height", "bit_depth", "frames", "plans", "packing"}
+        top = {"format", "version", "name", "width", "height", "bit_depth", "frames", "plans", "packing",
+               PROVENANCE_KEY}
         _check_keys(d, top, required={"width", "height", "frames"}, where="manifest")
         if d.get("format", "fringe3d-pattern-manifest") != "fringe3d-pattern-manifest":
             raise ValueError(f"manifest: 'format' is {d['format']!r}, expected 'fringe3d-pattern-manifest'")
@@ -259,7 +264,7 @@ class PatternSet:
         path = Path(path)
         if path.is_dir():
             path = path / MANIFEST_NAME
-        write_json(path, self.to_dict())
+        write_json(path, self.to_dict(), units=MANIFEST_UNITS)
         return path
 
     @classmethod

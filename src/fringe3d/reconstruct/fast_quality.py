@@ -44,6 +44,7 @@ def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shi
     pr = wrapped_phase(frames, shifts=shifts, index=index)
     if options.edge_mask:
         margin = edges.BASE_MARGIN if options.edge_margin is None else float(options.edge_margin)
+        margin *= edges.oblique_factor(fast.mp.angle)  # the band's width along w (decode.edges docstring)
         q = edges.quality_map(valid, w, extent, margin, pr.modulation, pr.average, None,
                               gradient_ratio=float(options.gradient_ratio),
                               modulation_ratio=float(options.modulation_ratio), rim=int(options.rim))

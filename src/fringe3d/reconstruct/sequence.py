@@ -32,6 +32,7 @@ from fringe3d.decode.method_plans import with_method as plans_with_method
 from fringe3d.decode.decoder import decode
 from fringe3d.decode.edges import INVALID
 from fringe3d.decode.options import DecodeOptions
+from fringe3d.decode.texture import fringe_texture
 from fringe3d.gpu.runtime import check_backend
 from fringe3d.io.capture import list_frame_files
 from fringe3d.io.images import read_image
@@ -41,7 +42,7 @@ from fringe3d.optics.rays import camera_shape, projector_fringe_coordinate
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import w_range, w_to_phase
 from fringe3d.patterns.manifest import PatternSet
-from fringe3d.phase.quality import default_min_modulation, full_scale
+from fringe3d.phase.quality import default_min_modulation
 from fringe3d.reconstruct.depth import EmptyMaskError, points_from_decoded
 from fringe3d.reconstruct.fast_quality import fast_quality
 from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator
@@ -216,17 +217,17 @@ class FrameReconstructor:
                 self._range_checked = True
             fq = fast_quality(self.fast, frames, self._fast_index, self._fast_shifts, pts, self._fast_extent,
                               self.options, uncertainty)
-            tex = frames[self._fast_index].mean(axis=0, dtype=np.float32) / full_scale(frames, bit_depth)
-            return Cycle(pts, np.clip(tex, 0, 1).astype(np.float32), fq.quality, fq.sigma_xyz)
+            tex = fringe_texture(frames, self._fast_shifts, self._fast_index, bit_depth)  # as decode's
+            return Cycle(pts, tex, fq.quality, fq.sigma_xyz)
         dec = decode(frames, self.patterns, rig=self.rig, options=self.options)
         pts = points_from_decoded(dec, self.rig, method=self.triangulation)
-        tex = np.asarray(dec.texture, np.float32) / full_scale(frames, bit_depth)
+        tex = np.asarray(dec.texture, np.float32)  # a fraction of full scale already (fringe3d.decode.texture)
         quality = np.zeros(pts.shape[:2], np.uint8)
         for q in dec.quality.values():
             quality |= q
         quality[~np.isfinite(pts[..., 0]) & (quality == 0)] |= INVALID  # e.g. behind the camera
         sigma = point_sigma(dec, self.rig, method=self.triangulation) if uncertainty else None
-        return Cycle(pts, np.clip(np.nan_to_num(tex), 0, 1).astype(np.float32), quality, sigma)
+        return Cycle(pts, tex, quality, sigma)
 
 
 # ----------------------------------------------------------------------------- sequences

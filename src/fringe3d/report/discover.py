@@ -41,7 +41,7 @@ MAP_KINDS = (
     ("phase", "absolute phase", "rad", "Viridis", False),
     ("wrapped", "wrapped phase", "rad", "RdBu", False),
     ("average", "average intensity", "counts", "Greys", False),
-    ("texture", "texture", "counts", "Greys", False),
+    ("texture", "texture (white-light intensity)", "fraction of full scale", "Greys", False),
 )
 
 

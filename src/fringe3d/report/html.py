@@ -20,6 +20,7 @@ from fringe3d.utils.atomic import atomic_write_text
 from fringe3d.io.arrays import load_array
 
 from .page import build_page, points_script
+from .plotly_bundle import draw_script, loader_script
 from .results import SUMMARY_NAME, load_summary
 from .typed import JS_DECODE
 
@@ -134,10 +135,10 @@ def build_report(folder: str | Path) -> str:
     scripts = JS_DECODE + "".join(plots)
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             f"<title>{html.escape(s['title'])}</title><style>{_CSS}</style>"
-            f"<script type='text/javascript'>{plotly.offline.get_plotlyjs()}</script></head><body>"
+            f"{loader_script(plotly.offline.get_plotlyjs())}</head><body>"
             + "\n".join(parts)
             + "<p class='muted'>fringe3d report · self-contained, no network needed</p>"
-            + f"<script>{scripts}</script></body></html>")
+            + f"{draw_script(scripts)}</body></html>")
 
 
 def default_output(results: Path) -> Path:

@@ -12,7 +12,8 @@ import numpy as np
 from .calibration_view import calibration_tables
 from .definitions import DEFINITIONS, SECTION_TITLES
 from .discover import FolderContents
-from .typed import JS_DECODE, b64_float32, sample_points, shrink_map
+from .plotly_bundle import draw_script, loader_script
+from .typed import JS_DECODE, b64_float32, b64_uint16, sample_points, shrink_map
 
 MAX_POINTS_3D = 60_000
 MAX_MAP_SIDE = 400
@@ -89,9 +90,12 @@ def _map_trace(m, div: str) -> str:
 
 def points_script(points: np.ndarray, div: str, title: str) -> str:
     """JavaScript drawing at most :data:`MAX_POINTS_3D` of ``points`` as a plotly scatter3d
-    (coordinates as base64 float32, coloured by z), seen from the camera's side."""
+    (coordinates as base64 uint16 over their range, :func:`~.typed.b64_uint16`, coloured by z),
+    seen from the camera's side."""
     p = sample_points(points, MAX_POINTS_3D)
-    data = {ax: b64_float32(p[:, i]) for i, ax in enumerate("xyz")}
+    data: dict = {}
+    for i, ax in enumerate("xyz"):
+        data[ax], data[ax + "0"], data["d" + ax] = b64_uint16(p[:, i])
     span = np.ptp(p, axis=0) if len(p) else np.ones(3)
     ratio = np.maximum(span / max(float(span.max()), 1e-12), 0.25)  # a flat plane stays visible
     layout = {"title": {"text": title}, "margin": {"l": 0, "r": 0, "t": 30, "b": 0},
@@ -101,7 +105,8 @@ def points_script(points: np.ndarray, div: str, title: str) -> str:
                         "zaxis": {"title": {"text": "z (mm)"}},
                         # seen from the camera's side (camera at the origin looking along +z, image y down)
                         "camera": {"up": {"x": 0, "y": -1, "z": 0}, "eye": {"x": 0.5, "y": -0.5, "z": -1.7}}}}
-    return (f"(function(){{const d={json.dumps(data)};const x=arr(d.x),y=arr(d.y),z=arr(d.z);"
+    return (f"(function(){{const d={json.dumps(data)};const x=u16(d.x,d.x0,d.dx),y=u16(d.y,d.y0,d.dy),"
+            "z=u16(d.z,d.z0,d.dz);"
             "Plotly.newPlot(" + json.dumps(div) + ",[{type:'scatter3d',mode:'markers',x:x,y:y,z:z,"
             "marker:{size:1.5,color:z,colorscale:'Viridis',colorbar:{title:{text:'z (mm)'}}}}],"
             f"{json.dumps(layout)},{{responsive:true}});}})();")
@@ -141,7 +146,7 @@ def build_page(c: FolderContents, table, css: str, plotly_js: str) -> str:
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             "<meta name='viewport' content='width=device-width, initial-scale=1'>"
             f"<title>{html.escape(title)}</title><style>{css}{PAGE_CSS}</style>"
-            f"<script type='text/javascript'>{plotly_js}</script></head><body>"
+            f"{loader_script(plotly_js)}</head><body>"
             + "\n".join(parts)
             + "<p class='muted'>fringe3d report · self-contained, no network needed</p>"
-            + f"<script>{''.join(scripts)}</script></body></html>")
+            + f"{draw_script(''.join(scripts))}</body></html>")

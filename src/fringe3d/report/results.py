@@ -26,6 +26,8 @@ from fringe3d.utils.schema import FiniteFloat, Open, validate
 from fringe3d.utils.output_folder import check_complete
 
 SUMMARY_NAME = "summary.json"
+#: Units of a results summary; each figure also names its own ``unit``.
+SUMMARY_UNITS = {"length": "mm", "time": "s", "figures": "the unit each figure names"}
 
 
 class _Stage(Open):
@@ -98,5 +100,5 @@ def check_file_fields(summary, folder: Path, path: Path, where: str = "") -> Non
 def save_summary(folder: str | Path, summary: dict) -> Path:
     """Write ``summary.json`` atomically."""
     path = Path(folder) / SUMMARY_NAME
-    write_json(path, summary)
+    write_json(path, summary, units=SUMMARY_UNITS)
     return path

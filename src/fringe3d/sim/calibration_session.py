@@ -220,7 +220,7 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
     if folder is not None:
         meta = {"board": board.to_dict(), "model": model, "preset": p.name, "seed": seed,
                 "truth": {"rig": rig.to_dict(), "board_poses": [{"R": R, "t": t} for R, t in board_poses]}}
-        write_json(folder / SESSION_NAME, meta)
+        write_json(folder / SESSION_NAME, meta, units={"length": "mm", "spacing": "mm", "t": "mm"})
     return SimulatedSession(poses=poses, board=board, rig=rig, board_poses=board_poses, model=model, folder=folder,
                             settings=s)
 

@@ -41,6 +41,23 @@ class Geometry:
     extras: dict
 
 
+def crop(geo: Geometry, shape: tuple[int, int], margin: int) -> Geometry:
+    """``geo`` of a ``shape`` = (H + 2 margin, W + 2 margin) grid cropped to the inner (H, W)
+    pixels (the sensor), still flat (N = H*W rows); ``margin`` 0 returns ``geo``."""
+    if not margin:
+        return geo
+    Hp, Wp = shape
+
+    def inner(a):
+        if not isinstance(a, np.ndarray) or a.ndim == 0 or a.shape[0] != Hp * Wp:
+            return a
+        g = a.reshape((Hp, Wp) + a.shape[1:])[margin:Hp - margin, margin:Wp - margin]
+        return np.ascontiguousarray(g).reshape((-1,) + a.shape[1:])
+
+    fields = {f: inner(getattr(geo, f)) for f in geo.__dataclass_fields__ if f != "extras"}
+    return Geometry(**fields, extras={k: inner(v) for k, v in geo.extras.items()})
+
+
 @numba.njit(cache=True)
 def _map_hits(o, d, t, oid, nrm, cam_r2, cam_t2, telecentric, depth_off, PR, Pt, K, dist, pc, W, H,
               pts, depth, normal, up, vp, pdepth, cosine, inside, L, dist_p):  # pragma: no cover - compiled

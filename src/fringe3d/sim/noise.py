@@ -17,8 +17,21 @@ def frame_rng(seed: int, index: int) -> np.random.Generator:
     return np.random.default_rng([int(seed) & 0xFFFFFFFF, int(index)])
 
 
-def sense(image: np.ndarray, settings: RenderSettings, index: int) -> np.ndarray:
+def blur_margin(settings: RenderSettings) -> int:
+    """Pixels the renderer adds beyond each sensor border so that the camera blur sees what a real
+    lens brings onto the border pixels: the blur kernel's radius, ``round(4 sigma)`` (scipy's
+    ``truncate=4``), 0 without blur."""
+    return int(4.0 * settings.camera_blur + 0.5) if settings.camera_blur > 0 else 0
+
+
+def sense(image: np.ndarray, settings: RenderSettings, index: int, margin: int = 0) -> np.ndarray:
     """Turn a noiseless irradiance image (H, W) float into camera output.
+
+    ``image`` may extend ``margin`` pixels beyond the sensor on every side ((H + 2 margin,
+    W + 2 margin), :func:`blur_margin`): the blur then takes the scene beyond the border as the
+    lens does, and the result is cropped to the sensor, exact for ``margin >= blur_margin``. A
+    ``margin`` 0 image is padded with its edge values (``mode="nearest"``), which biases the
+    outermost ~2 sigma of pixels wherever the image has a gradient there.
 
     Applies, in order: Gaussian camera blur (``camera_blur`` px), shot noise
     (:func:`shot_noise`, ``full_well`` electrons at full scale), Gaussian read noise (``read_noise`` full-scale
@@ -28,6 +41,8 @@ def sense(image: np.ndarray, settings: RenderSettings, index: int) -> np.ndarray
     img = np.asarray(image, dtype=np.float64)
     if settings.camera_blur > 0:
         img = gaussian_filter(img, settings.camera_blur, mode="nearest")
+    if margin:
+        img = img[margin:img.shape[0] - margin, margin:img.shape[1] - margin]
     rng = frame_rng(settings.seed, index)
     if settings.shot_noise:
         img = shot_noise(img, settings.full_well, rng)

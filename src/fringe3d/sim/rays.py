@@ -23,29 +23,35 @@ TELECENTRIC_BACKOFF = 1.0e4
 
 Camera = PinholeDevice | TelecentricCamera
 
-#: ``[(camera, rays)]``, most recent last (cameras are frozen dataclasses, compared by identity).
-_RAY_CACHE: list[tuple[Camera, tuple[np.ndarray, np.ndarray, float]]] = []
+#: ``[(camera, margin, rays)]``, most recent last (cameras are frozen dataclasses, compared by identity).
+_RAY_CACHE: list[tuple[Camera, int, tuple[np.ndarray, np.ndarray, float]]] = []
 
 
-def camera_rays(camera: Camera) -> tuple[np.ndarray, np.ndarray, float]:
-    """All pixel rays of ``camera`` (cached for the last few cameras; treat as read-only)."""
-    for cam, rays in _RAY_CACHE:
-        if cam is camera:
+def camera_rays(camera: Camera, margin: int = 0) -> tuple[np.ndarray, np.ndarray, float]:
+    """All pixel rays of ``camera`` (cached for the last few cameras; treat as read-only); with
+    ``margin`` the grid extends ``margin`` pixels beyond the sensor on every side
+    (``(H + 2 margin) * (W + 2 margin)`` rays, row-major from pixel ``(-margin, -margin)``)."""
+    for cam, m, rays in _RAY_CACHE:
+        if cam is camera and m == margin:
             return rays
-    rays = _camera_rays(camera)
-    _RAY_CACHE.append((camera, rays))
+    rays = _camera_rays(camera, margin)
+    _RAY_CACHE.append((camera, margin, rays))
     del _RAY_CACHE[:-3]
     return rays
 
 
-def _camera_rays(camera: Camera) -> tuple[np.ndarray, np.ndarray, float]:
+def _camera_rays(camera: Camera, margin: int = 0) -> tuple[np.ndarray, np.ndarray, float]:
     """All pixel rays of ``camera``: ``(origins (1 or N, 3), unit dirs (N, 3), depth_offset)``.
 
     Pinhole: one shared origin, the optical centre; depth is the camera-frame z.
     Telecentric: parallel rays starting :data:`TELECENTRIC_BACKOFF` mm before their
     min-norm origin; ``depth_offset`` is subtracted from the ray parameter to give depth.
     """
-    uv = camera.pixel_grid().reshape(-1, 2)
+    uv = camera.pixel_grid()
+    if margin:
+        v, u = np.mgrid[-margin:camera.height + margin, -margin:camera.width + margin].astype(float)
+        uv = np.stack([u, v], axis=-1)
+    uv = uv.reshape(-1, 2)
     if camera.kind == "telecentric":
         origins, d = camera.rays(uv)
         d = np.asarray(d, float) / np.linalg.norm(d)

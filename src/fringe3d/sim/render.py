@@ -25,8 +25,8 @@ from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.utils.console import progress_bar
 
-from .geometry import Geometry, cast, scene_meta
-from .noise import sense
+from .geometry import Geometry, cast, crop, scene_meta
+from .noise import blur_margin, sense
 from .projector_sampling import PatternSampler
 from .radiometry import frame_times, irradiance, motion_subtimes
 from .rays import camera_rays
@@ -96,15 +96,17 @@ def _render_static(scene: Scene, rig: Rig, sampler: PatternSampler, times: np.nd
     """Frames of a static scene: one cast at ``times[0]``, shaded once per pattern frame."""
     s, patterns = sampler.settings, sampler.patterns
     H, W = rig.camera.height, rig.camera.width
-    origins, dirs, off = camera_rays(rig.camera)
-    geo = cast(scene, rig, origins, dirs, off, float(times[0]), s.shadows)
+    m = blur_margin(s)  # render beyond the sensor what the camera blur brings onto its border
+    origins, dirs, off = camera_rays(rig.camera, m)
+    pad = cast(scene, rig, origins, dirs, off, float(times[0]), s.shadows)
+    geo = crop(pad, (H + 2 * m, W + 2 * m), m)
     check_visible(geo)
     frames = []
     with progress_bar("rendering", len(times), enabled=progress) as advance:
         for k in range(len(times)):
             spec = patterns.frames[k % len(patterns.frames)]
-            img = irradiance(geo, sampler.values(spec, geo), s, scene.ambient)
-            frames.append(sense(img.reshape(H, W), s, k))
+            img = irradiance(pad, sampler.values(spec, pad), s, scene.ambient)
+            frames.append(sense(img.reshape(H + 2 * m, W + 2 * m), s, k, m))
             advance()
     dirs_info = directions_of(patterns)
     return np.stack(frames), make_truth(frame_truth(geo, (H, W), dirs_info), dirs_info, times, True, rig)
@@ -116,7 +118,9 @@ def _render_moving(scene: Scene, rig: Rig, sampler: PatternSampler, times: np.nd
     the exposure); per-frame truth at the middle sub-sample, whose times are returned too."""
     s, patterns = sampler.settings, sampler.patterns
     H, W = rig.camera.height, rig.camera.width
-    origins, dirs, off = camera_rays(rig.camera)
+    m = blur_margin(s)
+    Hp, Wp = H + 2 * m, W + 2 * m
+    origins, dirs, off = camera_rays(rig.camera, m)
     dirs_info = directions_of(patterns)
     per_frame = TruthFrames(len(times))
     work: list[dict] = [{} for _ in range(max(1, s.motion_samples))]  # cast buffers per sub-sample index
@@ -126,17 +130,17 @@ def _render_moving(scene: Scene, rig: Rig, sampler: PatternSampler, times: np.nd
         for k, tk in enumerate(times):
             spec = patterns.frames[k % len(patterns.frames)]
             sub = motion_subtimes(float(tk), s)
-            img = np.zeros(H * W)
+            img = np.zeros(Hp * Wp)
             for j, ts in enumerate(sub):  # buffers reused per sub-sample index across frames
                 g = cast(scene, rig, origins, dirs, off, ts, s.shadows, work=work[j])
                 if j == len(sub) // 2:  # truth at the middle sub-sample of the exposure
-                    geo, t_truth = g, ts
+                    geo, t_truth = crop(g, (Hp, Wp), m), ts
                 img += irradiance(g, sampler.values(spec, g), s, scene.ambient) / len(sub)
             if k == 0:
                 check_visible(geo)
             per_frame.put(k, frame_truth(geo, (H, W), dirs_info))
             truth_times.append(t_truth)
-            frames.append(sense(img.reshape(H, W), s, k))
+            frames.append(sense(img.reshape(Hp, Wp), s, k, m))
             advance()
     return np.stack(frames), make_truth(per_frame, dirs_info, times, False, rig), truth_times
 

@@ -100,7 +100,7 @@ class Truth:
                 "shape": list(self.depth.shape),
                 "units": {"xyz": "mm", "depth": "mm", "up": "projector px", "vp": "projector px",
                           "phase": "rad"}}
-        write_json(folder / "truth.json", meta)
+        write_json(folder / "truth.json", meta, units={**meta["units"], "times": "s"})
         return folder
 
     @classmethod
@@ -129,7 +129,7 @@ class Truth:
             extras = {n: data[f"extra_{n}"] for n in meta.get("extras", [])}
         except (KeyError, TypeError) as e:
             raise ValueError(f"{npz}: no array for {e} named in {js}") from None
-        for k in ("format", "version", "directions", "extras", "shape", "units"):
+        for k in ("format", "version", "directions", "extras", "shape", "units", "provenance"):
             meta.pop(k, None)
         return cls(xyz=data["xyz"], depth=data["depth"], up=data["up"], vp=data["vp"], phase=phase,
                    normal=data["normal"], object_id=data["object_id"], mask=data["mask"], hit=data["hit"],

@@ -51,9 +51,9 @@ from fringe3d.patterns.render import render_set
 from . import presets as _presets
 from .board import BoardTarget
 from .calibration_session import default_board, sample_board_poses
-from .geometry import cast
+from .geometry import cast, crop
 from .hits import Hit
-from .noise import sense
+from .noise import blur_margin, sense
 from .projector_sampling import PatternSampler
 from .radiometry import irradiance, motion_subtimes
 from .rays import camera_rays
@@ -195,7 +195,8 @@ class VirtualRigState:
             self.register(patterns)
         self._empty = PatternSet(self.rig.projector.width, self.rig.projector.height, frames=())
         self.sampler = _ImageSampler(patterns if patterns is not None else self._empty, settings, self.images)
-        self.origins, self.dirs, self.off = camera_rays(self.rig.camera)
+        self.margin = blur_margin(self.settings)  # rendered beyond the sensor for the camera blur
+        self.origins, self.dirs, self.off = camera_rays(self.rig.camera, self.margin)
         self.static = not scene.moving
         self._geo0 = None
 
@@ -227,7 +228,12 @@ class VirtualRigState:
     def exposure_image(self, t: float, index: int) -> np.ndarray:
         """The camera frame for the shown pattern at time ``t`` with noise index ``index``."""
         s = self.settings
-        H, W = self.rig.camera.height, self.rig.camera.width
+        if blur_margin(s) != self.margin:  # the settings' camera blur changed: new rays, new cast
+            self.margin = blur_margin(s)
+            self.origins, self.dirs, self.off = camera_rays(self.rig.camera, self.margin)
+            self._geo0 = None
+        m = self.margin
+        H, W = self.rig.camera.height + 2 * m, self.rig.camera.width + 2 * m
         spec = self.current
         amb = float(getattr(self.scene, "ambient", 0.0) or 0.0)
         if spec is None:
@@ -235,7 +241,7 @@ class VirtualRigState:
         if self.static:
             if self._geo0 is None:
                 self._geo0 = cast(self.scene, self.rig, self.origins, self.dirs, self.off, 0.0, s.shadows)
-                check_visible(self._geo0)
+                check_visible(crop(self._geo0, (H, W), m))
             img = irradiance(self._geo0, self.sampler.values(spec, self._geo0), s, amb)
         else:
             sub = motion_subtimes(float(t), s)
@@ -243,7 +249,7 @@ class VirtualRigState:
             for ts in sub:
                 g = cast(self.scene, self.rig, self.origins, self.dirs, self.off, ts, s.shadows)
                 img += irradiance(g, self.sampler.values(spec, g), s, amb) / len(sub)
-        return sense(img.reshape(H, W), s, index)
+        return sense(img.reshape(H, W), s, index, m)
 
 
 class VirtualProjector:

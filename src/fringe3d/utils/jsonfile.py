@@ -5,10 +5,12 @@ import json
 import math
 import os
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
 from fringe3d.utils.atomic import atomic_write_text
+from fringe3d.utils.provenance import PROVENANCE_KEY, provenance
 
 
 #: Largest JSON file fringe3d reads (bytes) and deepest nesting it accepts.
@@ -85,12 +87,18 @@ def to_jsonable(obj):
     return obj
 
 
-def write_json(path: str | os.PathLike, obj, allow_nan: bool = True) -> None:
+def write_json(path: str | os.PathLike, obj, allow_nan: bool = True, units: Mapping[str, str] | None = None) -> None:
     """Write ``obj`` as indented JSON to ``path`` atomically (temporary name, then rename).
 
     NumPy scalars and arrays become JSON numbers and lists and non-finite floats become
     ``null`` (:func:`to_jsonable`); with ``allow_nan=False`` the object is written as given and
-    a non-finite float raises ``ValueError`` instead.
+    a non-finite float raises ``ValueError`` instead. With ``units`` (quantity or kind -> unit)
+    the object (a dict) gets a ``"provenance"`` entry: fringe3d version, time, command line and
+    the units (:func:`fringe3d.utils.provenance.provenance`). Every file a command writes passes them.
     """
+    if units is not None:
+        if not isinstance(obj, dict):
+            raise TypeError(f"write_json: units need a JSON object to hold them, got {type(obj).__name__}")
+        obj = {**obj, PROVENANCE_KEY: provenance(units)}
     data = to_jsonable(obj) if allow_nan else obj
     atomic_write_text(path, json.dumps(data, indent=1, allow_nan=allow_nan))

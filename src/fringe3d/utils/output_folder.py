@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Iterable, Iterator
 
 from fringe3d.utils.atomic import atomic_write_text
+from fringe3d.utils.provenance import FOLDER_UNITS, _CommandLine, command_line, version
 from fringe3d.utils.write_guard import OutsideOutputError, guard_write, is_being_written, writing_into
 
 __all__ = ["open_output", "set_command_line", "request_interrupt", "interrupt_requested",
@@ -42,11 +43,6 @@ __all__ = ["open_output", "set_command_line", "request_interrupt", "interrupt_re
 MARKER_NAME = "fringe3d.json"
 LOCK_NAME = ".fringe3d.lock"
 MARKER_FORMAT = "fringe3d-output"
-
-
-class _CommandLine:
-    #: The command line recorded in markers; the CLI sets it (``fringe3d.cli.main``).
-    text = ""
 
 
 class _Interrupt:
@@ -74,15 +70,7 @@ class BusyOutputError(OSError):
 
 def provenance_comments() -> list[str]:
     """``fringe3d <version>`` and the command line now writing outputs, for file-header comments."""
-    return [f"fringe3d {_version()}", f"command: {_CommandLine.text}"]
-
-
-def _version() -> str:
-    try:
-        from importlib.metadata import version
-        return version("fringe3d")
-    except Exception:  # pragma: no cover - running from a source tree without metadata
-        return "unknown"
+    return [f"fringe3d {version()}", f"command: {command_line()}"]
 
 
 # -- fingerprints ---------------------------------------------------------------------------
@@ -255,9 +243,10 @@ def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = 
         raise ValueError(f"output {out} is a file; expected a folder")
     _check_not_inputs(final, inputs_)
     fp = fingerprint(inputs_, options)
-    info = {"format": MARKER_FORMAT, "version": 1, "fringe3d": _version(), "command": command or _CommandLine.text,
+    info = {"format": MARKER_FORMAT, "version": 1, "fringe3d": version(), "command": command or _CommandLine.text,
             "started": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-            "complete": False, "inputs": [str(Path(p)) for p in inputs_], "fingerprint": fp}
+            "complete": False, "inputs": [str(Path(p)) for p in inputs_], "fingerprint": fp,
+            "units": dict(FOLDER_UNITS)}
     nonempty = final.is_dir() and any(p.name != LOCK_NAME for p in final.iterdir())
     if nonempty and not overwrite:
         marker = read_marker(final)

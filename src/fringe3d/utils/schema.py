@@ -16,6 +16,8 @@ from typing import Annotated, Any, TypeVar
 import pydantic
 from pydantic import AllowInfNan, Field, StrictFloat, StrictInt
 
+from fringe3d.utils.provenance import without_provenance
+
 #: Largest image side (pixels) fringe3d accepts in any file; bounds memory before allocation.
 MAX_SIDE = 32768
 #: A label that may become part of a file name: letters, digits, ``_`` and ``-`` only.
@@ -94,8 +96,11 @@ def describe(error: pydantic.ValidationError, where: str, limit: int = 5) -> str
 
 
 def validate(model: type[M], data: Any, where: str) -> M:
-    """``model.model_validate(data)``, or ``ValueError`` with :func:`describe`'s message."""
+    """``model.model_validate(data)``, or ``ValueError`` with :func:`describe`'s message.
+
+    A top-level ``"provenance"`` object (written with every fringe3d file,
+    :mod:`fringe3d.utils.provenance`) is not part of any file model and is ignored."""
     try:
-        return model.model_validate(data)
+        return model.model_validate(without_provenance(data))
     except pydantic.ValidationError as e:
         raise ValueError(describe(e, where)) from None
