@@ -129,3 +129,17 @@ def test_other_tools_session_of_numbered_frames_calibrates_through_layout(tmp_pa
     # the tiny rig (160x128 camera) still lands near the true projector position
     assert np.linalg.norm(rig.projector.t - ss.rig.projector.t) < 3.0
     assert cv2.Rodrigues(rig.projector.R @ ss.rig.projector.R.T)[0].ravel() @ np.ones(3) < 1.0
+
+
+def test_calibrate_simulate_renders_a_gray_code_chessboard_session_and_compares_with_truth(tmp_path, capsys):
+    sim = tmp_path / "sim"
+    rc = main(["calibrate", str(sim), "--simulate", "tiny", "--board", "chessboard", "--cols", "6", "--rows", "5",
+               "--spacing", "20", "--patterns", "gray-code", "--poses", "4", "--noise-free",
+               "-o", str(tmp_path / "calib.json"), "--json"])
+    assert rc == 0
+    s = json.loads(capsys.readouterr().out)
+    session = json.loads((sim / "session.json").read_text())
+    assert session["board"] == {"kind": "chessboard", "cols": 6, "rows": 5, "spacing": 20.0}
+    assert json.loads((sim / "pose_00" / "manifest.json").read_text())["name"].startswith("opencv-graycode")
+    assert len(s["poses"]) == 4 and all(p["points"] == 20 for p in s["poses"])
+    assert s["truth_comparison"]["translation_error_norm_mm"] < 3.0

@@ -1,7 +1,7 @@
 """Finding any calibration board in a board image: chessboard and ChArUco corners (OpenCV).
 
-* chessboard: ``cv2.findChessboardCornersSB`` (the sector-based detector) finds and orders
-  the inner corners;
+* chessboard: ``cv2.findChessboardCornersSB`` (the sector-based detector, flags
+  :data:`CHESSBOARD_FLAGS` in turn) finds and orders the inner corners;
 * ChArUco: ``cv2.aruco.CharucoDetector``: the ArUco markers identify each square, so a partial
   view gives the corners it sees, labelled with their ids; undetected corners are NaN rows;
 * both then refine every corner (:func:`refine_corners`): ``cv2.cornerSubPix`` (the image
@@ -26,6 +26,12 @@ from fringe3d.phase.sampling import sample_bilinear
 from .board_detection import find_board, to_uint8
 from .boards import CircleBoard
 from .square_boards import CharucoBoard, ChessBoard
+
+#: ``findChessboardCornersSB`` flags tried in turn: histogram equalisation
+#: (``CALIB_CB_NORMALIZE_IMAGE``) helps on a dim, evenly lit board but loses noisy boards on a
+#: black background, so it is tried second; plain last.
+CHESSBOARD_FLAGS = (cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY,
+                    cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY, 0)
 
 #: Fewest ChArUco corners a partial view must show to be used (a homography needs 4; the
 #: device calibration needs 6 per view).
@@ -87,8 +93,11 @@ def find_chessboard(image: np.ndarray, board: ChessBoard) -> tuple[np.ndarray | 
     """Inner corners of ``board`` in a grey image: ``((cols-1)*(rows-1), 2)`` float64 pixels
     ``(u, v)`` in OpenCV order and ``""``, or None and why."""
     img8 = to_uint8(image)
-    flags = cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY
-    found, corners = cv2.findChessboardCornersSB(img8, board.pattern_size, flags=flags)
+    found, corners = False, None
+    for flags in CHESSBOARD_FLAGS:
+        found, corners = cv2.findChessboardCornersSB(img8, board.pattern_size, flags=flags)
+        if found and corners is not None:
+            break
     if not found or corners is None:
         return None, "not found"
     uv = np.asarray(corners, np.float64).reshape(-1, 2)
