@@ -131,6 +131,14 @@ def test_other_tools_session_of_numbered_frames_calibrates_through_layout(tmp_pa
     assert np.allclose(rig.camera.K, cal.rig.camera.K, rtol=1e-9) and np.allclose(rig.projector.t, cal.rig.projector.t)
     # and the tiny rig (160x128 camera) lands near the true projector position
     assert np.linalg.norm(rig.projector.t - ss.rig.projector.t) < 3.0
+    # a pose folder with a frame missing is named, with the count the layout expects
+    (tmp_path / "captures" / "view3" / "img_34.png").unlink()
+    rc = main(["calibrate", str(tmp_path / "captures"), "--layout", "opencv-graycode", "--projector-size", "256x200",
+               "--board", "chessboard", "--cols", "6", "--rows", "5", "--spacing", "20", "-o",
+               str(tmp_path / "out2" / "calib.json"), "-q"])
+    err = capsys.readouterr().err.replace("\n", " ")
+    assert rc == 2 and "view3 has 33 frames" in err and "expected exactly 34" in err
+    assert not (tmp_path / "out2" / "calib.json").exists()
 
 
 def test_calibrate_simulate_renders_a_gray_code_chessboard_session_and_compares_with_truth(tmp_path, capsys):
