@@ -87,8 +87,10 @@ def test_charuco_partial_views_are_used_and_calibrate_near_truth():
     cal, res = calibrate_observations(obs, info, ss.board, camera_dist="k1k2")
     assert [len(r) for r in res.camera.residuals][5:] == seen[5:]
     err = compare_to_truth(cal.rig, ss.rig)
-    assert err["camera_focal_rel_error"] < 3e-3 and err["projector_focal_rel_error"] < 3e-3
-    assert err["translation_error_norm_mm"] < 0.5 and err["rotation_error_deg"] < 0.05
+    # 7 poses, phase route, noise-free: measured 0.024 % / 0.0035 %, 0.13 / 0.10 px, 0.10 mm, 0.0096 deg
+    assert err["camera_focal_rel_error"] < 1e-3 and err["projector_focal_rel_error"] < 1e-3
+    assert err["camera_principal_point_error_px"] < 0.25 and err["projector_principal_point_error_px"] < 0.25
+    assert err["translation_error_norm_mm"] < 0.25 and err["rotation_error_deg"] < 0.02
 
 
 @pytest.fixture(scope="module")

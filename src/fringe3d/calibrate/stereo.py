@@ -117,7 +117,8 @@ def calibrate_pinhole_rig(board: CircleBoard, poses: list[PoseObservation], came
     proj_poses = [i for i, k in enumerate(keep) if k.sum() >= min_points]
     if len(proj_poses) < min_poses:
         bad = [poses[i].name for i in range(len(poses)) if i not in proj_poses]
-        raise ValueError(f"phase is invalid at the circle centres in pose(s) {bad}: only {len(proj_poses)} pose(s) "
+        where = "the circle centres" if isinstance(board, CircleBoard) else "the board corners"
+        raise ValueError(f"phase is invalid at {where} in pose(s) {bad}: only {len(proj_poses)} pose(s) "
                          f"have >= {min_points} valid projector points; need {min_poses}")
     cam_uv = [p.camera_uv.astype(np.float64).copy() for p in poses]
     prj_uv = [p.projector_uv.astype(np.float64).copy() for p in poses]
