@@ -136,10 +136,10 @@ class CharucoTarget(_PrintedBoard):
         img = board.image(p).astype(np.float64) / 255.0
         texel = s / p
         pad = int(np.ceil(self.margin / texel)) + 2
-        img = np.pad(img, pad, constant_values=1.0)
+        tex = np.pad(img, pad, constant_values=1.0)
         if self.edge_width > 0:
-            img = cv2.GaussianBlur(img, (0, 0), self.edge_width / 2.5 / texel)
-        self._tex = np.ascontiguousarray(img)
+            tex = np.asarray(cv2.GaussianBlur(tex, (0, 0), self.edge_width / 2.5 / texel), np.float64)
+        self._tex = np.ascontiguousarray(tex)
         self._texel, self._pad = texel, pad
 
     def albedo_at(self, uv: np.ndarray) -> np.ndarray:
