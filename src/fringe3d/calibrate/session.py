@@ -1,10 +1,18 @@
-"""A calibration session: board poses -> circle centres -> projector centres -> calibrated rig.
+"""A calibration session: board poses -> board points -> projector points -> calibrated rig.
 
 A *pose folder* is a capture folder whose manifest is a calibration set (a white frame plus
-at least two fringe directions, e.g. ``patterns.sets.calibration`` or
-``optimal_angle_calibration``). A *session folder* holds pose folders (any names, sorted)
-and optionally ``session.json`` with the board (``{"board": CircleBoard.to_dict()}``) and
-the rig model (``"model": "pinhole" | "telecentric"``).
+at least two fringe directions, e.g. ``patterns.sets.calibration``,
+``optimal_angle_calibration``, or Gray-code columns and rows such as OpenCV's
+``GrayCodePattern`` sequence). A *session folder* holds pose folders (any names, sorted)
+and optionally ``session.json`` with the board (``{"board": board.to_dict()}``: a circle
+grid, chessboard or ChArUco board, :func:`fringe3d.calibrate.square_boards.board_from_dict`)
+and the rig model (``"model": "pinhole" | "telecentric"``). Another tool's session - a
+folder per pose of numbered frames, no manifest - is read with a layout
+(:func:`find_pose_folders` with ``layout``, e.g. ``"opencv-graycode"``).
+
+The board points are found by :func:`fringe3d.calibrate.corner_detection.locate_board`; the
+projector sees them through phase (Eq. 2.30-2.34, :mod:`.phase_mapping`) or, for a Gray-code
+set, through local homographies of the decoded projector coordinates (:mod:`.code_mapping`).
 
 :func:`observe_pose` turns one pose's frames into a :class:`PoseObservation`;
 :func:`calibrate_observations` runs the pinhole or telecentric calibration and wraps the
@@ -20,16 +28,20 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.decode import decode
+from fringe3d.decode.decoder import CODE_METHODS
 from fringe3d.io.capture import read_capture
+from fringe3d.io.importer import layout_patterns, list_sources, read_frames
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.utils.console import progress_bar
 from fringe3d.utils.warning_types import CalibrationWarning
 from fringe3d.utils.jsonfile import read_json
 
-from .board_detection import find_board
 from .boards import CircleBoard
 from .calibration_file import Calibration
+from .code_mapping import DEFAULT_WINDOW, code_projector_points
+from .corner_detection import locate_board
 from .phase_mapping import FringeDirection, projector_points
+from .square_boards import CharucoBoard, ChessBoard, board_from_dict, describe_board
 from .plots import residual_plot
 from .stereo import PoseObservation, calibrate_pinhole_rig
 from .telecentric import calibrate_telecentric_rig
@@ -46,14 +58,30 @@ class PoseCapture:
     patterns: PatternSet
 
 
+@dataclass(frozen=True)
+class FramesFolder:
+    """A pose of another tool's session: a folder of numbered frames (naturally sorted,
+    :func:`fringe3d.io.importer.list_sources`) projected with ``patterns``; read in memory,
+    nothing is written."""
+
+    folder: Path
+    patterns: PatternSet
+
+
 # ----------------------------------------------------------------------------- folders
-def find_pose_folders(paths) -> tuple[list[Path], dict]:
-    """Expand CLI inputs into pose folders plus session metadata (``session.json``, or {}).
+def find_pose_folders(paths, layout: str | None = None,
+                      projector_size: tuple[int, int] | None = None) -> tuple[list, dict]:
+    """Expand CLI inputs into poses plus session metadata (``session.json``, or {}).
 
     Each path is a pose folder (holds ``manifest.json``) or a session folder (holds pose
-    folders). Raises ``FileNotFoundError`` for missing paths and ``ValueError`` when a folder
-    holds no pose folders.
+    folders). With ``layout`` (one of :data:`fringe3d.io.importer.LAYOUTS`, e.g.
+    ``"opencv-graycode"``, and the ``projector_size`` it needs) a folder without a manifest
+    whose sub-folders hold image files is a session of :class:`FramesFolder` poses, and a
+    folder of image files is one such pose. Raises ``FileNotFoundError`` for missing paths
+    and ``ValueError`` when a folder holds no poses.
     """
+    if layout is not None:
+        return _frame_folders(paths, layout_patterns(layout, projector_size))
     out: list[Path] = []
     meta: dict = {}
     for p in map(Path, paths):
@@ -74,8 +102,44 @@ def find_pose_folders(paths) -> tuple[list[Path], dict]:
     return out, meta
 
 
-def read_pose(folder: Path) -> PoseCapture:
-    """The first pattern cycle of a pose (capture) folder."""
+def _has_images(folder: Path) -> bool:
+    try:
+        list_sources(folder)
+    except FileNotFoundError:
+        return False
+    return True
+
+
+def _frame_folders(paths, patterns: PatternSet) -> tuple[list, dict]:
+    """:func:`find_pose_folders` for another tool's layout: folders of numbered frames."""
+    out: list = []
+    meta: dict = {}
+    for p in map(Path, paths):
+        if not p.is_dir():
+            raise FileNotFoundError(f"calibration input {p} is not a folder; expected a folder per pose of "
+                                    "numbered frames, or a session folder holding them")
+        if (p / SESSION_NAME).is_file():
+            meta = {**meta, **read_json(p / SESSION_NAME, "calibration session file")}
+        subs = sorted((q for q in p.iterdir() if q.is_dir() and _has_images(q)), key=lambda q: q.name)
+        if subs:
+            out += [FramesFolder(q, patterns) for q in subs]
+        elif _has_images(p):
+            out.append(FramesFolder(p, patterns))
+        else:
+            raise ValueError(f"{p} holds no image files and no folders of image files (one folder per pose)")
+    return out, meta
+
+
+def read_pose(folder) -> PoseCapture:
+    """The first pattern cycle of a pose (capture) folder or of a :class:`FramesFolder`
+    (``ValueError`` naming the folder when its frame count does not fit the layout)."""
+    if isinstance(folder, FramesFolder):
+        frames, _, _ = read_frames(list_sources(folder.folder))
+        n = len(folder.patterns)
+        if len(frames) != n:
+            raise ValueError(f"pose folder {folder.folder} has {len(frames)} frames but the layout "
+                             f"({folder.patterns.name}) has {n}; expected exactly {n}")
+        return PoseCapture(name=folder.folder.name, frames=frames, patterns=folder.patterns)
     cap = read_capture(folder, max_cycles=1)
     return PoseCapture(name=Path(folder).name, frames=cap.frames[: len(cap.patterns)], patterns=cap.patterns)
 
@@ -90,6 +154,18 @@ def check_calibration_set(ps: PatternSet, where: str) -> int:
     if len(ps.plans) < 2:
         raise ValueError(f"{where}: the manifest has {len(ps.plans)} fringe direction(s); calibration needs two")
     return white[0]
+
+
+def is_code_set(ps: PatternSet) -> bool:
+    """Whether every direction of ``ps`` is a Gray/binary code without phase frames (its
+    decoded projector coordinates are stripe centres: mapped by local homographies)."""
+    return all(p.method in CODE_METHODS and not ps.groups(direction=p.direction, role="phase") for p in ps.plans)
+
+
+def correspondence_label(ps: PatternSet, window: int) -> str:
+    """How the projector sees the board points, as recorded in the calibration file."""
+    return (f"gray code, local homographies ({window} px window)" if is_code_set(ps)
+            else "phase (Eq. 2.30-2.34)")
 
 
 def decode_directions(pose: PoseCapture) -> list[FringeDirection]:
@@ -108,6 +184,7 @@ def phase_window_px(window, uv: np.ndarray) -> float:
     """Radius (px) of the local phase fit: 0 = bilinear (Eq. 2.30-2.31), a number = that many
     pixels, ``"auto"`` = half the median distance between neighbouring circle centres."""
     if window == "auto":
+        uv = uv[np.all(np.isfinite(uv), 1)]
         d = np.linalg.norm(uv[:, None] - uv[None], axis=-1)
         np.fill_diagonal(d, np.inf)
         return 0.5 * float(np.median(d.min(1)))
@@ -135,24 +212,32 @@ def phase_sampling_label(window) -> str:
     return "bilinear" if r == 0 else f"local fit, radius {r:g} px"
 
 
-def observe_pose(pose: PoseCapture, board: CircleBoard, min_modulation_fraction: float = 0.1,
-                 directions: list[FringeDirection] | None = None, phase_window=0.0) -> PoseObservation | None:
-    """Circle centres in the camera and, through phase, in the projector (Eq. 2.30-2.34).
+def observe_pose(pose: PoseCapture, board, min_modulation_fraction: float = 0.1,
+                 directions: list[FringeDirection] | None = None, phase_window=0.0,
+                 homography_window: int = DEFAULT_WINDOW) -> PoseObservation | None:
+    """Board points in the camera and in the projector.
 
-    Returns None (after a warning naming the pose) when the board is not found. Centres whose
-    bilinearly sampled modulation is below ``min_modulation_fraction`` times the 95th
-    percentile of the valid modulation are NaN in ``projector_uv``. ``phase_window`` (see
-    :func:`phase_window_px`) picks bilinear sampling (default, the dissertation's) or a local
-    modulation-weighted fit of the phase around each centre.
+    The board (circle grid, chessboard or ChArUco; ChArUco corners not seen are NaN rows) is
+    found in the white frame. Phase sets: the projector points come through phase
+    (Eq. 2.30-2.34); points whose bilinearly sampled modulation is below
+    ``min_modulation_fraction`` times the 95th percentile of the valid modulation are NaN in
+    ``projector_uv``; ``phase_window`` (see :func:`phase_window_px`) picks bilinear sampling
+    (default, the dissertation's) or a local modulation-weighted fit of the phase around each
+    point. Gray-code sets (:func:`is_code_set`): local homographies over
+    ``homography_window`` camera px (:mod:`.code_mapping`). Returns None (after a warning
+    naming the pose) when the board is not found.
     """
     iw = check_calibration_set(pose.patterns, pose.name)
-    uv, why = find_board(pose.frames[iw], board)
+    uv, why = locate_board(pose.frames[iw], board)
     if uv is None:
         what = "was not found" if why in ("not found", "the image is flat") else f"is unusable: {why}"
-        warnings.warn(f"pose {pose.name}: the {board.cols}x{board.rows} circle board {what} in the white frame; "
+        warnings.warn(f"pose {pose.name}: the {describe_board(board)} {what} in the white frame; "
                       "pose skipped", CalibrationWarning, stacklevel=2)
         return None
     dirs = directions if directions is not None else decode_directions(pose)
+    if is_code_set(pose.patterns):
+        return PoseObservation(name=pose.name, camera_uv=uv,
+                               projector_uv=code_projector_points(dirs, uv, homography_window))
     mods = [d.modulation[np.isfinite(d.phase) & (d.mask if d.mask is not None else True)]
             for d in dirs if d.modulation is not None]
     thr = 0.0
@@ -163,13 +248,15 @@ def observe_pose(pose: PoseCapture, board: CircleBoard, min_modulation_fraction:
 
 
 # ----------------------------------------------------------------------------- whole session
-def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 0.1,
-                    progress: bool = True, phase_window=0.0) -> tuple[list[PoseObservation], dict]:
-    """Observe every pose (an iterable of :class:`PoseCapture` or folders); ``phase_window``
-    as in :func:`observe_pose`.
+def observe_session(poses, board, min_modulation_fraction: float = 0.1,
+                    progress: bool = True, phase_window=0.0,
+                    homography_window: int = DEFAULT_WINDOW) -> tuple[list[PoseObservation], dict]:
+    """Observe every pose (an iterable of :class:`PoseCapture`, :class:`FramesFolder` or
+    folders); ``phase_window`` and ``homography_window`` as in :func:`observe_pose`.
 
     Checks that all poses have the same camera size and projector size. Returns the usable
-    observations and ``{"camera_size", "projector_size", "periods", "angles", "skipped"}``.
+    observations and ``{"camera_size", "projector_size", "periods", "angles", "skipped",
+    "correspondences", "names"}``.
     """
     sampling = phase_sampling_label(phase_window)  # a bad value fails before any work
     poses = list(poses)
@@ -190,7 +277,10 @@ def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 
             elif prj_size != info["projector_size"]:
                 raise ValueError(f"pose {pose.name} was projected at {prj_size[0]}x{prj_size[1]} but pose "
                                  f"{info['first']} at {info['projector_size'][0]}x{info['projector_size'][1]}")
-            o = observe_pose(pose, board, min_modulation_fraction, phase_window=phase_window)
+            info.setdefault("names", []).append(pose.name)
+            info.setdefault("correspondences", correspondence_label(pose.patterns, homography_window))
+            o = observe_pose(pose, board, min_modulation_fraction, phase_window=phase_window,
+                             homography_window=homography_window)
             if o is None:
                 info["skipped"].append(pose.name)
             else:
@@ -209,7 +299,7 @@ def observe_session(poses, board: CircleBoard, min_modulation_fraction: float = 
     return obs, info
 
 
-def calibrate_observations(obs: list[PoseObservation], info: dict, board: CircleBoard, model: str = "pinhole",
+def calibrate_observations(obs: list[PoseObservation], info: dict, board, model: str = "pinhole",
                            camera_dist: str = "k1k2p", projector_dist: str = "none", min_poses: int = 3,
                            correct_circle_bias: bool = True,
                            telecentric_refine: bool = True) -> tuple[Calibration, object]:
@@ -219,15 +309,23 @@ def calibrate_observations(obs: list[PoseObservation], info: dict, board: Circle
     frame = world, ch. 3). Too few usable poses is a ``ValueError`` naming the skipped ones.
     ``telecentric_refine`` adds a joint LM refinement to ch. 3's sequential steps
     (``telecentric.refine_jointly``); False gives the dissertation's method exactly.
+    ``correct_circle_bias`` applies to circle grids only. A board found in no pose is a
+    ``ValueError`` naming the board and the poses.
     """
+    skipped = info.get("skipped", [])
+    if not obs and skipped:
+        raise ValueError(f"the {describe_board(board)} was not found in any of the {len(skipped)} pose(s) "
+                         f"({', '.join(skipped)}); check the board description (kind, cols/rows, spacing"
+                         + (", marker, dictionary" if isinstance(board, CharucoBoard) else "") + ")")
     if len(obs) < min_poses:
         skipped = info.get("skipped", [])
         raise ValueError(f"only {len(obs)} usable board pose(s); need at least {min_poses}"
                          + (f" (board not found in: {', '.join(skipped)})" if skipped else ""))
     cam_size, prj_size = info["camera_size"], info["projector_size"]
     if model == "pinhole":
+        circles = isinstance(board, CircleBoard)
         res = calibrate_pinhole_rig(board, obs, cam_size, prj_size, camera_dist, projector_dist,
-                                    correct_circle_bias=correct_circle_bias, min_poses=min_poses)
+                                    correct_circle_bias=correct_circle_bias and circles, min_poses=min_poses)
         prj_rms = {res.pose_names[i]: float(r) for i, r in zip(res.projector_poses, res.projector.per_pose_rms)}
         poses = [{"name": n, "camera_rms_px": float(res.camera.per_pose_rms[i]),
                   "projector_rms_px": prj_rms.get(n, float("nan")), "points": int(res.used_points[i].sum())}
@@ -235,8 +333,12 @@ def calibrate_observations(obs: list[PoseObservation], info: dict, board: Circle
         rms = {"camera_px": res.camera.rms, "projector_px": res.projector.rms, "stereo_px": res.stereo_rms}
         cam_d = {"width": cam_size[0], "height": cam_size[1], "dist_model": camera_dist, "rms_px": res.camera.rms,
                  "per_pose_rms_px": list(map(float, res.camera.per_pose_rms))}
-        extra = {"circle_bias_corrected": bool(correct_circle_bias)}
+        extra = {"circle_bias_corrected": bool(correct_circle_bias and circles)}
     elif model == "telecentric":
+        partial = [o.name for o in obs if not np.all(np.isfinite(o.camera_uv))]
+        if partial:
+            raise ValueError(f"telecentric calibration needs the whole board in every pose; pose(s) "
+                             f"{', '.join(partial)} show only part of the {describe_board(board)}")
         res = calibrate_telecentric_rig(board, obs, cam_size, prj_size, projector_dist, min_poses=min_poses,
                                         refine=telecentric_refine)
         poses = [{"name": n, "camera_rms_px": float(c), "projector_rms_px": float(p), "points": int(u.sum())}
@@ -255,39 +357,55 @@ def calibrate_observations(obs: list[PoseObservation], info: dict, board: Circle
         extra["alpha_opt"] = info["alpha_opt"]
     extra["skipped_poses"] = list(info.get("skipped", []))
     extra["phase_sampling"] = info.get("phase_sampling", "bilinear")
+    extra["correspondences"] = info.get("correspondences", "phase (Eq. 2.30-2.34)")
     cal = Calibration(model=model, rig=res.rig, camera=cam_d, projector=prj_d, board=board.to_dict(),
                       periods=info.get("periods", {}), angles=info.get("angles", {}), poses=poses, rms=rms,
                       extra=extra)
     return cal, res
 
 
-def calibrate_session(paths, board: CircleBoard | None = None, model: str | None = None, progress: bool = True,
+def calibrate_session(paths, board=None, model: str | None = None, progress: bool = True,
+                      layout: str | None = None, projector_size: tuple[int, int] | None = None,
                       **kw) -> tuple[Calibration, object]:
-    """Folders in, :class:`Calibration` out (``board``/``model`` default to session.json)."""
-    folders, meta = find_pose_folders(paths)
+    """Folders in, :class:`Calibration` out (``board``/``model`` default to session.json);
+    ``layout``/``projector_size``: another tool's session (:func:`find_pose_folders`)."""
+    folders, meta = find_pose_folders(paths, layout, projector_size)
     if board is None:
         if "board" not in meta:
-            raise ValueError("no board description: pass the board (cols, rows, spacing, radius) or put "
-                             f"{{\"board\": {{...}}}} in the session folder's {SESSION_NAME}")
-        board = CircleBoard.from_dict(meta["board"])
+            raise ValueError("no board description: pass the board (--board KIND, --cols, --rows, --spacing ...) "
+                             f"or put {{\"board\": {{...}}}} in the session folder's {SESSION_NAME}")
+        board = board_from_dict(meta["board"])
     model = model or meta.get("model", "pinhole")
     mmf = kw.pop("min_modulation_fraction", 0.1)
-    obs, info = observe_session(folders, board, mmf, progress, phase_window=kw.pop("phase_window", 0.0))
+    obs, info = observe_session(folders, board, mmf, progress, phase_window=kw.pop("phase_window", 0.0),
+                                homography_window=kw.pop("homography_window", DEFAULT_WINDOW))
     return calibrate_observations(obs, info, board, model, **kw)
 
 
 def board_from_options(cols: int, rows: int, spacing: float | None, radius: float | None, asymmetric: bool,
-                       bright: bool) -> CircleBoard | None:
-    """The board the command line describes (radius default ``spacing / 4``), or None without a spacing."""
+                       bright: bool, kind: str = "circles", marker: float | None = None,
+                       dictionary: str = "DICT_4X4_50"):
+    """The board the command line describes, or None without a spacing: a circle grid
+    (radius default ``spacing / 4``), a chessboard or a ChArUco board (``cols`` x ``rows``
+    squares of side ``spacing``; marker default ``0.7 spacing``)."""
     if spacing is None:
         return None
-    return CircleBoard(cols=cols, rows=rows, spacing=spacing, radius=radius if radius else 0.25 * spacing,
-                       asymmetric=asymmetric, dark_circles=not bright)
+    if kind == "circles":
+        return CircleBoard(cols=cols, rows=rows, spacing=spacing, radius=radius if radius else 0.25 * spacing,
+                           asymmetric=asymmetric, dark_circles=not bright)
+    if kind == "chessboard":
+        return ChessBoard(cols=cols, rows=rows, spacing=spacing)
+    if kind == "charuco":
+        return CharucoBoard(cols=cols, rows=rows, spacing=spacing, marker=marker if marker else 0.7 * spacing,
+                            dictionary=dictionary)
+    raise ValueError(f"--board must be circles, chessboard or charuco, got {kind!r}")
 
 
 def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist="k1k2p", projector_dist="none",
                        plot: Path | None = None, yaml: Path | None = None, min_modulation: float = 0.1,
-                       progress: bool = True, refine: bool = True, phase_window="bilinear") -> dict:
+                       progress: bool = True, refine: bool = True, phase_window="bilinear",
+                       layout: str | None = None, projector_size: tuple[int, int] | None = None,
+                       homography_window: int = DEFAULT_WINDOW) -> dict:
     """Calibrate from pose/session folders (:func:`calibrate_session`); write the calibration JSON
     (+ optional residual PNG plot / OpenCV YAML).
 
@@ -295,7 +413,8 @@ def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist
     """
     cal, res = calibrate_session(inputs, board=board, model=model, progress=progress, camera_dist=camera_dist,
                                  projector_dist=projector_dist, min_modulation_fraction=min_modulation,
-                                 telecentric_refine=refine, phase_window=phase_window)
+                                 telecentric_refine=refine, phase_window=phase_window, layout=layout,
+                                 projector_size=projector_size, homography_window=homography_window)
     cal.save(output)
     written = {"calibration": str(output)}
     if plot is not None:
@@ -314,5 +433,6 @@ def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist
     summary = {"model": cal.model, "rms": cal.rms, "poses": cal.poses, "written": written,
                "skipped_poses": cal.extra.get("skipped_poses", []), "periods": cal.periods,
                "phase_sampling": cal.extra.get("phase_sampling", "bilinear"),
+               "correspondences": cal.extra.get("correspondences"), "board": cal.board,
                "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}
     return summary

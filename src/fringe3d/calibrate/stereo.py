@@ -28,10 +28,11 @@ from .camera import DeviceCalibration, calibrate_device
 
 @dataclass
 class PoseObservation:
-    """Circle centres seen by the camera and (through phase) by the projector in one pose.
+    """Board points seen by the camera and (through phase or code) by the projector in one pose.
 
     ``camera_uv`` and ``projector_uv`` are ``(N, 2)`` float64 in the board's point order;
-    rows of ``projector_uv`` are NaN where the phase was invalid or the modulation too low.
+    rows of ``camera_uv`` are NaN for points the camera did not see (a ChArUco board's
+    partial view), rows of ``projector_uv`` where the phase was invalid or the modulation too low.
     """
 
     name: str
@@ -111,18 +112,21 @@ def calibrate_pinhole_rig(board: CircleBoard, poses: list[PoseObservation], came
         raise ValueError(f"only {len(poses)} usable board pose(s); need at least {min_poses} "
                          "(check that the board is fully visible in each pose)")
     obj = board.object_points()
-    keep = [np.all(np.isfinite(p.projector_uv), axis=1) for p in poses]
+    seen = [np.all(np.isfinite(p.camera_uv), axis=1) for p in poses]  # partial views: NaN rows
+    keep = [np.all(np.isfinite(p.projector_uv), axis=1) & c for p, c in zip(poses, seen)]
     proj_poses = [i for i, k in enumerate(keep) if k.sum() >= min_points]
     if len(proj_poses) < min_poses:
         bad = [poses[i].name for i in range(len(poses)) if i not in proj_poses]
-        raise ValueError(f"phase is invalid at the circle centres in pose(s) {bad}: only {len(proj_poses)} pose(s) "
+        where = "the circle centres" if isinstance(board, CircleBoard) else "the board corners"
+        raise ValueError(f"phase is invalid at {where} in pose(s) {bad}: only {len(proj_poses)} pose(s) "
                          f"have >= {min_points} valid projector points; need {min_poses}")
     cam_uv = [p.camera_uv.astype(np.float64).copy() for p in poses]
     prj_uv = [p.projector_uv.astype(np.float64).copy() for p in poses]
     cam_obs0 = [c.copy() for c in cam_uv]
     passes = 3 if correct_circle_bias else 1
     for it in range(passes):
-        cam = calibrate_device([obj] * len(poses), cam_uv, camera_size, camera_dist, min_poses, "camera")
+        cam = calibrate_device([obj[c] for c in seen], [u[c] for u, c in zip(cam_uv, seen)], camera_size,
+                               camera_dist, min_poses, "camera")
         pobj = [obj[keep[i]] for i in proj_poses]
         puv = [prj_uv[i][keep[i]] for i in proj_poses]
         cuv = [cam_uv[i][keep[i]] for i in proj_poses]

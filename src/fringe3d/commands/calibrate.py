@@ -9,8 +9,12 @@ from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.calibrate.calibration_file import load_calibration
 from fringe3d.calibrate.evaluation import compare_to_truth
 from fringe3d.calibrate.opencv_file import load_opencv_calibration, parse_node_map, parse_size
+from fringe3d.calibrate.code_mapping import DEFAULT_WINDOW
 from fringe3d.calibrate.session import board_from_options, calibrate_to_files
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.calibrate.square_boards import BOARD_KINDS
+from fringe3d.io.importer import LAYOUTS
+from fringe3d.io.importer import parse_size as parse_projector_size
+from fringe3d.sim.calibration_session import PATTERN_KINDS, simulate_session
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import overwrite_option
@@ -28,12 +32,25 @@ def register(app: typer.Typer) -> None:
         inputs: list[Path] = typer.Argument(None, help="Pose capture folders, or a session folder holding them "
                                                        "(none with --import-opencv)."),
         output: Path = typer.Option(Path("calib.json"), "-o", "--output", help="Calibration JSON to write."),
-        cols: int = typer.Option(9, help="Board circles per row."),
-        rows: int = typer.Option(9, help="Board rows of circles."),
-        spacing: float = typer.Option(None, help="Board circle spacing (mm); default from session.json."),
+        board_kind: str = typer.Option("circles", "--board", help="Board kind: circles (circle grid), chessboard "
+                                                                  "(cv2.findChessboardCornersSB) or charuco "
+                                                                  "(cv2.aruco.CharucoDetector, partial views)."),
+        cols: int = typer.Option(9, help="Board circles per row (chessboard/charuco: squares per row)."),
+        rows: int = typer.Option(9, help="Board rows of circles (chessboard/charuco: rows of squares)."),
+        spacing: float = typer.Option(None, help="Board circle spacing or square size (mm); default from "
+                                                 "session.json."),
         radius: float = typer.Option(None, help="Board circle radius (mm); default spacing/4."),
         asymmetric: bool = typer.Option(False, help="OpenCV asymmetric circle grid."),
         bright: bool = typer.Option(False, help="Bright circles on a dark board."),
+        marker: float = typer.Option(None, help="ChArUco marker size (mm); default 0.7 x the square size."),
+        dictionary: str = typer.Option("DICT_4X4_50", help="ChArUco ArUco dictionary (cv2.aruco.DICT_* name)."),
+        layout: str = typer.Option(None, "--layout", help="Poses of another tool: folders of numbered frames "
+                                                          "(no manifest) projected with this layout, e.g. "
+                                                          "opencv-graycode (OpenCV GrayCodePattern: column "
+                                                          "pairs, row pairs, white, black); needs "
+                                                          "--projector-size."),
+        homography_window: int = typer.Option(DEFAULT_WINDOW, help="Gray-code poses: side (camera px) of the "
+                                                                   "window of each corner's local homography."),
         model: str = typer.Option(None, help="'pinhole' (camera frame = world) or 'telecentric' (projector "
                                              "frame = world); default from session.json or pinhole."),
         camera_dist: str = typer.Option("k1k2p", help="Camera distortion: none, k1, k1k2, k1k2p, full."),
@@ -59,6 +76,14 @@ def register(app: typer.Typer) -> None:
         noise_free: bool = typer.Option(False, "--noise-free", help="--simulate: no sensor noise, 16-bit frames."),
         defocus: float = typer.Option(None, help="--simulate: projector defocus (projector px)."),
         camera_scale: float = typer.Option(1.0, help="--simulate: camera resolution factor (e.g. 0.5)."),
+        sim_patterns: str = typer.Option("phase", "--patterns", help="--simulate: phase (the calibration phase "
+                                                                     "set) or gray-code (Gray-code columns and "
+                                                                     "rows with inverses, white, black)."),
+        stripe: float = typer.Option(None, help="--simulate --patterns gray-code: narrowest stripe (projector "
+                                                "px); default from the defocus (1 px when sharp = OpenCV's "
+                                                "layout)."),
+        partial: int = typer.Option(0, help="--simulate: this many poses show only part of the board to the "
+                                            "camera (ChArUco)."),
         import_opencv: Path = typer.Option(None, "--import-opencv", help="Do not calibrate: read K/dist/R/T "
                                            "from this OpenCV FileStorage YAML/XML and write the rig JSON to -o."),
         node: list[str] = typer.Option(None, "--node", help="--import-opencv: KEY=NODE maps a node name, e.g. "
@@ -66,20 +91,24 @@ def register(app: typer.Typer) -> None:
                                                             "R T cam_size proj_size)."),
         camera_size: str = typer.Option(None, "--camera-size", help="--import-opencv: camera WxH when the file "
                                                                      "has no size node."),
-        projector_size: str = typer.Option(None, "--projector-size", help="--import-opencv: projector WxH when "
+        projector_size: str = typer.Option(None, "--projector-size", help="--layout: the projector WxH (px); "
+                                                                           "--import-opencv: projector WxH when "
                                                                            "the file has no size node."),
         unit: str = typer.Option("mm", "--unit", help="--import-opencv: unit of T in the file (mm or m)."),
         overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print the figures as one JSON object."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars or tables."),
     ) -> None:
-        """Calibrate camera and projector from circle-board poses through the phase domain
-        (works with a defocused projector), writing a versioned calibration JSON that
-        Rig.load reads.
+        """Calibrate camera and projector from board poses (circle grid, chessboard or ChArUco)
+        through the phase domain (works with a defocused projector) or through Gray code and
+        local homographies, writing a versioned calibration JSON that Rig.load reads.
 
         Example: fringe3d calibrate session/ -o calib.json --yaml calib.yaml
 
         Example (simulated): fringe3d calibrate sim-session/ --simulate macro --poses 12 --noise-free -o calib.json
+
+        Example (another tool's session): fringe3d calibrate poses/ --layout opencv-graycode
+        --projector-size 1024x768 --board chessboard --cols 9 --rows 7 --spacing 20 -o calib.json
         """
         set_quiet(quiet or json_)
         if import_opencv is not None:
@@ -90,32 +119,62 @@ def register(app: typer.Typer) -> None:
             check_number(value, option, positive=True)
         check_number(min_modulation, "--min-modulation-share", minimum=0, maximum=1)
         check_number(defocus, "--defocus", minimum=0)
+        check_number(stripe, "--stripe", minimum=1)
+        check_number(marker, "--marker", positive=True)
+        if board_kind not in BOARD_KINDS:
+            raise ValueError(f"--board must be one of {', '.join(BOARD_KINDS)}, got {board_kind!r}")
+        if sim_patterns not in PATTERN_KINDS:
+            raise ValueError(f"--patterns must be one of {', '.join(PATTERN_KINDS)}, got {sim_patterns!r}")
+        if layout is not None and layout not in LAYOUTS:
+            raise ValueError(f"--layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
+        if not 5 <= homography_window <= 501:
+            raise ValueError(f"--homography-window must be between 5 and 501 camera px, got {homography_window}")
+        least = 2 if board_kind == "circles" else 3
         for value, option in ((cols, "--cols"), (rows, "--rows")):
-            if not 2 <= value <= MAX_BOARD_SIDE:
-                raise ValueError(f"{option} must be between 2 and {MAX_BOARD_SIDE} circles, got {value}")
+            if not least <= value <= MAX_BOARD_SIDE:
+                what = "circles" if board_kind == "circles" else "squares"
+                raise ValueError(f"{option} must be between {least} and {MAX_BOARD_SIDE} {what}, got {value}")
         if not 1 <= poses <= MAX_POSES:
             raise ValueError(f"--poses must be between 1 and {MAX_POSES}, got {poses}")
+        if not 0 <= partial <= poses:
+            raise ValueError(f"--partial must be between 0 and --poses ({poses}), got {partial}")
         if not inputs:
             raise ValueError("give the pose capture folders (or a session folder) to calibrate, "
                              "or --import-opencv FILE")
-        board = board_from_options(cols, rows, spacing, radius, asymmetric, bright)
+        board = board_from_options(cols, rows, spacing, radius, asymmetric, bright, board_kind, marker, dictionary)
+        size = None
+        if layout is not None:
+            if simulate:
+                raise ValueError("--layout reads another tool's session; --simulate writes fringe3d pose folders: "
+                                 "use one of them")
+            size = parse_projector_size(projector_size)
+            if size is None:
+                raise ValueError("--layout needs the projector size: --projector-size WIDTHxHEIGHT, e.g. 1024x768")
+            if board is None:
+                raise ValueError("--layout sessions carry no board description: give --board, --cols, --rows and "
+                                 "--spacing")
         truth = None
         if simulate:
             if len(inputs) != 1:
                 raise ValueError("--simulate writes one session folder: give exactly one input folder")
+            sim_board = board if board is not None else (None if board_kind == "circles" else (board_kind, cols, rows))
             with open_output(inputs[0], overwrite=overwrite,
                              options={"preset": simulate, "poses": poses, "seed": seed, "defocus": defocus,
-                                      "board": [cols, rows, spacing, radius, asymmetric, bright],
-                                      "camera_scale": camera_scale, "noise_free": noise_free}) as o:
-                ss = simulate_session(simulate, n_poses=poses, seed=seed, defocus=defocus, board=board,
+                                      "board": [board_kind, cols, rows, spacing, radius, asymmetric, bright,
+                                                marker, dictionary],
+                                      "camera_scale": camera_scale, "noise_free": noise_free,
+                                      "patterns": sim_patterns, "stripe": stripe, "partial": partial}) as o:
+                ss = simulate_session(simulate, n_poses=poses, seed=seed, defocus=defocus, board=sim_board,
                                       camera_scale=camera_scale, noise=not noise_free, folder=o.path,
-                                      progress=not (quiet or json_))
+                                      progress=not (quiet or json_), patterns=sim_patterns, stripe=stripe,
+                                      partial=partial)
             truth = ss.rig
         plot_path = None if no_plot else (plot or output.with_suffix(".png"))
         with open_output_file(output, plot_path, yaml, overwrite=overwrite, inputs=inputs):
             s = calibrate_to_files(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
                                    min_modulation, progress=not (quiet or json_), refine=not no_refine,
-                                   phase_window=phase_window)
+                                   phase_window=phase_window, layout=layout, projector_size=size,
+                                   homography_window=homography_window)
         if truth is not None:
             s["truth_comparison"] = compare_to_truth(load_calibration(output).rig, truth)
         if json_:

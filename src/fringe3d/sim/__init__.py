@@ -6,7 +6,7 @@ Main entry points: :func:`render` (scene + rig + patterns -> frames, :class:`Tru
 
 The modules, bottom to top: :mod:`.hits` (the hit record) -> :mod:`.scene_object` (the
 :class:`SceneObject` protocol and the posed base class) -> :mod:`.primitives`, :mod:`.mesh`,
-:mod:`.sculpture`, :mod:`.wing`, :mod:`.board` (the objects) -> :mod:`.scene` (:class:`Scene`)
+:mod:`.sculpture`, :mod:`.wing`, :mod:`.board`, :mod:`.square_board` (the objects) -> :mod:`.scene` (:class:`Scene`)
 -> :mod:`.catalog`, :mod:`.scene_file` (ready-made and stored scenes); the renderer
 :mod:`.render` chains :mod:`.rays` (camera rays, culled casts, shadow test) ->
 :mod:`.geometry` (per-pixel geometry of one instant) -> :mod:`.projector_sampling` ->
