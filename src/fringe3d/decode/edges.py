@@ -35,6 +35,8 @@ from typing import Sequence
 import numpy as np
 from scipy import ndimage
 
+from fringe3d.decode._median import median5
+
 INVALID = 1
 EDGE = 2
 INCONSISTENT = 4
@@ -109,7 +111,7 @@ def gradient_jump(w: np.ndarray, valid: np.ndarray, ratio: float, floor: float) 
     5 x 5 median and ``floor`` px (depth discontinuities; both sides of the jump are set), grown
     by one pixel (8-connected)."""
     g = _neighbour_jump(w, valid)
-    ref = ndimage.median_filter(g, size=5, mode="nearest")
+    ref = median5(g)  # = ndimage.median_filter(g, size=5, mode="nearest"), 10x faster
     # grown by one pixel: a mixed pixel halfway up a step has two half-size jumps, its neighbours a full one
     return valid & ndimage.binary_dilation(valid & (g > np.maximum(ratio * ref, floor)), np.ones((3, 3), bool))
 

@@ -29,11 +29,19 @@ def central_kernel(w, mask, O, D, Q, P3, out):  # pragma: no cover - compiled
         write_row(out, i, srow, O[0], O[1], O[2], D[0, i], D[1, i], D[2, i])
 
 
+@numba.njit(parallel=True, cache=True)
+def depth_kernel(s, O, D, out):  # pragma: no cover - compiled
+    """Pinhole rays: ``out[i, j] = O + s[i, j] * D[:, i, j]`` from the (H, W) float32 ray parameters."""
+    H, W = s.shape
+    for i in numba.prange(H):
+        write_row(out, i, s[i], O[0], O[1], O[2], D[0, i], D[1, i], D[2, i])
+
+
 @numba.njit(cache=True, inline="always")
 def write_row(out, i, srow, ox, oy, oz, dx, dy, dz):  # pragma: no cover - compiled
     """Row ``i`` of the point map: ``out[i, j] = O + srow[j] * D[:, i, j]``."""
     for j in range(srow.shape[0]):
-        s = srow[j]
+        s = np.float64(srow[j])
         out[i, j, 0] = ox + s * dx[j]
         out[i, j, 1] = oy + s * dy[j]
         out[i, j, 2] = oz + s * dz[j]

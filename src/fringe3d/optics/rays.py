@@ -22,7 +22,7 @@ from typing import Any, overload
 
 import numpy as np
 
-from fringe3d.optics._ray_kernels import central_kernel, parallel_kernel
+from fringe3d.optics._ray_kernels import central_kernel, depth_kernel, parallel_kernel
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import fringe_coordinate
 
@@ -108,6 +108,25 @@ def projector_fringe_coordinate(rig: Rig, X: np.ndarray, angle: float, distortio
     return (Xh @ projector_row(proj.P, angle)) / (Xh @ proj.P[2])
 
 
+def ray_points(O: np.ndarray, D_planes: np.ndarray, s: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Points ``X = O + s*D`` (H, W, 3) float32 mm of pinhole rays from their parameters ``s``.
+
+    ``O`` (3,) float64 is the camera centre, ``D_planes`` (3, H, W) float32 the rays' directions
+    with device depth 1 (:attr:`RayGeometry.D_planes`, so ``s`` is the camera-frame depth in mm)
+    and ``s`` (H, W) float32 (NaN: no point). Evaluated in float64 and rounded once; the fused
+    3-step path and the point store's ``ray_depth`` layout both go through this function, so the
+    points a store gives back are the ones the reconstruction made, bit for bit.
+    """
+    s = np.ascontiguousarray(s, np.float32)
+    D_planes = np.ascontiguousarray(D_planes, np.float32)
+    if s.ndim != 2 or D_planes.shape != (3,) + s.shape:
+        raise ValueError(f"ray parameters {s.shape} and ray directions {D_planes.shape} must be (H, W) and (3, H, W)")
+    if out is None:
+        out = np.empty(s.shape + (3,), np.float32)
+    depth_kernel(s, np.asarray(O, np.float64), D_planes, out)
+    return out
+
+
 class RayGeometry:
     """Per-pixel closed-form ray coefficients of one rig and fringe direction.
 
@@ -152,6 +171,8 @@ class RayGeometry:
         P = rig.projector.P
         self.Q = np.ascontiguousarray(projector_row(P, self.angle), dtype=np.float64)
         self.P3 = np.ascontiguousarray(P[2], dtype=np.float64)
+        self._qd: np.ndarray | None = None  # Q.D and P3.D per pixel, built on first use
+        self._pd: np.ndarray | None = None
 
     @property
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
@@ -179,6 +200,19 @@ class RayGeometry:
             parallel_kernel(np.ascontiguousarray(w), np.ascontiguousarray(mask), self.O_planes, self.D, self.Q,
                             self.P3, out)
         return out
+
+    def fringe_coordinate_at(self, s: np.ndarray) -> np.ndarray:
+        """(H, W) float32 projector fringe coordinate ``w = Q.X~ / P3.X~`` (px) of the pinhole
+        rays' points ``X = O + s*D`` at parameters ``s`` (H, W) (the linear projector model, the
+        inverse of the closed form; NaN where ``s`` is)."""
+        if self._qd is None:
+            D = self.D_planes.astype(np.float64)
+            self._qd = np.einsum("k,khw->hw", self.Q[:3], D)
+            self._pd = np.einsum("k,khw->hw", self.P3[:3], D)
+        qo = float(self.Q[:3] @ self.O + self.Q[3])
+        po = float(self.P3[:3] @ self.O + self.P3[3])
+        s = np.asarray(s, np.float64)
+        return ((qo + s * self._qd) / (po + s * self._pd)).astype(np.float32)
 
     def ray_points_at_z(self, z: float | np.ndarray) -> np.ndarray:
         """World points ``(H, W, 3)`` float64 where each pixel's ray meets the plane world-z = ``z``

@@ -25,7 +25,7 @@ import warnings
 
 import numpy as np
 
-from fringe3d.optics.rays import ANGLE_UP, ANGLE_VP, RayGeometry, camera_normalized, camera_shape, check_map
+from fringe3d.optics.rays import ANGLE_UP, ANGLE_VP, RayGeometry, camera_normalized, camera_shape, check_map, ray_points
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.psp import lsq_coefficients
@@ -225,9 +225,10 @@ class FastThreeStep:
         self.sign = np.ascontiguousarray(minimum_phase.sign, np.int8)
         self.scale = minimum_phase.period / (2 * math.pi)
 
-    def points(self, frames, index=(0, 1, 2), out=None) -> np.ndarray:
-        """``(H, W, 3)`` float32 points (mm, NaN invalid) from ``frames[index]`` of an
-        ``(F, H, W)`` stack; ``out`` may be a preallocated float32 array."""
+    def depth(self, frames, index=(0, 1, 2), out=None) -> np.ndarray:
+        """``(H, W)`` float32 ray parameters ``s`` of ``X = O + s*D`` (the camera-frame depth, mm;
+        NaN invalid) from ``frames[index]`` of an ``(F, H, W)`` stack; ``out`` may be a
+        preallocated float32 array. :meth:`points` of the same frames is ``ray_points(s)``."""
         frames = np.asarray(frames)
         H, W = self.tri.shape
         if frames.ndim != 3 or frames.shape[1:] != (H, W):
@@ -238,7 +239,16 @@ class FastThreeStep:
         if idx.shape != (3,) or idx.min() < 0 or idx.max() >= frames.shape[0]:
             raise ValueError(f"index must name 3 frames of the {frames.shape[0]}-frame stack, got {list(index)}")
         if out is None:
-            out = np.empty((H, W, 3), np.float32)
+            out = np.empty((H, W), np.float32)
         three_step_kernel(frames, idx, self.coef, self.min_mod2, self.phi_min, self.sign, self.scale,
-                           self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, out)
+                          self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, out)
         return out
+
+    def ray_points(self, s: np.ndarray, out=None) -> np.ndarray:
+        """``(H, W, 3)`` float32 points (mm) of the ray parameters ``s`` (:func:`ray_points`)."""
+        return ray_points(self.tri.O, self.tri.D_planes, s, out)
+
+    def points(self, frames, index=(0, 1, 2), out=None) -> np.ndarray:
+        """``(H, W, 3)`` float32 points (mm, NaN invalid) from ``frames[index]`` of an
+        ``(F, H, W)`` stack; ``out`` may be a preallocated float32 array."""
+        return self.ray_points(self.depth(frames, index), out)
