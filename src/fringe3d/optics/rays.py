@@ -22,7 +22,7 @@ from typing import Any, overload
 
 import numpy as np
 
-from fringe3d.optics._ray_kernels import central_kernel, depth_kernel, parallel_kernel
+from fringe3d.optics._ray_kernels import central_kernel, depth_kernel, fringe_kernel, parallel_kernel, sigma_kernel
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import fringe_coordinate
 
@@ -201,18 +201,38 @@ class RayGeometry:
                             self.P3, out)
         return out
 
+    def _ray_rows(self) -> tuple[float, float, np.ndarray, np.ndarray]:
+        """``(Q.O~, P3.O~, Q.D (H, W), P3.D (H, W))`` of the pinhole rays (float64, built once)."""
+        if not self.central:
+            raise ValueError("ray parameters along pinhole rays need a pinhole camera")
+        if self._qd is None or self._pd is None:
+            D = self.D_planes.astype(np.float64)
+            self._qd = np.ascontiguousarray(np.einsum("k,khw->hw", self.Q[:3], D))
+            self._pd = np.ascontiguousarray(np.einsum("k,khw->hw", self.P3[:3], D))
+        return (float(self.Q[:3] @ self.O + self.Q[3]), float(self.P3[:3] @ self.O + self.P3[3]), self._qd,
+                self._pd)
+
     def fringe_coordinate_at(self, s: np.ndarray) -> np.ndarray:
         """(H, W) float32 projector fringe coordinate ``w = Q.X~ / P3.X~`` (px) of the pinhole
         rays' points ``X = O + s*D`` at parameters ``s`` (H, W) (the linear projector model, the
         inverse of the closed form; NaN where ``s`` is)."""
-        if self._qd is None:
-            D = self.D_planes.astype(np.float64)
-            self._qd = np.einsum("k,khw->hw", self.Q[:3], D)
-            self._pd = np.einsum("k,khw->hw", self.P3[:3], D)
-        qo = float(self.Q[:3] @ self.O + self.Q[3])
-        po = float(self.P3[:3] @ self.O + self.P3[3])
-        s = np.asarray(s, np.float64)
-        return ((qo + s * self._qd) / (po + s * self._pd)).astype(np.float32)
+        qo, po, qd, pd = self._ray_rows()
+        out = np.empty(self.shape, np.float32)
+        fringe_kernel(np.ascontiguousarray(check_map(s, self.shape, "ray parameter map")), qo, po, qd, pd, out)
+        return out
+
+    def point_sigma_from_w(self, w: np.ndarray, sigma_w: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        """(H, W, 3) float32 per-axis standard deviations (mm) of the closed-form points of the
+        fringe coordinate ``w`` (px) with standard deviation ``sigma_w`` (px): ``|D ds/dw| sigma_w``
+        with the exact derivative of ``s = (Q.O~ - w P3.O~) / (w P3.D - Q.D)``,
+        ``ds/dw = (P3.O~ Q.D - Q.O~ P3.D) / (w P3.D - Q.D)^2``; NaN where ``mask`` is False."""
+        qo, po, qd, pd = self._ray_rows()
+        out = np.empty(self.shape + (3,), np.float32)
+        sigma_kernel(np.ascontiguousarray(check_map(w, self.shape, "fringe coordinate map")),
+                     np.ascontiguousarray(check_map(sigma_w, self.shape, "fringe coordinate sigma map")),
+                     np.ascontiguousarray(check_map(mask, self.shape, "mask"), bool), qo, po, qd, pd,
+                     self.D_planes, out)
+        return out
 
     def ray_points_at_z(self, z: float | np.ndarray) -> np.ndarray:
         """World points ``(H, W, 3)`` float64 where each pixel's ray meets the plane world-z = ``z``
