@@ -96,7 +96,7 @@ def read_point_sequence(path: str | Path) -> PointSequence:
         shape = tuple(arr.shape[1:])
     elif (p / ".zgroup").exists() or (p / "zarr.json").exists() or (p / ".zarray").exists():
         import zarr  # heavy (~1 s to import): only zarr stores need it
-        store = zarr.open(str(p), mode="r")
+        store: Any = zarr.open(str(p), mode="r")
         if not hasattr(store, "shape") and store.attrs.get("layout") == "ray_depth":
             from fringe3d.io.store import PointMapStore  # depth along the camera rays: points by O + s*D
             pstore = PointMapStore.open_existing(p)

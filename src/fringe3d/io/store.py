@@ -45,7 +45,7 @@ LAYOUTS = ("xyz", "ray_depth")
 #: Blosc codec of the per-frame chunks. In ``benchmarks/bench_sequence.py`` (1280x1024) lz4
 #: wrote an xyz point map 3x faster than zstd level 3 (69 vs 210 ms, a loaded 2-core machine)
 #: for 16 % more bytes (10.7 vs 9.3 MB); writing is on the critical path of a sequence.
-CODEC: Literal["lz4", "zstd"] = "lz4"
+CODEC: Literal["lz4", "zstd", "none"] = "lz4"
 CODEC_LEVEL = 5
 #: byte shuffle per dtype: float data compress only once their bytes are regrouped
 SHUFFLE: Literal["shuffle", "noshuffle", "bitshuffle"] = "shuffle"
@@ -68,8 +68,9 @@ DONE_ATTRS: dict[str, Any] = {"long_name": "1 once the frame is completely writt
 
 
 def _compressor():
+    """The Blosc codec of :data:`CODEC` (None: chunks stored raw)."""
     from zarr.codecs import BloscCodec
-    return BloscCodec(cname=CODEC, clevel=CODEC_LEVEL, shuffle=SHUFFLE)
+    return None if CODEC == "none" else BloscCodec(cname=CODEC, clevel=CODEC_LEVEL, shuffle=SHUFFLE)
 
 
 class PointMapStore:
@@ -258,7 +259,7 @@ class PointMapStore:
                     raise ValueError(f"frame {k}: the store holds {name} but none was given")
                 data.append((arr, self._check(k, name, v, dt)))
         for arr, v in data:
-            arr[k] = v
+            arr[k] = v  # type: ignore[index]  # the arrays of this layout (never None here)
 
     def _check(self, k: int, name: str, v: np.ndarray, dtype) -> np.ndarray:
         v = np.asarray(v)
@@ -296,6 +297,7 @@ class PointMapStore:
         """(H, W) float32 ray parameters of frame ``k`` (``ray_depth``) or the points' z (``xyz``)."""
         if self.depth_array is not None:
             return np.asarray(self.depth_array[k])
+        assert self.points_array is not None  # an xyz store
         return np.asarray(self.points_array[k, ..., 2])
 
     def quality(self, k: int) -> np.ndarray:

@@ -373,7 +373,8 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
         return (st is None or st.is_done(k)) and (not ply or (out / PLY_DIR / ply_name(k)).exists())
 
     todo = [k for k in range(len(starts)) if not done(k)]
-    layout, quality = (st.layout, st.has_quality) if st is not None else (None, False)
+    st_layout = st.layout if st is not None else None
+    quality = st is not None and st.has_quality
     t0 = time.perf_counter()
     empty = 0
     writes: deque = deque()  # store writes run behind the next frame's compute (compression is off the critical path)
@@ -381,7 +382,7 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
             ThreadPoolExecutor(max_workers=1, thread_name_prefix="fringe3d-store") as writer:
         for k in todo:
             cyc, was_empty = reconstruct_window(rec, np.ascontiguousarray(frames[window_index(starts[k], n)]), ply,
-                                                layout, quality)
+                                                st_layout, quality)
             empty += was_empty
             if ply and cyc.points is not None and np.isfinite(cyc.points[..., 0]).any():
                 write_measurement_ply(out / PLY_DIR / ply_name(k), cyc.points, cyc.texture)
