@@ -1,4 +1,5 @@
-"""The numba neighbourhood filters of the quality map equal their scipy.ndimage counterparts."""
+"""The numba neighbourhood filters of the quality map (and the masked Laplacian noise estimate)
+equal their scipy.ndimage counterparts."""
 from __future__ import annotations
 
 import numpy as np
@@ -75,3 +76,17 @@ def test_neighbour_jump_is_the_largest_jump_to_a_valid_4_neighbour(dtype):
                 if valid[i, j] and 0 <= a < 9 and 0 <= b < 11 and valid[a, b]:
                     expect[i, j] = max(expect[i, j], abs(wz[i, j] - wz[a, b]))
     np.testing.assert_array_equal(neighbour_jump(w, valid), expect)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.float32])
+def test_laplacian_noise_over_a_mask_is_the_mean_response_over_the_eroded_mask(dtype):
+    import math
+
+    from fringe3d.phase.noise import laplacian_noise
+    rng = np.random.default_rng(6)
+    image = (rng.random((40, 57)) * 200).astype(dtype)
+    mask = rng.random((40, 57)) > 0.2
+    kern = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float64)
+    resp = np.abs(ndimage.convolve(image.astype(np.float64), kern, mode="nearest"))  # Immerkaer's estimate
+    keep = ndimage.binary_erosion(mask, iterations=1)
+    assert laplacian_noise(image, mask) == pytest.approx(math.sqrt(math.pi / 2) * resp[keep].mean() / 6, rel=1e-12)
