@@ -149,19 +149,24 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
         RIM width in pixels (0: off).
     """
     valid = np.asarray(mask, bool)
-    q = np.where(valid, 0, INVALID).astype(np.uint8)
+    q = _bits(~valid, INVALID)
     if w is not None and extent is not None:
-        q |= np.where(valid & edge_band(w, extent, margin), EDGE, 0).astype(np.uint8)
+        q |= _bits(valid & edge_band(w, extent, margin), EDGE)
     if residual is not None and math.isfinite(max_disagreement):
         with np.errstate(invalid="ignore"):
-            q |= np.where(valid & (residual > max_disagreement), INCONSISTENT, 0).astype(np.uint8)
+            q |= _bits(valid & (residual > max_disagreement), INCONSISTENT)
     if w is not None:
-        q |= np.where(gradient_jump(w, valid, gradient_ratio, gradient_floor), GRADIENT, 0).astype(np.uint8)
+        q |= _bits(gradient_jump(w, valid, gradient_ratio, gradient_floor), GRADIENT)
     if modulation is not None and average is not None:
-        q |= np.where(modulation_drop(modulation, average, valid, modulation_ratio), MOD_DROP, 0).astype(np.uint8)
+        q |= _bits(modulation_drop(modulation, average, valid, modulation_ratio), MOD_DROP)
     if rim > 0:
-        q |= np.where(rim_of_invalid(valid, rim), RIM, 0).astype(np.uint8)
+        q |= _bits(rim_of_invalid(valid, rim), RIM)
     return q
+
+
+def _bits(flag: np.ndarray, bit: int) -> np.ndarray:
+    """(H, W) uint8: ``bit`` where ``flag`` is set, else 0 (no int64 temporaries)."""
+    return flag.astype(np.uint8) * np.uint8(bit)
 
 
 def rim_of_invalid(valid: np.ndarray, width: int) -> np.ndarray:
