@@ -24,18 +24,18 @@ Z340 = DecodeOptions(z_min=340.0)
 
 @pytest.fixture(scope="module")
 def seq(tmp_path_factory):
-    """3 cycles of a noisy 3-step T=64 capture of a sphere before a wall, and its truth."""
+    """3 cycles of a noisy 3-step T=64 capture of a sphere before a wall: capture, patterns, rig, truth, folder."""
     folder = tmp_path_factory.mktemp("layouts") / "cap"
     ps = sets.phase_shift(64, 3, "v", width=256, height=200)
     simulate_capture(folder, preset="tiny", scene="sphere", patterns=ps, cycles=3, seed=11, progress=False)
     cap = read_capture(folder)
-    return cap, with_method(cap.patterns, "geometric"), Rig.load(folder / "rig.json"), Truth.load(folder)
+    return cap, with_method(cap.patterns, "geometric"), Rig.load(folder / "rig.json"), Truth.load(folder), folder
 
 
 @pytest.fixture(scope="module")
 def both(seq, tmp_path_factory):
     """The same sequence stored in both layouts (auto picks ray_depth on the fused path)."""
-    cap, ps, rig, _ = seq
+    cap, ps, rig, _, _ = seq
     out = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -56,7 +56,7 @@ def test_auto_layout_is_ray_depth_on_the_fused_path_and_gives_the_xyz_points_bit
 
 
 def test_ray_depth_is_the_camera_frame_depth_of_the_true_surface(both, seq):
-    _, _, rig, truth = seq
+    _, _, rig, truth, _ = seq
     st = both["auto"][1]
     s = st.depth(0)
     ok = np.isfinite(s) & truth.mask
@@ -69,7 +69,7 @@ def test_ray_depth_is_the_camera_frame_depth_of_the_true_surface(both, seq):
 
 
 def test_the_store_holds_the_reconstructions_quality_bits_and_sigma_z(both, seq):
-    cap, ps, rig, _ = seq
+    cap, ps, rig, _, _ = seq
     st = both["auto"][1]
     rec = FrameReconstructor(ps, rig, Z340)
     with warnings.catch_warnings():
@@ -87,7 +87,7 @@ def test_the_store_holds_the_reconstructions_quality_bits_and_sigma_z(both, seq)
 def test_fused_sigma_is_the_central_difference_of_the_triangulation(seq):
     """The exact ``|D ds/dw| sigma_w`` of the fused path against a central difference of the
     closed-form triangulation (:func:`fringe3d.reconstruct.uncertainty.central_difference`)."""
-    _, ps, rig, _ = seq
+    _, ps, rig, _, _ = seq
     tri = FrameReconstructor(ps, rig, Z340).fast.tri
     H, W = tri.shape
     w = np.tile(np.linspace(40.0, 200.0, W), (H, 1))
@@ -102,7 +102,7 @@ def test_fused_sigma_is_the_central_difference_of_the_triangulation(seq):
 
 
 def test_no_store_quality_leaves_the_arrays_out_and_a_resume_must_match(seq, tmp_path):
-    cap, ps, rig, _ = seq
+    cap, ps, rig, _, _ = seq
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, progress=False, store_quality=False)
@@ -115,7 +115,7 @@ def test_no_store_quality_leaves_the_arrays_out_and_a_resume_must_match(seq, tmp
 
 
 def test_ray_depth_is_refused_where_the_points_do_not_come_from_the_rays(seq, tmp_path):
-    cap, ps, rig, _ = seq
+    cap, ps, rig, _, _ = seq
     with pytest.raises(ValueError, match="ray_depth store layout needs the fused"):
         reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, progress=False, fast=False,
                              layout="ray_depth")
@@ -136,7 +136,7 @@ def test_a_ray_depth_store_opens_in_xarray_and_as_a_strain_sequence(both):
 
 
 def test_an_empty_frame_is_stored_as_invalid(seq, tmp_path):
-    cap, ps, rig, _ = seq
+    cap, ps, rig, _, _ = seq
     frames = cap.frames.copy()
     frames[3:6] = 0  # no modulation in the second cycle
     with warnings.catch_warnings():
@@ -145,3 +145,19 @@ def test_an_empty_frame_is_stored_as_invalid(seq, tmp_path):
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     assert res["empty_frames"] == 1 and st.completed == 3
     assert np.isnan(st.depth(1)).all() and (st.quality(1) == INVALID).all() and np.isnan(st.sigma_z(1)).all()
+
+
+def test_the_command_writes_the_layout_and_arrays_asked_for(seq, tmp_path, capsys):
+    from fringe3d.cli import main
+    folder = seq[4]
+    base = ["reconstruct", str(folder), "-c", str(folder / "rig.json"), "--method", "geometric", "--z-min", "340",
+            "-q"]
+    assert main(base + ["-o", str(tmp_path / "a"), "--store-layout", "xyz", "--no-store-quality"]) == 0
+    st = PointMapStore.open_existing(tmp_path / "a" / "points.zarr")
+    assert st.layout == "xyz" and not st.has_quality and not st.has_sigma and st.completed == 3
+    assert main(base + ["-o", str(tmp_path / "b")]) == 0
+    st = PointMapStore.open_existing(tmp_path / "b" / "points.zarr")
+    assert st.layout == "ray_depth" and st.has_quality and st.has_sigma and st.completed == 3
+    assert main(base + ["-o", str(tmp_path / "c"), "--store-layout", "bogus"]) == 2
+    assert "--store-layout must be auto, xyz or ray_depth" in capsys.readouterr().err
+    assert not (tmp_path / "c").exists()
