@@ -1,20 +1,25 @@
 """Long sequences end to end: a 1280x1024 3-step + geometric sequence read from an MRAW file.
 
 Run: ``.venv/bin/python benchmarks/bench_sequence.py [--cycles 120] [--json]`` (not a test; needs the
-``dask`` and ``camfiles`` extras, both in ``.[test]``).
+``dask`` and ``camfiles`` extras, both in ``.[test]``). The scene is seeded (``seed=0``).
 
 One run measures, side by side on this machine:
 
-- **kernel**: the per-window reconstruction (:class:`FrameReconstructor`, the fused 3-step +
-  geometric + triangulation kernel) on a cycle already in memory, in 3D frames/s;
+- **kernel**: the per-window reconstruction on a cycle already in memory, in 3D frames/s:
+  ``kernel`` is ``FrameReconstructor(cycle)`` (the fused 3-step + geometric + triangulation kernel,
+  the edge / mixed-pixel quality map, the points; what this line measured before the ray_depth
+  store), ``kernel_fused_only`` the fused kernel alone (ray parameters, no quality map) and
+  ``window_as_stored`` what one 3D frame of the sequence costs before its store write (ray
+  parameters, quality map and sigma_z);
 - **copy bound**: copying one cycle's input bytes plus writing its (H, W, 3) float32 output with
   ``np.copyto`` (the machine's memory-copy bound for the same bytes), in 3D frames/s;
 - **file read**: reading the MRAW file cycle by cycle (``open_frames``), in cycles/s, and the same
   frames as PNG files (``CaptureFrames``) for comparison;
-- **end to end**: ``reconstruct_sequence`` from the MRAW into the zarr point store in this process,
+- **end to end**: ``reconstruct_sequence`` from the MRAW into the zarr point store in this process
+  (the default store: ray_depth layout with quality map and sigma_z; and ``store_quality=False``),
   and ``reconstruct_capture_on_dask`` with 1 and 2 worker processes, in 3D frames/s;
-- **store**: bytes per 3D frame on disk and write time per frame, lz4 (the default) and zstd-3
-  (the codec before), on the same point map.
+- **store**: bytes per 3D frame on disk and write time per frame of the layouts (xyz; ray_depth
+  alone; ray_depth + quality + sigma_z) and codecs (lz4, zstd-3, none), on the same 3D frame.
 
 The sequence repeats one rendered cycle (a sphere before a wall on the ``macro`` rig); the
 pipeline's cost does not depend on the scene changing.
@@ -22,6 +27,7 @@ pipeline's cost does not depend on the scene changing.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import shutil
@@ -73,20 +79,30 @@ def make_inputs(work: Path, cycles: int):
     return work / "mraw-cap", work / "png-cap", with_method(cap.patterns, "geometric"), rig, z_min
 
 
-def store_figures(points: np.ndarray, work: Path) -> dict:
-    """Bytes per 3D frame and write ms per frame of the point store, lz4 vs zstd-3."""
-    out = {}
-    for codec, level in (("lz4", 5), ("zstd", 3)):
+def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dict:
+    """Bytes per 3D frame and write ms per frame of the point store's layouts and codecs."""
+    c = rec.reconstruct(cycle)
+    H, W = c.quality.shape
+    cases = {"xyz": ("xyz", False), "ray_depth": ("ray_depth", False), "ray_depth+quality+sigma": ("ray_depth", True)}
+    out: dict = {}
+    for codec, level in (("lz4", 5), ("zstd", 3), ("none", 0)):
         store_module.CODEC, store_module.CODEC_LEVEL = codec, level
-        path = work / f"store-{codec}.zarr"
-        st = store_module.PointMapStore.open(path, 10, *points.shape[:2])
-        t = time.perf_counter()
-        for k in range(10):
-            st.write(k, points)
-        ms = (time.perf_counter() - t) / 10 * 1e3
-        size = sum(f.stat().st_size for f in path.rglob("*") if f.is_file() and "points" in f.parts) / 10
-        out[codec] = {"write_ms_per_frame": round(ms, 1), "mb_per_frame": round(size / 1e6, 2)}
-        shutil.rmtree(path)
+        for name, (layout, q) in cases.items():
+            path = work / f"store-{codec}-{name}.zarr"
+            st = store_module.PointMapStore.open(path, 10, H, W, layout=layout, quality=q, sigma=q,
+                                                 rays=rec.rays if layout == "ray_depth" else None)
+            arrays = {"points": c.points} if layout == "xyz" else {"depth": c.depth}
+            if q:
+                arrays.update(quality=c.quality, sigma_z=c.sigma_xyz[..., 2])
+            t = time.perf_counter()
+            for k in range(10):
+                st.write_frame(k, **arrays)
+                st.mark_done([k])
+            ms = (time.perf_counter() - t) / 10 * 1e3
+            size = sum(f.stat().st_size for f in path.rglob("*") if f.is_file()
+                       and f.relative_to(path).parts[0] in ("points", "depth", "quality", "sigma_z")) / 10
+            out[f"{name} {codec}"] = {"write_ms_per_frame": round(ms, 1), "mb_per_frame": round(size / 1e6, 2)}
+            shutil.rmtree(path)
     store_module.CODEC, store_module.CODEC_LEVEL = "lz4", 5
     return out
 
@@ -108,6 +124,10 @@ def main() -> None:
         res: dict = {"cycles": args.cycles, "shape": list(cycle.shape[1:]), "path": rec.path,
                      "cores": os.cpu_count(), "load_average": os.getloadavg()[0]}
         res["kernel_3d_per_s"] = rate(lambda: [rec(cycle) for _ in range(20)], 20)
+        res["kernel_fused_only_3d_per_s"] = rate(lambda: [rec.fast.depth(cycle, rec._fast_index)
+                                                          for _ in range(20)], 20)
+        res["window_as_stored_3d_per_s"] = rate(lambda: [rec.reconstruct(cycle, points=False, texture=False)
+                                                         for _ in range(20)], 20)
         buf_in, buf_out = np.empty_like(cycle), np.empty(cycle.shape[1:] + (3,), np.float32)
         src_out = np.ones_like(buf_out)
         res["copy_bound_3d_per_s"] = rate(lambda: [(np.copyto(buf_in, cycle), np.copyto(buf_out, src_out))
@@ -119,11 +139,16 @@ def main() -> None:
         res["png_read_cycles_per_s"] = rate(lambda: [png[np.arange(c * n, (c + 1) * n)] for c in range(m)], m,
                                             repeat=1)
 
-        def serial():
+        def serial(store_quality=True):
             out = work / "serial"
             shutil.rmtree(out, ignore_errors=True)
-            reconstruct_sequence(frames, ps, rig, out, options=opts, progress=False)
+            reconstruct_sequence(frames, ps, rig, out, options=opts, progress=False, store_quality=store_quality)
+        serial()  # warm (numba's compiled kernels load on first use)
         res["end_to_end_serial_3d_per_s"] = args.cycles / _timed(serial)
+        res["end_to_end_serial_no_store_quality_3d_per_s"] = args.cycles / _timed(lambda: serial(False))
+        res["end_to_end_serial_no_edge_mask_no_store_quality_3d_per_s"] = args.cycles / _timed(
+            lambda: reconstruct_sequence(frames, ps, rig, work / "serial-bare", options=dataclasses.replace(
+                opts, edge_mask=False), progress=False, store_quality=False))
         for workers in (1, 2):
             client = connect(workers=workers)
             try:
@@ -136,7 +161,7 @@ def main() -> None:
                 res[f"end_to_end_dask_{workers}w_3d_per_s"] = args.cycles / _timed(on_dask)
             finally:
                 close(client, own_cluster=True)
-        res["store"] = store_figures(rec(cycle), work)
+        res["store"] = store_figures(rec, cycle, work)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     res = {k: (round(v, 1) if isinstance(v, float) else v) for k, v in res.items()}

@@ -43,18 +43,31 @@ def points(out: Path) -> np.ndarray:
     return np.stack([st.read(k) for k in range(st.frames)])
 
 
+def store_maps(out: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Depth, quality bits and sigma_z of every frame of the store in ``out``."""
+    st = PointMapStore.open_existing(out / "points.zarr")
+    return tuple(np.stack([f(k) for k in range(st.frames)]) for f in (st.depth, st.quality, st.sigma_z))
+
+
 @pytest.fixture(scope="module")
-def serial(capture, tmp_path_factory):
+def serial_out(capture, tmp_path_factory):
     out = tmp_path_factory.mktemp("serial") / "out"
     assert reconstruct(capture, out) == 0
-    return points(out)
+    return out
 
 
-def test_two_worker_processes_give_the_serial_store_bit_for_bit(capture, serial, tmp_path):
+@pytest.fixture(scope="module")
+def serial(serial_out):
+    return points(serial_out)
+
+
+def test_two_worker_processes_give_the_serial_store_bit_for_bit(capture, serial, serial_out, tmp_path):
     assert reconstruct(capture, tmp_path / "out", "--workers", "2", "--chunk", "2") == 0
     P = points(tmp_path / "out")
     assert np.isfinite(P[..., 0]).mean() > 0.3
     np.testing.assert_array_equal(P, serial)
+    for got, want in zip(store_maps(tmp_path / "out"), store_maps(serial_out)):  # depth, quality, sigma_z
+        np.testing.assert_array_equal(got, want)
 
 
 def test_a_worker_killed_mid_run_still_ends_with_a_complete_correct_store(capture, serial, tmp_path):

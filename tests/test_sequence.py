@@ -82,21 +82,21 @@ def test_sliding_windows_give_one_3d_frame_per_captured_frame(seq_capture, tmp_p
 def test_interrupted_run_resumes_where_it_stopped(seq_capture, tmp_path, monkeypatch):
     cap, rig, truth = seq_capture
     ps = with_method(cap.patterns, "geometric")
-    real_call = sequence.FrameReconstructor.__call__
+    real_call = sequence.FrameReconstructor.reconstruct
     calls = {"n": 0}
 
-    def flaky(self, frames, with_texture=False):
+    def flaky(self, frames, **kw):
         calls["n"] += 1
         if calls["n"] == 3:
             raise KeyboardInterrupt  # the user stops the run during the third 3D frame
-        return real_call(self, frames, with_texture)
+        return real_call(self, frames, **kw)
 
-    monkeypatch.setattr(sequence.FrameReconstructor, "__call__", flaky)
+    monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", flaky)
     with pytest.raises(KeyboardInterrupt):
         reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", step=1, progress=False)
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     assert st.pending() == [2, 3, 4, 5, 6]
-    monkeypatch.setattr(sequence.FrameReconstructor, "__call__", real_call)
+    monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", real_call)
     res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", step=1, progress=False)
     assert res["done_before"] == 2 and res["done_now"] == 5
     st = PointMapStore.open_existing(tmp_path / "points.zarr")

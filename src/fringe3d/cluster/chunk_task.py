@@ -18,7 +18,14 @@ from fringe3d.io.pointcloud import write_ply
 from fringe3d.io.store import PointMapStore
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import PatternSet
-from fringe3d.reconstruct.sequence import CaptureFrames, FrameReconstructor, ply_name, window_index
+from fringe3d.reconstruct.sequence import (
+    CaptureFrames,
+    FrameReconstructor,
+    ply_name,
+    reconstruct_window,
+    store_arrays,
+    window_index,
+)
 
 
 @dataclass(frozen=True)
@@ -65,21 +72,24 @@ def _worker_state(job: SequenceJob):
 def run_chunk(job: SequenceJob, ks: list[int]) -> dict:
     """Reconstruct the 3D frames ``ks`` of ``job`` and write them; returns ``{"done": ks, "empty": n}``.
 
-    Frames whose phase mask is empty are written as all-NaN point maps and counted.
+    Each frame is the same :func:`~fringe3d.reconstruct.sequence.reconstruct_window` the serial
+    path runs, written with the same arrays. Frames whose phase mask is empty are written as
+    all-NaN point maps and counted.
     """
     rec, frames, store = _worker_state(job)
     n = len(job.patterns)
-    H, W = frames.shape[1:]
     empty = 0
-    results = rec.many([np.ascontiguousarray(frames[window_index(job.starts[k], n)]) for k in ks], with_texture=True)
-    for k, res in zip(ks, results):
-        if res is None:
-            pts, tex = np.full((H, W, 3), np.nan, np.float32), None
-            empty += 1
-        else:
-            pts, tex = res
-        if job.ply_dir is not None and np.isfinite(pts[..., 0]).any():
-            write_ply(Path(job.ply_dir) / ply_name(k), pts, colors=tex)
+    ply = job.ply_dir is not None
+    layout = store.layout if store is not None else None
+    quality = store is not None and store.has_quality
+    cycles = [np.ascontiguousarray(frames[window_index(job.starts[k], n)]) for k in ks]
+    depths = rec.depths(cycles)  # one batched launch on the CUDA fused path, else None
+    for i, (k, cycle_frames) in enumerate(zip(ks, cycles)):
+        cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, layout, quality,
+                                            depth=None if depths is None else depths[i])
+        empty += was_empty
+        if ply and cyc.points is not None and np.isfinite(cyc.points[..., 0]).any():
+            write_ply(Path(job.ply_dir) / ply_name(k), cyc.points, colors=cyc.texture)
         if store is not None:
-            store.write_points(k, pts)
+            store.write_frame(k, **store_arrays(cyc, store))
     return {"done": list(ks), "empty": empty}

@@ -121,26 +121,30 @@ def reconstruct_capture_on_dask(capture: str | os.PathLike, patterns: PatternSet
                                 options: DecodeOptions | None = None, *, limit: int | None = None,
                                 mode: str = "cycle", step: int | None = None, ply: bool = False, store: bool = True,
                                 triangulation: str = "auto", client=None, chunk: int = DEFAULT_CHUNK,
-                                progress: bool = True, backend: str = "cpu") -> dict:
+                                progress: bool = True, layout: str = "auto", store_quality: bool = True,
+                                backend: str = "cpu") -> dict:
     """:func:`fringe3d.reconstruct.sequence.reconstruct_sequence` of a capture folder, on Dask.
 
     Same store, same point maps (bit-identical: the same per-window code runs on the workers),
-    same summary, plus ``workers`` and ``tasks``. ``client`` from :func:`connect`; ``backend``
-    as :class:`~fringe3d.cluster.chunk_task.SequenceJob`.
+    same summary, plus ``workers`` and ``tasks``. ``client`` from :func:`connect`; ``layout``
+    and ``store_quality`` as there; ``backend`` as :class:`~fringe3d.cluster.chunk_task.SequenceJob`.
     """
     frames = open_frames(capture, limit=limit)
     frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
     out = Path(out)
     options = options or DecodeOptions()
-    starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store)
+    rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation)
+    starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store, rec=rec,
+                                  layout=layout, store_quality=store_quality)
     key = fingerprint([capture], {"patterns": patterns.to_dict(), "rig": rig.to_dict(), "options": repr(options),
-                                  "mode": mode, "step": step, "limit": limit, "triangulation": triangulation})
+                                  "mode": mode, "step": step, "limit": limit, "triangulation": triangulation,
+                                  "layout": layout, "store_quality": store_quality})
     job = SequenceJob(key=key, capture=str(Path(capture).resolve()), limit=len(frames), patterns=patterns, rig=rig,
                       options=options, starts=tuple(starts), triangulation=triangulation,
                       store=str((out / STORE_NAME).resolve()) if st is not None else None,
                       ply_dir=str((out / PLY_DIR).resolve()) if ply else None, backend=backend)
     res = reconstruct_on_dask(job, client, chunk=chunk, progress=progress)
-    path = FrameReconstructor(patterns, rig, options, triangulation=triangulation).path
-    return {"out": str(out), "frames_3d": len(starts), **res, "path": path, "mode": mode, "backend": backend,
+    return {"out": str(out), "frames_3d": len(starts), **res, "path": rec.path, "mode": mode, "backend": backend,
             "store": str(out / STORE_NAME) if store else None, "ply_dir": str(out / PLY_DIR) if ply else None,
+            "store_layout": st.layout if st is not None else None,
             "workers": len(client.scheduler_info().get("workers", {}))}

@@ -58,17 +58,20 @@ def empty_reason(cap, patterns, rig, min_modulation) -> str:
 
 
 def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOptions, window, ply: bool, store: bool,
-              progress: bool, triangulation: str, client, chunk: int, backend: str = "cpu") -> dict:
+              progress: bool, triangulation: str, client, chunk: int, layout: str = "auto",
+              store_quality: bool = True, backend: str = "cpu") -> dict:
     """The sequence branch: in this process, or on Dask when a ``client`` is given."""
     mode = "window" if window else "cycle"
     if client is not None:
         return reconstruct_capture_on_dask(capture, ps, rig, out, options, limit=limit, mode=mode, step=window,
                                            ply=ply, store=store, triangulation=triangulation, client=client,
-                                           chunk=chunk, progress=progress, backend=backend)
+                                           chunk=chunk, progress=progress, layout=layout, store_quality=store_quality,
+                                           backend=backend)
     frames = open_frames(capture, limit=limit)  # a referenced camera file, read on demand; else None
     frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
     return reconstruct_sequence(frames, ps, rig, out, options=options, mode=mode, step=window, ply=ply,
-                                store=store, progress=progress, triangulation=triangulation, backend=backend)
+                                store=store, progress=progress, triangulation=triangulation, layout=layout,
+                                store_quality=store_quality, backend=backend)
 
 
 def register(app: typer.Typer) -> None:
@@ -90,6 +93,11 @@ def register(app: typer.Typer) -> None:
         mesh: bool = typer.Option(False, "--mesh", help="One cycle: points.ply also holds the pixel grid's triangles "
                                   "(implies --ply)."),
         store: bool = typer.Option(True, "--store/--no-store", help="Sequences: write the zarr point store."),
+        store_layout: str = typer.Option("auto", "--store-layout",
+                                         help="Sequences: auto (one depth per pixel along the camera ray where that "
+                                              "gives the points exactly, else xyz), xyz or ray_depth."),
+        store_quality: bool = typer.Option(True, "--store-quality/--no-store-quality",
+                                           help="Sequences: also store each 3D frame's quality map and sigma_z."),
         window: int = typer.Option(None, "--window",
                                    help="Sequences: a 3D frame every N captured frames (sliding window) instead of "
                                         "one per pattern cycle."),
@@ -121,7 +129,8 @@ def register(app: typer.Typer) -> None:
         One pattern cycle: OUT/points.npy ((H, W, 3) float32 mm, NaN invalid), OUT/depth.tif,
         OUT/texture.tif (+ OUT/points.ply with --ply: normals, colour, a quality scalar,
         units and provenance in the header; --mesh adds the grid's triangles) and OUT/reconstruct.json. A sequence:
-        OUT/points.zarr (one point map per cycle or window; resumable) and/or OUT/ply/.
+        OUT/points.zarr (one point map per cycle or window, with its quality map and sigma_z; resumable) and/or
+        OUT/ply/.
 
         Example: fringe3d reconstruct sphere-capture --calibration calib.json -o sphere-3d --ply
         """
@@ -141,6 +150,8 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--chunk must be at least 1 3D frame, got {chunk}")
         if window is not None and window < 1:
             raise ValueError(f"--window must be at least 1 frame, got {window}")
+        if store_layout not in ("auto", "xyz", "ray_depth"):
+            raise ValueError(f"--store-layout must be auto, xyz or ray_depth, got {store_layout!r}")
         if triangulation not in ("auto", "fast", "lsq"):
             raise ValueError(f"--triangulation must be auto, fast or lsq, got {triangulation!r}")
         if device not in BACKENDS:
@@ -173,6 +184,8 @@ def register(app: typer.Typer) -> None:
         fp_options = {"method": method, "z_min": z_min, "window": window, "triangulation": triangulation,
                       "min_modulation": min_modulation, "cycles": cycles, "ply": ply, "mesh": mesh, "store": store,
                       "edge_mask": edge_mask, "edge_margin": edge_margin}
+        if sequence and store:  # (only) store options join the fingerprint where they change it
+            fp_options.update({"store_layout": store_layout, "store_quality": store_quality})
         client = None  # connected before anything is written
         if sequence and (workers or scheduler):
             client = connect(scheduler, workers, gpu=True) if device == "cuda" else connect(scheduler, workers)
@@ -197,7 +210,8 @@ def register(app: typer.Typer) -> None:
                     summary["path"] = r.path
                 else:
                     seq = _sequence(o.path, capture, cycles * len(ps), ps, rig, DecodeOptions(z_min=z_min, **opts),
-                                    window, ply, store, not (quiet or json_), triangulation, client, chunk, device)
+                                    window, ply, store, not (quiet or json_), triangulation, client, chunk,
+                                    store_layout, store_quality, device)
                     summary.update(o.final_paths(seq))
                     if seq.get("empty_frames") == seq.get("frames_3d") and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point in any frame of the sequence: "

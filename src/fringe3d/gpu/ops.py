@@ -177,11 +177,13 @@ def three_step_constants(coef, phi_min, sign, O, D_planes, Q, P3) -> tuple:
 
 
 def three_step_points(frames, index, coef, min_mod2: float, phi_min, sign, scale: float, O, D_planes, Q, P3,
-                      chunk: int = DEFAULT_CHUNK, device_output: bool = False, constants: tuple | None = None):
+                      chunk: int = DEFAULT_CHUNK, device_output: bool = False, constants: tuple | None = None,
+                      depth: bool = False):
     """The fused 3-step + geometric + triangulation kernel on the device (the arguments of
     :func:`fringe3d.reconstruct._kernels.three_step_kernel`); frames (F, H, W) or (C, F, H, W).
     ``constants`` from :func:`three_step_constants` (else uploaded now).
-    Returns (H, W, 3) or (C, H, W, 3) float32 mm, NaN invalid."""
+    Returns (H, W, 3) or (C, H, W, 3) float32 mm, NaN invalid; with ``depth`` only the ray
+    parameters ``s`` of ``X = O + s*D``, (H, W) or (C, H, W) float32 mm."""
     cuda = cuda_module()
     stack, hw, single = _cycles(frames)
     if tuple(D_planes.shape[1:]) != hw:
@@ -194,12 +196,15 @@ def three_step_points(frames, index, coef, min_mod2: float, phi_min, sign, scale
     rays = constants[4:]
     mm2 = float(min_mod2)
     sc = float(scale)
-    from fringe3d.gpu.triangulate_kernels import three_step_kernel
+    from fringe3d.gpu.triangulate_kernels import three_step_depth_kernel, three_step_kernel
+
+    kernel = three_step_depth_kernel if depth else three_step_kernel
 
     def launch(src, outs, stream):
         blocks, threads = launch_grid(src.shape[2], src.shape[0])
-        three_step_kernel[blocks, threads, stream](src, d_idx, d_coef, mm2, d_pm, d_sg, sc, *rays, outs[0])
+        kernel[blocks, threads, stream](src, d_idx, d_coef, mm2, d_pm, d_sg, sc, *rays, outs[0])
 
     p = hw[0] * hw[1]
-    res = run_batched(cuda, stack, launch, [((p, 3), np.float32)], chunk, device_output)[0]
-    return _maps(res, stack.shape[0], hw, single, device_output, (3,))
+    tail = () if depth else (3,)
+    res = run_batched(cuda, stack, launch, [((p,) + tail, np.float32)], chunk, device_output)[0]
+    return _maps(res, stack.shape[0], hw, single, device_output, tail)

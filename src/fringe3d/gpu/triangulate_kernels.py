@@ -48,15 +48,10 @@ def central_points_kernel(w, mask, O, D, Q, P3, out):
     store_point(out, cyc, p, s if ok else math.nan, O, D)
 
 
-@cuda.jit
-def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out):
-    """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> X (Eq. 2.37).
-
-    frames (C, F, P); idx (3,) int64; coef (3, 3) float64; min_mod2 the squared modulation
-    threshold; phi_min (P,) float32; sign (P,) int8; scale = T / 2pi. out (C, P, 3) float32."""
-    p, cyc = cuda.grid(2)
-    if p >= frames.shape[2] or cyc >= frames.shape[0]:
-        return
+@cuda.jit(device=True)
+def three_step_s(frames, cyc, p, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3):
+    """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> ray parameter ``s``
+    of pixel ``p`` in cycle ``cyc`` (Eq. 2.37 along the ray); NaN where invalid."""
     a, b, c, peak = group_sums64(frames, cyc, idx, coef, p)
     phi = math.atan2(-c, b)
     sg = np.float64(sign[p])
@@ -64,4 +59,27 @@ def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q
     w = (phi + TWO_PI * (sg * ceil_f(sg * x))) * scale
     s = ray_parameter(w, p, O, D, Q, P3)
     ok = ((b * b + c * c) >= min_mod2) and (sg != 0.0) and (s > 0.0)
-    store_point(out, cyc, p, s if ok else math.nan, O, D)
+    return s if ok else math.nan
+
+
+@cuda.jit
+def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out):
+    """The fused 3-step + geometric + triangulation kernel (:func:`three_step_s`) -> points.
+
+    frames (C, F, P); idx (3,) int64; coef (3, 3) float64; min_mod2 the squared modulation
+    threshold; phi_min (P,) float32; sign (P,) int8; scale = T / 2pi. out (C, P, 3) float32."""
+    p, cyc = cuda.grid(2)
+    if p >= frames.shape[2] or cyc >= frames.shape[0]:
+        return
+    store_point(out, cyc, p, three_step_s(frames, cyc, p, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3),
+                O, D)
+
+
+@cuda.jit
+def three_step_depth_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out):
+    """As :func:`three_step_kernel`, writing only the ray parameters: out (C, P) float32 mm (a
+    quarter of the points' bytes; :func:`fringe3d.optics.rays.ray_points` makes the points)."""
+    p, cyc = cuda.grid(2)
+    if p >= frames.shape[2] or cyc >= frames.shape[0]:
+        return
+    out[cyc, p] = np.float32(three_step_s(frames, cyc, p, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3))

@@ -6,8 +6,8 @@ A sequence is one of
   optionally with textures ``texture_00000.npy`` / ``.png`` (for automatic anchors);
 * a single ``.npy`` / ``.npz`` holding ``points`` (F, H, W, 3) (and optionally ``texture``);
 * a zarr store (folder) with arrays ``points`` (F, H, W, 3) and optionally ``texture`` (F, H, W)
-  and ``done`` (F,) completion flags (:class:`fringe3d.io.store.PointMapStore`), or a folder
-  holding such a ``points.zarr``.
+  and ``done`` (F,) completion flags, or a :class:`fringe3d.io.store.PointMapStore` of either
+  layout (``xyz`` or ``ray_depth``), or a folder holding such a ``points.zarr``.
 """
 from __future__ import annotations
 
@@ -45,6 +45,17 @@ class PointSequence:
         if self._tex is None:
             raise ValueError(f"{self.source} holds no texture images; pass --anchors u1,v1,u2,v2")
         return np.asarray(self._tex[i](), dtype=np.float64)
+
+
+class _RayDepthPoints:
+    """The (F, H, W, 3) points of a ``ray_depth`` point store, one frame per ``[k]``."""
+
+    def __init__(self, store):
+        self._store = store
+        self.shape = (store.frames,) + store.shape + (3,)
+
+    def __getitem__(self, k: int) -> np.ndarray:
+        return self._store.points(int(k))
 
 
 def check_point_map_shape(shape, what: str) -> None:
@@ -85,7 +96,11 @@ def read_point_sequence(path: str | Path) -> PointSequence:
         shape = tuple(arr.shape[1:])
     elif (p / ".zgroup").exists() or (p / "zarr.json").exists() or (p / ".zarray").exists():
         import zarr  # heavy (~1 s to import): only zarr stores need it
-        store = zarr.open(str(p), mode="r")
+        store: Any = zarr.open(str(p), mode="r")
+        if not hasattr(store, "shape") and store.attrs.get("layout") == "ray_depth":
+            from fringe3d.io.store import PointMapStore  # depth along the camera rays: points by O + s*D
+            pstore = PointMapStore.open_existing(p)
+            store = {"points": _RayDepthPoints(pstore), "done": pstore.done_array[:]}
         if hasattr(store, "shape"):
             arr, tex_arr = store, None
         else:

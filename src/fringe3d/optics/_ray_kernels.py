@@ -29,11 +29,43 @@ def central_kernel(w, mask, O, D, Q, P3, out):  # pragma: no cover - compiled
         write_row(out, i, srow, O[0], O[1], O[2], D[0, i], D[1, i], D[2, i])
 
 
+@numba.njit(parallel=True, cache=True)
+def depth_kernel(s, O, D, out):  # pragma: no cover - compiled
+    """Pinhole rays: ``out[i, j] = O + s[i, j] * D[:, i, j]`` from the (H, W) float32 ray parameters."""
+    H, W = s.shape
+    for i in numba.prange(H):
+        write_row(out, i, s[i], O[0], O[1], O[2], D[0, i], D[1, i], D[2, i])
+
+
+@numba.njit(parallel=True, cache=True)
+def fringe_kernel(s, qo, po, qd, pd, out):  # pragma: no cover - compiled
+    """Pinhole rays: ``out = (qo + s*qd) / (po + s*pd)``, the fringe coordinate ``w`` of the point at ``s``."""
+    H, W = s.shape
+    for i in numba.prange(H):
+        for j in range(W):
+            sij = np.float64(s[i, j])
+            out[i, j] = (qo + sij * qd[i, j]) / (po + sij * pd[i, j])
+
+
+@numba.njit(parallel=True, cache=True)
+def sigma_kernel(w, sigma_w, mask, qo, po, qd, pd, D, out):  # pragma: no cover - compiled
+    """Pinhole rays: ``out[i, j, k] = |D_k ds/dw| sigma_w`` with ``ds/dw = (po*qd - qo*pd) / (pd*w - qd)^2``."""
+    H, W = w.shape
+    nan = np.float32(np.nan)
+    for i in numba.prange(H):
+        for j in range(W):
+            wij = np.float64(w[i, j])
+            den = pd[i, j] * wij - qd[i, j]
+            g = abs((po * qd[i, j] - qo * pd[i, j]) / (den * den)) * np.float64(sigma_w[i, j])
+            for k in range(3):
+                out[i, j, k] = np.float32(g * abs(np.float64(D[k, i, j]))) if mask[i, j] else nan
+
+
 @numba.njit(cache=True, inline="always")
 def write_row(out, i, srow, ox, oy, oz, dx, dy, dz):  # pragma: no cover - compiled
     """Row ``i`` of the point map: ``out[i, j] = O + srow[j] * D[:, i, j]``."""
     for j in range(srow.shape[0]):
-        s = srow[j]
+        s = np.float64(srow[j])
         out[i, j, 0] = ox + s * dx[j]
         out[i, j, 1] = oy + s * dy[j]
         out[i, j, 2] = oz + s * dz[j]

@@ -23,7 +23,7 @@ from typing import Any, overload
 import numpy as np
 
 from fringe3d.gpu.runtime import check_backend
-from fringe3d.optics._ray_kernels import central_kernel, parallel_kernel
+from fringe3d.optics._ray_kernels import central_kernel, depth_kernel, fringe_kernel, parallel_kernel, sigma_kernel
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import fringe_coordinate
 
@@ -109,6 +109,25 @@ def projector_fringe_coordinate(rig: Rig, X: np.ndarray, angle: float, distortio
     return (Xh @ projector_row(proj.P, angle)) / (Xh @ proj.P[2])
 
 
+def ray_points(O: np.ndarray, D_planes: np.ndarray, s: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Points ``X = O + s*D`` (H, W, 3) float32 mm of pinhole rays from their parameters ``s``.
+
+    ``O`` (3,) float64 is the camera centre, ``D_planes`` (3, H, W) float32 the rays' directions
+    with device depth 1 (:attr:`RayGeometry.D_planes`, so ``s`` is the camera-frame depth in mm)
+    and ``s`` (H, W) float32 (NaN: no point). Evaluated in float64 and rounded once; the fused
+    3-step path and the point store's ``ray_depth`` layout both go through this function, so the
+    points a store gives back are the ones the reconstruction made, bit for bit.
+    """
+    s = np.ascontiguousarray(s, np.float32)
+    D_planes = np.ascontiguousarray(D_planes, np.float32)
+    if s.ndim != 2 or D_planes.shape != (3,) + s.shape:
+        raise ValueError(f"ray parameters {s.shape} and ray directions {D_planes.shape} must be (H, W) and (3, H, W)")
+    if out is None:
+        out = np.empty(s.shape + (3,), np.float32)
+    depth_kernel(s, np.asarray(O, np.float64), D_planes, out)
+    return out
+
+
 class RayGeometry:
     """Per-pixel closed-form ray coefficients of one rig and fringe direction.
 
@@ -153,6 +172,8 @@ class RayGeometry:
         P = rig.projector.P
         self.Q = np.ascontiguousarray(projector_row(P, self.angle), dtype=np.float64)
         self.P3 = np.ascontiguousarray(P[2], dtype=np.float64)
+        self._qd: np.ndarray | None = None  # Q.D and P3.D per pixel, built on first use
+        self._pd: np.ndarray | None = None
 
     @property
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
@@ -194,6 +215,39 @@ class RayGeometry:
         else:
             parallel_kernel(np.ascontiguousarray(w), np.ascontiguousarray(mask), self.O_planes, self.D, self.Q,
                             self.P3, out)
+        return out
+
+    def _ray_rows(self) -> tuple[float, float, np.ndarray, np.ndarray]:
+        """``(Q.O~, P3.O~, Q.D (H, W), P3.D (H, W))`` of the pinhole rays (float64, built once)."""
+        if not self.central:
+            raise ValueError("ray parameters along pinhole rays need a pinhole camera")
+        if self._qd is None or self._pd is None:
+            D = self.D_planes.astype(np.float64)
+            self._qd = np.ascontiguousarray(np.einsum("k,khw->hw", self.Q[:3], D))
+            self._pd = np.ascontiguousarray(np.einsum("k,khw->hw", self.P3[:3], D))
+        return (float(self.Q[:3] @ self.O + self.Q[3]), float(self.P3[:3] @ self.O + self.P3[3]), self._qd,
+                self._pd)
+
+    def fringe_coordinate_at(self, s: np.ndarray) -> np.ndarray:
+        """(H, W) float32 projector fringe coordinate ``w = Q.X~ / P3.X~`` (px) of the pinhole
+        rays' points ``X = O + s*D`` at parameters ``s`` (H, W) (the linear projector model, the
+        inverse of the closed form; NaN where ``s`` is)."""
+        qo, po, qd, pd = self._ray_rows()
+        out = np.empty(self.shape, np.float32)
+        fringe_kernel(np.ascontiguousarray(check_map(s, self.shape, "ray parameter map")), qo, po, qd, pd, out)
+        return out
+
+    def point_sigma_from_w(self, w: np.ndarray, sigma_w: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        """(H, W, 3) float32 per-axis standard deviations (mm) of the closed-form points of the
+        fringe coordinate ``w`` (px) with standard deviation ``sigma_w`` (px): ``|D ds/dw| sigma_w``
+        with the exact derivative of ``s = (Q.O~ - w P3.O~) / (w P3.D - Q.D)``,
+        ``ds/dw = (P3.O~ Q.D - Q.O~ P3.D) / (w P3.D - Q.D)^2``; NaN where ``mask`` is False."""
+        qo, po, qd, pd = self._ray_rows()
+        out = np.empty(self.shape + (3,), np.float32)
+        sigma_kernel(np.ascontiguousarray(check_map(w, self.shape, "fringe coordinate map")),
+                     np.ascontiguousarray(check_map(sigma_w, self.shape, "fringe coordinate sigma map")),
+                     np.ascontiguousarray(check_map(mask, self.shape, "mask"), bool), qo, po, qd, pd,
+                     self.D_planes, out)
         return out
 
     def ray_points_at_z(self, z: float | np.ndarray) -> np.ndarray:

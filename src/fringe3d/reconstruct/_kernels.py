@@ -6,7 +6,6 @@ import math
 import numba
 import numpy as np
 
-from fringe3d.optics._ray_kernels import write_row
 from fringe3d.phase._kernels import fast_atan2
 
 
@@ -74,10 +73,12 @@ _FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # fastmath without the no
 
 @numba.njit(parallel=True, fastmath=_FAST, cache=True)
 def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out):  # pragma: no cover
-    """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> X (Eq. 2.37).
+    """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> ray parameter ``s``
+    of ``X = O + s*D`` (Eq. 2.37 along the camera ray), written as (H, W) float32 (NaN invalid).
 
     Branch-free per pixel so the row loop vectorises: ``k = sg*ceil(sg*x)`` is ceil for a
-    rising and floor for a falling phase; invalid pixels carry ``s = NaN`` into the output.
+    rising and floor for a falling phase. The points are :func:`fringe3d.optics.rays.ray_points`
+    of ``out`` (one code path, so a store of ``s`` gives back the same points bit for bit).
     """
     H = frames.shape[1]
     W = frames.shape[2]
@@ -85,8 +86,8 @@ def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q
     qo = Q[0] * O[0] + Q[1] * O[1] + Q[2] * O[2] + Q[3]
     po = P3[0] * O[0] + P3[1] * O[1] + P3[2] * O[2] + P3[3]
     i0, i1, i2 = idx[0], idx[1], idx[2]
+    nan = np.float32(np.nan)
     for i in numba.prange(H):
-        srow = np.empty(W, np.float64)
         for j in range(W):
             a0 = np.float64(frames[i0, i, j])
             a1 = np.float64(frames[i1, i, j])
@@ -102,5 +103,4 @@ def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q
             dz = np.float64(D[2, i, j])
             s = (qo - w * po) / (w * (P3[0] * dx + P3[1] * dy + P3[2] * dz) - (Q[0] * dx + Q[1] * dy + Q[2] * dz))
             ok = ((b * b + c * c) >= min_mod2) & (sg != 0.0) & (s > 0.0)
-            srow[j] = s if ok else np.nan
-        write_row(out, i, srow, O[0], O[1], O[2], D[0, i], D[1, i], D[2, i])
+            out[i, j] = np.float32(s) if ok else nan

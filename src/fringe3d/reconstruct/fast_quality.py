@@ -1,9 +1,10 @@
 """Quality map and uncertainty on the fused 3-step path (:class:`~fringe3d.reconstruct.triangulate.FastThreeStep`).
 
-The fused kernel writes points only. To mask edge and mixed pixels as the decode path does
-(:mod:`fringe3d.decode.edges`), the fringe coordinate ``w`` is recovered by projecting each
-point into the projector (exact: it is the ``w`` the kernel triangulated) and the modulation
-is recomputed from the three frames. One period only: no multi-frequency disagreement test
+The fused kernel writes the ray parameter ``s`` of each pixel only. To mask edge and mixed
+pixels as the decode path does (:mod:`fringe3d.decode.edges`), the fringe coordinate ``w`` is
+recovered from ``s`` by the linear projector model (the inverse of the closed form the kernel
+solved, :meth:`~fringe3d.optics.rays.RayGeometry.fringe_coordinate_at`) and the modulation is
+recomputed from the three frames. One period only: no multi-frequency disagreement test
 and no blur estimate (the edge margin is ``edge_margin`` or 2 px). The noise is the Laplacian
 estimate of the average image (:func:`fringe3d.phase.noise.laplacian_noise`).
 """
@@ -16,7 +17,6 @@ import numpy as np
 
 from fringe3d.decode import edges
 from fringe3d.decode.options import DecodeOptions
-from fringe3d.optics.rays import projector_fringe_coordinate
 from fringe3d.phase import noise
 from fringe3d.phase.psp import wrapped_phase
 from fringe3d.reconstruct.triangulate import FastThreeStep
@@ -30,17 +30,16 @@ class FastQuality(NamedTuple):
     sigma_xyz: np.ndarray | None
 
 
-def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shifts, points: np.ndarray,
+def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shifts, depth: np.ndarray,
                  extent: tuple[float, float], options: DecodeOptions, uncertainty: bool) -> FastQuality:
-    """Quality bits of the fused path's ``points`` (H, W, 3) from ``frames[index]``; with
-    ``options.edge_mask`` the flagged points are set to NaN in place. ``extent`` is the
-    pattern's extent along ``w`` (projector px, pixel edges)."""
-    valid = np.isfinite(points[..., 0])
+    """Quality bits of the fused path's ray parameters ``depth`` (H, W) float32 (mm, NaN invalid,
+    :meth:`FastThreeStep.depth`) from ``frames[index]``; with ``options.edge_mask`` the flagged
+    pixels are set to NaN in place. ``extent`` is the pattern's extent along ``w`` (projector
+    px, pixel edges)."""
+    valid = np.isfinite(depth)
     if not options.edge_mask and not uncertainty:  # the superfast path pays nothing extra
         return FastQuality(np.where(valid, 0, edges.INVALID).astype(np.uint8), None)
-    X = np.where(valid[..., None], points, 0.0).astype(np.float64)
-    w = np.where(valid, projector_fringe_coordinate(fast.tri.rig, X, fast.mp.angle, distortion=False),
-                 np.nan).astype(np.float32)
+    w = fast.tri.fringe_coordinate_at(depth)
     pr = wrapped_phase(frames, shifts=shifts, index=index)
     if options.edge_mask:
         margin = edges.BASE_MARGIN if options.edge_margin is None else float(options.edge_margin)
@@ -48,7 +47,7 @@ def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shi
         q = edges.quality_map(valid, w, extent, margin, pr.modulation, pr.average, None,
                               gradient_ratio=float(options.gradient_ratio),
                               modulation_ratio=float(options.modulation_ratio), rim=int(options.rim))
-        points[q != 0] = np.nan
+        depth[q != 0] = np.nan
     else:
         q = np.where(valid, 0, edges.INVALID).astype(np.uint8)
     sigma = None

@@ -37,7 +37,7 @@ from fringe3d.gpu.runtime import check_backend
 from fringe3d.io.capture import list_frame_files
 from fringe3d.io.images import read_image
 from fringe3d.io.ply_standard import write_measurement_ply
-from fringe3d.io.store import PointMapStore
+from fringe3d.io.store import LAYOUTS, PointMapStore
 from fringe3d.optics.rays import camera_shape, projector_fringe_coordinate
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import w_range, w_to_phase
@@ -96,14 +96,17 @@ def window_index(start: int, cycle: int) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- one 3D frame
 class Cycle(NamedTuple):
-    """One reconstructed cycle: ``points`` (H, W, 3) float32 mm (NaN invalid), ``texture``
-    (H, W) float32 in [0, 1], ``quality`` (H, W) uint8 bits (:mod:`fringe3d.decode.edges`; 0 =
-    kept) and ``sigma_xyz`` (H, W, 3) float32 mm predicted standard deviations (or None)."""
+    """One reconstructed cycle: ``points`` (H, W, 3) float32 mm (NaN invalid; None when not
+    asked for), ``texture`` (H, W) float32 in [0, 1] (None when not asked for), ``quality`` (H, W) uint8 bits
+    (:mod:`fringe3d.decode.edges`; 0 = kept), ``sigma_xyz`` (H, W, 3) float32 mm predicted
+    standard deviations (or None) and, on the fused path, ``depth`` (H, W) float32: the ray
+    parameter ``s`` of every point (``points = ray_points(O, D, depth)``; None elsewhere)."""
 
-    points: np.ndarray
-    texture: np.ndarray
+    points: np.ndarray | None
+    texture: np.ndarray | None
     quality: np.ndarray
     sigma_xyz: np.ndarray | None
+    depth: np.ndarray | None = None
 
 
 class FrameReconstructor:
@@ -131,6 +134,19 @@ class FrameReconstructor:
         self.triangulation = triangulation
         self._range_checked = False
         self.fast = self._fast_path() if fast else None
+
+    @property
+    def store_layout(self) -> str:
+        """The point store layout that holds this reconstruction exactly: ``"ray_depth"`` on the
+        fused path (it gives each point's ray parameter), ``"xyz"`` otherwise."""
+        return "ray_depth" if self.fast is not None else "xyz"
+
+    @property
+    def rays(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(O (3,), D_planes (3, H, W))`` of the fused path's camera rays."""
+        if self.fast is None:
+            raise ValueError("only the fused 3-step path reconstructs along stored camera rays")
+        return self.fast.tri.O, self.fast.tri.D_planes
 
     @property
     def path(self) -> str:
@@ -162,29 +178,14 @@ class FrameReconstructor:
         c = self.reconstruct(frames, uncertainty=False)
         return (c.points, c.texture) if with_texture else c.points
 
-    def many(self, cycles: list[np.ndarray], with_texture: bool = False) -> list:
-        """Several cycles (each (n, H, W), manifest order) -> one ``points`` (or ``(points,
-        texture)``) per cycle, ``None`` where the phase mask is empty. On the CUDA fused path
-        all cycles go to the device in one batched launch."""
-        pre = None
-        if self.fast is not None and self.backend == "cuda" and len(cycles) > 1:
-            self._set_min_modulation(cycles[0])
-            pre = self.fast.points(np.stack(cycles), index=self._fast_index)
-        out: list = []
-        for i, cyc in enumerate(cycles):
-            try:
-                if pre is None:
-                    res = self(cyc, with_texture=True)
-                else:
-                    c = self.reconstruct(cyc, uncertainty=False, points=pre[i])
-                    res = (c.points, c.texture)
-            except ValueError as e:
-                if "mask is empty" not in str(e):
-                    raise
-                out.append(None)
-                continue
-            out.append(res if with_texture else res[0])
-        return out
+    def depths(self, cycles: list[np.ndarray]) -> list | None:
+        """On the CUDA fused path, the ray parameters (:meth:`FastThreeStep.depth`) of several
+        cycles (each (n, H, W), manifest order) in one batched launch, for :meth:`reconstruct`'s
+        ``depth``; None elsewhere (each cycle is then computed on its own)."""
+        if self.fast is None or self.backend != "cuda" or len(cycles) < 2:
+            return None
+        self._set_min_modulation(cycles[0])
+        return list(self.fast.depth(np.stack(cycles), index=self._fast_index))
 
     def _set_min_modulation(self, frames: np.ndarray) -> None:
         """The fused path's modulation threshold for ``frames`` (default: from their bit depth)."""
@@ -192,33 +193,34 @@ class FrameReconstructor:
         mm = self._fast_min_mod
         self.fast.min_mod2 = (default_min_modulation(frames, self.options.bit_depth) if mm is None else mm) ** 2
 
-    def reconstruct(self, frames: np.ndarray, uncertainty: bool = True, points: np.ndarray | None = None) -> Cycle:
+    def reconstruct(self, frames: np.ndarray, uncertainty: bool = True, points: bool = True,
+                    texture: bool = True, depth: np.ndarray | None = None) -> Cycle:
         """One cycle (manifest order) -> :class:`Cycle`: points, texture, quality map (OR of the
         directions' bits, :mod:`fringe3d.decode.edges`) and, with ``uncertainty``, ``sigma_xyz``
         (:mod:`fringe3d.reconstruct.uncertainty`). Both paths mask edge and mixed pixels unless
-        ``options.edge_mask`` is False. ``points``: the fused kernel's output for these frames,
-        already computed (by :meth:`many`)."""
+        ``options.edge_mask`` is False. ``points=False`` leaves ``points`` None on the fused path
+        (its ``depth`` holds them), ``texture=False`` leaves ``texture`` None there. ``depth``:
+        the fused kernel's ray parameters for these frames, already computed (:meth:`depths`)."""
         bit_depth = self.options.bit_depth
         if self.fast is not None:
-            if points is None:
+            if depth is None:
                 self._set_min_modulation(frames)
-                pts = self.fast.points(frames, index=self._fast_index)
-            else:
-                pts = np.array(points, np.float32)
-            valid = np.isfinite(pts[..., 0])
+                depth = self.fast.depth(frames, index=self._fast_index)
+            valid = np.isfinite(depth)
             if not valid.any():
                 raise EmptyMaskError("the decoded phase mask is empty: no pixel has enough fringe modulation "
                                  "(check exposure, modulation threshold and that the scene is lit by the projector)")
             if not self._range_checked:  # once: the depth-range warning the decode path gives
                 mp = self.fast.mp
-                X = np.where(valid[..., None], pts, 0.0).astype(np.float64)
+                X = np.where(valid[..., None], self.fast.ray_points(depth), 0.0).astype(np.float64)
                 w = projector_fringe_coordinate(self.rig, X, mp.angle)
                 check_wrap_around(np.where(valid, w_to_phase(w, mp.period, scale_first=True), np.nan), mp, valid)
                 self._range_checked = True
-            fq = fast_quality(self.fast, frames, self._fast_index, self._fast_shifts, pts, self._fast_extent,
+            fq = fast_quality(self.fast, frames, self._fast_index, self._fast_shifts, depth, self._fast_extent,
                               self.options, uncertainty)
-            tex = fringe_texture(frames, self._fast_shifts, self._fast_index, bit_depth)  # as decode's
-            return Cycle(pts, tex, fq.quality, fq.sigma_xyz)
+            tex = fringe_texture(frames, self._fast_shifts, self._fast_index, bit_depth) if texture else None
+            pts = self.fast.ray_points(depth) if points else None
+            return Cycle(pts, tex, fq.quality, fq.sigma_xyz, depth)
         dec = decode(frames, self.patterns, rig=self.rig, options=self.options)
         pts = points_from_decoded(dec, self.rig, method=self.triangulation)
         tex = np.asarray(dec.texture, np.float32)  # a fraction of full scale already (fringe3d.decode.texture)
@@ -228,6 +230,40 @@ class FrameReconstructor:
         quality[~np.isfinite(pts[..., 0]) & (quality == 0)] |= INVALID  # e.g. behind the camera
         sigma = point_sigma(dec, self.rig, method=self.triangulation) if uncertainty else None
         return Cycle(pts, tex, quality, sigma)
+
+
+def reconstruct_window(rec: FrameReconstructor, frames: np.ndarray, ply: bool, layout: str | None,
+                       quality: bool, depth: np.ndarray | None = None) -> tuple[Cycle, bool]:
+    """One window (manifest order) for a sequence's outputs: ``(cycle, empty)``.
+
+    ``ply`` asks for points and texture, ``layout`` (the store's, or None) for the points
+    (``"xyz"``) or only the ray parameters (``"ray_depth"``), ``quality`` for the quality map
+    and ``sigma_xyz``, ``depth`` for the fused kernel's ray parameters already computed
+    (:meth:`FrameReconstructor.depths`). A window whose phase mask is empty gives an all-NaN,
+    all-INVALID cycle and ``empty = True``.
+    """
+    want_points = ply or layout == "xyz"
+    try:
+        return rec.reconstruct(frames, uncertainty=quality, points=want_points, texture=ply, depth=depth), False
+    except ValueError as e:
+        if "mask is empty" not in str(e):
+            raise
+    H, W = frames.shape[1:]
+    nan = np.full((H, W), np.nan, np.float32)
+    return Cycle(np.full((H, W, 3), np.nan, np.float32) if want_points else None, None,
+                 np.full((H, W), INVALID, np.uint8), None, nan if rec.fast is not None else None), True
+
+
+def store_arrays(cycle: Cycle, st: PointMapStore) -> dict:
+    """The keyword arguments of :meth:`PointMapStore.write_frame` for ``cycle`` in ``st``."""
+    out: dict = {"points": cycle.points} if st.layout == "xyz" else {"depth": cycle.depth}
+    if st.has_quality:
+        out["quality"] = cycle.quality
+    if st.has_sigma:
+        H, W = cycle.quality.shape
+        out["sigma_z"] = (cycle.sigma_xyz[..., 2] if cycle.sigma_xyz is not None
+                          else np.full((H, W), np.nan, np.float32))
+    return out
 
 
 # ----------------------------------------------------------------------------- sequences
@@ -275,11 +311,28 @@ def ply_name(k: int) -> str:
     return f"frame_{k:05d}.ply"
 
 
+def store_layout(rec: FrameReconstructor, layout: str = "auto") -> str:
+    """The point store layout for ``rec``'s reconstruction: ``"auto"`` is ``"ray_depth"`` where it
+    is exact (the fused path), else ``"xyz"``; ``"ray_depth"`` where it is not exact is an error."""
+    if layout == "auto":
+        return rec.store_layout
+    if layout not in LAYOUTS:
+        raise ValueError(f"unknown store layout {layout!r}; expected auto, {', '.join(LAYOUTS)}")
+    if layout == "ray_depth" and rec.store_layout != "ray_depth":
+        raise ValueError(f"the ray_depth store layout needs the fused 3-step + geometric path; this manifest and rig "
+                         f"take {rec.path!r}, whose points are stored as xyz (use --store-layout auto or xyz)")
+    return layout
+
+
 def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out: Path,
                      options: DecodeOptions | None, mode: str, step: int | None, ply: bool,
-                     store: bool) -> tuple[list[int], PointMapStore | None]:
+                     store: bool, rec: FrameReconstructor | None = None, layout: str = "auto",
+                     store_quality: bool = True) -> tuple[list[int], PointMapStore | None]:
     """Check a sequence of frames of ``shape`` (F, H, W) against the rig, create (or resume) the
-    point store and the PLY folder in ``out``; returns the windows' first frames and the store."""
+    point store and the PLY folder in ``out``; returns the windows' first frames and the store.
+
+    ``rec`` (built here when None) chooses the store ``layout`` (:func:`store_layout`);
+    ``store_quality`` adds the per-frame quality and sigma_z arrays."""
     if not (ply or store):
         raise ValueError("nothing to write: ask for the point store and/or PLY files")
     if len(shape) != 3:
@@ -291,10 +344,17 @@ def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out
                          f"{ch}: calibration and capture sizes disagree")
     z_min = (options or DecodeOptions()).z_min
     starts = window_starts(shape[0], len(patterns), mode, step)
+    st = None
+    if store:
+        rec = rec if rec is not None else FrameReconstructor(patterns, rig, options)
+        lay = store_layout(rec, layout)
     out.mkdir(parents=True, exist_ok=True)
     meta = {"patterns": patterns.name, "mode": mode, "step": step, "z_min": z_min, "rig": rig.to_dict(),
             "window_starts": [starts[0], starts[-1], len(starts)]}
-    st = PointMapStore.open(out / STORE_NAME, len(starts), H, W, meta=meta) if store else None
+    if store and rec is not None:
+        st = PointMapStore.open(out / STORE_NAME, len(starts), H, W, meta=meta, layout=lay,
+                                rays=rec.rays if lay == "ray_depth" else None, quality=store_quality,
+                                sigma=store_quality)
     if ply:
         (out / PLY_DIR).mkdir(exist_ok=True)
     return starts, st
@@ -307,7 +367,8 @@ CUDA_BATCH = 32
 def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out,
                          options: DecodeOptions | None = None, mode: str = "cycle", step: int | None = None,
                          ply: bool = False, store: bool = True, progress: bool = True, triangulation: str = "auto",
-                         fast: bool = True, backend: str = "cpu") -> dict:
+                         fast: bool = True, layout: str = "auto", store_quality: bool = True,
+                         backend: str = "cpu") -> dict:
     """Reconstruct every 3D frame of a sequence into ``out`` (resumable).
 
     Parameters
@@ -320,23 +381,29 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
     out : output folder: ``points.zarr`` and/or ``ply/frame_00000.ply`` ...
     mode, step : ``"cycle"`` or ``"window"`` (one 3D frame every ``step`` captured frames)
     ply, store : which outputs to write (at least one)
+    layout : point store layout, ``"auto"`` (``"ray_depth"`` where exact), ``"xyz"`` or
+        ``"ray_depth"`` (:mod:`fringe3d.io.store`)
+    store_quality : also store each 3D frame's quality map and sigma_z (mm)
     backend : ``"cpu"`` or ``"cuda"`` (:class:`FrameReconstructor`; on the CUDA fused path
         :data:`CUDA_BATCH` cycles go to the device per launch)
 
-    Returns a summary dict (3D frames, done now / before, seconds, 3D frames per second, path).
+    Returns a summary dict (3D frames, done now / before, seconds, 3D frames per second, path,
+    store layout).
     """
     frames = frames if hasattr(frames, "shape") else np.asarray(frames)
     out = Path(out)
-    starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store)
     options = options or DecodeOptions()
+    rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, fast=fast, backend=backend)
+    starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store, rec=rec,
+                                  layout=layout, store_quality=store_quality)
     n = len(patterns)
-    H, W = frames.shape[1:]
 
     def done(k):
         return (st is None or st.is_done(k)) and (not ply or (out / PLY_DIR / ply_name(k)).exists())
 
     todo = [k for k in range(len(starts)) if not done(k)]
-    rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, fast=fast, backend=backend)
+    st_layout = st.layout if st is not None else None
+    quality = st is not None and st.has_quality
     batch = CUDA_BATCH if backend == "cuda" else 1
     t0 = time.perf_counter()
     empty = 0
@@ -345,18 +412,16 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
             ThreadPoolExecutor(max_workers=1, thread_name_prefix="fringe3d-store") as writer:
         for b0 in range(0, len(todo), batch):
             ks = todo[b0:b0 + batch]
-            results = rec.many([np.ascontiguousarray(frames[window_index(starts[k], n)]) for k in ks],
-                               with_texture=True)
-            for k, res in zip(ks, results):
-                if res is None:
-                    pts, tex = np.full((H, W, 3), np.nan, np.float32), None
-                    empty += 1
-                else:
-                    pts, tex = res
-                if ply and np.isfinite(pts[..., 0]).any():
-                    write_measurement_ply(out / PLY_DIR / ply_name(k), pts, tex)
+            cycles = [np.ascontiguousarray(frames[window_index(starts[k], n)]) for k in ks]
+            depths = rec.depths(cycles)
+            for i, (k, cycle_frames) in enumerate(zip(ks, cycles)):
+                cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, st_layout, quality,
+                                                    depth=None if depths is None else depths[i])
+                empty += was_empty
+                if ply and cyc.points is not None and np.isfinite(cyc.points[..., 0]).any():
+                    write_measurement_ply(out / PLY_DIR / ply_name(k), cyc.points, cyc.texture)
                 if st is not None:
-                    writes.append(writer.submit(st.write, k, pts))
+                    writes.append(writer.submit(_write_and_mark, st, k, store_arrays(cyc, st)))
                     while len(writes) > 2:  # at most two frames in flight: bounded memory
                         writes.popleft().result()
                 advance()
@@ -367,4 +432,10 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
             "empty_frames": empty, "seconds": round(dt, 3),
             "frames_3d_per_s": (len(todo) / dt) if todo and dt > 0 else None, "path": rec.path, "mode": mode,
             "backend": backend,
-            "store": str(out / STORE_NAME) if store else None, "ply_dir": str(out / PLY_DIR) if ply else None}
+            "store": str(out / STORE_NAME) if store else None, "ply_dir": str(out / PLY_DIR) if ply else None,
+            "store_layout": st.layout if st is not None else None}
+
+
+def _write_and_mark(st: PointMapStore, k: int, arrays: dict) -> None:
+    st.write_frame(k, **arrays)
+    st.mark_done([k])

@@ -26,7 +26,7 @@ import warnings
 import numpy as np
 
 from fringe3d.gpu.runtime import check_backend
-from fringe3d.optics.rays import ANGLE_UP, ANGLE_VP, RayGeometry, camera_normalized, camera_shape, check_map
+from fringe3d.optics.rays import ANGLE_UP, ANGLE_VP, RayGeometry, camera_normalized, camera_shape, check_map, ray_points
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.psp import lsq_coefficients
@@ -232,12 +232,14 @@ class FastThreeStep:
         self.sign = np.ascontiguousarray(minimum_phase.sign, np.int8)
         self.scale = minimum_phase.period / (2 * math.pi)
 
-    def points(self, frames, index=(0, 1, 2), out=None, device_output: bool = False) -> np.ndarray:
-        """``(H, W, 3)`` float32 points (mm, NaN invalid) from ``frames[index]`` of an
-        ``(F, H, W)`` stack; ``out`` may be a preallocated float32 array. With the CUDA backend
-        also ``(C, F, H, W)`` -> ``(C, H, W, 3)``; ``device_output`` keeps them on the device."""
+    def depth(self, frames, index=(0, 1, 2), out=None, device_output: bool = False) -> np.ndarray:
+        """``(H, W)`` float32 ray parameters ``s`` of ``X = O + s*D`` (the camera-frame depth, mm;
+        NaN invalid) from ``frames[index]`` of an ``(F, H, W)`` stack; ``out`` may be a
+        preallocated float32 array. :meth:`points` of the same frames is ``ray_points(s)``.
+        With the CUDA backend also ``(C, F, H, W)`` -> ``(C, H, W)``; ``device_output`` keeps
+        them on the device."""
         if self.backend == "cuda":
-            return self._points_cuda(frames, index, out, device_output)
+            return self._cuda(frames, index, out, device_output, depth=True)
         frames = np.asarray(frames)
         H, W = self.tri.shape
         if frames.ndim != 3 or frames.shape[1:] != (H, W):
@@ -248,22 +250,35 @@ class FastThreeStep:
         if idx.shape != (3,) or idx.min() < 0 or idx.max() >= frames.shape[0]:
             raise ValueError(f"index must name 3 frames of the {frames.shape[0]}-frame stack, got {list(index)}")
         if out is None:
-            out = np.empty((H, W, 3), np.float32)
+            out = np.empty((H, W), np.float32)
         three_step_kernel(frames, idx, self.coef, self.min_mod2, self.phi_min, self.sign, self.scale,
-                           self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, out)
+                          self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, out)
         return out
 
-    def _points_cuda(self, frames, index, out, device_output: bool):
+    def ray_points(self, s: np.ndarray, out=None) -> np.ndarray:
+        """``(H, W, 3)`` float32 points (mm) of the ray parameters ``s`` (:func:`ray_points`)."""
+        return ray_points(self.tri.O, self.tri.D_planes, s, out)
+
+    def points(self, frames, index=(0, 1, 2), out=None, device_output: bool = False) -> np.ndarray:
+        """``(H, W, 3)`` float32 points (mm, NaN invalid) from ``frames[index]`` of an
+        ``(F, H, W)`` stack; ``out`` may be a preallocated float32 array. With the CUDA backend
+        also ``(C, F, H, W)`` -> ``(C, H, W, 3)``, made on the device (``device_output`` keeps
+        them there)."""
+        if self.backend == "cuda":
+            return self._cuda(frames, index, out, device_output, depth=False)
+        return self.ray_points(self.depth(frames, index), out)
+
+    def _cuda(self, frames, index, out, device_output: bool, depth: bool):
         from fringe3d.gpu import ops
 
         if getattr(self, "_cuda_constants", None) is None:  # the ray planes and phi_min go up once
             self._cuda_constants = ops.three_step_constants(self.coef, self.phi_min, self.sign, self.tri.O,
                                                             self.tri.D_planes, self.tri.Q, self.tri.P3)
-        pts = ops.three_step_points(frames if hasattr(frames, "copy_to_host") else np.asarray(frames),
+        res = ops.three_step_points(frames if hasattr(frames, "copy_to_host") else np.asarray(frames),
                                     np.asarray(index, np.int64), self.coef, self.min_mod2, self.phi_min, self.sign,
                                     self.scale, self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3,
-                                    device_output=device_output, constants=self._cuda_constants)
+                                    device_output=device_output, constants=self._cuda_constants, depth=depth)
         if out is not None and not device_output:
-            out[...] = pts
+            out[...] = res
             return out
-        return pts
+        return res

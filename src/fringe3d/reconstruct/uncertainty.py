@@ -60,11 +60,9 @@ def point_sigma(decoded: Decoded, rig, method: str = "auto", directions=None, st
     return sigma_from_jacobian(jac, sig)
 
 
-def fast_point_sigma(tri: Triangulator, w: np.ndarray, sigma_w: np.ndarray, mask: np.ndarray,
-                     step: float = 0.1) -> np.ndarray:
+def fast_point_sigma(tri: Triangulator, w: np.ndarray, sigma_w: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """(H, W, 3) float32 ``sigma_xyz`` (mm) of the closed form :class:`Triangulator` for one fringe
-    coordinate ``w`` (px) of standard deviation ``sigma_w`` (px): ``|dX/dw| sigma_w``, central
-    difference of ``step`` px."""
-    w = np.asarray(w, np.float64)
-    J = central_difference(lambda h: tri.points(w + h, mask), step)
-    return sigma_from_jacobian([J], [sigma_w])
+    coordinate ``w`` (px) of standard deviation ``sigma_w`` (px): ``|dX/dw| sigma_w`` with the
+    exact derivative along the pinhole ray
+    (:meth:`~fringe3d.optics.rays.RayGeometry.point_sigma_from_w`); NaN where ``mask`` is False."""
+    return tri.point_sigma_from_w(w, sigma_w, mask)

@@ -1,0 +1,154 @@
+"""The 5 x 5 median as straight-line code (generated; private, see :func:`fringe3d.decode._stencils.median5`).
+
+The 113 compare-exchanges are ``fringe3d.decode._stencils.PAIRS`` written out, one statement
+each, so the 25 values stay in registers and the pixel loop vectorises (3x faster than applying
+the network from an array). ``tests/test_stencils.py`` checks that they are ``PAIRS``; regenerate
+with ``python -m fringe3d.decode._stencils`` if the network ever changes.
+"""
+import numba
+
+
+@numba.njit(parallel=True, cache=True)
+def _median_kernel(gp, out):  # pragma: no cover - compiled; generated from PAIRS, see test_stencils
+    H, W = out.shape
+    for i in numba.prange(H):
+        for j in range(W):
+            v0 = gp[i + 0, j + 0]
+            v1 = gp[i + 0, j + 1]
+            v2 = gp[i + 0, j + 2]
+            v3 = gp[i + 0, j + 3]
+            v4 = gp[i + 0, j + 4]
+            v5 = gp[i + 1, j + 0]
+            v6 = gp[i + 1, j + 1]
+            v7 = gp[i + 1, j + 2]
+            v8 = gp[i + 1, j + 3]
+            v9 = gp[i + 1, j + 4]
+            v10 = gp[i + 2, j + 0]
+            v11 = gp[i + 2, j + 1]
+            v12 = gp[i + 2, j + 2]
+            v13 = gp[i + 2, j + 3]
+            v14 = gp[i + 2, j + 4]
+            v15 = gp[i + 3, j + 0]
+            v16 = gp[i + 3, j + 1]
+            v17 = gp[i + 3, j + 2]
+            v18 = gp[i + 3, j + 3]
+            v19 = gp[i + 3, j + 4]
+            v20 = gp[i + 4, j + 0]
+            v21 = gp[i + 4, j + 1]
+            v22 = gp[i + 4, j + 2]
+            v23 = gp[i + 4, j + 3]
+            v24 = gp[i + 4, j + 4]
+            v0, v1 = min(v0, v1), max(v0, v1)
+            v2, v3 = min(v2, v3), max(v2, v3)
+            v4, v5 = min(v4, v5), max(v4, v5)
+            v6, v7 = min(v6, v7), max(v6, v7)
+            v8, v9 = min(v8, v9), max(v8, v9)
+            v10, v11 = min(v10, v11), max(v10, v11)
+            v12, v13 = min(v12, v13), max(v12, v13)
+            v14, v15 = min(v14, v15), max(v14, v15)
+            v16, v17 = min(v16, v17), max(v16, v17)
+            v18, v19 = min(v18, v19), max(v18, v19)
+            v20, v21 = min(v20, v21), max(v20, v21)
+            v22, v23 = min(v22, v23), max(v22, v23)
+            v0, v2 = min(v0, v2), max(v0, v2)
+            v1, v3 = min(v1, v3), max(v1, v3)
+            v4, v6 = min(v4, v6), max(v4, v6)
+            v5, v7 = min(v5, v7), max(v5, v7)
+            v8, v10 = min(v8, v10), max(v8, v10)
+            v9, v11 = min(v9, v11), max(v9, v11)
+            v12, v14 = min(v12, v14), max(v12, v14)
+            v13, v15 = min(v13, v15), max(v13, v15)
+            v16, v18 = min(v16, v18), max(v16, v18)
+            v17, v19 = min(v17, v19), max(v17, v19)
+            v20, v22 = min(v20, v22), max(v20, v22)
+            v21, v23 = min(v21, v23), max(v21, v23)
+            v1, v2 = min(v1, v2), max(v1, v2)
+            v5, v6 = min(v5, v6), max(v5, v6)
+            v9, v10 = min(v9, v10), max(v9, v10)
+            v13, v14 = min(v13, v14), max(v13, v14)
+            v17, v18 = min(v17, v18), max(v17, v18)
+            v21, v22 = min(v21, v22), max(v21, v22)
+            v0, v4 = min(v0, v4), max(v0, v4)
+            v1, v5 = min(v1, v5), max(v1, v5)
+            v2, v6 = min(v2, v6), max(v2, v6)
+            v3, v7 = min(v3, v7), max(v3, v7)
+            v8, v12 = min(v8, v12), max(v8, v12)
+            v9, v13 = min(v9, v13), max(v9, v13)
+            v10, v14 = min(v10, v14), max(v10, v14)
+            v11, v15 = min(v11, v15), max(v11, v15)
+            v16, v20 = min(v16, v20), max(v16, v20)
+            v17, v21 = min(v17, v21), max(v17, v21)
+            v18, v22 = min(v18, v22), max(v18, v22)
+            v19, v23 = min(v19, v23), max(v19, v23)
+            v2, v4 = min(v2, v4), max(v2, v4)
+            v3, v5 = min(v3, v5), max(v3, v5)
+            v10, v12 = min(v10, v12), max(v10, v12)
+            v11, v13 = min(v11, v13), max(v11, v13)
+            v18, v20 = min(v18, v20), max(v18, v20)
+            v19, v21 = min(v19, v21), max(v19, v21)
+            v1, v2 = min(v1, v2), max(v1, v2)
+            v3, v4 = min(v3, v4), max(v3, v4)
+            v5, v6 = min(v5, v6), max(v5, v6)
+            v9, v10 = min(v9, v10), max(v9, v10)
+            v11, v12 = min(v11, v12), max(v11, v12)
+            v13, v14 = min(v13, v14), max(v13, v14)
+            v17, v18 = min(v17, v18), max(v17, v18)
+            v19, v20 = min(v19, v20), max(v19, v20)
+            v21, v22 = min(v21, v22), max(v21, v22)
+            v0, v8 = min(v0, v8), max(v0, v8)
+            v1, v9 = min(v1, v9), max(v1, v9)
+            v2, v10 = min(v2, v10), max(v2, v10)
+            v3, v11 = min(v3, v11), max(v3, v11)
+            v4, v12 = min(v4, v12), max(v4, v12)
+            v5, v13 = min(v5, v13), max(v5, v13)
+            v6, v14 = min(v6, v14), max(v6, v14)
+            v7, v15 = min(v7, v15), max(v7, v15)
+            v16, v24 = min(v16, v24), max(v16, v24)
+            v4, v8 = min(v4, v8), max(v4, v8)
+            v5, v9 = min(v5, v9), max(v5, v9)
+            v6, v10 = min(v6, v10), max(v6, v10)
+            v7, v11 = min(v7, v11), max(v7, v11)
+            v20, v24 = min(v20, v24), max(v20, v24)
+            v2, v4 = min(v2, v4), max(v2, v4)
+            v3, v5 = min(v3, v5), max(v3, v5)
+            v6, v8 = min(v6, v8), max(v6, v8)
+            v7, v9 = min(v7, v9), max(v7, v9)
+            v10, v12 = min(v10, v12), max(v10, v12)
+            v11, v13 = min(v11, v13), max(v11, v13)
+            v18, v20 = min(v18, v20), max(v18, v20)
+            v19, v21 = min(v19, v21), max(v19, v21)
+            v22, v24 = min(v22, v24), max(v22, v24)
+            v1, v2 = min(v1, v2), max(v1, v2)
+            v3, v4 = min(v3, v4), max(v3, v4)
+            v5, v6 = min(v5, v6), max(v5, v6)
+            v7, v8 = min(v7, v8), max(v7, v8)
+            v9, v10 = min(v9, v10), max(v9, v10)
+            v11, v12 = min(v11, v12), max(v11, v12)
+            v13, v14 = min(v13, v14), max(v13, v14)
+            v17, v18 = min(v17, v18), max(v17, v18)
+            v19, v20 = min(v19, v20), max(v19, v20)
+            v21, v22 = min(v21, v22), max(v21, v22)
+            v23, v24 = min(v23, v24), max(v23, v24)
+            v0, v16 = min(v0, v16), max(v0, v16)
+            v1, v17 = min(v1, v17), max(v1, v17)
+            v2, v18 = min(v2, v18), max(v2, v18)
+            v3, v19 = min(v3, v19), max(v3, v19)
+            v4, v20 = min(v4, v20), max(v4, v20)
+            v5, v21 = min(v5, v21), max(v5, v21)
+            v6, v22 = min(v6, v22), max(v6, v22)
+            v7, v23 = min(v7, v23), max(v7, v23)
+            v8, v24 = min(v8, v24), max(v8, v24)
+            v8, v16 = min(v8, v16), max(v8, v16)
+            v9, v17 = min(v9, v17), max(v9, v17)
+            v10, v18 = min(v10, v18), max(v10, v18)
+            v11, v19 = min(v11, v19), max(v11, v19)
+            v12, v20 = min(v12, v20), max(v12, v20)
+            v13, v21 = min(v13, v21), max(v13, v21)
+            v6, v10 = min(v6, v10), max(v6, v10)
+            v7, v11 = min(v7, v11), max(v7, v11)
+            v12, v16 = min(v12, v16), max(v12, v16)
+            v13, v17 = min(v13, v17), max(v13, v17)
+            v10, v12 = min(v10, v12), max(v10, v12)
+            v11, v13 = min(v11, v13), max(v11, v13)
+            v11, v12 = min(v11, v12), max(v11, v12)
+            out[i, j] = v12
