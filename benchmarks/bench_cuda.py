@@ -204,6 +204,10 @@ def main(argv=None) -> int:
                   lambda fr, dev: gpu3.points(fr, device_output=dev), lambda fr: cpu3.points(fr),
                   3 * px, 12 * px, repeat, cpu_repeat)
     r3["max_abs_diff_vs_cpu_mm"] = err3
+    # the same kernel writing only the ray parameter s (4 bytes a pixel; what the sequence store keeps)
+    r3d = workload("fused 3-step, ray parameter out (store)", cuda, frames3,
+                   lambda fr, dev: gpu3.depth(fr, device_output=dev), lambda fr: cpu3.depth(fr),
+                   3 * px, 4 * px, repeat, cpu_repeat)
     del frames3
 
     # 15-frame three-frequency decode
@@ -230,7 +234,7 @@ def main(argv=None) -> int:
               "repeat": repeat, "cpu": platform.processor() or platform.machine(), "cpu_cores": os.cpu_count(),
               "targets": {"resident_fps": TARGET_RESIDENT, "with_transfers_fps": TARGET_TRANSFER,
                           "resident_vs_bound": TARGET_BOUND_RATIO},
-              "results": [r3, r15]}
+              "results": [r3, r3d, r15]}
     cols = ["resident_fps", "with_transfers_fps", "bound_device_fps", "bound_host_device_fps", "cpu_fps",
             "resident_vs_bound"]
     print(f"device: {dev}   {width}x{height}   (3D frames/s; resident_vs_bound = bound / resident)")
