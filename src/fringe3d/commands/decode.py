@@ -110,6 +110,10 @@ def register(app: typer.Typer) -> None:
         black_thr: float = typer.Option(None, "--black-thr",
                                         help="Code-only decoding: smallest white-black difference, the shadow "
                                              "mask (counts; default OpenCV's 40 at 8 bits, scaled)."),
+        edge_thr: float = typer.Option(None, "--edge-thr",
+                                       help="Code-only decoding: smallest code/inverse difference of a stripe-edge "
+                                            "pixel's one undecided bit (counts; default 2 with inverse frames, 3 "
+                                            "without, at 8 bits, scaled; 0 keeps every edge pixel)."),
         edge_mask: bool = edge_mask_option(),
         edge_margin: float = edge_margin_option(),
         overwrite: bool = overwrite_option(),
@@ -153,7 +157,8 @@ def register(app: typer.Typer) -> None:
             cap = read_capture(folder, max_cycles=1 if referenced else max_cycles)
         bits = bit_depth if bit_depth is not None else cap.meta.get("bit_depth")
         opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1,
-                "white_thr": white_thr, "black_thr": black_thr, "edge_mask": edge_mask, "edge_margin": edge_margin}
+                "white_thr": white_thr, "black_thr": black_thr, "edge_thr": edge_thr, "edge_mask": edge_mask,
+                "edge_margin": edge_margin}
         patterns = cap.patterns if method is None else with_method(cap.patterns, method)
         if ftp_window is not None:
             opts["ftp_window"] = ftp_window

@@ -44,6 +44,11 @@ class DecodeOptions:
         Code-only decoding (``gray_code_only``): smallest accepted code/inverse difference and
         smallest white - black difference (frames' units); default OpenCV's 5 and 40 counts of
         an 8-bit camera, scaled to the frames' full scale.
+    edge_thr : float, optional
+        Code-only decoding: smallest code/inverse difference of the one undecided bit of a
+        stripe-edge pixel (frames' units; halved without inverses as ``white_thr``); default 2
+        counts of an 8-bit camera with inverse frames, 3 without, scaled
+        (:mod:`fringe3d.decode.methods.code_only`). 0 keeps every edge pixel.
     sub_stripe : bool, optional
         Code-only decoding with inverse frames: refine the projector coordinate within the
         stripe from the code/inverse zero crossings (:mod:`fringe3d.unwrap.sub_stripe`; default
@@ -98,6 +103,7 @@ class DecodeOptions:
     cross_motion: bool | None = None
     white_thr: float | None = None
     black_thr: float | None = None
+    edge_thr: float | None = None
     sub_stripe: bool | None = None
     edge_mask: bool = True
     edge_margin: float | None = None

@@ -15,7 +15,8 @@ along the camera row (and along the camera column); of the two, the scan whose c
 closer (the steeper one) is used. A pixel with a crossing on one side only (the first or last
 stripe of a run, next to an invalid pixel), along neither axis bounded on both sides, is
 extrapolated from that crossing with the neighbouring stripe's scale (``T`` over its
-crossings' distance, at most that distance beyond the crossing), clamped to its own stripe;
+crossings' distance, at most that distance beyond the crossing), clamped to its own stripe
+(:data:`INSIDE` within its edges);
 a pixel with neither keeps its stripe centre.
 """
 from __future__ import annotations
@@ -28,6 +29,9 @@ from numba import njit, prange
 
 #: Rank offset of a one-sided extrapolation against a two-sided interpolation (camera px).
 ONE_SIDED = 1.0e6
+#: An extrapolation is clamped this far (projector px) inside its stripe's edges, so that the
+#: coordinate, also after a float32 round trip through the phase, stays in the codeword's stripe.
+INSIDE = 1.0e-3
 
 
 @njit(cache=True)
@@ -90,11 +94,11 @@ def _row_crossings(centre, diff, period, w_out, span_out):
                 span_out[i, j] = nx - px[j]
             elif prev_ok and not math.isnan(ppx[j]) and 1.0 <= px[j] - ppx[j] and j - px[j] <= px[j] - ppx[j]:
                 w = pw[j] + (j - px[j]) * (pw[j] - ppw[j]) / (px[j] - ppx[j])
-                w_out[i, j] = min(max(w, c - 0.5 * period), c + 0.5 * period)
+                w_out[i, j] = min(max(w, c - 0.5 * period + INSIDE), c + 0.5 * period - INSIDE)
                 span_out[i, j] = ONE_SIDED + px[j] - ppx[j]
             elif next_ok and not math.isnan(nnx) and 1.0 <= nnx - nx and nx - j <= nnx - nx:
                 w = nw + (j - nx) * (nnw - nw) / (nnx - nx)
-                w_out[i, j] = min(max(w, c - 0.5 * period), c + 0.5 * period)
+                w_out[i, j] = min(max(w, c - 0.5 * period + INSIDE), c + 0.5 * period - INSIDE)
                 span_out[i, j] = ONE_SIDED + nnx - nx
 
 

@@ -12,10 +12,21 @@ phase ``Phi = 2 pi w / T`` of the nominal period ``T`` = the code's stripe width
 Validity (as OpenCV's ``GrayCodePattern.getProjPixel``): every bit must be decided by at
 least ``white_thr`` (``|I - I_inv| >= white_thr``; without inverses ``|I - (W + B)/2| >=
 white_thr / 2``), except that one undecided bit is accepted when flipping it gives the
-neighbouring stripe (the pixel straddles that stripe edge; :func:`decide_edges`); and, when
-white and black frames are present, the pixel must be lit, ``W - B >= black_thr`` (shadow
-mask). Defaults are OpenCV's, 5 and 40 counts of an 8-bit camera, scaled by ``full_scale /
-255`` for other bit depths.
+neighbouring stripe (the pixel straddles that stripe edge; :func:`decide_edges`) and it still
+clears ``edge_thr`` (halved likewise without inverses); and, when white and black frames are
+present, the pixel must be lit, ``W - B >= black_thr`` (shadow mask). Defaults: OpenCV's 5 and
+40 counts of an 8-bit camera for ``white_thr`` and ``black_thr``; ``edge_thr`` 2 counts with
+inverse frames, 3 without (:data:`DEFAULT_EDGE_THR`); all scaled by ``full_scale / 255`` for
+other bit depths.
+
+``edge_thr`` trades kept edge pixels against wrong stripes. A pixel at projector distance
+``d`` from a stripe edge has ``|I - I_inv| ~ 2 A |d|`` (``A`` the code amplitude, counts per
+projector px for a sharp edge), so with noise ``sigma`` its sign is wrong with probability
+``Phi(-2 A |d| / sigma)``: keeping every edge pixel costs a share ``~0.4 sigma / (A T)`` of
+wrong stripes (0.22-0.25 % at ``T = 4``, 0.12-0.14 % at ``T = 8`` on the simulator's tiny rig at
+the well-designed noise, 0.37-0.41 % / 0.20-0.22 % without inverses), which no decision from
+the pixel's own frames avoids; masking the pixels with ``|I - I_inv| < edge_thr`` removes the
+most ambiguous ones (``scripts/gray_code_only_accuracy.py`` reports both shares).
 """
 from __future__ import annotations
 
@@ -33,6 +44,10 @@ from fringe3d.unwrap.temporal import code_centers
 #: OpenCV's ``GrayCodePattern`` defaults, in counts of an 8-bit camera.
 DEFAULT_WHITE_THR = 5.0
 DEFAULT_BLACK_THR = 40.0
+#: Smallest code/inverse difference of a stripe-edge pixel's undecided bit (:func:`decide_edges`),
+#: in counts of an 8-bit camera: (with inverse frames, without). Without inverses the threshold
+#: ``(W + B)/2`` adds the white and black frames' noise, so the edge needs a wider margin.
+DEFAULT_EDGE_THR = (2.0, 3.0)
 
 
 def code_thresholds(ctx: DecodeContext) -> tuple[float, float]:
@@ -43,6 +58,16 @@ def code_thresholds(ctx: DecodeContext) -> tuple[float, float]:
     black = ctx.method_option("black_thr")
     return (DEFAULT_WHITE_THR * scale if white is None else float(white),
             DEFAULT_BLACK_THR * scale if black is None else float(black))
+
+
+def edge_threshold(ctx: DecodeContext, inverse: bool) -> float:
+    """``edge_thr`` in the frames' units, in code/inverse-difference terms as ``white_thr``: the
+    option's, else :data:`DEFAULT_EDGE_THR` (with / without inverse frames) scaled to the frames'
+    full scale."""
+    edge = ctx.method_option("edge_thr")
+    if edge is not None:
+        return float(edge)
+    return DEFAULT_EDGE_THR[0 if inverse else 1] * quality.full_scale(ctx.frames, ctx.bit_depth) / 255.0
 
 
 def white_black(ctx: DecodeContext) -> tuple[np.ndarray, np.ndarray] | None:
@@ -91,17 +116,18 @@ def codeword(bits: np.ndarray) -> np.ndarray:
     return word
 
 
-def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: float) -> tuple[np.ndarray,
-                                                                                              np.ndarray]:
+def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: float,
+                 edge_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """(decided (H, W) bool, contrast (H, W) float32): which pixels' codewords are trusted.
 
     A pixel is decided when every bit clears ``margin`` (``|diff| >= margin``), or when exactly
-    one bit does not and flipping that bit selects the adjacent stripe (stripe centres
-    ``centres`` one ``period`` apart): the pixel then straddles that stripe edge, where the bit's
-    difference is near zero by construction rather than from a lack of light, and its sign
-    places the pixel (the sub-stripe coordinate of :mod:`fringe3d.unwrap.sub_stripe` refines it).
-    ``contrast`` is the smallest ``|diff|`` of the bits that cleared the margin (of all bits
-    where none did)."""
+    one bit does not, that bit still clears ``edge_margin``, and flipping it selects the adjacent
+    stripe (stripe centres ``centres`` one ``period`` apart): the pixel then lies near that
+    stripe edge, where the bit's difference is small by construction rather than from a lack of
+    light, and its sign places the pixel (the sub-stripe coordinate of
+    :mod:`fringe3d.unwrap.sub_stripe` refines it). Below ``edge_margin`` the sign is too likely
+    noise (see the module docstring). ``contrast`` is the smallest ``|diff|`` of the bits that
+    cleared the margin (of all bits where none did)."""
     nb = diff.shape[0]
     size = np.abs(diff)
     weak = size < margin
@@ -111,6 +137,7 @@ def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: f
     with np.errstate(invalid="ignore"):
         step = np.abs(centres[word] - centres[word ^ (np.int64(1) << flip_bit)])
     edge = (n_weak == 1) & (step > 0.5 * period) & (step < 1.5 * period)
+    edge &= np.where(weak, size, np.inf).min(axis=0) >= edge_margin
     strong = np.where(weak, np.inf, size).min(axis=0)
     contrast = np.where(np.isfinite(strong), strong, size.min(axis=0))
     return (n_weak == 0) | edge, contrast.astype(np.float32)
@@ -128,14 +155,19 @@ def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
     wb = white_black(ctx)
     diff, margin = code_differences(ctx, direct, inverse, wb, white_thr)
     centres = pixel_code_centers(ctx, direct)
-    decided, contrast = decide_edges(diff, margin, centres, period)
+    edge_margin = edge_threshold(ctx, inverse is not None) * (1.0 if inverse is not None else 0.5)
+    decided, contrast = decide_edges(diff, margin, centres, period, edge_margin)
     centre = centres[codeword(diff > 0)]
-    mask = decided & np.isfinite(centre)
+    lit = np.isfinite(centre)
     if wb is not None:
-        mask &= (wb[0] - wb[1]) >= black_thr
-    mask &= ~(ctx.frames[direct] >= quality.saturation_level(ctx.frames, ctx.bit_depth)).any(axis=0)
+        lit &= (wb[0] - wb[1]) >= black_thr
+    lit &= ~(ctx.frames[direct] >= quality.saturation_level(ctx.frames, ctx.bit_depth)).any(axis=0)
+    mask = decided & lit
     if ctx.method_option("sub_stripe", True):
-        coordinate, _ = sub_stripe_coordinate(np.where(mask, centre, np.nan), diff, period)
+        # the zero crossings come from every edge pixel, also those below edge_thr: a crossing's
+        # interpolated position is continuous in the pixel's difference, whatever its sign
+        sources = lit & decide_edges(diff, margin, centres, period)[0]
+        coordinate, _ = sub_stripe_coordinate(np.where(sources, centre, np.nan), diff, period)
     else:
         coordinate = centre
     phase = np.where(mask, 2.0 * np.pi * coordinate / period, np.nan).astype(np.float32)
