@@ -2,12 +2,11 @@
 
 Run: ``.venv/bin/python benchmarks/bench_memory.py [--short 999] [--long 3999] [--json]``
 (not a test). For each stage, the command runs twice in a child process, on a short and a
-long take, and the child's peak resident set size (``ru_maxrss`` from ``os.wait4``) is reported:
+long take, and the child's peak resident set size (its own ``VmHWM`` at exit) is reported:
 
 - ``reconstruct``: a 3-step + geometric sequence read from an MRAW file (``fringe3d import``
   references it), written to the zarr point store;
-- ``simulate``: rendering the take itself (``fringe3d simulate``, which keeps frames and truth in
-  memory until it writes them);
+- ``simulate``: rendering the take itself (``fringe3d simulate``);
 - ``strain``: ``fringe3d strain`` over the point store of the reconstructed take (a static plane,
   so tracking is trivial; the point is the memory).
 
@@ -35,16 +34,33 @@ from fringe3d.sim import simulate_capture
 ROOT = Path(__file__).resolve().parents[1]
 
 
+#: Child wrapper: run ``python -m fringe3d`` and, at exit, write the process's own high-water RSS
+#: (``VmHWM``, the exec'd image's pages only) to the file named by ``$BENCH_HWM``.
+_WRAP = ("import atexit, os, runpy, sys\n"
+         "def _hwm():\n"
+         "    line = [x for x in open('/proc/self/status') if x.startswith('VmHWM:')][0]\n"
+         "    open(os.environ['BENCH_HWM'], 'w').write(line.split()[1])\n"
+         "atexit.register(_hwm)\n"
+         "sys.argv = ['fringe3d'] + sys.argv[1:]\n"
+         "runpy.run_module('fringe3d', run_name='__main__')\n")
+
+
 def peak_rss_mb(argv: list[str]) -> tuple[float, int]:
-    """Run ``python -m fringe3d ARGV`` in a child; (its peak RSS in MB, its exit code)."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
-    proc = subprocess.Popen([sys.executable, "-m", "fringe3d", *argv], env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    if proc.returncode != 0:
-        print(proc.stderr.read().decode()[-2000:], file=sys.stderr)
-    return usage.ru_maxrss / 1024, proc.returncode
+    """Run ``python -m fringe3d ARGV`` in a child; (its peak RSS in MB, its exit code).
+
+    The peak is the child's ``VmHWM`` read by the child itself at exit, not ``ru_maxrss`` from
+    ``wait4``: on Linux a child started by ``vfork`` + ``exec`` (what ``subprocess`` does) inherits
+    the parent's high-water mark into ``ru_maxrss``, so this benchmark's own memory (the long
+    take's frames) would leak into the figure of every child.
+    """
+    with tempfile.NamedTemporaryFile("r", suffix=".hwm") as hwm:
+        env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "BENCH_HWM": hwm.name}
+        proc = subprocess.run([sys.executable, "-c", _WRAP, *argv], env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.PIPE)
+        if proc.returncode != 0:
+            print(proc.stderr.decode()[-2000:], file=sys.stderr)
+        text = Path(hwm.name).read_text().strip()
+    return (int(text) / 1024 if text else float("nan")), proc.returncode
 
 
 def anchors(store: Path) -> str:

@@ -20,7 +20,7 @@ import numpy as np
 
 from fringe3d.utils.atomic import atomic_path
 
-__all__ = ["NpyFrameWriter", "read_npy_frame", "npy_frame_count", "pack_npz"]
+__all__ = ["NpyFrameWriter", "read_npy_frame", "iter_npy_frames", "npy_frame_count", "pack_npz"]
 
 #: Bytes copied per read when packing a ``.npy`` into a zip member.
 COPY_CHUNK = 1 << 22
@@ -108,6 +108,15 @@ def read_npy_frame(path: str | os.PathLike, k: int) -> np.ndarray:
         n = int(np.prod(shape[1:], dtype=np.int64)) * dtype.itemsize
         fh.seek(offset + k * n)
         return np.frombuffer(fh.read(n), dtype=dtype).reshape(shape[1:]).copy()
+
+
+def iter_npy_frames(path: str | os.PathLike):
+    """Frames ``0, 1, …`` of the ``.npy`` at ``path``, read one at a time from an open file."""
+    with open(path, "rb") as fh:
+        shape, dtype, _ = _header(fh)
+        n = int(np.prod(shape[1:], dtype=np.int64)) * dtype.itemsize
+        for _k in range(shape[0]):
+            yield np.frombuffer(fh.read(n), dtype=dtype).reshape(shape[1:])
 
 
 def pack_npz(path: str | os.PathLike, members: dict[str, str | os.PathLike], level: int = 1) -> None:
