@@ -18,6 +18,7 @@ from __future__ import annotations
 import os
 from contextlib import ExitStack
 from pathlib import Path
+from typing import TextIO
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -96,12 +97,12 @@ class StrainCsvWriter:
     def __init__(self, path: str | os.PathLike, frame: bool = True, wing: bool = True):
         self.path, self.lead = Path(path), [n for n, on in (("frame", frame), ("wing", wing)) if on]
         self._stack = ExitStack()
-        self._fh = None
+        self._fh: TextIO | None = None
 
     def __enter__(self) -> "StrainCsvWriter":
         tmp = self._stack.enter_context(atomic_path(self.path))
-        self._fh = self._stack.enter_context(open(tmp, "w"))
-        self._fh.write(",".join(self.lead + csv_names()) + "\n")
+        fh = self._fh = self._stack.enter_context(open(tmp, "w"))
+        fh.write(",".join(self.lead + csv_names()) + "\n")
         return self
 
     def __exit__(self, *exc) -> bool:

@@ -15,6 +15,7 @@ import shutil
 import zipfile
 from contextlib import ExitStack
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
@@ -51,17 +52,17 @@ class NpyFrameWriter:
         self.dtype = np.dtype(dtype)
         self.count = 0
         self._stack = ExitStack()
-        self._fh = None
+        self._fh: BinaryIO | None = None
 
     def __enter__(self) -> "NpyFrameWriter":
         tmp = self._stack.enter_context(atomic_path(self.path))
-        self._fh = self._stack.enter_context(open(tmp, "wb"))
+        fh = self._fh = self._stack.enter_context(open(tmp, "wb"))
         header = {"descr": np.lib.format.dtype_to_descr(self.dtype), "fortran_order": False,
                   "shape": (self.frames,) + self.frame_shape}
         try:
-            np.lib.format.write_array_header_1_0(self._fh, header)   # what np.save writes when it fits
+            np.lib.format.write_array_header_1_0(fh, header)   # what np.save writes when it fits
         except ValueError:
-            np.lib.format.write_array_header_2_0(self._fh, header)
+            np.lib.format.write_array_header_2_0(fh, header)
         return self
 
     def append(self, frame) -> None:
