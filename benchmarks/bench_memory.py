@@ -76,8 +76,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--short", type=int, default=999, help="frames of the short take (a multiple of 3)")
     ap.add_argument("--long", type=int, default=3999, help="frames of the long take (a multiple of 3)")
+    ap.add_argument("--stages", default="reconstruct,simulate,strain",
+                    help="comma-separated stages to measure; strain without reconstruct reads a store of --short / "
+                         "--long copies of one reconstructed 3D frame")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
+    stages = set(args.stages.split(","))
     out: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
@@ -87,31 +91,48 @@ def main() -> None:
                          seed=0, progress=False)
         cycle = read_capture(one).frames
         z_min = 340.0
-        for name, n in (("short", args.short), ("long", args.long)):
+        env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+
+        def import_take(name: str, n: int) -> Path:
             frames = np.tile(cycle, (n // 3, 1, 1))
             mraw, _ = pyMRAW.save_mraw(frames, str(work / f"{name}.mraw"), bit_depth=8)
             cap = work / f"{name}-cap"
-            import_args = ["import", str(Path(mraw).with_suffix(".cih")), "-o", str(cap), "--manifest",
-                           str(one / "manifest.json"), "-q"]
-            subprocess.run([sys.executable, "-m", "fringe3d", *import_args],
-                           env={**os.environ, "PYTHONPATH": str(ROOT / "src")}, check=True)
-            row = {"frames": n}
-            row["reconstruct_mb"], _ = peak_rss_mb(["reconstruct", str(cap), "-c", str(one / "rig.json"), "-o",
-                                                    str(work / f"{name}-3d"), "--method", "geometric",
-                                                    "--z-min", str(z_min), "-q"])
-            row["simulate_mb"], _ = peak_rss_mb(["simulate", "-o", str(work / f"{name}-sim"), "--preset", "tiny",
-                                                 "--scene", "sphere", "--patterns", str(one / "manifest.json"),
-                                                 "--frames", str(n), "-q"])
-            row["strain_mb"], code = peak_rss_mb(["strain", str(work / f"{name}-3d" / "points.zarr"), "--anchors",
-                                                  anchors(work / f"{name}-3d" / "points.zarr"), "-o",
-                                                  str(work / f"{name}-strain"), "--no-figures", "-q"])
-            row["strain_exit"] = code
+            subprocess.run([sys.executable, "-m", "fringe3d", "import", str(Path(mraw).with_suffix(".cih")), "-o",
+                            str(cap), "--manifest", str(one / "manifest.json"), "-q"], env=env, check=True)
+            return cap
+
+        def reconstruct(cap: Path, dest: Path) -> float:
+            mb, _ = peak_rss_mb(["reconstruct", str(cap), "-c", str(one / "rig.json"), "-o", str(dest), "--method",
+                                 "geometric", "--z-min", str(z_min), "-q"])
+            return mb
+
+        if "strain" in stages and "reconstruct" not in stages:   # one 3D frame, repeated into the store
+            reconstruct(import_take("cycle", 6), work / "cycle-3d")
+            P0 = PointMapStore.open_existing(work / "cycle-3d" / "points.zarr").read(0)
+        for name, n in (("short", args.short), ("long", args.long)):
+            row: dict = {"frames": n}
+            store = work / f"{name}-3d" / "points.zarr"
+            if "reconstruct" in stages:
+                row["reconstruct_mb"] = reconstruct(import_take(name, n), work / f"{name}-3d")
+            elif "strain" in stages:
+                st = PointMapStore.open(store, n, P0.shape[0], P0.shape[1])
+                for k in range(n):
+                    st.write(k, P0)
+                row["strain_3d_frames"] = n
+            if "simulate" in stages:
+                row["simulate_mb"], _ = peak_rss_mb(["simulate", "-o", str(work / f"{name}-sim"), "--preset",
+                                                     "tiny", "--scene", "sphere", "--patterns",
+                                                     str(one / "manifest.json"), "--frames", str(n), "-q"])
+            if "strain" in stages:
+                row["strain_mb"], row["strain_exit"] = peak_rss_mb(
+                    ["strain", str(store), "--anchors", anchors(store), "-o", str(work / f"{name}-strain"),
+                     "--no-figures", "-q"])
             out[name] = row
     if args.json:
         print(json.dumps(out, indent=1))
         return
     print(f"{'stage':12s} {'short (MB)':>12s} {'long (MB)':>12s}   frames {args.short} vs {args.long}")
-    for stage in ("reconstruct", "simulate", "strain"):
+    for stage in [x for x in ("reconstruct", "simulate", "strain") if x in stages]:
         print(f"{stage:12s} {out['short'][stage + '_mb']:12.1f} {out['long'][stage + '_mb']:12.1f}")
 
 
