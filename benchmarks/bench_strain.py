@@ -21,6 +21,11 @@ tracking RMS (mm, markers, over the deformed frames) and the dominant-strain RMS
 Seconds per 3D frame: median over the deformed frames of the time between frames (distance maps
 + tracking + fits + strain), the reference frame (numba compilation) excluded.
 
+``--workers 1,2``: the deformed frames again through the pipeline's frame scheduler
+(:func:`fringe3d.analyze.wing_strain.frames_in_order`, what ``fringe3d strain --workers N`` runs)
+on N threads: wall seconds / deformed frames for each N, and whether the results equal one
+worker's bit for bit.
+
 Example: python benchmarks/bench_strain.py --scale 2 --frames 4 --json
 """
 from __future__ import annotations
@@ -40,7 +45,8 @@ import numpy as np
 
 import fringe3d.analyze.strain as strain_mod
 from fringe3d.analyze.anchors import check_anchor
-from fringe3d.analyze.strain import wing_sequence
+from fringe3d.analyze.strain import wing_frame, wing_reference, wing_sequence
+from fringe3d.analyze.wing_strain import frames_in_order
 from fringe3d.experiments import flapping_wing as fw
 from fringe3d.optics.pinhole import intrinsics
 from fringe3d.sim import presets
@@ -84,6 +90,15 @@ def run_stage(maps, anchors, q, window, distance_maps=None, stop_margin=0.1):
     return res, np.diff(stamps)
 
 
+def run_workers(maps, anchors, q, window, workers):
+    """Wall seconds per deformed 3D frame of wing_frame over ``workers`` threads, and its uv (F-1, N, 2)."""
+    ref = wing_reference(maps[0], anchors[0], q, fw.THICKNESS, window)
+    t0 = time.perf_counter()
+    got = [r.uv for _, r in frames_in_order(lambda f: wing_frame(ref, maps[f + 1], anchors[f + 1], f + 1),
+                                            len(maps) - 1, workers)]
+    return (time.perf_counter() - t0) / (len(maps) - 1), np.stack(got)
+
+
 def errors(res, wing, cam_project_truth, m0, t3, n_markers):
     """Tracking RMS (mm) of the markers over the deformed frames; strain RMS (µε), % of peak."""
     e = res.xyz[1:, :n_markers] - cam_project_truth[1:]
@@ -99,6 +114,8 @@ def main(argv=None) -> int:
     ap.add_argument("--frames", type=int, default=4, help="3D frames (the first is the reference)")
     ap.add_argument("--step", type=int, default=16, help="interior grid step (px at scale 1)")
     ap.add_argument("--window", type=int, default=11, help="quadric-fit window (px at scale 1)")
+    ap.add_argument("--workers", default="", help="comma-separated thread counts to time, e.g. 1,2")
+    ap.add_argument("--no-old", action="store_true", help="skip the old geodesic search")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     cam = scaled_camera(args.scale)
@@ -123,14 +140,20 @@ def main(argv=None) -> int:
             check_anchor(points, a)
         return old.bezier_geodesic(points, anchors_uv[0]), old.bezier_geodesic(points, anchors_uv[1])
 
-    res_old, dt_old = run_stage(maps, anchors, q, window, old_distance_maps, stop_margin=None)
     res_new, dt_new = run_stage(maps, anchors, q, window)
+    res_old, dt_old = (res_new, dt_new) if args.no_old else run_stage(maps, anchors, q, window, old_distance_maps,
+                                                                      stop_margin=None)
     out = {"resolution": f"{cam.width}x{cam.height}", "wing_pixels": int(np.isfinite(maps[0]).all(axis=2).sum()),
            "frames": args.frames, "points": int(len(q)), "window_px": window, "load_avg": os.getloadavg()[0]}
     for name, res, dt in (("old", res_old, dt_old), ("new", res_new, dt_new)):
         out[name] = {"s_per_3d_frame": float(np.median(dt[1:])), "s_frames": [round(float(x), 3) for x in dt[1:]],
                      **errors(res, wing, truth_xyz, m0, t3, len(fw.SIM_MARKERS))}
     out["speedup"] = out["old"]["s_per_3d_frame"] / out["new"]["s_per_3d_frame"]
+    uv1 = None
+    for nw in [int(x) for x in args.workers.split(",") if x]:
+        sec, uv = run_workers(maps, anchors, q, window, nw)
+        uv1 = uv if uv1 is None else uv1
+        out[f"workers_{nw}"] = {"s_per_3d_frame": sec, "equal_to_first": bool(np.array_equal(uv, uv1, equal_nan=True))}
     ok = res_old.ok & res_new.ok
     out["max_uv_difference_px"] = float(np.nanmax(np.abs(res_old.uv - res_new.uv)[ok])) if ok.any() else float("nan")
     if args.json:
@@ -144,6 +167,9 @@ def main(argv=None) -> int:
                   f"strain RMS {r['strain_rms_ue']:.2f} µε ({r['strain_rms_pct_peak']:.2f} % of peak)  "
                   f"tracked {100 * r['tracked_fraction']:.1f} %")
         print(f"speedup {out['speedup']:.1f}x; max |Δuv| old vs new {out['max_uv_difference_px']:.2e} px")
+        for k in [k for k in out if k.startswith("workers_")]:
+            r = out[k]
+            print(f"{k}: {r['s_per_3d_frame']:.3f} s/3D frame (wall), equal to the first: {r['equal_to_first']}")
     return 0
 
 

@@ -331,7 +331,7 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
     return dist.reshape(h, w)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)  # frames run on threads (fringe3d strain --workers)
 def _step_table_kernel(pts, valid, offsets, opposite, bezier, gt, gw, cr, cc_, cw):
     """Compact index (H, W) int64 of the valid nodes (−1 invalid) and their step lengths
     ``(n_valid, n_offsets)`` mm (−1 where the step is invalid), each computed once.
@@ -426,7 +426,7 @@ def _step_table_kernel(pts, valid, offsets, opposite, bezier, gt, gw, cr, cc_, c
     return index, table
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)  # frames run on threads (fringe3d strain --workers)
 def _dijkstra_table(valid, index, table, seed_idx, seed_dist, offsets, nbr, lut, wavefront, stop,
                     dist, done, pos, heap):
     """:func:`_dijkstra` on precomputed step lengths (``index``, ``table`` of

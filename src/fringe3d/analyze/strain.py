@@ -106,7 +106,7 @@ def _fit_quadric(pts, valid, rc, cc, half, cen, t1, t2, n0):
     return coef, ss
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)  # frames run on threads (fringe3d strain --workers)
 def _local_shape_kernel(pts, valid, toward, has_toward, uv, half, min_count, out):
     h, w = valid.shape
     n = uv.shape[0]
@@ -334,51 +334,111 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
     nf = len(frames)
     if anchors.shape != (nf, 2, 2):
         raise ValueError(f"anchors must have shape (frames={nf}, 2, 2); got {anchors.shape}")
+    ref = wing_reference(frames[reference], anchors[reference], query_uv, thickness, window, method, radius,
+                         fill_dots, stop_margin)
+    n = ref.q.shape[0]
+    out = WingSequence(ref.q, ref.d, np.full((nf, n, 2), np.nan), np.full((nf, n, 3), np.nan),
+                       np.full((nf, n, 2, 2), np.nan), np.full((nf, n, 2), np.nan), np.full((nf, n), np.nan),
+                       np.full((nf, n), np.nan), np.zeros((nf, n), bool))
+    for f in range(nf):
+        r = wing_frame(ref, None if f == reference else frames[f], anchors[f], f)
+        out.uv[f], out.xyz[f], out.E[f], out.principal[f] = r.uv, r.xyz, r.E, r.principal
+        out.dominant[f], out.residual[f], out.ok[f] = r.dominant, r.residual, r.ok
+        if progress is not None:
+            progress()
+    return out
+
+
+@dataclass
+class WingReference:
+    """What every frame of one wing is tracked against (from the reference frame).
+
+    points (H, W, 3) mm the reference map (dot holes filled); anchors (2, 2) px; q (N, 2) the
+    query pixels; d (N, 2) mm their geodesic distances to the anchors; R1, R2 (H, W) mm the
+    reference distance maps; side (N,) ±1 their side of the anchor line; far (N,) index of the
+    farther anchor (the material direction); stop (2,) mm or None, each deformed frame's search
+    radius; B the reference :class:`LocalShape`; and the run's thickness (mm), window (px),
+    method, radius and fill_dots.
+    """
+    points: np.ndarray
+    anchors: np.ndarray
+    q: np.ndarray
+    d: np.ndarray
+    R1: np.ndarray
+    R2: np.ndarray
+    side: np.ndarray
+    far: np.ndarray
+    stop: np.ndarray | None
+    B: LocalShape
+    thickness: float
+    window: int
+    method: str
+    radius: int
+    fill_dots: int
+
+
+@dataclass
+class WingFrame:
+    """One frame's results for N points of one wing (the rows of :class:`WingSequence`): uv (N, 2)
+    px, xyz (N, 3) mm, E (N, 2, 2), principal (N, 2), dominant (N,), residual (N,) mm, ok (N,)."""
+    uv: np.ndarray
+    xyz: np.ndarray
+    E: np.ndarray
+    principal: np.ndarray
+    dominant: np.ndarray
+    residual: np.ndarray
+    ok: np.ndarray
+
+
+def _filled(points, anchors, fill_dots: int) -> np.ndarray:
+    return fill_dot_holes(points, anchors, fill_dots) if fill_dots > 0 else np.asarray(points, float)
+
+
+def wing_reference(points: np.ndarray, anchors: np.ndarray, query_uv: np.ndarray, thickness: float,
+                   window: int = 11, method: str = "bezier", radius: int = 3, fill_dots: int = 0,
+                   stop_margin: float | None = 0.1) -> WingReference:
+    """The :class:`WingReference` of one wing from its reference point map (H, W, 3) mm and anchors
+    (2, 2) px (parameters as :func:`wing_sequence`): the reference distance maps (Eq. 6.7–6.8),
+    the query points' distances, sides and material direction, and their local shapes (Eq. 6.13–6.21)."""
+    anchors = np.asarray(anchors, dtype=np.float64)
     q = np.atleast_2d(np.asarray(query_uv, dtype=np.float64))
-
-    def frame(i):
-        return fill_dot_holes(frames[i], anchors[i], fill_dots) if fill_dots > 0 else np.asarray(frames[i], float)
-
-    ref_pts = frame(reference)
-    R1, R2 = distance_maps(ref_pts, anchors[reference], method, radius)
+    ref_pts = _filled(points, anchors, fill_dots)
+    R1, R2 = distance_maps(ref_pts, anchors, method, radius)
     d = np.stack([sample_bilinear(R1, q, **SURFACE_SAMPLING), sample_bilinear(R2, q, **SURFACE_SAMPLING)], axis=1)
-    side = side_of_line(q, *anchors[reference])
+    side = side_of_line(q, *anchors)
     # material direction: towards the farther anchor (well defined, same choice in every frame)
     far = np.where(d[:, 0] >= d[:, 1], 0, 1)
     stop = None
     if stop_margin is not None:
         dmax = np.array([np.max(c[np.isfinite(c)], initial=0.0) for c in d.T])
         stop = np.where(dmax > 0, (1.0 + float(stop_margin)) * dmax, np.inf)
+    B = local_shape(ref_pts, q, window, toward=sample_bilinear(ref_pts, anchors, **SURFACE_SAMPLING)[far])
+    return WingReference(ref_pts, anchors, q, d, R1, R2, side, far, stop, B, float(thickness), int(window), method,
+                         int(radius), int(fill_dots))
 
-    def toward(pts, a):
-        return sample_bilinear(pts, a, **SURFACE_SAMPLING)[far]
 
-    B = local_shape(ref_pts, q, window, toward=toward(ref_pts, anchors[reference]))
-    n = q.shape[0]
-    out = WingSequence(q, d, np.full((nf, n, 2), np.nan), np.full((nf, n, 3), np.nan),
-                       np.full((nf, n, 2, 2), np.nan), np.full((nf, n, 2), np.nan), np.full((nf, n), np.nan),
-                       np.full((nf, n), np.nan), np.zeros((nf, n), bool))
-    for f in range(nf):
+def wing_frame(ref: WingReference, points: np.ndarray | None, anchors: np.ndarray, index: int = 0) -> WingFrame:
+    """Track the reference's points on one frame and compute their strain (Eq. 6.9–6.21).
+
+    points : (H, W, 3) mm, or None for the reference frame itself (then ``anchors`` are ignored).
+    anchors : (2, 2) px this frame's anchors. index : the frame's number, for messages.
+    Depends on nothing but ``ref`` and this frame, so frames can be processed in any order or at once.
+    """
+    n = ref.q.shape[0]
+    if points is None:
+        pts, anchors = ref.points, ref.anchors
+        uv, res, okt = ref.q.copy(), np.zeros(n), np.isfinite(ref.d).all(axis=1)
+    else:
+        anchors = np.asarray(anchors, dtype=np.float64)
         try:
-            pts = ref_pts if f == reference else frame(f)
+            pts = _filled(points, anchors, ref.fill_dots)
+            D1, D2 = distance_maps(pts, anchors, ref.method, ref.radius, stop_distance=ref.stop)
         except ValueError as e:
-            raise ValueError(f"frame {f}: {e}") from None
-        if f == reference:
-            D1, D2, uv = R1, R2, q.copy()
-            res, okt = np.zeros(n), np.isfinite(d).all(axis=1)
-        else:
-            try:
-                D1, D2 = distance_maps(pts, anchors[f], method, radius, stop_distance=stop)
-            except ValueError as e:
-                raise ValueError(f"frame {f}: {e}") from None
-            tr = track_points(d[:, 0], d[:, 1], D1, D2, side, anchors[f])
-            uv, res, okt = tr.uv, tr.residual, tr.ok
-        cur = local_shape(pts, uv, window, toward=toward(pts, anchors[f]))
-        st = bending_strain(B, cur, thickness)
-        out.uv[f], out.residual[f] = uv, res
-        out.xyz[f] = sample_bilinear(np.asarray(pts, dtype=np.float64), uv, **SURFACE_SAMPLING)
-        out.E[f], out.principal[f], out.dominant[f] = st.E, st.principal, st.dominant
-        out.ok[f] = okt & st.ok & np.isfinite(out.xyz[f]).all(axis=1)
-        if progress is not None:
-            progress()
-    return out
+            raise ValueError(f"frame {index}: {e}") from None
+        tr = track_points(ref.d[:, 0], ref.d[:, 1], D1, D2, ref.side, anchors)
+        uv, res, okt = tr.uv, tr.residual, tr.ok
+    cur = local_shape(pts, uv, ref.window, toward=sample_bilinear(pts, anchors, **SURFACE_SAMPLING)[ref.far])
+    st = bending_strain(ref.B, cur, ref.thickness)
+    xyz = sample_bilinear(np.asarray(pts, dtype=np.float64), uv, **SURFACE_SAMPLING)
+    ok = okt & st.ok & np.isfinite(xyz).all(axis=1)
+    return WingFrame(uv, xyz, st.E, st.principal, st.dominant, res, ok)

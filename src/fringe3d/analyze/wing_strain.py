@@ -1,14 +1,26 @@
 """A wing-strain run from a point-map sequence to files (dissertation ch. 6): anchors ->
 geodesic tracking (Eq. 6.9) -> Kirchhoff-Love bending strain (Eq. 6.10-6.21) -> CSV, VTK,
-PNG maps, GIF and a JSON summary. ``fringe3d strain`` is this function plus printing."""
+per-point arrays, PNG maps, GIF and a JSON summary. ``fringe3d strain`` is this function plus printing.
+
+Frames are streamed: each 3D frame is read, tracked and written (its CSV rows, its ``.vtu``, its
+rows of the per-point arrays) before the next few are read, so memory holds a bounded window of
+frames whatever the sequence's length. Given the reference frame and every frame's anchors
+(found up front from the textures), frames are independent: ``workers`` threads process several
+at once (the numba kernels release the GIL) and the outputs are written in frame order, the
+same bytes as one worker.
+"""
 from __future__ import annotations
 
 import time
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.export_vtk import grid_triangles, strain_table, write_strain_csv, write_strain_frame, write_strain_pvd
+from fringe3d.io.export_vtk import StrainCsvWriter, grid_triangles, strain_table, write_strain_frame, write_strain_pvd
+from fringe3d.io.npy_stream import NpyFrameWriter, iter_npy_frames, read_npy_frame
 from fringe3d.io.point_sequence import read_point_sequence
 from fringe3d.io.strain_figures import (
     scatter_to_image,
@@ -17,6 +29,7 @@ from fringe3d.io.strain_figures import (
 )
 from fringe3d.utils.console import progress_bar
 from fringe3d.utils.jsonfile import write_json
+from fringe3d.utils.streamed_quantiles import streamed_median, streamed_percentile
 
 from .anchors import (
     auto_anchors,
@@ -26,15 +39,22 @@ from .anchors import (
     parse_anchors,
     query_grid,
 )
-from .strain import wing_sequence
+from .strain import WingFrame, wing_frame, wing_reference
+
+#: Per-point arrays written to ``arrays/wing_K/NAME.npy``: (per-point shape, dtype) of each.
+ARRAY_FIELDS = {"uv": ((2,), np.float64), "xyz": ((3,), np.float64), "E": ((2, 2), np.float64),
+                "principal": ((2,), np.float64), "dominant": ((), np.float64), "residual": ((), np.float64),
+                "ok": ((), np.bool_)}
+#: Frames in flight per worker (read, being processed or waiting to be written in order).
+FRAMES_PER_WORKER = 2
 
 
 class _StrainImages:
     """The per-frame dominant-strain images (H, W) float, NaN off the wings, drawn on demand from
-    the tracked points (so the GIF does not hold F full-resolution maps in memory)."""
+    the per-point arrays on disk (so neither the maps nor the GIF hold F frames of results)."""
 
-    def __init__(self, results, shape, radius: int, frames: int):
-        self.results, self.shape, self.radius, self.frames = results, shape, radius, frames
+    def __init__(self, folders: list[Path], shape, radius: int, frames: int):
+        self.folders, self.shape, self.radius, self.frames = folders, shape, radius, frames
 
     def __len__(self) -> int:
         return self.frames
@@ -43,18 +63,53 @@ class _StrainImages:
         if not 0 <= f < self.frames:
             raise IndexError(f)
         img = np.full(self.shape, np.nan)
-        for r in self.results:
-            part = scatter_to_image(r.uv[f][r.ok[f]], r.dominant[f][r.ok[f]], self.shape, radius=self.radius)
+        for d in self.folders:
+            uv, dom, ok = (read_npy_frame(d / f"{n}.npy", f) for n in ("uv", "dominant", "ok"))
+            part = scatter_to_image(uv[ok], dom[ok], self.shape, radius=self.radius)
             img = np.where(np.isfinite(part), part, img)
         return img
 
 
+def frames_in_order(task, n: int, workers: int = 1):
+    """``(f, task(f))`` for f = 0 … n − 1 in order, ``task`` run on ``workers`` threads with at most
+    ``FRAMES_PER_WORKER · workers`` frames in flight (bounded memory); an error in any task is
+    raised at its turn, and the frames not yet started are dropped."""
+    if workers <= 1:
+        for f in range(n):
+            yield f, task(f)
+        return
+    pool = ThreadPoolExecutor(max_workers=workers)
+    try:
+        pending: deque = deque()
+        nxt = 0
+        while nxt < n or pending:
+            while nxt < n and len(pending) < FRAMES_PER_WORKER * workers:
+                pending.append((nxt, pool.submit(task, nxt)))
+                nxt += 1
+            f, fut = pending.popleft()
+            yield f, fut.result()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _ok_values(folders: list[Path], name: str, transform=None):
+    """A callable giving, per frame and wing, the finite values of array ``name`` at ok points."""
+    def values():
+        for d in folders:
+            for v, ok in zip(iter_npy_frames(d / f"{name}.npy"), iter_npy_frames(d / "ok.npy")):
+                x = v[ok] if transform is None else transform(v[ok])
+                yield x[np.isfinite(x)]
+    return values
+
+
 def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window: int = 11, step: int = 4,
-               wings: int = 1, radius: int = 3, reference: int = 0, figures: bool = True, fill_dots: int = 8) -> dict:
+               wings: int = 1, radius: int = 3, reference: int = 0, figures: bool = True, fill_dots: int = 8,
+               workers: int = 1) -> dict:
     """Track a wing sequence and map its bending strain (Eq. 6.9-6.21): everything
     ``fringe3d strain`` does; returns the JSON summary. Validates all inputs before any file
-    is written (``strain.csv``, ``vtk/frame_*.vtu`` + ``strain.pvd``, ``maps/strain_*.png``, ``strain.gif``,
-    ``summary.json`` in ``out``, each atomically)."""
+    is written (``strain.csv``, ``vtk/frame_*.vtu`` + ``strain.pvd``, ``arrays/wing_K/*.npy`` (F, N, ...)
+    per-point results, ``maps/strain_*.png``, ``strain.gif``, ``summary.json`` in ``out``, each
+    atomically). ``workers``: frames processed at once on threads (the same output for any number)."""
     t0 = time.perf_counter()
     if not (thickness > 0):
         raise ValueError(f"--thickness must be > 0 mm; got {thickness}")
@@ -62,6 +117,8 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         raise ValueError(f"--window must be an odd number of pixels ≥ 3; got {window}")
     if step < 1:
         raise ValueError(f"--step must be ≥ 1 pixel; got {step}")
+    if workers < 1:
+        raise ValueError(f"--workers must be ≥ 1; got {workers}")
     start = parse_anchors(anchors)
     seq = read_point_sequence(sequence)
     if not (0 <= reference < len(seq)):
@@ -74,46 +131,56 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         for x in a:
             check_anchor(filled, x)
     per_frame = follow_anchors(seq.texture if seq.has_texture else None, len(seq), start)
-    results = []
-    with progress_bar("tracking + strain", total=len(seq) * len(start)) as advance:
-        for w, a in enumerate(start):
-            q = query_grid(ref, a, step, margin=window // 2)
-            if len(q) == 0:
-                raise ValueError(f"wing {w}: no surface pixels around the anchors to track")
-            # frames streamed: wing_sequence reads seq[i] (checked shape, float64) one at a time
-            results.append(wing_sequence(seq, per_frame[:, w], q, thickness, window, reference, radius=radius,
-                                         fill_dots=fill_dots, progress=advance))
-    # outputs (each file atomic)
+    refs = []
+    for w, a in enumerate(start):
+        q = query_grid(ref, a, step, margin=window // 2)
+        if len(q) == 0:
+            raise ValueError(f"wing {w}: no surface pixels around the anchors to track")
+        refs.append(wing_reference(ref, per_frame[reference, w], q, thickness, window, radius=radius,
+                                   fill_dots=fill_dots))
     out = Path(out)
-    tables, frame_col, wing_col = [], [], []
-    for f in range(len(seq)):
-        for w, r in enumerate(results):
-            tab = strain_table(r.xyz[f], r.E[f], r.principal[f], r.dominant[f], r.uv[f], r.residual[f], r.ok[f])
-            tables.append(tab)
-            frame_col.append(np.full(len(tab), f))
-            wing_col.append(np.full(len(tab), w))
-    write_strain_csv(out / "strain.csv", np.vstack(tables), np.concatenate(frame_col), np.concatenate(wing_col))
+    nf = len(seq)
+    folders = [out / "arrays" / f"wing_{w}" for w in range(len(refs))]
+    offsets = np.cumsum([0] + [len(r.q) for r in refs])
+
+    def task(f: int) -> list[WingFrame]:
+        raw = None if f == reference else seq[f]   # frames streamed: read (checked, float64) when processed
+        return [wing_frame(r, raw, per_frame[f, w], f) for w, r in enumerate(refs)]
+
     frame_files = []
-    for f in range(len(seq)):
-        frame_tab = np.vstack([tables[f * len(results) + w] for w in range(len(results))])
-        offsets = np.cumsum([0] + [len(r.ref_uv) for r in results])
-        tri = np.concatenate([grid_triangles(r.ref_uv, step, r.ok[f] & np.isfinite(r.xyz[f]).all(axis=-1)) + o
-                              for r, o in zip(results, offsets)])
-        frame_files.append(write_strain_frame(out / "vtk" / f"frame_{f:05d}.vtu", frame_tab, tri))
+    ok_count = total = 0
+    with ExitStack() as stack, progress_bar("tracking + strain", total=nf * len(refs)) as advance:
+        csv = stack.enter_context(StrainCsvWriter(out / "strain.csv"))
+        arrays = [{name: stack.enter_context(NpyFrameWriter(d / f"{name}.npy", nf, (len(r.q),) + shape, dtype))
+                   for name, (shape, dtype) in ARRAY_FIELDS.items()} for d, r in zip(folders, refs)]
+        for f, results in frames_in_order(task, nf, workers):
+            tables = []
+            for w, r in enumerate(results):
+                tab = strain_table(r.xyz, r.E, r.principal, r.dominant, r.uv, r.residual, r.ok)
+                tables.append(tab)
+                csv.append(tab, f, w)
+                for name, writer in arrays[w].items():
+                    writer.append(getattr(r, name))
+                ok_count += int(np.count_nonzero(r.ok))
+                total += r.ok.size
+                advance()
+            tri = np.concatenate([grid_triangles(rf.q, step, r.ok & np.isfinite(r.xyz).all(axis=-1)) + o
+                                  for rf, r, o in zip(refs, results, offsets)])
+            frame_files.append(write_strain_frame(out / "vtk" / f"frame_{f:05d}.vtu", np.vstack(tables), tri))
     write_strain_pvd(out / "strain.pvd", frame_files)
+    p99 = streamed_percentile(_ok_values(folders, "dominant", np.abs), 99)
     if figures:
-        allv = np.concatenate([np.abs(r.dominant[r.ok]) for r in results])
-        vmax = float(np.percentile(allv, 99)) if allv.size else 1e-6
-        images = _StrainImages(results, seq.shape[:2], max(step // 2, 1), len(seq))
-        for f in range(len(seq)):
+        vmax = p99 if ok_count else 1e-6
+        images = _StrainImages(folders, seq.shape[:2], max(step // 2, 1), nf)
+        for f in range(nf):
             strain_map_png(out / "maps" / f"strain_{f:05d}.png", images[f], f"dominant bending strain, frame {f}",
                            vmax)
-        strain_animation(out / "strain.gif", images, [f"frame {f}" for f in range(len(seq))], vmax)
+        strain_animation(out / "strain.gif", images, [f"frame {f}" for f in range(nf)], vmax)
     summary = {
-        "frames": len(seq), "wings": len(results), "points_per_wing": [int(len(r.ref_uv)) for r in results],
-        "tracked_fraction": float(np.mean(np.concatenate([r.ok.ravel() for r in results]))),
-        "median_residual_mm": float(np.nanmedian(np.concatenate([r.residual[r.ok] for r in results]))),
-        "dominant_strain_p99": float(np.nanpercentile(np.concatenate([np.abs(r.dominant[r.ok]) for r in results]), 99)),
+        "frames": nf, "wings": len(refs), "points_per_wing": [int(len(r.q)) for r in refs],
+        "tracked_fraction": ok_count / total if total else float("nan"),
+        "median_residual_mm": streamed_median(_ok_values(folders, "residual")),
+        "dominant_strain_p99": p99,
         "thickness_mm": thickness, "window_px": window, "step_px": step, "geodesic_window_px": 2 * radius + 1,
         "seconds": round(time.perf_counter() - t0, 2), "output": str(out),
     }

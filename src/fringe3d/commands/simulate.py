@@ -13,8 +13,9 @@ from fringe3d.sim.simulate import simulate_capture
 from fringe3d.utils.console import console, make_table, print_json, set_quiet
 
 
-#: Most frames one ``simulate`` run renders (it keeps them in memory: bounded before any allocation).
-MAX_SIM_FRAMES = 20000
+#: Most frames one ``simulate`` run renders. Frames and truth are written as they are rendered (memory
+#: does not grow with the take), so the bound only stops a mistyped count from filling the disk.
+MAX_SIM_FRAMES = 1_000_000
 
 
 def register(app: typer.Typer) -> None:
@@ -42,6 +43,8 @@ def register(app: typer.Typer) -> None:
         """Simulate a camera-projector capture with ground truth.
 
         Writes OUT/frames/*.png, OUT/manifest.json, OUT/capture.json, OUT/truth/ and OUT/rig.json.
+        Each frame (and a moving scene's per-frame truth) is written as it is rendered, so memory
+        does not grow with --frames; OUT stays marked incomplete (fringe3d.json) until the end.
 
         Example: fringe3d simulate --preset macro --scene sphere --patterns three-frequency -o sphere-capture
         """

@@ -11,8 +11,14 @@ SEQUENCE (read by :func:`fringe3d.io.point_sequence.read_point_sequence`) is one
 Outputs in OUT (each written atomically, and only after every input check has passed):
 ``strain.csv`` (all frames, wings and points; units in the header), ``vtk/frame_00000.vtu`` (one
 binary VTK XML grid per frame: the tracked points' triangles and their strain) with
-``strain.pvd`` (the time series for ParaView), ``maps/strain_00000.png`` (dominant strain maps with a colour bar),
+``strain.pvd`` (the time series for ParaView), ``arrays/wing_0/*.npy`` (the per-point results as
+(F, N, ...) arrays: uv, xyz, E, principal, dominant, residual, ok), ``maps/strain_00000.png``
+(dominant strain maps with a colour bar),
 ``strain.gif`` (animation) and ``summary.json``.
+
+Frames are streamed: each one's rows, ``.vtu`` and array rows are written before the next few
+frames are read, so memory does not grow with the sequence. ``--workers N`` processes N frames
+at once on threads and writes the same files as one worker.
 """
 from __future__ import annotations
 
@@ -43,6 +49,8 @@ def register(app: typer.Typer) -> None:
         fill_dots: int = typer.Option(8, "--fill-dots", help="Fill unreconstructed anchor-dot holes up to this "
                                                              "radius (px) from the surrounding surface; 0 = off."),
         no_figures: bool = typer.Option(False, "--no-figures", help="Skip the PNG maps and the GIF."),
+        workers: int = typer.Option(1, "--workers", help="3D frames processed at once (threads); the output is "
+                                                         "the same for any number."),
         overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
@@ -57,7 +65,8 @@ def register(app: typer.Typer) -> None:
                    "radius": radius, "reference": reference, "figures": not no_figures, "fill_dots": fill_dots}
         with open_output(out, overwrite=overwrite, inputs=[sequence], options=options) as o:
             summary = o.final_paths(run_strain(sequence, anchors, o.path, thickness, window, step, wings, radius,
-                                               reference, figures=not no_figures, fill_dots=fill_dots))
+                                               reference, figures=not no_figures, fill_dots=fill_dots,
+                                               workers=workers))
         if json_:
             print_json(summary)
         elif not quiet:

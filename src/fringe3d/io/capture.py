@@ -22,10 +22,11 @@ from __future__ import annotations
 
 import os
 import re
+from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterator
+from typing import Iterable, Iterator
 
 import numpy as np
 
@@ -279,31 +280,68 @@ def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: Patte
         Extra metadata; ``camera`` and ``bit_depth`` are filled in when missing.
     fmt : ``"png"`` or ``"tif"``
     """
-    folder = Path(folder)
     frames = as_frame_stack(frames)
-    msg = frame_count_error(len(frames), len(patterns))
+    if fmt == "png" and frames.dtype not in (np.uint8, np.uint16):   # refused before any file is touched
+        raise ValueError(f"PNG frames must be uint8 or uint16, got {frames.dtype}; use fmt='tif'")
+    return write_capture_frames(folder, iter(frames), len(frames), patterns, meta, fmt)
+
+
+#: Frame files being written at once by :func:`write_capture_frames` (and frames held for them).
+WRITE_THREADS = 4
+
+
+def write_capture_frames(folder: str | os.PathLike, frames: Iterable[np.ndarray], count: int, patterns: PatternSet,
+                         meta: dict | None = None, fmt: str = "png", progress: bool | None = None) -> Path:
+    """:func:`write_capture` from an iterable of ``count`` frames (H, W), each written as it comes.
+
+    At most :data:`WRITE_THREADS` frames are held (being written) at any time, so a take of any
+    length is written in bounded memory. The manifest and ``capture.json`` are written after the
+    last frame. ``progress``: a progress bar (default: when ``count > 60``).
+    """
+    folder = Path(folder)
+    msg = frame_count_error(count, len(patterns))
     if msg:
         raise ValueError(msg)
     if fmt not in ("png", "tif"):
         raise ValueError(f"capture frame format must be 'png' or 'tif', got {fmt!r}")
-    if fmt == "png" and frames.dtype not in (np.uint8, np.uint16):
-        raise ValueError(f"PNG frames must be uint8 or uint16, got {frames.dtype}; use fmt='tif'")
     fdir = folder / FRAMES_DIR
     fdir.mkdir(parents=True, exist_ok=True)
     for stale in fdir.iterdir():  # an older capture must not leave frames behind
         m = _FRAME_NAME.match(stale.name)
-        if m and (int(m.group(1)) >= len(frames) or stale.suffix.lower() != f".{fmt}"):
+        if m and (int(m.group(1)) >= count or stale.suffix.lower() != f".{fmt}"):
             guard_write(stale).unlink()
-    with progress_bar(f"writing {len(frames)} frames", len(frames), enabled=len(frames) > 60) as advance, \
-            ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
-        unit = "camera counts" if frames.dtype.kind in "ui" else "camera intensity (float, as given)"
-        for _ in pool.map(lambda i: write_image(fdir / f"{i:05d}.{fmt}", frames[i], f"camera frame {i}", unit),
-                          range(len(frames))):
+    first: np.ndarray | None = None
+    n = 0
+    pending: deque = deque()
+    with progress_bar(f"writing {count} frames", count, enabled=count > 60 if progress is None else progress) \
+            as advance, ThreadPoolExecutor(max_workers=min(WRITE_THREADS, os.cpu_count() or 1)) as pool:
+        for img in frames:
+            img = np.asarray(img)
+            if first is None:
+                first = img
+            if img.ndim != 2 or img.shape != first.shape or img.dtype != first.dtype:
+                raise ValueError(f"frame {n} is {img.dtype} {img.shape}; expected every frame a 2D "
+                                 f"{first.dtype} image of shape {first.shape} like frame 0")
+            if fmt == "png" and img.dtype not in (np.uint8, np.uint16):
+                raise ValueError(f"PNG frames must be uint8 or uint16, got {img.dtype}; use fmt='tif'")
+            if n >= count:
+                raise ValueError(f"more than the {count} frames announced")
+            if len(pending) >= WRITE_THREADS:
+                pending.popleft().result()
+                advance()
+            unit = "camera counts" if img.dtype.kind in "ui" else "camera intensity (float, as given)"
+            pending.append(pool.submit(write_image, fdir / f"{n:05d}.{fmt}", img, f"camera frame {n}", unit))
+            n += 1
+        while pending:
+            pending.popleft().result()
             advance()
+    if n != count:
+        raise ValueError(f"{n} frames written; expected {count}")
+    assert first is not None
     patterns.save(folder / MANIFEST_NAME)
     meta = dict(meta or {})
-    meta.setdefault("camera", [int(frames.shape[2]), int(frames.shape[1])])
-    if frames.dtype in (np.uint8, np.uint16):
-        meta.setdefault("bit_depth", 8 if frames.dtype == np.uint8 else 16)
+    meta.setdefault("camera", [int(first.shape[1]), int(first.shape[0])])
+    if first.dtype in (np.uint8, np.uint16):
+        meta.setdefault("bit_depth", 8 if first.dtype == np.uint8 else 16)
     write_json(folder / META_NAME, meta, units=CAPTURE_UNITS)
     return folder

@@ -16,15 +16,17 @@ four corners were tracked in that frame; :func:`grid_triangles`), else one verte
 from __future__ import annotations
 
 import os
+from contextlib import ExitStack
 from pathlib import Path
+from typing import TextIO
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 from fringe3d.utils.atomic import atomic_path
 
-__all__ = ["strain_table", "write_strain_csv", "write_strain_frame", "write_strain_pvd", "grid_triangles",
-           "csv_names", "FIELDS", "UNITS"]
+__all__ = ["strain_table", "write_strain_csv", "StrainCsvWriter", "write_strain_frame", "write_strain_pvd",
+           "grid_triangles", "csv_names", "FIELDS", "UNITS"]
 
 FIELDS = ["x", "y", "z", "E11", "E12", "E22", "E_min", "E_max", "E_dominant", "u", "v", "residual", "ok"]
 #: Unit of each column of :data:`FIELDS` ("" = dimensionless strain or a flag).
@@ -74,17 +76,55 @@ def write_strain_csv(path: str | os.PathLike, table: np.ndarray, frame: np.ndarr
     table = np.asarray(table, float)
     if table.ndim != 2 or table.shape[1] != len(FIELDS):
         raise ValueError(f"table must have shape (N, {len(FIELDS)}); got {table.shape}")
-    lead, names = [], []
-    for name, col in (("frame", frame), ("wing", wing)):
-        if col is not None:
-            lead.append(np.asarray(col).reshape(-1, 1))
-            names.append(name)
-    with atomic_path(path) as tmp, open(tmp, "w") as fh:
-        fh.write(",".join(names + csv_names()) + "\n")
+    with StrainCsvWriter(path, frame is not None, wing is not None) as w:
+        w.append(table, frame, wing)
+
+
+class StrainCsvWriter:
+    """``strain.csv`` written as the frames come (:func:`write_strain_csv` in pieces, same text).
+
+    Parameters
+    ----------
+    path : path-like
+        CSV file; written under a temporary name and renamed into place when the block ends
+        without an error.
+    frame, wing : bool
+        Whether the rows carry the leading ``frame`` / ``wing`` columns.
+
+    Use as a context manager and :meth:`append` each piece of the table in row order.
+    """
+
+    def __init__(self, path: str | os.PathLike, frame: bool = True, wing: bool = True):
+        self.path, self.lead = Path(path), [n for n, on in (("frame", frame), ("wing", wing)) if on]
+        self._stack = ExitStack()
+        self._fh: TextIO | None = None
+
+    def __enter__(self) -> "StrainCsvWriter":
+        tmp = self._stack.enter_context(atomic_path(self.path))
+        fh = self._fh = self._stack.enter_context(open(tmp, "w"))
+        fh.write(",".join(self.lead + csv_names()) + "\n")
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        return bool(self._stack.__exit__(*exc))
+
+    def append(self, table: np.ndarray, frame=None, wing=None) -> None:
+        """Write the rows of ``table`` (N, 13) (:data:`FIELDS`); ``frame``, ``wing``: (N,) int or one
+        int for every row (required when the writer has that column)."""
+        table = np.asarray(table, float)
+        if table.ndim != 2 or table.shape[1] != len(FIELDS):
+            raise ValueError(f"table must have shape (N, {len(FIELDS)}); got {table.shape}")
+        lead = []
+        for name, col in (("frame", frame), ("wing", wing)):
+            if name in self.lead:
+                if col is None:
+                    raise ValueError(f"{self.path.name} has a {name} column; give each row's {name}")
+                lead.append(np.broadcast_to(np.asarray(col).reshape(-1, 1), (table.shape[0], 1)))
+        assert self._fh is not None, "StrainCsvWriter used outside its with block"
         for i in range(table.shape[0]):
             head = [str(int(c[i, 0])) for c in lead]
             vals = [("nan" if not np.isfinite(x) else f"{x:.9g}") for x in table[i, :-1]]
-            fh.write(",".join(head + vals + [str(int(table[i, -1]))]) + "\n")
+            self._fh.write(",".join(head + vals + [str(int(table[i, -1]))]) + "\n")
 
 
 def grid_triangles(uv: np.ndarray, step: int, ok: np.ndarray | None = None) -> np.ndarray:

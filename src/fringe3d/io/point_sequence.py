@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from fringe3d.io.images import read_image
+from fringe3d.io.store import STORE_FORMAT, PointMapStore
 
 #: Fewest frames a strain sequence may have (a reference frame and a deformed one).
 MIN_FRAMES = 2
@@ -47,21 +48,34 @@ class PointSequence:
         return np.asarray(self._tex[i](), dtype=np.float64)
 
 
-class _RayDepthPoints:
-    """The (F, H, W, 3) points of a ``ray_depth`` point store, one frame per ``[k]``."""
-
-    def __init__(self, store):
-        self._store = store
-        self.shape = (store.frames,) + store.shape + (3,)
-
-    def __getitem__(self, k: int) -> np.ndarray:
-        return self._store.points(int(k))
-
-
 def check_point_map_shape(shape, what: str) -> None:
     """ValueError unless ``shape`` is that of an organized point map (H, W, 3)."""
     if len(shape) != 3 or shape[2] != 3:
         raise ValueError(f"{what} has shape {tuple(shape)}; expected an organized point map (H, W, 3) in mm")
+
+
+def _from_point_store(p: Path, group) -> PointSequence:
+    """A ``fringe3d reconstruct`` store, read through :class:`~fringe3d.io.store.PointMapStore` (its
+    own reader: xyz per frame, whatever the store's internal layout)."""
+    st = PointMapStore.open_existing(p)
+    missing = st.pending()
+    if missing:
+        raise ValueError(f"zarr store {p} is incomplete: frame(s) {missing[:10]} were never "
+                         "written; finish (resume) the reconstruction first")
+    loaders = [lambda i=i: st.read(i) for i in range(st.frames)]
+    tex_arr = group["texture"] if "texture" in group else None
+    tex = None if tex_arr is None else [lambda i=i: tex_arr[i] for i in range(tex_arr.shape[0])]
+    return _checked(PointSequence(loaders, tex, tuple(st.shape) + (3,), str(p)), p)
+
+
+def _checked(seq: PointSequence, p: Path) -> PointSequence:
+    """``seq`` after the checks every sequence passes (frame count, one texture per frame)."""
+    if len(seq) < MIN_FRAMES:
+        raise ValueError(f"sequence {p} has {len(seq)} frame(s); expected at least {MIN_FRAMES} "
+                         "(a reference frame and a deformed one)")
+    if seq._tex is not None and len(seq._tex) != len(seq):
+        raise ValueError(f"{p} has {len(seq._tex)} textures for {len(seq)} point maps; expected one per frame")
+    return seq
 
 
 def read_point_sequence(path: str | Path) -> PointSequence:
@@ -96,11 +110,9 @@ def read_point_sequence(path: str | Path) -> PointSequence:
         shape = tuple(arr.shape[1:])
     elif (p / ".zgroup").exists() or (p / "zarr.json").exists() or (p / ".zarray").exists():
         import zarr  # heavy (~1 s to import): only zarr stores need it
-        store: Any = zarr.open(str(p), mode="r")
-        if not hasattr(store, "shape") and store.attrs.get("layout") == "ray_depth":
-            from fringe3d.io.store import PointMapStore  # depth along the camera rays: points by O + s*D
-            pstore = PointMapStore.open_existing(p)
-            store = {"points": _RayDepthPoints(pstore), "done": pstore.done_array[:]}
+        store = zarr.open(str(p), mode="r")
+        if not hasattr(store, "shape") and store.attrs.get("format") == STORE_FORMAT:
+            return _from_point_store(p, store)
         if hasattr(store, "shape"):
             arr, tex_arr = store, None
         else:
@@ -139,12 +151,7 @@ def read_point_sequence(path: str | Path) -> PointSequence:
         elif all(t.exists() for t in tpng):
             tex = [lambda t=t: read_image(t) for t in tpng]
     check_point_map_shape(shape, str(p))
-    if len(loaders) < MIN_FRAMES:
-        raise ValueError(f"sequence {p} has {len(loaders)} frame(s); expected at least {MIN_FRAMES} "
-                         "(a reference frame and a deformed one)")
-    if tex is not None and len(tex) != len(loaders):
-        raise ValueError(f"{p} has {len(tex)} textures for {len(loaders)} point maps; expected one per frame")
-    return PointSequence(loaders, tex, shape, str(p))
+    return _checked(PointSequence(loaders, tex, shape, str(p)), p)
 
 
 # --- anchors --------------------------------------------------------------------------------------

@@ -72,6 +72,57 @@ def render(scene: Scene | SceneObject, rig: Rig, patterns: PatternSet, settings:
     >>> frames.shape, frames.dtype.name, bool(truth.mask.all())
     ((3, 128, 160), 'uint8', True)
     """
+    stream = render_stream(scene, rig, patterns, settings, times)
+    frames, per_frame, truth_times = [], TruthFrames(len(stream.times)), []
+    first: dict | None = None
+    with progress_bar("rendering", len(stream.times), enabled=progress) as advance:
+        for k, img, ft, t_truth in stream:
+            frames.append(img)
+            if stream.moving:
+                per_frame.put(k, ft)
+                truth_times.append(t_truth)
+            elif first is None:
+                first = ft
+            advance()
+    truth = make_truth(per_frame if stream.moving else first, stream.dirs_info, stream.times, not stream.moving,
+                       rig)
+    truth.meta.update(stream.meta)
+    if stream.moving:
+        truth.meta["truth_times"] = truth_times  # differs from ``times`` when motion_samples > 1
+    return np.stack(frames), truth
+
+
+class RenderStream:
+    """The frames of a capture rendered one at a time (what :func:`render` collects).
+
+    Iterating yields ``(k, image, truth, truth_time)`` per frame in capture order: ``image`` (H, W)
+    as :func:`render` returns it, ``truth`` the instant's :func:`~fringe3d.sim.truth.frame_truth`
+    dict (a static scene yields the same dict, cast once, for every frame) and ``truth_time`` (s)
+    the instant it describes. Attributes: ``times`` (F,) s, ``moving`` (per-frame truth),
+    ``dirs_info`` (:func:`~fringe3d.sim.truth.directions_of`) and ``meta`` (the scene metadata
+    :func:`render` adds to ``truth.meta``). Memory holds one frame, whatever F is.
+    """
+
+    def __init__(self, scene: Scene, rig: Rig, sampler: PatternSampler, times: np.ndarray):
+        self.scene, self.rig, self.sampler, self.times = scene, rig, sampler, times
+        self.moving = bool(scene.moving)
+        self.dirs_info = directions_of(sampler.patterns)
+        self.meta = scene_meta(scene, rig, float(times[0]))
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+    def __iter__(self):
+        return _moving_frames(self) if self.moving else _static_frames(self)
+
+
+def render_stream(scene: Scene | SceneObject, rig: Rig, patterns: PatternSet,
+                  settings: RenderSettings | None = None, times=None) -> RenderStream:
+    """The frames :func:`render` makes, as a :class:`RenderStream` (one frame at a time).
+
+    Parameters are those of :func:`render`; the inputs are checked here, before any frame is
+    rendered.
+    """
     s = settings or RenderSettings()
     scene = as_scene(scene)
     check_inputs(rig, patterns)
@@ -80,69 +131,46 @@ def render(scene: Scene | SceneObject, rig: Rig, patterns: PatternSet, settings:
         raise ValueError("nothing to render: no frame times given")
     if not np.all(np.isfinite(times)):
         raise ValueError("frame times must be finite numbers of seconds")
-    sampler = PatternSampler(patterns, s)
-    if scene.moving:
-        frames, truth, truth_times = _render_moving(scene, rig, sampler, times, progress)
-    else:
-        frames, truth = _render_static(scene, rig, sampler, times, progress)
-    truth.meta.update(scene_meta(scene, rig, float(times[0])))
-    if scene.moving:
-        truth.meta["truth_times"] = truth_times  # differs from ``times`` when motion_samples > 1
-    return frames, truth
+    return RenderStream(scene, rig, PatternSampler(patterns, s), times)
 
 
-def _render_static(scene: Scene, rig: Rig, sampler: PatternSampler, times: np.ndarray,
-                   progress: bool) -> tuple[np.ndarray, Truth]:
+def _static_frames(st: RenderStream):
     """Frames of a static scene: one cast at ``times[0]``, shaded once per pattern frame."""
-    s, patterns = sampler.settings, sampler.patterns
+    s, patterns, rig, scene = st.sampler.settings, st.sampler.patterns, st.rig, st.scene
     H, W = rig.camera.height, rig.camera.width
     m = blur_margin(s)  # render beyond the sensor what the camera blur brings onto its border
     origins, dirs, off = camera_rays(rig.camera, m)
-    pad = cast(scene, rig, origins, dirs, off, float(times[0]), s.shadows)
+    pad = cast(scene, rig, origins, dirs, off, float(st.times[0]), s.shadows)
     geo = crop(pad, (H + 2 * m, W + 2 * m), m)
     check_visible(geo)
-    frames = []
-    with progress_bar("rendering", len(times), enabled=progress) as advance:
-        for k in range(len(times)):
-            spec = patterns.frames[k % len(patterns.frames)]
-            img = irradiance(pad, sampler.values(spec, pad), s, scene.ambient)
-            frames.append(sense(img.reshape(H + 2 * m, W + 2 * m), s, k, m))
-            advance()
-    dirs_info = directions_of(patterns)
-    return np.stack(frames), make_truth(frame_truth(geo, (H, W), dirs_info), dirs_info, times, True, rig)
+    ft = frame_truth(geo, (H, W), st.dirs_info)
+    for k in range(len(st.times)):
+        spec = patterns.frames[k % len(patterns.frames)]
+        img = irradiance(pad, st.sampler.values(spec, pad), s, scene.ambient)
+        yield k, sense(img.reshape(H + 2 * m, W + 2 * m), s, k, m), ft, float(st.times[0])
 
 
-def _render_moving(scene: Scene, rig: Rig, sampler: PatternSampler, times: np.ndarray,
-                   progress: bool) -> tuple[np.ndarray, Truth, list[float]]:
+def _moving_frames(st: RenderStream):
     """Frames of a moving scene: re-cast at every frame's motion sub-samples (averaged over
-    the exposure); per-frame truth at the middle sub-sample, whose times are returned too."""
-    s, patterns = sampler.settings, sampler.patterns
+    the exposure); per-frame truth at the middle sub-sample."""
+    s, patterns, rig, scene = st.sampler.settings, st.sampler.patterns, st.rig, st.scene
     H, W = rig.camera.height, rig.camera.width
     m = blur_margin(s)
     Hp, Wp = H + 2 * m, W + 2 * m
     origins, dirs, off = camera_rays(rig.camera, m)
-    dirs_info = directions_of(patterns)
-    per_frame = TruthFrames(len(times))
     work: list[dict] = [{} for _ in range(max(1, s.motion_samples))]  # cast buffers per sub-sample index
-    truth_times: list[float] = []
-    frames = []
-    with progress_bar("rendering", len(times), enabled=progress) as advance:
-        for k, tk in enumerate(times):
-            spec = patterns.frames[k % len(patterns.frames)]
-            sub = motion_subtimes(float(tk), s)
-            img = np.zeros(Hp * Wp)
-            for j, ts in enumerate(sub):  # buffers reused per sub-sample index across frames
-                g = cast(scene, rig, origins, dirs, off, ts, s.shadows, work=work[j])
-                if j == len(sub) // 2:  # truth at the middle sub-sample of the exposure
-                    geo, t_truth = crop(g, (Hp, Wp), m), ts
-                img += irradiance(g, sampler.values(spec, g), s, scene.ambient) / len(sub)
-            if k == 0:
-                check_visible(geo)
-            per_frame.put(k, frame_truth(geo, (H, W), dirs_info))
-            truth_times.append(t_truth)
-            frames.append(sense(img.reshape(Hp, Wp), s, k, m))
-            advance()
-    return np.stack(frames), make_truth(per_frame, dirs_info, times, False, rig), truth_times
+    for k, tk in enumerate(st.times):
+        spec = patterns.frames[k % len(patterns.frames)]
+        sub = motion_subtimes(float(tk), s)
+        img = np.zeros(Hp * Wp)
+        for j, ts in enumerate(sub):  # buffers reused per sub-sample index across frames
+            g = cast(scene, rig, origins, dirs, off, ts, s.shadows, work=work[j])
+            if j == len(sub) // 2:  # truth at the middle sub-sample of the exposure
+                geo, t_truth = crop(g, (Hp, Wp), m), ts
+            img += irradiance(g, st.sampler.values(spec, g), s, scene.ambient) / len(sub)
+        if k == 0:
+            check_visible(geo)
+        yield k, sense(img.reshape(Hp, Wp), s, k, m), frame_truth(geo, (H, W), st.dirs_info), float(t_truth)
 
 
 def check_inputs(rig: Rig, patterns: PatternSet) -> None:

@@ -18,10 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.capture import write_capture
+from fringe3d.io.capture import write_capture_frames
 from fringe3d.optics import TelecentricCamera
 from fringe3d.patterns import sets
 from fringe3d.patterns.manifest import PatternSet
+from fringe3d.utils.console import progress_bar
 
 from . import catalog
 from . import presets as _presets
@@ -29,11 +30,12 @@ from .board import board_facing
 from .presets import Preset
 from .primitives import Box, Plane, Sphere
 from .radiometry import frame_times
-from .render import render
+from .render import RenderStream, render_stream
 from .scene import Scene
 from .scene_file import load_scene
 from .scene_object import SceneObject
 from .settings import RenderSettings
+from .truth import TruthWriter, make_truth, truth_meta
 from .validate import check_scene
 
 
@@ -155,6 +157,44 @@ def _view_direction(preset: Preset) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- capture
+def _write_streamed(folder: Path, stream: RenderStream, p: Preset, ps: PatternSet, meta: dict, fmt: str,
+                    progress: bool) -> float:
+    """Render ``stream`` frame by frame into ``folder``: each frame file written as it is rendered,
+    a moving scene's per-frame truth appended to ``truth/`` (:class:`~fringe3d.sim.truth.TruthWriter`),
+    then the manifest, ``capture.json``, the truth and ``rig.json``. Memory holds a few frames
+    whatever the take's length. Returns the valid (lit) fraction of the truth's pixels."""
+    tdir = folder / "truth"
+    first: dict = {}
+    truth_times: list[float] = []
+    with progress_bar("rendering", len(stream), enabled=progress) as advance, \
+            TruthWriter(tdir, len(stream) if stream.moving else 0) as tw:
+        def frames():
+            for k, img, ft, t_truth in stream:
+                if stream.moving:
+                    tw.put(k, ft)
+                    truth_times.append(t_truth)
+                elif not first:
+                    first.update(ft)
+                yield img
+                advance()
+
+        write_capture_frames(folder, frames(), len(stream), ps, meta, fmt=fmt, progress=False)
+        tmeta = {**truth_meta(stream.dirs_info, stream.times, not stream.moving, p.rig), **stream.meta}
+        if stream.moving:
+            tmeta["truth_times"] = truth_times  # differs from ``times`` when motion_samples > 1
+        tmeta.update({"preset": p.name, "scene": meta["scene"], "seed": meta["seed"]})
+        if stream.moving:
+            tw.finish(tmeta)
+            valid = tw.mask_sum / (len(stream) * p.rig.camera.width * p.rig.camera.height)
+        else:
+            truth = make_truth(first, stream.dirs_info, stream.times, True, p.rig)
+            truth.meta = tmeta
+            truth.save(tdir)
+            valid = float(np.mean(truth.mask))
+    p.rig.save(folder / "rig.json")
+    return float(valid)
+
+
 def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames: int | None = None,
                      cycles: int = 1, frame_rate: float | None = None, exposure: float | None = None,
                      noise: float | None = None, defocus: float | None = None, bit_depth: int | None = 0,
@@ -225,7 +265,6 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
     sc = make_scene(scene, p)
     times = frame_times(frames, s)
     check_scene(sc, p.rig, times=sorted({float(times[0]), float(times[-1])}))
-    imgs, truth = render(sc, p.rig, ps, s, times=times, progress=progress)
     folder = Path(folder)
     meta = {"frame_rate": s.frame_rate, "simulated": True, "preset": p.name,
             "scene": sc.name, "patterns": ps.name, "seed": s.seed,
@@ -233,11 +272,8 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
             "render_settings": s.to_dict(), "volume": p.volume}
     if s.bit_depth is not None:
         meta["bit_depth"] = s.bit_depth
-    write_capture(folder, imgs, ps, meta, fmt="png" if s.bit_depth is not None else "tif")
-    truth.meta.update({"preset": p.name, "scene": meta["scene"], "seed": s.seed})
-    truth.save(folder / "truth")
-    p.rig.save(folder / "rig.json")
-    valid = float(np.mean(truth.mask))
+    valid = _write_streamed(folder, render_stream(sc, p.rig, ps, s, times=times), p, ps, meta,
+                            "png" if s.bit_depth is not None else "tif", progress)
     summary = {"folder": str(folder), "preset": p.name, "scene": meta["scene"], "patterns": ps.name,
                "frames": int(frames), "frame_rate": s.frame_rate, "camera": [p.rig.camera.width, p.rig.camera.height],
                "valid_fraction": valid, "seed": s.seed, "seconds": round(time.perf_counter() - t0, 2)}

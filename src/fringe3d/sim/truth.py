@@ -6,6 +6,7 @@ per-direction fringe angle and period, frame times, whether the scene moves).
 from __future__ import annotations
 
 import zipfile
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -16,6 +17,7 @@ from fringe3d.patterns.conventions import fringe_coordinate, w_to_phase
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.jsonfile import read_json, write_json
 from fringe3d.io.arrays import load_array
+from fringe3d.io.npy_stream import NpyFrameWriter, pack_npz
 
 TRUTH_FORMAT = "fringe3d-truth"
 ARRAY_FIELDS = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit", "material_uv")
@@ -95,11 +97,7 @@ class Truth:
         arrays.update({f"extra_{n}": a for n, a in self.extras.items()})
         with atomic_path(folder / "truth.npz") as tmp:
             write_npz(tmp, arrays)
-        meta = {"format": TRUTH_FORMAT, "version": 1, **self.meta,
-                "directions": list(self.phase), "extras": list(self.extras),
-                "shape": list(self.depth.shape),
-                "units": {"xyz": "mm", "depth": "mm", "up": "projector px", "vp": "projector px",
-                          "phase": "rad"}}
+        meta = truth_json(self.meta, list(self.phase), list(self.extras), self.depth.shape)
         write_json(folder / "truth.json", meta, units={**meta["units"], "times": "s"})
         return folder
 
@@ -134,6 +132,14 @@ class Truth:
         return cls(xyz=data["xyz"], depth=data["depth"], up=data["up"], vp=data["vp"], phase=phase,
                    normal=data["normal"], object_id=data["object_id"], mask=data["mask"], hit=data["hit"],
                    material_uv=data.get("material_uv"), extras=extras, meta=meta)
+
+
+def truth_json(meta: dict, directions: list[str], extras: list[str], shape) -> dict:
+    """The content of ``truth.json``: ``meta`` plus the format, the directions and extras held, the
+    depth map's shape and the units."""
+    return {"format": TRUTH_FORMAT, "version": 1, **meta, "directions": list(directions), "extras": list(extras),
+            "shape": [int(x) for x in shape],
+            "units": {"xyz": "mm", "depth": "mm", "up": "projector px", "vp": "projector px", "phase": "rad"}}
 
 
 def write_npz(path, arrays: dict, level: int = 1) -> None:
@@ -202,6 +208,81 @@ class TruthFrames:
                 arr[k] = v
 
 
+class TruthWriter:
+    """Per-frame truth of a moving scene written to ``folder`` frame by frame, in the layout
+    :meth:`Truth.save` writes (``truth.npz`` with ``(F, H, W, ...)`` arrays + ``truth.json``), so
+    :meth:`Truth.load` reads it back unchanged; memory holds one frame whatever F is.
+
+    Use as a context manager: :meth:`put` frames ``0 .. F - 1`` in order (a field a later frame
+    lacks is written NaN / 0, as :class:`TruthFrames` does), then :meth:`finish`. Each field goes to
+    a temporary ``.npy`` (:class:`~fringe3d.io.npy_stream.NpyFrameWriter`) packed into
+    ``truth.npz`` at the end; leaving the block early removes them.
+    """
+
+    def __init__(self, folder, n_frames: int):
+        self.folder, self.n = Path(folder), int(n_frames)
+        self._stack = ExitStack()
+        self._writers: dict = {}
+        self.count = 0
+        self.mask_sum = 0
+
+    def __enter__(self) -> "TruthWriter":
+        self.folder.mkdir(parents=True, exist_ok=True)
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        try:
+            return bool(self._stack.__exit__(*exc))
+        finally:
+            for w in self._writers.values():
+                if w is not None:
+                    w.path.unlink(missing_ok=True)
+
+    def put(self, k: int, ft: dict) -> None:
+        """Write frame ``k`` (the next one) from a :func:`frame_truth` dict."""
+        if k != self.count:
+            raise ValueError(f"truth frames must come in order: got frame {k}, expected {self.count}")
+        flat = _flatten(ft)
+        if not self._writers:
+            for key, v in flat.items():
+                self._writers[key] = None if v is None else self._stack.enter_context(NpyFrameWriter(
+                    self.folder / f".{_member(key)}.stream.npy", self.n, v.shape, v.dtype))
+        for key, w in self._writers.items():
+            if w is None:
+                continue
+            v = flat.get(key)
+            w.append(v if v is not None else np.full(w.frame_shape, np.nan if w.dtype.kind == "f" else 0, w.dtype))
+        self.mask_sum += int(np.count_nonzero(flat["mask"]))
+        self.count += 1
+
+    def finish(self, meta: dict) -> Path:
+        """Close the fields, pack ``truth.npz``, write ``truth.json`` (``meta`` as :func:`make_truth`
+        and the renderer make it); returns the folder."""
+        if self.count != self.n:
+            raise ValueError(f"{self.count} of {self.n} truth frames written")
+        writers = {k: w for k, w in self._writers.items() if w is not None}
+        self._stack.close()   # every field's .npy is now complete and in place
+        pack_npz(self.folder / "truth.npz", {_member(k): w.path for k, w in writers.items()})
+        dirs = [k[1] for k in writers if isinstance(k, tuple) and k[0] == "phase"]
+        extras = [k[1] for k in writers if isinstance(k, tuple) and k[0] == "extras"]
+        write_json(self.folder / "truth.json", truth_json(meta, dirs, extras, (self.n,) + writers["depth"].frame_shape))
+        return self.folder
+
+
+def _member(key) -> str:
+    """Name of a :func:`_flatten` key in ``truth.npz`` (``phase_DIR``, ``extra_NAME``, else the field)."""
+    if isinstance(key, tuple):
+        return f"phase_{key[1]}" if key[0] == "phase" else f"extra_{key[1]}"
+    return key
+
+
+def truth_meta(dirs_info: dict[str, tuple[float, float]], times, static: bool, rig: Rig) -> dict:
+    """The metadata :func:`make_truth` gives a :class:`Truth`."""
+    return {"per_frame": not static, "times": [float(t) for t in times],
+            "fringe": {d: {"angle": a, "period": p} for d, (a, p) in dirs_info.items()},
+            "camera": rig.camera.kind, "frame": "camera" if rig.camera.kind == "pinhole" else "projector"}
+
+
 def _flatten(ft: dict) -> dict:
     out = {k: v for k, v in ft.items() if k not in ("phase", "extras")}
     out.update({("phase", d): v for d, v in ft["phase"].items()})
@@ -216,9 +297,7 @@ def make_truth(frames: dict | TruthFrames, dirs_info: dict[str, tuple[float, flo
     data = frames.data if isinstance(frames, TruthFrames) else _flatten(frames)
     assert data is not None, "no frame was put into the TruthFrames"
     names = ("xyz", "depth", "up", "vp", "normal", "object_id", "mask", "hit")
-    meta = {"per_frame": not static, "times": [float(t) for t in times],
-            "fringe": {d: {"angle": a, "period": p} for d, (a, p) in dirs_info.items()},
-            "camera": rig.camera.kind, "frame": "camera" if rig.camera.kind == "pinhole" else "projector"}
+    meta = truth_meta(dirs_info, times, static, rig)
     return Truth(**{n: data[n] for n in names}, material_uv=data.get("material_uv"),
                  phase={k[1]: v for k, v in data.items() if isinstance(k, tuple) and k[0] == "phase"},
                  extras={k[1]: v for k, v in data.items() if isinstance(k, tuple) and k[0] == "extras"},
