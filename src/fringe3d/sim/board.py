@@ -134,16 +134,7 @@ class BoardTarget(PosedObject):
 
     # -- ray casting -----------------------------------------------------------------------------
     def intersect_body(self, o, d):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = -o[:, 2] / d[:, 2]
-        t = np.where(np.isfinite(t), t, np.inf)
-        p = o + np.where(np.isfinite(t), t, 0.0)[:, None] * d
-        x0, x1, y0, y1 = self.extent
-        inside = (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)
-        t = np.where(inside, t, np.inf)
-        n = np.zeros_like(d)
-        n[:, 2] = 1.0
-        return t, n, p[:, :2]
+        return rectangle_hits(o, d, self.extent)
 
     def describe(self) -> str:
         kind = "asymmetric" if self.asymmetric else "symmetric"
@@ -180,3 +171,21 @@ def board_facing(camera_center, board_center, tilt=(0.0, 0.0, 0.0), **board_kwar
     mid = probe.object_points()[:, :2]
     mid = np.array([(mid[:, 0].min() + mid[:, 0].max()) / 2, (mid[:, 1].min() + mid[:, 1].max()) / 2, 0.0])
     return BoardTarget(R=R, t=bc - R @ mid, **board_kwargs)
+
+
+def rectangle_hits(o: np.ndarray, d: np.ndarray, extent) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ray hits on the rectangle ``extent = (x0, x1, y0, y1)`` (mm) of the body plane z = 0.
+
+    ``o``, ``d`` (N, 3) body-frame ray origins and directions -> ``t`` (N,) ray parameters
+    (inf where missed), normals (N, 3) (+z) and the hits' body (x, y) (N, 2) mm.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -o[:, 2] / d[:, 2]
+    t = np.where(np.isfinite(t), t, np.inf)
+    p = o + np.where(np.isfinite(t), t, 0.0)[:, None] * d
+    x0, x1, y0, y1 = extent
+    inside = (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)
+    t = np.where(inside, t, np.inf)
+    n = np.zeros_like(d)
+    n[:, 2] = 1.0
+    return t, n, p[:, :2]

@@ -25,7 +25,7 @@ import numpy as np
 from fringe3d.calibrate.boards import CircleBoard
 from fringe3d.calibrate.square_boards import CharucoBoard, ChessBoard
 
-from .board import BoardTarget
+from .board import BoardTarget, rectangle_hits
 from .motion import STATIC, RigidMotion
 from .projector_sampling import bilinear
 from .scene_object import PosedObject, check_albedo, check_rotation, check_vec3
@@ -62,16 +62,7 @@ class _PrintedBoard(PosedObject):
         return np.array([(x0 + x1) / 2, (y0 + y1) / 2, 0.0]), 0.5 * float(np.hypot(x1 - x0, y1 - y0))
 
     def intersect_body(self, o, d):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = -o[:, 2] / d[:, 2]
-        t = np.where(np.isfinite(t), t, np.inf)
-        p = o + np.where(np.isfinite(t), t, 0.0)[:, None] * d
-        x0, x1, y0, y1 = self.extent
-        inside = (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)
-        t = np.where(inside, t, np.inf)
-        n = np.zeros_like(d)
-        n[:, 2] = 1.0
-        return t, n, p[:, :2]
+        return rectangle_hits(o, d, self.extent)
 
     def describe(self) -> str:
         return self.board.describe()
