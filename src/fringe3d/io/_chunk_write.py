@@ -63,7 +63,7 @@ def chunk_writer(array) -> ChunkWriter | None:
             return blosc.encode(raw)
     else:
         def encode(raw: np.ndarray) -> bytes | memoryview:
-            return memoryview(raw)
+            return raw.data  # the raw bytes, no copy
     root = Path(store.root) / array.store_path.path
     le = dtype.newbyteorder("<")
     tail = shape[1:]
