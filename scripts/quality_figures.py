@@ -62,8 +62,9 @@ def irradiance(scene, rig, ps, settings):
 
 
 def noisy(irr: np.ndarray, settings, seed: int) -> np.ndarray:
-    """The simulator's sensor model (shot + read noise, quantisation) applied with ``seed``."""
-    s = settings.replace(seed=seed)
+    """The simulator's sensor model (shot + read noise, quantisation) applied with ``seed``;
+    not the camera blur again (:func:`irradiance`'s render already applied it)."""
+    s = settings.replace(seed=seed, camera_blur=0.0)
     return np.stack([sense(irr[k], s, k) for k in range(irr.shape[0])])
 
 

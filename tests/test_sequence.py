@@ -154,3 +154,33 @@ def test_capture_frames_read_on_demand_match_the_capture(seq_capture):
     np.testing.assert_array_equal(lazy[[4, 0, 8]], cap.frames[[4, 0, 8]])
     np.testing.assert_array_equal(lazy[3], cap.frames[3])
     assert len(CaptureFrames(cap.folder, limit=3)) == 3
+
+
+def test_resumed_run_equals_an_uninterrupted_one_when_frames_are_marked_in_batches(seq_capture, tmp_path,
+                                                                                  monkeypatch):
+    cap, rig, truth = seq_capture
+    ps = with_method(cap.patterns, "geometric")
+    monkeypatch.setattr(sequence, "MARK_EVERY", 2)  # marks written frames done two at a time
+    real_call = sequence.FrameReconstructor.reconstruct
+    calls = {"n": 0}
+
+    def flaky(self, frames, **kw):
+        calls["n"] += 1
+        if calls["n"] == 6:
+            raise KeyboardInterrupt  # stopped during the sixth 3D frame
+        return real_call(self, frames, **kw)
+
+    monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", flaky)
+    with pytest.raises(KeyboardInterrupt):
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path / "resumed", options=Z340, mode="window", progress=False)
+    # every frame whose chunks were written is marked, the batch not yet full included
+    assert PointMapStore.open_existing(tmp_path / "resumed" / "points.zarr").pending() == [5, 6]
+    monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", real_call)
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path / "resumed", options=Z340, mode="window", progress=False)
+    assert res["done_now"] == 2
+    reconstruct_sequence(cap.frames, ps, rig, tmp_path / "whole", options=Z340, mode="window", progress=False)
+    a = PointMapStore.open_existing(tmp_path / "resumed" / "points.zarr")
+    b = PointMapStore.open_existing(tmp_path / "whole" / "points.zarr")
+    assert a.pending() == [] and a.layout == b.layout
+    for name in ("depth", "quality", "sigma_z", "done"):
+        np.testing.assert_array_equal(a.group[name][:], b.group[name][:])

@@ -38,7 +38,8 @@ modulation ratio of two periods (:func:`estimate_blur`).
 
 The neighbourhood filters are the numba ones of :mod:`fringe3d.decode._stencils` (equal to
 their ``scipy.ndimage`` counterparts, several times faster), so the quality map of a 1280 x 1024
-frame costs a few milliseconds.
+frame costs a few milliseconds; :func:`fused_quality_map` gives the same map of one direction
+(no multi-frequency residual) in three passes, for the fused 3-step path of long sequences.
 """
 from __future__ import annotations
 
@@ -47,6 +48,7 @@ from typing import Sequence
 
 import numpy as np
 
+from fringe3d.decode._fused_quality import fused_quality_map  # noqa: F401  (quality_map in three passes)
 from fringe3d.decode._stencils import dilate3, erode_cross, max5, median5, neighbour_jump
 
 INVALID = 1

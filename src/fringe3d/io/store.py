@@ -37,6 +37,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from fringe3d.io._chunk_write import chunk_writer
 from fringe3d.optics.rays import ray_points
 
 STORE_FORMAT = "fringe3d-point-store"
@@ -97,6 +98,9 @@ class PointMapStore:
         self.done_array = group["done"]
         self._done = np.asarray(self.done_array[:], bool)
         self._rays: tuple[np.ndarray, np.ndarray] | None = None
+        # per-frame arrays written chunk by chunk without zarr's per-call cost (fringe3d.io._chunk_write)
+        self._writers = {id(a): chunk_writer(a) for a in (self.points_array, self.depth_array, self.quality_array,
+                                                          self.sigma_array) if a is not None}
 
     # -- creation / resumption --------------------------------------------------------
     @classmethod
@@ -262,7 +266,11 @@ class PointMapStore:
                     raise ValueError(f"frame {k}: the store holds {name} but none was given")
                 data.append((arr, self._check(k, name, v, dt)))
         for arr, v in data:
-            arr[k] = v  # type: ignore[index]  # the arrays of this layout (never None here)
+            write = self._writers.get(id(arr))
+            if write is not None:
+                write(k, v)
+            else:
+                arr[k] = v  # type: ignore[index]  # the arrays of this layout (never None here)
 
     def _check(self, k: int, name: str, v: np.ndarray, dtype) -> np.ndarray:
         v = np.asarray(v)
@@ -271,10 +279,14 @@ class PointMapStore:
         return v.astype(dtype, copy=False)
 
     def mark_done(self, ks) -> None:
-        """Mark frames ``ks`` complete (their chunks are written)."""
-        for k in ks:
-            self.done_array[int(k)] = 1
-            self._done[int(k)] = True
+        """Mark frames ``ks`` complete (their chunks are written): one write of the ``done``
+        array (its changed span) and of the ``completed`` attribute however many frames."""
+        ks = np.asarray(list(ks), np.int64)
+        if not ks.size:
+            return
+        self._done[ks] = True
+        lo, hi = int(ks.min()), int(ks.max()) + 1
+        self.done_array[lo:hi] = self._done[lo:hi].astype(np.uint8)
         self.group.attrs["completed"] = self.completed
 
     # -- reading ---------------------------------------------------------------------------

@@ -44,9 +44,9 @@ def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shi
     if options.edge_mask:
         margin = edges.BASE_MARGIN if options.edge_margin is None else float(options.edge_margin)
         margin *= edges.oblique_factor(fast.mp.angle)  # the band's width along w (decode.edges docstring)
-        q = edges.quality_map(valid, w, extent, margin, pr.modulation, pr.average, None,
-                              gradient_ratio=float(options.gradient_ratio),
-                              modulation_ratio=float(options.modulation_ratio), rim=int(options.rim))
+        q = edges.fused_quality_map(valid, w, extent, margin, pr.modulation, pr.average,
+                                    gradient_ratio=float(options.gradient_ratio),
+                                    modulation_ratio=float(options.modulation_ratio), rim=int(options.rim))
         depth[q != 0] = np.nan
     else:
         q = np.where(valid, 0, edges.INVALID).astype(np.uint8)

@@ -362,6 +362,9 @@ def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out
 
 #: Cycles per batched launch on the CUDA backend (one cycle at a time on the CPU).
 CUDA_BATCH = 32
+#: Written frames marked done at once (one write of the store's ``done`` array and attributes; an
+#: interrupted run recomputes at most this many frames whose chunks were already written).
+MARK_EVERY = 16
 
 
 def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out,
@@ -408,25 +411,34 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
     t0 = time.perf_counter()
     empty = 0
     writes: deque = deque()  # store writes run behind the next frame's compute (compression is off the critical path)
+    written: list[int] = []  # frames whose chunks are written, to be marked done (every MARK_EVERY frames)
     with progress_bar("reconstructing 3D frames", len(todo), enabled=progress and len(todo) > 1) as advance, \
             ThreadPoolExecutor(max_workers=1, thread_name_prefix="fringe3d-store") as writer:
-        for b0 in range(0, len(todo), batch):
-            ks = todo[b0:b0 + batch]
-            cycles = [np.ascontiguousarray(frames[window_index(starts[k], n)]) for k in ks]
-            depths = rec.depths(cycles)
-            for i, (k, cycle_frames) in enumerate(zip(ks, cycles)):
-                cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, st_layout, quality,
-                                                    depth=None if depths is None else depths[i])
-                empty += was_empty
-                if ply and cyc.points is not None and np.isfinite(cyc.points[..., 0]).any():
-                    write_measurement_ply(out / PLY_DIR / ply_name(k), cyc.points, cyc.texture)
-                if st is not None:
-                    writes.append(writer.submit(_write_and_mark, st, k, store_arrays(cyc, st)))
-                    while len(writes) > 2:  # at most two frames in flight: bounded memory
-                        writes.popleft().result()
-                advance()
-        while writes:
-            writes.popleft().result()
+        try:
+            for b0 in range(0, len(todo), batch):
+                ks = todo[b0:b0 + batch]
+                cycles = [np.ascontiguousarray(frames[window_index(starts[k], n)]) for k in ks]
+                depths = rec.depths(cycles)
+                for i, (k, cycle_frames) in enumerate(zip(ks, cycles)):
+                    cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, st_layout, quality,
+                                                        depth=None if depths is None else depths[i])
+                    empty += was_empty
+                    if ply and cyc.points is not None and np.isfinite(cyc.points[..., 0]).any():
+                        write_measurement_ply(out / PLY_DIR / ply_name(k), cyc.points, cyc.texture)
+                    if st is not None:
+                        writes.append((k, writer.submit(st.write_frame, k, **store_arrays(cyc, st))))
+                        while len(writes) > 2:  # at most two frames in flight: bounded memory
+                            written.append(_finish(writes.popleft()))
+                        if len(written) >= MARK_EVERY:
+                            st.mark_done(written)
+                            written.clear()
+                    advance()
+            while writes:
+                written.append(_finish(writes.popleft()))
+        finally:  # also when interrupted: the frames whose writes finished are marked, so a rerun skips them
+            if st is not None:
+                _drain(writes, written)
+                st.mark_done(written)
     dt = time.perf_counter() - t0
     return {"out": str(out), "frames_3d": len(starts), "done_now": len(todo), "done_before": len(starts) - len(todo),
             "empty_frames": empty, "seconds": round(dt, 3),
@@ -436,6 +448,17 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
             "store_layout": st.layout if st is not None else None}
 
 
-def _write_and_mark(st: PointMapStore, k: int, arrays: dict) -> None:
-    st.write_frame(k, **arrays)
-    st.mark_done([k])
+def _finish(pending: tuple) -> int:
+    """The frame index of a ``(k, future)`` store write, once the write has finished (it raises if
+    the write did)."""
+    k, fut = pending
+    fut.result()
+    return k
+
+
+def _drain(writes: deque, written: list[int]) -> None:
+    """Wait for the store writes still in flight; append to ``written`` those that succeeded."""
+    while writes:
+        k, fut = writes.popleft()
+        if fut.exception() is None:
+            written.append(k)

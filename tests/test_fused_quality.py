@@ -1,0 +1,55 @@
+"""The three-pass quality map of the fused 3-step path equals edges.quality_map bit for bit."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fringe3d.decode import edges
+from fringe3d.decode._fused_quality import fused_quality_map
+
+SHAPES = [(1, 1), (2, 7), (6, 5), (61, 83)]
+EXTENT = (-0.5, 99.5)
+MARGIN = 2.0
+
+
+def maps(shape, seed):
+    """A fringe coordinate with depth steps, a mask with holes, contrast drops and unlit pixels."""
+    rng = np.random.default_rng(seed)
+    H, W = shape
+    w = np.linspace(-3, 103, W, dtype=np.float32)[None, :].repeat(H, 0)
+    w += np.where(rng.random(shape) < 0.05, 6.0, 0.0).astype(np.float32)  # isolated depth steps
+    w += rng.normal(0, 0.05, shape).astype(np.float32)
+    lo = np.float32(EXTENT[0] + MARGIN)
+    w.flat[:: 7] = np.nextafter(lo, np.float32(np.inf))  # just inside the EDGE threshold ...
+    w.flat[3:: 11] = lo  # ... on it (not in the band: the test is w < lo + margin in float32)
+    valid = rng.random(shape) > 0.1
+    w[~valid] = np.nan
+    average = rng.uniform(20, 200, shape).astype(np.float32)
+    average[rng.random(shape) < 0.03] = 0.0  # no contrast where A <= 0
+    modulation = (average * rng.uniform(0.3, 0.9, shape)).astype(np.float32)
+    modulation[rng.random(shape) < 0.05] *= np.float32(0.2)  # mixed pixels
+    return valid, w, modulation, average
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+@pytest.mark.parametrize("rim", [0, 1, 2])
+def test_fused_quality_map_equals_quality_map(shape, rim):
+    for seed in range(3):
+        valid, w, mod, avg = maps(shape, seed)
+        kw = dict(gradient_ratio=4.0, gradient_floor=1.0, modulation_ratio=0.5, rim=rim)
+        ref = edges.quality_map(valid, w, EXTENT, MARGIN, mod, avg, None, **kw)
+        np.testing.assert_array_equal(fused_quality_map(valid, w, EXTENT, MARGIN, mod, avg, **kw), ref)
+
+
+def test_every_bit_is_exercised():
+    valid, w, mod, avg = maps((61, 83), 0)
+    q = fused_quality_map(valid, w, EXTENT, MARGIN, mod, avg, rim=1)
+    for bit in (edges.INVALID, edges.EDGE, edges.GRADIENT, edges.MOD_DROP, edges.RIM):
+        assert (q & bit).any(), edges.BITS[bit]
+
+
+def test_other_thresholds_match_too():
+    valid, w, mod, avg = maps((40, 50), 4)
+    kw = dict(gradient_ratio=2.5, gradient_floor=0.3, modulation_ratio=0.8, rim=1)
+    np.testing.assert_array_equal(fused_quality_map(valid, w, EXTENT, 3.7, mod, avg, **kw),
+                                  edges.quality_map(valid, w, EXTENT, 3.7, mod, avg, None, **kw))
