@@ -48,8 +48,25 @@ def _check_squares(kind: str, cols: int, rows: int, spacing: float) -> None:
         raise ValueError(f"{kind} square size must be > 0 mm, got {spacing}")
 
 
+class _SquareGrid:
+    """What a board of ``cols`` x ``rows`` squares knows about its inner corners."""
+
+    cols: int
+    rows: int
+
+    @property
+    def pattern_size(self) -> tuple[int, int]:
+        """Inner corners per row and per column, ``cv2.findChessboardCornersSB``'s ``patternSize``."""
+        return (self.cols - 1, self.rows - 1)
+
+    @property
+    def count(self) -> int:
+        """Number of inner corners."""
+        return (self.cols - 1) * (self.rows - 1)
+
+
 @dataclass(frozen=True)
-class ChessBoard:
+class ChessBoard(_SquareGrid):
     """A planar chessboard of ``cols`` x ``rows`` squares of side ``spacing`` mm (see module doc).
 
     Attributes
@@ -68,14 +85,6 @@ class ChessBoard:
     def __post_init__(self):
         _check_squares("chessboard", self.cols, self.rows, self.spacing)
 
-    @property
-    def pattern_size(self) -> tuple[int, int]:
-        """Inner corners per row and per column, ``cv2.findChessboardCornersSB``'s ``patternSize``."""
-        return (self.cols - 1, self.rows - 1)
-
-    @property
-    def count(self) -> int:
-        return (self.cols - 1) * (self.rows - 1)
 
     def object_points(self) -> np.ndarray:
         """``((cols-1)*(rows-1), 3)`` float64 inner corners in board coordinates (mm), OpenCV order."""
@@ -95,7 +104,7 @@ class ChessBoard:
 
 
 @dataclass(frozen=True)
-class CharucoBoard:
+class CharucoBoard(_SquareGrid):
     """A ChArUco board (OpenCV's ``cv2.aruco.CharucoBoard``; see module doc).
 
     Attributes
@@ -129,13 +138,6 @@ class CharucoBoard:
             raise ValueError(f"ArUco dictionary {self.dictionary} has {d.bytesList.shape[0]} markers but a "
                              f"{self.cols}x{self.rows} ChArUco board needs {need}; choose a larger dictionary")
 
-    @property
-    def pattern_size(self) -> tuple[int, int]:
-        return (self.cols - 1, self.rows - 1)
-
-    @property
-    def count(self) -> int:
-        return (self.cols - 1) * (self.rows - 1)
 
     def cv_dictionary(self):
         """The ``cv2.aruco.Dictionary`` named by :attr:`dictionary`; ``ValueError`` for unknown names."""
