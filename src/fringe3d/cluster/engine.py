@@ -138,7 +138,7 @@ def reconstruct_capture_on_dask(capture: str | os.PathLike, patterns: PatternSet
                                   layout=layout, store_quality=store_quality)
     key = fingerprint([capture], {"patterns": patterns.to_dict(), "rig": rig.to_dict(), "options": repr(options),
                                   "mode": mode, "step": step, "limit": limit, "triangulation": triangulation,
-                                  "layout": layout, "store_quality": store_quality})
+                                  "layout": layout, "store_quality": store_quality, "backend": backend})
     job = SequenceJob(key=key, capture=str(Path(capture).resolve()), limit=len(frames), patterns=patterns, rig=rig,
                       options=options, starts=tuple(starts), triangulation=triangulation,
                       store=str((out / STORE_NAME).resolve()) if st is not None else None,

@@ -30,7 +30,7 @@ from fringe3d.decode.context import phase_groups
 from fringe3d.decode.method_plans import METHOD_NEEDS, plan_for_method  # noqa: F401  (re-exported)
 from fringe3d.decode.method_plans import with_method as plans_with_method
 from fringe3d.decode.decoder import decode
-from fringe3d.decode.edges import INVALID
+from fringe3d.decode.edges import INVALID, oblique_factor
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.decode.texture import fringe_texture
 from fringe3d.gpu.runtime import check_backend
@@ -168,7 +168,8 @@ class FrameReconstructor:
         self._fast_shifts = g.shifts
         wr = plans[0].options.get("w_range")
         lo, hi = (float(wr[0]), float(wr[1])) if wr is not None else w_range(g.angle, ps.width, ps.height)
-        self._fast_extent = (lo - 0.5, hi + 0.5)
+        f = oblique_factor(g.angle)  # a pixel's w-extent, as the decode path's (fringe3d.decode.assess)
+        self._fast_extent = (lo - 0.5 * f, hi + 0.5 * f)
         self._fast_min_mod = self.options.min_modulation
         return FastThreeStep(Triangulator(self.rig, g.angle, warn_distortion=False), mp, g.shifts,
                              min_modulation=0.0, backend=self.backend)
@@ -245,9 +246,8 @@ def reconstruct_window(rec: FrameReconstructor, frames: np.ndarray, ply: bool, l
     want_points = ply or layout == "xyz"
     try:
         return rec.reconstruct(frames, uncertainty=quality, points=want_points, texture=ply, depth=depth), False
-    except ValueError as e:
-        if "mask is empty" not in str(e):
-            raise
+    except EmptyMaskError:
+        pass
     H, W = frames.shape[1:]
     nan = np.full((H, W), np.nan, np.float32)
     return Cycle(np.full((H, W, 3), np.nan, np.float32) if want_points else None, None,
