@@ -199,3 +199,21 @@ def test_import_and_decode_share_one_definition_of_the_import_options():
     for name in shared:
         a, b = params["import"][name], params["decode"][name]
         assert (a.opts, a.help, a.default) == (b.opts, b.help, b.default), name
+
+
+def test_a_glob_or_list_source_is_an_input_the_output_may_not_replace(tmp_path, sim_frames, capsys):
+    ps, frames, _ = sim_frames
+    src = tmp_path / "scan"
+    src.mkdir()
+    for i, f in enumerate(frames):
+        assert cv2.imwrite(str(src / f"img_{i + 1}.png"), f)
+    (src / "order.txt").write_text("".join(f"img_{i + 1}.png\n" for i in range(len(frames))))
+    opts = ["--set", "phase-shift", "--steps", 3, "--period", PERIOD, "--projector-size", f"{ps.width}x{ps.height}",
+            "--unwrap", "spatial", "--quiet"]
+    before = {p.name: p.read_bytes() for p in src.iterdir()}
+    for command in ("decode", "import"):
+        for source in ([str(src / "img_*.png")], [src / "elsewhere", "--list", src / "order.txt"]):
+            capsys.readouterr()
+            assert cli(command, *source, "-o", src, "--overwrite", *opts) == 2, (command, source)
+            assert "inside the output" in " ".join(capsys.readouterr().err.split())
+            assert {p.name: p.read_bytes() for p in src.iterdir()} == before  # the source frames are untouched

@@ -175,8 +175,7 @@ def register(app: typer.Typer) -> None:
                         "first_frame": first_frame, "frame_count": frame_count, "steps": steps, "period": period,
                         "direction": direction, "shift_order": shift_order, "shift_sign": shift_sign,
                         "unwrap": unwrap, "no_inverse": no_inverse}
-            inputs = [p for p in (Path(capture) if Path(capture).exists() else None, list_file, manifest, rig)
-                      if p is not None]
+            inputs = io.source_inputs(capture, list_file, manifest, rig)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:

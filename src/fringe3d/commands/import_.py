@@ -48,8 +48,7 @@ def register(app: typer.Typer) -> None:
         set_quiet(quiet or json_)
         opts = io.layout_arguments(layout, steps=steps, period=period, direction=direction, shift_order=shift_order,
                                    shift_sign=shift_sign, unwrap=unwrap, no_inverse=no_inverse)
-        src_path = Path(src)
-        inputs = [p for p in (src_path if src_path.exists() else None, list_file, manifest) if p is not None]
+        inputs = io.source_inputs(src, list_file, manifest)
         with open_output(out, overwrite=overwrite, inputs=inputs,
                          options={"src": src, "layout": layout, "first_frame": first_frame,
                                   "frame_count": frame_count, "copy_frames": copy_frames, **opts}) as o:

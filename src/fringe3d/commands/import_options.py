@@ -93,3 +93,19 @@ def layout_arguments(layout: str | None, *, steps: int, period: float | None, di
         opts["inverse"] = not no_inverse
     return opts
 
+
+def source_inputs(src, list_file: Path | None, manifest: Path | None, *more: Path | None) -> list[Path]:
+    """The input paths of an import-style source, for ``open_output``'s checks and fingerprint:
+    the source folder or camera file itself, or each frame file a glob or ``--list`` names (a
+    glob is no path, so the output guard could not see its folder), then the other files."""
+    from fringe3d.io.importer import list_sources
+
+    p = Path(src)
+    if list_file is None and p.exists():
+        frames = [p]
+    else:
+        try:
+            frames = list_sources(src, list_file)
+        except FileNotFoundError:  # the import itself reports what is missing
+            frames = []
+    return [x for x in (*frames, list_file, manifest, *more) if x is not None]
