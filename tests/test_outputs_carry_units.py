@@ -84,3 +84,9 @@ def test_fused_three_step_path_gives_decode_s_texture_a_plus_b(tmp_path):
     pr = wrapped_phase(cap.frames, shifts=[f.shift for f in ps.frames])
     np.testing.assert_allclose(tex, np.clip((pr.average + pr.modulation) / 255.0, 0, 1), atol=1e-5)
     np.testing.assert_allclose(decode(cap.frames, ps, rig=rig, options=opts).texture, tex, atol=1e-5)
+
+
+def test_a_moving_scene_s_streamed_truth_carries_provenance_and_units(tmp_path):
+    assert main(["simulate", "-o", str(tmp_path / "cap"), "--scene", "falling-balls", "--patterns", "two-frequency",
+                 "-q"]) == 0
+    check_json_provenance(tmp_path / "cap" / "truth" / "truth.json")

@@ -265,7 +265,8 @@ class TruthWriter:
         pack_npz(self.folder / "truth.npz", {_member(k): w.path for k, w in writers.items()})
         dirs = [k[1] for k in writers if isinstance(k, tuple) and k[0] == "phase"]
         extras = [k[1] for k in writers if isinstance(k, tuple) and k[0] == "extras"]
-        write_json(self.folder / "truth.json", truth_json(meta, dirs, extras, (self.n,) + writers["depth"].frame_shape))
+        content = truth_json(meta, dirs, extras, (self.n,) + writers["depth"].frame_shape)
+        write_json(self.folder / "truth.json", content, units={**content["units"], "times": "s"})  # as Truth.save
         return self.folder
 
 
