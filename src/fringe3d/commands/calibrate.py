@@ -12,7 +12,6 @@ from fringe3d.calibrate.opencv_file import load_opencv_calibration, parse_node_m
 from fringe3d.calibrate.code_mapping import DEFAULT_WINDOW
 from fringe3d.calibrate.session import board_from_options, calibrate_to_files
 from fringe3d.calibrate.square_boards import BOARD_KINDS
-from fringe3d.io.importer import LAYOUTS
 from fringe3d.io.importer import parse_size as parse_projector_size
 from fringe3d.sim.calibration_session import PATTERN_KINDS, simulate_session
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
@@ -45,7 +44,7 @@ def register(app: typer.Typer) -> None:
         marker: float = typer.Option(None, help="ChArUco marker size (mm); default 0.7 x the square size."),
         dictionary: str = typer.Option("DICT_4X4_50", help="ChArUco ArUco dictionary (cv2.aruco.DICT_* name)."),
         layout: str = typer.Option(None, "--layout", help="Poses of another tool: folders of numbered frames "
-                                                          "(no manifest) projected with this layout, e.g. "
+                                                          "(no manifest) projected with this layout: "
                                                           "opencv-graycode (OpenCV GrayCodePattern: column "
                                                           "pairs, row pairs, white, black); needs "
                                                           "--projector-size."),
@@ -125,8 +124,9 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--board must be one of {', '.join(BOARD_KINDS)}, got {board_kind!r}")
         if sim_patterns not in PATTERN_KINDS:
             raise ValueError(f"--patterns must be one of {', '.join(PATTERN_KINDS)}, got {sim_patterns!r}")
-        if layout is not None and layout not in LAYOUTS:
-            raise ValueError(f"--layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
+        if layout is not None and layout != "opencv-graycode":  # the only layout of a calibration set
+            raise ValueError(f"--layout for a calibration session must be opencv-graycode (OpenCV's GrayCodePattern "
+                             f"frames in each pose folder), got {layout!r}")
         if not 5 <= homography_window <= 501:
             raise ValueError(f"--homography-window must be between 5 and 501 camera px, got {homography_window}")
         least = 2 if board_kind == "circles" else 3
