@@ -21,7 +21,7 @@ import numpy as np
 
 from fringe3d.utils.atomic import atomic_path
 
-__all__ = ["NpyFrameWriter", "read_npy_frame", "iter_npy_frames", "npy_frame_count", "pack_npz"]
+__all__ = ["NpyFrameWriter", "read_npy_frame", "iter_npy_frames", "pack_npz"]
 
 #: Bytes copied per read when packing a ``.npy`` into a zip member.
 COPY_CHUNK = 1 << 22
@@ -92,12 +92,6 @@ def _header(fh) -> tuple[tuple, np.dtype, int]:
     if fortran:
         raise ValueError(f"{fh.name}: Fortran-ordered arrays cannot be read frame by frame")
     return tuple(shape), np.dtype(dtype), fh.tell()
-
-
-def npy_frame_count(path: str | os.PathLike) -> int:
-    """Leading length F of the ``.npy`` at ``path``."""
-    with open(path, "rb") as fh:
-        return int(_header(fh)[0][0])
 
 
 def read_npy_frame(path: str | os.PathLike, k: int) -> np.ndarray:

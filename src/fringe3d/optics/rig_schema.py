@@ -13,13 +13,14 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
+from fringe3d.optics.distortion import OPENCV_LENGTHS
 from fringe3d.utils.schema import UNION_TAGS, FiniteFloat, Size, Strict, StrictInt, validate
 
 Row3 = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
 Row4 = Annotated[list[FiniteFloat], Field(min_length=4, max_length=4)]
 Matrix3 = Annotated[list[Row3], Field(min_length=3, max_length=3)]
-#: OpenCV distortion vector lengths (k1 k2 p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4 [tx ty]]]]).
-DIST_LENGTHS = (0, 4, 5, 8, 12, 14)
+#: OpenCV distortion vector lengths (k1 k2 p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4 [tx ty]]]]), or none.
+DIST_LENGTHS = (0,) + OPENCV_LENGTHS
 ORTHONORMAL_TOL = 1e-6
 UNION_TAGS.update({"pinhole", "telecentric"})
 
