@@ -198,7 +198,7 @@ def test_an_edge_pixels_undecided_bit_must_clear_edge_thr():
     # (flip -> codeword 00 or 01, the neighbouring stripe); pixel 4: codeword 10 (stripe 3) with the
     # high bit at 3 (flip -> 00, stripe 0, not adjacent)
     diff = np.array([[-20, -20, -20, -20, 3], [-20, 1, 3, -3, -20]], np.float32)[:, None, :]
-    decided, _ = decide_edges(diff, 5.0, centres, 4.0, edge_margin=2.0)
+    decided, *_ = decide_edges(diff, 5.0, centres, 4.0, edge_margin=2.0)
     assert decided[0].tolist() == [True, False, True, True, False]
     assert decide_edges(diff, 5.0, centres, 4.0)[0][0].tolist() == [True, True, True, True, False]
 

@@ -36,6 +36,7 @@ from fringe3d.decode.context import DecodeContext
 from fringe3d.decode.methods.temporal import code_frames, unwrap_gray_code
 from fringe3d.patterns.conventions import point_at_fringe_coordinate, w_range
 from fringe3d.patterns.render import sinusoid_value
+from fringe3d.patterns.codes import decode_bits
 from fringe3d.decode.result import Unwrapped
 from fringe3d.phase import quality
 from fringe3d.unwrap.sub_stripe import sub_stripe_coordinate
@@ -108,17 +109,10 @@ def code_differences(ctx: DecodeContext, direct: list[int], inverse: list[int] |
                      "and a black frame to threshold the code bits; the manifest has neither")
 
 
-def codeword(bits: np.ndarray) -> np.ndarray:
-    """(B, H, W) bool bits, most significant first -> (H, W) int64 raw codeword."""
-    word = np.zeros(bits.shape[1:], np.int64)
-    for b in bits:
-        word = word * 2 + b
-    return word
-
-
 def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: float,
-                 edge_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """(decided (H, W) bool, contrast (H, W) float32): which pixels' codewords are trusted.
+                 edge_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(decided, straddling (H, W) bool, word (H, W) int64, contrast (H, W) float32): which
+    pixels' codewords are trusted, and the raw codewords of ``diff > 0``.
 
     A pixel is decided when every bit clears ``margin`` (``|diff| >= margin``), or when exactly
     one bit does not, that bit still clears ``edge_margin``, and flipping it selects the adjacent
@@ -126,21 +120,24 @@ def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: f
     stripe edge, where the bit's difference is small by construction rather than from a lack of
     light, and its sign places the pixel (the sub-stripe coordinate of
     :mod:`fringe3d.unwrap.sub_stripe` refines it). Below ``edge_margin`` the sign is too likely
-    noise (see the module docstring). ``contrast`` is the smallest ``|diff|`` of the bits that
-    cleared the margin (of all bits where none did)."""
+    noise (see the module docstring). ``straddling`` is ``decided`` with ``edge_margin`` 0 (every
+    stripe-edge pixel). ``contrast`` is the smallest ``|diff|`` of the bits that cleared the
+    margin (of all bits where none did)."""
     nb = diff.shape[0]
     size = np.abs(diff)
     weak = size < margin
     n_weak = weak.sum(axis=0)
-    word = codeword(diff > 0)
+    word = decode_bits(diff > 0, gray=False)
     flip_bit = (nb - 1 - np.argmax(weak, axis=0)).astype(np.int64)
     with np.errstate(invalid="ignore"):
         step = np.abs(centres[word] - centres[word ^ (np.int64(1) << flip_bit)])
     edge = (n_weak == 1) & (step > 0.5 * period) & (step < 1.5 * period)
-    edge &= np.where(weak, size, np.inf).min(axis=0) >= edge_margin
+    clear = n_weak == 0
+    straddling = clear | edge
+    decided = clear | (edge & (np.where(weak, size, np.inf).min(axis=0) >= edge_margin))
     strong = np.where(weak, np.inf, size).min(axis=0)
     contrast = np.where(np.isfinite(strong), strong, size.min(axis=0))
-    return (n_weak == 0) | edge, contrast.astype(np.float32)
+    return decided, straddling, word, contrast.astype(np.float32)
 
 
 def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
@@ -156,8 +153,8 @@ def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
     diff, margin = code_differences(ctx, direct, inverse, wb, white_thr)
     centres = pixel_code_centers(ctx, direct)
     edge_margin = edge_threshold(ctx, inverse is not None) * (1.0 if inverse is not None else 0.5)
-    decided, contrast = decide_edges(diff, margin, centres, period, edge_margin)
-    centre = centres[codeword(diff > 0)]
+    decided, straddling, word, contrast = decide_edges(diff, margin, centres, period, edge_margin)
+    centre = centres[word]
     lit = np.isfinite(centre)
     if wb is not None:
         lit &= (wb[0] - wb[1]) >= black_thr
@@ -166,7 +163,7 @@ def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
     if ctx.method_option("sub_stripe", True):
         # the zero crossings come from every edge pixel, also those below edge_thr: a crossing's
         # interpolated position is continuous in the pixel's difference, whatever its sign
-        sources = lit & decide_edges(diff, margin, centres, period)[0]
+        sources = lit & straddling
         coordinate, _ = sub_stripe_coordinate(np.where(sources, centre, np.nan), diff, period)
     else:
         coordinate = centre
