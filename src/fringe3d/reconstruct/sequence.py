@@ -326,12 +326,12 @@ def store_layout(rec: FrameReconstructor, layout: str = "auto") -> str:
 
 def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out: Path,
                      options: DecodeOptions | None, mode: str, step: int | None, ply: bool,
-                     store: bool, rec: FrameReconstructor | None = None, layout: str = "auto",
+                     store: bool, rec: FrameReconstructor, layout: str = "auto",
                      store_quality: bool = True) -> tuple[list[int], PointMapStore | None]:
     """Check a sequence of frames of ``shape`` (F, H, W) against the rig, create (or resume) the
     point store and the PLY folder in ``out``; returns the windows' first frames and the store.
 
-    ``rec`` (built here when None) chooses the store ``layout`` (:func:`store_layout`);
+    ``rec`` (the sequence's reconstructor) chooses the store ``layout`` (:func:`store_layout`);
     ``store_quality`` adds the per-frame quality and sigma_z arrays."""
     if not (ply or store):
         raise ValueError("nothing to write: ask for the point store and/or PLY files")
@@ -345,13 +345,11 @@ def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out
     z_min = (options or DecodeOptions()).z_min
     starts = window_starts(shape[0], len(patterns), mode, step)
     st = None
-    if store:
-        rec = rec if rec is not None else FrameReconstructor(patterns, rig, options)
-        lay = store_layout(rec, layout)
+    lay = store_layout(rec, layout) if store else None  # a layout the reconstruction cannot fill: before writing
     out.mkdir(parents=True, exist_ok=True)
     meta = {"patterns": patterns.name, "mode": mode, "step": step, "z_min": z_min, "rig": rig.to_dict(),
             "window_starts": [starts[0], starts[-1], len(starts)]}
-    if store and rec is not None:
+    if lay is not None:
         st = PointMapStore.open(out / STORE_NAME, len(starts), H, W, meta=meta, layout=lay,
                                 rays=rec.rays if lay == "ray_depth" else None, quality=store_quality,
                                 sigma=store_quality)
