@@ -18,16 +18,19 @@ import numpy as np
 from fringe3d.decode import edges
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.phase import noise
-from fringe3d.phase.psp import wrapped_phase
+from fringe3d.phase.psp import PhaseResult, wrapped_phase
 from fringe3d.reconstruct.triangulate import FastThreeStep
 from fringe3d.reconstruct.uncertainty import fast_point_sigma
 
 
 class FastQuality(NamedTuple):
-    """Quality map (H, W) uint8 and ``sigma_xyz`` (H, W, 3) float32 mm (None unless asked)."""
+    """Quality map (H, W) uint8, ``sigma_xyz`` (H, W, 3) float32 mm (None unless asked) and the
+    phase result the tests used (:func:`fringe3d.phase.psp.wrapped_phase`; None where none was
+    computed), whose ``A + B`` is the texture's intensity (:mod:`fringe3d.decode.texture`)."""
 
     quality: np.ndarray
     sigma_xyz: np.ndarray | None
+    phase: PhaseResult | None = None
 
 
 def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shifts, depth: np.ndarray,
@@ -57,4 +60,4 @@ def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shi
         sigma_n = s * math.sqrt(len(index))  # the average of N frames carries sigma / sqrt(N)
         sigma_w = noise.phase_sigma(sigma_n, pr.modulation, len(index)) * np.float32(fast.mp.period / (2 * math.pi))
         sigma = fast_point_sigma(fast.tri, w, sigma_w, keep)
-    return FastQuality(q, sigma)
+    return FastQuality(q, sigma, pr)

@@ -32,7 +32,7 @@ from fringe3d.decode.method_plans import with_method as plans_with_method
 from fringe3d.decode.decoder import decode
 from fringe3d.decode.edges import INVALID, oblique_factor
 from fringe3d.decode.options import DecodeOptions
-from fringe3d.decode.texture import fringe_texture
+from fringe3d.decode.texture import as_fraction, fringe_texture
 from fringe3d.gpu.runtime import check_backend
 from fringe3d.io.capture import list_frame_files
 from fringe3d.io.images import read_image
@@ -219,7 +219,11 @@ class FrameReconstructor:
                 self._range_checked = True
             fq = fast_quality(self.fast, frames, self._fast_index, self._fast_shifts, depth, self._fast_extent,
                               self.options, uncertainty)
-            tex = fringe_texture(frames, self._fast_shifts, self._fast_index, bit_depth) if texture else None
+            tex = None
+            if texture:  # A + B as decode's; the quality map's phase already has them
+                pr = fq.phase
+                tex = (as_fraction(np.add(pr.average, pr.modulation, dtype=np.float32), frames, bit_depth)
+                       if pr is not None else fringe_texture(frames, self._fast_shifts, self._fast_index, bit_depth))
             pts = self.fast.ray_points(depth) if points else None
             return Cycle(pts, tex, fq.quality, fq.sigma_xyz, depth)
         dec = decode(frames, self.patterns, rig=self.rig, options=self.options)
