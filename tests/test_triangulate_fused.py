@@ -57,3 +57,41 @@ def test_fused_kernel_rejects_wrong_frame_size():
     fast = FastThreeStep(Triangulator(rig), minimum_phase(rig, 255.0, 18.0))
     with pytest.raises(ValueError, match="sizes disagree"):
         fast.points(np.zeros((3, 100, 100), np.uint8))
+
+
+def test_one_pass_fields_give_the_depth_and_what_the_quality_tests_read():
+    """depth_fields: the same ray parameters as depth, bit for bit; w, A, B those of the
+    step-by-step pipeline (the projector model of the depth, and wrapped_phase's average and
+    modulation) to float32 rounding."""
+    rig = small_rig()
+    T = 18.0
+    frames, X = sphere_frames(rig, T, np.uint8)
+    fast = FastThreeStep(Triangulator(rig), minimum_phase(rig, 255.0, T), SHIFTS, min_modulation=10.0)
+    f = fast.depth_fields(frames)
+    np.testing.assert_array_equal(f.depth, fast.depth(frames))
+    ok = np.isfinite(f.depth)
+    assert ok.sum() > 100
+    np.testing.assert_allclose(f.w[ok], fast.tri.fringe_coordinate_at(f.depth)[ok], atol=1e-3)
+    pr = wrapped_phase(frames, shifts=SHIFTS)
+    np.testing.assert_allclose(f.average, pr.average, rtol=1e-6, atol=1e-4)
+    np.testing.assert_allclose(f.modulation, pr.modulation, rtol=1e-6, atol=1e-4)
+
+
+def test_sigma_z_in_one_pass_equals_the_per_axis_sigma_bit_for_bit():
+    """sigma_z_from_phase_noise is phase_sigma then point_sigma_from_w's z, the same bits."""
+    from fringe3d.phase.noise import phase_sigma
+
+    rig = small_rig()
+    T = 18.0
+    frames, X = sphere_frames(rig, T, np.uint8)
+    fast = FastThreeStep(Triangulator(rig), minimum_phase(rig, 255.0, T), SHIFTS, min_modulation=10.0)
+    f = fast.depth_fields(frames)
+    mask = np.isfinite(f.depth)
+    mod = f.modulation.copy()
+    mod[0, :5] = 0.0  # no modulation: infinite sigma, as phase_sigma's
+    mask[0, :5] = True
+    sw = phase_sigma(0.8, mod, 3) * np.float32(T / (2 * np.pi))
+    ref = fast.tri.point_sigma_from_w(f.w, sw, mask)[..., 2]
+    got = fast.tri.sigma_z_from_phase_noise(f.w, mod, 0.8, 3, T, mask)
+    np.testing.assert_array_equal(got, ref)
+    assert np.isinf(got[0, :5]).all() and np.isnan(got[~mask]).all()

@@ -31,35 +31,26 @@ def _jump_contrast_kernel(w, valid, modulation, average, gp, hmax):  # pragma: n
     H, W = w.shape
     zero = np.float32(0.0)
     for i in numba.prange(H):
-        # the row and its neighbours padded by an invalid pixel each side: branch-free inner loops
-        wr = np.zeros(W + 2, np.float32)
-        vr = np.zeros(W + 2, np.bool_)
-        wu = np.zeros(W, np.float32)
-        vu = np.zeros(W, np.bool_)
-        wd = np.zeros(W, np.float32)
-        vd = np.zeros(W, np.bool_)
+        # a missing neighbour (outside the image) is the pixel itself: its jump 0 leaves the max
+        # alone; the row padded by its end pixels, so the pixel loop is branch-free and vectorises
+        u, d = max(i - 1, 0), min(i + 1, H - 1)
+        wr = np.empty(W + 2, np.float32)
+        vr = np.empty(W + 2, np.bool_)
         for j in range(W):
             wr[j + 1] = w[i, j]
             vr[j + 1] = valid[i, j]
-        if i > 0:
-            for j in range(W):
-                wu[j] = w[i - 1, j]
-                vu[j] = valid[i - 1, j]
-        if i < H - 1:
-            for j in range(W):
-                wd[j] = w[i + 1, j]
-                vd[j] = valid[i + 1, j]
+        wr[0], vr[0], wr[W + 1], vr[W + 1] = wr[1], vr[1], wr[W], vr[W]
         c = np.empty(W + 4, np.float32)
         for j in range(W):
             a = wr[j + 1]
             v = vr[j + 1]
-            g = max(max(zero, abs(a - wu[j]) if (v and vu[j]) else zero),
-                    abs(a - wd[j]) if (v and vd[j]) else zero)
-            g = max(max(g, abs(a - wr[j]) if (v and vr[j]) else zero),
-                    abs(a - wr[j + 2]) if (v and vr[j + 2]) else zero)
-            gp[i + 2, j + 2] = g
+            g1 = abs(a - w[u, j]) if (v & valid[u, j]) else zero
+            g2 = abs(a - w[d, j]) if (v & valid[d, j]) else zero
+            g3 = abs(a - wr[j]) if (v & vr[j]) else zero
+            g4 = abs(a - wr[j + 2]) if (v & vr[j + 2]) else zero
+            gp[i + 2, j + 2] = max(max(g1, g2), max(g3, g4))
             A = average[i, j]
-            c[j + 2] = np.float32(modulation[i, j] / A) if (v and A > 0) else zero
+            c[j + 2] = np.float32(modulation[i, j] / A) if (v & (A > 0)) else zero
         c[0] = c[1] = c[W + 2] = c[W + 3] = zero  # contrast >= 0: a zero pad leaves the maxima alone
         for j in range(W):  # the contrast's largest value over columns j-2..j+2
             hmax[i, j] = max(max(max(c[j], c[j + 1]), max(c[j + 2], c[j + 3])), c[j + 4])
@@ -76,38 +67,43 @@ def _jump_contrast_kernel(w, valid, modulation, average, gp, hmax):  # pragma: n
 
 
 @numba.njit(parallel=True, cache=True)
-def _bits_kernel(w, valid, gp, ref, hmax, lo, hi, g_ratio, g_floor, m_ratio, rim1, q):  # pragma: no cover
+def _jump_test_kernel(valid, gp, ref, g_ratio, g_floor, t):  # pragma: no cover - compiled
+    """GRADIENT's test per pixel, once: ``t[i, j + 1] = valid & jump > max(ratio * median, floor)``
+    (``t`` (H, W + 2) uint8, its first and last columns 0)."""
+    H, W = valid.shape
+    for i in numba.prange(H):
+        t[i, 0] = 0
+        t[i, W + 1] = 0
+        for j in range(W):
+            t[i, j + 1] = valid[i, j] & (gp[i + 2, j + 2] > max(g_ratio * ref[i, j], g_floor))
+
+
+@numba.njit(parallel=True, cache=True)
+def _bits_kernel(w, valid, t, hmax, lo, hi, m_ratio, rim1, q):  # pragma: no cover - compiled
+    """Every bit of row ``i`` from row-clamped neighbours (a repeated row leaves an OR or a max
+    alone), so the pixel loops are branch-free and vectorise."""
     H, W = w.shape
     for i in numba.prange(H):
-        vo = np.zeros(W + 2, np.bool_)  # GRADIENT: the jump test OR-ed over rows i-1..i+1 ...
-        for r in range(max(i - 1, 0), min(i + 2, H)):
-            for j in range(W):
-                vo[j + 1] |= valid[r, j] and gp[r + 2, j + 2] > max(g_ratio * ref[r, j], g_floor)
-        top = np.empty(W, np.float32)  # MOD_DROP: the contrast's largest value over rows i-2..i+2
+        u1, d1 = max(i - 1, 0), min(i + 1, H - 1)
+        u2, d2 = max(i - 2, 0), min(i + 2, H - 1)
+        vo = np.empty(W + 2, np.uint8)  # GRADIENT: the jump test OR-ed over rows i-1..i+1 ...
+        for j in range(W + 2):
+            vo[j] = t[u1, j] | t[i, j] | t[d1, j]
+        vp = np.empty(W + 2, np.bool_)  # RIM: the row padded by its own end pixels (the outside counts as valid)
         for j in range(W):
-            top[j] = hmax[i, j]
-        for r in range(max(i - 2, 0), min(i + 3, H)):
-            for j in range(W):
-                top[j] = max(top[j], hmax[r, j])
-        # RIM: an invalid 4-neighbour inside the image (the outside counts as valid)
-        nb = np.ones(W + 2, np.bool_)
+            vp[j + 1] = valid[i, j]
+        vp[0] = valid[i, 0]
+        vp[W + 1] = valid[i, W - 1]
         for j in range(W):
-            nb[j + 1] = valid[i, j]
-        if rim1:
-            if i > 0:
-                for j in range(W):
-                    nb[j + 1] &= valid[i - 1, j]
-            if i < H - 1:
-                for j in range(W):
-                    nb[j + 1] &= valid[i + 1, j]
-        for j in range(W):
-            x = np.float32(w[i, j])
-            b = ((EDGE if (x < lo or x > hi) else 0)
-                 | (GRADIENT if (vo[j] or vo[j + 1] or vo[j + 2]) else 0)
-                 | (MOD_DROP if hmax[i + H, j] < m_ratio * top[j] else 0)
-                 | (RIM if (rim1 and not (nb[j + 1] and valid[i, max(j - 1, 0)] and valid[i, min(j + 1, W - 1)]))
-                    else 0))
-            q[i, j] = b if valid[i, j] else INVALID
+            # MOD_DROP: the contrast's largest value over rows i-2..i+2 of the five-column maxima
+            top = max(max(max(hmax[u2, j], hmax[u1, j]), max(hmax[i, j], hmax[d1, j])), hmax[d2, j])
+            x = w[i, j]
+            inside = vp[j + 1] & vp[j] & vp[j + 2] & (valid[u1, j] if rim1 else True) & (valid[d1, j] if rim1 else True)
+            b = ((np.uint8(EDGE) if ((x < lo) | (x > hi)) else np.uint8(0))
+                 | (np.uint8(GRADIENT) if (vo[j] | vo[j + 1] | vo[j + 2]) else np.uint8(0))
+                 | (np.uint8(MOD_DROP) if hmax[i + H, j] < m_ratio * top else np.uint8(0))
+                 | (np.uint8(RIM) if (rim1 and not inside) else np.uint8(0)))
+            q[i, j] = b if valid[i, j] else np.uint8(INVALID)
 
 
 def fused_quality_map(mask: np.ndarray, w: np.ndarray, extent: tuple[float, float], margin: float,
@@ -129,9 +125,10 @@ def fused_quality_map(mask: np.ndarray, w: np.ndarray, extent: tuple[float, floa
     _median_kernel(gp, ref)
     lo, hi = extent
     f32 = np.float32
+    t = np.empty((H, W + 2), np.uint8)
+    _jump_test_kernel(valid, gp, ref, f32(gradient_ratio), f32(gradient_floor), t)
     q = np.empty((H, W), np.uint8)
-    _bits_kernel(w, valid, gp, ref, hmax, f32(lo + margin), f32(hi - margin), f32(gradient_ratio),
-                 f32(gradient_floor), f32(modulation_ratio), rim == 1, q)
+    _bits_kernel(w, valid, t, hmax, f32(lo + margin), f32(hi - margin), f32(modulation_ratio), rim == 1, q)
     if rim > 1:  # wider rims: the iterated erosion of edges.rim_of_invalid
         q |= (valid & ~erode_cross(valid, int(rim))).astype(np.uint8) * np.uint8(RIM)
     return q

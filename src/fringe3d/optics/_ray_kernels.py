@@ -94,3 +94,23 @@ def parallel_kernel(w, mask, O, D, Q, P3, out):  # pragma: no cover - compiled
                 out[i, j, 0] = nan
                 out[i, j, 1] = nan
                 out[i, j, 2] = nan
+
+
+@numba.njit(parallel=True, cache=True)
+def sigma_z_kernel(w, modulation, mask, c_sigma, t_scale, num, qd, pd, Dz, out):  # pragma: no cover - compiled
+    """Pinhole rays: ``out[i, j] = |Dz ds/dw| sigma_w`` with ``sigma_w = (c_sigma / B) t_scale``
+    (float32, inf where ``B <= 0``) and ``ds/dw = num / (pd*w - qd)^2``, ``num = po*qd - qo*pd``;
+    NaN where ``mask`` is False. The same operations in the same precision as ``phase_sigma``
+    followed by :func:`sigma_kernel`'s z, so the two give the same bits."""
+    H, W = w.shape
+    nan = np.float32(np.nan)
+    inf = np.float32(np.inf)
+    for i in numba.prange(H):
+        for j in range(W):
+            b = modulation[i, j]
+            q = np.float32(np.float32(c_sigma / b) * t_scale)
+            sw = q if b > 0 else inf
+            den = pd[i, j] * np.float64(w[i, j]) - qd[i, j]
+            g = abs(num[i, j] / (den * den)) * np.float64(sw)
+            v = np.float32(g * abs(np.float64(Dz[i, j])))
+            out[i, j] = v if mask[i, j] else nan

@@ -23,7 +23,8 @@ from typing import Any, overload
 import numpy as np
 
 from fringe3d.gpu.runtime import check_backend
-from fringe3d.optics._ray_kernels import central_kernel, depth_kernel, fringe_kernel, parallel_kernel, sigma_kernel
+from fringe3d.optics._ray_kernels import (central_kernel, depth_kernel, fringe_kernel, parallel_kernel, sigma_kernel,
+                                          sigma_z_kernel)
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import fringe_coordinate
 
@@ -173,6 +174,7 @@ class RayGeometry:
         self.Q = np.ascontiguousarray(projector_row(P, self.angle), dtype=np.float64)
         self.P3 = np.ascontiguousarray(P[2], dtype=np.float64)
         self._qd: np.ndarray | None = None  # Q.D and P3.D per pixel, built on first use
+        self._dsdw_num: np.ndarray | None = None  # ds/dw numerator per pixel (sigma_z_from_phase_noise)
         self._pd: np.ndarray | None = None
 
     @property
@@ -248,6 +250,25 @@ class RayGeometry:
                      np.ascontiguousarray(check_map(sigma_w, self.shape, "fringe coordinate sigma map")),
                      np.ascontiguousarray(check_map(mask, self.shape, "mask"), bool), qo, po, qd, pd,
                      self.D_planes, out)
+        return out
+
+    def sigma_z_from_phase_noise(self, w: np.ndarray, modulation: np.ndarray, noise: float, steps: int,
+                                 period: float, mask: np.ndarray) -> np.ndarray:
+        """(H, W) float32 standard deviation of world z (mm) of the closed-form points of the
+        fringe coordinate ``w`` (px) of an ``N``-step phase (``steps``) with camera noise
+        ``noise`` (frames' units) and modulation ``B`` (H, W): ``sigma_w = sqrt(2/N) noise / B
+        * T / 2pi`` (:func:`fringe3d.phase.noise.phase_sigma`, ``T`` = ``period`` px), then
+        :meth:`point_sigma_from_w`'s z, in one pass and bit for bit; inf where ``B <= 0``, NaN
+        where ``mask`` is False."""
+        qo, po, qd, pd = self._ray_rows()
+        if self._dsdw_num is None:  # ds/dw's numerator, once (the same float64 operations as sigma_kernel's)
+            self._dsdw_num = po * qd - qo * pd
+        out = np.empty(self.shape, np.float32)
+        c_sigma = np.float32(math.sqrt(2.0 / steps)) * np.float32(noise)
+        sigma_z_kernel(np.ascontiguousarray(check_map(w, self.shape, "fringe coordinate map"), np.float32),
+                       np.ascontiguousarray(check_map(modulation, self.shape, "modulation map"), np.float32),
+                       np.ascontiguousarray(check_map(mask, self.shape, "mask"), bool), c_sigma,
+                       np.float32(period / (2 * math.pi)), self._dsdw_num, qd, pd, self.D_planes[2], out)
         return out
 
     def ray_points_at_z(self, z: float | np.ndarray) -> np.ndarray:

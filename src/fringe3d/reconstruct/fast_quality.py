@@ -1,12 +1,15 @@
 """Quality map and uncertainty on the fused 3-step path (:class:`~fringe3d.reconstruct.triangulate.FastThreeStep`).
 
-The fused kernel writes the ray parameter ``s`` of each pixel only. To mask edge and mixed
-pixels as the decode path does (:mod:`fringe3d.decode.edges`), the fringe coordinate ``w`` is
-recovered from ``s`` by the linear projector model (the inverse of the closed form the kernel
-solved, :meth:`~fringe3d.optics.rays.RayGeometry.fringe_coordinate_at`) and the modulation is
-recomputed from the three frames. One period only: no multi-frequency disagreement test
+To mask edge and mixed pixels as the decode path does (:mod:`fringe3d.decode.edges`) the
+tests need the fringe coordinate ``w``, the average ``A`` and the modulation ``B`` of every
+pixel. On the CPU the fused kernel writes them in the same pass as the ray parameters
+(:meth:`FastThreeStep.depth_fields`). Given only the ray parameters ``s`` (the CUDA backend),
+``w`` is recovered from ``s`` by the linear projector model (the inverse of the closed form the
+kernel solved, :meth:`~fringe3d.optics.rays.RayGeometry.fringe_coordinate_at`) and ``A``, ``B``
+are recomputed from the three frames. One period only: no multi-frequency disagreement test
 and no blur estimate (the edge margin is ``edge_margin`` or 2 px). The noise is the Laplacian
-estimate of the average image (:func:`fringe3d.phase.noise.laplacian_noise`).
+estimate of the average image (:func:`fringe3d.phase.noise.laplacian_noise`); ``sigma_z`` is
+``|dz/dw| sigma_w`` with ``sigma_w = sqrt(2/N) sigma / B * T/2pi`` (Eq. 2.4's noise).
 """
 from __future__ import annotations
 
@@ -18,46 +21,68 @@ import numpy as np
 from fringe3d.decode import edges
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.phase import noise
-from fringe3d.phase.psp import PhaseResult, wrapped_phase
-from fringe3d.reconstruct.triangulate import FastThreeStep
+from fringe3d.phase.psp import wrapped_phase
+from fringe3d.reconstruct.depth import EmptyMaskError
+from fringe3d.reconstruct.triangulate import FastThreeStep, ThreeStepFields
 from fringe3d.reconstruct.uncertainty import fast_point_sigma
 
 
 class FastQuality(NamedTuple):
-    """Quality map (H, W) uint8, ``sigma_xyz`` (H, W, 3) float32 mm (None unless asked) and the
-    phase result the tests used (:func:`fringe3d.phase.psp.wrapped_phase`; None where none was
-    computed), whose ``A + B`` is the texture's intensity (:mod:`fringe3d.decode.texture`)."""
+    """Quality map (H, W) uint8; ``sigma_z`` (H, W) and ``sigma_xyz`` (H, W, 3) float32 mm (None
+    unless asked); ``average`` and ``modulation`` (H, W) float32, the ``A`` and ``B`` the tests
+    used (None where none were computed), whose ``A + B`` is the texture's intensity
+    (:mod:`fringe3d.decode.texture`)."""
 
     quality: np.ndarray
-    sigma_xyz: np.ndarray | None
-    phase: PhaseResult | None = None
+    sigma_z: np.ndarray | None
+    sigma_xyz: np.ndarray | None = None
+    average: np.ndarray | None = None
+    modulation: np.ndarray | None = None
 
 
-def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shifts, depth: np.ndarray,
-                 extent: tuple[float, float], options: DecodeOptions, uncertainty: bool) -> FastQuality:
-    """Quality bits of the fused path's ray parameters ``depth`` (H, W) float32 (mm, NaN invalid,
-    :meth:`FastThreeStep.depth`) from ``frames[index]``; with ``options.edge_mask`` the flagged
-    pixels are set to NaN in place. ``extent`` is the pattern's extent along ``w`` (projector
-    px, pixel edges)."""
+def invalid_bits(valid: np.ndarray) -> np.ndarray:
+    """(H, W) uint8 quality map of a validity mask alone: ``edges.INVALID`` (bit value 1: the
+    bool's own byte) where not ``valid``, 0 elsewhere."""
+    assert edges.INVALID == 1
+    return np.logical_not(valid).view(np.uint8)
+
+
+def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shifts, fields: ThreeStepFields,
+                 extent: tuple[float, float], options: DecodeOptions, uncertainty: bool | str) -> FastQuality:
+    """Quality bits of the fused path's ray parameters ``fields.depth`` (H, W) float32 (mm, NaN
+    invalid) from ``frames[index]``; with ``options.edge_mask`` the flagged pixels are set to NaN
+    in place. ``fields``: the kernel's :class:`ThreeStepFields`, or one with only ``depth``
+    (``w``, ``average``, ``modulation`` None: recomputed here). ``extent`` is the pattern's
+    extent along ``w`` (projector px, pixel edges). ``uncertainty``: ``"z"`` for ``sigma_z``
+    alone, True for ``sigma_xyz`` as well. :class:`EmptyMaskError` when no pixel is valid."""
+    depth = fields.depth
     valid = np.isfinite(depth)
+    if not valid.any():
+        raise EmptyMaskError("the decoded phase mask is empty: no pixel has enough fringe modulation "
+                             "(check exposure, modulation threshold and that the scene is lit by the projector)")
     if not options.edge_mask and not uncertainty:  # the superfast path pays nothing extra
-        return FastQuality(np.where(valid, 0, edges.INVALID).astype(np.uint8), None)
-    w = fast.tri.fringe_coordinate_at(depth)
-    pr = wrapped_phase(frames, shifts=shifts, index=index)
+        return FastQuality(invalid_bits(valid), None)
+    w, avg, mod = fields.w, fields.average, fields.modulation
+    if w is None or avg is None or mod is None:
+        w = fast.tri.fringe_coordinate_at(depth)
+        pr = wrapped_phase(frames, shifts=shifts, index=index)
+        avg, mod = pr.average, pr.modulation
     if options.edge_mask:
         margin = edges.BASE_MARGIN if options.edge_margin is None else float(options.edge_margin)
         margin *= edges.oblique_factor(fast.mp.angle)  # the band's width along w (decode.edges docstring)
-        q = edges.fused_quality_map(valid, w, extent, margin, pr.modulation, pr.average,
+        q = edges.fused_quality_map(valid, w, extent, margin, mod, avg,
                                     gradient_ratio=float(options.gradient_ratio),
                                     modulation_ratio=float(options.modulation_ratio), rim=int(options.rim))
         depth[q != 0] = np.nan
     else:
-        q = np.where(valid, 0, edges.INVALID).astype(np.uint8)
-    sigma = None
+        q = invalid_bits(valid)
+    sigma_z = sigma_xyz = None
     if uncertainty:
         keep = q == 0
-        s = noise.laplacian_noise(pr.average, keep)
-        sigma_n = s * math.sqrt(len(index))  # the average of N frames carries sigma / sqrt(N)
-        sigma_w = noise.phase_sigma(sigma_n, pr.modulation, len(index)) * np.float32(fast.mp.period / (2 * math.pi))
-        sigma = fast_point_sigma(fast.tri, w, sigma_w, keep)
-    return FastQuality(q, sigma, pr)
+        n = len(index)
+        sigma_n = noise.laplacian_noise(avg, keep) * math.sqrt(n)  # the average of N frames carries sigma / sqrt(N)
+        sigma_z = fast.tri.sigma_z_from_phase_noise(w, mod, sigma_n, n, fast.mp.period, keep)
+        if uncertainty is True:
+            sigma_w = noise.phase_sigma(sigma_n, mod, n) * np.float32(fast.mp.period / (2 * math.pi))
+            sigma_xyz = fast_point_sigma(fast.tri, w, sigma_w, keep)
+    return FastQuality(q, sigma_z, sigma_xyz, avg, mod)

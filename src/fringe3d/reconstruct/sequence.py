@@ -45,7 +45,7 @@ from fringe3d.patterns.manifest import PatternSet
 from fringe3d.phase.quality import default_min_modulation
 from fringe3d.reconstruct.depth import EmptyMaskError, points_from_decoded
 from fringe3d.reconstruct.fast_quality import fast_quality
-from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator
+from fringe3d.reconstruct.triangulate import FastThreeStep, ThreeStepFields, Triangulator
 from fringe3d.reconstruct.uncertainty import point_sigma
 from fringe3d.unwrap.geometric import cached_minimum_phase, check_wrap_around
 from fringe3d.utils.console import progress_bar
@@ -99,14 +99,16 @@ class Cycle(NamedTuple):
     """One reconstructed cycle: ``points`` (H, W, 3) float32 mm (NaN invalid; None when not
     asked for), ``texture`` (H, W) float32 in [0, 1] (None when not asked for), ``quality`` (H, W) uint8 bits
     (:mod:`fringe3d.decode.edges`; 0 = kept), ``sigma_xyz`` (H, W, 3) float32 mm predicted
-    standard deviations (or None) and, on the fused path, ``depth`` (H, W) float32: the ray
-    parameter ``s`` of every point (``points = ray_points(O, D, depth)``; None elsewhere)."""
+    standard deviations (or None), on the fused path ``depth`` (H, W) float32: the ray
+    parameter ``s`` of every point (``points = ray_points(O, D, depth)``; None elsewhere), and
+    ``sigma_z`` (H, W) float32 mm, ``sigma_xyz``'s z (or None)."""
 
     points: np.ndarray | None
     texture: np.ndarray | None
     quality: np.ndarray
     sigma_xyz: np.ndarray | None
     depth: np.ndarray | None = None
+    sigma_z: np.ndarray | None = None
 
 
 class FrameReconstructor:
@@ -194,38 +196,17 @@ class FrameReconstructor:
         mm = self._fast_min_mod
         self.fast.min_mod2 = (default_min_modulation(frames, self.options.bit_depth) if mm is None else mm) ** 2
 
-    def reconstruct(self, frames: np.ndarray, uncertainty: bool = True, points: bool = True,
+    def reconstruct(self, frames: np.ndarray, uncertainty: bool | str = True, points: bool = True,
                     texture: bool = True, depth: np.ndarray | None = None) -> Cycle:
         """One cycle (manifest order) -> :class:`Cycle`: points, texture, quality map (OR of the
         directions' bits, :mod:`fringe3d.decode.edges`) and, with ``uncertainty``, ``sigma_xyz``
-        (:mod:`fringe3d.reconstruct.uncertainty`). Both paths mask edge and mixed pixels unless
-        ``options.edge_mask`` is False. ``points=False`` leaves ``points`` None on the fused path
-        (its ``depth`` holds them), ``texture=False`` leaves ``texture`` None there. ``depth``:
-        the fused kernel's ray parameters for these frames, already computed (:meth:`depths`)."""
-        bit_depth = self.options.bit_depth
+        and ``sigma_z`` (:mod:`fringe3d.reconstruct.uncertainty`; ``"z"``: on the fused path
+        ``sigma_z`` alone). Both paths mask edge and mixed pixels unless ``options.edge_mask``
+        is False. ``points=False`` leaves ``points`` None on the fused path (its ``depth`` holds
+        them), ``texture=False`` leaves ``texture`` None there. ``depth``: the fused kernel's ray
+        parameters for these frames, already computed (:meth:`depths`)."""
         if self.fast is not None:
-            if depth is None:
-                self._set_min_modulation(frames)
-                depth = self.fast.depth(frames, index=self._fast_index)
-            valid = np.isfinite(depth)
-            if not valid.any():
-                raise EmptyMaskError("the decoded phase mask is empty: no pixel has enough fringe modulation "
-                                 "(check exposure, modulation threshold and that the scene is lit by the projector)")
-            if not self._range_checked:  # once: the depth-range warning the decode path gives
-                mp = self.fast.mp
-                X = np.where(valid[..., None], self.fast.ray_points(depth), 0.0).astype(np.float64)
-                w = projector_fringe_coordinate(self.rig, X, mp.angle)
-                check_wrap_around(np.where(valid, w_to_phase(w, mp.period, scale_first=True), np.nan), mp, valid)
-                self._range_checked = True
-            fq = fast_quality(self.fast, frames, self._fast_index, self._fast_shifts, depth, self._fast_extent,
-                              self.options, uncertainty)
-            tex = None
-            if texture:  # A + B as decode's; the quality map's phase already has them
-                pr = fq.phase
-                tex = (as_fraction(np.add(pr.average, pr.modulation, dtype=np.float32), frames, bit_depth)
-                       if pr is not None else fringe_texture(frames, self._fast_shifts, self._fast_index, bit_depth))
-            pts = self.fast.ray_points(depth) if points else None
-            return Cycle(pts, tex, fq.quality, fq.sigma_xyz, depth)
+            return self._reconstruct_fused(frames, uncertainty, points, texture, depth)
         dec = decode(frames, self.patterns, rig=self.rig, options=self.options)
         pts = points_from_decoded(dec, self.rig, method=self.triangulation)
         tex = np.asarray(dec.texture, np.float32)  # a fraction of full scale already (fringe3d.decode.texture)
@@ -234,7 +215,48 @@ class FrameReconstructor:
             quality |= q
         quality[~np.isfinite(pts[..., 0]) & (quality == 0)] |= INVALID  # e.g. behind the camera
         sigma = point_sigma(dec, self.rig, method=self.triangulation) if uncertainty else None
-        return Cycle(pts, tex, quality, sigma)
+        return Cycle(pts, tex, quality, sigma, sigma_z=None if sigma is None else np.ascontiguousarray(sigma[..., 2]))
+
+    def _reconstruct_fused(self, frames: np.ndarray, uncertainty: bool | str, points: bool, texture: bool,
+                           depth: np.ndarray | None) -> Cycle:
+        """:meth:`reconstruct` on the fused path: one kernel pass gives the ray parameters and,
+        where the quality tests, sigma_z or the texture need them, ``w``, ``A`` and ``B``."""
+        fast = self.fast
+        assert fast is not None
+        if depth is not None:  # computed elsewhere (the CUDA batch): w, A, B are recomputed
+            fields = ThreeStepFields(depth)
+        else:
+            self._set_min_modulation(frames)
+            if self.backend == "cpu" and (self.options.edge_mask or uncertainty or texture):
+                fields = fast.depth_fields(frames, self._fast_index)
+            else:
+                fields = ThreeStepFields(fast.depth(frames, index=self._fast_index))
+        depth = fields.depth
+        if not self._range_checked:  # once: the depth-range warning the decode path gives
+            self._check_range(depth)
+        fq = fast_quality(fast, frames, self._fast_index, self._fast_shifts, fields, self._fast_extent,
+                          self.options, uncertainty)
+        tex = None
+        if texture:  # A + B as decode's; the kernel or the quality tests already have them
+            tex = (as_fraction(np.add(fq.average, fq.modulation, dtype=np.float32), frames, self.options.bit_depth)
+                   if fq.average is not None and fq.modulation is not None else
+                   fringe_texture(frames, self._fast_shifts, self._fast_index, self.options.bit_depth))
+        pts = fast.ray_points(depth) if points else None
+        return Cycle(pts, tex, fq.quality, fq.sigma_xyz, depth, fq.sigma_z)
+
+    def _check_range(self, depth: np.ndarray) -> None:
+        """The depth-range warning of the decode path (:func:`fringe3d.unwrap.geometric.
+        check_wrap_around`) from the points of ``depth`` before the edge tests mask any (an
+        empty mask is left to :func:`fast_quality`)."""
+        assert self.fast is not None
+        mp = self.fast.mp
+        valid = np.isfinite(depth)
+        if not valid.any():
+            return
+        X = np.where(valid[..., None], self.fast.ray_points(depth), 0.0).astype(np.float64)
+        w = projector_fringe_coordinate(self.rig, X, mp.angle)
+        check_wrap_around(np.where(valid, w_to_phase(w, mp.period, scale_first=True), np.nan), mp, valid)
+        self._range_checked = True
 
 
 def reconstruct_window(rec: FrameReconstructor, frames: np.ndarray, ply: bool, layout: str | None,
@@ -243,13 +265,14 @@ def reconstruct_window(rec: FrameReconstructor, frames: np.ndarray, ply: bool, l
 
     ``ply`` asks for points and texture, ``layout`` (the store's, or None) for the points
     (``"xyz"``) or only the ray parameters (``"ray_depth"``), ``quality`` for the quality map
-    and ``sigma_xyz``, ``depth`` for the fused kernel's ray parameters already computed
+    and ``sigma_z``, ``depth`` for the fused kernel's ray parameters already computed
     (:meth:`FrameReconstructor.depths`). A window whose phase mask is empty gives an all-NaN,
     all-INVALID cycle and ``empty = True``.
     """
     want_points = ply or layout == "xyz"
     try:
-        return rec.reconstruct(frames, uncertainty=quality, points=want_points, texture=ply, depth=depth), False
+        return rec.reconstruct(frames, uncertainty="z" if quality else False, points=want_points, texture=ply,
+                               depth=depth), False
     except EmptyMaskError:
         pass
     H, W = frames.shape[1:]
@@ -265,7 +288,7 @@ def store_arrays(cycle: Cycle, st: PointMapStore) -> dict:
         out["quality"] = cycle.quality
     if st.has_sigma:
         H, W = cycle.quality.shape
-        out["sigma_z"] = (cycle.sigma_xyz[..., 2] if cycle.sigma_xyz is not None
+        out["sigma_z"] = (cycle.sigma_z if cycle.sigma_z is not None
                           else np.full((H, W), np.nan, np.float32))
     return out
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 
@@ -30,7 +31,7 @@ from fringe3d.optics.rays import ANGLE_UP, ANGLE_VP, RayGeometry, camera_normali
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.psp import lsq_coefficients
-from fringe3d.reconstruct._kernels import lsq_kernel, three_step_kernel
+from fringe3d.reconstruct._kernels import lsq_kernel, three_step_fields_kernel, three_step_kernel
 from fringe3d.unwrap.geometric import MinimumPhase
 from fringe3d.utils.warning_types import ReconstructionWarning
 
@@ -187,6 +188,18 @@ class Triangulator(RayGeometry):
 
 
 # ----------------------------------------------------------------------------- fused 3-step pipeline
+class ThreeStepFields(NamedTuple):
+    """One pass of the fused kernel (:meth:`FastThreeStep.depth_fields`): ``depth`` the ray
+    parameters (mm, NaN invalid), ``w`` the fringe coordinate (px), ``average`` ``A`` and
+    ``modulation`` ``B`` (Eq. 2.4, frames' units); each (H, W) float32 (None where only the
+    depth was computed, e.g. on the CUDA backend)."""
+
+    depth: np.ndarray
+    w: np.ndarray | None = None
+    average: np.ndarray | None = None
+    modulation: np.ndarray | None = None
+
+
 class FastThreeStep:
     """Superfast absolute 3D from three phase-shifted frames, one fused numba pass.
 
@@ -240,6 +253,27 @@ class FastThreeStep:
         them on the device."""
         if self.backend == "cuda":
             return self._cuda(frames, index, out, device_output, depth=True)
+        frames, idx = self._checked(frames, index)
+        H, W = self.tri.shape
+        if out is None:
+            out = np.empty((H, W), np.float32)
+        three_step_kernel(frames, idx, self.coef, self.min_mod2, self.phi_min, self.sign, self.scale,
+                          self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, out)
+        return out
+
+    def depth_fields(self, frames, index=(0, 1, 2)) -> ThreeStepFields:
+        """:meth:`depth` (CPU) and, from the same pass, what the quality tests of the fused path
+        read: the fringe coordinate ``w`` (px), the average ``A`` and the modulation ``B`` (frames'
+        units), each (H, W) float32 (:class:`ThreeStepFields`)."""
+        frames, idx = self._checked(frames, index)
+        H, W = self.tri.shape
+        out, w, avg, mod = (np.empty((H, W), np.float32) for _ in range(4))
+        three_step_fields_kernel(frames, idx, self.coef, self.min_mod2, self.phi_min, self.sign, self.scale,
+                                 self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, out, w, avg, mod)
+        return ThreeStepFields(out, w, avg, mod)
+
+    def _checked(self, frames, index) -> tuple[np.ndarray, np.ndarray]:
+        """``(frames, index)`` as arrays, checked against the rig's camera (clear errors)."""
         frames = np.asarray(frames)
         H, W = self.tri.shape
         if frames.ndim != 3 or frames.shape[1:] != (H, W):
@@ -249,11 +283,7 @@ class FastThreeStep:
         idx = np.asarray(index, np.int64)
         if idx.shape != (3,) or idx.min() < 0 or idx.max() >= frames.shape[0]:
             raise ValueError(f"index must name 3 frames of the {frames.shape[0]}-frame stack, got {list(index)}")
-        if out is None:
-            out = np.empty((H, W), np.float32)
-        three_step_kernel(frames, idx, self.coef, self.min_mod2, self.phi_min, self.sign, self.scale,
-                          self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, out)
-        return out
+        return frames, idx
 
     def ray_points(self, s: np.ndarray, out=None) -> np.ndarray:
         """``(H, W, 3)`` float32 points (mm) of the ray parameters ``s`` (:func:`ray_points`)."""
