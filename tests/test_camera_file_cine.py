@@ -97,7 +97,9 @@ def test_12_bit_cine_header_reaches_capture_json_and_decodes_like_the_png_captur
 def test_cine_frames_are_read_one_window_at_a_time(tmp_path, sim, monkeypatch):
     ps, frames = sim
     write_cine(tmp_path / "take.cine", frames)
-    assert import_(tmp_path / "take.cine", tmp_path / "take", ps) == 0
+    ps.save(tmp_path / "manifest.json")
+    assert cli("import", tmp_path / "take.cine", "--manifest", tmp_path / "manifest.json", "-o", tmp_path / "take",
+               "--quiet") == 0
     read: list[int] = []
     real = pims.Cine.get_frame
 
@@ -169,6 +171,10 @@ def test_broken_or_unsupported_cine_files_are_refused_naming_the_file(tmp_path, 
     (tmp_path / "short.cine").write_bytes(raw[:-100])  # the last image cut
     with pytest.raises(ValueError, match=r"short.cine holds \d+ bytes but its header says ImageCount 6"):
         CineSource(tmp_path / "short.cine")
+    table = int.from_bytes(raw[32:36], "little")  # CINEFILEHEADER.OffImageOffsets
+    (tmp_path / "headers.cine").write_bytes(raw[:table])  # the headers only
+    with pytest.raises(ValueError, match=r"headers.cine: the file ends at the image offsets table"):
+        CineSource(tmp_path / "headers.cine")
     (tmp_path / "png.cine").write_bytes(b"\x89PNG" + raw[4:])
     with pytest.raises(ValueError, match=r"png.cine is not a Phantom CINE file"):
         CineSource(tmp_path / "png.cine")

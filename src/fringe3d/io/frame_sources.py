@@ -212,7 +212,11 @@ class CineSource:
         """The last image (annotation header + pixels) must lie inside the file."""
         if not self.shape[0]:
             raise ValueError(f"{self.path}: the header's ImageCount is 0; expected a recording with frames")
-        need = max(self._cine.image_locations) + 8 + self.shape[1] * self.shape[2] * self.dtype.itemsize
+        locations = getattr(self._cine, "image_locations", None)  # pims skips a table at the end of the file
+        if not locations:
+            raise ValueError(f"{self.path}: the file ends at the image offsets table (offset "
+                             f"{self._cine.off_image_offsets}); expected {self.shape[0]} image offsets there")
+        need = max(locations) + 8 + self.shape[1] * self.shape[2] * self.dtype.itemsize
         have = self.path.stat().st_size
         if have < need:
             raise ValueError(f"{self.path} holds {have} bytes but its header says ImageCount {self.shape[0]} of "
