@@ -14,8 +14,8 @@ Fields (checked by :func:`parse_source`)::
 
 :func:`open_source_frames` opens the file and checks its header against ``capture.json``
 (``bit_depth``, ``camera`` [width, height], ``frame_rate``, ``source.file_frames``,
-``source.first_image_no``) and the
-frame range against the file; every error names the file, the field and what was expected.
+``source.first_image_no``) and the frame range against the file; every error names the file,
+the field and what was expected.
 """
 from __future__ import annotations
 

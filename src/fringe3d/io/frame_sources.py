@@ -9,8 +9,8 @@ Every reader is a :class:`FrameSource`: it knows the file's frame count, frame s
 bit depth and frame rate from the header alone, and ``read(start, stop)`` returns only the
 frames ``[start, stop)`` — memory is bounded by the requested range (MRAW 8/16-bit and zarr
 by a memory map / chunk reads, 12-bit packed MRAW by unpacking only those bytes, TIFF page by
-page, CINE image by image). :class:`FrameRange` cuts the frames a capture uses out of a source and indexes like an
-``(F, H, W)`` array (``frames[idx]`` reads only the frames asked for).
+page, CINE image by image). :class:`FrameRange` cuts the frames a capture uses out of a source
+and indexes like an ``(F, H, W)`` array (``frames[idx]`` reads only the frames asked for).
 """
 from __future__ import annotations
 
