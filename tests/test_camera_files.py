@@ -1,8 +1,9 @@
-"""Camera files as capture sources (issue 16): MRAW, multi-page TIFF and zarr, referenced and read lazily.
+"""Camera files as capture sources (issue 16): MRAW, CINE, multi-page TIFF and zarr, referenced and read lazily.
 
 Frames come from the simulator (tiny preset, 3 cycles of a 3-step set); each file is written by
-its format's own writer (pyMRAW.save_mraw, tifffile, zarr), imported with ``fringe3d import``
-and decoded; the truth is the decode of the PNG capture of the very same frames.
+its format's own writer (pyMRAW.save_mraw, tifffile, zarr; CINE, which no library writes, by
+``tests/cine_writer.py``, checked against pims in test_camera_file_cine.py), imported with
+``fringe3d import`` and decoded; the truth is the decode of the PNG capture of the very same frames.
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import pyMRAW
 import pytest
 import tifffile
 import zarr
+from cine_writer import write_cine
 
 from fringe3d.cli import main
 from fringe3d.decode import decode, decode_sequence
@@ -98,12 +100,13 @@ def png_phase(tmp_path, frames, ps, bit_depth=None):
 
 WRITERS = {
     "mraw": lambda d, f: write_mraw(d / "run.mraw", f),
+    "cine": lambda d, f: write_cine(d / "take.cine", f, frame_rate=5000, first_image_no=-LEAD),
     "tiff": lambda d, f: write_tiff(d / "stack.tif", f),
     "zarr": lambda d, f: write_zarr(d / "frames.zarr", f),
 }
 
 
-@pytest.mark.parametrize("kind", ["mraw", "tiff", "zarr"])
+@pytest.mark.parametrize("kind", ["mraw", "cine", "tiff", "zarr"])
 def test_camera_file_imports_as_a_reference_and_decodes_bit_identically_to_png(tmp_path, sim, kind, capsys):
     ps, frames = sim
     src = WRITERS[kind](tmp_path, with_lead(frames))
@@ -114,8 +117,9 @@ def test_camera_file_imports_as_a_reference_and_decodes_bit_identically_to_png(t
                       period=PERIOD, first_frame=LEAD)
     meta = json.loads((tmp_path / "cap" / "capture.json").read_text())
     assert not (tmp_path / "cap" / "frames").exists()  # referenced, not converted
+    numbered = {"first_image_no": -LEAD} if kind == "cine" else {}  # the trigger at the first cycle
     assert meta["source"] == {"kind": kind, "path": f"../{src.name}", "first_frame": LEAD,
-                              "frame_count": len(frames), "file_frames": len(frames) + LEAD + 1}
+                              "frame_count": len(frames), "file_frames": len(frames) + LEAD + 1, **numbered}
     assert meta["bit_depth"] == 8 and meta["camera"] == [frames.shape[2], frames.shape[1]]
     cap = read_capture(tmp_path / "cap")
     np.testing.assert_array_equal(cap.frames, frames)
@@ -285,7 +289,7 @@ def test_bad_source_fields_and_missing_files_are_named(tmp_path, sim):
     assert import_(tmp_path / "f.zarr", tmp_path / "cap", ps) == 0
     meta_path = tmp_path / "cap" / "capture.json"
     meta = json.loads(meta_path.read_text())
-    for change, msg in (({"kind": "cine"}, "source.kind must be one of"), ({"first_frame": -1}, "source.first_frame"),
+    for change, msg in (({"kind": "avi"}, "source.kind must be one of"), ({"first_frame": -1}, "source.first_frame"),
                         ({"frame_count": 0}, "source.frame_count"), ({"colour": 1}, "unknown source field")):
         meta_path.write_text(json.dumps({**meta, "source": {**meta["source"], **change}}))
         with pytest.raises(ValueError, match=msg):

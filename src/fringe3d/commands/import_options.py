@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 
 SRC_HELP = ("Folder or glob of frames (PNG, TIFF, BMP, JPEG), naturally sorted (img_2 before img_10); or a camera "
-            "file: Photron .cih/.cihx/.mraw, a multi-page .tif, a zarr store.")
+            "file: Photron .cih/.cihx/.mraw, Phantom .cine, a multi-page .tif, a zarr store.")
 
 
 def list_option() -> Path:

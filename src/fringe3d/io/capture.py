@@ -11,7 +11,7 @@ Layout::
       truth/               optional: simulator ground truth (not read here)
 
 Instead of ``frames/``, ``capture.json`` may hold a ``source`` object referencing a camera file
-(Photron MRAW, multi-page TIFF, zarr; :mod:`fringe3d.io.capture_source`), read lazily:
+(Photron MRAW, Phantom CINE, multi-page TIFF, zarr; :mod:`fringe3d.io.capture_source`), read lazily:
 :func:`open_frames` gives an array-like over it and :meth:`Capture.iter_cycles` reads one
 cycle at a time.
 

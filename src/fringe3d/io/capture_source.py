@@ -3,16 +3,19 @@
 Fields (checked by :func:`parse_source`)::
 
     "source": {
-      "kind": "mraw" | "tiff" | "zarr",   reader (fringe3d.io.frame_sources)
+      "kind": "mraw" | "cine" | "tiff" | "zarr",   reader (fringe3d.io.frame_sources)
       "path": "../run1.cihx",             relative to the capture folder, or absolute
       "first_frame": 12,                  file frame where the first pattern cycle starts (>= 0)
       "frame_count": 3000,                frames used (a multiple of the manifest), or null: the rest
-      "file_frames": 3012                 optional: frames the file held at import (checked)
+      "file_frames": 3012,                optional: frames the file held at import (checked)
+      "first_image_no": -500              optional (CINE): the camera's number of file frame 0,
+                                          counted from the trigger (checked)
     }
 
 :func:`open_source_frames` opens the file and checks its header against ``capture.json``
-(``bit_depth``, ``camera`` [width, height], ``frame_rate``, ``source.file_frames``) and the
-frame range against the file; every error names the file, the field and what was expected.
+(``bit_depth``, ``camera`` [width, height], ``frame_rate``, ``source.file_frames``,
+``source.first_image_no``) and the frame range against the file; every error names the file,
+the field and what was expected.
 """
 from __future__ import annotations
 
@@ -22,7 +25,7 @@ from pathlib import Path
 
 from fringe3d.io.frame_sources import SOURCE_KINDS, FrameRange, FrameSource, open_source
 
-SOURCE_FIELDS = ("kind", "path", "first_frame", "frame_count", "file_frames")
+SOURCE_FIELDS = ("kind", "path", "first_frame", "frame_count", "file_frames", "first_image_no")
 
 
 def _is_count(x, minimum: int) -> bool:
@@ -49,6 +52,10 @@ def parse_source(source, where: Path) -> dict:
         raise ValueError(f"{where}: source.frame_count must be an integer >= 1 or null, got {out['frame_count']!r}")
     if "file_frames" in out and not _is_count(out["file_frames"], 1):
         raise ValueError(f"{where}: source.file_frames must be an integer >= 1, got {out['file_frames']!r}")
+    number = out.get("first_image_no")
+    if "first_image_no" in out and (not isinstance(number, int) or isinstance(number, bool)):
+        raise ValueError(f"{where}: source.first_image_no must be an integer (the camera's number of file frame 0), "
+                         f"got {number!r}")
     return out
 
 
@@ -60,7 +67,8 @@ def source_path(folder: Path, source: dict) -> Path:
 
 def check_header(src: FrameSource, meta: dict, where: Path) -> None:
     """``ValueError`` naming the file and field when the camera file's header disagrees with
-    ``capture.json`` (``where``): ``bit_depth``, ``camera``, ``frame_rate``, ``source.file_frames``."""
+    ``capture.json`` (``where``): ``bit_depth``, ``camera``, ``frame_rate``, ``source.file_frames``,
+    ``source.first_image_no`` (a CINE's ``FirstImageNo``)."""
     F, H, W = src.shape
     if "camera" in meta and list(meta["camera"]) != [W, H]:
         raise ValueError(f"{src.path}: the frames are {W}x{H} pixels but {where} field camera says "
@@ -78,6 +86,10 @@ def check_header(src: FrameSource, meta: dict, where: Path) -> None:
     if expect is not None and expect != F:
         raise ValueError(f"{src.path}: the file holds {F} frames but {where} field source.file_frames says "
                          f"{expect}; expected {F} (was the recording replaced?)")
+    number, have = meta["source"].get("first_image_no"), getattr(src, "first_image_no", None)
+    if number is not None and have is not None and number != have:
+        raise ValueError(f"{src.path}: the header's first image number is {have} but {where} field "
+                         f"source.first_image_no says {number}; expected {have} (was the recording replaced?)")
 
 
 def open_source_frames(folder: str | os.PathLike, meta: dict, where: Path) -> FrameRange:
@@ -91,7 +103,8 @@ def open_source_frames(folder: str | os.PathLike, meta: dict, where: Path) -> Fr
 
 
 def make_source(kind: str, path: str | os.PathLike, folder: str | os.PathLike, first_frame: int = 0,
-                frame_count: int | None = None, file_frames: int | None = None) -> dict:
+                frame_count: int | None = None, file_frames: int | None = None,
+                first_image_no: int | None = None) -> dict:
     """The ``source`` object for ``capture.json`` in ``folder``; ``path`` is stored relative to
     the folder when both are on one drive (moving them together keeps it valid), else absolute."""
     p = Path(path).resolve()
@@ -103,4 +116,6 @@ def make_source(kind: str, path: str | os.PathLike, folder: str | os.PathLike, f
                  "frame_count": None if frame_count is None else int(frame_count)}
     if file_frames is not None:
         out["file_frames"] = int(file_frames)
+    if first_image_no is not None:
+        out["first_image_no"] = int(first_image_no)
     return out

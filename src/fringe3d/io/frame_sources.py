@@ -1,4 +1,4 @@
-"""Camera files as frame sources, read lazily: Photron MRAW, multi-page TIFF, zarr frame stores.
+"""Camera files as frame sources, read lazily: Photron MRAW, Phantom CINE, multi-page TIFF, zarr stores.
 
 A capture folder may reference a camera file instead of holding ``frames/``: its
 ``capture.json`` then has a ``source`` object (see :func:`parse_source` and the user guide)::
@@ -9,8 +9,8 @@ Every reader is a :class:`FrameSource`: it knows the file's frame count, frame s
 bit depth and frame rate from the header alone, and ``read(start, stop)`` returns only the
 frames ``[start, stop)`` — memory is bounded by the requested range (MRAW 8/16-bit and zarr
 by a memory map / chunk reads, 12-bit packed MRAW by unpacking only those bytes, TIFF page by
-page). :class:`FrameRange` cuts the frames a capture uses out of a source and indexes like an
-``(F, H, W)`` array (``frames[idx]`` reads only the frames asked for).
+page, CINE image by image). :class:`FrameRange` cuts the frames a capture uses out of a source
+and indexes like an ``(F, H, W)`` array (``frames[idx]`` reads only the frames asked for).
 """
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ import numpy as np
 import tifffile
 
 #: Source kinds that ``capture.json``'s ``source.kind`` may name.
-SOURCE_KINDS = ("mraw", "tiff", "zarr")
+SOURCE_KINDS = ("mraw", "cine", "tiff", "zarr")
 #: Array name of a zarr frame store.
 ZARR_ARRAY = "frames"
 
@@ -161,6 +161,82 @@ def _unpack12(raw: np.ndarray) -> np.ndarray:
     return out
 
 
+# ----------------------------------------------------------------------------- CINE
+class CineSource:
+    """A Phantom CINE recording (Vision Research), read image by image through ``pims.Cine``.
+
+    Only uncompressed monochrome files (``Compression`` 0, ``CFA`` 0, 8- or 16-bit pixels) are
+    read; a colour or compressed file is refused. ``shape`` is ``(ImageCount, biHeight,
+    biWidth)`` (BITMAPINFOHEADER), ``bit_depth`` the SETUP's ``RealBPP`` for 16-bit pixels (else
+    8), ``frame_rate`` its ``FrameRate`` (Hz, None when 0) and ``first_image_no`` the header's
+    ``FirstImageNo``: the camera's number of file frame 0, counted from the trigger (negative
+    before it). ``read(start, stop)`` reads those images only (``pims.Cine.get_frame``).
+    """
+
+    kind = "cine"
+
+    def __init__(self, path: str | os.PathLike):
+        from pims.cine import Cine  # optional dependency (extra "camfiles")
+
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise FileNotFoundError(f"CINE file {self.path} does not exist")
+        with open(self.path, "rb") as f:
+            magic = f.read(2)
+        if magic != b"CI":
+            raise ValueError(f"{self.path} is not a Phantom CINE file (it starts with {magic!r}, not b'CI')")
+        try:
+            self._cine = Cine(str(self.path))
+        except Exception as e:  # pims raises struct.error, TypeError, KeyError ... for broken files
+            raise ValueError(f"{self.path} is not a readable Phantom CINE file ({type(e).__name__}: {e})") from None
+        c = self._cine
+        if c.compression != 0 or c.cfa != 0:
+            raise ValueError(f"{self.path}: Compression {c.compression}, CFA {c.cfa}; fringe3d reads uncompressed "
+                             "monochrome CINE files only (Compression 0, CFA 0)")
+        bits = int(c.bitmapinfo_dict["bi_bit_count"])
+        if bits not in (8, 16):
+            raise ValueError(f"{self.path}: biBitCount is {bits}; expected 8 or 16 (monochrome)")
+        W, H = (int(x) for x in c.frame_shape)
+        if W <= 0 or H <= 0:
+            raise ValueError(f"{self.path}: biWidth x biHeight is {W}x{H}; expected positive sizes")
+        self.shape = (int(len(c)), H, W)
+        self.dtype = np.dtype(np.uint8 if bits == 8 else np.uint16)
+        real = int(c.setup_fields_dict.get("real_bpp", 0) or 0)
+        self.bit_depth = real if bits == 16 and 8 < real <= 16 else bits
+        rate = float(c.frame_rate)
+        self.frame_rate = rate if rate > 0 else None
+        self.first_image_no = int(c.header_dict["first_image_no"])
+        self._check_file_size()
+
+    def _check_file_size(self) -> None:
+        """The last image (annotation header + pixels) must lie inside the file."""
+        if not self.shape[0]:
+            raise ValueError(f"{self.path}: the header's ImageCount is 0; expected a recording with frames")
+        locations = getattr(self._cine, "image_locations", None)  # pims skips a table at the end of the file
+        if not locations:
+            raise ValueError(f"{self.path}: the file ends at the image offsets table (offset "
+                             f"{self._cine.off_image_offsets}); expected {self.shape[0]} image offsets there")
+        need = max(locations) + 8 + self.shape[1] * self.shape[2] * self.dtype.itemsize
+        have = self.path.stat().st_size
+        if have < need:
+            raise ValueError(f"{self.path} holds {have} bytes but its header says ImageCount {self.shape[0]} of "
+                             f"{self.shape[2]}x{self.shape[1]} at {8 * self.dtype.itemsize} bits (at least {need} "
+                             "bytes expected)")
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def read(self, start: int, stop: int) -> np.ndarray:
+        _check_range(self, start, stop)
+        out = np.empty((stop - start,) + self.shape[1:], self.dtype)
+        for k in range(start, stop):
+            out[k - start] = self._cine.get_frame(k)
+        return out
+
+    def close(self) -> None:
+        self._cine.close()
+
+
 # ----------------------------------------------------------------------------- TIFF
 class TiffSource:
     """A multi-page (or BigTIFF) stack of grey pages, one frame a page, read page by page.
@@ -267,17 +343,20 @@ class ZarrSource:
 
 
 # ----------------------------------------------------------------------------- opening
-_READERS: dict[str, type[MrawSource] | type[TiffSource] | type[ZarrSource]] = {
-    "mraw": MrawSource, "tiff": TiffSource, "zarr": ZarrSource}
+_READERS: dict[str, type[MrawSource] | type[CineSource] | type[TiffSource] | type[ZarrSource]] = {
+    "mraw": MrawSource, "cine": CineSource, "tiff": TiffSource, "zarr": ZarrSource}
 
 
 def guess_kind(path: str | os.PathLike) -> str | None:
     """Source kind of a camera file by its name, or None: ``.mraw``/``.cih``/``.cihx`` -> mraw,
-    ``.tif``/``.tiff`` -> tiff, a folder ending ``.zarr`` or holding zarr metadata -> zarr."""
+    ``.cine`` -> cine, ``.tif``/``.tiff`` -> tiff, a folder ending ``.zarr`` or holding zarr
+    metadata -> zarr."""
     p = Path(path)
     suffix = p.suffix.lower()
     if suffix in (".mraw", ".cih", ".cihx"):
         return "mraw"
+    if suffix == ".cine":
+        return "cine"
     if suffix in (".tif", ".tiff") and p.is_file():
         return "tiff"
     if p.is_dir() and (suffix == ".zarr" or any((p / m).exists() for m in ("zarr.json", ".zgroup", ".zarray"))):

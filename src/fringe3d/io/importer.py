@@ -6,8 +6,8 @@ or colour, converts them with :func:`to_grey`, checks the count against the patt
 and writes ``manifest.json``, ``frames/`` and ``capture.json`` (source files, conversion,
 bit depth) through :func:`fringe3d.io.capture.write_capture`.
 
-A camera file — Photron MRAW (``.cih``/``.cihx`` + ``.mraw``), a multi-page TIFF stack, a
-zarr frame store — is not converted: :func:`import_camera_file` writes ``manifest.json`` and a
+A camera file — Photron MRAW (``.cih``/``.cihx`` + ``.mraw``), Phantom CINE (``.cine``), a
+multi-page TIFF stack, a zarr frame store — is not converted: :func:`import_camera_file` writes ``manifest.json`` and a
 ``capture.json`` whose ``source`` references the file (``copy_frames=True`` writes PNGs).
 
 Colour conversion (the one place; the command line and the API both call it): ITU-R BT.601
@@ -322,8 +322,8 @@ def import_camera_file(path: str | os.PathLike, out: str | os.PathLike, patterns
 
     Parameters
     ----------
-    path : .cih / .cihx / .mraw, multi-page .tif, or zarr store folder (array ``frames``)
-    kind : ``"mraw"``, ``"tiff"`` or ``"zarr"``; default from the name (:func:`guess_kind`)
+    path : .cih / .cihx / .mraw, .cine, multi-page .tif, or zarr store folder (array ``frames``)
+    kind : ``"mraw"``, ``"cine"``, ``"tiff"`` or ``"zarr"``; default from the name (:func:`guess_kind`)
     first_frame, frame_count : file frame of the first pattern cycle; frames used (a multiple
         of ``len(patterns)``; None: the whole cycles that follow)
     copy_frames : write the frames as PNGs into ``frames/`` instead of referencing the file
@@ -334,7 +334,7 @@ def import_camera_file(path: str | os.PathLike, out: str | os.PathLike, patterns
     check_output(out, overwrite)
     kind = kind or guess_kind(path)
     if kind is None:
-        raise ValueError(f"{path} is not a camera file fringe3d reads (.cih/.cihx/.mraw, .tif, zarr store)")
+        raise ValueError(f"{path} is not a camera file fringe3d reads (.cih/.cihx/.mraw, .cine, .tif, zarr store)")
     src = open_source(kind, path)
     frames = source_range(src, patterns, layout, first_frame, frame_count)
     bits = source_bit_depth(frames, bit_depth)
@@ -343,7 +343,8 @@ def import_camera_file(path: str | os.PathLike, out: str | os.PathLike, patterns
                   "source_dtype": str(src.dtype), "bit_depth": bits, "camera": [W, H], "patterns": patterns.name}
     if src.frame_rate is not None:
         meta["frame_rate"] = src.frame_rate
-    spec = make_source(kind, src.path, out, frames.first, frames.count, file_frames=F)
+    spec = make_source(kind, src.path, out, frames.first, frames.count, file_frames=F,
+                       first_image_no=getattr(src, "first_image_no", None))
     out.mkdir(parents=True, exist_ok=True)
     if copy_frames:
         meta.update(conversion="none (frames copied to PNG)", source_file={**spec, "path": str(src.path.resolve())})
@@ -400,7 +401,7 @@ def load_images(src: str | os.PathLike, *, list_file: str | os.PathLike | None =
                 "patterns": patterns.name}
         return Capture(np.asarray(used[:len(patterns)]), patterns, meta, source=used)
     if (first_frame, frame_count) != (0, None):
-        raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .tif, zarr); "
+        raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .cine, .tif, zarr); "
                          f"{src} is a folder or glob of images")
     frames, meta = read_images(list_sources(src, list_file), patterns, name, channel, bit_depth)
     return Capture(frames, patterns, meta)
@@ -442,7 +443,7 @@ def import_images(src: str | os.PathLike, out: str | os.PathLike, *, list_file: 
         return import_camera_file(src, out, patterns, name, bit_depth=bit_depth, first_frame=first_frame,
                                   frame_count=frame_count, copy_frames=copy_frames, overwrite=overwrite)
     if ranged:
-        raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .tif, zarr); "
+        raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .cine, .tif, zarr); "
                          f"{src} is a folder or glob of images")
     files = list_sources(src, list_file)
     return import_capture(files, out, patterns, name, channel=channel, bit_depth=bit_depth, overwrite=overwrite)
