@@ -39,7 +39,7 @@ def test_direct_chunk_writes_are_the_bytes_zarr_writes(tmp_path, monkeypatch, co
             theirs.group[name][k] = v  # zarr's own write path
     for name in ("depth", "quality", "sigma_z"):
         for k in range(3):
-            key = f"{name}/c/{k}/0/0"
+            key = f"{name}/c.{k}.0.0"  # flat chunk keys (store.FRAME_KEYS)
             assert (tmp_path / "ours.zarr" / key).read_bytes() == (tmp_path / "zarr.zarr" / key).read_bytes()
         np.testing.assert_array_equal(ours.group[name][:], theirs.group[name][:])
     assert not list((tmp_path / "ours.zarr").rglob("*.partial"))  # no temporary left behind

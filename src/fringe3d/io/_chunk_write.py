@@ -67,6 +67,7 @@ def chunk_writer(array) -> ChunkWriter | None:
     root = Path(store.root) / array.store_path.path
     le = dtype.newbyteorder("<")
     tail = shape[1:]
+    made: set[Path] = set()
 
     def write(k: int, frame: np.ndarray) -> None:
         v = np.ascontiguousarray(frame, le)
@@ -74,7 +75,9 @@ def chunk_writer(array) -> ChunkWriter | None:
             raise ValueError(f"chunk {k} of shape {v.shape}, expected {tail}")
         path = root / md.chunk_key_encoding.encode_chunk_key((int(k),) + (0,) * len(tail))
         data = encode(v.reshape(-1).view(np.uint8))
-        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.parent not in made:  # one mkdir per folder, not per chunk
+            path.parent.mkdir(parents=True, exist_ok=True)
+            made.add(path.parent)
         tmp = path.with_suffix(f".{uuid.uuid4().hex}.partial")
         try:
             with open(tmp, "wb") as f:

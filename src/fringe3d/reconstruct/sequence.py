@@ -16,6 +16,7 @@ Outputs: a resumable zarr store (:class:`fringe3d.io.store.PointMapStore`) and/o
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 from collections import deque
@@ -24,6 +25,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import NamedTuple
 
+import numba
 import numpy as np
 
 from fringe3d.decode.context import phase_groups
@@ -438,7 +440,8 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
     writes: deque = deque()  # store writes run behind the next frame's compute (compression is off the critical path)
     written: list[int] = []  # frames whose chunks are written, to be marked done (every MARK_EVERY frames)
     with progress_bar("reconstructing 3D frames", len(todo), enabled=progress and len(todo) > 1) as advance, \
-            ThreadPoolExecutor(max_workers=1, thread_name_prefix="fringe3d-store") as writer:
+            ThreadPoolExecutor(max_workers=1, thread_name_prefix="fringe3d-store") as writer, \
+            _kernel_threads_beside(st is not None):
         try:
             for b0 in range(0, len(todo), batch):
                 ks = todo[b0:b0 + batch]
@@ -471,6 +474,21 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
             "backend": backend,
             "store": str(out / STORE_NAME) if store else None, "ply_dir": str(out / PLY_DIR) if ply else None,
             "store_layout": st.layout if st is not None else None}
+
+
+@contextlib.contextmanager
+def _kernel_threads_beside(writer: bool):
+    """While a store writer thread runs beside the kernels, the numba kernels of this thread use
+    one thread fewer (at least one): every parallel kernel waits for its slowest thread, and a
+    thread sharing its core with the writer's compression made each kernel up to twice as slow
+    (``benchmarks/bench_sequence.py`` on 2 cores)."""
+    n = numba.get_num_threads()
+    if writer and n > 1:
+        numba.set_num_threads(n - 1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(n)
 
 
 def _finish(pending: tuple) -> int:
