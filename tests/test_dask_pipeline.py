@@ -144,3 +144,15 @@ def test_an_unreachable_scheduler_is_a_clear_error_and_writes_nothing(capture, t
     err = " ".join(capsys.readouterr().err.split())
     assert code == 2 and "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_two_worker_processes_write_the_serial_ply_files(capture, tmp_path):
+    assert reconstruct(capture, tmp_path / "serial", "--ply", "--no-store") == 0
+    assert reconstruct(capture, tmp_path / "dask", "--ply", "--no-store", "--workers", "2", "--chunk", "3") == 0
+    names = sorted(p.name for p in (tmp_path / "serial" / "ply").glob("*.ply"))
+    assert len(names) == CYCLES
+    assert names == sorted(p.name for p in (tmp_path / "dask" / "ply").glob("*.ply"))
+    for name in names:  # one writer for both paths: the same measurement PLY, byte for byte but the command
+        got, want = ((tmp_path / d / "ply" / name).read_bytes().split(b"\n", 5) for d in ("dask", "serial"))
+        assert got[4].startswith(b"comment command: fringe3d reconstruct") and b"--workers 2" in got[4]
+        assert got[:4] + got[5:] == want[:4] + want[5:]

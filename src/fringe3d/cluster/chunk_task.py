@@ -10,21 +10,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.io.capture import open_frames
-from fringe3d.io.pointcloud import write_ply
 from fringe3d.io.store import PointMapStore
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import PatternSet
+from fringe3d.utils.provenance import use_command_line
 from fringe3d.reconstruct.sequence import (
     CaptureFrames,
     FrameReconstructor,
-    ply_name,
-    reconstruct_window,
+    reconstructed_windows,
     store_arrays,
-    window_index,
+    write_ply_frame,
 )
 
 
@@ -38,6 +35,8 @@ class SequenceJob:
     worker builds the reconstructor (minimum phase, ray coefficients) once per job. ``backend``
     ``"cuda"`` runs the per-pixel kernels on the worker's GPU (its tasks ask for the worker
     resource ``{"GPU": 1}``, see :mod:`fringe3d.cluster.engine`), a chunk's cycles in one launch.
+    ``command`` is the client's command line, recorded in the files the worker writes (PLY
+    provenance comments) as the serial path records it.
     """
 
     key: str
@@ -51,6 +50,7 @@ class SequenceJob:
     store: str | None = None
     ply_dir: str | None = None
     backend: str = "cpu"
+    command: str = ""
 
 
 _WORKER_CACHE: dict[str, tuple] = {}  # job key -> (reconstructor, frames, store)
@@ -77,19 +77,15 @@ def run_chunk(job: SequenceJob, ks: list[int]) -> dict:
     all-NaN point maps and counted.
     """
     rec, frames, store = _worker_state(job)
-    n = len(job.patterns)
+    use_command_line(job.command)
     empty = 0
     ply = job.ply_dir is not None
     layout = store.layout if store is not None else None
     quality = store is not None and store.has_quality
-    cycles = [np.ascontiguousarray(frames[window_index(job.starts[k], n)]) for k in ks]
-    depths = rec.depths(cycles)  # one batched launch on the CUDA fused path, else None
-    for i, (k, cycle_frames) in enumerate(zip(ks, cycles)):
-        cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, layout, quality,
-                                            depth=None if depths is None else depths[i])
+    for k, cyc, was_empty in reconstructed_windows(rec, frames, job.starts, list(ks), ply, layout, quality):
         empty += was_empty
-        if ply and cyc.points is not None and np.isfinite(cyc.points[..., 0]).any():
-            write_ply(Path(job.ply_dir) / ply_name(k), cyc.points, colors=cyc.texture)
+        if job.ply_dir is not None:
+            write_ply_frame(Path(job.ply_dir), k, cyc)
         if store is not None:
             store.write_frame(k, **store_arrays(cyc, store))
     return {"done": list(ks), "empty": empty}

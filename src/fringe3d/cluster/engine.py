@@ -27,6 +27,7 @@ from fringe3d.reconstruct.sequence import (
 )
 from fringe3d.utils.console import progress_bar
 from fringe3d.utils.output_folder import fingerprint
+from fringe3d.utils.provenance import command_line
 
 #: 3D frames per task: large enough to amortise scheduling (~1 ms a task), small enough to balance.
 DEFAULT_CHUNK = 8
@@ -142,7 +143,8 @@ def reconstruct_capture_on_dask(capture: str | os.PathLike, patterns: PatternSet
     job = SequenceJob(key=key, capture=str(Path(capture).resolve()), limit=len(frames), patterns=patterns, rig=rig,
                       options=options, starts=tuple(starts), triangulation=triangulation,
                       store=str((out / STORE_NAME).resolve()) if st is not None else None,
-                      ply_dir=str((out / PLY_DIR).resolve()) if ply else None, backend=backend)
+                      ply_dir=str((out / PLY_DIR).resolve()) if ply else None, backend=backend,
+                      command=command_line())
     res = reconstruct_on_dask(job, client, chunk=chunk, progress=progress)
     return {"out": str(out), "frames_3d": len(starts), **res, "path": rec.path, "mode": mode, "backend": backend,
             "store": str(out / STORE_NAME) if store else None, "ply_dir": str(out / PLY_DIR) if ply else None,

@@ -23,7 +23,7 @@ from collections import deque
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import NamedTuple
+from typing import Iterator, NamedTuple
 
 import numba
 import numpy as np
@@ -283,6 +283,28 @@ def reconstruct_window(rec: FrameReconstructor, frames: np.ndarray, ply: bool, l
                  np.full((H, W), INVALID, np.uint8), None, nan if rec.fast is not None else None), True
 
 
+def reconstructed_windows(rec: FrameReconstructor, frames, starts, ks: list[int], ply: bool, layout: str | None,
+                          quality: bool) -> Iterator[tuple[int, Cycle, bool]]:
+    """``(k, cycle, empty)`` of each 3D frame ``k`` of ``ks`` (:func:`reconstruct_window`), its
+    window read from ``frames`` (F, H, W) at ``starts[k]``; on the CUDA fused path the ray
+    parameters of all of ``ks`` come from one batched launch (:meth:`FrameReconstructor.depths`).
+    The one per-frame loop of the serial and the Dask paths."""
+    n = len(rec.patterns)
+    cycles = [np.ascontiguousarray(frames[window_index(starts[k], n)]) for k in ks]
+    depths = rec.depths(cycles)
+    for i, (k, cycle_frames) in enumerate(zip(ks, cycles)):
+        cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, layout, quality,
+                                            depth=None if depths is None else depths[i])
+        yield k, cyc, was_empty
+
+
+def write_ply_frame(ply_dir: Path, k: int, cycle: Cycle) -> None:
+    """3D frame ``k``'s points and texture as ``ply_dir/frame_NNNNN.ply`` (the measurement PLY,
+    :func:`fringe3d.io.ply_standard.write_measurement_ply`); nothing for a frame with no point."""
+    if cycle.points is not None and np.isfinite(cycle.points[..., 0]).any():
+        write_measurement_ply(Path(ply_dir) / ply_name(k), cycle.points, cycle.texture)
+
+
 def store_arrays(cycle: Cycle, st: PointMapStore) -> dict:
     """The keyword arguments of :meth:`PointMapStore.write_frame` for ``cycle`` in ``st``."""
     out: dict = {"points": cycle.points} if st.layout == "xyz" else {"depth": cycle.depth}
@@ -426,7 +448,6 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
     rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, fast=fast, backend=backend)
     starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store, rec=rec,
                                   layout=layout, store_quality=store_quality)
-    n = len(patterns)
 
     def done(k):
         return (st is None or st.is_done(k)) and (not ply or (out / PLY_DIR / ply_name(k)).exists())
@@ -444,15 +465,11 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
             _kernel_threads_beside(st is not None):
         try:
             for b0 in range(0, len(todo), batch):
-                ks = todo[b0:b0 + batch]
-                cycles = [np.ascontiguousarray(frames[window_index(starts[k], n)]) for k in ks]
-                depths = rec.depths(cycles)
-                for i, (k, cycle_frames) in enumerate(zip(ks, cycles)):
-                    cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, st_layout, quality,
-                                                        depth=None if depths is None else depths[i])
+                for k, cyc, was_empty in reconstructed_windows(rec, frames, starts, todo[b0:b0 + batch], ply,
+                                                               st_layout, quality):
                     empty += was_empty
-                    if ply and cyc.points is not None and np.isfinite(cyc.points[..., 0]).any():
-                        write_measurement_ply(out / PLY_DIR / ply_name(k), cyc.points, cyc.texture)
+                    if ply:
+                        write_ply_frame(out / PLY_DIR, k, cyc)
                     if st is not None:
                         writes.append((k, writer.submit(st.write_frame, k, **store_arrays(cyc, st))))
                         while len(writes) > 2:  # at most two frames in flight: bounded memory

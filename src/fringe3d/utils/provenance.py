@@ -48,6 +48,12 @@ def command_line() -> str:
     return _CommandLine.text
 
 
+def use_command_line(text: str) -> None:
+    """Record ``text`` (a whole ``fringe3d ...`` line) as the command writing outputs: a worker
+    process writes the command of the client that sent it the work."""
+    _CommandLine.text = str(text)
+
+
 def version() -> str:
     """The installed fringe3d version ("unknown" from a source tree without metadata)."""
     try:
