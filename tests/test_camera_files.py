@@ -333,3 +333,22 @@ def test_cihx_header_and_high_side_values_read_like_the_lower_side_file(tmp_path
     cap = read_capture(tmp_path / "cap")
     assert cap.meta["source"]["path"] == "../run.cihx" and cap.meta["bit_depth"] == 12
     np.testing.assert_array_equal(cap.frames, frames12)
+
+
+def test_load_images_holds_what_import_writes_and_channel_on_a_camera_file_is_refused(tmp_path, sim, capsys):
+    from fringe3d.io.importer import load_images
+
+    ps, frames = sim
+    write_mraw(tmp_path / "run.mraw", frames, rate=12000)
+    assert import_(tmp_path / "run.cih", tmp_path / "cap", ps) == 0
+    written = json.loads((tmp_path / "cap" / "capture.json").read_text())
+    held = load_images(tmp_path / "run.cih", layout="phase-shift", projector_size=(ps.width, ps.height), steps=3,
+                       period=PERIOD)
+    for field in ("frame_rate", "bit_depth", "camera", "source_dtype", "layout"):
+        assert held.meta[field] == written[field], field
+    np.testing.assert_array_equal(held.frames, frames[:3])
+    capsys.readouterr()
+    assert import_(tmp_path / "run.cih", tmp_path / "cap2", ps, "--channel", "g") == 2
+    err = capsys.readouterr().err
+    assert "run.cih" in err and "--channel" in err and "Traceback" not in err
+    assert not (tmp_path / "cap2" / "capture.json").exists()

@@ -314,6 +314,42 @@ def copy_to_png(frames: FrameRange, out: Path, chunk: int = 64) -> None:
             write_image(fdir / f"{k:05d}.png", img)
 
 
+def camera_file_range(kind: str, path: str | os.PathLike, patterns: PatternSet, layout: str, first_frame: int,
+                      frame_count: int | None, bit_depth: int | None) -> tuple[FrameSource, FrameRange, dict]:
+    """The camera file ``path`` of ``kind`` opened, the frames used (:func:`source_range`) and
+    the capture metadata they give (layout, dtype, bit depth, camera size, frame rate where the
+    file has one); what :func:`import_camera_file` writes and :func:`load_images` holds."""
+    src = open_source(kind, path)
+    frames = source_range(src, patterns, layout, first_frame, frame_count)
+    bits = source_bit_depth(frames, bit_depth)
+    H, W = src.shape[1:]
+    meta: dict = {"imported": True, "layout": layout, "conversion": "none (camera file referenced)",
+                  "source_dtype": str(src.dtype), "bit_depth": bits, "camera": [W, H], "patterns": patterns.name}
+    if src.frame_rate is not None:
+        meta["frame_rate"] = src.frame_rate
+    return src, frames, meta
+
+
+def camera_file_kind(src: str | os.PathLike, list_file, channel: str | None, convert_tiff: bool = False) -> str | None:
+    """The camera-file kind of ``src`` (:func:`guess_kind`; None for image files, a list file,
+    or a TIFF stack to be converted page by page with ``convert_tiff``). ``--channel`` on a
+    camera file is an error: its frames are read as grey."""
+    kind = guess_kind(src) if list_file is None else None
+    if kind == "tiff" and convert_tiff:
+        return None
+    if kind is not None and channel is not None:
+        raise ValueError(f"{src}: --channel converts colour frames; a camera file is read as grey frames"
+                         + (" (add --copy-frames to convert a TIFF stack page by page)" if kind == "tiff" else ""))
+    return kind
+
+
+def check_no_range(src: str | os.PathLike, first_frame: int, frame_count: int | None) -> None:
+    """``--first-frame`` / ``--frame-count`` name frames of a camera file: an error for image files."""
+    if (first_frame, frame_count) != (0, None):
+        raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .cine, .tif, zarr); "
+                         f"{src} is a folder or glob of images")
+
+
 def import_camera_file(path: str | os.PathLike, out: str | os.PathLike, patterns: PatternSet,
                        layout: str = "manifest", kind: str | None = None, bit_depth: int | None = None,
                        first_frame: int = 0, frame_count: int | None = None, copy_frames: bool = False,
@@ -335,14 +371,8 @@ def import_camera_file(path: str | os.PathLike, out: str | os.PathLike, patterns
     kind = kind or guess_kind(path)
     if kind is None:
         raise ValueError(f"{path} is not a camera file fringe3d reads (.cih/.cihx/.mraw, .cine, .tif, zarr store)")
-    src = open_source(kind, path)
-    frames = source_range(src, patterns, layout, first_frame, frame_count)
-    bits = source_bit_depth(frames, bit_depth)
-    F, H, W = src.shape
-    meta: dict = {"imported": True, "layout": layout, "conversion": "none (camera file referenced)",
-                  "source_dtype": str(src.dtype), "bit_depth": bits, "camera": [W, H], "patterns": patterns.name}
-    if src.frame_rate is not None:
-        meta["frame_rate"] = src.frame_rate
+    src, frames, meta = camera_file_range(kind, path, patterns, layout, first_frame, frame_count, bit_depth)
+    F = src.shape[0]
     spec = make_source(kind, src.path, out, frames.first, frames.count, file_frames=F,
                        first_image_no=getattr(src, "first_image_no", None))
     out.mkdir(parents=True, exist_ok=True)
@@ -390,19 +420,12 @@ def load_images(src: str | os.PathLike, *, list_file: str | os.PathLike | None =
     or ``list_file``; a camera file is read on demand as its ``source``) described by
     ``manifest`` or ``layout``. Same arguments and errors as :func:`import_images`."""
     patterns, name = described_patterns(manifest, layout, projector_size, **layout_options)
-    kind = guess_kind(src) if list_file is None else None
+    kind = camera_file_kind(src, list_file, channel)
     if kind is not None:
-        if channel is not None:
-            raise ValueError(f"{src}: --channel converts colour frames; a camera file is read as grey frames")
-        source = open_source(kind, src)
-        used = source_range(source, patterns, name, first_frame, frame_count)
-        meta = {"imported": True, "layout": name, "conversion": "none (camera file read)",
-                "source_dtype": str(source.dtype), "bit_depth": source_bit_depth(used, bit_depth),
-                "patterns": patterns.name}
+        _, used, meta = camera_file_range(kind, src, patterns, name, first_frame, frame_count, bit_depth)
+        meta["conversion"] = "none (camera file read)"
         return Capture(np.asarray(used[:len(patterns)]), patterns, meta, source=used)
-    if (first_frame, frame_count) != (0, None):
-        raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .cine, .tif, zarr); "
-                         f"{src} is a folder or glob of images")
+    check_no_range(src, first_frame, frame_count)
     frames, meta = read_images(list_sources(src, list_file), patterns, name, channel, bit_depth)
     return Capture(frames, patterns, meta)
 
@@ -432,18 +455,11 @@ def import_images(src: str | os.PathLike, out: str | os.PathLike, *, list_file: 
     (3, 8, True)
     """
     patterns, name = described_patterns(manifest, layout, projector_size, **layout_options)
-    kind = guess_kind(src) if list_file is None else None
     ranged = (first_frame, frame_count) != (0, None)
-    if kind == "tiff" and copy_frames and not ranged:
-        kind = None  # converted page by page like any image file (colour, source_files)
+    kind = camera_file_kind(src, list_file, channel, convert_tiff=copy_frames and not ranged)
     if kind is not None:
-        if kind == "tiff" and channel is not None:
-            raise ValueError(f"{src}: --channel converts colour frames; a referenced TIFF stack is read as grey "
-                             "pages (add --copy-frames to convert it)")
         return import_camera_file(src, out, patterns, name, bit_depth=bit_depth, first_frame=first_frame,
                                   frame_count=frame_count, copy_frames=copy_frames, overwrite=overwrite)
-    if ranged:
-        raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .cine, .tif, zarr); "
-                         f"{src} is a folder or glob of images")
+    check_no_range(src, first_frame, frame_count)
     files = list_sources(src, list_file)
     return import_capture(files, out, patterns, name, channel=channel, bit_depth=bit_depth, overwrite=overwrite)
