@@ -86,6 +86,10 @@ def main(out_path: str) -> None:
     gpu_fast = FastThreeStep(tri, mp, shifts3, min_modulation=5.0, backend="cuda")
     r["fused_cpu"] = np.stack([cpu_fast.points(f) for f in f3])
     r["fused_gpu_streamed"] = gpu_fast.points(f3)  # host frames: 2-cycle chunks, double-buffered
+    from fringe3d.gpu.streaming import _POOL
+    before = {k: id(v) for k, v in _POOL.buffers.items()}
+    r["fused_gpu_streamed_again"] = gpu_fast.points(f3)  # the next batch: the same chunk buffers, reused
+    r["pool_reused"] = np.array(bool(before) and before == {k: id(v) for k, v in _POOL.buffers.items()})
     from fringe3d.gpu import ops
     r["fused_gpu_chunk2"] = ops.three_step_points(f3, idx3, gpu_fast.coef, gpu_fast.min_mod2, gpu_fast.phi_min,
                                                   gpu_fast.sign, gpu_fast.scale, tri.O, tri.D_planes, tri.Q, tri.P3,

@@ -58,6 +58,11 @@ def test_fused_three_step_kernel_equals_cpu_for_streamed_chunked_and_resident_fr
     same_points(sim["fused_cpu"][1], sim["fused_gpu_one_cycle"])
 
 
+def test_the_next_batch_reuses_the_chunk_buffers_and_gives_the_same_points(sim):
+    assert bool(sim["pool_reused"])  # no pinned or device buffer made again
+    np.testing.assert_array_equal(sim["fused_gpu_streamed_again"], sim["fused_gpu_streamed"])
+
+
 def test_results_can_stay_on_the_device(sim):
     assert bool(sim["fused_gpu_resident_is_device"]) and bool(sim["geo_dev_is_device"])
     same_points(sim["fused_cpu"], sim["fused_gpu_chunk2_device"])  # host frames in chunks, device results

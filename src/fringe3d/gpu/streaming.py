@@ -6,9 +6,14 @@ and (unless the results stay on the device) downloaded into a pinned buffer on t
 While stream 0 computes chunk ``i``, the host fills the other pinned buffer with chunk ``i + 1``
 and stream 1 uploads it: the copies hide behind the kernels (double buffering). Frames already
 on the device are processed in one launch.
+
+The pinned and device buffers of the chunks are kept per thread and reused by the next call of
+the same shapes (:class:`BufferPool`): a sequence sends a batch of cycles per call, and
+page-locking host memory costs far more than copying into it.
 """
 from __future__ import annotations
 
+import threading
 from typing import Callable, Sequence
 
 import numpy as np
@@ -33,6 +38,32 @@ def launch_grid(n_pixels: int, n_cycles: int) -> tuple[tuple[int, int], tuple[in
 OutSpec = tuple[tuple[int, ...], type]  # per-cycle shape and dtype of one output
 
 
+class BufferPool(threading.local):
+    """Chunk buffers kept between calls, one pool per thread (two threads never share one):
+    :meth:`get` returns the buffer of that role, shape and dtype made last time, or makes it.
+    Only the most recent shapes are kept (:attr:`KEEP` buffers), so memory stays bounded."""
+
+    KEEP = 32
+
+    def __init__(self) -> None:
+        self.buffers: dict[tuple, object] = {}
+
+    def get(self, cuda, role: str, slot: int, shape: tuple[int, ...], dtype) -> object:
+        """The ``(pinned | device)`` buffer ``slot`` of ``role`` for ``shape`` and ``dtype``."""
+        key = (role, slot, tuple(shape), np.dtype(dtype).str)
+        buf = self.buffers.pop(key, None)
+        if buf is None:
+            make = cuda.pinned_array if role.startswith("pinned") else cuda.device_array
+            buf = make(tuple(shape), dtype)
+        self.buffers[key] = buf  # most recently used last
+        while len(self.buffers) > self.KEEP:
+            self.buffers.pop(next(iter(self.buffers)))
+        return buf
+
+
+_POOL = BufferPool()
+
+
 def run_batched(cuda, frames, launch: Callable, outputs: Sequence[OutSpec], chunk: int = DEFAULT_CHUNK,
                 device_output: bool = False) -> list:
     """Run ``launch(d_frames, d_outputs, stream)`` over every cycle of ``frames``.
@@ -54,22 +85,24 @@ def run_batched(cuda, frames, launch: Callable, outputs: Sequence[OutSpec], chun
     """
     n_cyc = frames.shape[0]
     if is_device_array(frames):
-        d_out = [cuda.device_array((n_cyc,) + tuple(s), dt) for s, dt in outputs]
+        d_res = [cuda.device_array((n_cyc,) + tuple(s), dt) for s, dt in outputs]
         stream = cuda.stream()
-        launch(frames, d_out, stream)
+        launch(frames, d_res, stream)
         stream.synchronize()
-        return d_out if device_output else [d.copy_to_host() for d in d_out]
+        return d_res if device_output else [d.copy_to_host() for d in d_res]
     chunk = max(1, min(int(chunk), n_cyc))
     per = tuple(frames.shape[1:])
     streams = [cuda.stream(), cuda.stream()]
-    pin_in = [cuda.pinned_array((chunk,) + per, frames.dtype) for _ in range(2)]
-    d_in = [cuda.device_array((chunk,) + per, frames.dtype) for _ in range(2)]
-    if device_output:
+    pin_in: list = [_POOL.get(cuda, "pinned in", b, (chunk,) + per, frames.dtype) for b in range(2)]
+    d_in: list = [_POOL.get(cuda, "device in", b, (chunk,) + per, frames.dtype) for b in range(2)]
+    if device_output:  # the caller keeps these: never pooled
         full = [cuda.device_array((n_cyc,) + tuple(s), dt) for s, dt in outputs]
     else:
         host = [np.empty((n_cyc,) + tuple(s), dt) for s, dt in outputs]
-        d_out = [[cuda.device_array((chunk,) + tuple(s), dt) for s, dt in outputs] for _ in range(2)]
-        pin_out = [[cuda.pinned_array((chunk,) + tuple(s), dt) for s, dt in outputs] for _ in range(2)]
+        d_out: list = [[_POOL.get(cuda, f"device out {o}", b, (chunk,) + tuple(s), dt)
+                        for o, (s, dt) in enumerate(outputs)] for b in range(2)]
+        pin_out: list = [[_POOL.get(cuda, f"pinned out {o}", b, (chunk,) + tuple(s), dt)
+                          for o, (s, dt) in enumerate(outputs)] for b in range(2)]
     pending: list = [None, None]  # (c0, n) of the chunk whose results wait in pin_out[b]
 
     def flush(b: int) -> None:
