@@ -154,3 +154,27 @@ def test_incomplete_reconstruction_store_is_rejected(tmp_path, capsys):
     g.create_array("done", shape=(3,), dtype="u1")[:] = np.array([1, 0, 1], np.uint8)
     out = tmp_path / "o"
     _expect_error(["strain", str(tmp_path), "--anchors", "5,5,10,5", "-o", str(out)], out, capsys, "incomplete")
+
+
+def test_gif_frames_are_all_frames_up_to_the_cap_then_evenly_spaced_ends_included():
+    from fringe3d.analyze.wing_strain import GIF_FRAMES, gif_frames
+
+    assert gif_frames(5) == [0, 1, 2, 3, 4]
+    picks = gif_frames(16667)
+    assert len(picks) == GIF_FRAMES and picks[0] == 0 and picks[-1] == 16666
+    steps = np.diff(picks)
+    assert steps.min() >= 55 and steps.max() <= 57  # 16666 / 299 = 55.7 frames apart
+
+
+def test_a_long_take_s_gif_holds_the_capped_frames(sequence, tmp_path, monkeypatch, capsys):
+    from PIL import Image
+
+    import fringe3d.analyze.wing_strain as ws
+
+    monkeypatch.setattr(ws, "GIF_FRAMES", 2)
+    folder, anchors0, _ = sequence
+    arg = ",".join(f"{x:.3f}" for x in anchors0.ravel())
+    assert main(["strain", str(folder), "--anchors", arg, "-o", str(tmp_path / "out"), "-q", "--step", "6"]) == 0
+    with Image.open(tmp_path / "out" / "strain.gif") as gif:
+        assert gif.n_frames == 2  # frames 0 and 2 of 3
+    assert len(list((tmp_path / "out" / "maps").glob("strain_*.png"))) == 3  # every frame's map still written

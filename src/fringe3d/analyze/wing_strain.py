@@ -70,6 +70,34 @@ class _StrainImages:
         return img
 
 
+class _Subset:
+    """Frames ``picks`` of a lazy image sequence, themselves drawn on demand."""
+
+    def __init__(self, images, picks: list[int]):
+        self.images, self.picks = images, picks
+
+    def __len__(self) -> int:
+        return len(self.picks)
+
+    def __getitem__(self, i: int) -> np.ndarray:
+        return self.images[self.picks[i]]
+
+
+#: The GIF shows at most this many frames, evenly spaced: matplotlib's Pillow writer holds every
+#: frame of an animation in memory until it is saved, so a long take's GIF is bounded this way
+#: (the PNG maps and the VTU series hold every frame).
+GIF_FRAMES = 300
+
+
+def gif_frames(n: int, most: int | None = None) -> list[int]:
+    """The frames the GIF shows: all of ``n`` when ``n <= most`` (default :data:`GIF_FRAMES`),
+    else ``most`` evenly spaced ones, the first and the last included."""
+    most = GIF_FRAMES if most is None else int(most)
+    if n <= most:
+        return list(range(n))
+    return [int(f) for f in np.unique(np.round(np.linspace(0, n - 1, most)).astype(int))]
+
+
 def frames_in_order(task, n: int, workers: int = 1):
     """``(f, task(f))`` for f = 0 … n − 1 in order, ``task`` run on ``workers`` threads with at most
     ``FRAMES_PER_WORKER · workers`` frames in flight (bounded memory); an error in any task is
@@ -175,7 +203,8 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         for f in range(nf):
             strain_map_png(out / "maps" / f"strain_{f:05d}.png", images[f], f"dominant bending strain, frame {f}",
                            vmax)
-        strain_animation(out / "strain.gif", images, [f"frame {f}" for f in range(nf)], vmax)
+        picks = gif_frames(nf)
+        strain_animation(out / "strain.gif", _Subset(images, picks), [f"frame {f}" for f in picks], vmax)
     summary = {
         "frames": nf, "wings": len(refs), "points_per_wing": [int(len(r.q)) for r in refs],
         "tracked_fraction": ok_count / total if total else float("nan"),

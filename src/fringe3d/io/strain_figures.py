@@ -5,6 +5,7 @@ Matplotlib's Agg backend (no display needed); every file written atomically.
 from __future__ import annotations
 
 import os
+from typing import Sequence
 
 import numpy as np
 
@@ -64,7 +65,7 @@ def strain_map_png(path: str | os.PathLike, image: np.ndarray, title: str = "dom
     plt.close(fig)
 
 
-def strain_animation(path: str | os.PathLike, images: list[np.ndarray], titles: list[str] | None = None,
+def strain_animation(path: str | os.PathLike, images: Sequence[np.ndarray], titles: list[str] | None = None,
                      vmax: float | None = None, fps: float = 10.0) -> None:
     """Animated GIF of strain maps (one per frame) with a fixed colour scale (µε), via Pillow."""
     plt = _mpl()
