@@ -76,7 +76,11 @@ def test_the_store_holds_the_reconstructions_quality_bits_and_sigma_z(both, seq)
         warnings.simplefilter("ignore")
         c = rec.reconstruct(np.ascontiguousarray(cap.frames[0:3]))
     np.testing.assert_array_equal(st.quality(0), c.quality)
-    np.testing.assert_array_equal(st.sigma_z(0), c.sigma_xyz[..., 2])
+    # sigma_z is stored as float16: the per-axis z of the reconstruction rounded to three digits
+    assert st.sigma_array.dtype == np.float16
+    np.testing.assert_array_equal(st.sigma_z(0), c.sigma_xyz[..., 2].astype(np.float16).astype(np.float32))
+    ok = np.isfinite(c.sigma_xyz[..., 2])
+    np.testing.assert_allclose(st.sigma_z(0)[ok], c.sigma_xyz[..., 2][ok], rtol=2 ** -11)
     kept = st.quality(0) == 0
     np.testing.assert_array_equal(kept, np.isfinite(st.depth(0)))  # a point is kept exactly where its bits are 0
     assert (st.quality(0)[~kept] != 0).all() and (st.quality(0)[~np.isfinite(c.depth)] != 0).all()

@@ -9,7 +9,9 @@ Layout (a zarr v3 group on disk), one chunk per frame in every per-frame array::
       ray_direction  (3, H, W) float32, layout "ray_depth": D per pixel (device depth 1)
       points   (F, H, W, 3) float32 mm, layout "xyz": the points themselves; NaN: no point
       quality  (F, H, W) uint8 quality bits (fringe3d.decode.edges; 0 = kept), optional
-      sigma_z  (F, H, W) float32 mm predicted standard deviation of z (NaN: none), optional
+      sigma_z  (F, H, W) float16 mm predicted standard deviation of z (NaN: none), optional
+               (three significant digits are all an uncertainty carries; half the bytes of
+               float32; stores written before hold float32, read the same way)
       done     (F,) uint8: 1 once frame k is completely written
       attrs    {"format": "fringe3d-point-store", "version": 2, "layout": "ray_depth" | "xyz",
                 "frames", "height", "width", "completed", "meta": {...}}
@@ -175,7 +177,7 @@ class PointMapStore:
         if quality:
             per_frame("quality", (height, width), "uint8", 1, MAP_DIMS, QUALITY_ATTRS)
         if sigma:
-            per_frame("sigma_z", (height, width), "float32", np.nan, MAP_DIMS, SIGMA_ATTRS)
+            per_frame("sigma_z", (height, width), "float16", np.nan, MAP_DIMS, SIGMA_ATTRS)
         done = g.create_array("done", shape=(frames,), chunks=(min(frames, 65536),), dtype="uint8", fill_value=0,
                               dimension_names=POINT_DIMS[:1])
         done.attrs.update(DONE_ATTRS)
@@ -264,7 +266,8 @@ class PointMapStore:
                 raise ValueError(f"frame {k}: a ray_depth point store needs the ray parameters (depth)")
             data = [(self.depth_array, self._check(k, "depth", depth, np.float32))]
         for arr, name, v, dt in ((self.quality_array, "quality", quality, np.uint8),
-                                 (self.sigma_array, "sigma_z", sigma_z, np.float32)):
+                                 (self.sigma_array, "sigma_z", sigma_z,
+                                  None if self.sigma_array is None else self.sigma_array.dtype)):
             if arr is not None:
                 if v is None:
                     raise ValueError(f"frame {k}: the store holds {name} but none was given")
