@@ -331,99 +331,145 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
     return dist.reshape(h, w)
 
 
-@numba.njit(cache=True, nogil=True)  # frames run on threads (fringe3d strain --workers)
-def _step_table_kernel(pts, valid, offsets, opposite, bezier, gt, gw, cr, cc_, cw):
-    """Compact index (H, W) int64 of the valid nodes (−1 invalid) and their step lengths
-    ``(n_valid, n_offsets)`` mm (−1 where the step is invalid), each computed once.
-
-    A step and its reverse x + o → x share their four control points in reverse order (P1 of
-    the reverse is P2 of the step), hence the arc length (the Gauss–Legendre nodes are
-    symmetric): only the offsets with ``opposite[o] > o`` are evaluated."""
-    h, w = valid.shape
-    index = np.full((h, w), -1, dtype=np.int64)
+@numba.njit(cache=True, nogil=True)
+def _valid_index(pts):
+    """Validity (H, W) bool (all three coordinates finite), compact node index (H, W) int64
+    (row-major, −1 invalid), node count and bounding box (r_lo, r_hi, c_lo, c_hi) of the valid
+    nodes (half-open; empty box when none) of a point map (H, W, 3)."""
+    h, w, _ = pts.shape
+    valid = np.empty((h, w), dtype=np.bool_)
+    index = np.empty((h, w), dtype=np.int64)
     nv = 0
-    r_lo, r_hi, c_lo, c_hi = h, 0, w, 0   # bounding box of the valid nodes
+    r_lo, r_hi, c_lo, c_hi = h, 0, w, 0
     for r in range(h):
         for c in range(w):
-            if valid[r, c]:
-                index[r, c] = nv
+            ok = np.isfinite(pts[r, c, 0]) and np.isfinite(pts[r, c, 1]) and np.isfinite(pts[r, c, 2])
+            valid[r, c] = ok
+            index[r, c] = nv if ok else -1
+            if ok:
                 nv += 1
                 r_lo = min(r_lo, r)
                 r_hi = max(r_hi, r + 1)
                 c_lo = min(c_lo, c)
                 c_hi = max(c_hi, c + 1)
+    return valid, index, nv, (r_lo, r_hi, c_lo, c_hi)
+
+
+@numba.njit(cache=True, nogil=True)
+def _planes(pts, valid, box):
+    """The points of the bounding box as x, y, z planes (3, bh, bw), NaN at invalid nodes."""
+    r_lo, r_hi, c_lo, c_hi = box
+    out = np.empty((3, max(r_hi - r_lo, 0), max(c_hi - c_lo, 0)))
+    for k in range(3):
+        for r in range(r_lo, r_hi):
+            for c in range(c_lo, c_hi):
+                out[k, r - r_lo, c - c_lo] = pts[r, c, k] if valid[r, c] else np.nan
+    return out
+
+
+@numba.njit(cache=True, inline="always")
+def _control_row(xk, r, c0, n, sr, sc, sw, s, out):
+    """out[j] = Σ_q sw[s, q]·xk[r + sr[s, q], c0 + j + sc[s, q]] (summed from 0 in q order),
+    j < n: one coordinate of the bilinear control point P1 (s = 0) or P2 (s = 1) along a row."""
+    v0 = xk[r + sr[s, 0], c0 + sc[s, 0]:c0 + sc[s, 0] + n]
+    v1 = xk[r + sr[s, 1], c0 + sc[s, 1]:c0 + sc[s, 1] + n]
+    v2 = xk[r + sr[s, 2], c0 + sc[s, 2]:c0 + sc[s, 2] + n]
+    v3 = xk[r + sr[s, 3], c0 + sc[s, 3]:c0 + sc[s, 3] + n]
+    w0 = sw[s, 0]
+    w1 = sw[s, 1]
+    w2 = sw[s, 2]
+    w3 = sw[s, 3]
+    for j in range(n):
+        out[j] = 0.0 + w0 * v0[j] + w1 * v1[j] + w2 * v2[j] + w3 * v3[j]
+
+
+@numba.njit(cache=True, inline="always")
+def _row_lengths(pl, r, c0, c1, dr, dc, sr, sc, sw, bezier, work, out):
+    """Step lengths (mm) from (r, c) to (r + dr, c + dc), c0 ≤ c < c1, of one row of the planes
+    ``pl`` (3, bh, bw), into out[0 : c1 − c0]: the Bézier arc length (Eq. 6.7–6.8, 5-point
+    Gauss–Legendre) with inner control points P1, P2 = Σ_q sw[s, q]·P[r + sr[s, q], c + sc[s, q]]
+    (s = 0, 1), or the chord. Branch-free loops (vectorised): NaN when a point read is invalid.
+    ``work`` (11, ≥ n) scratch: the differences P1−P0, P2−P1, P3−P2 (rows 0–8) and P1, P2."""
+    n = c1 - c0
+    for k in range(3):
+        xk = pl[k]
+        p1 = work[9]
+        p2 = work[10]
+        _control_row(xk, r, c0, n, sr, sc, sw, 0, p1)
+        _control_row(xk, r, c0, n, sr, sc, sw, 1, p2)
+        p0 = xk[r, c0:c1]
+        p3 = xk[r + dr, c0 + dc:c1 + dc]
+        a0 = work[k]
+        a1 = work[3 + k]
+        a2 = work[6 + k]
+        for j in range(n):
+            a2[j] = p3[j] - p2[j]
+            a1[j] = p2[j] - p1[j]
+            a0[j] = p1[j] - p0[j]
+            if not bezier:
+                a0[j] = p3[j] - p0[j] + 0.0 * (a0[j] + a1[j] + a2[j])   # chord, NaN where the curve is
+    if not bezier:
+        for j in range(n):
+            out[j] = math.sqrt(work[0, j] * work[0, j] + work[1, j] * work[1, j] + work[2, j] * work[2, j])
+        return
+    for j in range(n):
+        ln = 0.0
+        for g in range(5):
+            t = _GL_T[g]
+            u = 1.0 - t
+            k0 = 3.0 * u * u
+            k1 = 6.0 * u * t
+            k2 = 3.0 * t * t
+            dx = k0 * work[0, j] + k1 * work[3, j] + k2 * work[6, j]
+            dy = k0 * work[1, j] + k1 * work[4, j] + k2 * work[7, j]
+            dz = k0 * work[2, j] + k1 * work[5, j] + k2 * work[8, j]
+            ln += _GL_W[g] * math.sqrt(dx * dx + dy * dy + dz * dz)
+        out[j] = ln
+
+
+@numba.njit(cache=True, nogil=True)  # frames run on threads (fringe3d strain --workers)
+def _step_table_kernel(planes, index, box, table, offsets, opposite, bezier, cr, cc_, cw):
+    """Fill ``table`` (n_valid, n_offsets) with the step lengths (mm; −1 where the end node or a
+    control-point corner is invalid or outside) of the valid nodes of ``index`` (H, W).
+
+    A step and its reverse x + o → x share their four control points in reverse order (P1 of
+    the reverse is P2 of the step), hence the arc length (the Gauss–Legendre nodes are
+    symmetric): only the offsets with ``opposite[o] > o`` are evaluated, and each value is also
+    written as the far node's reverse step. Works on blocks of two image rows (all offsets),
+    so the table rows being written stay in cache; a block's rows are set to −1 first, and the
+    evaluated steps of :func:`_march_offsets` point up or left, so every reverse lands in a row
+    already set. ``planes`` from :func:`_planes`; the values equal the node-by-node evaluation
+    bit for bit (same operations in the same order, no fast-math)."""
+    r_lo, r_hi, c_lo, c_hi = box
+    _, bh, bw = planes.shape
     nofs = offsets.shape[0]
-    table = np.full((nv, nofs), -1.0)   # steps ending outside the valid region stay −1
-    ng = gt.shape[0]
-    for o in range(nofs):   # offset outer: its stencil is loop-invariant
-        if opposite[o] < o:
-            continue
-        dr = offsets[o, 0]
-        dc = offsets[o, 1]
-        ob = opposite[o]
-        for r in range(max(r_lo, -dr), min(r_hi, h - dr)):
-            for c in range(max(c_lo, -dc), min(c_hi, w - dc)):
-                k = index[r, c]
-                k3 = index[r + dr, c + dc]
-                if k < 0 or k3 < 0:
-                    continue
-                ok = True
-                for q in range(4):
-                    if not (valid[r + cr[o, 0, q], c + cc_[o, 0, q]] and valid[r + cr[o, 1, q], c + cc_[o, 1, q]]):
-                        ok = False
-                        break
-                if not ok:
-                    continue
-                if bezier:
-                    a0x = a0y = a0z = a1x = a1y = a1z = a2x = a2y = a2z = 0.0
-                    for q in range(4):
-                        w1 = cw[o, 0, q]
-                        w2 = cw[o, 1, q]
-                        r1 = r + cr[o, 0, q]
-                        c1 = c + cc_[o, 0, q]
-                        r2 = r + cr[o, 1, q]
-                        c2 = c + cc_[o, 1, q]
-                        a0x += w1 * pts[r1, c1, 0]
-                        a0y += w1 * pts[r1, c1, 1]
-                        a0z += w1 * pts[r1, c1, 2]
-                        a1x += w2 * pts[r2, c2, 0]
-                        a1y += w2 * pts[r2, c2, 1]
-                        a1z += w2 * pts[r2, c2, 2]
-                    # P1 = (a0x, a0y, a0z), P2 = (a1x, a1y, a1z): differences P1−P0, P2−P1, P3−P2
-                    p0x = pts[r, c, 0]
-                    p0y = pts[r, c, 1]
-                    p0z = pts[r, c, 2]
-                    p3x = pts[r + dr, c + dc, 0]
-                    p3y = pts[r + dr, c + dc, 1]
-                    p3z = pts[r + dr, c + dc, 2]
-                    a2x = p3x - a1x
-                    a2y = p3y - a1y
-                    a2z = p3z - a1z
-                    a1x -= a0x
-                    a1y -= a0y
-                    a1z -= a0z
-                    a0x -= p0x
-                    a0y -= p0y
-                    a0z -= p0z
-                    ln = 0.0
-                    for g in range(ng):
-                        t = gt[g]
-                        u = 1.0 - t
-                        c0 = 3.0 * u * u
-                        c1_ = 6.0 * u * t
-                        c2 = 3.0 * t * t
-                        dx = c0 * a0x + c1_ * a1x + c2 * a2x
-                        dy = c0 * a0y + c1_ * a1y + c2 * a2y
-                        dz = c0 * a0z + c1_ * a1z + c2 * a2z
-                        ln += gw[g] * math.sqrt(dx * dx + dy * dy + dz * dz)
-                else:
-                    dx = pts[r + dr, c + dc, 0] - pts[r, c, 0]
-                    dy = pts[r + dr, c + dc, 1] - pts[r, c, 1]
-                    dz = pts[r + dr, c + dc, 2] - pts[r, c, 2]
-                    ln = math.sqrt(dx * dx + dy * dy + dz * dz)
-                table[k, o] = ln
-                table[k3, ob] = ln
-    return index, table
+    buf = np.empty(bw)
+    work = np.empty((11, bw))
+    for b0 in range(0, bh, 2):
+        for r in range(b0, min(b0 + 2, bh)):   # this block's rows start invalid
+            for c in range(bw):
+                k = index[r + r_lo, c + c_lo]
+                if k >= 0:
+                    table[k, :] = -1.0
+        for o in range(nofs):
+            if opposite[o] < o:
+                continue
+            dr = offsets[o, 0]
+            dc = offsets[o, 1]
+            ob = opposite[o]
+            sr = cr[o]
+            sc = cc_[o]
+            sw = cw[o]
+            c0 = max(0, -dc)
+            c1 = min(bw, bw - dc)
+            for r in range(max(b0, -dr), min(b0 + 2, bh, bh - dr)):
+                _row_lengths(planes, r, c0, c1, dr, dc, sr, sc, sw, bezier, work, buf)
+                for c in range(c0, c1):
+                    k = index[r + r_lo, c + c_lo]
+                    ln = buf[c - c0]
+                    if k >= 0 and ln == ln:
+                        table[k, o] = ln
+                        table[index[r + r_lo + dr, c + c_lo + dc], ob] = ln
 
 
 @numba.njit(cache=True, nogil=True)  # frames run on threads (fringe3d strain --workers)
@@ -527,17 +573,18 @@ def step_table(points: np.ndarray, radius: int = 3, bezier: bool = True) -> Step
     Returns
     -------
     StepTable ; memory 8·32 B per valid pixel for the 7×7 window (plus 25 B per pixel of work
-    arrays).
+    arrays; while computing, 24 B per pixel of the valid nodes' bounding box for the x, y, z
+    planes the vectorised kernel reads).
     """
     pts = check_point_map(points)
-    valid = np.isfinite(pts).all(axis=2)
+    valid, index, nv, box = _valid_index(pts)
     offsets = MARCH_OFFSETS if radius == 3 else _march_offsets(int(radius))
-    filled = np.where(valid[..., None], pts, 0.0)
     cr, cc, cw = _control_stencils(offsets)
     lut = _wavefront_tables(offsets)[1]
     R = (lut.shape[0] - 1) // 2
     opposite = lut[R - offsets[:, 0], R - offsets[:, 1]]
-    index, lengths = _step_table_kernel(filled, valid, offsets, opposite, bool(bezier), _GL_T, _GL_W, cr, cc, cw)
+    lengths = np.empty((nv, len(offsets)))
+    _step_table_kernel(_planes(pts, valid, box), index, box, lengths, offsets, opposite, bool(bezier), cr, cc, cw)
     n = valid.size
     work = (np.empty(n), np.empty(n, np.bool_), np.empty(n, np.int64), np.empty(n, np.int64))
     return StepTable(pts, valid, index, lengths, offsets, bool(bezier), work)
