@@ -40,7 +40,8 @@ within ``d`` mm is settled (same values there as the full search).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import threading
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -56,6 +57,7 @@ __all__ = [
     "seeds_from_pixel",
     "StepTable",
     "step_table",
+    "table_geodesics",
 ]
 
 
@@ -145,40 +147,58 @@ def _bilinear(pts, valid, r, c, out):
 
 
 # --- indexed binary min-heap (decrease-key) -------------------------------------------------
+# heap[i] is a node, hkey[i] its key (kept next to it, so sifting never reads the (H·W) map),
+# pos[node] its slot (−1 never queued).
 @numba.njit(cache=True, inline="always")
-def _sift_up(heap, pos, key, i):
+def _sift_up(heap, hkey, pos, i):
     node = heap[i]
-    k = key[node]
+    k = hkey[i]
     while i > 0:
         parent = (i - 1) >> 1
-        pn = heap[parent]
-        if key[pn] <= k:
+        if hkey[parent] <= k:
             break
+        pn = heap[parent]
         heap[i] = pn
+        hkey[i] = hkey[parent]
         pos[pn] = i
         i = parent
     heap[i] = node
+    hkey[i] = k
     pos[node] = i
 
 
 @numba.njit(cache=True, inline="always")
-def _sift_down(heap, pos, key, i, n):
+def _sift_down(heap, hkey, pos, i, n):
     node = heap[i]
-    k = key[node]
+    k = hkey[i]
     while True:
         child = 2 * i + 1
         if child >= n:
             break
-        if child + 1 < n and key[heap[child + 1]] < key[heap[child]]:
+        if child + 1 < n and hkey[child + 1] < hkey[child]:
             child += 1
-        cn = heap[child]
-        if key[cn] >= k:
+        if hkey[child] >= k:
             break
+        cn = heap[child]
         heap[i] = cn
+        hkey[i] = hkey[child]
         pos[cn] = i
         i = child
     heap[i] = node
+    hkey[i] = k
     pos[node] = i
+
+
+@numba.njit(cache=True, inline="always")
+def _pop(heap, hkey, pos, size):
+    """Remove the heap's top (the caller has read heap[0]); returns the new size."""
+    size -= 1
+    if size > 0:
+        heap[0] = heap[size]
+        hkey[0] = hkey[size]
+        pos[heap[0]] = 0
+        _sift_down(heap, hkey, pos, 0, size)
+    return size
 
 
 @numba.njit(cache=True, inline="always")
@@ -212,10 +232,14 @@ def _step_length(pts, valid, r, c, o, offsets, bezier, gt, gw, cr, cc_, cw, p0, 
 
 
 @numba.njit(cache=True, inline="always")
-def _virtual_source(la, lb, lc, da, db):
+def _virtual_source(la, lb, lc, da, db, best):
     """Distance to x through the triangle (x, A, B) unfolded in the plane from its side lengths
     la = |Ax|, lb = |Bx|, lc = |AB| (mm): the virtual source S lies at da from A and db from B
-    on the far side of AB; returns |Sx| if the segment S→x crosses AB, else inf."""
+    on the far side of AB; returns |Sx| if the segment S→x crosses AB, else inf. Also inf,
+    without the square roots, when |Sx| cannot be below ``best`` (mm): with x = (xx, xy),
+    S = (sx, −|sy|), |Sx|² = (xx − sx)² + (xy + |sy|)² ≥ (xx − sx)² + xy² + sy²; the test
+    keeps a 1e-12 relative margin over the few roundings, so a value that would have won is
+    never dropped."""
     if lc <= 0.0:
         return np.inf
     xx = (la * la - lb * lb + lc * lc) / (2.0 * lc)
@@ -223,6 +247,8 @@ def _virtual_source(la, lb, lc, da, db):
     sx = (da * da - db * db + lc * lc) / (2.0 * lc)
     sy2 = da * da - sx * sx
     if xy2 <= 0.0 or sy2 < 0.0:
+        return np.inf
+    if (xx - sx) * (xx - sx) + xy2 + sy2 > best * best * (1.0 + 1e-12):
         return np.inf
     xy = math.sqrt(xy2)
     sy = -math.sqrt(sy2)
@@ -233,25 +259,26 @@ def _virtual_source(la, lb, lc, da, db):
 
 
 @numba.njit(cache=True, inline="always")
-def _lower(heap, pos, dist, i, d, size):
+def _lower(heap, hkey, pos, dist, i, d, size):
     """Set ``dist[i] = d`` (smaller than before), queueing ``i`` if it is new; returns the heap size."""
     dist[i] = d
     if pos[i] < 0:
         heap[size] = i
         pos[i] = size
         size += 1
-    _sift_up(heap, pos, dist, pos[i])
+    hkey[pos[i]] = d
+    _sift_up(heap, hkey, pos, pos[i])
     return size
 
 
 @numba.njit(cache=True, inline="always")
-def _seed_heap(heap, pos, dist, seed_idx, seed_dist):
+def _seed_heap(heap, hkey, pos, dist, seed_idx, seed_dist):
     """Queue the seeds (pixel index, start distance) in an empty heap; returns the heap size."""
     size = 0
     for s in range(seed_idx.shape[0]):
         i = seed_idx[s]
         if seed_dist[s] < dist[i]:
-            size = _lower(heap, pos, dist, i, seed_dist[s], size)
+            size = _lower(heap, hkey, pos, dist, i, seed_dist[s], size)
     return size
 
 
@@ -264,7 +291,8 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
     done = np.zeros(n, dtype=np.bool_)
     pos = np.full(n, -1, dtype=np.int64)   # -1 never queued, >= 0 heap slot
     heap = np.empty(n, dtype=np.int64)
-    size = _seed_heap(heap, pos, dist, seed_idx, seed_dist)
+    hkey = np.empty(n)
+    size = _seed_heap(heap, hkey, pos, dist, seed_idx, seed_dist)
     p1 = np.empty(3)
     p2 = np.empty(3)
     p0 = np.empty(3)
@@ -273,11 +301,7 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
     own = np.empty(nofs)
     while size > 0:
         node = heap[0]
-        size -= 1
-        if size > 0:
-            heap[0] = heap[size]
-            pos[heap[0]] = 0
-            _sift_down(heap, pos, dist, 0, size)
+        size = _pop(heap, hkey, pos, size)
         done[node] = True
         r = node // w
         c = node - r * w
@@ -323,11 +347,11 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
                     lb = _step_length(pts, valid, br, bc, ob, offsets, bezier, gt, gw, cr, cc_, cw, p0, p1, p2, p3)
                     if lb < 0.0:
                         continue
-                    vs = _virtual_source(la, lb, own[oc], d0, dist[br * w + bc])
+                    vs = _virtual_source(la, lb, own[oc], d0, dist[br * w + bc], best)
                     if vs < best:
                         best = vs
             if best < dist[nb]:
-                size = _lower(heap, pos, dist, nb, best, size)
+                size = _lower(heap, hkey, pos, dist, nb, best, size)
     return dist.reshape(h, w)
 
 
@@ -472,68 +496,62 @@ def _step_table_kernel(planes, index, box, table, offsets, opposite, bezier, cr,
                         table[index[r + r_lo + dr, c + c_lo + dc], ob] = ln
 
 
-@numba.njit(cache=True, nogil=True)  # frames run on threads (fringe3d strain --workers)
-def _dijkstra_table(valid, index, table, seed_idx, seed_dist, offsets, nbr, lut, wavefront, stop,
-                    dist, done, pos, heap):
-    """:func:`_dijkstra` on precomputed step lengths (``index``, ``table`` of
-    :func:`_step_table_kernel`), stopping once the smallest open distance exceeds ``stop`` (mm);
-    ``dist``, ``done``, ``pos``, ``heap`` (n = H·W) are caller-owned work arrays, reset here."""
-    h, w = valid.shape
-    R = (lut.shape[0] - 1) // 2
+@numba.njit(cache=True, nogil=True)  # anchors and frames run on threads (fringe3d strain --workers)
+def _dijkstra_table(index, table, seed_idx, seed_dist, step_flat, tri_side, nbr, wavefront, stop,
+                    dist, done, pos, heap, hkey):
+    """:func:`_dijkstra` on precomputed step lengths (``index`` (H, W), ``table`` of
+    :func:`_step_table_kernel`), stopping once the smallest open distance exceeds ``stop`` (mm).
+
+    A step o of a settled node is followed only where ``table[k, o] ≥ 0``, which already means
+    that its end node is inside the map and valid, so the end is ``node + step_flat[o]`` (flat
+    index) with no bounds test; likewise the triangle side A → B of the wavefront update
+    (offset ``tri_side[o, e]``, −1 if none). Same relaxations in the same order as
+    :func:`_dijkstra`, so the same distances. ``dist``, ``done``, ``pos``, ``heap``, ``hkey``
+    (n = H·W) are caller-owned work arrays, reset here. Returns (H, W) mm, ``inf`` unsettled."""
+    h, w = index.shape
     dist[:] = np.inf
     done[:] = False
     pos[:] = -1
-    size = _seed_heap(heap, pos, dist, seed_idx, seed_dist)
-    nofs = offsets.shape[0]
+    size = _seed_heap(heap, hkey, pos, dist, seed_idx, seed_dist)
+    nofs = step_flat.shape[0]
     while size > 0:
         node = heap[0]
-        d0 = dist[node]
+        d0 = hkey[0]
         if d0 > stop:
             break
-        size -= 1
-        if size > 0:
-            heap[0] = heap[size]
-            pos[heap[0]] = 0
-            _sift_down(heap, pos, dist, 0, size)
+        size = _pop(heap, hkey, pos, size)
         done[node] = True
-        r = node // w
-        c = node - r * w
-        kn = index[r, c]
+        kn = index.flat[node]
         for o in range(nofs):
-            rr = r + offsets[o, 0]
-            cc = c + offsets[o, 1]
-            if rr < 0 or cc < 0 or rr >= h or cc >= w:
-                continue
-            nb = rr * w + cc
-            if done[nb] or not valid[rr, cc]:
-                continue
             la = table[kn, o]
             if la < 0.0:
+                continue
+            nb = node + step_flat[o]
+            if done[nb]:
                 continue
             best = dist[nb]
             if d0 + la < best:
                 best = d0 + la
             if wavefront:
+                # triangles (x, A, B) with B = x − b, b the angular neighbours of a (Farey pairs)
                 for e in range(2):
-                    ob = nbr[o, e]
-                    br = rr - offsets[ob, 0]
-                    bc = cc - offsets[ob, 1]
-                    if br < 0 or bc < 0 or br >= h or bc >= w or not done[br * w + bc]:
-                        continue
-                    oc = lut[br - r + R, bc - c + R]
+                    oc = tri_side[o, e]
                     if oc < 0:
                         continue
                     lcc = table[kn, oc]
                     if lcc < 0.0:
                         continue
-                    lb = table[index[br, bc], ob]
+                    nbb = node + step_flat[oc]
+                    if not done[nbb]:
+                        continue
+                    lb = table[index.flat[nbb], nbr[o, e]]
                     if lb < 0.0:
                         continue
-                    vs = _virtual_source(la, lb, lcc, d0, dist[br * w + bc])
+                    vs = _virtual_source(la, lb, lcc, d0, dist[nbb], best)
                     if vs < best:
                         best = vs
             if best < dist[nb]:
-                size = _lower(heap, pos, dist, nb, best, size)
+                size = _lower(heap, hkey, pos, dist, nb, best, size)
     out = dist.reshape(h, w).copy()
     for i in range(h * w):
         if not done[i]:
@@ -548,7 +566,8 @@ class StepTable:
     ``index`` (H, W) int64 compact node id (−1 invalid); ``lengths`` (n_valid, n_offsets) float64
     mm, the Bézier arc length (Eq. 6.8) or chord of every marching step (−1 invalid);
     ``offsets`` (n_offsets, 2) the marching directions; ``bezier`` whether Bézier lengths.
-    The Dijkstra work arrays (n = H·W) are allocated once and reused by every search.
+    ``work``: the Dijkstra work arrays (n = H·W), one set per concurrent search, allocated on
+    first use (:func:`_work`) and reused by every later search on the table.
     """
     points: np.ndarray
     valid: np.ndarray
@@ -556,7 +575,21 @@ class StepTable:
     lengths: np.ndarray
     offsets: np.ndarray
     bezier: bool
-    work: tuple
+    work: list = field(default_factory=list)
+
+
+def _work(steps: StepTable, count: int) -> list:
+    """The first ``count`` work-array sets (dist, done, pos, heap, heap keys) of ``steps``."""
+    n = steps.valid.size
+    while len(steps.work) < count:
+        steps.work.append((np.empty(n), np.empty(n, np.bool_), np.empty(n, np.int64), np.empty(n, np.int64),
+                           np.empty(n)))
+    return steps.work[:count]
+
+
+def _check_radius(radius) -> None:
+    if not (isinstance(radius, (int, np.integer)) and 1 <= radius <= 10):
+        raise ValueError(f"radius must be an integer in 1..10 (pixels); got {radius!r}")
 
 
 def step_table(points: np.ndarray, radius: int = 3, bezier: bool = True) -> StepTable:
@@ -576,6 +609,7 @@ def step_table(points: np.ndarray, radius: int = 3, bezier: bool = True) -> Step
     arrays; while computing, 24 B per pixel of the valid nodes' bounding box for the x, y, z
     planes the vectorised kernel reads).
     """
+    _check_radius(radius)
     pts = check_point_map(points)
     valid, index, nv, box = _valid_index(pts)
     offsets = MARCH_OFFSETS if radius == 3 else _march_offsets(int(radius))
@@ -585,17 +619,63 @@ def step_table(points: np.ndarray, radius: int = 3, bezier: bool = True) -> Step
     opposite = lut[R - offsets[:, 0], R - offsets[:, 1]]
     lengths = np.empty((nv, len(offsets)))
     _step_table_kernel(_planes(pts, valid, box), index, box, lengths, offsets, opposite, bool(bezier), cr, cc, cw)
-    n = valid.size
-    work = (np.empty(n), np.empty(n, np.bool_), np.empty(n, np.int64), np.empty(n, np.int64))
-    return StepTable(pts, valid, index, lengths, offsets, bool(bezier), work)
+    return StepTable(pts, valid, index, lengths, offsets, bool(bezier))
 
 
 def _run_table(steps: StepTable, source, wavefront, seed_radius, stop_distance):
-    idx, d = _seeds(steps.points, steps.valid, source, seed_radius)
-    nbr, lut = _wavefront_tables(steps.offsets)
-    stop = np.inf if stop_distance is None else float(stop_distance)
-    return _dijkstra_table(steps.valid, steps.index, steps.lengths, idx, d, steps.offsets, nbr, lut,
-                           bool(wavefront), stop, *steps.work)
+    return table_geodesics(steps, [source], None if stop_distance is None else [stop_distance], wavefront,
+                           seed_radius)[0]
+
+
+def table_geodesics(steps: StepTable, sources, stop_distances=None, wavefront: bool = True,
+                    seed_radius: float = 3.0) -> list[np.ndarray]:
+    """Geodesic distance maps from several sources on one :func:`step_table`, the searches run at
+    once on threads (the kernel releases the GIL), each on its own work arrays.
+
+    Parameters
+    ----------
+    steps : the frame's :class:`StepTable` (Bézier or chord lengths, any window).
+    sources : K (u, v) pixel positions (column, row), sub-pixel, on valid pixels.
+    stop_distances : None or K distances (mm; ``inf`` for none): each search stops beyond its own
+        (:func:`bezier_geodesic` ``stop_distance``).
+    wavefront, seed_radius : as :func:`bezier_geodesic`.
+
+    Returns
+    -------
+    K maps (H, W) float64 mm, ``inf`` unreachable, invalid or beyond the stop distance; each is
+    the map :func:`bezier_geodesic` gives for that source alone, bit for bit (every search is
+    the same deterministic computation whatever runs beside it).
+    """
+    seeds = [_seeds(steps.points, steps.valid, src, seed_radius) for src in sources]   # errors raise here
+    stops = [np.inf] * len(seeds) if stop_distances is None else [float(d) for d in stop_distances]
+    step_flat, tri_side, nbr = _flat_tables(steps.offsets, steps.valid.shape[1])
+    out: list = [None] * len(seeds)
+
+    def search(i, work):
+        out[i] = _dijkstra_table(steps.index, steps.lengths, seeds[i][0], seeds[i][1], step_flat, tri_side, nbr,
+                                 bool(wavefront), stops[i], *work)
+
+    works = _work(steps, len(seeds))
+    threads = [threading.Thread(target=search, args=(i, works[i])) for i in range(1, len(seeds))]
+    for t in threads:
+        t.start()
+    if seeds:
+        search(0, works[0])
+    for t in threads:
+        t.join()
+    return out
+
+
+def _flat_tables(offsets: np.ndarray, width: int):
+    """For :func:`_dijkstra_table`: each marching step as a flat index offset ``dr·W + dc`` (n,),
+    the side A → B of its two wavefront triangles as an offset index ``(n, 2)`` (−1 if it is no
+    marching step) and the angular neighbours ``(n, 2)`` (:func:`_wavefront_tables`)."""
+    nbr, lut = _wavefront_tables(offsets)
+    R = (lut.shape[0] - 1) // 2
+    side = offsets[:, None, :] - offsets[nbr]          # B − A = a − b
+    inside = (np.abs(side) <= R).all(axis=2)
+    tri_side = np.where(inside, lut[np.clip(side[..., 0] + R, 0, 2 * R), np.clip(side[..., 1] + R, 0, 2 * R)], -1)
+    return offsets[:, 0] * int(width) + offsets[:, 1], tri_side.astype(np.int64), nbr
 
 
 def _wavefront_tables(offsets: np.ndarray):
@@ -731,8 +811,7 @@ def bezier_geodesic(points: np.ndarray, source, radius: int = 3, wavefront: bool
     >>> round(float(d[0, 6]), 6)   # 6 columns × 0.5 mm
     3.0
     """
-    if not (isinstance(radius, (int, np.integer)) and 1 <= radius <= 10):
-        raise ValueError(f"radius must be an integer in 1..10 (pixels); got {radius!r}")
+    _check_radius(radius)
     if steps is not None or stop_distance is not None:
         if steps is None:
             steps = step_table(points, radius)
