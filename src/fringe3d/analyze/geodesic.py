@@ -54,6 +54,7 @@ __all__ = [
     "heat_geodesic",
     "heat_time_coefficient",
     "check_point_map",
+    "valid_mask",
     "seeds_from_pixel",
     "StepTable",
     "step_table",
@@ -90,6 +91,13 @@ def check_point_map(points: np.ndarray, name: str = "points") -> np.ndarray:
     if not np.issubdtype(a.dtype, np.floating):
         raise ValueError(f"{name} must be a float array (mm, NaN where invalid); got dtype {a.dtype}")
     return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def valid_mask(points: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pixels of a checked point map (:func:`check_point_map`) whose three
+    coordinates are finite — ``np.isfinite(points).all(axis=2)`` in one pass, without the
+    (H, W, 3) temporary."""
+    return _valid_index(points)[0] if points.size else np.zeros(points.shape[:2], bool)
 
 
 def bezier_arc_length(p0, p1, p2, p3) -> float:
@@ -235,20 +243,25 @@ def _step_length(pts, valid, r, c, o, offsets, bezier, gt, gw, cr, cc_, cw, p0, 
 def _virtual_source(la, lb, lc, da, db, best):
     """Distance to x through the triangle (x, A, B) unfolded in the plane from its side lengths
     la = |Ax|, lb = |Bx|, lc = |AB| (mm): the virtual source S lies at da from A and db from B
-    on the far side of AB; returns |Sx| if the segment S→x crosses AB, else inf. Also inf,
-    without the square roots, when |Sx| cannot be below ``best`` (mm): with x = (xx, xy),
-    S = (sx, −|sy|), |Sx|² = (xx − sx)² + (xy + |sy|)² ≥ (xx − sx)² + xy² + sy²; the test
-    keeps a 1e-12 relative margin over the few roundings, so a value that would have won is
-    never dropped."""
+    on the far side of AB; returns |Sx| if the segment S→x crosses AB, else inf.
+
+    Also inf, without a division or square root, when |Sx| cannot be below ``best`` (mm, ≥ da):
+    with x = (xx, xy), S = (sx, −|sy|) in the frame of A → B, |Sx|² = (xx − sx)² + (xy + |sy|)²
+    ≥ (xx − sx)² + xy² + sy² = la² + da² − 2·xx·sx, i.e. 2lc²(la² + da²) − X·Y for X = 2lc·xx,
+    Y = 2lc·sx; the test keeps a 1e-9 relative margin (the roundings are ~1e-15 of best²), so a
+    candidate that would have won is never dropped and the distances do not change."""
     if lc <= 0.0:
+        return np.inf
+    la2 = la * la
+    da2 = da * da
+    lc2 = lc * lc
+    if 2.0 * lc2 * (la2 + da2) - (la2 - lb * lb + lc2) * (da2 - db * db + lc2) > 2.0 * lc2 * best * best * (1.0 + 1e-9):
         return np.inf
     xx = (la * la - lb * lb + lc * lc) / (2.0 * lc)
     xy2 = la * la - xx * xx
     sx = (da * da - db * db + lc * lc) / (2.0 * lc)
     sy2 = da * da - sx * sx
     if xy2 <= 0.0 or sy2 < 0.0:
-        return np.inf
-    if (xx - sx) * (xx - sx) + xy2 + sy2 > best * best * (1.0 + 1e-12):
         return np.inf
     xy = math.sqrt(xy2)
     sy = -math.sqrt(sy2)
@@ -497,7 +510,7 @@ def _step_table_kernel(planes, index, box, table, offsets, opposite, bezier, cr,
 
 
 @numba.njit(cache=True, nogil=True)  # anchors and frames run on threads (fringe3d strain --workers)
-def _dijkstra_table(index, table, seed_idx, seed_dist, step_flat, tri_side, nbr, wavefront, stop,
+def _dijkstra_table(index, rows, table, seed_idx, seed_dist, step_flat, tri_side, nbr, wavefront, stop,
                     dist, done, pos, heap, hkey):
     """:func:`_dijkstra` on precomputed step lengths (``index`` (H, W), ``table`` of
     :func:`_step_table_kernel`), stopping once the smallest open distance exceeds ``stop`` (mm).
@@ -509,9 +522,11 @@ def _dijkstra_table(index, table, seed_idx, seed_dist, step_flat, tri_side, nbr,
     :func:`_dijkstra`, so the same distances. ``dist``, ``done``, ``pos``, ``heap``, ``hkey``
     (n = H·W) are caller-owned work arrays, reset here. Returns (H, W) mm, ``inf`` unsettled."""
     h, w = index.shape
-    dist[:] = np.inf
-    done[:] = False
-    pos[:] = -1
+    lo = rows[0] * w   # every valid node lies in the rows [rows[0], rows[1]): only they are reset
+    hi = rows[1] * w
+    dist[lo:hi] = np.inf
+    done[lo:hi] = False
+    pos[lo:hi] = -1
     size = _seed_heap(heap, hkey, pos, dist, seed_idx, seed_dist)
     nofs = step_flat.shape[0]
     while size > 0:
@@ -552,11 +567,11 @@ def _dijkstra_table(index, table, seed_idx, seed_dist, step_flat, tri_side, nbr,
                         best = vs
             if best < dist[nb]:
                 size = _lower(heap, hkey, pos, dist, nb, best, size)
-    out = dist.reshape(h, w).copy()
-    for i in range(h * w):
-        if not done[i]:
-            out.flat[i] = np.inf
-    return out
+    out = np.full(h * w, np.inf)
+    for i in range(lo, hi):
+        if done[i]:
+            out[i] = dist[i]
+    return out.reshape(h, w)
 
 
 @dataclass
@@ -565,7 +580,8 @@ class StepTable:
 
     ``index`` (H, W) int64 compact node id (−1 invalid); ``lengths`` (n_valid, n_offsets) float64
     mm, the Bézier arc length (Eq. 6.8) or chord of every marching step (−1 invalid);
-    ``offsets`` (n_offsets, 2) the marching directions; ``bezier`` whether Bézier lengths.
+    ``offsets`` (n_offsets, 2) the marching directions; ``bezier`` whether Bézier lengths;
+    ``rows`` (2,) int64 the half-open range of image rows holding the valid nodes.
     ``work``: the Dijkstra work arrays (n = H·W), one set per concurrent search, allocated on
     first use (:func:`_work`) and reused by every later search on the table.
     """
@@ -575,6 +591,7 @@ class StepTable:
     lengths: np.ndarray
     offsets: np.ndarray
     bezier: bool
+    rows: np.ndarray
     work: list = field(default_factory=list)
 
 
@@ -619,7 +636,8 @@ def step_table(points: np.ndarray, radius: int = 3, bezier: bool = True) -> Step
     opposite = lut[R - offsets[:, 0], R - offsets[:, 1]]
     lengths = np.empty((nv, len(offsets)))
     _step_table_kernel(_planes(pts, valid, box), index, box, lengths, offsets, opposite, bool(bezier), cr, cc, cw)
-    return StepTable(pts, valid, index, lengths, offsets, bool(bezier))
+    rows = np.array([box[0], max(box[1], box[0])], np.int64)
+    return StepTable(pts, valid, index, lengths, offsets, bool(bezier), rows)
 
 
 def _run_table(steps: StepTable, source, wavefront, seed_radius, stop_distance):
@@ -652,7 +670,7 @@ def table_geodesics(steps: StepTable, sources, stop_distances=None, wavefront: b
     out: list = [None] * len(seeds)
 
     def search(i, work):
-        out[i] = _dijkstra_table(steps.index, steps.lengths, seeds[i][0], seeds[i][1], step_flat, tri_side, nbr,
+        out[i] = _dijkstra_table(steps.index, steps.rows, steps.lengths, seeds[i][0], seeds[i][1], step_flat, tri_side, nbr,
                                  bool(wavefront), stops[i], *work)
 
     works = _work(steps, len(seeds))
