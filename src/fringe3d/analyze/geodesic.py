@@ -672,10 +672,14 @@ def table_geodesics(steps: StepTable, sources, stop_distances=None, wavefront: b
     stops = [np.inf] * len(seeds) if stop_distances is None else [float(d) for d in stop_distances]
     step_flat, tri_side, back = _flat_tables(steps.offsets, steps.valid.shape[1])
     out: list = [None] * len(seeds)
+    failed: list = []
 
     def search(i, work):
-        out[i] = _dijkstra_table(steps.index, steps.rows, steps.lengths, seeds[i][0], seeds[i][1], step_flat, tri_side, back,
-                                 bool(wavefront), stops[i], *work)
+        try:
+            out[i] = _dijkstra_table(steps.index, steps.rows, steps.lengths, seeds[i][0], seeds[i][1], step_flat,
+                                     tri_side, back, bool(wavefront), stops[i], *work)
+        except BaseException as e:   # re-raised in the caller's thread below
+            failed.append(e)
 
     works = _work(steps, len(seeds))
     threads = [threading.Thread(target=search, args=(i, works[i])) for i in range(1, len(seeds))]
@@ -685,6 +689,8 @@ def table_geodesics(steps: StepTable, sources, stop_distances=None, wavefront: b
         search(0, works[0])
     for t in threads:
         t.join()
+    if failed:
+        raise failed[0]
     return out
 
 
