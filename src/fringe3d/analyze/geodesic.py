@@ -510,7 +510,7 @@ def _step_table_kernel(planes, index, box, table, offsets, opposite, bezier, cr,
 
 
 @numba.njit(cache=True, nogil=True)  # anchors and frames run on threads (fringe3d strain --workers)
-def _dijkstra_table(index, rows, table, seed_idx, seed_dist, step_flat, tri_side, back, wavefront, stop,
+def _dijkstra_table(index, rows, table, seed_idx, seed_dist, step_flat, tri_side, nbr, wavefront, stop,
                     dist, done, pos, heap, hkey):
     """:func:`_dijkstra` on precomputed step lengths (``index`` (H, W), ``table`` of
     :func:`_step_table_kernel`), stopping once the smallest open distance exceeds ``stop`` (mm).
@@ -518,9 +518,7 @@ def _dijkstra_table(index, rows, table, seed_idx, seed_dist, step_flat, tri_side
     A step o of a settled node is followed only where ``table[k, o] ≥ 0``, which already means
     that its end node is inside the map and valid, so the end is ``node + step_flat[o]`` (flat
     index) with no bounds test; likewise the triangle side A → B of the wavefront update
-    (offset ``tri_side[o, e]``, −1 if none), and the side x → B (offset ``back[o, e]``, the
-    reverse of B → x, the same length). The neighbours' state is read once per settled node
-    (nothing changes while it relaxes them). Same relaxations in the same order as
+    (offset ``tri_side[o, e]``, −1 if none). Same relaxations in the same order as
     :func:`_dijkstra`, so the same distances. ``dist``, ``done``, ``pos``, ``heap``, ``hkey``
     (n = H·W) are caller-owned work arrays, reset here. Returns (H, W) mm, ``inf`` unsettled."""
     h, w = index.shape
@@ -531,8 +529,6 @@ def _dijkstra_table(index, rows, table, seed_idx, seed_dist, step_flat, tri_side
     pos[lo:hi] = -1
     size = _seed_heap(heap, hkey, pos, dist, seed_idx, seed_dist)
     nofs = step_flat.shape[0]
-    st = np.empty(nofs, np.int8)
-    dd = np.empty(nofs)
     while size > 0:
         node = heap[0]
         d0 = hkey[0]
@@ -541,32 +537,32 @@ def _dijkstra_table(index, rows, table, seed_idx, seed_dist, step_flat, tri_side
         size = _pop(heap, hkey, pos, size)
         done[node] = True
         kn = index.flat[node]
-        for o in range(nofs):   # the neighbours' state, read once: 0 no step, 1 open, 2 settled (dd its D)
-            st[o] = 0
-            if table[kn, o] >= 0.0:
-                st[o] = 1
-                if done[node + step_flat[o]]:
-                    st[o] = 2
-                    dd[o] = dist[node + step_flat[o]]
         for o in range(nofs):
-            if st[o] != 1:
-                continue
             la = table[kn, o]
+            if la < 0.0:
+                continue
             nb = node + step_flat[o]
+            if done[nb]:
+                continue
             best = dist[nb]
             if d0 + la < best:
                 best = d0 + la
             if wavefront:
-                kx = index.flat[nb]
                 # triangles (x, A, B) with B = x − b, b the angular neighbours of a (Farey pairs)
                 for e in range(2):
                     oc = tri_side[o, e]
-                    if oc < 0 or st[oc] != 2:
+                    if oc < 0:
                         continue
-                    lb = table[kx, back[o, e]]   # |xB|, the same value as the step B → x
+                    lcc = table[kn, oc]
+                    if lcc < 0.0:
+                        continue
+                    nbb = node + step_flat[oc]
+                    if not done[nbb]:
+                        continue
+                    lb = table[index.flat[nbb], nbr[o, e]]
                     if lb < 0.0:
                         continue
-                    vs = _virtual_source(la, lb, table[kn, oc], d0, dd[oc], best)
+                    vs = _virtual_source(la, lb, lcc, d0, dist[nbb], best)
                     if vs < best:
                         best = vs
             if best < dist[nb]:
@@ -670,14 +666,14 @@ def table_geodesics(steps: StepTable, sources, stop_distances=None, wavefront: b
     """
     seeds = [_seeds(steps.points, steps.valid, src, seed_radius) for src in sources]   # errors raise here
     stops = [np.inf] * len(seeds) if stop_distances is None else [float(d) for d in stop_distances]
-    step_flat, tri_side, back = _flat_tables(steps.offsets, steps.valid.shape[1])
+    step_flat, tri_side, nbr = _flat_tables(steps.offsets, steps.valid.shape[1])
     out: list = [None] * len(seeds)
     failed: list = []
 
     def search(i, work):
         try:
             out[i] = _dijkstra_table(steps.index, steps.rows, steps.lengths, seeds[i][0], seeds[i][1], step_flat,
-                                     tri_side, back, bool(wavefront), stops[i], *work)
+                                     tri_side, nbr, bool(wavefront), stops[i], *work)
         except BaseException as e:   # re-raised in the caller's thread below
             failed.append(e)
 
@@ -695,17 +691,15 @@ def table_geodesics(steps: StepTable, sources, stop_distances=None, wavefront: b
 
 
 def _flat_tables(offsets: np.ndarray, width: int):
-    """For :func:`_dijkstra_table`: each marching step a as a flat index offset ``dr·W + dc`` (n,),
-    and for its two wavefront triangles (x, A, B), B = x − b with b an angular neighbour of a
-    (:func:`_wavefront_tables`), the offset indices ``(n, 2)`` of the side A → B = a − b (−1 if
-    it is no marching step) and of x → B = −b."""
+    """For :func:`_dijkstra_table`: each marching step as a flat index offset ``dr·W + dc`` (n,),
+    the side A → B of its two wavefront triangles as an offset index ``(n, 2)`` (−1 if it is no
+    marching step) and the angular neighbours ``(n, 2)`` (:func:`_wavefront_tables`)."""
     nbr, lut = _wavefront_tables(offsets)
     R = (lut.shape[0] - 1) // 2
     side = offsets[:, None, :] - offsets[nbr]          # B − A = a − b
     inside = (np.abs(side) <= R).all(axis=2)
     tri_side = np.where(inside, lut[np.clip(side[..., 0] + R, 0, 2 * R), np.clip(side[..., 1] + R, 0, 2 * R)], -1)
-    back = lut[R - offsets[nbr][..., 0], R - offsets[nbr][..., 1]]   # −b: from x to B
-    return offsets[:, 0] * int(width) + offsets[:, 1], tri_side.astype(np.int64), back.astype(np.int64)
+    return offsets[:, 0] * int(width) + offsets[:, 1], tri_side.astype(np.int64), nbr
 
 
 def _wavefront_tables(offsets: np.ndarray):
