@@ -465,7 +465,7 @@ def _row_lengths(pl, r, c0, c1, dr, dc, sr, sc, sw, bezier, work, out):
 
 
 @numba.njit(cache=True, nogil=True)  # frames run on threads (fringe3d strain --workers)
-def _step_table_kernel(planes, index, box, table, offsets, opposite, bezier, cr, cc_, cw):
+def _step_table_kernel(planes, index, box, table, offsets, opposite, bezier, cr, cc_, cw, first, last):
     """Fill ``table`` (n_valid, n_offsets) with the step lengths (mm; −1 where the end node or a
     control-point corner is invalid or outside) of the valid nodes of ``index`` (H, W).
 
@@ -476,14 +476,18 @@ def _step_table_kernel(planes, index, box, table, offsets, opposite, bezier, cr,
     so the table rows being written stay in cache; a block's rows are set to −1 first, and the
     evaluated steps of :func:`_march_offsets` point up or left, so every reverse lands in a row
     already set. ``planes`` from :func:`_planes`; the values equal the node-by-node evaluation
-    bit for bit (same operations in the same order, no fast-math)."""
+    bit for bit (same operations in the same order, no fast-math).
+
+    Only the box rows [first, last) are filled, and their reverses that land above ``first``
+    are left to :func:`_boundary_reverses`, so disjoint row ranges can run on threads at once."""
     r_lo, r_hi, c_lo, c_hi = box
     _, bh, bw = planes.shape
     nofs = offsets.shape[0]
     buf = np.empty(bw)
     work = np.empty((11, bw))
-    for b0 in range(0, bh, 2):
-        for r in range(b0, min(b0 + 2, bh)):   # this block's rows start invalid
+    for b0 in range(first, last, 2):
+        b1 = min(b0 + 2, last)
+        for r in range(b0, b1):   # this block's rows start invalid
             for c in range(bw):
                 k = index[r + r_lo, c + c_lo]
                 if k >= 0:
@@ -499,14 +503,36 @@ def _step_table_kernel(planes, index, box, table, offsets, opposite, bezier, cr,
             sw = cw[o]
             c0 = max(0, -dc)
             c1 = min(bw, bw - dc)
-            for r in range(max(b0, -dr), min(b0 + 2, bh, bh - dr)):
+            for r in range(max(b0, -dr), min(b1, bh - dr)):
                 _row_lengths(planes, r, c0, c1, dr, dc, sr, sc, sw, bezier, work, buf)
                 for c in range(c0, c1):
                     k = index[r + r_lo, c + c_lo]
                     ln = buf[c - c0]
                     if k >= 0 and ln == ln:
                         table[k, o] = ln
-                        table[index[r + r_lo + dr, c + c_lo + dc], ob] = ln
+                        if r + dr >= first:
+                            table[index[r + r_lo + dr, c + c_lo + dc], ob] = ln
+
+
+@numba.njit(cache=True, nogil=True)
+def _boundary_reverses(index, box, table, offsets, opposite, first):
+    """The reverses :func:`_step_table_kernel` left out for a range starting at box row
+    ``first``: the evaluated steps of its first rows that end above it, copied to their end nodes."""
+    r_lo, r_hi, c_lo, c_hi = box
+    bh = r_hi - r_lo
+    bw = c_hi - c_lo
+    for o in range(offsets.shape[0]):
+        if opposite[o] < o:
+            continue
+        dr = offsets[o, 0]
+        dc = offsets[o, 1]
+        for r in range(first, min(first - dr, bh)):
+            if r + dr < 0:
+                continue
+            for c in range(max(0, -dc), min(bw, bw - dc)):
+                k = index[r + r_lo, c + c_lo]
+                if k >= 0 and table[k, o] >= 0.0:
+                    table[index[r + r_lo + dr, c + c_lo + dc], opposite[o]] = table[k, o]
 
 
 @numba.njit(cache=True, nogil=True)  # anchors and frames run on threads (fringe3d strain --workers)
@@ -635,7 +661,12 @@ def step_table(points: np.ndarray, radius: int = 3, bezier: bool = True) -> Step
     R = (lut.shape[0] - 1) // 2
     opposite = lut[R - offsets[:, 0], R - offsets[:, 1]]
     lengths = np.empty((nv, len(offsets)))
-    _step_table_kernel(_planes(pts, valid, box), index, box, lengths, offsets, opposite, bool(bezier), cr, cc, cw)
+    planes = _planes(pts, valid, box)
+    bh = planes.shape[1]
+    mid = 2 * (bh // 4) if bh >= 64 else bh      # two row ranges on two threads (blocks of two rows)
+    args = (planes, index, box, lengths, offsets, opposite, bool(bezier), cr, cc, cw)
+    _on_threads([lambda: _step_table_kernel(*args, 0, mid), lambda: _step_table_kernel(*args, mid, bh)])
+    _boundary_reverses(index, box, lengths, offsets, opposite, mid)
     rows = np.array([box[0], max(box[1], box[0])], np.int64)
     return StepTable(pts, valid, index, lengths, offsets, bool(bezier), rows)
 
@@ -667,22 +698,32 @@ def table_geodesics(steps: StepTable, sources, stop_distances=None, wavefront: b
     seeds = [_seeds(steps.points, steps.valid, src, seed_radius) for src in sources]   # errors raise here
     stops = [np.inf] * len(seeds) if stop_distances is None else [float(d) for d in stop_distances]
     step_flat, tri_side, nbr = _flat_tables(steps.offsets, steps.valid.shape[1])
-    out: list = [None] * len(seeds)
+    works = _work(steps, len(seeds))
+
+    def search(i):
+        return lambda: _dijkstra_table(steps.index, steps.rows, steps.lengths, seeds[i][0], seeds[i][1], step_flat,
+                                       tri_side, nbr, bool(wavefront), stops[i], *works[i])
+
+    return _on_threads([search(i) for i in range(len(seeds))])
+
+
+def _on_threads(calls) -> list:
+    """Run the callables at once, the first in this thread and each other on its own (the numba
+    kernels release the GIL); returns their results in order, or raises the first error here."""
+    out: list = [None] * len(calls)
     failed: list = []
 
-    def search(i, work):
+    def run(i):
         try:
-            out[i] = _dijkstra_table(steps.index, steps.rows, steps.lengths, seeds[i][0], seeds[i][1], step_flat,
-                                     tri_side, nbr, bool(wavefront), stops[i], *work)
+            out[i] = calls[i]()
         except BaseException as e:   # re-raised in the caller's thread below
             failed.append(e)
 
-    works = _work(steps, len(seeds))
-    threads = [threading.Thread(target=search, args=(i, works[i])) for i in range(1, len(seeds))]
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(1, len(calls))]
     for t in threads:
         t.start()
-    if seeds:
-        search(0, works[0])
+    if calls:
+        run(0)
     for t in threads:
         t.join()
     if failed:
