@@ -35,7 +35,11 @@ Per frame, :func:`step_table` computes every Bézier step length once (a step an
 share their control points, so half the offsets suffice) into an ``(n_valid, 32)`` table that the
 searches of all sources on that frame read instead of recomputing 32 + 64 lengths per settled
 node; ``bezier_geodesic(..., steps=table, stop_distance=d)`` runs on it and stops once every node
-within ``d`` mm is settled (same values there as the full search).
+within ``d`` mm is settled (same values there as the full search). The table kernel runs row by
+row on x/y/z planes of the valid bounding box without branches (an invalid point's NaN marks the
+step invalid), so it vectorises, and on two threads over two row ranges;
+:func:`table_geodesics` runs several sources' searches on one table at once on threads. Both
+give the same bits as their one-thread, node-by-node forms.
 """
 from __future__ import annotations
 
