@@ -8,8 +8,11 @@ Kirchhoff–Love strain, Eq. 6.10–6.21) timed in ONE run for
   geodesic.py`` loaded as a module): every node recomputes its 32 Bézier step lengths and the
   wavefront triangles' far sides, per anchor, over the whole map;
 * ``new``: the current code: every step length once per frame (:func:`fringe3d.analyze.geodesic.
-  step_table`, shared by the two anchors, reverse steps reused), the search on that table with
-  reused work arrays, stopped at (1 + 0.1) × the farthest query point's reference distance.
+  step_table`: a vectorised kernel over the valid pixels' bounding box, two row ranges on two
+  threads, reverse steps reused), shared by the two anchors, whose searches on that table run at
+  once on two threads (:func:`fringe3d.analyze.geodesic.table_geodesics`), each stopped at
+  (1 + 0.1) × the farthest query point's reference distance. The distances are the old search's
+  bit for bit (``max_uv_difference_px`` compares the tracked positions).
 
 Input: noise-free ray-cast point maps of :func:`fringe3d.experiments.flapping_wing.sim_wing`
 (150 × 70 mm, 25 Hz beat) seen by the ``high-speed`` preset's camera with its intrinsics scaled

@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from fringe3d.analyze.geodesic import (MARCH_OFFSETS, bezier_arc_length, bezier_geodesic, grid_geodesic,
-                                       heat_geodesic, heat_time_coefficient, step_table)
+from fringe3d.analyze.geodesic import (MARCH_OFFSETS, _virtual_source, bezier_arc_length, bezier_geodesic,
+                                       grid_geodesic, heat_geodesic, heat_time_coefficient, step_table,
+                                       table_geodesics)
 
 
 def cylinder_map(h=128, w=160, radius=40.0, pitch=0.3, z0=300.0):
@@ -205,3 +206,67 @@ def test_step_table_must_match_the_requested_window():
     pts, _, _ = cylinder_map(32, 40)
     with pytest.raises(ValueError, match="another window"):
         bezier_geodesic(pts, (5, 5), radius=2, steps=step_table(pts, radius=3))
+
+
+def _step_by_hand(pts, r, c, dr, dc):
+    """Bézier arc length of the step (r, c) → (r + dr, c + dc) with P1, P2 interpolated bilinearly
+    at k/3 of the way (numpy, corner by corner); None when a point it needs is invalid."""
+    h, w, _ = pts.shape
+    if not (0 <= r + dr < h and 0 <= c + dc < w):
+        return None
+    ctrl = []
+    for k in (0, 1, 2, 3):
+        fr, fc = r + dr * k / 3, c + dc * k / 3
+        r0, c0 = int(np.floor(fr + 1e-12)), int(np.floor(fc + 1e-12))
+        ar, ac = fr - r0, fc - c0
+        ar, ac = (0.0 if ar < 1e-9 else ar), (0.0 if ac < 1e-9 else ac)
+        corners = {(r0 + i, c0 + j): (ar if i else 1 - ar) * (ac if j else 1 - ac)
+                   for i in (0, 1) if i == 0 or ar > 0 for j in (0, 1) if j == 0 or ac > 0}
+        if any(not np.isfinite(pts[q]).all() for q in corners):
+            return None
+        ctrl.append(sum(wgt * pts[q] for q, wgt in corners.items()))
+    return bezier_arc_length(*ctrl)
+
+
+def test_step_table_holds_each_steps_bezier_length_and_minus_one_where_a_point_is_invalid():
+    pts, _, _ = cylinder_map(130, 22)                      # tall enough for the two-thread row split
+    rng = np.random.default_rng(5)
+    pts[rng.random(pts.shape[:2]) < 0.05] = np.nan
+    pts[20:26, 8:15] = np.nan
+    pts[5, 7, 2] = np.inf                                   # one bad coordinate invalidates the pixel
+    steps = step_table(pts)
+    n_valid = n_invalid = 0
+    for r, c in zip(*np.nonzero(steps.index >= 0)):         # every node, every step
+        for o, (dr, dc) in enumerate(MARCH_OFFSETS):
+            got = steps.lengths[steps.index[r, c], o]
+            want = _step_by_hand(pts, r, c, dr, dc)
+            if want is None:
+                assert got == -1.0
+                n_invalid += 1
+            else:
+                assert got == pytest.approx(want, rel=1e-12)
+                n_valid += 1
+    assert n_valid > 50000 and n_invalid > 10000
+
+
+def test_searches_run_together_give_each_sources_own_map_bit_for_bit():
+    pts, _, _ = cylinder_map()
+    pts[40:50, 60:75] = np.nan
+    sources, stops = [(20.3, 64.6), (120.0, 30.0), (80.5, 100.2)], [20.0, np.inf, 9.0]
+    together = table_geodesics(step_table(pts), sources, stops)
+    for src, stop, d in zip(sources, stops, together):
+        assert np.array_equal(d, bezier_geodesic(pts, src, steps=step_table(pts), stop_distance=stop))
+    assert np.isinf(together[2][~(together[2] <= 9.0)]).all() and np.isfinite(together[1]).sum() > 15000
+
+
+def test_virtual_source_bound_never_drops_a_candidate_that_would_win():
+    rng = np.random.default_rng(11)
+    n, kept = 20000, 0
+    for la, lb, lc, da, db in zip(*(rng.uniform(0.05, 1.0, (3, n))), *(rng.uniform(0.0, 50.0, (2, n)))):
+        db = da + (db - 25.0) * lc / 25.0                    # |da − db| ≤ lc: S exists
+        v = _virtual_source(la, lb, lc, da, db, np.inf)
+        if np.isfinite(v):
+            kept += 1
+            assert _virtual_source(la, lb, lc, da, db, v * (1 + 1e-14)) == v
+            assert _virtual_source(la, lb, lc, da, db, v) == v
+    assert kept > 1000

