@@ -140,3 +140,13 @@ def three_step_fields_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, 
             w_out[i, j] = np.float32(w)
             avg_out[i, j] = np.float32(coef[0, 0] * a0 + coef[0, 1] * a1 + coef[0, 2] * a2)
             mod_out[i, j] = np.float32(math.sqrt(b2))
+
+
+@numba.njit(parallel=True, cache=True)
+def mask_flagged(depth, quality):  # pragma: no cover - compiled
+    """``depth[quality != 0] = NaN`` in place, one pass (no boolean temporaries)."""
+    H, W = depth.shape
+    nan = np.float32(np.nan)
+    for i in numba.prange(H):
+        for j in range(W):
+            depth[i, j] = depth[i, j] if quality[i, j] == 0 else nan

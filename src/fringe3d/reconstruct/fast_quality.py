@@ -22,6 +22,7 @@ from fringe3d.decode import edges
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.phase import noise
 from fringe3d.phase.psp import wrapped_phase
+from fringe3d.reconstruct._kernels import mask_flagged
 from fringe3d.reconstruct.depth import EmptyMaskError
 from fringe3d.reconstruct.triangulate import FastThreeStep, ThreeStepFields
 from fringe3d.reconstruct.uncertainty import fast_point_sigma
@@ -73,7 +74,7 @@ def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shi
         q = edges.fused_quality_map(valid, w, extent, margin, mod, avg,
                                     gradient_ratio=float(options.gradient_ratio),
                                     modulation_ratio=float(options.modulation_ratio), rim=int(options.rim))
-        depth[q != 0] = np.nan
+        mask_flagged(depth, q)
     else:
         q = invalid_bits(valid)
     sigma_z = sigma_xyz = None
