@@ -165,3 +165,31 @@ def test_the_command_writes_the_layout_and_arrays_asked_for(seq, tmp_path, capsy
     assert main(base + ["-o", str(tmp_path / "c"), "--store-layout", "bogus"]) == 2
     assert "--store-layout must be auto, xyz or ray_depth" in capsys.readouterr().err
     assert not (tmp_path / "c").exists()
+
+
+@pytest.mark.parametrize("codec", ["none", "zstd"])
+def test_store_codec_changes_the_bytes_on_disk_not_the_data(both, seq, tmp_path, codec, capsys):
+    from fringe3d.cli import main
+
+    _, _, _, _, folder = seq
+    out = tmp_path / codec
+    assert main(["reconstruct", str(folder), "-c", str(folder / "rig.json"), "-o", str(out), "--method",
+                 "geometric", "--z-min", "340", "-q", "--store-codec", codec]) == 0
+    st, ref = PointMapStore.open_existing(out / "points.zarr"), both["auto"][1]
+    for name in ("depth", "quality", "sigma_z"):
+        comps = st.group[name].compressors
+        assert (len(comps) == 0) if codec == "none" else (comps[0].cname.value == codec)
+        np.testing.assert_array_equal(st.group[name][:], ref.group[name][:])
+    raw = sum(f.stat().st_size for f in (out / "points.zarr" / "depth").glob("c.*"))
+    assert (raw == st.frames * st.shape[0] * st.shape[1] * 4) == (codec == "none")  # raw: 4 bytes a pixel
+
+
+def test_an_unknown_store_codec_is_a_clear_error_and_writes_nothing(seq, tmp_path, capsys):
+    from fringe3d.cli import main
+
+    _, _, _, _, folder = seq
+    assert main(["reconstruct", str(folder), "-c", str(folder / "rig.json"), "-o", str(tmp_path / "o"),
+                 "--z-min", "340", "--store-codec", "gzip"]) == 2
+    err = capsys.readouterr().err
+    assert "--store-codec" in err and "lz4" in err and "Traceback" not in err
+    assert not (tmp_path / "o").exists()

@@ -123,12 +123,12 @@ def reconstruct_capture_on_dask(capture: str | os.PathLike, patterns: PatternSet
                                 mode: str = "cycle", step: int | None = None, ply: bool = False, store: bool = True,
                                 triangulation: str = "auto", client=None, chunk: int = DEFAULT_CHUNK,
                                 progress: bool = True, layout: str = "auto", store_quality: bool = True,
-                                backend: str = "cpu") -> dict:
+                                backend: str = "cpu", codec: str | None = None) -> dict:
     """:func:`fringe3d.reconstruct.sequence.reconstruct_sequence` of a capture folder, on Dask.
 
     Same store, same point maps (bit-identical: the same per-window code runs on the workers),
     same summary, plus ``workers`` and ``tasks``. ``client`` from :func:`connect`; ``layout``
-    and ``store_quality`` as there; ``backend`` as :class:`~fringe3d.cluster.chunk_task.SequenceJob`.
+    ``store_quality`` and ``codec`` as there; ``backend`` as :class:`~fringe3d.cluster.chunk_task.SequenceJob`.
     """
     frames = open_frames(capture, limit=limit)
     frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
@@ -136,7 +136,7 @@ def reconstruct_capture_on_dask(capture: str | os.PathLike, patterns: PatternSet
     options = options or DecodeOptions()
     rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation)
     starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store, rec=rec,
-                                  layout=layout, store_quality=store_quality)
+                                  layout=layout, store_quality=store_quality, codec=codec)
     key = fingerprint([capture], {"patterns": patterns.to_dict(), "rig": rig.to_dict(), "options": repr(options),
                                   "mode": mode, "step": step, "limit": limit, "triangulation": triangulation,
                                   "layout": layout, "store_quality": store_quality, "backend": backend})

@@ -17,6 +17,7 @@ from fringe3d.commands.quality_options import edge_margin_option, edge_mask_opti
 from fringe3d.decode import decode
 from fringe3d.gpu import BACKENDS, cuda_module
 from fringe3d.io.capture import list_frame_files, open_frames, read_capture
+from fringe3d.io.store import CODECS
 from fringe3d.optics import Rig
 from fringe3d.utils.output_folder import open_output
 from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
@@ -59,19 +60,19 @@ def empty_reason(cap, patterns, rig, min_modulation) -> str:
 
 def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOptions, window, ply: bool, store: bool,
               progress: bool, triangulation: str, client, chunk: int, layout: str = "auto",
-              store_quality: bool = True, backend: str = "cpu") -> dict:
+              store_quality: bool = True, backend: str = "cpu", codec: str = "lz4") -> dict:
     """The sequence branch: in this process, or on Dask when a ``client`` is given."""
     mode = "window" if window else "cycle"
     if client is not None:
         return reconstruct_capture_on_dask(capture, ps, rig, out, options, limit=limit, mode=mode, step=window,
                                            ply=ply, store=store, triangulation=triangulation, client=client,
                                            chunk=chunk, progress=progress, layout=layout, store_quality=store_quality,
-                                           backend=backend)
+                                           backend=backend, codec=codec)
     frames = open_frames(capture, limit=limit)  # a referenced camera file, read on demand; else None
     frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
     return reconstruct_sequence(frames, ps, rig, out, options=options, mode=mode, step=window, ply=ply,
                                 store=store, progress=progress, triangulation=triangulation, layout=layout,
-                                store_quality=store_quality, backend=backend)
+                                store_quality=store_quality, backend=backend, codec=codec)
 
 
 def register(app: typer.Typer) -> None:
@@ -98,6 +99,9 @@ def register(app: typer.Typer) -> None:
                                               "gives the points exactly, else xyz), xyz or ray_depth."),
         store_quality: bool = typer.Option(True, "--store-quality/--no-store-quality",
                                            help="Sequences: also store each 3D frame's quality map and sigma_z."),
+        store_codec: str = typer.Option("lz4", "--store-codec",
+                                        help="Sequences: the point store's compression: lz4 (about half the bytes), "
+                                             "zstd (a little smaller, slower) or none (fastest to write)."),
         window: int = typer.Option(None, "--window",
                                    help="Sequences: a 3D frame every N captured frames (sliding window) instead of "
                                         "one per pattern cycle."),
@@ -150,6 +154,8 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--chunk must be at least 1 3D frame, got {chunk}")
         if window is not None and window < 1:
             raise ValueError(f"--window must be at least 1 frame, got {window}")
+        if store_codec not in CODECS:
+            raise ValueError(f"--store-codec must be one of {', '.join(CODECS)}, got {store_codec!r}")
         if store_layout not in ("auto", "xyz", "ray_depth"):
             raise ValueError(f"--store-layout must be auto, xyz or ray_depth, got {store_layout!r}")
         if triangulation not in ("auto", "fast", "lsq"):
@@ -185,7 +191,8 @@ def register(app: typer.Typer) -> None:
                       "min_modulation": min_modulation, "cycles": cycles, "ply": ply, "mesh": mesh, "store": store,
                       "edge_mask": edge_mask, "edge_margin": edge_margin}
         if sequence and store:  # (only) store options join the fingerprint where they change it
-            fp_options.update({"store_layout": store_layout, "store_quality": store_quality})
+            fp_options.update({"store_layout": store_layout, "store_quality": store_quality,
+                               "store_codec": store_codec})
         client = None  # connected before anything is written
         if sequence and (workers or scheduler):
             client = connect(scheduler, workers, gpu=True) if device == "cuda" else connect(scheduler, workers)
@@ -211,7 +218,7 @@ def register(app: typer.Typer) -> None:
                 else:
                     seq = _sequence(o.path, capture, cycles * len(ps), ps, rig, DecodeOptions(z_min=z_min, **opts),
                                     window, ply, store, not (quiet or json_), triangulation, client, chunk,
-                                    store_layout, store_quality, device)
+                                    store_layout, store_quality, device, store_codec)
                     summary.update(o.final_paths(seq))
                     if seq.get("empty_frames") == seq.get("frames_3d") and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point in any frame of the sequence: "

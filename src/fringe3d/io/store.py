@@ -77,10 +77,18 @@ SIGMA_ATTRS: dict[str, Any] = {"units": "mm", "long_name": "predicted standard d
 DONE_ATTRS: dict[str, Any] = {"long_name": "1 once the frame is completely written", "flag_values": [0, 1]}
 
 
-def _compressor():
-    """The Blosc codec of :data:`CODEC` (None: chunks stored raw)."""
+#: The codecs a store can be written with (``--store-codec``).
+CODECS = ("lz4", "zstd", "none")
+
+
+def _compressor(codec: str | None = None):
+    """The Blosc codec ``codec`` (default :data:`CODEC`; None: chunks stored raw)."""
     from zarr.codecs import BloscCodec
-    return None if CODEC == "none" else BloscCodec(cname=CODEC, clevel=CODEC_LEVEL, shuffle=SHUFFLE)
+    codec = CODEC if codec is None else codec
+    if codec not in CODECS:
+        raise ValueError(f"unknown point store codec {codec!r}; expected one of {', '.join(CODECS)}")
+    level = CODEC_LEVEL if codec == CODEC else {"lz4": 5, "zstd": 3}.get(codec, 0)
+    return None if codec == "none" else BloscCodec(cname=codec, clevel=level, shuffle=SHUFFLE)  # type: ignore[arg-type]  # checked against CODECS
 
 
 class PointMapStore:
@@ -111,14 +119,15 @@ class PointMapStore:
     @classmethod
     def open(cls, path: str | os.PathLike, frames: int, height: int, width: int, meta: dict | None = None,
              overwrite: bool = False, layout: str = "xyz", rays: tuple[np.ndarray, np.ndarray] | None = None,
-             quality: bool = False, sigma: bool = False) -> "PointMapStore":
+             quality: bool = False, sigma: bool = False, codec: str | None = None) -> "PointMapStore":
         """Create a store for ``frames`` point maps of ``height x width``, or resume an existing one.
 
         ``layout`` ``"ray_depth"`` needs ``rays = (O (3,), D_planes (3, H, W))`` of the pinhole
         camera (:class:`fringe3d.optics.rays.RayGeometry`); ``quality`` / ``sigma`` add the
-        per-frame quality and sigma_z arrays. An existing store must hold the same number of
-        frames, image size, layout and arrays (else ValueError, so a resumed run never mixes two
-        different sequences).
+        per-frame quality and sigma_z arrays; ``codec`` is the per-frame arrays' compression
+        (:data:`CODECS`, default :data:`CODEC`; a resumed store keeps its own). An existing store
+        must hold the same number of frames, image size, layout and arrays (else ValueError, so a
+        resumed run never mixes two different sequences).
         """
         import zarr  # optional heavy dependency: loaded only when a store is opened
 
@@ -154,7 +163,7 @@ class PointMapStore:
                                  "output folder to start over")
             return cls(g, path)
         g = zarr.open_group(str(path), mode="w")
-        comp = _compressor()
+        comp = _compressor(codec)
 
         def per_frame(name, tail, dtype, fill, dims, attrs):
             """One chunk per frame, compressed, no fill-value check on write, flat chunk keys."""

@@ -378,12 +378,13 @@ def store_layout(rec: FrameReconstructor, layout: str = "auto") -> str:
 def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out: Path,
                      options: DecodeOptions | None, mode: str, step: int | None, ply: bool,
                      store: bool, rec: FrameReconstructor, layout: str = "auto",
-                     store_quality: bool = True) -> tuple[list[int], PointMapStore | None]:
+                     store_quality: bool = True, codec: str | None = None) -> tuple[list[int], PointMapStore | None]:
     """Check a sequence of frames of ``shape`` (F, H, W) against the rig, create (or resume) the
     point store and the PLY folder in ``out``; returns the windows' first frames and the store.
 
     ``rec`` (the sequence's reconstructor) chooses the store ``layout`` (:func:`store_layout`);
-    ``store_quality`` adds the per-frame quality and sigma_z arrays."""
+    ``store_quality`` adds the per-frame quality and sigma_z arrays; ``codec`` compresses them
+    (:data:`fringe3d.io.store.CODECS`, default lz4)."""
     if not (ply or store):
         raise ValueError("nothing to write: ask for the point store and/or PLY files")
     if len(shape) != 3:
@@ -403,7 +404,7 @@ def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out
     if lay is not None:
         st = PointMapStore.open(out / STORE_NAME, len(starts), H, W, meta=meta, layout=lay,
                                 rays=rec.rays if lay == "ray_depth" else None, quality=store_quality,
-                                sigma=store_quality)
+                                sigma=store_quality, codec=codec)
     if ply:
         (out / PLY_DIR).mkdir(exist_ok=True)
     return starts, st
@@ -420,7 +421,7 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
                          options: DecodeOptions | None = None, mode: str = "cycle", step: int | None = None,
                          ply: bool = False, store: bool = True, progress: bool = True, triangulation: str = "auto",
                          fast: bool = True, layout: str = "auto", store_quality: bool = True,
-                         backend: str = "cpu") -> dict:
+                         backend: str = "cpu", codec: str | None = None) -> dict:
     """Reconstruct every 3D frame of a sequence into ``out`` (resumable).
 
     Parameters
@@ -436,6 +437,8 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
     layout : point store layout, ``"auto"`` (``"ray_depth"`` where exact), ``"xyz"`` or
         ``"ray_depth"`` (:mod:`fringe3d.io.store`)
     store_quality : also store each 3D frame's quality map and sigma_z (mm)
+    codec : the store's compression, ``"lz4"`` (default), ``"zstd"`` or ``"none"``
+        (:data:`fringe3d.io.store.CODECS`; its cost per 3D frame: ``docs/long-sequences.md``)
     backend : ``"cpu"`` or ``"cuda"`` (:class:`FrameReconstructor`; on the CUDA fused path
         :data:`CUDA_BATCH` cycles go to the device per launch)
 
@@ -447,7 +450,7 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
     options = options or DecodeOptions()
     rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, fast=fast, backend=backend)
     starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store, rec=rec,
-                                  layout=layout, store_quality=store_quality)
+                                  layout=layout, store_quality=store_quality, codec=codec)
 
     def done(k):
         return (st is None or st.is_done(k)) and (not ply or (out / PLY_DIR / ply_name(k)).exists())
