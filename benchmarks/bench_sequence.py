@@ -16,8 +16,10 @@ One run measures, side by side on this machine:
 - **file read**: reading the MRAW file cycle by cycle (``open_frames``), in cycles/s, and the same
   frames as PNG files (``CaptureFrames``) for comparison;
 - **end to end**: ``reconstruct_sequence`` from the MRAW into the zarr point store in this process
-  (the default store: ray_depth layout with quality map and sigma_z; and ``store_quality=False``),
-  and ``reconstruct_capture_on_dask`` with 1 and 2 worker processes, in 3D frames/s;
+  (the default store: ray_depth layout with quality map and sigma_z, lz4 and uncompressed;
+  ``store_quality=False``; and the issue's configuration: no edge tests, points only, lz4 and
+  uncompressed), and ``reconstruct_capture_on_dask`` with 1 and 2 worker processes, in 3D
+  frames/s;
 - **store**: bytes per 3D frame on disk and write time per frame of the layouts (xyz; ray_depth
   alone; ray_depth + quality + sigma_z) and codecs (lz4, zstd-3, none), on the same 3D frame.
 
@@ -51,6 +53,10 @@ from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
 
 
+#: cycles written and read as PNG files (their read rate)
+PNG_CYCLES = 30
+
+
 def rate(fn, n_items: int, repeat: int = 3) -> float:
     """Best items per second of ``fn`` (which processes ``n_items``) over ``repeat`` runs, after a warm-up."""
     fn()
@@ -75,7 +81,8 @@ def make_inputs(work: Path, cycles: int):
     frames = np.tile(cap.frames, (cycles, 1, 1))
     mraw, _ = pyMRAW.save_mraw(frames, str(work / "take.mraw"), bit_depth=8, info_dict={"Record Rate(fps)": 3000})
     import_images(str(Path(mraw).with_suffix(".cih")), work / "mraw-cap", manifest=one / "manifest.json")
-    write_capture(work / "png-cap", frames, cap.patterns, meta={"bit_depth": 8})
+    png_cycles = min(cycles, PNG_CYCLES)  # the PNG read rate needs no more
+    write_capture(work / "png-cap", frames[:png_cycles * len(cap.patterns)], cap.patterns, meta={"bit_depth": 8})
     return work / "mraw-cap", work / "png-cap", with_method(cap.patterns, "geometric"), rig, z_min
 
 
@@ -136,20 +143,24 @@ def main() -> None:
         res["mraw_read_cycles_per_s"] = rate(lambda: [np.asarray(frames[c * n:(c + 1) * n])
                                                       for c in range(args.cycles)], args.cycles, repeat=2)
         png = CaptureFrames(png_cap)
-        m = min(args.cycles, 30)
+        m = min(args.cycles, PNG_CYCLES)
         res["png_read_cycles_per_s"] = rate(lambda: [png[np.arange(c * n, (c + 1) * n)] for c in range(m)], m,
                                             repeat=1)
 
-        def serial(store_quality=True):
+        def serial(store_quality=True, edge_mask=True, codec="lz4"):
             out = work / "serial"
             shutil.rmtree(out, ignore_errors=True)
-            reconstruct_sequence(frames, ps, rig, out, options=opts, progress=False, store_quality=store_quality)
+            reconstruct_sequence(frames, ps, rig, out, options=dataclasses.replace(opts, edge_mask=edge_mask),
+                                 progress=False, store_quality=store_quality, codec=codec)
         serial()  # warm (numba's compiled kernels load on first use)
         res["end_to_end_serial_3d_per_s"] = args.cycles / _timed(serial)
+        res["end_to_end_serial_codec_none_3d_per_s"] = args.cycles / _timed(lambda: serial(codec="none"))
         res["end_to_end_serial_no_store_quality_3d_per_s"] = args.cycles / _timed(lambda: serial(False))
+        # the issue's configuration (the modulation mask, the points only): lz4 and uncompressed
         res["end_to_end_serial_no_edge_mask_no_store_quality_3d_per_s"] = args.cycles / _timed(
-            lambda: reconstruct_sequence(frames, ps, rig, work / "serial-bare", options=dataclasses.replace(
-                opts, edge_mask=False), progress=False, store_quality=False))
+            lambda: serial(False, False))
+        res["end_to_end_serial_no_edge_mask_no_store_quality_codec_none_3d_per_s"] = args.cycles / _timed(
+            lambda: serial(False, False, "none"))
         for workers in (1, 2):
             client = connect(workers=workers)
             try:
