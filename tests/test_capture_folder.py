@@ -167,3 +167,23 @@ def test_failed_image_write_leaves_no_file(tmp_path):
 def test_missing_image_file(tmp_path):
     with pytest.raises(FileNotFoundError, match="does not exist"):
         read_image(tmp_path / "nope.png")
+
+
+def test_a_rewrite_that_fails_part_way_leaves_no_readable_capture(tmp_path, ps):
+    from fringe3d.io.capture import write_capture_frames
+
+    write_capture(tmp_path / "cap", _frames(6), ps)
+    new = _frames(6, seed=1)
+
+    def failing():
+        yield from new[:4]
+        raise OSError("camera disconnected")
+
+    with pytest.raises(OSError, match="disconnected"):
+        write_capture_frames(tmp_path / "cap", failing(), 6, ps)
+    # new frames 0-3 beside old 4-5: never read as a capture, whatever frames survived
+    assert not (tmp_path / "cap" / "capture.json").exists()
+    with pytest.raises(FileNotFoundError, match="manifest"):
+        read_capture(tmp_path / "cap")
+    write_capture_frames(tmp_path / "cap", iter(new), 6, ps)  # the same call again completes it
+    np.testing.assert_array_equal(read_capture(tmp_path / "cap").frames, new)

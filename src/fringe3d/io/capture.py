@@ -296,7 +296,8 @@ def write_capture_frames(folder: str | os.PathLike, frames: Iterable[np.ndarray]
 
     At most :data:`WRITE_THREADS` frames are held (being written) at any time, so a take of any
     length is written in bounded memory. The manifest and ``capture.json`` are written after the
-    last frame. ``progress``: a progress bar (default: when ``count > 60``).
+    last frame (an older capture's are removed first), so a write that fails part way leaves a
+    folder no step reads as a capture. ``progress``: a progress bar (default: when ``count > 60``).
     """
     folder = Path(folder)
     msg = frame_count_error(count, len(patterns))
@@ -306,6 +307,9 @@ def write_capture_frames(folder: str | os.PathLike, frames: Iterable[np.ndarray]
         raise ValueError(f"capture frame format must be 'png' or 'tif', got {fmt!r}")
     fdir = folder / FRAMES_DIR
     fdir.mkdir(parents=True, exist_ok=True)
+    for done in (folder / META_NAME, folder / MANIFEST_NAME):  # written last: the capture's "complete" mark,
+        if done.exists():  # so an interrupted write never leaves new frames under an older manifest
+            guard_write(done).unlink()
     for stale in fdir.iterdir():  # an older capture must not leave frames behind
         m = _FRAME_NAME.match(stale.name)
         if m and (int(m.group(1)) >= count or stale.suffix.lower() != f".{fmt}"):
