@@ -29,6 +29,14 @@ Seconds per 3D frame: median over the deformed frames of the time between frames
 on N threads: wall seconds / deformed frames for each N, and whether the results equal one
 worker's bit for bit.
 
+``--dask 2``: the same frames as :class:`fringe3d.analyze.frame_task.StrainFrameTask` tasks on a
+LocalCluster of N worker processes (:func:`fringe3d.cluster.strain_frames.frames_on_dask`, what
+``fringe3d strain --dask-workers N`` runs; the maps saved to a temporary .npy the workers read):
+wall seconds / deformed frames of a second pass (the first loads numba's kernels in every
+worker; its time is reported too, cluster start excluded), the pickled task's size (what is
+scattered to every worker once) and one frame's pickled results (what comes back per frame),
+and whether the results equal one thread's bit for bit.
+
 Example: python benchmarks/bench_strain.py --scale 2 --frames 4 --json
 """
 from __future__ import annotations
@@ -38,6 +46,7 @@ import dataclasses
 import importlib.util
 import json
 import os
+import pickle
 import subprocess
 import sys
 import tempfile
@@ -48,6 +57,7 @@ import numpy as np
 
 import fringe3d.analyze.strain as strain_mod
 from fringe3d.analyze.anchors import check_anchor
+from fringe3d.analyze.frame_task import StrainFrameTask
 from fringe3d.analyze.strain import wing_frame, wing_reference, wing_sequence
 from fringe3d.analyze.wing_strain import frames_in_order
 from fringe3d.experiments import flapping_wing as fw
@@ -102,6 +112,30 @@ def run_workers(maps, anchors, q, window, workers):
     return (time.perf_counter() - t0) / (len(maps) - 1), np.stack(got)
 
 
+def run_dask(maps, anchors, q, window, workers):
+    """The deformed frames as StrainFrameTask tasks on a LocalCluster of ``workers`` processes:
+    {seconds per 3D frame of the second pass, of the first, task MB, result bytes per frame}, uv (F-1, N, 2)."""
+    from fringe3d.cluster.engine import close, connect
+    from fringe3d.cluster.strain_frames import frames_on_dask
+
+    path = Path(tempfile.mkdtemp(prefix="bench_strain_")) / "points.npy"
+    np.save(path, np.stack(maps))
+    ref = wing_reference(maps[0], anchors[0], q, fw.THICKNESS, window)
+    task = StrainFrameTask(str(path), 0, (ref,), np.asarray(anchors)[:, None])
+    client = connect(workers=workers)
+    try:
+        frames, n, secs = frames_on_dask(client), len(maps), []
+        for _ in range(2):
+            t0 = time.perf_counter()
+            got = [r[0].uv for f, r in frames(task, n) if f > 0]
+            secs.append((time.perf_counter() - t0) / (n - 1))
+        sizes = {"task_mb": len(pickle.dumps(task)) / 1e6, "result_bytes_per_frame": len(pickle.dumps(task(1)))}
+    finally:
+        close(client, own_cluster=True)
+        path.unlink()
+    return {"s_per_3d_frame": secs[1], "first_pass_s_per_3d_frame": secs[0], **sizes}, np.stack(got)
+
+
 def errors(res, wing, cam_project_truth, m0, t3, n_markers):
     """Tracking RMS (mm) of the markers over the deformed frames; strain RMS (µε), % of peak."""
     e = res.xyz[1:, :n_markers] - cam_project_truth[1:]
@@ -118,6 +152,7 @@ def main(argv=None) -> int:
     ap.add_argument("--step", type=int, default=16, help="interior grid step (px at scale 1)")
     ap.add_argument("--window", type=int, default=11, help="quadric-fit window (px at scale 1)")
     ap.add_argument("--workers", default="", help="comma-separated thread counts to time, e.g. 1,2")
+    ap.add_argument("--dask", default="", help="comma-separated Dask worker-process counts to time, e.g. 2")
     ap.add_argument("--no-old", action="store_true", help="skip the old geodesic search")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
@@ -157,6 +192,10 @@ def main(argv=None) -> int:
         sec, uv = run_workers(maps, anchors, q, window, nw)
         uv1 = uv if uv1 is None else uv1
         out[f"workers_{nw}"] = {"s_per_3d_frame": sec, "equal_to_first": bool(np.array_equal(uv, uv1, equal_nan=True))}
+    for nd in [int(x) for x in args.dask.split(",") if x]:
+        rd, uv = run_dask(maps, anchors, q, window, nd)
+        uv1 = uv if uv1 is None else uv1
+        out[f"dask_{nd}"] = {**rd, "equal_to_first": bool(np.array_equal(uv, uv1, equal_nan=True))}
     ok = res_old.ok & res_new.ok
     out["max_uv_difference_px"] = float(np.nanmax(np.abs(res_old.uv - res_new.uv)[ok])) if ok.any() else float("nan")
     if args.json:
@@ -170,9 +209,12 @@ def main(argv=None) -> int:
                   f"strain RMS {r['strain_rms_ue']:.2f} µε ({r['strain_rms_pct_peak']:.2f} % of peak)  "
                   f"tracked {100 * r['tracked_fraction']:.1f} %")
         print(f"speedup {out['speedup']:.1f}x; max |Δuv| old vs new {out['max_uv_difference_px']:.2e} px")
-        for k in [k for k in out if k.startswith("workers_")]:
+        for k in [k for k in out if k.startswith(("workers_", "dask_"))]:
             r = out[k]
             print(f"{k}: {r['s_per_3d_frame']:.3f} s/3D frame (wall), equal to the first: {r['equal_to_first']}")
+            if k.startswith("dask_"):
+                print(f"  first pass {r['first_pass_s_per_3d_frame']:.3f} s/3D frame; task {r['task_mb']:.1f} MB "
+                      f"scattered once; {r['result_bytes_per_frame']} B of results per frame")
     return 0
 
 

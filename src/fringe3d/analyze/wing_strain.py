@@ -7,12 +7,16 @@ rows of the per-point arrays) before the next few are read, so memory holds a bo
 frames whatever the sequence's length. Given the reference frame and every frame's anchors
 (found up front from the textures), frames are independent: ``workers`` threads process several
 at once (the numba kernels release the GIL) and the outputs are written in frame order, the
-same bytes as one worker.
+same bytes as one worker. The frame scheduler is injected (``frames``): the per-frame work is a
+picklable :class:`~fringe3d.analyze.frame_task.StrainFrameTask`, so another scheduler may run
+it in other processes (``fringe3d.cluster.strain_frames``: dask.distributed workers) while
+this process still writes every file, in order.
 """
 from __future__ import annotations
 
 import time
 from collections import deque
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import ExitStack
 from pathlib import Path
@@ -39,7 +43,8 @@ from .anchors import (
     parse_anchors,
     query_grid,
 )
-from .strain import WingFrame, wing_frame, wing_reference
+from .frame_task import StrainFrameTask
+from .strain import WingFrame, wing_reference
 
 #: Per-point arrays written to ``arrays/wing_K/NAME.npy``: (per-point shape, dtype) of each.
 ARRAY_FIELDS = {"uv": ((2,), np.float64), "xyz": ((3,), np.float64), "E": ((2, 2), np.float64),
@@ -98,6 +103,10 @@ def gif_frames(n: int, most: int | None = None) -> list[int]:
     return [int(f) for f in np.unique(np.round(np.linspace(0, n - 1, most)).astype(int))]
 
 
+#: A frame scheduler: ``frames(task, n)`` yields ``(f, task(f))`` for f = 0 … n − 1, in order.
+FrameScheduler = Callable[[StrainFrameTask, int], Iterator[tuple[int, list[WingFrame]]]]
+
+
 def frames_in_order(task, n: int, workers: int = 1):
     """``(f, task(f))`` for f = 0 … n − 1 in order, ``task`` run on ``workers`` threads with at most
     ``FRAMES_PER_WORKER · workers`` frames in flight (bounded memory); an error in any task is
@@ -132,12 +141,15 @@ def _ok_values(folders: list[Path], name: str, transform=None):
 
 def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window: int = 11, step: int = 4,
                wings: int = 1, radius: int = 3, reference: int = 0, figures: bool = True, fill_dots: int = 8,
-               workers: int = 1) -> dict:
+               workers: int = 1, frames: FrameScheduler | None = None) -> dict:
     """Track a wing sequence and map its bending strain (Eq. 6.9-6.21): everything
     ``fringe3d strain`` does; returns the JSON summary. Validates all inputs before any file
     is written (``strain.csv``, ``vtk/frame_*.vtu`` + ``strain.pvd``, ``arrays/wing_K/*.npy`` (F, N, ...)
     per-point results, ``maps/strain_*.png``, ``strain.gif``, ``summary.json`` in ``out``, each
-    atomically). ``workers``: frames processed at once on threads (the same output for any number)."""
+    atomically). ``workers``: frames processed at once on threads (the same output for any number).
+    ``frames``: another frame scheduler (e.g. :func:`fringe3d.cluster.strain_frames.frames_on_dask`'s),
+    given the :class:`~fringe3d.analyze.frame_task.StrainFrameTask` and the frame count; then
+    ``workers`` must be 1. Every file is written here, in frame order, whatever the scheduler."""
     t0 = time.perf_counter()
     if not (thickness > 0):
         raise ValueError(f"--thickness must be > 0 mm; got {thickness}")
@@ -147,6 +159,9 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         raise ValueError(f"--step must be ≥ 1 pixel; got {step}")
     if workers < 1:
         raise ValueError(f"--workers must be ≥ 1; got {workers}")
+    if frames is not None and workers != 1:
+        raise ValueError(f"--workers {workers} (threads) runs the frames in this process; it cannot be combined "
+                         "with another frame scheduler (Dask)")
     start = parse_anchors(anchors)
     seq = read_point_sequence(sequence)
     if not (0 <= reference < len(seq)):
@@ -171,9 +186,8 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
     folders = [out / "arrays" / f"wing_{w}" for w in range(len(refs))]
     offsets = np.cumsum([0] + [len(r.q) for r in refs])
 
-    def task(f: int) -> list[WingFrame]:
-        raw = None if f == reference else seq[f]   # frames streamed: read (checked, float64) when processed
-        return [wing_frame(r, raw, per_frame[f, w], f) for w, r in enumerate(refs)]
+    task = StrainFrameTask(str(Path(sequence).resolve()), reference, tuple(refs), per_frame, _seq=seq)
+    schedule = frames if frames is not None else (lambda task, n: frames_in_order(task, n, workers))
 
     frame_files = []
     ok_count = total = 0
@@ -181,7 +195,7 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         csv = stack.enter_context(StrainCsvWriter(out / "strain.csv"))
         arrays = [{name: stack.enter_context(NpyFrameWriter(d / f"{name}.npy", nf, (len(r.q),) + shape, dtype))
                    for name, (shape, dtype) in ARRAY_FIELDS.items()} for d, r in zip(folders, refs)]
-        for f, results in frames_in_order(task, nf, workers):
+        for f, results in schedule(task, nf):
             tables = []
             for w, r in enumerate(results):
                 tab = strain_table(r.xyz, r.E, r.principal, r.dominant, r.uv, r.residual, r.ok)

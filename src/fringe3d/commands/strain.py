@@ -18,7 +18,10 @@ binary VTK XML grid per frame: the tracked points' triangles and their strain) w
 
 Frames are streamed: each one's rows, ``.vtu`` and array rows are written before the next few
 frames are read, so memory does not grow with the sequence. ``--workers N`` processes N frames
-at once on threads and writes the same files as one worker.
+at once on threads and writes the same files as one worker. ``--dask-workers N`` (a local
+cluster of N worker processes) or ``--scheduler tcp://HOST:8786`` (an existing cluster, whose
+workers read SEQUENCE at the same path) run each frame as a dask.distributed task
+(:mod:`fringe3d.cluster.strain_frames`); this process still writes every file, the same bytes.
 """
 from __future__ import annotations
 
@@ -26,8 +29,10 @@ from pathlib import Path
 
 import typer
 
-from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.analyze.wing_strain import run_strain
+from fringe3d.cluster.engine import close, connect
+from fringe3d.cluster.strain_frames import frames_on_dask
+from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
 from fringe3d.utils.console import console, make_table, print_json, set_quiet
@@ -51,6 +56,12 @@ def register(app: typer.Typer) -> None:
         no_figures: bool = typer.Option(False, "--no-figures", help="Skip the PNG maps and the GIF."),
         workers: int = typer.Option(1, "--workers", help="3D frames processed at once (threads); the output is "
                                                          "the same for any number."),
+        dask_workers: int = typer.Option(None, "--dask-workers",
+                                         help="Run the frames on a local Dask cluster of N worker processes "
+                                              "(fringe3d[dask]); the output is the same."),
+        scheduler: str = typer.Option(None, "--scheduler",
+                                      help="Run the frames on an existing dask.distributed scheduler, e.g. "
+                                           "tcp://HOST:8786 (its workers must read SEQUENCE at the same path)."),
         overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
@@ -63,11 +74,32 @@ def register(app: typer.Typer) -> None:
         set_quiet(quiet or json_)
         options = {"anchors": anchors, "thickness": thickness, "window": window, "step": step, "wings": wings,
                    "radius": radius, "reference": reference, "figures": not no_figures, "fill_dots": fill_dots}
-        with open_output(out, overwrite=overwrite, inputs=[sequence], options=options) as o:
-            summary = o.final_paths(run_strain(sequence, anchors, o.path, thickness, window, step, wings, radius,
-                                               reference, figures=not no_figures, fill_dots=fill_dots,
-                                               workers=workers))
+        check_schedulers(workers, dask_workers, scheduler)
+        client = None  # connected before anything is written: an unreachable scheduler leaves no folder
+        if dask_workers is not None or scheduler is not None:
+            client = connect(scheduler, dask_workers)
+        try:
+            with open_output(out, overwrite=overwrite, inputs=[sequence], options=options) as o:
+                frames = frames_on_dask(client) if client is not None else None
+                summary = o.final_paths(run_strain(sequence, anchors, o.path, thickness, window, step, wings, radius,
+                                                   reference, figures=not no_figures, fill_dots=fill_dots,
+                                                   workers=workers, frames=frames))
+        finally:
+            if client is not None:
+                close(client, own_cluster=scheduler is None)
         if json_:
             print_json(summary)
         elif not quiet:
             console.print(make_table("strain", ["field", "value"], [[k, str(v)] for k, v in summary.items()]))
+
+
+def check_schedulers(workers: int, dask_workers: int | None, scheduler: str | None) -> None:
+    """ValueError unless at most one frame scheduler is asked for: threads (``--workers`` > 1), a
+    local Dask cluster (``--dask-workers``) or an existing one (``--scheduler``)."""
+    if dask_workers is not None and dask_workers < 1:
+        raise ValueError(f"--dask-workers must be at least 1 worker process, got {dask_workers}")
+    if dask_workers is not None and scheduler is not None:
+        raise ValueError("give either --dask-workers (a local cluster) or --scheduler (an existing one), not both")
+    if workers != 1 and (dask_workers is not None or scheduler is not None):
+        raise ValueError(f"--workers {workers} runs threads in this process; with --dask-workers or --scheduler "
+                         "the Dask workers do the frames (drop --workers)")
