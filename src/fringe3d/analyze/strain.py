@@ -353,8 +353,8 @@ class WingReference:
     """What every frame of one wing is tracked against (from the reference frame).
 
     points (H, W, 3) mm the reference map (dot holes filled); anchors (2, 2) px; q (N, 2) the
-    query pixels; d (N, 2) mm their geodesic distances to the anchors; R1, R2 (H, W) mm the
-    reference distance maps; side (N,) ±1 their side of the anchor line; far (N,) index of the
+    query pixels; d (N, 2) mm their geodesic distances to the anchors (the reference distance
+    maps themselves are not kept: a Dask worker receives this object); side (N,) ±1 their side of the anchor line; far (N,) index of the
     farther anchor (the material direction); stop (2,) mm or None, each deformed frame's search
     radius; B the reference :class:`LocalShape`; and the run's thickness (mm), window (px),
     method, radius and fill_dots.
@@ -363,8 +363,6 @@ class WingReference:
     anchors: np.ndarray
     q: np.ndarray
     d: np.ndarray
-    R1: np.ndarray
-    R2: np.ndarray
     side: np.ndarray
     far: np.ndarray
     stop: np.ndarray | None
@@ -412,7 +410,7 @@ def wing_reference(points: np.ndarray, anchors: np.ndarray, query_uv: np.ndarray
         dmax = np.array([np.max(c[np.isfinite(c)], initial=0.0) for c in d.T])
         stop = np.where(dmax > 0, (1.0 + float(stop_margin)) * dmax, np.inf)
     B = local_shape(ref_pts, q, window, toward=sample_bilinear(ref_pts, anchors, **SURFACE_SAMPLING)[far])
-    return WingReference(ref_pts, anchors, q, d, R1, R2, side, far, stop, B, float(thickness), int(window), method,
+    return WingReference(ref_pts, anchors, q, d, side, far, stop, B, float(thickness), int(window), method,
                          int(radius), int(fill_dots))
 
 
