@@ -354,10 +354,10 @@ class WingReference:
 
     points (H, W, 3) mm the reference map (dot holes filled); anchors (2, 2) px; q (N, 2) the
     query pixels; d (N, 2) mm their geodesic distances to the anchors (the reference distance
-    maps themselves are not kept: a Dask worker receives this object); side (N,) ±1 their side of the anchor line; far (N,) index of the
-    farther anchor (the material direction); stop (2,) mm or None, each deformed frame's search
-    radius; B the reference :class:`LocalShape`; and the run's thickness (mm), window (px),
-    method, radius and fill_dots.
+    maps themselves are not kept: a Dask worker receives this object); side (N,) ±1 their side
+    of the anchor line; far (N,) index of the farther anchor (the material direction); stop (2,)
+    mm or None, each deformed frame's search radius; B the reference :class:`LocalShape`; and the
+    run's thickness (mm), window (px), method, radius and fill_dots.
     """
     points: np.ndarray
     anchors: np.ndarray
