@@ -71,6 +71,26 @@ def solve3(a, b, c, d, e, f, g, h, k, r0, r1, r2):  # pragma: no cover - compile
 _FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # fastmath without the no-NaN/no-inf assumptions
 
 
+@numba.njit(fastmath=_FAST, cache=True, inline="always")
+def _three_step_pixel(frames, i, j, i0, i1, i2, coef, phi_min, sign, scale, qo, po, D, Q, P3):  # pragma: no cover
+    """One pixel of the fused path: ``(s, w, b^2 + c^2, sg, a0, a1, a2)`` (see :func:`three_step_kernel`)."""
+    two_pi = 2.0 * math.pi
+    a0 = np.float64(frames[i0, i, j])
+    a1 = np.float64(frames[i1, i, j])
+    a2 = np.float64(frames[i2, i, j])
+    b = coef[1, 0] * a0 + coef[1, 1] * a1 + coef[1, 2] * a2
+    c = coef[2, 0] * a0 + coef[2, 1] * a1 + coef[2, 2] * a2
+    phi = fast_atan2(-c, b)
+    sg = np.float64(sign[i, j])
+    x = (np.float64(phi_min[i, j]) - phi) * (1.0 / two_pi)
+    w = (phi + two_pi * (sg * math.ceil(sg * x))) * scale
+    dx = np.float64(D[0, i, j])
+    dy = np.float64(D[1, i, j])
+    dz = np.float64(D[2, i, j])
+    s = (qo - w * po) / (w * (P3[0] * dx + P3[1] * dy + P3[2] * dz) - (Q[0] * dx + Q[1] * dy + Q[2] * dz))
+    return s, w, b * b + c * c, sg, a0, a1, a2
+
+
 @numba.njit(parallel=True, fastmath=_FAST, cache=True)
 def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out):  # pragma: no cover
     """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> ray parameter ``s``
@@ -82,27 +102,15 @@ def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q
     """
     H = frames.shape[1]
     W = frames.shape[2]
-    two_pi = 2.0 * math.pi
     qo = Q[0] * O[0] + Q[1] * O[1] + Q[2] * O[2] + Q[3]
     po = P3[0] * O[0] + P3[1] * O[1] + P3[2] * O[2] + P3[3]
     i0, i1, i2 = idx[0], idx[1], idx[2]
     nan = np.float32(np.nan)
     for i in numba.prange(H):
         for j in range(W):
-            a0 = np.float64(frames[i0, i, j])
-            a1 = np.float64(frames[i1, i, j])
-            a2 = np.float64(frames[i2, i, j])
-            b = coef[1, 0] * a0 + coef[1, 1] * a1 + coef[1, 2] * a2
-            c = coef[2, 0] * a0 + coef[2, 1] * a1 + coef[2, 2] * a2
-            phi = fast_atan2(-c, b)
-            sg = np.float64(sign[i, j])
-            x = (np.float64(phi_min[i, j]) - phi) * (1.0 / two_pi)
-            w = (phi + two_pi * (sg * math.ceil(sg * x))) * scale
-            dx = np.float64(D[0, i, j])
-            dy = np.float64(D[1, i, j])
-            dz = np.float64(D[2, i, j])
-            s = (qo - w * po) / (w * (P3[0] * dx + P3[1] * dy + P3[2] * dz) - (Q[0] * dx + Q[1] * dy + Q[2] * dz))
-            ok = ((b * b + c * c) >= min_mod2) & (sg != 0.0) & (s > 0.0)
+            s, w, b2, sg, a0, a1, a2 = _three_step_pixel(frames, i, j, i0, i1, i2, coef, phi_min, sign, scale, qo,
+                                                         po, D, Q, P3)
+            ok = (b2 >= min_mod2) & (sg != 0.0) & (s > 0.0)
             out[i, j] = np.float32(s) if ok else nan
 
 
@@ -114,27 +122,14 @@ def three_step_fields_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, 
     ``B = sqrt(b^2 + c^2)`` (Eq. 2.4, frames' units), each (H, W) float32 (also where ``s`` is NaN)."""
     H = frames.shape[1]
     W = frames.shape[2]
-    two_pi = 2.0 * math.pi
     qo = Q[0] * O[0] + Q[1] * O[1] + Q[2] * O[2] + Q[3]
     po = P3[0] * O[0] + P3[1] * O[1] + P3[2] * O[2] + P3[3]
     i0, i1, i2 = idx[0], idx[1], idx[2]
     nan = np.float32(np.nan)
     for i in numba.prange(H):
         for j in range(W):
-            a0 = np.float64(frames[i0, i, j])
-            a1 = np.float64(frames[i1, i, j])
-            a2 = np.float64(frames[i2, i, j])
-            b = coef[1, 0] * a0 + coef[1, 1] * a1 + coef[1, 2] * a2
-            c = coef[2, 0] * a0 + coef[2, 1] * a1 + coef[2, 2] * a2
-            phi = fast_atan2(-c, b)
-            sg = np.float64(sign[i, j])
-            x = (np.float64(phi_min[i, j]) - phi) * (1.0 / two_pi)
-            w = (phi + two_pi * (sg * math.ceil(sg * x))) * scale
-            dx = np.float64(D[0, i, j])
-            dy = np.float64(D[1, i, j])
-            dz = np.float64(D[2, i, j])
-            s = (qo - w * po) / (w * (P3[0] * dx + P3[1] * dy + P3[2] * dz) - (Q[0] * dx + Q[1] * dy + Q[2] * dz))
-            b2 = b * b + c * c
+            s, w, b2, sg, a0, a1, a2 = _three_step_pixel(frames, i, j, i0, i1, i2, coef, phi_min, sign, scale, qo,
+                                                         po, D, Q, P3)
             ok = (b2 >= min_mod2) & (sg != 0.0) & (s > 0.0)
             out[i, j] = np.float32(s) if ok else nan
             w_out[i, j] = np.float32(w)
