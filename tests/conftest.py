@@ -141,6 +141,27 @@ ANCHORS = np.array([[6.0, 6.0], [125.0, 6.0]])
 MARKERS = np.array([[40.0, 20.0], [70.0, 45.0], [100.0, 30.0], [130.0, 50.0], [120.0, 15.0]])
 
 
+def bending_wing() -> AnalyticWing:
+    """A wing bending and flapping fast (the strain command's test wing)."""
+    return AnalyticWing(np.array([-75.0, -35.0, 560.0]), +1, curvature=lambda t: 1 / 500 + t * 0.2,
+                        flap=lambda t: np.deg2rad(600.0) * t)
+
+
+def write_wing_sequence(folder, times, wing: AnalyticWing | None = None):
+    """``points_NNNNN.npy`` + ``texture_NNNNN.npy`` of ``wing`` (default :func:`bending_wing`) at
+    ``times`` (s) in ``folder``, seen by :func:`camera`, the textures carrying the two dark
+    anchor dots; returns ``(anchors at t = 0 (2, 2) px, wing)``."""
+    cam, wing = camera(320, 256, 500.0), wing or bending_wing()
+    for i, t in enumerate(times):
+        P, M, W = point_map([wing], cam, t)
+        tex = np.where(W >= 0, 200.0, 5.0)
+        for a in ANCHORS:
+            tex[np.hypot(M[..., 0] - a[0], M[..., 1] - a[1]) <= 3.0] = 20.0
+        np.save(folder / f"points_{i:05d}.npy", P.astype(np.float32))
+        np.save(folder / f"texture_{i:05d}.npy", tex)
+    return np.array([cam.project(wing.world(*a, 0.0)) for a in ANCHORS]), wing
+
+
 # One Xvfb X server for the whole test session (pyglet binds to the first display it opens, so
 # every device test must share it): defined once here, started on first use.
 from devices_xvfb import xvfb  # noqa: E402,F401  (session fixture)

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ANCHORS, AnalyticWing, camera, point_map
+from conftest import write_wing_sequence
 
 from fringe3d.cli import main
 
@@ -12,24 +12,11 @@ TIMES = (0.0, 0.01, 0.02)
 H = 0.1
 
 
-def _wing():
-    return AnalyticWing(np.array([-75.0, -35.0, 560.0]), +1, curvature=lambda t: 1 / 500 + t * 0.2,
-                        flap=lambda t: np.deg2rad(600.0) * t)
-
-
 @pytest.fixture(scope="module")
 def sequence(tmp_path_factory):
     """Three frames of a bending, flapping wing with textures carrying two dark anchor dots."""
     folder = tmp_path_factory.mktemp("seq")
-    cam, wing = camera(320, 256, 500.0), _wing()
-    for i, t in enumerate(TIMES):
-        P, M, W = point_map([wing], cam, t)
-        tex = np.where(W >= 0, 200.0, 5.0)
-        for a in ANCHORS:
-            tex[np.hypot(M[..., 0] - a[0], M[..., 1] - a[1]) <= 3.0] = 20.0
-        np.save(folder / f"points_{i:05d}.npy", P.astype(np.float32))
-        np.save(folder / f"texture_{i:05d}.npy", tex)
-    anchors0 = np.array([cam.project(wing.world(*a, 0.0)) for a in ANCHORS])
+    anchors0, wing = write_wing_sequence(folder, TIMES)
     return folder, anchors0, wing
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ANCHORS, AnalyticWing, camera, point_map
+from conftest import write_wing_sequence
 
 from fringe3d.cli import main
 
@@ -21,17 +21,7 @@ def sequence(tmp_path_factory):
     """Five frames of a bending, flapping wing (points_*.npy, with textures carrying two dark anchor
     dots that the run follows) and the reference anchors 'u1,v1,u2,v2' px."""
     folder = tmp_path_factory.mktemp("seq")
-    cam = camera(320, 256, 500.0)
-    wing = AnalyticWing(np.array([-75.0, -35.0, 560.0]), +1, curvature=lambda t: 1 / 500 + t * 0.2,
-                        flap=lambda t: np.deg2rad(600.0) * t)
-    for i, t in enumerate(TIMES):
-        P, M, W = point_map([wing], cam, t)
-        tex = np.where(W >= 0, 200.0, 5.0)
-        for a in ANCHORS:
-            tex[np.hypot(M[..., 0] - a[0], M[..., 1] - a[1]) <= 3.0] = 20.0
-        np.save(folder / f"points_{i:05d}.npy", P.astype(np.float32))
-        np.save(folder / f"texture_{i:05d}.npy", tex)
-    anchors0 = np.array([cam.project(wing.world(*a, 0.0)) for a in ANCHORS])
+    anchors0, _ = write_wing_sequence(folder, TIMES)
     return folder, ",".join(f"{x:.4f}" for x in anchors0.ravel())
 
 
