@@ -101,7 +101,8 @@ def register(app: typer.Typer) -> None:
                                            help="Sequences: also store each 3D frame's quality map and sigma_z."),
         store_codec: str = typer.Option("lz4", "--store-codec",
                                         help="Sequences: the point store's compression: lz4 (about half the bytes), "
-                                             "zstd (a little smaller, slower) or none (fastest to write)."),
+                                             "zstd (a little smaller, slower) or none (twice the bytes, no "
+                                             "compression work; faster only where the disk keeps up)."),
         window: int = typer.Option(None, "--window",
                                    help="Sequences: a 3D frame every N captured frames (sliding window) instead of "
                                         "one per pattern cycle."),
