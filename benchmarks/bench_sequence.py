@@ -92,12 +92,11 @@ def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dic
     H, W = c.quality.shape
     cases = {"xyz": ("xyz", False), "ray_depth": ("ray_depth", False), "ray_depth+quality+sigma": ("ray_depth", True)}
     out: dict = {}
-    for codec, level in (("lz4", 5), ("zstd", 3), ("none", 0)):
-        store_module.CODEC, store_module.CODEC_LEVEL = codec, level
+    for codec in store_module.CODECS:
         for name, (layout, q) in cases.items():
             path = work / f"store-{codec}-{name}.zarr"
             st = store_module.PointMapStore.open(path, 10, H, W, layout=layout, quality=q, sigma=q,
-                                                 rays=rec.rays if layout == "ray_depth" else None)
+                                                 rays=rec.rays if layout == "ray_depth" else None, codec=codec)
             arrays = {"points": c.points} if layout == "xyz" else {"depth": c.depth}
             if q:
                 arrays.update(quality=c.quality, sigma_z=c.sigma_z)
@@ -110,7 +109,6 @@ def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dic
                        and f.relative_to(path).parts[0] in ("points", "depth", "quality", "sigma_z")) / 10
             out[f"{name} {codec}"] = {"write_ms_per_frame": round(ms, 1), "mb_per_frame": round(size / 1e6, 2)}
             shutil.rmtree(path)
-    store_module.CODEC, store_module.CODEC_LEVEL = "lz4", 5
     return out
 
 

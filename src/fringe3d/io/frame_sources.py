@@ -57,6 +57,16 @@ class FrameSource(Protocol):
         ...
 
 
+def _read_each(src, start: int, stop: int, frame) -> np.ndarray:
+    """Frames ``[start, stop)`` of ``src`` (a source read image by image), ``frame(k)`` each,
+    into one ``(stop - start, H, W)`` array."""
+    _check_range(src, start, stop)
+    out = np.empty((stop - start,) + tuple(src.shape[1:]), src.dtype)
+    for k in range(start, stop):
+        out[k - start] = frame(k)
+    return out
+
+
 def _check_range(src: FrameSource, start: int, stop: int) -> None:
     if not 0 <= start <= stop <= len(src):
         raise ValueError(f"{src.path}: frames [{start}, {stop}) are outside the file's {len(src)} frames")
@@ -227,11 +237,7 @@ class CineSource:
         return self.shape[0]
 
     def read(self, start: int, stop: int) -> np.ndarray:
-        _check_range(self, start, stop)
-        out = np.empty((stop - start,) + self.shape[1:], self.dtype)
-        for k in range(start, stop):
-            out[k - start] = self._cine.get_frame(k)
-        return out
+        return _read_each(self, start, stop, self._cine.get_frame)
 
     def close(self) -> None:
         self._cine.close()
@@ -273,15 +279,14 @@ class TiffSource:
         return self.shape[0]
 
     def read(self, start: int, stop: int) -> np.ndarray:
-        _check_range(self, start, stop)
-        out = np.empty((stop - start,) + self.shape[1:], self.dtype)
-        for k in range(start, stop):
-            img = self._tif.pages[k].asarray()
-            if img.shape != self.shape[1:] or img.dtype != self.dtype:
-                raise ValueError(f"{self.path}: page {k} is {img.dtype} {img.shape} but page 0 is "
-                                 f"{self.dtype} {self.shape[1:]}; all pages must match")
-            out[k - start] = img
-        return out
+        return _read_each(self, start, stop, self._page)
+
+    def _page(self, k: int) -> np.ndarray:
+        img = self._tif.pages[k].asarray()
+        if img.shape != self.shape[1:] or img.dtype != self.dtype:
+            raise ValueError(f"{self.path}: page {k} is {img.dtype} {img.shape} but page 0 is "
+                             f"{self.dtype} {self.shape[1:]}; all pages must match")
+        return img
 
     def close(self) -> None:
         self._tif.close()

@@ -49,7 +49,8 @@ LAYOUTS = ("xyz", "ray_depth")
 #: wrote an xyz point map 3x faster than zstd level 3 (69 vs 210 ms, a loaded 2-core machine)
 #: for 16 % more bytes (10.7 vs 9.3 MB); writing is on the critical path of a sequence.
 CODEC: Literal["lz4", "zstd", "none"] = "lz4"
-CODEC_LEVEL = 5
+#: Blosc compression level of each codec
+CODEC_LEVELS = {"lz4": 5, "zstd": 3}
 #: byte shuffle per dtype: float data compress only once their bytes are regrouped
 SHUFFLE: Literal["shuffle", "noshuffle", "bitshuffle"] = "shuffle"
 #: zarr's default compares every chunk written with the fill value to skip empty ones; a 3D
@@ -87,8 +88,9 @@ def _compressor(codec: str | None = None):
     codec = CODEC if codec is None else codec
     if codec not in CODECS:
         raise ValueError(f"unknown point store codec {codec!r}; expected one of {', '.join(CODECS)}")
-    level = CODEC_LEVEL if codec == CODEC else {"lz4": 5, "zstd": 3}.get(codec, 0)
-    return None if codec == "none" else BloscCodec(cname=codec, clevel=level, shuffle=SHUFFLE)  # type: ignore[arg-type]  # checked against CODECS
+    if codec == "none":
+        return None
+    return BloscCodec(cname=codec, clevel=CODEC_LEVELS[codec], shuffle=SHUFFLE)  # type: ignore[arg-type]  # checked against CODECS
 
 
 class PointMapStore:

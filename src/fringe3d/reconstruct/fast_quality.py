@@ -82,8 +82,10 @@ def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shi
         keep = q == 0
         n = len(index)
         sigma_n = noise.laplacian_noise(avg, keep) * math.sqrt(n)  # the average of N frames carries sigma / sqrt(N)
-        sigma_z = fast.tri.sigma_z_from_phase_noise(w, mod, sigma_n, n, fast.mp.period, keep)
-        if uncertainty is True:
+        if uncertainty is True:  # every axis; z is the same bits sigma_z_from_phase_noise gives
             sigma_w = noise.phase_sigma(sigma_n, mod, n) * np.float32(fast.mp.period / (2 * math.pi))
             sigma_xyz = fast_point_sigma(fast.tri, w, sigma_w, keep)
+            sigma_z = np.ascontiguousarray(sigma_xyz[..., 2])
+        else:
+            sigma_z = fast.tri.sigma_z_from_phase_noise(w, mod, sigma_n, n, fast.mp.period, keep)
     return FastQuality(q, sigma_z, sigma_xyz, avg, mod)
