@@ -6,6 +6,7 @@ import pytest
 import typer
 
 from fringe3d.cli import app, main
+from fringe3d.commands.lazy import COMMANDS, all_commands
 from fringe3d.commands.deprecated import DEPRECATED, rewrite_deprecated
 from fringe3d.io.capture import write_capture
 from fringe3d.patterns import sets
@@ -18,7 +19,7 @@ NO_OUTPUT = {"evaluate", "experiment"}
 
 def _commands() -> dict:
     """The sub-commands as (typer's) click commands."""
-    return dict(typer.main.get_command(app).commands)  # type: ignore[attr-defined]
+    return all_commands()
 
 
 def _options(cmd) -> dict:
@@ -49,6 +50,27 @@ def test_min_modulation_names_and_units():
     share = _options(cmds["calibrate"])
     assert "--min-modulation" not in share
     assert "95th-percentile" in share["--min-modulation-share"].help and "0-1" in share["--min-modulation-share"].help
+
+
+def test_help_summaries_are_the_first_words_of_each_commands_own_help():
+    commands = _commands()
+    assert list(commands) == [entry.name for entry in COMMANDS]
+    for entry in COMMANDS:
+        own = " ".join((commands[entry.name].help or "").split())
+        assert own.startswith(entry.summary), entry.name
+
+
+def test_help_and_version_import_no_command_module():
+    import subprocess
+    import sys
+    code = ("import sys; from fringe3d.cli import main; rc = main(['--help']); rc2 = main(['--version']); "
+            "print(sorted(m for m in sys.modules if m.startswith('fringe3d.commands.')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert "Commands" in out and out.strip().endswith("['fringe3d.commands.lazy']")
+    for heavy in ("cv2", "scipy", "numba"):
+        probe = subprocess.run([sys.executable, "-c", "import sys; from fringe3d.cli import main; main(['--help']); "
+                                f"print({heavy!r} in sys.modules)"], capture_output=True, text=True, check=True)
+        assert probe.stdout.strip().endswith("False"), heavy
 
 
 def test_completion_options_exist():

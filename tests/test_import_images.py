@@ -189,11 +189,8 @@ def test_decode_reads_a_folder_of_frames_with_the_import_options_and_writes_only
 
 
 def test_import_and_decode_share_one_definition_of_the_import_options():
-    import typer.main
-
-    from fringe3d.cli import app
-    params = {c.name: {p.name: p for p in typer.main.get_command(app).commands[c.name].params}
-              for c in app.registered_commands if c.name in ("import", "decode")}
+    from fringe3d.commands.lazy import load_command
+    params = {name: {p.name: p for p in load_command(name).params} for name in ("import", "decode")}
     shared = ("list_file", "manifest", "layout", "projector_size", "steps", "period", "direction", "shift_order",
               "shift_sign", "unwrap", "no_inverse", "channel", "bit_depth", "first_frame", "frame_count")
     for name in shared:

@@ -1,9 +1,10 @@
 """The ``fringe3d`` command.
 
 Each sub-command lives in its own module under :mod:`fringe3d.commands` and exposes
-``register(app)``; this file wires the modules listed in :data:`COMMANDS` (in that order), so
-adding a command touches only its module and that list. A command module that fails to import
-fails the whole CLI loudly instead of vanishing from it.
+``register(app)``; :data:`fringe3d.commands.lazy.COMMANDS` lists them in order, and a module is
+imported only when its command runs (``--help`` and ``--version`` import none), so the command
+starts in a blink. A command module that fails to import fails that command loudly instead of
+vanishing from the CLI.
 
 Exit codes (documented in ``fringe3d --help``):
   0 success · 1 unexpected internal error (a bug: the message says where to report it;
@@ -21,28 +22,11 @@ import typer
 from rich.markup import escape
 
 from fringe3d import __version__
-from fringe3d.commands import (
-    calibrate,
-    capture,
-    decode,
-    demo,
-    evaluate,
-    experiment,
-    import_,
-    patterns,
-    reconstruct,
-    report,
-    simulate,
-    strain,
-)
+from fringe3d.commands.lazy import LazyCommands
 from fringe3d.gpu.runtime import CudaUnavailableError
 from fringe3d.utils.console import err_console, set_quiet, settings, warn
 from fringe3d.utils.output_folder import interrupt_requested, request_interrupt, set_command_line
 from fringe3d.utils.warning_types import Fringe3DWarning
-
-#: The sub-command modules, in the order they are registered (and listed by ``--help``).
-COMMANDS = (patterns, capture, import_, simulate, decode, calibrate, reconstruct, evaluate, strain, report, demo,
-            experiment)
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_WRITE, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 ISSUES_URL = "https://github.com/fringe3d/fringe3d/issues"
@@ -61,6 +45,7 @@ app = typer.Typer(
         "Example: fringe3d demo -o demo-out"
     ),
     no_args_is_help=True,
+    cls=LazyCommands,
     add_completion=True,
     pretty_exceptions_enable=False,
     context_settings={"help_option_names": ["-h", "--help"]},
@@ -81,10 +66,6 @@ def _print_version(value: bool) -> None:
     if value:
         typer.echo(__version__)
         raise typer.Exit()
-
-
-for _module in COMMANDS:
-    _module.register(app)
 
 
 def show_warning(message, category, filename, lineno, file=None, line=None) -> None:
