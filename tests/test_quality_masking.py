@@ -107,3 +107,13 @@ def test_decoded_save_load_keeps_quality_and_phase_sigma(tmp_path):
     assert np.array_equal(back.phase_sigma["v"], d.phase_sigma["v"], equal_nan=True)
     tif = tifffile.imread(tmp_path / "quality_v.tif")
     assert tif.dtype == np.uint8 and np.array_equal(tif, d.quality["v"])
+
+
+def test_noise_model_line_fit_equals_numpy_least_squares():
+    rng = np.random.default_rng(7)
+    a = rng.uniform(0, 255, 5000)
+    v = 3.0 + 0.04 * a + rng.normal(0, 0.5, a.size)
+    c0, c1 = noise._line_fit(a, v)
+    ref = np.linalg.lstsq(np.stack([np.ones(a.size), a], axis=1), v, rcond=None)[0]
+    assert np.allclose([c0, c1], ref, rtol=1e-10, atol=1e-12)
+    assert noise._line_fit(np.full(10, 4.0), np.arange(10.0)) == (4.5, 0.0)  # constant x: the mean, no slope

@@ -81,13 +81,23 @@ def fit_noise_model(variance: np.ndarray, average: np.ndarray, mask: np.ndarray)
     keep = np.ones(v.size, bool)
     c0 = c1 = 0.0
     for _ in range(2):
-        design = np.stack([np.ones(keep.sum()), a[keep]], axis=1)
-        c0, c1 = np.linalg.lstsq(design, v[keep], rcond=None)[0]
+        c0, c1 = _line_fit(a[keep], v[keep])
         if c1 < 0:
             c0, c1 = float(v[keep].mean()), 0.0
         model = np.maximum(c0 + c1 * a, 1e-12)
         keep = v < 5.0 * model
     return float(c0), float(c1)
+
+
+def _line_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """Least-squares line ``y = c0 + c1 x`` in closed form (the 2 x 2 normal equations, centred):
+    ``c1 = sum((x - mx)(y - my)) / sum((x - mx)^2)``, ``c0 = my - c1 mx``; ``c1 = 0`` where x is
+    constant. x, y (n,) float64."""
+    mx, my = float(x.mean()), float(y.mean())
+    dx = x - mx
+    sxx = float(dx @ dx)
+    c1 = float(dx @ (y - my)) / sxx if sxx > 0 else 0.0
+    return my - c1 * mx, c1
 
 
 def noise_sigma(model: tuple[float, float], average: np.ndarray) -> np.ndarray:
