@@ -40,7 +40,7 @@ def heterodyne_reference(phases, periods, w_range=None) -> OrderedPhase:
 
 
 def gray_code_order_reference(frames, code_index, wrapped, period, stripes, inverse_index=None,
-                              threshold=None) -> CodeUnwrapped:
+                              threshold=None, contrast=None) -> CodeUnwrapped:
     """Plain-NumPy reference of :func:`gray_code_order` (one pixel at a time for the edge fades)."""
     f = np.asarray(frames, dtype=np.float64)
     nb = len(code_index)
@@ -50,7 +50,7 @@ def gray_code_order_reference(frames, code_index, wrapped, period, stripes, inve
     for q in range(nb):
         code = code * 2 + (diff[q] > 0)
     size = np.abs(diff)
-    amp = size.max(axis=0)
+    amp = size.max(axis=0) if contrast is None else np.maximum(size.max(axis=0), contrast)
     weights = [1 << (nb - 1 - q) for q in range(nb)]
 
     def fade(mask, pick, empty):

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from fringe3d.phase.psp import default_shifts, wrapped_phase
-from fringe3d.unwrap.temporal import (beat_chain, code_centers, code_stripes, coarse_window, gray_code_order, heterodyne,
-                                      hierarchical, three_frequency_decode)
+from fringe3d.unwrap.temporal import (beat_chain, code_centers, code_stripes, coarse_window, gray_code_order,
+                                      heterodyne, hierarchical, three_frequency_decode)
 from reference_engine import gray_code_order_reference, heterodyne_reference, hierarchical_reference
 
 H, W = 128, 160

@@ -31,10 +31,13 @@ from fringe3d.utils.warning_types import UnwrapRangeWarning
 
 
 class OrderedPhase(NamedTuple):
-    """Absolute phase (H, W) float32 rad and fringe order (H, W) int32 of the narrowest period."""
+    """Absolute phase (H, W) float32 rad and fringe order (H, W) int32 of the narrowest period,
+    and the largest rounding residual over the unwrapping steps (H, W) float32 (periods of each
+    step's finer phase, 0 to 1/2: how far the coarse estimate is from the fine coordinate)."""
 
     phase: np.ndarray
     order: np.ndarray
+    residual: np.ndarray | None = None
 
 
 def coarse_window(period: float, w_range: tuple[float, float] | None) -> float:
@@ -100,8 +103,9 @@ def hierarchical(phases: Sequence[np.ndarray], periods: Sequence[float],
     lower = coarse_window(p[-1], w_range)
     order = np.empty(st.shape[1:], np.int32)
     phase = np.empty(st.shape[1:], np.float32)
-    kernels.hierarchical_kernel(st, p, lower, order, phase)
-    return OrderedPhase(phase, order)
+    residual = np.empty(st.shape[1:], np.float32)
+    kernels.hierarchical_kernel(st, p, lower, order, phase, residual)
+    return OrderedPhase(phase, order, residual)
 
 
 # -- heterodyne ---------------------------------------------------------------------------
@@ -139,8 +143,9 @@ def heterodyne(phases: Sequence[np.ndarray], periods: Sequence[float],
     lower = coarse_window(beats[-1], w_range)
     order = np.empty(st.shape[1:], np.int32)
     phase = np.empty(st.shape[1:], np.float32)
-    kernels.heterodyne_kernel(st, signs, beats, p, lower, order, phase)
-    return OrderedPhase(phase, order)
+    residual = np.empty(st.shape[1:], np.float32)
+    kernels.heterodyne_kernel(st, signs, beats, p, lower, order, phase, residual)
+    return OrderedPhase(phase, order, residual)
 
 
 # -- Gray / binary code + phase -----------------------------------------------------------
@@ -248,7 +253,8 @@ def _code_bits(frames: np.ndarray, code_index: Sequence[int], inverse_index: Seq
 
 def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.ndarray, period: float,
                     stripes: CodeStripes, inverse_index: Sequence[int] | None = None,
-                    threshold: np.ndarray | None = None, coordinate: np.ndarray | None = None) -> CodeUnwrapped:
+                    threshold: np.ndarray | None = None, coordinate: np.ndarray | None = None,
+                    contrast: np.ndarray | None = None) -> CodeUnwrapped:
     """Fringe order from Gray (or binary) code frames and the wrapped phase together.
 
     Each bit is 1 where the code frame is brighter than its inverse frame (``inverse_index``)
@@ -259,10 +265,17 @@ def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.n
 
     ``w_c = lo + (hi - lo) D_lo / (D_lo + D_hi)``
 
-    with ``D_lo`` (``D_hi``) the smallest ``|D_q|`` of the bits that change at the stripe's
-    lower (upper) edge only, capped at the pixel's largest ``|D_q|`` (which also stands in for
-    an edge without a neighbouring stripe): the stripe centre inside the stripe, where both
-    bits are clear, moving to the edge the pixel sits at, whose bit fades there. The fringe
+    with ``D_lo`` (``D_hi``) the largest ``|D_q|`` of the bits that change at the stripe's
+    lower (upper) edge, or a clear bit's ``|D|`` (``contrast`` (H, W), else the pixel's largest
+    ``|D_q|``) for an edge without a neighbouring stripe: the stripe centre inside the stripe,
+    where the bits are clear, moving to the edge the pixel sits at, whose bits fade there. Where
+    every bit of one edge also changes at the other (a binary code's last bit), that edge counts
+    as clear while the other edge's own bits are (``D_hi = max(D_hi, contrast - min |D_own lo|)``).
+    A binary code's edge where every bit changes leaves no clear bit in the pixel: pass
+    ``contrast``, a clear bit's ``|D|`` (the pixel's largest ``|D_q|`` where that is larger),
+    e.g. ``2 B`` of the phase frames with inverse frames, ``B`` without (code and fringes spanning
+    the same projector range; blur lowers a fine fringe's ``B``, so it rather underestimates).
+    The fringe
     order puts the unwrapped coordinate nearest ``w_c``:
     ``k = floor(w_c / T - phi / 2 pi + 1/2)`` (Eq. 1.5; ties, ``|w - w_c| = T/2``, go up).
 
@@ -274,7 +287,9 @@ def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.n
     edge bits fade over more than the phase noise. Stripes wider than the period leave the order
     open inside the stripe: pass ``coordinate`` (H, W) (the code's sub-stripe estimate of
     ``w``, px, NaN where unknown, :func:`fringe3d.unwrap.sub_stripe.sub_stripe_coordinate`),
-    which then replaces ``w_c``; pixels without one get residual inf.
+    which then replaces ``w_c``; pixels without one get residual inf (stripes wider than ``T`` by
+    more than one projector pixel, the margin of the outermost stripes, which reach the
+    projector's pixel edges).
 
     The residual (fringe periods) is the unwrapped coordinate's distance outside the stripe
     ``[lo, hi]`` (with ``coordinate``: from ``coordinate``): ~0 where code and phase agree; a
@@ -291,16 +306,21 @@ def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.n
     if wr.shape != frames.shape[1:] or thr.shape != frames.shape[1:]:
         raise ValueError(f"wrapped phase {wr.shape} / threshold {thr.shape} must match frames {frames.shape[1:]}")
     coord = (np.empty((0, 0)) if coordinate is None else np.ascontiguousarray(coordinate, np.float64))
+    ref = np.empty((0, 0), np.float32) if contrast is None else np.ascontiguousarray(contrast, np.float32)
+    if contrast is not None and ref.shape != wr.shape:
+        raise ValueError(f"contrast {ref.shape} must match frames {frames.shape[1:]}")
     if coordinate is not None and coord.shape != wr.shape:
         raise ValueError(f"coordinate {coord.shape} must match frames {frames.shape[1:]}")
     order = np.empty(wr.shape, np.int32)
     phase = np.empty(wr.shape, np.float32)
     valid = np.empty(wr.shape, np.bool_)
     residual = np.empty(wr.shape, np.float32)
-    tables = tuple(np.ascontiguousarray(t, np.float64) for t in stripes[:3])
-    kernels.code_order_kernel(frames, ci, ii, thr, wr, float(period), *tables,
-                              np.ascontiguousarray(stripes.lower_bits, np.int64),
-                              np.ascontiguousarray(stripes.upper_bits, np.int64), coord,
+    def table(t: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(t, np.float64)
+
+    kernels.code_order_kernel(frames, ci, ii, thr, wr, float(period), table(stripes.centre), table(stripes.lower),
+                              table(stripes.upper), np.ascontiguousarray(stripes.lower_bits, np.int64),
+                              np.ascontiguousarray(stripes.upper_bits, np.int64), ref, coord,
                               order, phase, valid, residual)
     return CodeUnwrapped(phase, order, valid, residual)
 
