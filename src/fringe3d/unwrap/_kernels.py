@@ -207,6 +207,19 @@ def _edge_fades(diff, amp, fl, fh, el, eh):
     return d_lo, d_hi
 
 
+@njit(cache=True, inline="always")
+def _stray_weak_bit(diff, own, edge_bits):
+    """True when a bit outside ``edge_bits`` (those changing at the stripe edge the pixel is
+    nearest) is weak, ``|D_q| < own / 2`` (``own`` the pixel's largest ``|D_q|``): the codeword
+    is then no stripe the pixel can be next to (a binary code read on an edge where several bits
+    change, some misread: the word of a stripe two away)."""
+    nb = diff.shape[0]
+    for q in range(nb):
+        if diff[q] < 0.5 * own and not (edge_bits & (np.int64(1) << (nb - 1 - q))):
+            return True
+    return False
+
+
 @njit(cache=True, parallel=True)
 def code_order_kernel(frames, code_idx, inverse_idx, threshold, wrapped, period, centre, lower, upper,
                       lower_bits, upper_bits, contrast, coordinate, order_out, phase_out, valid_out, residual_out):
@@ -223,7 +236,8 @@ def code_order_kernel(frames, code_idx, inverse_idx, threshold, wrapped, period,
     ``w_c = lo + (hi - lo) D_lo / (D_lo + D_hi)``, ``k = floor(w_c / T - phi / 2 pi + 1/2)``.
     Outputs: order int32, absolute phase float32, valid bool (False for unused codewords),
     residual float32 (periods; distance of ``w = T (phi / 2 pi + k)`` outside the stripe, from
-    ``coordinate`` where used; inf for a stripe wider than T + 1 px without ``coordinate``).
+    ``coordinate`` where used; inf for a stripe wider than T + 1 px without ``coordinate`` and
+    for a codeword with a stray weak bit, :func:`_stray_weak_bit`).
     """
     nb = code_idx.shape[0]
     h = frames.shape[1]
@@ -234,7 +248,7 @@ def code_order_kernel(frames, code_idx, inverse_idx, threshold, wrapped, period,
         diff = np.empty(nb)
         for j in range(w):
             code = 0
-            amp = np.float64(contrast[i, j]) if has_contrast else 0.0
+            own = 0.0
             for q in range(nb):
                 v = np.float64(frames[code_idx[q], i, j])
                 if inverse_idx[q] >= 0:
@@ -242,7 +256,7 @@ def code_order_kernel(frames, code_idx, inverse_idx, threshold, wrapped, period,
                 else:
                     t = np.float64(threshold[i, j])
                 diff[q] = abs(v - t)
-                amp = max(amp, diff[q])
+                own = max(own, diff[q])
                 code = code * 2 + (1 if v > t else 0)
             c = centre[code]
             if math.isnan(c):
@@ -255,7 +269,9 @@ def code_order_kernel(frames, code_idx, inverse_idx, threshold, wrapped, period,
             hi = upper[code]
             fl = lower_bits[code]
             fh = upper_bits[code]
+            amp = max(own, np.float64(contrast[i, j])) if has_contrast else own
             d_lo, d_hi = _edge_fades(diff, amp, fl, fh, fl & ~fh, fh & ~fl)
+            stray = _stray_weak_bit(diff, own, fl if d_lo < d_hi else fh)
             wc = c if d_lo + d_hi <= 0.0 else lo + (hi - lo) * d_lo / (d_lo + d_hi)
             point = False
             if has_coord and not math.isnan(coordinate[i, j]):
@@ -265,7 +281,9 @@ def code_order_kernel(frames, code_idx, inverse_idx, threshold, wrapped, period,
             k = round_half_up(wc / period - phi / TWO_PI)
             big = phi + TWO_PI * k
             wu = big * (period / TWO_PI)
-            if point:
+            if stray:
+                res = np.inf
+            elif point:
                 res = abs(wu - wc) / period
             elif hi - lo > period * (1.0 + 1e-9) + 1.0:  # beyond the projector's outer pixel edges
                 res = np.inf

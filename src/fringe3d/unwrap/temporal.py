@@ -294,7 +294,11 @@ def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.n
     The residual (fringe periods) is the unwrapped coordinate's distance outside the stripe
     ``[lo, hi]`` (with ``coordinate``: from ``coordinate``): ~0 where code and phase agree; a
     misread code bit that moves the pixel to a stripe of the other half period (complementary
-    code) leaves it up to 1/4. Mask pixels above :data:`MAX_CODE_RESIDUAL`.
+    code) leaves it up to 1/4. It is inf where a bit that does not change at the edge the pixel
+    is nearest is weak (``|D_q|`` below half the pixel's largest): no stripe has such a word
+    next to its edge (a binary code read where several bits change and some are misread, which
+    gives the word of a stripe two away, consistent with the phase). Mask pixels above
+    :data:`MAX_CODE_RESIDUAL`.
 
     frames (F, H, W) any real dtype; wrapped (H, W) rad. Returns :class:`CodeUnwrapped`.
     """
