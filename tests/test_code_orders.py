@@ -13,6 +13,7 @@ import pytest
 from fringe3d.decode import DecodeOptions, decode, edges
 from fringe3d.io.capture import read_capture
 from fringe3d.patterns import sets
+from fringe3d.patterns.synthetic import frames_from_coordinates
 from fringe3d.phase.psp import wrapped_phase
 from fringe3d.sim.simulate import simulate_capture
 from fringe3d.unwrap.sub_stripe import sub_stripe_coordinate
@@ -184,3 +185,25 @@ def test_corrupted_code_bit_is_masked_with_the_order_bit(tmp_path):
     assert sum(ordered) >= 6
     clean = decode(frames, cap.patterns, options=DecodeOptions(bit_depth=cap.bit_depth, max_code_residual=math.inf))
     assert all(not clean.quality["v"][r, c] & edges.ORDER for r, c in picks)
+
+
+def test_coarse_phase_off_by_over_a_quarter_period_is_masked_with_the_order_bit():
+    """Hierarchical plan: pixels whose middle (T=96) phase is shifted by 0.55 of the fine period
+    would round to the neighbouring order; their residual 0.45 > 1/4 sets ORDER and masks them,
+    and the check is what removes them (max_residual=pi keeps them, off by a period)."""
+    ps = sets.hierarchical((16, 96, 1024), 4, "v", width=800, height=600)
+    v_p, u_p = np.mgrid[100:132, 100:164].astype(float)
+    frames = frames_from_coordinates(ps, u_p, v_p, dtype=np.uint8)
+    shifted = frames_from_coordinates(ps, u_p + 0.55 * 16, v_p, dtype=np.uint8)
+    middle = [i for i, f in enumerate(ps.frames) if f.period == 96]
+    picks = [(5, 7), (12, 30), (20, 50), (27, 13)]
+    for r, c in picks:
+        frames[middle, r, c] = shifted[middle, r, c]
+    d = decode(frames, ps, options=DecodeOptions(min_modulation=1.0))
+    for r, c in picks:
+        assert d.quality["v"][r, c] & edges.ORDER and not d.mask["v"][r, c]
+    assert d.info["quality"]["v"]["masked"]["order"] == len(picks)
+    assert d.summary()["directions"]["v"]["order_inconsistent"] == pytest.approx(len(picks) / u_p.size)
+    kept = decode(frames, ps, options=DecodeOptions(min_modulation=1.0, max_residual=math.pi, edge_mask=False))
+    w = kept.projector_coordinate("v")
+    assert all(kept.mask["v"][r, c] and abs(w[r, c] - u_p[r, c] - 16) < 0.5 for r, c in picks)
