@@ -95,8 +95,10 @@ def hierarchical(phases: Sequence[np.ndarray], periods: Sequence[float],
     periods : M periods in projector pixels, same order.
     w_range : (w_min, w_max) projector fringe coordinates covered, see :func:`coarse_window`.
 
-    Returns :class:`OrderedPhase` for the narrowest period. Exact while each level's error
-    ``|(T_low/T_high) dPhi_low - dphi_high| < pi``.
+    Returns :class:`OrderedPhase` for the narrowest period, with the largest rounding residual
+    over the levels (periods of the finer phase; ties at exactly 1/2 go up). Exact while each
+    level's error ``|(T_low/T_high) dPhi_low - dphi_high| < pi``; an exact-zero wrapped phase is
+    no tie here (the rounding is against the coarser estimate, not against a stripe centre).
     """
     st = stack_phases(phases)
     p = check_periods(periods, st.shape[0], 1)
