@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fringe3d.patterns.conventions import TWO_PI, coarse_to_fine_order, w_to_phase
+from fringe3d.patterns.conventions import TWO_PI, coarse_to_fine_order
 from fringe3d.unwrap.temporal import (CodeUnwrapped, OrderedPhase, beat_chain, check_periods, coarse_window,
                                       stack_phases)
 
@@ -39,17 +39,39 @@ def heterodyne_reference(phases, periods, w_range=None) -> OrderedPhase:
     return OrderedPhase((st[0] + TWO_PI * k).astype(np.float32), k.astype(np.int32))
 
 
-def gray_code_order_reference(frames, code_index, wrapped, period, centers, inverse_index=None,
-                              threshold=None) -> CodeUnwrapped:
-    """Plain-NumPy reference of :func:`gray_code_order`."""
+def gray_code_order_reference(frames, code_index, wrapped, period, stripes, inverse_index=None,
+                              threshold=None, contrast=None) -> CodeUnwrapped:
+    """Plain-NumPy reference of :func:`gray_code_order` (one pixel at a time for the edge fades)."""
     f = np.asarray(frames, dtype=np.float64)
+    nb = len(code_index)
+    diff = np.stack([f[i] - (f[inverse_index[q]] if inverse_index is not None else np.asarray(threshold, np.float64))
+                     for q, i in enumerate(code_index)])
     code = np.zeros(f.shape[1:], np.int64)
-    for q, i in enumerate(code_index):
-        t = f[inverse_index[q]] if inverse_index is not None else np.asarray(threshold, np.float64)
-        code = code * 2 + (f[i] > t)
-    c = np.asarray(centers)[code]
-    phi = np.asarray(wrapped, np.float64)
+    for q in range(nb):
+        code = code * 2 + (diff[q] > 0)
+    size = np.abs(diff)
+    amp = size.max(axis=0) if contrast is None else np.maximum(size.max(axis=0), contrast)
+    weights = [1 << (nb - 1 - q) for q in range(nb)]
+
+    def fade(mask, pick, empty):
+        sel = np.stack([(mask & wq) != 0 for wq in weights])
+        vals = np.where(sel, size, empty[None])
+        return np.where(mask != 0, pick(vals, axis=0), amp)
+
+    fl, fh = stripes.lower_bits[code], stripes.upper_bits[code]
+    el, eh = fl & ~fh, fh & ~fl
+    d_lo = fade(fl, np.max, np.zeros_like(amp))
+    d_hi = fade(fh, np.max, np.zeros_like(amp))
+    e_lo = fade(el, np.min, amp)
+    e_hi = fade(eh, np.min, amp)
+    both = (fl != 0) & (fh != 0)
+    d_hi = np.where(both & (eh == 0), np.maximum(d_hi, amp - e_lo), d_hi)
+    d_lo = np.where(both & (el == 0), np.maximum(d_lo, amp - e_hi), d_lo)
+    lo, hi, c = stripes.lower[code], stripes.upper[code], stripes.centre[code]
     valid = np.isfinite(c)
-    k = coarse_to_fine_order(w_to_phase(np.where(valid, c, 0.0), period), phi, 1.0, ties="up")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        wc = np.where(d_lo + d_hi > 0, lo + (hi - lo) * d_lo / (d_lo + d_hi), c)
+    phi = np.asarray(wrapped, np.float64)
+    k = np.floor(np.where(valid, wc, 0.0) / period - phi / TWO_PI + 0.5)
     phase = np.where(valid, phi + TWO_PI * k, np.nan)
     return CodeUnwrapped(phase.astype(np.float32), np.where(valid, k, 0).astype(np.int32), valid)

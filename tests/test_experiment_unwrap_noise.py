@@ -1,4 +1,6 @@
 """unwrap-noise experiment (quick variant) against closed-form truth."""
+import math
+
 import numpy as np
 import pytest
 
@@ -40,20 +42,18 @@ def test_half_period_gray_code_is_exact_at_every_noise_level_in_the_quick_run(re
     assert all(r == 0.0 for r in result["rates"]["gray code + phase (T/2 stripes)"])
 
 
-def test_period_wide_gray_code_fails_only_next_to_its_stripe_edges():
+def test_period_wide_gray_code_takes_the_order_of_the_stripe_edge_it_sits_at():
+    """Issue 23: stripe edges at phase 0 of every fringe no longer give the neighbouring order on
+    noise-free frames; the fading code bit tells which edge of its stripe a pixel sits at."""
     from fringe3d.decode import DecodeOptions, decode
     from fringe3d.patterns.synthetic import frames_from_coordinates
     ps = unwrap_noise.methods()["gray code + phase (T stripes)"]
     sub, centre = unwrap_noise.phase_field(320, 16)
     frames = frames_from_coordinates(ps, sub, np.full_like(sub, 300.0), unwrap_noise.A, unwrap_noise.B_GAIN)
-    d = decode(frames, ps, options=DecodeOptions(min_modulation=1.0, edge_mask=False))  # the method's own mask
-    wrong = np.abs(d.phase["v"] - 2 * np.pi * centre / 18) > np.pi
-    assert wrong.any()
-    dist = np.abs(centre - 18 * np.round(centre / 18))  # projector px to the nearest stripe edge
-    assert dist[wrong].max() <= unwrap_noise.SCALE / 2  # within half a camera pixel of an edge
-    # the default phase-gradient test masks those 2 pi jumps
-    dflt = decode(frames, ps, options=DecodeOptions(min_modulation=1.0))
-    assert not (dflt.mask["v"] & (np.abs(dflt.phase["v"] - 2 * np.pi * centre / 18) > np.pi)).any()
+    opts = DecodeOptions(min_modulation=1.0, edge_mask=False, max_code_residual=math.inf)  # the method's own mask
+    d = decode(frames, ps, options=opts)
+    assert d.mask["v"].mean() > 0.95
+    assert not (np.abs(d.phase["v"] - 2 * np.pi * centre / 18) > np.pi).any()
 
 
 def test_experiment_command_prints_the_table_as_json(capsys):

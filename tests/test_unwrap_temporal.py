@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from fringe3d.phase.psp import default_shifts, wrapped_phase
-from fringe3d.unwrap.temporal import (beat_chain, code_centers, coarse_window, gray_code_order, heterodyne,
-                                      hierarchical, three_frequency_decode)
+from fringe3d.unwrap.temporal import (beat_chain, code_centers, code_stripes, coarse_window, gray_code_order,
+                                      heterodyne, hierarchical, three_frequency_decode)
 from reference_engine import gray_code_order_reference, heterodyne_reference, hierarchical_reference
 
 H, W = 128, 160
@@ -136,7 +136,7 @@ def test_gray_code_half_period_code_exact_despite_edge_misalignment(misalign):
     rng = np.random.default_rng(6)
     period, width = 16.0, 800
     images, u = _code_images(7, period / 2, width)
-    centers = code_centers(images, u)
+    stripes = code_stripes(images, u)
     w = projector_w()
     phase_frames = fringes(w, period, 4, 2.0, rng)
     pos = np.clip(np.floor(w + misalign).astype(int), 0, width - 1)   # code sampled at shifted edges
@@ -144,10 +144,10 @@ def test_gray_code_half_period_code_exact_despite_edge_misalignment(misalign):
     inverse = (1 - images[:, pos]).astype(np.float64) * 160 + 20 + rng.normal(0, 2.0, (7, H, W))
     frames = np.concatenate([phase_frames, code, inverse])
     wr = wrapped_phase(frames, index=range(4)).phase
-    res = gray_code_order(frames, range(4, 11), wr, period, centers, inverse_index=range(11, 18))
+    res = gray_code_order(frames, range(4, 11), wr, period, stripes, inverse_index=range(11, 18))
     assert res.valid.all()
     assert not order_errors(res.phase, w, period).any()
-    ref = gray_code_order_reference(frames, range(4, 11), wr, period, centers, inverse_index=range(11, 18))
+    ref = gray_code_order_reference(frames, range(4, 11), wr, period, stripes, inverse_index=range(11, 18))
     assert np.array_equal(res.order, ref.order)
 
 
@@ -157,14 +157,14 @@ def test_full_period_code_misaligned_edges_cause_order_errors():
     rng = np.random.default_rng(7)
     period, width = 16.0, 800
     images, u = _code_images(6, period, width, offset=-period / 2)
-    centers = code_centers(images, u)
+    stripes = code_stripes(images, u)
     w = projector_w()
     phase_frames = fringes(w, period, 4, 0.0, rng)
     pos = np.clip(np.floor(w + 2.0).astype(int), 0, width - 1)
     code = images[:, pos].astype(np.float64) * 200
     frames = np.concatenate([phase_frames, code])
     wr = wrapped_phase(frames, index=range(4)).phase
-    res = gray_code_order(frames, range(4, 10), wr, period, centers, threshold=np.full((H, W), 100.0))
+    res = gray_code_order(frames, range(4, 10), wr, period, stripes, threshold=np.full((H, W), 100.0))
     assert (order_errors(res.phase, w, period) != 0).mean() > 0.05
 
 
@@ -174,7 +174,7 @@ def test_unused_codewords_are_invalid_and_bad_inputs_raise():
     assert np.isnan(centers).sum() == 8 - 3
     frames = np.zeros((3, 4, 4))
     with pytest.raises(ValueError, match="inverse frames or a threshold"):
-        gray_code_order(frames, range(3), np.zeros((4, 4)), 16.0, centers)
+        gray_code_order(frames, range(3), np.zeros((4, 4)), 16.0, code_stripes(images, u))
     with pytest.raises(ValueError, match="one period per phase"):
         hierarchical([np.zeros((4, 4))] * 2, [16.0])
     with pytest.raises(ValueError, match="distinct periods"):

@@ -196,10 +196,11 @@ def register(app: typer.Typer) -> None:
         rows = []
         for r in results:
             for d, s in r["directions"].items():
+                order = s.get("order_inconsistent")  # absent from a resumed cycle decoded before issue 23
                 rows.append([r["cycle"], d, s["method"], s["period"], s["valid_fraction"], s["phase_min"],
-                             s["phase_max"], s["median_modulation"]])
+                             s["phase_max"], s["median_modulation"], "—" if order is None else float(order)])
         console.print(make_table(f"decoded {capture} -> {out}",
                                  ["cycle", "direction", "method", "period px", "valid", "phase min", "phase max",
-                                  "median modulation"], rows[:40]))
+                                  "median modulation", "order inconsistent"], rows[:40]))
         if len(rows) > 40:
             info(f"... {len(rows) - 40} more rows (use --json for all)")

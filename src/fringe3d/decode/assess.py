@@ -57,12 +57,13 @@ def noise_model(ctx: DecodeContext, groups: list[PhaseGroup], average: np.ndarra
 
 
 def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: np.ndarray,
-           average: np.ndarray | None, period: float) -> Assessment:
+           average: np.ndarray | None, period: float, order: np.ndarray | None = None) -> Assessment:
     """Quality map and phase sigma of one direction.
 
     ``phase`` (H, W) absolute phase (rad, of ``period`` px), ``mask`` the method's mask,
     ``modulation`` / ``average`` of the narrowest group (``average`` None: a code-only method,
-    no phase groups). Only the INVALID bit is set with
+    no phase groups), ``order`` the method's ``order_inconsistent`` pixels (bit ORDER, always
+    set). Only the INVALID and ORDER bits are set with
     ``ctx.options.edge_mask`` False, for code-only methods and FTP groups (no phase-shifted group
     of 3 or more steps; code stripes' ``w`` steps by design) and for ``method="none"`` (a wrapped
     phase is not a fringe coordinate).
@@ -81,8 +82,12 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
             sigma_phi = noise.phase_sigma(noise.noise_sigma(model, average), modulation, len(groups[0].indices))
     if not opts.edge_mask or not groups or ctx.plan.method == "none":
         # code-only stripes and wrapped ("none") phases have no continuous w to test
-        return Assessment(np.where(mask, 0, edges.INVALID).astype(np.uint8), sigma_phi, info)
-    w = phase_to_w(np.where(mask, phase, np.nan), period).astype(np.float32)
+        q = edges.order_bits(mask, order)
+        if order is not None:
+            info["masked"] = edges.bit_counts(q)
+        return Assessment(q, sigma_phi, info)
+    valid = mask if order is None else mask & ~np.asarray(order, bool)
+    w = phase_to_w(np.where(valid, phase, np.nan), period).astype(np.float32)
     coarse = [g for g in groups if g.period > period * (1 + 1e-9)]
     blur = 0.0
     residual = None
@@ -98,6 +103,6 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     extent = None if ctx.plan.method in RELATIVE_METHODS else (lo - 0.5 * f, hi + 0.5 * f)
     q = edges.quality_map(mask, w, extent, margin * f, modulation, average, residual,
                           max_disagreement=float(opts.max_disagreement), gradient_ratio=float(opts.gradient_ratio),
-                          modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim))
+                          modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim), order=order)
     info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})
     return Assessment(q, sigma_phi, info)

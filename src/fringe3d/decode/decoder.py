@@ -167,9 +167,10 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         d = plan.direction
         period = float(result.period if result.period is not None else g.period)  # type: ignore[union-attr]
         average = result.average if result.average is not None or g is None else ctx.group_phase(g).average
-        a = assess(ctx, phase, mask, np.asarray(modulation, np.float32), average, period)
-        if opts.edge_mask:
-            mask = mask & (a.quality == 0)
+        a = assess(ctx, phase, mask, np.asarray(modulation, np.float32), average, period,
+                   order=result.order_inconsistent)
+        if opts.edge_mask or result.order_inconsistent is not None:
+            mask = mask & ((a.quality == 0) if opts.edge_mask else (a.quality & edges.ORDER) == 0)
             phase = np.where(mask, phase, np.float32(np.nan)).astype(np.float32, copy=False)
         out.quality[d], out.phase_sigma[d] = a.quality, a.phase_sigma
         out.info.setdefault("quality", {})[d] = a.info

@@ -1,7 +1,7 @@
 """Edge and mixed-pixel masking: the per-pixel quality map of a decoded direction.
 
 A pixel whose phase is not the nominal sinusoid's gives a wrong point however good the rest
-of the chain is. Four tests find such pixels; each sets one bit of a uint8 quality map
+of the chain is. Several tests find such pixels; each sets one bit of a uint8 quality map
 (0 = good, the point is kept):
 
 ============  =====  ==================================================================
@@ -20,6 +20,11 @@ MOD_DROP      16     fringe contrast ``B / A`` below ``modulation_ratio`` times 
                      spill pixels; independent of the albedo)
 RIM           32     within ``rim`` pixels (4-connected) of an INVALID pixel: the rim of a
                      silhouette, shadow or unlit region, mixed by the pixel footprint and blur
+ORDER         64     the fringe order's two estimates disagree (the method's
+                     ``order_inconsistent``): code + phase, the unwrapped ``w`` lies more than
+                     ``max_code_residual`` periods outside the codeword's stripe; hierarchical /
+                     heterodyne, a rounding residual above ``max_residual`` rad. Set whatever
+                     ``edge_mask`` says (the pixel's order, not its edge, is in doubt)
 ============  =====  ==================================================================
 
 The EDGE band holds the pixels lit by projector pixels within ``margin`` (projector px) of the
@@ -57,10 +62,11 @@ INCONSISTENT = 4
 GRADIENT = 8
 MOD_DROP = 16
 RIM = 32
+ORDER = 64
 
 #: Bit -> name, for summaries and docs.
 BITS = {INVALID: "invalid", EDGE: "edge", INCONSISTENT: "inconsistent", GRADIENT: "gradient", MOD_DROP: "mod_drop",
-        RIM: "rim"}
+        RIM: "rim", ORDER: "order"}
 
 #: Base margin (projector px) added to the blur width.
 BASE_MARGIN = 2.0
@@ -163,13 +169,16 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
                 average: np.ndarray | None = None, residual: np.ndarray | None = None,
                 max_disagreement: float = math.inf,
                 gradient_ratio: float = 4.0, gradient_floor: float = 1.0,
-                modulation_ratio: float = 0.5, rim: int = 1) -> np.ndarray:
+                modulation_ratio: float = 0.5, rim: int = 1, order: np.ndarray | None = None) -> np.ndarray:
     """(H, W) uint8 quality map (bits of the module docstring) of one direction.
 
     Parameters
     ----------
     mask : (H, W) bool
         The method's validity mask (False sets INVALID).
+    order : (H, W) bool, optional
+        Pixels of ``mask`` whose fringe-order estimates disagree (sets ORDER; the other tests
+        then treat them as invalid, so RIM grows around them).
     w : (H, W) float, optional
         Projector fringe coordinate ``w = Phi T / 2 pi`` (px); None skips EDGE and GRADIENT.
     extent : (lo, hi), optional
@@ -187,6 +196,10 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
     """
     valid = np.asarray(mask, bool)
     q = _bits(~valid, INVALID)
+    if order is not None:
+        bad = valid & np.asarray(order, bool)
+        valid = valid & ~bad
+        q |= _bits(bad, ORDER)
     if w is not None and extent is not None:
         q |= _bits(valid & edge_band(w, extent, margin), EDGE)
     if residual is not None and math.isfinite(max_disagreement):
@@ -198,6 +211,16 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
         q |= _bits(modulation_drop(modulation, average, valid, modulation_ratio), MOD_DROP)
     if rim > 0:
         q |= _bits(rim_of_invalid(valid, rim), RIM)
+    return q
+
+
+def order_bits(mask: np.ndarray, order: np.ndarray | None) -> np.ndarray:
+    """(H, W) uint8: INVALID where ``mask`` is False, ORDER where ``order`` is set on a valid pixel
+    (the map of a direction without the edge tests)."""
+    valid = np.asarray(mask, bool)
+    q = _bits(~valid, INVALID)
+    if order is not None:
+        q |= _bits(valid & np.asarray(order, bool), ORDER)
     return q
 
 

@@ -5,6 +5,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
+from fringe3d.unwrap.temporal import MAX_CODE_RESIDUAL
+
 
 @dataclass(frozen=True)
 class DecodeOptions:
@@ -28,8 +30,15 @@ class DecodeOptions:
     fused : bool
         Use the fused three-frequency kernel when the plan allows (default True).
     max_residual : float
-        Fused three-frequency path: largest accepted unwrapping residual in rad (default pi/2;
-        pixels above it are masked as inconsistent; ``math.pi`` disables the check).
+        Multi-frequency plans: largest accepted unwrapping residual in rad of each step's finer
+        phase (default pi/2, a quarter period; ``math.pi`` disables the check). The fused
+        three-frequency path masks pixels above it in its own mask; ``hierarchical`` and
+        ``heterodyne`` give them the quality bit ``ORDER`` (:mod:`fringe3d.decode.edges`).
+    max_code_residual : float
+        Code + phase plans (``gray_code`` / ``binary_code`` with phase frames): largest accepted
+        distance, in fringe periods, of the unwrapped coordinate from the codeword's stripe
+        (default :data:`fringe3d.unwrap.temporal.MAX_CODE_RESIDUAL`, 1/8); pixels beyond it get
+        the quality bit ``ORDER`` and are masked (``math.inf`` disables the check).
     ftp_window : str, optional
         FTP band-pass window, ``"hanning"`` or ``"circular"``.
     ftp_radius : float, optional
@@ -93,6 +102,7 @@ class DecodeOptions:
     min_modulation: float | None = None
     fused: bool = True
     max_residual: float = 0.5 * math.pi
+    max_code_residual: float = MAX_CODE_RESIDUAL
     ftp_window: str | None = None
     ftp_radius: float | None = None
     ftp_sign: int = 1

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from fringe3d.decode.edges import INVALID, ORDER
 from fringe3d.io.images import write_tiff
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.quality import DARK_FRACTION, DARK_PERCENTILE
@@ -32,7 +33,14 @@ MAP_UNITS = {"phase": "rad", "wrapped": "rad", "modulation": "camera counts", "m
 #: Units of decoded.json's fields.
 SUMMARY_UNITS = {"period": "projector px", "angle": "rad", "phase_min": "rad", "phase_max": "rad",
                  "median_modulation": "camera counts", "valid_fraction": "1", "shape": "px (rows, columns)",
+                 "order_inconsistent": "1 (share of the method's valid pixels)",
                  "edge_margin": "projector px", "blur": "projector px", "min_modulation": "camera counts"}
+
+
+def order_share(quality: np.ndarray) -> float:
+    """Share of the method's valid pixels (no ``INVALID`` bit) that carry the ``ORDER`` bit."""
+    method_valid = np.count_nonzero((quality & INVALID) == 0)
+    return float(np.count_nonzero(quality & ORDER) / method_valid) if method_valid else 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,6 +68,10 @@ class Unwrapped:
         Object labels of object-wise methods (spatial, hybrid).
     object_orders : dict label -> int, optional
         Fringe-order shift ``k_s`` per object (hybrid, Eq. 5.14).
+    order_inconsistent : (H, W) bool, optional
+        Pixels of ``mask`` whose two fringe-order estimates disagree (code vs phase, coarse vs
+        fine frequency) beyond the method's tolerance; the decoder masks them with the quality
+        bit ``ORDER`` (:mod:`fringe3d.decode.edges`).
     """
 
     phase: np.ndarray
@@ -72,6 +84,7 @@ class Unwrapped:
     phase_is_masked: bool = False
     labels: np.ndarray | None = None
     object_orders: dict[int, int] | None = None
+    order_inconsistent: np.ndarray | None = None
 
 
 @dataclass
@@ -84,7 +97,8 @@ class Decoded:
     ``modulation[d]`` float32 (frames' units), ``mask[d]`` bool; ``period[d]`` (px),
     ``angle[d]`` (rad), ``method[d]`` (unwrapping method), ``quality[d]`` uint8 (0 = good;
     one bit per reason a pixel is masked: 1 invalid, 2 projector-edge band, 4 multi-frequency
-    disagreement, 8 phase-gradient jump, 16 modulation drop; :mod:`fringe3d.decode.edges`),
+    disagreement, 8 phase-gradient jump, 16 modulation drop, 32 rim, 64 fringe-order estimates
+    disagree; :mod:`fringe3d.decode.edges`),
     ``phase_sigma[d]`` float32 predicted phase standard deviation (rad, ``sqrt(2/N) sigma / B``;
     NaN where unknown). Plus ``average`` (H, W) float32 (frames' units) and ``texture`` (H, W)
     float32, a fraction of full scale in [0, 1] (:mod:`fringe3d.decode.texture`), and ``info`` (frame
@@ -114,7 +128,9 @@ class Decoded:
         return phase_to_w(self.phase[direction], float(self.period[direction])).astype(np.float32)
 
     def summary(self) -> dict:
-        """Small JSON-friendly description: per direction period, angle, method, valid fraction."""
+        """Small JSON-friendly description: per direction period, angle, method, valid fraction and
+        ``order_inconsistent``, the share of the method's valid pixels masked because their two
+        fringe-order estimates disagree (quality bit ``ORDER``; None without a quality map)."""
         out: dict[str, Any] = {"directions": {}}
         for d in self.directions:
             m = self.mask[d]
@@ -124,6 +140,7 @@ class Decoded:
                 "phase_min": float(np.nanmin(self.phase[d])) if m.any() else None,
                 "phase_max": float(np.nanmax(self.phase[d])) if m.any() else None,
                 "median_modulation": float(np.median(self.modulation[d][m])) if m.any() else None,
+                "order_inconsistent": order_share(self.quality[d]) if d in self.quality else None,
             }
         out["shape"] = list(self.average.shape) if self.average is not None else None
         out["info"] = self.info

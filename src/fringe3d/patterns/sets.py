@@ -290,9 +290,10 @@ def psp_with_gray_code(period: float, steps: int = 3, direction: str = "v", angl
     fringe periods (one bit more than a period-wide code, the complementary Gray code): a
     decoder that rounds ``(2 pi c / T - phi) / 2 pi`` against the stripe centre ``c`` then
     tolerates stripe edges misplaced by up to T/4. With ``code_period = period`` the codeword
-    is the fringe order itself, but its stripe edges coincide with phase 0 of every fringe,
-    so a pixel within phase noise of an edge can take the neighbouring order (measured in
-    ``fringe3d experiment unwrap-noise``). Code frames carry the stripe width in ``period``.
+    is the fringe order itself, but its stripe edges coincide with phase 0 of every fringe: the
+    decoder takes the order of the edge whose code bit fades, exact without noise, yet a pixel
+    within noise of an edge can take the neighbouring order (measured in ``fringe3d experiment
+    unwrap-noise``). Code frames carry the stripe width in ``period``.
     """
     ps = phase_shift(period, steps, direction, angle, kind, width, height, bit_depth)
     a = ps.plans[0].angle

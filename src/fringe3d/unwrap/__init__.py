@@ -18,13 +18,14 @@ from fringe3d.unwrap.hybrid import (HybridResult, carrier_from_minimum_phase, ft
                                     hybrid_unwrap)
 from fringe3d.unwrap.segmentation import foreground_mask, match_objects, segment_objects, shift_image
 from fringe3d.unwrap.spatial import unwrap_objects
-from fringe3d.unwrap.temporal import (CodeUnwrapped, FusedResult, OrderedPhase, beat_chain, coarse_window,
-                                      code_centers, gray_code_order, heterodyne, hierarchical,
-                                      three_frequency_decode)
+from fringe3d.unwrap.temporal import (MAX_CODE_RESIDUAL, CodeStripes, CodeUnwrapped, FusedResult, OrderedPhase,
+                                      beat_chain, coarse_window, code_centers, code_stripes, gray_code_order,
+                                      heterodyne, hierarchical, three_frequency_decode)
 
-__all__ = ["CodeUnwrapped", "FusedResult", "HybridResult", "MinimumPhase", "OrderVote", "OrderedPhase",
+__all__ = ["MAX_CODE_RESIDUAL", "CodeStripes", "CodeUnwrapped", "FusedResult", "HybridResult", "MinimumPhase",
+           "OrderVote", "OrderedPhase",
            "apply_order_shift", "beat_chain", "cached_minimum_phase", "carrier_from_minimum_phase",
-           "check_depth_range", "check_wrap_around", "coarse_window", "code_centers", "depth_limit",
+           "check_depth_range", "check_wrap_around", "coarse_window", "code_centers", "code_stripes", "depth_limit",
            "foreground_mask", "fringe_order", "fringe_order_difference", "ftp_group_phase",
            "geometric_unwrap", "gray_code_order", "heterodyne", "hierarchical", "histogram_unwrap", "hybrid_phase",
            "hybrid_unwrap", "match_objects", "minimum_phase", "minimum_phase_orders", "mode_of_orders",

@@ -20,13 +20,15 @@ from fringe3d.phase._kernels import (COL_CHUNK, F2PI, FASTMATH, FINV2PI, ROW_BLO
 
 
 @njit(cache=True, parallel=True)
-def hierarchical_kernel(wrapped, periods, lower, order_out, phase_out):
+def hierarchical_kernel(wrapped, periods, lower, order_out, phase_out, residual_out):
     """Hierarchical temporal unwrapping, Eq. (1.5): the coarser absolute phase unwraps the finer.
 
     wrapped (M, H, W) float32 wrapped phases, narrowest period first; periods (M,) float64;
     lower: the coarsest phase is placed in [lower, lower + 2 pi). Outputs (H, W): fringe order
-    of the narrowest phase (int32) and its absolute phase (float32).
-    ``k_i = round(((T_{i+1}/T_i) Phi_{i+1} - phi_i) / 2pi)``, ``Phi_i = phi_i + 2 pi k_i``.
+    of the narrowest phase (int32), its absolute phase (float32) and the largest rounding
+    residual ``|x - k|`` over the steps (float32, periods of each step's finer phase; 0 to 1/2).
+    ``x_i = ((T_{i+1}/T_i) Phi_{i+1} - phi_i) / 2pi``, ``k_i = floor(x_i + 1/2)``,
+    ``Phi_i = phi_i + 2 pi k_i``.
     """
     m = wrapped.shape[0]
     h = wrapped.shape[1]
@@ -36,14 +38,18 @@ def hierarchical_kernel(wrapped, periods, lower, order_out, phase_out):
             phi = np.float64(wrapped[m - 1, i, j])
             big = lower + (phi - lower) % TWO_PI
             k = 0.0
+            res = 0.0
             for q in range(m - 2, -1, -1):
                 phi = np.float64(wrapped[q, i, j])
-                k = round_half_up((big * (periods[q + 1] / periods[q]) - phi) / TWO_PI)
+                x = (big * (periods[q + 1] / periods[q]) - phi) / TWO_PI
+                k = round_half_up(x)
+                res = max(res, abs(x - k))
                 big = phi + TWO_PI * k
             if m == 1:
                 k = round_half_up((big - phi) / TWO_PI)
             order_out[i, j] = np.int32(k)
             phase_out[i, j] = big
+            residual_out[i, j] = res
 
 
 @njit(cache=True, inline="always")
@@ -53,14 +59,15 @@ def _beat(phi_a, phi_b, sign):
 
 
 @njit(cache=True, parallel=True)
-def heterodyne_kernel(wrapped, signs, beat_periods, periods, lower, order_out, phase_out):
+def heterodyne_kernel(wrapped, signs, beat_periods, periods, lower, order_out, phase_out, residual_out):
     """Multi-frequency heterodyne unwrapping (three-frequency: 18, 21, 144 -> 126 -> 1008).
 
     wrapped (M, H, W) float32, M >= 2, narrowest first; beat chain
     ``b_1 = beat(phi_0, phi_1)``, ``b_q = beat(b_{q-1}, phi_q)`` with equivalent periods
     ``beat_periods[q-1]`` and signs making each beat increase with w. The last beat is taken
     in [lower, lower + 2 pi) as absolute, then each beat unwraps the previous one and the first
-    beat unwraps phi_0. Outputs as :func:`hierarchical_kernel`.
+    beat unwraps phi_0. Outputs as :func:`hierarchical_kernel` (residual in periods of each
+    step's finer beat or phase).
     """
     m = wrapped.shape[0]
     h = wrapped.shape[1]
@@ -75,13 +82,18 @@ def heterodyne_kernel(wrapped, signs, beat_periods, periods, lower, order_out, p
                 b = _beat(b, np.float64(wrapped[q + 1, i, j]), signs[q])
                 beats_local[q] = b
             big = lower + (b - lower) % TWO_PI
+            res = 0.0
             for q in range(nb - 2, -1, -1):
-                kq = round_half_up((big * (beat_periods[q + 1] / beat_periods[q]) - beats_local[q]) / TWO_PI)
+                x = (big * (beat_periods[q + 1] / beat_periods[q]) - beats_local[q]) / TWO_PI
+                kq = round_half_up(x)
+                res = max(res, abs(x - kq))
                 big = beats_local[q] + TWO_PI * kq
             phi = np.float64(wrapped[0, i, j])
-            k = round_half_up((big * (beat_periods[0] / periods[0]) - phi) / TWO_PI)
+            x = (big * (beat_periods[0] / periods[0]) - phi) / TWO_PI
+            k = round_half_up(x)
             order_out[i, j] = np.int32(k)
             phase_out[i, j] = phi + TWO_PI * k
+            residual_out[i, j] = max(res, abs(x - k))
 
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
@@ -160,41 +172,124 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
                     ph[j] = absolute if ok else nan
 
 
+@njit(cache=True, inline="always")
+def _edge_fades(diff, amp, fl, fh, el, eh):
+    """(d_lo, d_hi): how far the bits that change at the stripe's lower / upper edge are from
+    fading (counts; 0 at that edge, ``amp`` inside the stripe or without a neighbour there).
+
+    ``diff`` (B,) the bits' ``|D_q|``, ``amp`` a clear bit's (at least their largest); fl, fh the masks of the bits
+    that change at the lower / upper edge, el, eh those that change there only. Every bit of
+    an edge fades at it, so an edge's value is the largest of its bits'. Where one edge's bits
+    all change at the other edge too (a binary code's last bit), that edge is told apart by the
+    other's own bits being clear: ``d_hi = max(d_hi, amp - min_el |D|)``.
+    """
+    d_lo = 0.0 if fl else amp
+    d_hi = 0.0 if fh else amp
+    e_lo = amp
+    e_hi = amp
+    nb = diff.shape[0]
+    for q in range(nb):
+        bit = np.int64(1) << (nb - 1 - q)
+        a = diff[q]
+        if fl & bit:
+            d_lo = max(d_lo, a)
+        if fh & bit:
+            d_hi = max(d_hi, a)
+        if el & bit:
+            e_lo = min(e_lo, a)
+        if eh & bit:
+            e_hi = min(e_hi, a)
+    if fl and fh:
+        if not eh:
+            d_hi = max(d_hi, amp - e_lo)
+        if not el:
+            d_lo = max(d_lo, amp - e_hi)
+    return d_lo, d_hi
+
+
+@njit(cache=True, inline="always")
+def _stray_weak_bit(diff, own, edge_bits):
+    """True when a bit outside ``edge_bits`` (those changing at the stripe edge the pixel is
+    nearest) is weak, ``|D_q| < own / 2`` (``own`` the pixel's largest ``|D_q|``): the codeword
+    is then no stripe the pixel can be next to (a binary code read on an edge where several bits
+    change, some misread: the word of a stripe two away)."""
+    nb = diff.shape[0]
+    for q in range(nb):
+        if diff[q] < 0.5 * own and not (edge_bits & (np.int64(1) << (nb - 1 - q))):
+            return True
+    return False
+
+
 @njit(cache=True, parallel=True)
-def code_order_kernel(frames, code_idx, inverse_idx, threshold, wrapped, period, centers,
-                      order_out, phase_out, valid_out):
-    """Gray/binary code + phase: fringe order from the codeword, made robust with the phase.
+def code_order_kernel(frames, code_idx, inverse_idx, threshold, wrapped, period, centre, lower, upper,
+                      lower_bits, upper_bits, contrast, coordinate, order_out, phase_out, valid_out, residual_out):
+    """Gray/binary code + phase: the fringe order nearest the code's own projector coordinate.
 
     frames (F, H, W); code_idx (B,) frame indices of the code bits (most significant first);
     inverse_idx (B,) indices of the inverted frames or -1 (then ``threshold`` (H, W) is the
-    per-pixel threshold); wrapped (H, W) float32; period T (px); centers (2**B,) float64
-    centre w (px) of the projector interval each raw codeword covers (NaN = unused codeword).
-    ``k = round((2 pi * center / T - phi) / 2 pi)``: exact while the true phase is within pi of
-    the codeword's centre phase, so a code that resolves half a period tolerates stripe-edge
-    misalignment of up to a quarter period. Outputs: order int32, absolute phase float32,
-    valid bool (False for unused codewords).
+    per-pixel threshold); wrapped (H, W) float32; period T (px); centre, lower, upper (2**B,)
+    float64 stripe centre and edges (px) per raw codeword (NaN = unused codeword); lower_bits,
+    upper_bits (2**B,) int64 masks of the bits that change at the lower / upper edge; contrast
+    (H, W) float32 the ``|D|`` of a clear bit (the pixel's largest ``|D|`` where larger) or (0, 0);
+    coordinate (H, W) float64 code estimate of ``w`` replacing the stripe one where finite, or
+    (0, 0) for none. Per pixel (:func:`fringe3d.unwrap.temporal.gray_code_order`):
+    ``w_c = lo + (hi - lo) D_lo / (D_lo + D_hi)``, ``k = floor(w_c / T - phi / 2 pi + 1/2)``.
+    Outputs: order int32, absolute phase float32, valid bool (False for unused codewords),
+    residual float32 (periods; distance of ``w = T (phi / 2 pi + k)`` outside the stripe, from
+    ``coordinate`` where used; inf for a stripe wider than T + 1 px without ``coordinate`` and
+    for a codeword with a stray weak bit, :func:`_stray_weak_bit`).
     """
     nb = code_idx.shape[0]
     h = frames.shape[1]
     w = frames.shape[2]
+    has_coord = coordinate.shape[0] > 0
+    has_contrast = contrast.shape[0] > 0
     for i in prange(h):
+        diff = np.empty(nb)
         for j in range(w):
             code = 0
+            own = 0.0
             for q in range(nb):
                 v = np.float64(frames[code_idx[q], i, j])
                 if inverse_idx[q] >= 0:
                     t = np.float64(frames[inverse_idx[q], i, j])
                 else:
                     t = np.float64(threshold[i, j])
+                diff[q] = abs(v - t)
+                own = max(own, diff[q])
                 code = code * 2 + (1 if v > t else 0)
-            c = centers[code]
-            phi = np.float64(wrapped[i, j])
+            c = centre[code]
             if math.isnan(c):
                 valid_out[i, j] = False
                 order_out[i, j] = 0
                 phase_out[i, j] = np.nan
+                residual_out[i, j] = np.nan
+                continue
+            lo = lower[code]
+            hi = upper[code]
+            fl = lower_bits[code]
+            fh = upper_bits[code]
+            amp = max(own, np.float64(contrast[i, j])) if has_contrast else own
+            d_lo, d_hi = _edge_fades(diff, amp, fl, fh, fl & ~fh, fh & ~fl)
+            stray = _stray_weak_bit(diff, own, fl if d_lo < d_hi else fh)
+            wc = c if d_lo + d_hi <= 0.0 else lo + (hi - lo) * d_lo / (d_lo + d_hi)
+            point = False
+            if has_coord and not math.isnan(coordinate[i, j]):
+                wc = coordinate[i, j]
+                point = True
+            phi = np.float64(wrapped[i, j])
+            k = round_half_up(wc / period - phi / TWO_PI)
+            big = phi + TWO_PI * k
+            wu = big * (period / TWO_PI)
+            if stray:
+                res = np.inf
+            elif point:
+                res = abs(wu - wc) / period
+            elif hi - lo > period * (1.0 + 1e-9) + 1.0:  # beyond the projector's outer pixel edges
+                res = np.inf
             else:
-                k = round_half_up((TWO_PI * c / period - phi) / TWO_PI)
-                valid_out[i, j] = True
-                order_out[i, j] = np.int32(k)
-                phase_out[i, j] = phi + TWO_PI * k
+                res = max(0.0, max(lo - wu, wu - hi)) / period
+            valid_out[i, j] = True
+            order_out[i, j] = np.int32(k)
+            phase_out[i, j] = big
+            residual_out[i, j] = res

@@ -31,10 +31,13 @@ from fringe3d.utils.warning_types import UnwrapRangeWarning
 
 
 class OrderedPhase(NamedTuple):
-    """Absolute phase (H, W) float32 rad and fringe order (H, W) int32 of the narrowest period."""
+    """Absolute phase (H, W) float32 rad and fringe order (H, W) int32 of the narrowest period,
+    and the largest rounding residual over the unwrapping steps (H, W) float32 (periods of each
+    step's finer phase, 0 to 1/2: how far the coarse estimate is from the fine coordinate)."""
 
     phase: np.ndarray
     order: np.ndarray
+    residual: np.ndarray | None = None
 
 
 def coarse_window(period: float, w_range: tuple[float, float] | None) -> float:
@@ -92,16 +95,19 @@ def hierarchical(phases: Sequence[np.ndarray], periods: Sequence[float],
     periods : M periods in projector pixels, same order.
     w_range : (w_min, w_max) projector fringe coordinates covered, see :func:`coarse_window`.
 
-    Returns :class:`OrderedPhase` for the narrowest period. Exact while each level's error
-    ``|(T_low/T_high) dPhi_low - dphi_high| < pi``.
+    Returns :class:`OrderedPhase` for the narrowest period, with the largest rounding residual
+    over the levels (periods of the finer phase; ties at exactly 1/2 go up). Exact while each
+    level's error ``|(T_low/T_high) dPhi_low - dphi_high| < pi``; an exact-zero wrapped phase is
+    no tie here (the rounding is against the coarser estimate, not against a stripe centre).
     """
     st = stack_phases(phases)
     p = check_periods(periods, st.shape[0], 1)
     lower = coarse_window(p[-1], w_range)
     order = np.empty(st.shape[1:], np.int32)
     phase = np.empty(st.shape[1:], np.float32)
-    kernels.hierarchical_kernel(st, p, lower, order, phase)
-    return OrderedPhase(phase, order)
+    residual = np.empty(st.shape[1:], np.float32)
+    kernels.hierarchical_kernel(st, p, lower, order, phase, residual)
+    return OrderedPhase(phase, order, residual)
 
 
 # -- heterodyne ---------------------------------------------------------------------------
@@ -139,17 +145,52 @@ def heterodyne(phases: Sequence[np.ndarray], periods: Sequence[float],
     lower = coarse_window(beats[-1], w_range)
     order = np.empty(st.shape[1:], np.int32)
     phase = np.empty(st.shape[1:], np.float32)
-    kernels.heterodyne_kernel(st, signs, beats, p, lower, order, phase)
-    return OrderedPhase(phase, order)
+    residual = np.empty(st.shape[1:], np.float32)
+    kernels.heterodyne_kernel(st, signs, beats, p, lower, order, phase, residual)
+    return OrderedPhase(phase, order, residual)
 
 
 # -- Gray / binary code + phase -----------------------------------------------------------
+#: Largest accepted distance (in fringe periods) of a code + phase pixel's unwrapped coordinate
+#: from its codeword's stripe (:func:`gray_code_order`); beyond it the code and the phase
+#: disagree and the decoder masks the pixel (quality bit ``ORDER``, :mod:`fringe3d.decode.edges`).
+MAX_CODE_RESIDUAL = 0.125
+
+
 class CodeUnwrapped(NamedTuple):
-    """Absolute phase (float32, NaN on unused codewords), fringe order (int32), valid (bool)."""
+    """Absolute phase (float32, NaN on unused codewords), fringe order (int32), valid (bool) and
+    the code/phase residual (float32, fringe periods: the unwrapped coordinate's distance from
+    the codeword's stripe; NaN on unused codewords, inf where the code cannot tell the order)."""
 
     phase: np.ndarray
     order: np.ndarray
     valid: np.ndarray
+    residual: np.ndarray | None = None
+
+
+class CodeStripes(NamedTuple):
+    """Per raw codeword (each (2**B,)): stripe centre, lower and upper edge (projector px, NaN for
+    unused codewords) and, as int64 bit masks of the raw codeword (bit ``B-1-q`` for code bit
+    ``q``), the code bits that change at the stripe's lower edge and at its upper edge (0 where
+    no stripe adjoins)."""
+
+    centre: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    lower_bits: np.ndarray
+    upper_bits: np.ndarray
+
+
+def _codewords(code_images: np.ndarray) -> np.ndarray:
+    """Raw codewords (...) int64 of binary projector code images (B, ...) (MSB first, 0/1 or 0/255)."""
+    bits = np.asarray(code_images) > (0.5 * np.max(code_images) if np.max(code_images) > 0 else 0.5)
+    nb = bits.shape[0]
+    if nb > 24:
+        raise ValueError(f"a code with {nb} bits is not supported (at most 24)")
+    code = np.zeros(bits.shape[1:], np.int64)
+    for q in range(nb):
+        code = code * 2 + bits[q]
+    return code
 
 
 def code_centers(code_images: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -160,40 +201,44 @@ def code_centers(code_images: np.ndarray, w: np.ndarray) -> np.ndarray:
     (2**B,) float64 centres (px) ``(min w + max w) / 2`` per codeword, NaN for codewords no
     projector pixel carries. Works for Gray and simple binary codes alike.
     """
-    bits = np.asarray(code_images) > (0.5 * np.max(code_images) if np.max(code_images) > 0 else 0.5)
-    nb = bits.shape[0]
-    if nb > 24:
-        raise ValueError(f"a code with {nb} bits is not supported (at most 24)")
-    code = np.zeros(bits.shape[1:], np.int64)
-    for q in range(nb):
-        code = code * 2 + bits[q]
+    return code_stripes(code_images, w).centre
+
+
+def code_stripes(code_images: np.ndarray, w: np.ndarray) -> CodeStripes:
+    """Stripe table of a projected code: :class:`CodeStripes` from the code's projector images.
+
+    code_images (B, ...) and w (...) as in :func:`code_centers`. A codeword's stripe runs from
+    its smallest to its largest sample ``w``, widened by half the sampling step on each side
+    (so neighbouring stripes share their edge); centre ``(min w + max w) / 2``. Two codewords are
+    neighbours when their stripes meet; the bits that differ between them change at that edge.
+    """
+    code = _codewords(code_images).ravel()
+    nb = np.asarray(code_images).shape[0]
+    ww = np.asarray(w, np.float64).ravel()
     lo = np.full(2 ** nb, np.inf)
     hi = np.full(2 ** nb, -np.inf)
-    np.minimum.at(lo, code.ravel(), np.asarray(w, np.float64).ravel())
-    np.maximum.at(hi, code.ravel(), np.asarray(w, np.float64).ravel())
+    np.minimum.at(lo, code, ww)
+    np.maximum.at(hi, code, ww)
     used = np.isfinite(lo)
-    centers = np.full(2 ** nb, np.nan)
-    centers[used] = 0.5 * (lo[used] + hi[used])
-    return centers
+    centre = np.full(2 ** nb, np.nan)
+    centre[used] = 0.5 * (lo[used] + hi[used])
+    steps = np.diff(np.unique(ww))
+    half = 0.5 * float(steps.min()) if steps.size else 0.0
+    lower = np.where(used, lo - half, np.nan)
+    upper = np.where(used, hi + half, np.nan)
+    words = np.flatnonzero(used)
+    words = words[np.argsort(centre[words])]
+    flips_lo = np.zeros(2 ** nb, np.int64)
+    flips_hi = np.zeros(2 ** nb, np.int64)
+    for a, b in zip(words[:-1], words[1:]):
+        if lower[b] - upper[a] <= half + 1e-9 * max(1.0, abs(upper[a])):  # the stripes meet
+            flips_hi[a] = flips_lo[b] = a ^ b
+    return CodeStripes(centre, lower, upper, flips_lo, flips_hi)
 
 
-def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.ndarray, period: float,
-                    centers: np.ndarray, inverse_index: Sequence[int] | None = None,
-                    threshold: np.ndarray | None = None) -> CodeUnwrapped:
-    """Fringe order from Gray (or binary) code frames, made robust with the wrapped phase.
-
-    Each bit is 1 where the code frame is brighter than its inverse frame (``inverse_index``)
-    or, without inverse frames, than ``threshold`` (H, W) (e.g. the phase frames' average).
-    The codeword selects a projector interval of centre ``c`` (``centers``, see
-    :func:`code_centers`); ``k = round((2 pi c / T - phi) / 2 pi)``. Rounding against the
-    interval centre, instead of reading k straight from the code, means a code whose
-    codewords resolve half a fringe period (the complementary / half-period-shifted code)
-    gives the exact order even where camera-side stripe edges are misplaced by up to T/4;
-    a code resolving a whole period aligned with the phase wraps has no such margin.
-
-    frames (F, H, W) any real dtype; wrapped (H, W) rad. Returns :class:`CodeUnwrapped`.
-    """
-    frames = np.asarray(frames)
+def _code_bits(frames: np.ndarray, code_index: Sequence[int], inverse_index: Sequence[int] | None,
+               threshold: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(code_idx, inverse_idx (-1: none), threshold (H, W) float32) for the kernel, or ValueError."""
     ci = np.asarray(code_index, dtype=np.int64)
     if inverse_index is None:
         ii = np.full(ci.size, -1, np.int64)
@@ -203,19 +248,87 @@ def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.n
         ii = np.asarray(inverse_index, dtype=np.int64)
         if ii.size != ci.size:
             raise ValueError(f"{ci.size} code frames but {ii.size} inverse frames; expected one inverse per bit")
-    if centers.size != 2 ** ci.size:
-        raise ValueError(f"codeword table has {centers.size} entries, expected 2**{ci.size}")
     thr = (np.zeros(frames.shape[1:], np.float32) if threshold is None
            else np.ascontiguousarray(threshold, dtype=np.float32))
+    return ci, ii, thr
+
+
+def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.ndarray, period: float,
+                    stripes: CodeStripes, inverse_index: Sequence[int] | None = None,
+                    threshold: np.ndarray | None = None, coordinate: np.ndarray | None = None,
+                    contrast: np.ndarray | None = None) -> CodeUnwrapped:
+    """Fringe order from Gray (or binary) code frames and the wrapped phase together.
+
+    Each bit is 1 where the code frame is brighter than its inverse frame (``inverse_index``)
+    or, without inverse frames, than ``threshold`` (H, W) (e.g. the phase frames' average);
+    its difference ``D_q`` (frame minus inverse or threshold, counts) is the bit's analog value.
+    The codeword selects a stripe ``[lo, hi]`` (``stripes``, see :func:`code_stripes`). The code's
+    own estimate of the projector coordinate is
+
+    ``w_c = lo + (hi - lo) D_lo / (D_lo + D_hi)``
+
+    with ``D_lo`` (``D_hi``) the largest ``|D_q|`` of the bits that change at the stripe's
+    lower (upper) edge, or a clear bit's ``|D|`` (``contrast`` (H, W), else the pixel's largest
+    ``|D_q|``) for an edge without a neighbouring stripe: the stripe centre inside the stripe,
+    where the bits are clear, moving to the edge the pixel sits at, whose bits fade there. Where
+    every bit of one edge also changes at the other (a binary code's last bit), that edge counts
+    as clear while the other edge's own bits are (``D_hi = max(D_hi, contrast - min |D_own lo|)``).
+    A binary code's edge where every bit changes leaves no clear bit in the pixel: pass
+    ``contrast``, a clear bit's ``|D|`` (the pixel's largest ``|D_q|`` where that is larger),
+    e.g. ``2 B`` of the phase frames with inverse frames, ``B`` without (code and fringes spanning
+    the same projector range; blur lowers a fine fringe's ``B``, so it rather underestimates).
+    The fringe
+    order puts the unwrapped coordinate nearest ``w_c``:
+    ``k = floor(w_c / T - phi / 2 pi + 1/2)`` (Eq. 1.5; ties, ``|w - w_c| = T/2``, go up).
+
+    Boundary convention: a pixel whose phase is ~0 on a period boundary that is also a stripe
+    edge (stripes as wide as the period, aligned with the phase wraps) takes the order of the
+    edge its fading bit marks, never a coin toss between ``k`` and ``k + 1``: with ``w_c`` at
+    that edge the tie is half a period away. Exact while ``|w - w_c| < T/2``: always for stripes
+    of at most half a period (the complementary code), and for a period-wide code where the
+    edge bits fade over more than the phase noise. Stripes wider than the period leave the order
+    open inside the stripe: pass ``coordinate`` (H, W) (the code's sub-stripe estimate of
+    ``w``, px, NaN where unknown, :func:`fringe3d.unwrap.sub_stripe.sub_stripe_coordinate`),
+    which then replaces ``w_c``; pixels without one get residual inf (stripes wider than ``T`` by
+    more than one projector pixel, the margin of the outermost stripes, which reach the
+    projector's pixel edges).
+
+    The residual (fringe periods) is the unwrapped coordinate's distance outside the stripe
+    ``[lo, hi]`` (with ``coordinate``: from ``coordinate``): ~0 where code and phase agree; a
+    misread code bit that moves the pixel to a stripe of the other half period (complementary
+    code) leaves it up to 1/4. It is inf where a bit that does not change at the edge the pixel
+    is nearest is weak (``|D_q|`` below half the pixel's largest): no stripe has such a word
+    next to its edge (a binary code read where several bits change and some are misread, which
+    gives the word of a stripe two away, consistent with the phase). Mask pixels above
+    :data:`MAX_CODE_RESIDUAL`.
+
+    frames (F, H, W) any real dtype; wrapped (H, W) rad. Returns :class:`CodeUnwrapped`.
+    """
+    frames = np.asarray(frames)
+    ci, ii, thr = _code_bits(frames, code_index, inverse_index, threshold)
+    if stripes.centre.size != 2 ** ci.size:
+        raise ValueError(f"codeword table has {stripes.centre.size} entries, expected 2**{ci.size}")
     wr = np.ascontiguousarray(wrapped, dtype=np.float32)
     if wr.shape != frames.shape[1:] or thr.shape != frames.shape[1:]:
         raise ValueError(f"wrapped phase {wr.shape} / threshold {thr.shape} must match frames {frames.shape[1:]}")
+    coord = (np.empty((0, 0)) if coordinate is None else np.ascontiguousarray(coordinate, np.float64))
+    ref = np.empty((0, 0), np.float32) if contrast is None else np.ascontiguousarray(contrast, np.float32)
+    if contrast is not None and ref.shape != wr.shape:
+        raise ValueError(f"contrast {ref.shape} must match frames {frames.shape[1:]}")
+    if coordinate is not None and coord.shape != wr.shape:
+        raise ValueError(f"coordinate {coord.shape} must match frames {frames.shape[1:]}")
     order = np.empty(wr.shape, np.int32)
     phase = np.empty(wr.shape, np.float32)
     valid = np.empty(wr.shape, np.bool_)
-    kernels.code_order_kernel(frames, ci, ii, thr, wr, float(period), np.asarray(centers, np.float64),
-                              order, phase, valid)
-    return CodeUnwrapped(phase, order, valid)
+    residual = np.empty(wr.shape, np.float32)
+    def table(t: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(t, np.float64)
+
+    kernels.code_order_kernel(frames, ci, ii, thr, wr, float(period), table(stripes.centre), table(stripes.lower),
+                              table(stripes.upper), np.ascontiguousarray(stripes.lower_bits, np.int64),
+                              np.ascontiguousarray(stripes.upper_bits, np.int64), ref, coord,
+                              order, phase, valid, residual)
+    return CodeUnwrapped(phase, order, valid, residual)
 
 
 # -- fused three-frequency decode (the calibration set's hot path) ---------------------------

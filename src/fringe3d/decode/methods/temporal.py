@@ -1,6 +1,14 @@
 """Decoding methods of the temporal plans: ``none``, ``hierarchical``, ``heterodyne``,
-``gray_code`` / ``binary_code`` (the array algorithms are :mod:`fringe3d.unwrap.temporal`)."""
+``gray_code`` / ``binary_code`` (the array algorithms are :mod:`fringe3d.unwrap.temporal`).
+
+Each returns, besides the absolute phase, the pixels whose two fringe-order estimates disagree
+(``Unwrapped.order_inconsistent``, quality bit ``ORDER``): multi-frequency, a rounding residual
+above ``max_residual`` rad (:attr:`fringe3d.decode.DecodeOptions.max_residual`); code + phase,
+the unwrapped coordinate more than ``max_code_residual`` periods outside the codeword's stripe.
+"""
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -9,7 +17,8 @@ from fringe3d.decode.result import Unwrapped
 from fringe3d.patterns.conventions import point_at_fringe_coordinate, w_range
 from fringe3d.patterns.render import sinusoid_value
 from fringe3d.phase import quality
-from fringe3d.unwrap.temporal import (code_centers, gray_code_order, heterodyne, hierarchical,
+from fringe3d.unwrap.sub_stripe import sub_stripe_coordinate
+from fringe3d.unwrap.temporal import (CodeStripes, code_stripes, gray_code_order, heterodyne, hierarchical,
                                       three_frequency_decode)
 
 
@@ -24,7 +33,12 @@ def unwrap_hierarchical(ctx: DecodeContext) -> Unwrapped:
     groups = ctx.groups_for_plan()
     phases = [ctx.group_phase(g).phase for g in groups]
     res = hierarchical(phases, [g.period for g in groups], w_range=ctx.w_range())
-    return Unwrapped(res.phase, combined_mask(ctx, groups))
+    return Unwrapped(res.phase, combined_mask(ctx, groups), order_inconsistent=_beyond(ctx, res.residual))
+
+
+def _beyond(ctx: DecodeContext, residual: np.ndarray | None) -> np.ndarray | None:
+    """Multi-frequency pixels whose rounding residual (periods) exceeds ``max_residual`` (rad)."""
+    return None if residual is None else residual > float(ctx.options.max_residual) / (2.0 * math.pi)
 
 
 def unwrap_heterodyne(ctx: DecodeContext) -> Unwrapped:
@@ -42,7 +56,7 @@ def unwrap_heterodyne(ctx: DecodeContext) -> Unwrapped:
                          texture=r.texture, phase_is_masked=True)
     phases = [ctx.group_phase(g).phase for g in groups]
     res = heterodyne(phases, [g.period for g in groups], w_range=ctx.w_range())
-    return Unwrapped(res.phase, combined_mask(ctx, groups))
+    return Unwrapped(res.phase, combined_mask(ctx, groups), order_inconsistent=_beyond(ctx, res.residual))
 
 
 def code_frames(ctx: DecodeContext) -> tuple[list[int], list[int] | None]:
@@ -66,11 +80,12 @@ def code_frames(ctx: DecodeContext) -> tuple[list[int], list[int] | None]:
     return direct, inv
 
 
-def projector_code_centers(ctx: DecodeContext, direct: list[int]) -> np.ndarray:
-    """Codeword -> stripe centre table, from the projected code itself: the code frames are
-    evaluated (:func:`fringe3d.patterns.render.sinusoid_value`) along the fringe coordinate
-    ``w`` over the projector's range, every 1/16 px; cached in the context."""
-    key = ("code_centers", ctx.direction)
+def projector_code_stripes(ctx: DecodeContext, direct: list[int]) -> CodeStripes:
+    """Codeword -> stripe table (:func:`fringe3d.unwrap.temporal.code_stripes`), from the projected
+    code itself: the code frames are evaluated (:func:`fringe3d.patterns.render.sinusoid_value`)
+    along the fringe coordinate ``w`` over the projector's range, every 1/16 px; cached in the
+    context."""
+    key = ("code_stripes", ctx.direction)
     if key not in ctx.cache:
         ps = ctx.patterns
         lo, hi = w_range(ctx.plan.angle, ps.width, ps.height)
@@ -78,14 +93,33 @@ def projector_code_centers(ctx: DecodeContext, direct: list[int]) -> np.ndarray:
         w = np.arange(lo - 0.5, hi + 0.5, step) + 0.5 * step
         u, v = point_at_fringe_coordinate(w, ctx.plan.angle)
         images = np.stack([sinusoid_value(ps.frames[i], u, v, ps.width, ps.height) for i in direct])
-        ctx.cache[key] = code_centers(images, w)
+        ctx.cache[key] = code_stripes(images, w)
     return ctx.cache[key]
+
+
+def wide_stripe_coordinate(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
+                           threshold: np.ndarray | None, stripes: CodeStripes, period: float) -> np.ndarray | None:
+    """The code's sub-stripe projector coordinate (px, NaN where not found) when the code's stripes
+    are wider than the fringe ``period`` (the codeword alone then leaves the order open), else None
+    (:func:`fringe3d.unwrap.sub_stripe.sub_stripe_coordinate`)."""
+    width = float(np.nanmedian(stripes.upper - stripes.lower))
+    if not width > period * (1.0 + 1e-9):
+        return None
+    code = ctx.frames[direct].astype(np.float32)
+    ref = ctx.frames[inverse].astype(np.float32) if inverse is not None else np.asarray(threshold, np.float32)
+    diff = code - ref
+    word = np.zeros(diff.shape[1:], np.int64)
+    for plane in diff:
+        word = word * 2 + (plane > 0)
+    w, refined = sub_stripe_coordinate(stripes.centre[word], diff, width)
+    return np.where(refined, w, np.nan)
 
 
 def unwrap_gray_code(ctx: DecodeContext) -> Unwrapped:
     """Plan ``method="gray_code"`` or ``"binary_code"``: the fringe order from the code frames,
-    thresholded by their inverses, the white/black frames or the phase average
-    (:func:`fringe3d.unwrap.temporal.gray_code_order`)."""
+    thresholded by their inverses, the white/black frames or the phase average, and the wrapped
+    phase together (:func:`fringe3d.unwrap.temporal.gray_code_order`); pixels more than
+    ``max_code_residual`` periods outside their codeword's stripe are ``order_inconsistent``."""
     groups = ctx.groups_for_plan()
     g = groups[0]
     pr = ctx.group_phase(g)
@@ -99,6 +133,12 @@ def unwrap_gray_code(ctx: DecodeContext) -> Unwrapped:
             threshold = 0.5 * (ctx.frames[white[0]].astype(np.float32) + ctx.frames[black[0]].astype(np.float32))
         else:
             threshold = pr.average
-    centers = projector_code_centers(ctx, direct)
-    res = gray_code_order(ctx.frames, direct, pr.phase, g.period, centers, inverse_index=inv, threshold=threshold)
-    return Unwrapped(res.phase, combined_mask(ctx, groups) & res.valid)
+    stripes = projector_code_stripes(ctx, direct)
+    coordinate = wide_stripe_coordinate(ctx, direct, inv, threshold, stripes, g.period)
+    # a clear bit's |D| where code and fringes share the projector's range: 2 B with inverses, B without
+    contrast = 2.0 * pr.modulation if inv is not None else pr.modulation
+    res = gray_code_order(ctx.frames, direct, pr.phase, g.period, stripes, inverse_index=inv, threshold=threshold,
+                          coordinate=coordinate, contrast=contrast)
+    assert res.residual is not None
+    limit = float(ctx.options.max_code_residual)
+    return Unwrapped(res.phase, combined_mask(ctx, groups) & res.valid, order_inconsistent=res.residual > limit)
