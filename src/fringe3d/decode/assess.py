@@ -70,6 +70,9 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     opts = ctx.options
     groups = _psp_groups(ctx) if average is not None else []
     info: dict[str, Any] = {}
+    saturation = {key[1]: v for key, v in ctx.cache.items() if isinstance(key, tuple) and key[0] == "saturation"}
+    if saturation:  # per phase group (and "code"): shares clipped and masked for it, and the rule
+        info["saturation"] = saturation
     mask = np.asarray(mask, bool)
     sigma_phi = np.full(mask.shape, np.nan, np.float32)
     if groups:

@@ -9,6 +9,7 @@ calibration set) runs the fused single-pass kernel
 """
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from typing import Any, Iterator
@@ -25,7 +26,8 @@ from fringe3d.decode.result import Decoded, Unwrapped
 from fringe3d.decode.texture import as_fraction
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import w_range
-from fringe3d.patterns.manifest import DirectionPlan, PatternSet
+from fringe3d.patterns.manifest import DirectionPlan, FrameSpec, PatternSet
+from fringe3d.patterns.render import render_frame
 from fringe3d.phase import quality
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.utils.console import progress_bar
@@ -132,7 +134,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     min_mod = quality.default_min_modulation(frames, bit_depth) if min_mod is None else float(min_mod)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        checks = quality.check_frames(frames, bit_depth)
+        checks = quality.check_frames(frames, bit_depth, dark_by_design=dark_by_design(ps),
+                                      binary=binary_frames(ps))
     for w in caught:  # re-issue so they point at the caller and are recorded in info
         warnings.warn(w.message, w.category, stacklevel=3)
     plans = _plans(ps)
@@ -199,6 +202,31 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     if opts.edge_mask:
         mask_projector_border(out, ps, plans)
     return out
+
+
+#: Frame kinds that project only full-on and full-off pixels (decided by comparison; their
+#: full-scale pixels are by design, not a broken measurement).
+BINARY_KINDS = ("gray_code", "binary_code", "white", "black")
+
+
+def dark_by_design(ps: PatternSet) -> list[int]:
+    """Indices of the frames that are dark by design: kind ``black``, or a frame whose projector
+    image is zero everywhere (e.g. a code bit that lights no projector pixel); the frame check
+    does not call them dark frames."""
+    return [i for i, f in enumerate(ps.frames)
+            if f.kind == "black" or (f.kind in BINARY_KINDS and f.kind != "white"
+                                     and not _lights_projector(f, ps.width, ps.height))]
+
+
+def binary_frames(ps: PatternSet) -> list[int]:
+    """Indices of the binary code, white and black frames (:data:`BINARY_KINDS`)."""
+    return [i for i, f in enumerate(ps.frames) if f.kind in BINARY_KINDS]
+
+
+@functools.lru_cache(maxsize=1024)
+def _lights_projector(spec: FrameSpec, width: int, height: int) -> bool:
+    """Whether frame ``spec`` lights any projector pixel (cached per frame and projector size)."""
+    return bool(render_frame(spec, width, height).max() > 0)
 
 
 def _spans_projector(plan: DirectionPlan, ps: PatternSet) -> bool:

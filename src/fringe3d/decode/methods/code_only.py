@@ -19,6 +19,14 @@ present, the pixel must be lit, ``W - B >= black_thr`` (shadow mask). Defaults: 
 inverse frames, 3 without (:data:`DEFAULT_EDGE_THR`); all scaled by ``full_scale / 255`` for
 other bit depths.
 
+Saturation (by what it breaks): clipping lowers the brighter frame of a pair but never makes
+it the darker one, so a bit with one clipped frame is decided by its difference like any other;
+only a bit whose frame and reference (inverse, or ``(W + B)/2``) are both at the saturation level
+is undecidable (:func:`clipped_pairs`), and is never accepted as a stripe-edge bit. Clean
+0 / full-scale frames (OpenCV's ``GrayCodePattern`` images seen at full exposure) thus decode
+wherever lit. The shares of pixels with such a pair and of lit pixels it masked are recorded in
+``info["quality"][direction]["saturation"]["code"]``.
+
 ``edge_thr`` trades kept edge pixels against wrong stripes. A pixel at projector distance
 ``d`` from a stripe edge has ``|I - I_inv| ~ 2 A |d|`` (``A`` the code amplitude, counts per
 projector px for a sharp edge), so with noise ``sigma`` its sign is wrong with probability
@@ -97,20 +105,39 @@ def pixel_code_centers(ctx: DecodeContext, direct: list[int]) -> np.ndarray:
 
 
 def code_differences(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
-                     wb: tuple[np.ndarray, np.ndarray] | None, white_thr: float) -> tuple[np.ndarray, float]:
-    """(diff (B, H, W) float32, margin): each bit's ``I - I_inv`` (without inverses ``I - (W + B)/2``)
-    and the smallest ``|diff|`` that decides a bit (``white_thr``; ``white_thr / 2`` without inverses)."""
+                     wb: tuple[np.ndarray, np.ndarray] | None,
+                     white_thr: float) -> tuple[np.ndarray, float, np.ndarray]:
+    """(diff (B, H, W) float32, margin, clipped (B, H, W) bool): each bit's ``I - I_inv`` (without
+    inverses ``I - (W + B)/2``), the smallest ``|diff|`` that decides a bit (``white_thr``;
+    ``white_thr / 2`` without inverses), and where both sides of a bit's comparison are at the
+    saturation level (:func:`clipped_pairs`)."""
     code = ctx.frames[direct].astype(np.float32)
     if inverse is not None:
-        return code - ctx.frames[inverse].astype(np.float32), white_thr
+        ref = ctx.frames[inverse].astype(np.float32)
+        return code - ref, white_thr, clipped_pairs(ctx, code, ref)
     if wb is not None:
-        return code - 0.5 * (wb[0] + wb[1]), 0.5 * white_thr
+        ref = 0.5 * (wb[0] + wb[1])
+        return code - ref, 0.5 * white_thr, clipped_pairs(ctx, code, ref)
     raise ValueError(f"direction {ctx.direction!r}: a code-only capture needs inverse code frames or a white "
                      "and a black frame to threshold the code bits; the manifest has neither")
 
 
+def clipped_pairs(ctx: DecodeContext, code: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(B, H, W) bool: the code frame and what it is compared with (its inverse, or ``(W + B)/2``)
+    both at the saturation level, so clipping erased which is brighter.
+
+    Clipping never reverses an order (it only lowers the brighter value, down to the level), so a
+    bit whose brighter frame alone is clipped is still decided by its difference; only a pair
+    clipped on both sides is undecidable, whatever its (clipped, zero) difference says."""
+    level = quality.saturation_level(ctx.frames, ctx.bit_depth)
+    if not np.isfinite(level):
+        return np.zeros(code.shape, bool)
+    return (code >= level) & (reference >= level)
+
+
 def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: float,
-                 edge_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                 edge_margin: float = 0.0,
+                 undecidable: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(decided, straddling (H, W) bool, word (H, W) int64, contrast (H, W) float32): which
     pixels' codewords are trusted, and the raw codewords of ``diff > 0``.
 
@@ -122,9 +149,12 @@ def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: f
     :mod:`fringe3d.unwrap.sub_stripe` refines it). Below ``edge_margin`` the sign is too likely
     noise (see the module docstring). ``straddling`` is ``decided`` with ``edge_margin`` 0 (every
     stripe-edge pixel). ``contrast`` is the smallest ``|diff|`` of the bits that cleared the
-    margin (of all bits where none did)."""
+    margin (of all bits where none did). A bit marked ``undecidable`` (B, H, W) bool (both
+    frames clipped, :func:`clipped_pairs`) never decides a pixel, not even as an edge bit."""
     nb = diff.shape[0]
     size = np.abs(diff)
+    if undecidable is not None:
+        size = np.where(undecidable, -np.inf, size)
     weak = size < margin
     n_weak = weak.sum(axis=0)
     word = decode_bits(diff > 0, gray=False)
@@ -133,10 +163,11 @@ def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: f
         step = np.abs(centres[word] - centres[word ^ (np.int64(1) << flip_bit)])
     edge = (n_weak == 1) & (step > 0.5 * period) & (step < 1.5 * period)
     clear = n_weak == 0
-    straddling = clear | edge
-    decided = clear | (edge & (np.where(weak, size, np.inf).min(axis=0) >= edge_margin))
+    weakest = np.where(weak, size, np.inf).min(axis=0)
+    straddling = clear | (edge & (weakest > -np.inf))
+    decided = clear | (edge & (weakest >= edge_margin))
     strong = np.where(weak, np.inf, size).min(axis=0)
-    contrast = np.where(np.isfinite(strong), strong, size.min(axis=0))
+    contrast = np.where(np.isfinite(strong), strong, np.maximum(size.min(axis=0), 0.0))
     return decided, straddling, word, contrast.astype(np.float32)
 
 
@@ -150,16 +181,18 @@ def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
     period = float(ctx.patterns.frames[direct[0]].period)
     white_thr, black_thr = code_thresholds(ctx)
     wb = white_black(ctx)
-    diff, margin = code_differences(ctx, direct, inverse, wb, white_thr)
+    diff, margin, clipped = code_differences(ctx, direct, inverse, wb, white_thr)
     centres = pixel_code_centers(ctx, direct)
     edge_margin = edge_threshold(ctx, inverse is not None) * (1.0 if inverse is not None else 0.5)
-    decided, straddling, word, contrast = decide_edges(diff, margin, centres, period, edge_margin)
+    decided, straddling, word, contrast = decide_edges(diff, margin, centres, period, edge_margin, clipped)
     centre = centres[word]
     lit = np.isfinite(centre)
     if wb is not None:
         lit &= (wb[0] - wb[1]) >= black_thr
-    lit &= ~(ctx.frames[direct] >= quality.saturation_level(ctx.frames, ctx.bit_depth)).any(axis=0)
     mask = decided & lit
+    both = clipped.any(axis=0)
+    ctx.cache[("saturation", "code")] = {"clipped": float(both.mean()), "masked": float((both & lit & ~decided).mean()),
+                                         "rule": "a code bit whose frame and reference are both clipped"}
     if ctx.method_option("sub_stripe", True):
         # the zero crossings come from every edge pixel, also those below edge_thr: a crossing's
         # interpolated position is continuous in the pixel's difference, whatever its sign
