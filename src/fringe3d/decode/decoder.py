@@ -9,7 +9,6 @@ calibration set) runs the fused single-pass kernel
 """
 from __future__ import annotations
 
-import functools
 import math
 import warnings
 from typing import Any, Iterator
@@ -26,8 +25,7 @@ from fringe3d.decode.result import Decoded, Unwrapped
 from fringe3d.decode.texture import as_fraction
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import w_range
-from fringe3d.patterns.manifest import DirectionPlan, FrameSpec, PatternSet
-from fringe3d.patterns.render import render_frame
+from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import quality
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.utils.console import progress_bar
@@ -210,23 +208,15 @@ BINARY_KINDS = ("gray_code", "binary_code", "white", "black")
 
 
 def dark_by_design(ps: PatternSet) -> list[int]:
-    """Indices of the frames that are dark by design: kind ``black``, or a frame whose projector
-    image is zero everywhere (e.g. a code bit that lights no projector pixel); the frame check
-    does not call them dark frames."""
-    return [i for i, f in enumerate(ps.frames)
-            if f.kind == "black" or (f.kind in BINARY_KINDS and f.kind != "white"
-                                     and not _lights_projector(f, ps.width, ps.height))]
+    """Indices of the frames that may be dark by design: kind ``black``, and the code frames (a
+    code bit is black wherever the scene sees only its off stripes, or everywhere when it lights
+    no projector pixel); the frame check does not call them dark frames unless all frames are."""
+    return [i for i, f in enumerate(ps.frames) if f.kind in BINARY_KINDS and f.kind != "white"]
 
 
 def binary_frames(ps: PatternSet) -> list[int]:
     """Indices of the binary code, white and black frames (:data:`BINARY_KINDS`)."""
     return [i for i, f in enumerate(ps.frames) if f.kind in BINARY_KINDS]
-
-
-@functools.lru_cache(maxsize=1024)
-def _lights_projector(spec: FrameSpec, width: int, height: int) -> bool:
-    """Whether frame ``spec`` lights any projector pixel (cached per frame and projector size)."""
-    return bool(render_frame(spec, width, height).max() > 0)
 
 
 def _spans_projector(plan: DirectionPlan, ps: PatternSet) -> bool:

@@ -106,8 +106,9 @@ def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = 
     Returns ``{"dark": [frame indices], "saturated": [frame indices], "saturated_fraction":
     [...], "frames": F, "full_scale": counts, "dark_by_design": [...]}``. Dark (nearly black):
     the 99th-percentile pixel < 2 % of full scale, so hot pixels and noise spikes do not hide a
-    black frame; frames listed in ``dark_by_design`` (a black reference frame, a code frame
-    that lights no projector pixel) are not dark frames. Saturated: more than 5 % of pixels at
+    black frame; frames listed in ``dark_by_design`` (a black reference frame, a code frame,
+    which is black wherever the scene sees only its off stripes) are not dark frames unless
+    every frame is dark. Saturated: more than 5 % of pixels at
     the maximum code, among the frames not in ``binary`` (code, white and black frames: a
     binary frame at full scale is decided by comparison, not biased). The decoder masks the
     pixels whose decision clipping breaks and leaves the rest; dark frames give no modulation.
@@ -121,13 +122,15 @@ def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = 
     # of the pixels reach it: one comparison pass, as cheap as the maximum it replaces
     lit_share = (sub >= DARK_FRACTION * fs).mean(axis=(1, 2))
     designed = {int(i) for i in dark_by_design}
-    dark = [int(i) for i in np.flatnonzero(lit_share < 1.0 - DARK_PERCENTILE / 100.0) if int(i) not in designed]
+    dark = [int(i) for i in np.flatnonzero(lit_share < 1.0 - DARK_PERCENTILE / 100.0)]
+    if len(dark) < len(lit_share):  # all frames dark is reported whatever their design
+        dark = [i for i in dark if i not in designed]
     sat_frac = ((sub >= level).mean(axis=(1, 2)) if np.isfinite(level) else np.zeros(sub.shape[0]))
     exempt = {int(i) for i in binary}
     sat = [int(i) for i in np.flatnonzero(sat_frac > SATURATED_WARN_FRACTION) if int(i) not in exempt]
     if dark:
         cut = f"{DARK_PERCENTILE:g}th percentile < {DARK_FRACTION:.0%} of full scale {fs:g}"
-        msg = (f"all frames are dark (nearly black: {cut})" if len(dark) + len(designed) >= len(lit_share)
+        msg = (f"all frames are dark (nearly black: {cut})" if len(dark) == len(lit_share)
                else f"{len(dark)} dark frame(s) (nearly black: {cut}): {dark}")
         warnings.warn(f"{where}: {msg}; affected pixels are masked", FrameQualityWarning, stacklevel=3)
     if sat:

@@ -117,22 +117,33 @@ def code_differences(ctx: DecodeContext, direct: list[int], inverse: list[int] |
         return code - ref, white_thr, clipped_pairs(ctx, code, ref)
     if wb is not None:
         ref = 0.5 * (wb[0] + wb[1])
-        return code - ref, 0.5 * white_thr, clipped_pairs(ctx, code, ref)
+        return code - ref, 0.5 * white_thr, clipped_pairs(ctx, code, ref, wb[0], 0.5 * white_thr)
     raise ValueError(f"direction {ctx.direction!r}: a code-only capture needs inverse code frames or a white "
                      "and a black frame to threshold the code bits; the manifest has neither")
 
 
-def clipped_pairs(ctx: DecodeContext, code: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """(B, H, W) bool: the code frame and what it is compared with (its inverse, or ``(W + B)/2``)
-    both at the saturation level, so clipping erased which is brighter.
+def clipped_pairs(ctx: DecodeContext, code: np.ndarray, reference: np.ndarray, white: np.ndarray | None = None,
+                  margin: float = 0.0) -> np.ndarray:
+    """(B, H, W) bool: bits whose order clipping erased.
 
+    With inverse frames: the code frame and its inverse both at the saturation level ``L``.
     Clipping never reverses an order (it only lowers the brighter value, down to the level), so a
     bit whose brighter frame alone is clipped is still decided by its difference; only a pair
-    clipped on both sides is undecidable, whatever its (clipped, zero) difference says."""
+    clipped on both sides is undecidable, whatever its (clipped, zero) difference says.
+
+    Thresholded against ``(W + B)/2`` (``white`` given): where the white frame is clipped the
+    true threshold is unknown but at least the clipped one, so a code value from ``margin`` below
+    the clipped threshold up to just below ``L`` may lie on either side of it (an edge pixel
+    whose true level is not known): undecidable. A clipped code value counts as lit (its true
+    value is at least ``L``, above the true threshold unless the white frame exceeds about
+    ``2 L``), an unclipped one below that band as dark."""
     level = quality.saturation_level(ctx.frames, ctx.bit_depth)
     if not np.isfinite(level):
         return np.zeros(code.shape, bool)
-    return (code >= level) & (reference >= level)
+    both = (code >= level) & (reference >= level)
+    if white is not None:
+        both |= (white >= level) & (code < level) & (code >= reference - margin)
+    return both
 
 
 def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: float,
