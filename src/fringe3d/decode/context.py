@@ -110,7 +110,8 @@ class DecodeContext:
         where the clipped samples bias the phase beyond its noise (:func:`clipping_broken`);
         an FTP group: where a frame is at the saturation level."""
         self.group_phase(group)
-        return self.cache[group.name][1]
+        clipped = self.cache[group.name][1]
+        return clipping_broken(self, group) if len(group.indices) >= 3 and clipped.any() else clipped
 
     def group_mask(self, group: PhaseGroup) -> np.ndarray:
         """(H, W) bool validity of one group: modulation >= min_modulation and not saturated."""
@@ -157,14 +158,13 @@ def phase_groups(ps: PatternSet, direction: str) -> list[PhaseGroup]:
 
 def group_phase_and_saturation(ctx: DecodeContext, group: PhaseGroup) -> tuple[PhaseResult, np.ndarray]:
     """Wrapped phase of one group (see :meth:`DecodeContext.group_phase`) and its (H, W) bool
-    saturation map: for 3 or more steps the pixels whose phase clipping biases beyond its
-    noise (:func:`clipping_broken`), for FTP groups those with a frame at the saturation level."""
+    saturation map (a frame of the group at the sensor's saturation level; what that breaks is
+    :meth:`DecodeContext.group_saturated`'s question)."""
     level = quality.saturation_level(ctx.frames, ctx.bit_depth)
     n = len(group.indices)
     if n >= 3:
-        pr, clipped = wrapped_phase(ctx.frames, shifts=group.shifts, index=group.indices,
-                                    saturation_level=level, return_saturated=True)
-        return pr, (clipping_broken(ctx, group) if clipped.any() else clipped)
+        return wrapped_phase(ctx.frames, shifts=group.shifts, index=group.indices, saturation_level=level,
+                             return_saturated=True)
     sel = ctx.frames[list(group.indices)]
     saturated: np.ndarray = (np.asarray((sel >= level).any(axis=0)) if np.isfinite(level)
                              else np.zeros(sel.shape[1:], bool))
@@ -298,14 +298,14 @@ def clipping_broken(ctx: DecodeContext, group: PhaseGroup, order_only: bool = Fa
     if key not in ctx.cache:
         level = quality.saturation_level(ctx.frames, ctx.bit_depth)
         bound = float(ctx.options.max_disagreement) if order_only else ctx.options.max_clip_bias
-        r = clipping.clipping_mask(ctx.frames, group.indices, group.shifts, level, intensity_noise(ctx), bound)
+        r = clipping.clipping_mask(ctx.frames, group.indices, group.shifts, level, lambda: intensity_noise(ctx), bound)
         n_clipped = int(r.clipped.sum())
         ctx.cache[("saturation", group.name)] = {
             "clipped": n_clipped / r.clipped.size, "masked": float(r.broken.mean()),
             "estimated": r.estimated / n_clipped if n_clipped else 0.0,
             "rule": "phase bias of the clipped samples > " + (
                 f"{bound:g} rad" + (" (fringe order only)" if order_only else "") if bound is not None
-                else f"phase-noise sigma (intensity noise {intensity_noise(ctx):.3g})")}
+                else "phase-noise sigma" + (f" (intensity noise {intensity_noise(ctx):.3g})" if n_clipped else ""))}
         ctx.cache[key] = r.broken
     return ctx.cache[key]
 

@@ -30,7 +30,7 @@ A pixel is masked where ``|bias| > tau``; ``tau`` is the pixel's phase-noise sig
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, Sequence
+from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 
@@ -87,21 +87,25 @@ def clipping_bias(samples: np.ndarray, shifts: Sequence[float], level: float) ->
     d = np.asarray(shifts, np.float64)
     p = lsq_coefficients(d)
     w = p[1] - 1j * p[2]                                         # (N,) contribution to z
-    z = w @ s                                                    # (M,) measured B exp(i phi)
+    z = (p[1] @ s) - 1j * (p[2] @ s)                             # (M,) measured B exp(i phi)
     clipped = s >= level
     bias = np.zeros(s.shape[1])
     estimated = np.zeros(s.shape[1], bool)
     modulation = np.abs(z)
     if not clipped.any():
         return ClippingBias(bias, estimated, modulation)
-    patterns, inverse = np.unique(clipped.T, axis=0, return_inverse=True)
-    for q, pattern in enumerate(patterns):
-        cols = np.flatnonzero(inverse.ravel() == q)
-        if not pattern.any():
+    code = np.zeros(s.shape[1], np.uint16 if s.shape[0] <= 16 else np.int64)   # the clipping pattern's bits
+    for k in range(s.shape[0]):
+        code |= clipped[k].astype(code.dtype) << code.dtype.type(k)
+    order = np.argsort(code, kind="stable")                      # a radix sort for 16-bit codes
+    keys, starts = np.unique(code[order], return_index=True)
+    for key, cols in zip(keys, np.split(order, starts[1:])):   # the pixels of one clipping pattern
+        if key == 0:
             continue
+        pattern = ((int(key) >> np.arange(s.shape[0])) & 1).astype(bool)
         fit = _unclipped_fit(d, pattern)
         if fit is not None:                                      # estimated from the unclipped samples
-            deficit = fit @ s[~pattern][:, cols] - level         # (k, m) signed
+            deficit = fit @ s[np.ix_(~pattern, cols)] - level    # (k, m) signed
             z_true = z[cols] + w[pattern] @ deficit
             bias[cols] = np.angle(z_true * np.conj(z[cols]))
             estimated[cols] = True
@@ -148,7 +152,7 @@ def _unclipped_fit(shifts: np.ndarray, clipped: np.ndarray) -> np.ndarray | None
 
 
 def clipping_mask(frames: np.ndarray, index: Sequence[int], shifts: Sequence[float], level: float,
-                  noise: float, max_bias: float | None = None) -> ClippingMask:
+                  noise: float | Callable[[], float], max_bias: float | None = None) -> ClippingMask:
     """Which pixels of one N-step group clipping breaks (see the module docstring).
 
     Parameters
@@ -159,8 +163,9 @@ def clipping_mask(frames: np.ndarray, index: Sequence[int], shifts: Sequence[flo
         The group's frame indices and phase shifts (rad), in step order.
     level : float
         Saturation level (frames' units); ``inf`` gives no clipped pixel.
-    noise : float
-        Intensity noise sigma (frames' units) of one sample.
+    noise : float or callable
+        Intensity noise sigma (frames' units) of one sample, or a function returning it (called
+        only when a pixel is clipped and ``max_bias`` is None).
     max_bias : float, optional
         Largest accepted bias (rad); default the pixel's phase-noise sigma
         ``sqrt(2/N) noise / B`` (:func:`fringe3d.phase.noise.phase_sigma`).
@@ -183,7 +188,8 @@ def clipping_mask(frames: np.ndarray, index: Sequence[int], shifts: Sequence[flo
     r = clipping_bias(samples, shifts, level)
     if max_bias is None:
         with np.errstate(divide="ignore", invalid="ignore"):
-            tau = math.sqrt(2.0 / len(idx)) * float(noise) / r.modulation
+            sigma = float(noise() if callable(noise) else noise)
+            tau = math.sqrt(2.0 / len(idx)) * sigma / r.modulation
         tau = np.where(r.modulation > 0, tau, 0.0)
     else:
         tau = np.full(r.bias.shape, float(max_bias))
