@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from fringe3d.cli import main
-from fringe3d.decode import DecodeOptions, decode
+from fringe3d.decode import DecodeOptions, decode, edges
 from fringe3d.decode.methods.code_only import decide_edges
 from fringe3d.io.capture import read_capture
 from fringe3d.patterns import sets
@@ -186,6 +186,9 @@ def test_phase_pixels_with_clipped_samples_are_kept_where_the_bias_is_within_noi
     assert rms_clipped <= 1.2 * rms_ref, (rms_clipped, rms_ref)       # the kept clipped pixels are not biased
     info = d.info["quality"]["v"]["saturation"]["v/T16"]
     assert info["clipped"] == pytest.approx(clipped.mean()) and 0 < info["masked"] < 0.05
+    flagged = (d.quality["v"] & edges.SATURATED) != 0                # the reason bit, on the pixels masked for it
+    assert flagged.mean() == pytest.approx(info["masked"]) and not (flagged & m).any()
+    assert d.info["quality"]["v"]["masked"]["saturated"] == flagged.sum()
 
 
 def test_bounded_three_step_group_masks_off_crest_clipping_against_a_stated_bound():

@@ -56,6 +56,14 @@ def noise_model(ctx: DecodeContext, groups: list[PhaseGroup], average: np.ndarra
     return (s * s * n, 0.0), "Laplacian of the average image"
 
 
+def clipping_broken_map(ctx: DecodeContext) -> np.ndarray | None:
+    """(H, W) bool where clipping broke a pixel of this direction (the phase groups' and the
+    code's maps the method computed, cached in the context), or None when it computed none."""
+    maps = [v for k, v in ctx.cache.items()
+            if isinstance(k, tuple) and k and k[0] in ("clipping_broken", "code_clipped")]
+    return np.logical_or.reduce(maps) if maps else None
+
+
 def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: np.ndarray,
            average: np.ndarray | None, period: float) -> Assessment:
     """Quality map and phase sigma of one direction.
@@ -82,9 +90,13 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
                          "c1": model[1] if math.isfinite(model[1]) else None, "source": source}
         if math.isfinite(model[0]):
             sigma_phi = noise.phase_sigma(noise.noise_sigma(model, average), modulation, len(groups[0].indices))
+    broken = clipping_broken_map(ctx)
     if not opts.edge_mask or not groups or ctx.plan.method == "none":
         # code-only stripes and wrapped ("none") phases have no continuous w to test
-        return Assessment(np.where(mask, 0, edges.INVALID).astype(np.uint8), sigma_phi, info)
+        q = np.where(mask, 0, edges.INVALID).astype(np.uint8)
+        if broken is not None:
+            q |= np.where(~mask & broken, edges.SATURATED, 0).astype(np.uint8)
+        return Assessment(q, sigma_phi, info)
     w = phase_to_w(np.where(mask, phase, np.nan), period).astype(np.float32)
     coarse = [g for g in groups if g.period > period * (1 + 1e-9)]
     blur = 0.0
@@ -101,6 +113,6 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     extent = None if ctx.plan.method in RELATIVE_METHODS else (lo - 0.5 * f, hi + 0.5 * f)
     q = edges.quality_map(mask, w, extent, margin * f, modulation, average, residual,
                           max_disagreement=float(opts.max_disagreement), gradient_ratio=float(opts.gradient_ratio),
-                          modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim))
+                          modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim), saturated=broken)
     info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})
     return Assessment(q, sigma_phi, info)

@@ -20,6 +20,9 @@ MOD_DROP      16     fringe contrast ``B / A`` below ``modulation_ratio`` times 
                      spill pixels; independent of the albedo)
 RIM           32     within ``rim`` pixels (4-connected) of an INVALID pixel: the rim of a
                      silhouette, shadow or unlit region, mixed by the pixel footprint and blur
+SATURATED     128    (with INVALID) clipping broke the pixel: a phase biased beyond its
+                     bound (:mod:`fringe3d.phase.clipping`) or a code bit whose frame and
+                     reference are both clipped (:mod:`fringe3d.decode.methods.code_only`)
 ============  =====  ==================================================================
 
 The EDGE band holds the pixels lit by projector pixels within ``margin`` (projector px) of the
@@ -57,10 +60,11 @@ INCONSISTENT = 4
 GRADIENT = 8
 MOD_DROP = 16
 RIM = 32
+SATURATED = 128
 
 #: Bit -> name, for summaries and docs.
 BITS = {INVALID: "invalid", EDGE: "edge", INCONSISTENT: "inconsistent", GRADIENT: "gradient", MOD_DROP: "mod_drop",
-        RIM: "rim"}
+        RIM: "rim", SATURATED: "saturated"}
 
 #: Base margin (projector px) added to the blur width.
 BASE_MARGIN = 2.0
@@ -163,7 +167,7 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
                 average: np.ndarray | None = None, residual: np.ndarray | None = None,
                 max_disagreement: float = math.inf,
                 gradient_ratio: float = 4.0, gradient_floor: float = 1.0,
-                modulation_ratio: float = 0.5, rim: int = 1) -> np.ndarray:
+                modulation_ratio: float = 0.5, rim: int = 1, saturated: np.ndarray | None = None) -> np.ndarray:
     """(H, W) uint8 quality map (bits of the module docstring) of one direction.
 
     Parameters
@@ -184,9 +188,13 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
         Thresholds of INCONSISTENT (rad), GRADIENT (ratio, px) and MOD_DROP (ratio).
     rim : int
         RIM width in pixels (0: off).
+    saturated : (H, W) bool, optional
+        Where clipping broke the pixel; sets SATURATED on the invalid ones.
     """
     valid = np.asarray(mask, bool)
     q = _bits(~valid, INVALID)
+    if saturated is not None:
+        q |= _bits(~valid & saturated, SATURATED)
     if w is not None and extent is not None:
         q |= _bits(valid & edge_band(w, extent, margin), EDGE)
     if residual is not None and math.isfinite(max_disagreement):

@@ -94,9 +94,10 @@ def clipping_bias(samples: np.ndarray, shifts: Sequence[float], level: float) ->
     modulation = np.abs(z)
     if not clipped.any():
         return ClippingBias(bias, estimated, modulation)
-    code = np.zeros(s.shape[1], np.uint16 if s.shape[0] <= 16 else np.int64)   # the clipping pattern's bits
+    dtype = np.dtype(np.uint16 if s.shape[0] <= 16 else np.int64)            # the clipping pattern's bits
+    code: np.ndarray = np.zeros(s.shape[1], dtype)
     for k in range(s.shape[0]):
-        code |= clipped[k].astype(code.dtype) << code.dtype.type(k)
+        code = code | (clipped[k].astype(dtype) << dtype.type(k))
     order = np.argsort(code, kind="stable")                      # a radix sort for 16-bit codes
     keys, starts = np.unique(code[order], return_index=True)
     for key, cols in zip(keys, np.split(order, starts[1:])):   # the pixels of one clipping pattern

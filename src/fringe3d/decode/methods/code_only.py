@@ -202,6 +202,7 @@ def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
         lit &= (wb[0] - wb[1]) >= black_thr
     mask = decided & lit
     both = clipped.any(axis=0)
+    ctx.cache[("code_clipped",)] = both & lit & ~decided
     ctx.cache[("saturation", "code")] = {"clipped": float(both.mean()), "masked": float((both & lit & ~decided).mean()),
                                          "rule": "a code bit whose frame and reference are both clipped"}
     if ctx.method_option("sub_stripe", True):
