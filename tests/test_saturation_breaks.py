@@ -208,3 +208,43 @@ def test_simulate_gain_overexposes_the_capture(tmp_path):
     frames = read_capture(tmp_path / "cap").frames
     assert (frames == 255).mean() > 0.2
     assert main(["simulate", "-o", str(tmp_path / "bad"), "--gain", "-1", "-q"]) == 2
+
+
+def test_sub_stripe_crossing_is_interpolated_across_a_run_of_pixels_clipped_in_both_frames():
+    from fringe3d.unwrap.sub_stripe import sub_stripe_coordinate
+    T, gain, level = 4.0, 6.0, 1.0
+    x = np.arange(60, dtype=float)
+    w_true = 0.35 * x + 0.9                          # projector coordinate along the camera row
+    centre = np.floor((w_true + 0.5) / T) * T + (T - 1) / 2
+    # one bit, on in even stripes: the projected value P is the stripe value averaged over one
+    # projector px (a linear ramp across each edge); code and inverse overexposed 6x clip
+    u = w_true[:, None] + np.linspace(-0.5, 0.5, 2001)[None, :]
+    pattern = (np.floor((u + 0.5) / T) % 2 == 0).mean(axis=1)
+    diff = np.minimum(gain * pattern, level) - np.minimum(gain * (1 - pattern), level)
+    plateau = (gain * pattern >= level) & (gain * (1 - pattern) >= level)
+    assert plateau.sum() >= 5
+    c = np.tile(np.where(plateau, np.nan, centre), (3, 1))
+    d = np.tile(diff, (3, 1))[None].astype(np.float32)
+    w, refined = sub_stripe_coordinate(c, d, T, plateau=np.tile(plateau, (3, 1)))
+    inner = refined[1] & (x > 8) & (x < 52) & ~plateau
+    assert inner.sum() > 25
+    np.testing.assert_allclose(w[1][inner], w_true[inner], atol=0.1)
+    w_without, _ = sub_stripe_coordinate(c, d, T)   # without the plateau the crossings are lost
+    assert np.abs(w_without[1][inner] - w_true[inner]).max() > 0.3
+
+
+def test_sub_stripe_coordinate_stays_accurate_when_both_frames_of_a_pair_clip(tiny):
+    p, noisy = tiny
+    ps = _gray_set(p, True)
+    rms = {}
+    for gain in (1.0, 5.0):
+        frames, truth = render(make_scene("sphere", p), p.rig, ps, noisy.replace(gain=gain), progress=False)
+        d = decode(frames, ps)
+        m = d.mask["v"]
+        err = d.projector_coordinate("v")[m] - truth.up[m]
+        rms[gain] = np.sqrt(np.mean(err[np.abs(err) <= 4] ** 2))
+        if gain > 1:
+            both = d.info["quality"]["v"]["saturation"]["code"]["masked"]
+            assert 0 < both < 0.08                        # stripe-edge pixels clipped in both frames
+            assert truth.mask.mean() - m.mean() <= both + 0.01
+    assert rms[5.0] <= 1.2 * rms[1.0], rms

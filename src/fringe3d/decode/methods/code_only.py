@@ -105,25 +105,20 @@ def pixel_code_centers(ctx: DecodeContext, direct: list[int]) -> np.ndarray:
 
 
 def code_differences(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
-                     wb: tuple[np.ndarray, np.ndarray] | None,
-                     white_thr: float) -> tuple[np.ndarray, float, np.ndarray]:
-    """(diff (B, H, W) float32, margin, clipped (B, H, W) bool): each bit's ``I - I_inv`` (without
-    inverses ``I - (W + B)/2``), the smallest ``|diff|`` that decides a bit (``white_thr``;
-    ``white_thr / 2`` without inverses), and where both sides of a bit's comparison are at the
-    saturation level (:func:`clipped_pairs`)."""
+                     wb: tuple[np.ndarray, np.ndarray] | None, white_thr: float) -> tuple[np.ndarray, float]:
+    """(diff (B, H, W) float32, margin): each bit's ``I - I_inv`` (without inverses ``I - (W + B)/2``)
+    and the smallest ``|diff|`` that decides a bit (``white_thr``; ``white_thr / 2`` without inverses)."""
     code = ctx.frames[direct].astype(np.float32)
     if inverse is not None:
-        ref = ctx.frames[inverse].astype(np.float32)
-        return code - ref, white_thr, clipped_pairs(ctx, code, ref)
+        return code - ctx.frames[inverse].astype(np.float32), white_thr
     if wb is not None:
-        ref = 0.5 * (wb[0] + wb[1])
-        return code - ref, 0.5 * white_thr, clipped_pairs(ctx, code, ref, wb[0], 0.5 * white_thr)
+        return code - 0.5 * (wb[0] + wb[1]), 0.5 * white_thr
     raise ValueError(f"direction {ctx.direction!r}: a code-only capture needs inverse code frames or a white "
                      "and a black frame to threshold the code bits; the manifest has neither")
 
 
-def clipped_pairs(ctx: DecodeContext, code: np.ndarray, reference: np.ndarray, white: np.ndarray | None = None,
-                  margin: float = 0.0) -> np.ndarray:
+def clipped_pairs(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
+                  wb: tuple[np.ndarray, np.ndarray] | None, margin: float) -> np.ndarray:
     """(B, H, W) bool: bits whose order clipping erased.
 
     With inverse frames: the code frame and its inverse both at the saturation level ``L``.
@@ -131,19 +126,23 @@ def clipped_pairs(ctx: DecodeContext, code: np.ndarray, reference: np.ndarray, w
     bit whose brighter frame alone is clipped is still decided by its difference; only a pair
     clipped on both sides is undecidable, whatever its (clipped, zero) difference says.
 
-    Thresholded against ``(W + B)/2`` (``white`` given): where the white frame is clipped the
-    true threshold is unknown but at least the clipped one, so a code value from ``margin`` below
-    the clipped threshold up to just below ``L`` may lie on either side of it (an edge pixel
-    whose true level is not known): undecidable. A clipped code value counts as lit (its true
-    value is at least ``L``, above the true threshold unless the white frame exceeds about
-    ``2 L``), an unclipped one below that band as dark."""
+    Thresholded against ``(W + B)/2`` (``wb``): where the white frame is clipped the true
+    threshold is unknown but at least the clipped one, so a code value from ``margin`` below the
+    clipped threshold up to just below ``L`` may lie on either side of it (an edge pixel whose
+    true level is not known): undecidable. A clipped code value counts as lit (its true value is
+    at least ``L``, above the true threshold unless the white frame exceeds about ``2 L``), an
+    unclipped one below that band as dark."""
     level = quality.saturation_level(ctx.frames, ctx.bit_depth)
-    if not np.isfinite(level):
-        return np.zeros(code.shape, bool)
-    both = (code >= level) & (reference >= level)
-    if white is not None:
-        both |= (white >= level) & (code < level) & (code >= reference - margin)
-    return both
+    shape = (len(direct),) + ctx.frames.shape[1:]
+    if not np.isfinite(level) or (inverse is None and wb is None):
+        return np.zeros(shape, bool)
+    code = ctx.frames[direct]
+    if inverse is not None:
+        return np.asarray((code >= level) & (ctx.frames[inverse] >= level))
+    assert wb is not None
+    reference = 0.5 * (wb[0] + wb[1])
+    return np.asarray(((code >= level) & (reference >= level))
+                      | ((wb[0] >= level) & (code < level) & (code >= reference - margin)))
 
 
 def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: float,
@@ -192,7 +191,8 @@ def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
     period = float(ctx.patterns.frames[direct[0]].period)
     white_thr, black_thr = code_thresholds(ctx)
     wb = white_black(ctx)
-    diff, margin, clipped = code_differences(ctx, direct, inverse, wb, white_thr)
+    diff, margin = code_differences(ctx, direct, inverse, wb, white_thr)
+    clipped = clipped_pairs(ctx, direct, inverse, wb, margin)
     centres = pixel_code_centers(ctx, direct)
     edge_margin = edge_threshold(ctx, inverse is not None) * (1.0 if inverse is not None else 0.5)
     decided, straddling, word, contrast = decide_edges(diff, margin, centres, period, edge_margin, clipped)
@@ -209,7 +209,8 @@ def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
         # the zero crossings come from every edge pixel, also those below edge_thr: a crossing's
         # interpolated position is continuous in the pixel's difference, whatever its sign
         sources = lit & straddling
-        coordinate, _ = sub_stripe_coordinate(np.where(sources, centre, np.nan), diff, period)
+        coordinate, _ = sub_stripe_coordinate(np.where(sources, centre, np.nan), diff, period,
+                                              plateau=lit & both & ~sources)
     else:
         coordinate = centre
     phase = np.where(mask, 2.0 * np.pi * coordinate / period, np.nan).astype(np.float32)
