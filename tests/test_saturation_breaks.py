@@ -248,3 +248,20 @@ def test_sub_stripe_coordinate_stays_accurate_when_both_frames_of_a_pair_clip(ti
             assert 0 < both < 0.08                        # stripe-edge pixels clipped in both frames
             assert truth.mask.mean() - m.mean() <= both + 0.01
     assert rms[5.0] <= 1.2 * rms[1.0], rms
+
+
+@pytest.mark.parametrize("shifts", [2 * np.pi * np.arange(n) / n for n in (3, 4, 6, 9)]
+                         + [np.array([0.0, 0.5, 1.3, 2.9, 4.0])], ids=["3", "4", "6", "9", "uneven-5"])
+def test_clipping_kernel_equals_the_numpy_reference(shifts):
+    from clipping_reference import clipping_bias_reference
+    rng = np.random.default_rng(2)
+    m = 4000
+    a, b = rng.uniform(80, 220, m), rng.uniform(20, 200, m)
+    phi = rng.uniform(-np.pi, np.pi, m)
+    samples = np.round(np.minimum(a + b * np.cos(phi[None] + shifts[:, None]) + rng.normal(0, 2, (shifts.size, m)),
+                                  255.0))
+    got, want = clipping_bias(samples, shifts, 255.0), clipping_bias_reference(samples, shifts, 255.0)
+    assert (samples >= 255).any(axis=0).mean() > 0.3
+    np.testing.assert_array_equal(got.estimated, want.estimated)
+    np.testing.assert_allclose(got.bias, want.bias, atol=1e-9)
+    np.testing.assert_allclose(got.modulation, want.modulation, rtol=1e-9)

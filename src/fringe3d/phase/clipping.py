@@ -21,9 +21,10 @@ and a pixel's phase is broken only where that bias exceeds the phase noise. Two 
   cone is narrower than pi (else pi). A sample clipped at the fringe crest (``arg w_k`` equal to
   the phase) then bounds the bias by how far the crest lies from it. With one clipped sample
   the bound is tightened by the light being non-negative (the true sinusoid's minimum
-  ``A - B >= 0`` caps the deficit; a closed-form quadratic root, :func:`_trough_bound`).
+  ``A - B >= 0`` caps the deficit at the root of a quadratic, in closed form).
 
-A pixel is masked where ``|bias| > tau``; ``tau`` is the pixel's phase-noise sigma
+The per-pixel work is one numba pass over the clipped pixels (:mod:`fringe3d.phase._clipping_kernel`;
+its plain-NumPy reference is ``tests/clipping_reference.py``). A pixel is masked where ``|bias| > tau``; ``tau`` is the pixel's phase-noise sigma
 ``sqrt(2/N) sigma / B`` (:func:`fringe3d.phase.noise.phase_sigma`) for intensity noise
 ``sigma`` (frames' units), or a stated bound in radians.
 """
@@ -34,7 +35,12 @@ from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 
+from fringe3d.phase import _clipping_kernel
 from fringe3d.phase.psp import lsq_coefficients
+
+
+#: Most phase steps :func:`clipping_bias` takes (a pixel's clipped samples are the bits of an int64).
+MAX_STEPS = 63
 
 
 class ClippingBias(NamedTuple):
@@ -83,73 +89,16 @@ def clipping_bias(samples: np.ndarray, shifts: Sequence[float], level: float) ->
     >>> bool(r.estimated[0]), round(float(r.modulation[0]), 6)   # restored: B = 200
     (True, 200.0)
     """
-    s = np.asarray(samples, np.float64)
+    s = np.ascontiguousarray(samples, np.float64)
     d = np.asarray(shifts, np.float64)
-    p = lsq_coefficients(d)
-    w = p[1] - 1j * p[2]                                         # (N,) contribution to z
-    z = (p[1] @ s) - 1j * (p[2] @ s)                             # (M,) measured B exp(i phi)
-    clipped = s >= level
-    bias = np.zeros(s.shape[1])
-    estimated = np.zeros(s.shape[1], bool)
-    modulation = np.abs(z)
-    if not clipped.any():
-        return ClippingBias(bias, estimated, modulation)
-    dtype = np.dtype(np.uint16 if s.shape[0] <= 16 else np.int64)            # the clipping pattern's bits
-    code: np.ndarray = np.zeros(s.shape[1], dtype)
-    for k in range(s.shape[0]):
-        code = code | (clipped[k].astype(dtype) << dtype.type(k))
-    order = np.argsort(code, kind="stable")                      # a radix sort for 16-bit codes
-    keys, starts = np.unique(code[order], return_index=True)
-    for key, cols in zip(keys, np.split(order, starts[1:])):   # the pixels of one clipping pattern
-        if key == 0:
-            continue
-        pattern = ((int(key) >> np.arange(s.shape[0])) & 1).astype(bool)
-        fit = _unclipped_fit(d, pattern)
-        if fit is not None:                                      # estimated from the unclipped samples
-            deficit = fit @ s[np.ix_(~pattern, cols)] - level    # (k, m) signed
-            z_true = z[cols] + w[pattern] @ deficit
-            bias[cols] = np.angle(z_true * np.conj(z[cols]))
-            estimated[cols] = True
-            modulation[cols] = np.abs(z_true)
-        else:                                                    # bounded: deficits >= 0 unknown
-            theta = np.angle(w[pattern][:, None] * np.conj(z[cols])[None, :])   # (k, m)
-            narrow = (theta.max(axis=0) - theta.min(axis=0)) < math.pi
-            bias[cols] = np.where(narrow, np.abs(theta).max(axis=0), math.pi)
-            if pattern.sum() == 1:
-                k = int(np.flatnonzero(pattern)[0])
-                bias[cols] = np.minimum(bias[cols], _trough_bound(z[cols], p[0] @ s[:, cols], w[k], p[0, k]))
-    return ClippingBias(bias, estimated, modulation)
-
-
-def _trough_bound(z: np.ndarray, a: np.ndarray, wk: complex, pk: float) -> np.ndarray:
-    """(m,) bound (rad) on the bias of one clipped sample from a non-negative light: its deficit
-    ``D`` raises the average to ``a + pk D`` and the amplitude to ``z + D wk``, and the true
-    sinusoid's minimum ``A - B`` cannot fall below 0, so ``D`` is at most the root of
-    ``|z + D wk|^2 = (a + pk D)^2`` (``pk``, ``wk`` the sample's weights in ``a`` and ``z``);
-    the phase moves monotonically with ``D``, so the bias is at most ``|arg((z + D_max wk) / z)|``."""
-    qa = abs(wk) ** 2 - pk * pk
-    qb = 2.0 * np.real(z * np.conj(wk)) - 2.0 * a * pk
-    qc = np.abs(z) ** 2 - a * a
-    with np.errstate(invalid="ignore", divide="ignore"):
-        d_max = (-qb + np.sqrt(qb * qb - 4.0 * qa * qc)) / (2.0 * qa)
-    out = np.abs(np.angle((z + d_max * wk) * np.conj(z)))
-    return np.where((qa > 0) & (qc <= 0) & np.isfinite(out), out, math.pi)
-
-
-def _unclipped_fit(shifts: np.ndarray, clipped: np.ndarray) -> np.ndarray | None:
-    """(k, N - k) matrix predicting the k clipped samples from the unclipped ones (the sinusoid
-    fitted to the unclipped samples, evaluated at the clipped shifts), or None when fewer than
-    3 unclipped samples (or shifts that cannot separate A, B and phi) remain."""
-    keep = shifts[~clipped]
-    if keep.size < 3:
-        return None
-    try:
-        coef = lsq_coefficients(keep)                            # (3, N - k)
-    except ValueError:
-        return None
-    dc = shifts[clipped]
-    design = np.stack([np.ones_like(dc), np.cos(dc), np.sin(dc)], axis=1)   # (k, 3)
-    return design @ coef
+    if s.ndim != 2 or s.shape[0] != d.size:
+        raise ValueError(f"samples {s.shape} must be (N, M) for the N = {d.size} shifts")
+    if d.size > MAX_STEPS:
+        raise ValueError(f"the clipping analysis takes at most {MAX_STEPS} phase steps, got {d.size}")
+    m = s.shape[1]
+    out = ClippingBias(np.zeros(m), np.zeros(m, bool), np.zeros(m))
+    _clipping_kernel.clipping_bias_kernel(s, np.cos(d), np.sin(d), lsq_coefficients(d), float(level), *out)
+    return out
 
 
 def clipping_mask(frames: np.ndarray, index: Sequence[int], shifts: Sequence[float], level: float,
