@@ -145,8 +145,7 @@ class Decoded:
             why += f"; the modulation threshold is {thr:.3g} (lower it with --min-modulation, or check the exposure"
             why += " and that the projector lit the scene)"
         checks = self.info.get("frame_checks") or {}
-        if checks.get("frames") and len(checks.get("dark", ())) + len(checks.get("dark_by_design", ())) \
-                >= checks["frames"]:
+        if checks.get("frames") and len(checks.get("dark", ())) == checks["frames"]:
             why = (f"the frames are nearly black (in every frame at least {DARK_PERCENTILE:g} % of the pixels are "
                    f"below {DARK_FRACTION:.0%} of full scale {checks['full_scale']:g}; check the exposure, the "
                    f"aperture and that the projector lit the scene); {why}")

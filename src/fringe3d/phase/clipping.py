@@ -23,9 +23,10 @@ and a pixel's phase is broken only where that bias exceeds the phase noise. Two 
   the bound is tightened by the light being non-negative (the true sinusoid's minimum
   ``A - B >= 0`` caps the deficit at the root of a quadratic, in closed form).
 
-The per-pixel work is one numba pass over the clipped pixels (:mod:`fringe3d.phase._clipping_kernel`;
-its plain-NumPy reference is ``tests/clipping_reference.py``). A pixel is masked where ``|bias| > tau``; ``tau`` is the pixel's phase-noise sigma
-``sqrt(2/N) sigma / B`` (:func:`fringe3d.phase.noise.phase_sigma`) for intensity noise
+The per-pixel work is one numba pass over the clipped pixels
+(:mod:`fringe3d.phase._clipping_kernel`; its plain-NumPy reference is
+``tests/clipping_reference.py``). A pixel is masked where ``|bias| > tau``; ``tau`` is the
+pixel's phase-noise sigma ``sqrt(2/N) sigma / B`` (:func:`fringe3d.phase.noise.phase_sigma`) for intensity noise
 ``sigma`` (frames' units), or a stated bound in radians.
 """
 from __future__ import annotations
