@@ -15,8 +15,9 @@ from fringe3d.phase.psp import wrapped_phase
 
 
 def test_bits_are_distinct_powers_of_two_and_named():
-    bits = [edges.INVALID, edges.EDGE, edges.INCONSISTENT, edges.GRADIENT, edges.MOD_DROP, edges.RIM, edges.ORDER]
-    assert bits == [1, 2, 4, 8, 16, 32, 64] and set(edges.BITS) == set(bits)
+    bits = [edges.INVALID, edges.EDGE, edges.INCONSISTENT, edges.GRADIENT, edges.MOD_DROP, edges.RIM, edges.ORDER,
+            edges.SATURATED]
+    assert bits == [1, 2, 4, 8, 16, 32, 64, 128] and set(edges.BITS) == set(bits)
 
 
 def test_edge_band_marks_coordinates_within_the_margin_of_the_extent():

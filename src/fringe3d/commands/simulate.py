@@ -32,6 +32,8 @@ def register(app: typer.Typer) -> None:
         frame_rate: float = typer.Option(None, "--frame-rate", help="Frames per second (Hz)."),
         exposure: float = typer.Option(None, help="Exposure time (s), at most 1/frame-rate."),
         noise: float = typer.Option(None, help="Read-noise sigma as a fraction of full scale (e.g. 0.01)."),
+        gain: float = typer.Option(None, help="Camera gain (multiplies the signal; above ~1.2 the bright "
+                                              "frames clip at full scale: an overexposed capture)."),
         defocus: float = typer.Option(None, help="Projector defocus: Gaussian sigma in projector pixels."),
         bit_depth: int = typer.Option(0, "--bit-depth", help="Camera bit depth 8/10/12/16 (0: the preset's)."),
         ideal: bool = typer.Option(False, "--ideal", help="Analytic sinusoids, no projector pixelation or defocus."),
@@ -49,7 +51,10 @@ def register(app: typer.Typer) -> None:
         Example: fringe3d simulate --preset macro --scene sphere --patterns three-frequency -o sphere-capture
         """
         set_quiet(quiet or json_)
-        extra = {"ideal": True} if ideal else {}
+        extra: dict = {"ideal": True} if ideal else {}
+        check_number(gain, "--gain", minimum=0)
+        if gain is not None:
+            extra["gain"] = gain
         for value, option in ((frame_rate, "--frame-rate"), (exposure, "--exposure")):
             check_number(value, option, positive=True)
         check_number(noise, "--noise", minimum=0, maximum=1)
@@ -59,7 +64,7 @@ def register(app: typer.Typer) -> None:
         inputs = [Path(x) for x in (scene, patterns) if x is not None and Path(x).suffix == ".json"]
         with open_output(out, overwrite=overwrite, inputs=inputs, options=dict(
                 preset=preset, scene=scene, patterns=patterns, frames=frames, frame_rate=frame_rate, exposure=exposure,
-                noise=noise, defocus=defocus, bit_depth=bit_depth, ideal=ideal, seed=seed)) as o:
+                noise=noise, gain=gain, defocus=defocus, bit_depth=bit_depth, ideal=ideal, seed=seed)) as o:
             summary = o.final_paths(simulate_capture(o.path, preset, scene, patterns, frames=frames,
                                                      frame_rate=frame_rate, exposure=exposure, noise=noise,
                                                      defocus=defocus, bit_depth=bit_depth, seed=seed,

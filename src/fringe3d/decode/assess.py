@@ -56,6 +56,14 @@ def noise_model(ctx: DecodeContext, groups: list[PhaseGroup], average: np.ndarra
     return (s * s * n, 0.0), "Laplacian of the average image"
 
 
+def clipping_broken_map(ctx: DecodeContext) -> np.ndarray | None:
+    """(H, W) bool where clipping broke a pixel of this direction (the phase groups' and the
+    code's maps the method computed, cached in the context), or None when it computed none."""
+    maps = [v for k, v in ctx.cache.items()
+            if isinstance(k, tuple) and k and k[0] in ("clipping_broken", "code_clipped")]
+    return np.logical_or.reduce(maps) if maps else None
+
+
 def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: np.ndarray,
            average: np.ndarray | None, period: float, order: np.ndarray | None = None) -> Assessment:
     """Quality map and phase sigma of one direction.
@@ -71,6 +79,9 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     opts = ctx.options
     groups = _psp_groups(ctx) if average is not None else []
     info: dict[str, Any] = {}
+    saturation = {key[1]: v for key, v in ctx.cache.items() if isinstance(key, tuple) and key[0] == "saturation"}
+    if saturation:  # per phase group (and "code"): shares clipped and masked for it, and the rule
+        info["saturation"] = saturation
     mask = np.asarray(mask, bool)
     sigma_phi = np.full(mask.shape, np.nan, np.float32)
     if groups:
@@ -80,10 +91,11 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
                          "c1": model[1] if math.isfinite(model[1]) else None, "source": source}
         if math.isfinite(model[0]):
             sigma_phi = noise.phase_sigma(noise.noise_sigma(model, average), modulation, len(groups[0].indices))
+    broken = clipping_broken_map(ctx)
     if not opts.edge_mask or not groups or ctx.plan.method == "none":
         # code-only stripes and wrapped ("none") phases have no continuous w to test
-        q = edges.order_bits(mask, order)
-        if order is not None:
+        q = edges.order_bits(mask, order, broken)
+        if order is not None or broken is not None:
             info["masked"] = edges.bit_counts(q)
         return Assessment(q, sigma_phi, info)
     valid = mask if order is None else mask & ~np.asarray(order, bool)
@@ -103,6 +115,7 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     extent = None if ctx.plan.method in RELATIVE_METHODS else (lo - 0.5 * f, hi + 0.5 * f)
     q = edges.quality_map(mask, w, extent, margin * f, modulation, average, residual,
                           max_disagreement=float(opts.max_disagreement), gradient_ratio=float(opts.gradient_ratio),
-                          modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim), order=order)
+                          modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim), order=order,
+                          saturated=broken)
     info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})
     return Assessment(q, sigma_phi, info)

@@ -18,7 +18,7 @@ from fringe3d.optics.rays import camera_shape, pixel_rays
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import fringe_coordinate, w_range
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
-from fringe3d.phase import ftp, quality
+from fringe3d.phase import clipping, ftp, noise, quality
 from fringe3d.phase.psp import PhaseResult, wrapped_phase
 from fringe3d.utils.warning_types import CalibrationWarning
 
@@ -106,9 +106,12 @@ class DecodeContext:
         return self.cache[group.name][0]
 
     def group_saturated(self, group: PhaseGroup) -> np.ndarray:
-        """(H, W) bool: a frame of the group is at the saturation level."""
+        """(H, W) bool: the group's phase is broken by clipping. A group of 3 or more steps:
+        where the clipped samples bias the phase beyond its noise (:func:`clipping_broken`);
+        an FTP group: where a frame is at the saturation level."""
         self.group_phase(group)
-        return self.cache[group.name][1]
+        clipped = self.cache[group.name][1]
+        return clipping_broken(self, group) if len(group.indices) >= 3 and clipped.any() else clipped
 
     def group_mask(self, group: PhaseGroup) -> np.ndarray:
         """(H, W) bool validity of one group: modulation >= min_modulation and not saturated."""
@@ -155,7 +158,8 @@ def phase_groups(ps: PatternSet, direction: str) -> list[PhaseGroup]:
 
 def group_phase_and_saturation(ctx: DecodeContext, group: PhaseGroup) -> tuple[PhaseResult, np.ndarray]:
     """Wrapped phase of one group (see :meth:`DecodeContext.group_phase`) and its (H, W) bool
-    saturation map (a frame of the group at the sensor's saturation level)."""
+    saturation map (a frame of the group at the sensor's saturation level; what that breaks is
+    :meth:`DecodeContext.group_saturated`'s question)."""
     level = quality.saturation_level(ctx.frames, ctx.bit_depth)
     n = len(group.indices)
     if n >= 3:
@@ -257,6 +261,55 @@ def require_geometry(ctx: DecodeContext, method: str) -> tuple[Rig, float]:
     return ctx.rig, float(z_min)
 
 
+def intensity_noise(ctx: DecodeContext) -> float:
+    """Noise sigma (frames' units) of one sample, for the clipping test: Immerkaer's Laplacian
+    estimate (:func:`fringe3d.phase.noise.laplacian_noise`) of the first phase-shifted group's
+    average over its unclipped pixels, times ``sqrt(N)`` (the average carries ``sigma /
+    sqrt(N)``), at least the quantisation noise ``1 / sqrt(12)`` count; cached per direction."""
+    if "intensity_noise" not in ctx.cache:
+        level = quality.saturation_level(ctx.frames, ctx.bit_depth)
+        sigma = 1.0 / np.sqrt(12.0)
+        groups = [g for g in ctx.phase_groups() if len(g.indices) >= 3]
+        if groups:
+            idx = list(groups[0].indices)
+            sel = ctx.frames[idx]
+            average = sel.mean(axis=0, dtype=np.float32)
+            keep = ~(sel >= level).any(axis=0) & (average > 0)
+            est = noise.laplacian_noise(average, keep) * np.sqrt(len(idx))
+            if np.isfinite(est):
+                sigma = max(sigma, float(est))
+        ctx.cache["intensity_noise"] = float(sigma)
+    return float(ctx.cache["intensity_noise"])
+
+
+def clipping_broken(ctx: DecodeContext, group: PhaseGroup, order_only: bool = False) -> np.ndarray:
+    """(H, W) bool: pixels of a group of 3 or more steps whose phase clipping biases by more than
+    the decode option ``max_clip_bias`` (rad), by default the pixel's phase-noise sigma
+    ``sqrt(2/N) sigma / B`` with ``sigma`` from :func:`intensity_noise`
+    (:func:`fringe3d.phase.clipping.clipping_mask`); cached.
+
+    ``order_only``: the group only picks fringe orders (a coarser group of a multi-frequency
+    plan; its phase is not the result), so its bias matters only where it can change an order:
+    the bound is then the decode option ``max_disagreement`` (rad), the residual the
+    multi-frequency consistency test (INCONSISTENT, :mod:`fringe3d.decode.edges`) accepts.
+    The shares of the group's pixels with a clipped sample and of those masked are recorded in
+    ``ctx.cache[("saturation", name)]`` (reported in ``info["quality"][direction]["saturation"]``)."""
+    key = ("clipping_broken", group.name, order_only)
+    if key not in ctx.cache:
+        level = quality.saturation_level(ctx.frames, ctx.bit_depth)
+        bound = float(ctx.options.max_disagreement) if order_only else ctx.options.max_clip_bias
+        r = clipping.clipping_mask(ctx.frames, group.indices, group.shifts, level, lambda: intensity_noise(ctx), bound)
+        n_clipped = int(r.clipped.sum())
+        ctx.cache[("saturation", group.name)] = {
+            "clipped": n_clipped / r.clipped.size, "masked": float(r.broken.mean()),
+            "estimated": r.estimated / n_clipped if n_clipped else 0.0,
+            "rule": "phase bias of the clipped samples > " + (
+                f"{bound:g} rad" + (" (fringe order only)" if order_only else "") if bound is not None
+                else "phase-noise sigma" + (f" (intensity noise {intensity_noise(ctx):.3g})" if n_clipped else ""))}
+        ctx.cache[key] = r.broken
+    return ctx.cache[key]
+
+
 def not_saturated(ctx: DecodeContext, indices) -> np.ndarray:
     """(H, W) bool: no frame of ``indices`` reaches the sensor's saturation level."""
     level = quality.saturation_level(ctx.frames, ctx.bit_depth)
@@ -266,8 +319,12 @@ def not_saturated(ctx: DecodeContext, indices) -> np.ndarray:
 
 
 def combined_mask(ctx: DecodeContext, groups: list[PhaseGroup]) -> np.ndarray:
-    """(H, W) bool: every group's :meth:`DecodeContext.group_mask`."""
+    """(H, W) bool: the first group's :meth:`DecodeContext.group_mask` (its phase is the
+    result) and the others' modulation threshold and clipping test for fringe orders
+    (:func:`clipping_broken` with ``order_only``)."""
     mask = ctx.group_mask(groups[0])
     for g in groups[1:]:
-        mask = mask & ctx.group_mask(g)
+        pr = ctx.group_phase(g)
+        mask = mask & (pr.modulation >= ctx.min_modulation)
+        mask &= ~(clipping_broken(ctx, g, order_only=True) if len(g.indices) >= 3 else ctx.group_saturated(g))
     return mask

@@ -132,7 +132,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     min_mod = quality.default_min_modulation(frames, bit_depth) if min_mod is None else float(min_mod)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        checks = quality.check_frames(frames, bit_depth)
+        checks = quality.check_frames(frames, bit_depth, dark_by_design=dark_by_design(ps),
+                                      binary=binary_frames(ps))
     for w in caught:  # re-issue so they point at the caller and are recorded in info
         warnings.warn(w.message, w.category, stacklevel=3)
     plans = _plans(ps)
@@ -200,6 +201,23 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     if opts.edge_mask:
         mask_projector_border(out, ps, plans)
     return out
+
+
+#: Frame kinds that project only full-on and full-off pixels (decided by comparison; their
+#: full-scale pixels are by design, not a broken measurement).
+BINARY_KINDS = ("gray_code", "binary_code", "white", "black")
+
+
+def dark_by_design(ps: PatternSet) -> list[int]:
+    """Indices of the frames that may be dark by design: kind ``black``, and the code frames (a
+    code bit is black wherever the scene sees only its off stripes, or everywhere when it lights
+    no projector pixel); the frame check does not call them dark frames unless all frames are."""
+    return [i for i, f in enumerate(ps.frames) if f.kind in BINARY_KINDS and f.kind != "white"]
+
+
+def binary_frames(ps: PatternSet) -> list[int]:
+    """Indices of the binary code, white and black frames (:data:`BINARY_KINDS`)."""
+    return [i for i, f in enumerate(ps.frames) if f.kind in BINARY_KINDS]
 
 
 def _spans_projector(plan: DirectionPlan, ps: PatternSet) -> bool:

@@ -25,6 +25,9 @@ ORDER         64     the fringe order's two estimates disagree (the method's
                      ``max_code_residual`` periods outside the codeword's stripe; hierarchical /
                      heterodyne, a rounding residual above ``max_residual`` rad. Set whatever
                      ``edge_mask`` says (the pixel's order, not its edge, is in doubt)
+SATURATED     128    (with INVALID) clipping broke the pixel: a phase biased beyond its
+                     bound (:mod:`fringe3d.phase.clipping`) or a code bit whose frame and
+                     reference are both clipped (:mod:`fringe3d.decode.methods.code_only`)
 ============  =====  ==================================================================
 
 The EDGE band holds the pixels lit by projector pixels within ``margin`` (projector px) of the
@@ -63,10 +66,11 @@ GRADIENT = 8
 MOD_DROP = 16
 RIM = 32
 ORDER = 64
+SATURATED = 128
 
 #: Bit -> name, for summaries and docs.
 BITS = {INVALID: "invalid", EDGE: "edge", INCONSISTENT: "inconsistent", GRADIENT: "gradient", MOD_DROP: "mod_drop",
-        RIM: "rim", ORDER: "order"}
+        RIM: "rim", ORDER: "order", SATURATED: "saturated"}
 
 #: Base margin (projector px) added to the blur width.
 BASE_MARGIN = 2.0
@@ -169,7 +173,8 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
                 average: np.ndarray | None = None, residual: np.ndarray | None = None,
                 max_disagreement: float = math.inf,
                 gradient_ratio: float = 4.0, gradient_floor: float = 1.0,
-                modulation_ratio: float = 0.5, rim: int = 1, order: np.ndarray | None = None) -> np.ndarray:
+                modulation_ratio: float = 0.5, rim: int = 1, order: np.ndarray | None = None,
+                saturated: np.ndarray | None = None) -> np.ndarray:
     """(H, W) uint8 quality map (bits of the module docstring) of one direction.
 
     Parameters
@@ -193,9 +198,13 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
         Thresholds of INCONSISTENT (rad), GRADIENT (ratio, px) and MOD_DROP (ratio).
     rim : int
         RIM width in pixels (0: off).
+    saturated : (H, W) bool, optional
+        Where clipping broke the pixel; sets SATURATED on the invalid ones.
     """
     valid = np.asarray(mask, bool)
     q = _bits(~valid, INVALID)
+    if saturated is not None:
+        q |= _bits(~valid & saturated, SATURATED)
     if order is not None:
         bad = valid & np.asarray(order, bool)
         valid = valid & ~bad
@@ -214,11 +223,15 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
     return q
 
 
-def order_bits(mask: np.ndarray, order: np.ndarray | None) -> np.ndarray:
-    """(H, W) uint8: INVALID where ``mask`` is False, ORDER where ``order`` is set on a valid pixel
-    (the map of a direction without the edge tests)."""
+def order_bits(mask: np.ndarray, order: np.ndarray | None,
+               saturated: np.ndarray | None = None) -> np.ndarray:
+    """(H, W) uint8: INVALID where ``mask`` is False (with SATURATED where ``saturated`` says
+    clipping broke it), ORDER where ``order`` is set on a valid pixel (the map of a direction
+    without the edge tests)."""
     valid = np.asarray(mask, bool)
     q = _bits(~valid, INVALID)
+    if saturated is not None:
+        q |= _bits(~valid & saturated, SATURATED)
     if order is not None:
         q |= _bits(valid & np.asarray(order, bool), ORDER)
     return q

@@ -27,6 +27,10 @@ class DecodeOptions:
         (8 / 16), no saturation check for float frames.
     min_modulation : float, optional
         Modulation threshold (frames' units); default 2 % of full scale.
+    max_clip_bias : float, optional
+        Largest phase bias (rad) that clipped samples may cause before a pixel of a phase
+        group is masked (:mod:`fringe3d.phase.clipping`); default the pixel's phase-noise
+        sigma ``sqrt(2/N) sigma / B`` (``sigma`` estimated from the capture).
     fused : bool
         Use the fused three-frequency kernel when the plan allows (default True).
     max_residual : float
@@ -100,6 +104,7 @@ class DecodeOptions:
     z_max: float | None = None
     bit_depth: int | None = None
     min_modulation: float | None = None
+    max_clip_bias: float | None = None
     fused: bool = True
     max_residual: float = 0.5 * math.pi
     max_code_residual: float = MAX_CODE_RESIDUAL

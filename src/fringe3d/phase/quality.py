@@ -1,13 +1,16 @@
 """Which pixels carry a trustworthy phase: modulation threshold, saturation, dark frames.
 
-A pixel is valid when its fringe modulation B (Eq. 2.3) reaches ``min_modulation`` and none
-of its frames sits at the sensor's maximum code (a clipped sinusoid biases the phase). Whole
-frames that are dark or largely saturated are reported with a :class:`FrameQualityWarning`
-(the decoder masks the affected pixels instead of returning NaN everywhere silently).
+A pixel is valid when its fringe modulation B (Eq. 2.3) reaches ``min_modulation`` and
+saturation did not break it: :func:`validity_mask` masks any frame at the sensor's maximum
+code; the decoder masks only what clipping breaks (:mod:`fringe3d.phase.clipping` for phase
+groups, both frames of a code pair clipped for code bits). Whole frames that are dark or
+largely saturated are reported with a :class:`FrameQualityWarning`, except frames dark by
+design (a black reference frame) and binary frames, whose full-scale pixels are by design.
 """
 from __future__ import annotations
 
 import warnings
+from typing import Sequence
 
 import numpy as np
 
@@ -96,15 +99,19 @@ def validity_mask(average: np.ndarray, modulation: np.ndarray, frames: np.ndarra
     return mask
 
 
-def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = "frames") -> dict:
+def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = "frames",
+                 dark_by_design: Sequence[int] = (), binary: Sequence[int] = ()) -> dict:
     """Warn (:class:`FrameQualityWarning`) about all-dark or heavily saturated frames.
 
     Returns ``{"dark": [frame indices], "saturated": [frame indices], "saturated_fraction":
-    [...], "frames": F, "full_scale": counts}``. Dark (nearly black): the 99th-percentile pixel
-    < 2 % of full scale, so hot pixels
-    and noise spikes do not hide a black frame. Saturated: more than 5 % of pixels at
-    the maximum code. The pixels themselves are masked by :func:`validity_mask` (dark frames
-    give no modulation), so results stay usable where the data allow.
+    [...], "frames": F, "full_scale": counts, "dark_by_design": [...]}``. Dark (nearly black):
+    the 99th-percentile pixel < 2 % of full scale, so hot pixels and noise spikes do not hide a
+    black frame; frames listed in ``dark_by_design`` (a black reference frame, a code frame,
+    which is black wherever the scene sees only its off stripes) are not dark frames unless
+    every frame is dark. Saturated: more than 5 % of pixels at
+    the maximum code, among the frames not in ``binary`` (code, white and black frames: a
+    binary frame at full scale is decided by comparison, not biased). The decoder masks the
+    pixels whose decision clipping breaks and leaves the rest; dark frames give no modulation.
     """
     fs = full_scale(frames, bit_depth)
     level = saturation_level(frames, bit_depth)
@@ -114,18 +121,22 @@ def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = 
     # the DARK_PERCENTILE-th percentile is below the cut exactly when fewer than (100 - DARK_PERCENTILE) %
     # of the pixels reach it: one comparison pass, as cheap as the maximum it replaces
     lit_share = (sub >= DARK_FRACTION * fs).mean(axis=(1, 2))
+    designed = {int(i) for i in dark_by_design}
     dark = [int(i) for i in np.flatnonzero(lit_share < 1.0 - DARK_PERCENTILE / 100.0)]
+    if len(dark) < len(lit_share):  # all frames dark is reported whatever their design
+        dark = [i for i in dark if i not in designed]
     sat_frac = ((sub >= level).mean(axis=(1, 2)) if np.isfinite(level) else np.zeros(sub.shape[0]))
-    sat = [int(i) for i in np.flatnonzero(sat_frac > SATURATED_WARN_FRACTION)]
+    exempt = {int(i) for i in binary}
+    sat = [int(i) for i in np.flatnonzero(sat_frac > SATURATED_WARN_FRACTION) if int(i) not in exempt]
     if dark:
         cut = f"{DARK_PERCENTILE:g}th percentile < {DARK_FRACTION:.0%} of full scale {fs:g}"
         msg = (f"all frames are dark (nearly black: {cut})" if len(dark) == len(lit_share)
                else f"{len(dark)} dark frame(s) (nearly black: {cut}): {dark}")
         warnings.warn(f"{where}: {msg}; affected pixels are masked", FrameQualityWarning, stacklevel=3)
     if sat:
-        worst = float(sat_frac.max())
+        worst = float(sat_frac[sat].max())
         warnings.warn(f"{where}: {len(sat)} frame(s) with more than {SATURATED_WARN_FRACTION:.0%} saturated "
-                      f"pixels (worst {worst:.0%} at level {level:g}): {sat}; saturated pixels are masked",
-                      FrameQualityWarning, stacklevel=3)
+                      f"pixels (worst {worst:.0%} at level {level:g}): {sat}; pixels are masked where clipping "
+                      "biases the phase beyond its noise", FrameQualityWarning, stacklevel=3)
     return {"dark": dark, "saturated": sat, "saturated_fraction": [float(x) for x in sat_frac],
-            "frames": int(frames.shape[0]), "full_scale": float(fs)}
+            "frames": int(frames.shape[0]), "full_scale": float(fs), "dark_by_design": sorted(designed)}

@@ -51,13 +51,15 @@ def _crossing(centre, diff, i, p, q, period):
 
 
 @njit(cache=True, parallel=True)
-def _row_crossings(centre, diff, period, w_out, span_out):
+def _row_crossings(centre, diff, plateau, period, w_out, span_out):
     """Per camera row: coordinate ``w_out`` (NaN where no crossing bounds the pixel's stripe)
     and the camera distance ``span_out`` between the crossings used (inf where none; plus
     ``ONE_SIDED`` for an extrapolation, so that an interpolation along the other axis wins).
     An extrapolation needs the neighbouring stripe at least one camera pixel wide and reaches at
-    most that width beyond its crossing.
-    centre (H, W) float64, NaN = invalid; diff (B, H, W) float32."""
+    most that width beyond its crossing. A run of ``plateau`` pixels (a stripe edge where both
+    frames of the bit clipped) is skipped: the crossing is interpolated between the pixels on
+    either side of it.
+    centre (H, W) float64, NaN = invalid; diff (B, H, W) float32; plateau (H, W) bool."""
     h = centre.shape[0]
     n = centre.shape[1]
     for i in prange(h):
@@ -66,23 +68,31 @@ def _row_crossings(centre, diff, period, w_out, span_out):
         ppx = np.full(n, np.nan)
         ppw = np.full(n, np.nan)
         lx = lw = llx = llw = np.nan
+        prev = -1  # the last pixel before j that is not a plateau pixel
         for j in range(n):
-            if j > 0 and centre[i, j - 1] != centre[i, j]:  # also true when either is NaN
-                x, e = _crossing(centre, diff, i, j - 1, j, period)
+            if plateau[i, j]:
+                px[j], pw[j], ppx[j], ppw[j] = lx, lw, llx, llw
+                continue
+            if prev >= 0 and centre[i, prev] != centre[i, j]:  # also true when either is NaN
+                x, e = _crossing(centre, diff, i, prev, j, period)
                 if math.isnan(x):
                     lx = lw = llx = llw = np.nan
                 else:
                     llx, llw, lx, lw = lx, lw, x, e
             px[j], pw[j], ppx[j], ppw[j] = lx, lw, llx, llw
+            prev = j
         nx = nw = nnx = nnw = np.nan
+        nxt = -1
         for j in range(n - 1, -1, -1):
             c = centre[i, j]
-            if j < n - 1 and centre[i, j + 1] != c:
-                x, e = _crossing(centre, diff, i, j + 1, j, period)
-                if math.isnan(x):
-                    nx = nw = nnx = nnw = np.nan
-                else:
-                    nnx, nnw, nx, nw = nx, nw, x, e
+            if not plateau[i, j]:
+                if nxt >= 0 and centre[i, nxt] != c:
+                    x, e = _crossing(centre, diff, i, nxt, j, period)
+                    if math.isnan(x):
+                        nx = nw = nnx = nnw = np.nan
+                    else:
+                        nnx, nnw, nx, nw = nx, nw, x, e
+                nxt = j
             w_out[i, j] = np.nan
             span_out[i, j] = np.inf
             if math.isnan(c):
@@ -102,7 +112,8 @@ def _row_crossings(centre, diff, period, w_out, span_out):
                 span_out[i, j] = ONE_SIDED + nnx - nx
 
 
-def sub_stripe_coordinate(centre: np.ndarray, diff: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
+def sub_stripe_coordinate(centre: np.ndarray, diff: np.ndarray, period: float,
+                          plateau: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Sub-stripe projector coordinate per camera pixel (see the module docstring).
 
     Parameters
@@ -113,6 +124,10 @@ def sub_stripe_coordinate(centre: np.ndarray, diff: np.ndarray, period: float) -
         Bit differences ``I_b - I_b,inv`` (counts), most significant bit first.
     period : float
         Stripe width ``T`` (projector px).
+    plateau : (H, W) bool, optional
+        Pixels at a stripe edge whose bit clipped in both frames (no sign, no coordinate): the
+        crossing is interpolated between the pixels on either side of a run of them (clipping
+        both frames symmetrically about the edge keeps it in the middle).
 
     Returns
     -------
@@ -124,14 +139,16 @@ def sub_stripe_coordinate(centre: np.ndarray, diff: np.ndarray, period: float) -
     """
     c = np.ascontiguousarray(centre, np.float64)
     d = np.ascontiguousarray(diff, np.float32)
+    flat = np.zeros(c.shape, np.bool_) if plateau is None else np.ascontiguousarray(plateau, np.bool_)
     best = np.full(c.shape, np.nan)
     span = np.full(c.shape, np.inf)
     for axis in (1, 0):
         cc = c if axis == 1 else np.ascontiguousarray(c.T)
         dd = d if axis == 1 else np.ascontiguousarray(d.transpose(0, 2, 1))
+        pp = flat if axis == 1 else np.ascontiguousarray(flat.T)
         w = np.empty_like(cc)
         s = np.empty_like(cc)
-        _row_crossings(cc, dd, float(period), w, s)
+        _row_crossings(cc, dd, pp, float(period), w, s)
         if axis == 0:
             w, s = w.T, s.T
         take = s < span

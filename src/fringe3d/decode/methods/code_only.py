@@ -19,6 +19,14 @@ present, the pixel must be lit, ``W - B >= black_thr`` (shadow mask). Defaults: 
 inverse frames, 3 without (:data:`DEFAULT_EDGE_THR`); all scaled by ``full_scale / 255`` for
 other bit depths.
 
+Saturation (by what it breaks): clipping lowers the brighter frame of a pair but never makes
+it the darker one, so a bit with one clipped frame is decided by its difference like any other;
+only a bit whose frame and reference (inverse, or ``(W + B)/2``) are both at the saturation level
+is undecidable (:func:`clipped_pairs`), and is never accepted as a stripe-edge bit. Clean
+0 / full-scale frames (OpenCV's ``GrayCodePattern`` images seen at full exposure) thus decode
+wherever lit. The shares of pixels with such a pair and of lit pixels it masked are recorded in
+``info["quality"][direction]["saturation"]["code"]``.
+
 ``edge_thr`` trades kept edge pixels against wrong stripes. A pixel at projector distance
 ``d`` from a stripe edge has ``|I - I_inv| ~ 2 A |d|`` (``A`` the code amplitude, counts per
 projector px for a sharp edge), so with noise ``sigma`` its sign is wrong with probability
@@ -109,8 +117,37 @@ def code_differences(ctx: DecodeContext, direct: list[int], inverse: list[int] |
                      "and a black frame to threshold the code bits; the manifest has neither")
 
 
+def clipped_pairs(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
+                  wb: tuple[np.ndarray, np.ndarray] | None, margin: float) -> np.ndarray:
+    """(B, H, W) bool: bits whose order clipping erased.
+
+    With inverse frames: the code frame and its inverse both at the saturation level ``L``.
+    Clipping never reverses an order (it only lowers the brighter value, down to the level), so a
+    bit whose brighter frame alone is clipped is still decided by its difference; only a pair
+    clipped on both sides is undecidable, whatever its (clipped, zero) difference says.
+
+    Thresholded against ``(W + B)/2`` (``wb``): where the white frame is clipped the true
+    threshold is unknown but at least the clipped one, so a code value from ``margin`` below the
+    clipped threshold up to just below ``L`` may lie on either side of it (an edge pixel whose
+    true level is not known): undecidable. A clipped code value counts as lit (its true value is
+    at least ``L``, above the true threshold unless the white frame exceeds about ``2 L``), an
+    unclipped one below that band as dark."""
+    level = quality.saturation_level(ctx.frames, ctx.bit_depth)
+    shape = (len(direct),) + ctx.frames.shape[1:]
+    if not np.isfinite(level) or (inverse is None and wb is None):
+        return np.zeros(shape, bool)
+    code = ctx.frames[direct]
+    if inverse is not None:
+        return np.asarray((code >= level) & (ctx.frames[inverse] >= level))
+    assert wb is not None
+    reference = 0.5 * (wb[0] + wb[1])
+    return np.asarray(((code >= level) & (reference >= level))
+                      | ((wb[0] >= level) & (code < level) & (code >= reference - margin)))
+
+
 def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: float,
-                 edge_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                 edge_margin: float = 0.0,
+                 undecidable: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(decided, straddling (H, W) bool, word (H, W) int64, contrast (H, W) float32): which
     pixels' codewords are trusted, and the raw codewords of ``diff > 0``.
 
@@ -122,9 +159,12 @@ def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: f
     :mod:`fringe3d.unwrap.sub_stripe` refines it). Below ``edge_margin`` the sign is too likely
     noise (see the module docstring). ``straddling`` is ``decided`` with ``edge_margin`` 0 (every
     stripe-edge pixel). ``contrast`` is the smallest ``|diff|`` of the bits that cleared the
-    margin (of all bits where none did)."""
+    margin (of all bits where none did). A bit marked ``undecidable`` (B, H, W) bool (both
+    frames clipped, :func:`clipped_pairs`) never decides a pixel, not even as an edge bit."""
     nb = diff.shape[0]
     size = np.abs(diff)
+    if undecidable is not None:
+        size = np.where(undecidable, -np.inf, size)
     weak = size < margin
     n_weak = weak.sum(axis=0)
     word = decode_bits(diff > 0, gray=False)
@@ -133,10 +173,11 @@ def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: f
         step = np.abs(centres[word] - centres[word ^ (np.int64(1) << flip_bit)])
     edge = (n_weak == 1) & (step > 0.5 * period) & (step < 1.5 * period)
     clear = n_weak == 0
-    straddling = clear | edge
-    decided = clear | (edge & (np.where(weak, size, np.inf).min(axis=0) >= edge_margin))
+    weakest = np.where(weak, size, np.inf).min(axis=0)
+    straddling = clear | (edge & (weakest > -np.inf))
+    decided = clear | (edge & (weakest >= edge_margin))
     strong = np.where(weak, np.inf, size).min(axis=0)
-    contrast = np.where(np.isfinite(strong), strong, size.min(axis=0))
+    contrast = np.where(np.isfinite(strong), strong, np.maximum(size.min(axis=0), 0.0))
     return decided, straddling, word, contrast.astype(np.float32)
 
 
@@ -151,20 +192,25 @@ def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
     white_thr, black_thr = code_thresholds(ctx)
     wb = white_black(ctx)
     diff, margin = code_differences(ctx, direct, inverse, wb, white_thr)
+    clipped = clipped_pairs(ctx, direct, inverse, wb, margin)
     centres = pixel_code_centers(ctx, direct)
     edge_margin = edge_threshold(ctx, inverse is not None) * (1.0 if inverse is not None else 0.5)
-    decided, straddling, word, contrast = decide_edges(diff, margin, centres, period, edge_margin)
+    decided, straddling, word, contrast = decide_edges(diff, margin, centres, period, edge_margin, clipped)
     centre = centres[word]
     lit = np.isfinite(centre)
     if wb is not None:
         lit &= (wb[0] - wb[1]) >= black_thr
-    lit &= ~(ctx.frames[direct] >= quality.saturation_level(ctx.frames, ctx.bit_depth)).any(axis=0)
     mask = decided & lit
+    both = clipped.any(axis=0)
+    ctx.cache[("code_clipped",)] = both & lit & ~decided
+    ctx.cache[("saturation", "code")] = {"clipped": float(both.mean()), "masked": float((both & lit & ~decided).mean()),
+                                         "rule": "a code bit whose frame and reference are both clipped"}
     if ctx.method_option("sub_stripe", True):
         # the zero crossings come from every edge pixel, also those below edge_thr: a crossing's
         # interpolated position is continuous in the pixel's difference, whatever its sign
         sources = lit & straddling
-        coordinate, _ = sub_stripe_coordinate(np.where(sources, centre, np.nan), diff, period)
+        coordinate, _ = sub_stripe_coordinate(np.where(sources, centre, np.nan), diff, period,
+                                              plateau=lit & both & ~sources)
     else:
         coordinate = centre
     phase = np.where(mask, 2.0 * np.pi * coordinate / period, np.nan).astype(np.float32)

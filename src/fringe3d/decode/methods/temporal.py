@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from fringe3d.decode.context import DecodeContext, combined_mask
+from fringe3d.decode.context import DecodeContext, clipping_broken, combined_mask
 from fringe3d.decode.result import Unwrapped
 from fringe3d.patterns.conventions import point_at_fringe_coordinate, w_range
 from fringe3d.patterns.render import sinusoid_value
@@ -44,15 +44,21 @@ def _beyond(ctx: DecodeContext, residual: np.ndarray | None) -> np.ndarray | Non
 def unwrap_heterodyne(ctx: DecodeContext) -> Unwrapped:
     """Plan ``method="heterodyne"``: three phase-shifted groups take the fused single-pass kernel
     (:func:`fringe3d.unwrap.temporal.three_frequency_decode`, option ``fused``), otherwise
-    :func:`fringe3d.unwrap.temporal.heterodyne` on the groups' wrapped phases."""
+    :func:`fringe3d.unwrap.temporal.heterodyne` on the groups' wrapped phases. Clipped pixels
+    are masked where clipping biases a group's phase beyond its noise
+    (:func:`fringe3d.decode.context.clipping_broken`)."""
     groups = ctx.groups_for_plan()
     if len(groups) == 3 and all(len(g.indices) >= 3 for g in groups) and ctx.options.fused:
         r = three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
                                    [g.period for g in groups], w_range=ctx.w_range(),
-                                   min_modulation=ctx.min_modulation,
-                                   saturation_level=quality.saturation_level(ctx.frames, ctx.bit_depth),
+                                   min_modulation=ctx.min_modulation, saturation_level=np.inf,
                                    max_residual=float(ctx.options.max_residual), backend=ctx.options.backend)
-        return Unwrapped(r.phase, r.mask, wrapped=r.wrapped, modulation=r.modulation, average=r.average,
+        mask, phase = r.mask, r.phase
+        if np.isfinite(quality.saturation_level(ctx.frames, ctx.bit_depth)):
+            for i, g in enumerate(groups):  # the coarser groups only choose fringe orders
+                mask = mask & ~clipping_broken(ctx, g, order_only=i > 0)
+            phase = np.where(mask, phase, np.float32(np.nan)).astype(np.float32, copy=False)
+        return Unwrapped(phase, mask, wrapped=r.wrapped, modulation=r.modulation, average=r.average,
                          texture=r.texture, phase_is_masked=True)
     phases = [ctx.group_phase(g).phase for g in groups]
     res = heterodyne(phases, [g.period for g in groups], w_range=ctx.w_range())
