@@ -29,7 +29,7 @@ AUTO = "auto"
 CANDIDATES = DIST_MODELS
 MAX_FOLDS = 8
 RICHER_MARGIN = 0.10
-RICHER_MIN_GAIN_PX = 0.01
+RICHER_MIN_GAIN_PX = 0.002
 MIN_POSES_TO_CHOOSE = 4
 #: What ``auto`` falls back to with too few poses: the previous defaults.
 FALLBACK = {"camera": "k1k2p", "projector": "none"}
