@@ -106,7 +106,7 @@ def orientation_gate(rvecs: np.ndarray) -> Gate:
     if len(normals) > 1:
         spread = float(np.degrees(np.arccos(np.clip(np.abs(normals @ normals.T), 0, 1))).max())
     return Gate("orientations", k >= MIN_ORIENTATIONS,
-                f"{k} distinct (largest angle between two board normals {spread:.1f} deg)",
+                f"{k} (board normals up to {spread:.1f} deg apart)",
                 f">= {MIN_ORIENTATIONS} orientations {ORIENTATION_STEP_DEG:g} deg apart",
                 "the poses are (nearly) parallel, which leaves the focal length undetermined: tilt the board "
                 "by 15-35 deg in different directions between poses")
@@ -136,9 +136,9 @@ def intrinsics_gates(device: str, K: np.ndarray, width: int, height: int) -> lis
               "different directions; " + _MORE_POSES)
     m = PROJECTOR_PP_MARGIN if device == "projector" else 0.0
     ok_c = -m * width <= cx <= (1 + m) * width - 1 and -m * height <= cy <= (1 + m) * height - 1
-    where = "the image" if m == 0 else f"the image grown by {m:g} of its size on each side"
+    where = "the image" if m == 0 else f"the image +/- {100 * m:g} % of its size"
     return [Gate(f"{device}_focal", bool(ok_f), f"fx {fx:.1f} px, fy {fy:.1f} px ({fx / width:.3g} x width)",
-                 f"{lo:g}-{hi:g} x width {width} px, |fx/fy - 1| <= {MAX_ASPECT_DEVIATION:g}", advice),
+                 f"{lo:g}-{hi:g} x width, |fx/fy - 1| <= {MAX_ASPECT_DEVIATION:g}", advice),
             Gate(f"{device}_principal_point", bool(ok_c), f"({cx:.1f}, {cy:.1f}) px",
                  f"inside {where} ({width}x{height} px)", advice)]
 
@@ -178,8 +178,7 @@ def distortion_gate(device: str, K: np.ndarray, dist: np.ndarray, width: int, he
     d = np.asarray(dist, np.float64).ravel()
     terms = ", ".join(f"{n} {x:.3g}" for n, x in zip(("k1", "k2", "p1", "p2", "k3"), d[:5]) if x != 0) or "none"
     return Gate(f"{device}_distortion", bool(share <= MAX_DISTORTION_SHARE and mono),
-                f"{100 * share:.1f} % at the image border, radial mapping {'monotonic' if mono else 'folds'} "
-                f"({terms})",
+                f"{100 * share:.1f} % at the border, {'monotonic' if mono else 'folds back'} ({terms})",
                 f"<= {100 * MAX_DISTORTION_SHARE:g} % and monotonic",
                 f"the {device} distortion terms are not supported by the poses: use a simpler model "
                 f"(--{device}-dist auto, k1k2 or none) or " + _MORE_POSES + ", covering the image corners")
