@@ -9,6 +9,7 @@ figures, ``summary.json`` and a self-contained ``report.html``.
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -18,6 +19,7 @@ import numpy as np
 from scipy.ndimage import binary_erosion
 
 from fringe3d.analyze.vdi import probing_errors, sphere_spacing
+from fringe3d.calibrate.gates import Gate, failure_message
 from fringe3d.calibrate.plots import residual_plot
 from fringe3d.calibrate.session import calibrate_observations, observe_session
 from fringe3d.decode import decode
@@ -28,6 +30,7 @@ from fringe3d.report import write_report
 from fringe3d.report.results import save_summary
 from fringe3d.sim import presets, render
 from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.utils.warning_types import CalibrationWarning
 from fringe3d.sim.catalog import facing_rotation, preset_frame
 from fringe3d.sim import Scene, Sphere
 from fringe3d.sim.sculpture import sculpture
@@ -140,6 +143,9 @@ def run_demo(out: str | Path, profile: str = "default", seed: int = 0,
     with st.time("calibrate"):
         obs, inf = observe_session(sess.poses, sess.board, progress=True)
         cal, res = calibrate_observations(obs, inf, sess.board)
+        if not cal.quality["passed"]:
+            warnings.warn(failure_message([Gate(**g) for g in cal.quality["gates"]]), CalibrationWarning,
+                          stacklevel=2)
         cal.save(out / "calibration.json")
         residual_plot(out / "calibration_residuals.png", res.camera.residuals, res.projector.residuals,
                       res.pose_names, title="calibration reprojection residuals")

@@ -11,7 +11,12 @@ Layout (``format = "fringe3d-calibration"``, ``version = 1``)::
      "angles":    {direction: fringe angle (rad)},
      "poses":     [{"name", "camera_rms_px", "projector_rms_px", "points"}],
      "rms":       {"camera_px", "projector_px", ...},
+     "quality":   {"passed", "gates": [{"name", "passed", "value", "limit", "advice"}],
+                   "dropped_poses", "outlier_rule", "model_choice", "accepted_poor"},
      "extra":     {...}}                      # free-form (e.g. alpha_opt, stereo rms)
+
+``quality`` is what :mod:`.gates` found (absent in files written before the gates existed);
+a file whose ``quality.passed`` is false was written with ``--accept-poor``.
 
 :func:`load_calibration` validates it and names any missing or invalid field;
 :func:`export_opencv_yaml` writes the same numbers as an OpenCV ``FileStorage`` YAML. All
@@ -52,12 +57,13 @@ class Calibration:
     poses: list
     rms: dict
     extra: dict = field(default_factory=dict)
+    quality: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return to_jsonable({"format": FORMAT, "version": VERSION, "model": self.model, "rig": self.rig.to_dict(),
                             "camera_stats": self.camera, "projector_stats": self.projector, "board": self.board,
                             "periods": self.periods, "angles": self.angles, "poses": self.poses,
-                            "rms": self.rms, "extra": self.extra})
+                            "rms": self.rms, "quality": self.quality, "extra": self.extra})
 
     def save(self, path) -> Path:
         """Write the JSON atomically; returns the path."""
@@ -72,7 +78,7 @@ class Calibration:
         return cls(model=d["model"], rig=rig, camera=d["camera_stats"],
                    projector=d["projector_stats"], board=d["board"],
                    periods=d["periods"], angles=d["angles"], poses=d["poses"], rms=d["rms"],
-                   extra=d.get("extra", {}))
+                   extra=d.get("extra", {}), quality=d.get("quality", {}))
 
     def export_opencv_yaml(self, path) -> Path:
         return export_opencv_yaml(self, path)
@@ -142,6 +148,10 @@ def validate(d: dict, where: str = "calibration file") -> None:
     rms = _need(d, "rms", dict, where)
     for k in ("camera_px", "projector_px"):
         _need(rms, k, float, f"{where}: rms")
+    if "quality" in d and d["quality"]:
+        _need(d, "quality", dict, where)
+        _need(d["quality"], "passed", bool, f"{where}: quality")
+        _need(d["quality"], "gates", list, f"{where}: quality")
 
 
 def load_calibration(path) -> Calibration:

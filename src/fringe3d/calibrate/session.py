@@ -40,6 +40,9 @@ from .boards import CircleBoard
 from .calibration_file import Calibration
 from .code_mapping import DEFAULT_WINDOW, code_projector_points
 from .corner_detection import locate_board
+from .gates import Gate, QualityGateError, calibration_gates, failed, failure_message
+from .model_choice import AUTO, check_dist_option, choose_model
+from .outliers import outlier_poses, rule_text as outlier_rule
 from .phase_mapping import FringeDirection, projector_points
 from .square_boards import CharucoBoard, ChessBoard, board_from_dict, describe_board
 from .plots import residual_plot
@@ -302,15 +305,21 @@ def observe_session(poses, board, min_modulation_fraction: float = 0.1,
 def calibrate_observations(obs: list[PoseObservation], info: dict, board, model: str = "pinhole",
                            camera_dist: str = "k1k2p", projector_dist: str = "none", min_poses: int = 3,
                            correct_circle_bias: bool = True,
-                           telecentric_refine: bool = True) -> tuple[Calibration, object]:
+                           telecentric_refine: bool = True, drop_outliers: bool = True) -> tuple[Calibration, object]:
     """Calibrate from observations; returns ``(Calibration, raw result)``.
 
     ``model`` is ``"pinhole"`` (camera frame = world, ch. 2) or ``"telecentric"`` (projector
     frame = world, ch. 3). Too few usable poses is a ``ValueError`` naming the skipped ones.
+    ``camera_dist`` / ``projector_dist``: a model of :data:`.camera.DIST_MODELS` or ``"auto"``
+    (chosen by held-out reprojection error, :mod:`.model_choice`).
     ``telecentric_refine`` adds a joint LM refinement to ch. 3's sequential steps
     (``telecentric.refine_jointly``); False gives the dissertation's method exactly.
     ``correct_circle_bias`` applies to circle grids only. A board found in no pose is a
-    ``ValueError`` naming the board and the poses.
+    ``ValueError`` naming the board and the poses. With ``drop_outliers`` the poses that
+    :func:`.outliers.outlier_poses` flags are dropped and the rig calibrated once more. The
+    result's ``quality`` holds the quality gates (:func:`.gates.calibration_gates`), the
+    dropped poses and the model choice; it is not enforced here
+    (:func:`calibrate_to_files` refuses a calibration that fails a gate).
     """
     skipped = info.get("skipped", [])
     if not obs and skipped:
@@ -318,9 +327,41 @@ def calibrate_observations(obs: list[PoseObservation], info: dict, board, model:
                          f"({', '.join(skipped)}); check the board description (kind, cols/rows, spacing"
                          + (", marker, dictionary" if isinstance(board, CharucoBoard) else "") + ")")
     if len(obs) < min_poses:
-        skipped = info.get("skipped", [])
         raise ValueError(f"only {len(obs)} usable board pose(s); need at least {min_poses}"
                          + (f" (board not found in: {', '.join(skipped)})" if skipped else ""))
+    if model not in ("pinhole", "telecentric"):
+        raise ValueError(f"unknown rig model {model!r}; expected 'pinhole' or 'telecentric'")
+    check_dist_option(camera_dist, "camera distortion model")
+    check_dist_option(projector_dist, "projector distortion model")
+    args = (info, board, model, camera_dist, projector_dist, min_poses, correct_circle_bias, telecentric_refine)
+    cal, res, choice = _calibrate_once(obs, *args)
+    dropped = outlier_poses(cal.poses) if drop_outliers else []
+    if dropped and len(obs) - len(dropped) >= min_poses:
+        names = {d["name"] for d in dropped}
+        cal, res, choice = _calibrate_once([o for o in obs if o.name not in names], *args)
+    else:
+        dropped = []
+    gates = calibration_gates(cal, res)
+    cal.quality = {"passed": not failed(gates), "gates": [g.to_dict() for g in gates],
+                   "dropped_poses": dropped, "outlier_rule": outlier_rule(), "model_choice": choice}
+    return cal, res
+
+
+def _choose_projector_model(obs, info: dict, board) -> tuple[str, dict]:
+    """A telecentric rig's ``"auto"`` projector model (:func:`.model_choice.choose_model`)
+    from the poses with >= 6 valid projector points."""
+    obj = board.object_points()
+    keep = [np.all(np.isfinite(o.projector_uv), axis=1) & np.all(np.isfinite(o.camera_uv), axis=1) for o in obs]
+    use = [i for i, k in enumerate(keep) if k.sum() >= 6]
+    return choose_model([obj[keep[i]] for i in use], [obs[i].projector_uv[keep[i]] for i in use],
+                        info["projector_size"], "projector")
+
+
+def _calibrate_once(obs, info, board, model, camera_dist, projector_dist, min_poses, correct_circle_bias,
+                    telecentric_refine) -> tuple[Calibration, object, dict]:
+    """One calibration of ``obs`` (see :func:`calibrate_observations`); also returns the model
+    choice (``{device: report}`` for the ``"auto"`` models)."""
+    choice: dict = {}
     cam_size, prj_size = info["camera_size"], info["projector_size"]
     if model == "pinhole":
         circles = isinstance(board, CircleBoard)
@@ -331,14 +372,18 @@ def calibrate_observations(obs: list[PoseObservation], info: dict, board, model:
                   "projector_rms_px": prj_rms.get(n, float("nan")), "points": int(res.used_points[i].sum())}
                  for i, n in enumerate(res.pose_names)]
         rms = {"camera_px": res.camera.rms, "projector_px": res.projector.rms, "stereo_px": res.stereo_rms}
-        cam_d = {"width": cam_size[0], "height": cam_size[1], "dist_model": camera_dist, "rms_px": res.camera.rms,
+        choice = res.model_choice
+        cam_d = {"width": cam_size[0], "height": cam_size[1], "dist_model": res.camera.dist_model,
+                 "rms_px": res.camera.rms,
                  "per_pose_rms_px": list(map(float, res.camera.per_pose_rms))}
         extra = {"circle_bias_corrected": bool(correct_circle_bias and circles)}
-    elif model == "telecentric":
+    else:
         partial = [o.name for o in obs if not np.all(np.isfinite(o.camera_uv))]
         if partial:
             raise ValueError(f"telecentric calibration needs the whole board in every pose; pose(s) "
                              f"{', '.join(partial)} show only part of the {describe_board(board)}")
+        if projector_dist == AUTO:
+            projector_dist, choice["projector"] = _choose_projector_model(obs, info, board)
         res = calibrate_telecentric_rig(board, obs, cam_size, prj_size, projector_dist, min_poses=min_poses,
                                         refine=telecentric_refine)
         poses = [{"name": n, "camera_rms_px": float(c), "projector_rms_px": float(p), "points": int(u.sum())}
@@ -349,9 +394,8 @@ def calibrate_observations(obs: list[PoseObservation], info: dict, board, model:
         cam_d = {"width": cam_size[0], "height": cam_size[1], "dist_model": "affine", "rms_px": res.camera_rms,
                  "per_pose_rms_px": list(map(float, res.camera_per_pose_rms))}
         extra = {"camera_pixels_per_mm": res.camera_scale, "joint_refinement": bool(telecentric_refine)}
-    else:
-        raise ValueError(f"unknown rig model {model!r}; expected 'pinhole' or 'telecentric'")
-    prj_d = {"width": prj_size[0], "height": prj_size[1], "dist_model": projector_dist, "rms_px": res.projector.rms,
+    prj_d = {"width": prj_size[0], "height": prj_size[1], "dist_model": res.projector.dist_model,
+             "rms_px": res.projector.rms,
              "per_pose_rms_px": list(map(float, res.projector.per_pose_rms))}
     if "alpha_opt" in info:
         extra["alpha_opt"] = info["alpha_opt"]
@@ -361,7 +405,7 @@ def calibrate_observations(obs: list[PoseObservation], info: dict, board, model:
     cal = Calibration(model=model, rig=res.rig, camera=cam_d, projector=prj_d, board=board.to_dict(),
                       periods=info.get("periods", {}), angles=info.get("angles", {}), poses=poses, rms=rms,
                       extra=extra)
-    return cal, res
+    return cal, res, choice
 
 
 def calibrate_session(paths, board=None, model: str | None = None, progress: bool = True,
@@ -401,20 +445,31 @@ def board_from_options(cols: int, rows: int, spacing: float | None, radius: floa
     raise ValueError(f"--board must be circles, chessboard or charuco, got {kind!r}")
 
 
-def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist="k1k2p", projector_dist="none",
+def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist="auto", projector_dist="auto",
                        plot: Path | None = None, yaml: Path | None = None, min_modulation: float = 0.1,
                        progress: bool = True, refine: bool = True, phase_window="bilinear",
                        layout: str | None = None, projector_size: tuple[int, int] | None = None,
-                       homography_window: int = DEFAULT_WINDOW) -> dict:
+                       homography_window: int = DEFAULT_WINDOW, accept_poor: bool = False) -> dict:
     """Calibrate from pose/session folders (:func:`calibrate_session`); write the calibration JSON
     (+ optional residual PNG plot / OpenCV YAML).
 
-    Returns a JSON-friendly summary. Nothing is written unless the calibration succeeds.
+    Returns a JSON-friendly summary. Nothing is written unless the calibration succeeds and
+    passes its quality gates (:mod:`.gates`): a failed gate raises :class:`.gates.QualityGateError`
+    (its ``summary`` is this function's summary with nothing written) - unless ``accept_poor``,
+    which writes the files, records ``quality.accepted_poor`` and warns.
     """
     cal, res = calibrate_session(inputs, board=board, model=model, progress=progress, camera_dist=camera_dist,
                                  projector_dist=projector_dist, min_modulation_fraction=min_modulation,
                                  telecentric_refine=refine, phase_window=phase_window, layout=layout,
                                  projector_size=projector_size, homography_window=homography_window)
+    gates = [Gate(**g) for g in cal.quality["gates"]]
+    if failed(gates):
+        if not accept_poor:
+            raise QualityGateError(failure_message(gates) + "\nnothing was written; --accept-poor writes the "
+                                   "calibration anyway and records the failed gates in it", _summary(cal, {}))
+        cal.quality["accepted_poor"] = True
+        warnings.warn(failure_message(gates) + "\nwritten anyway (--accept-poor); the file records the failed "
+                      "gates", CalibrationWarning, stacklevel=2)
     cal.save(output)
     written = {"calibration": str(output)}
     if plot is not None:
@@ -429,10 +484,15 @@ def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist
     if yaml is not None:
         cal.export_opencv_yaml(yaml)
         written["yaml"] = str(yaml)
+    return _summary(cal, written)
+
+
+def _summary(cal: Calibration, written: dict) -> dict:
+    """The JSON-friendly summary :func:`calibrate_to_files` returns."""
     rig = cal.rig
-    summary = {"model": cal.model, "rms": cal.rms, "poses": cal.poses, "written": written,
-               "skipped_poses": cal.extra.get("skipped_poses", []), "periods": cal.periods,
-               "phase_sampling": cal.extra.get("phase_sampling", "bilinear"),
-               "correspondences": cal.extra.get("correspondences"), "board": cal.board,
-               "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}
-    return summary
+    return {"model": cal.model, "rms": cal.rms, "poses": cal.poses, "written": written,
+            "skipped_poses": cal.extra.get("skipped_poses", []), "periods": cal.periods,
+            "phase_sampling": cal.extra.get("phase_sampling", "bilinear"),
+            "correspondences": cal.extra.get("correspondences"), "board": cal.board,
+            "dist_models": {"camera": cal.camera["dist_model"], "projector": cal.projector["dist_model"]},
+            "quality": cal.quality, "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}

@@ -24,6 +24,7 @@ from fringe3d.optics import PinholeDevice, Rig
 
 from .boards import CircleBoard
 from .camera import DeviceCalibration, calibrate_device
+from .model_choice import AUTO, FALLBACK, choose_model
 
 
 @dataclass
@@ -51,6 +52,7 @@ class RigCalibration:
     pose_names: list[str]
     projector_poses: list[int] = field(default_factory=list)  # indices into pose_names of prj poses
     used_points: list[np.ndarray] = field(default_factory=list)  # per pose: bool (N,) valid projector points
+    model_choice: dict = field(default_factory=dict)  # device -> report, for "auto" distortion models
 
 
 def circle_bias(board: CircleBoard, K, dist, rvec, tvec, samples: int = 96) -> np.ndarray:
@@ -102,7 +104,10 @@ def calibrate_pinhole_rig(board: CircleBoard, poses: list[PoseObservation], came
     board : CircleBoard
     poses : list of PoseObservation (one per usable board pose)
     camera_size, projector_size : (width, height) pixels
-    camera_dist, projector_dist : distortion models (see ``camera.DIST_MODELS``)
+    camera_dist, projector_dist : distortion models (see ``camera.DIST_MODELS``), or ``"auto"``:
+        chosen by held-out reprojection error (:func:`.model_choice.choose_model`) from the
+        points after the circle-bias correction (the correction passes use
+        :data:`.model_choice.FALLBACK`)
     correct_circle_bias : remove the perspective bias of circle centres (see module doc)
     min_poses : fewer usable poses is a ``ValueError``
     min_points : a pose with fewer valid projector points is left out of the projector and
@@ -124,13 +129,20 @@ def calibrate_pinhole_rig(board: CircleBoard, poses: list[PoseObservation], came
     prj_uv = [p.projector_uv.astype(np.float64).copy() for p in poses]
     cam_obs0 = [c.copy() for c in cam_uv]
     passes = 3 if correct_circle_bias else 1
+    models = {"camera": camera_dist, "projector": projector_dist}
+    choice: dict = {}
     for it in range(passes):
-        cam = calibrate_device([obj[c] for c in seen], [u[c] for u, c in zip(cam_uv, seen)], camera_size,
-                               camera_dist, min_poses, "camera")
         pobj = [obj[keep[i]] for i in proj_poses]
         puv = [prj_uv[i][keep[i]] for i in proj_poses]
         cuv = [cam_uv[i][keep[i]] for i in proj_poses]
-        prj = calibrate_device(pobj, puv, projector_size, projector_dist, min_poses, "projector")
+        views = {"camera": ([obj[c] for c in seen], [u[c] for u, c in zip(cam_uv, seen)], camera_size),
+                 "projector": (pobj, puv, projector_size)}
+        use = {d: FALLBACK[d] if m == AUTO else m for d, m in models.items()}
+        if it == passes - 1:  # the final pass: choose the "auto" models on the corrected points
+            for d in (d for d, m in models.items() if m == AUTO):
+                use[d], choice[d] = choose_model(*views[d], d)
+        cam = calibrate_device(*views["camera"], use["camera"], min_poses, "camera")
+        prj = calibrate_device(*views["projector"], use["projector"], min_poses, "projector")
         crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-12)
         with serial_opencv():  # bit-reproducible sums
             out = cv2.stereoCalibrate([o.astype(np.float32).reshape(-1, 1, 3) for o in pobj],
@@ -158,4 +170,4 @@ def calibrate_pinhole_rig(board: CircleBoard, poses: list[PoseObservation], came
                               R=R, t=T)
     return RigCalibration(rig=Rig(camera=camera, projector=projector), camera=cam, projector=prj,
                           stereo_rms=stereo_rms, pose_names=[p.name for p in poses],
-                          projector_poses=proj_poses, used_points=keep)
+                          projector_poses=proj_poses, used_points=keep, model_choice=choice)

@@ -8,6 +8,8 @@ import typer
 from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.calibrate.calibration_file import load_calibration
 from fringe3d.calibrate.evaluation import compare_to_truth
+from fringe3d.calibrate.gates import QualityGateError
+from fringe3d.calibrate.model_choice import check_dist_option
 from fringe3d.calibrate.opencv_file import load_opencv_calibration, parse_node_map, parse_size
 from fringe3d.calibrate.code_mapping import DEFAULT_WINDOW
 from fringe3d.calibrate.session import board_from_options, calibrate_to_files
@@ -52,8 +54,13 @@ def register(app: typer.Typer) -> None:
                                                                    "window of each corner's local homography."),
         model: str = typer.Option(None, help="'pinhole' (camera frame = world) or 'telecentric' (projector "
                                              "frame = world); default from session.json or pinhole."),
-        camera_dist: str = typer.Option("k1k2p", help="Camera distortion: none, k1, k1k2, k1k2p, full."),
-        projector_dist: str = typer.Option("none", help="Projector distortion (linear model = none)."),
+        camera_dist: str = typer.Option("auto", help="Camera distortion: auto (chosen by held-out reprojection "
+                                                     "error across poses), none, k1, k1k2, k1k2p, full."),
+        projector_dist: str = typer.Option("auto", help="Projector distortion: auto (as --camera-dist), none "
+                                                        "(linear model), k1, k1k2, k1k2p, full."),
+        accept_poor: bool = typer.Option(False, "--accept-poor", help="Write the calibration even when it fails "
+                                                                      "a quality gate (the file records the "
+                                                                      "failed gates)."),
         min_modulation: float = typer.Option(0.1, "--min-modulation-share",
                                              help="Reject centres whose modulation is below this share (a "
                                                   "fraction, 0-1) of the image's 95th-percentile modulation "
@@ -120,6 +127,8 @@ def register(app: typer.Typer) -> None:
         check_number(defocus, "--defocus", minimum=0)
         check_number(stripe, "--stripe", minimum=1)
         check_number(marker, "--marker", positive=True)
+        check_dist_option(camera_dist, "--camera-dist")
+        check_dist_option(projector_dist, "--projector-dist")
         if board_kind not in BOARD_KINDS:
             raise ValueError(f"--board must be one of {', '.join(BOARD_KINDS)}, got {board_kind!r}")
         if sim_patterns not in PATTERN_KINDS:
@@ -170,28 +179,50 @@ def register(app: typer.Typer) -> None:
                                       partial=partial)
             truth = ss.rig
         plot_path = None if no_plot else (plot or output.with_suffix(".png"))
-        with open_output_file(output, plot_path, yaml, overwrite=overwrite, inputs=inputs):
-            s = calibrate_to_files(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
-                                   min_modulation, progress=not (quiet or json_), refine=not no_refine,
-                                   phase_window=phase_window, layout=layout, projector_size=size,
-                                   homography_window=homography_window)
+        try:
+            with open_output_file(output, plot_path, yaml, overwrite=overwrite, inputs=inputs):
+                s = calibrate_to_files(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
+                                       min_modulation, progress=not (quiet or json_), refine=not no_refine,
+                                       phase_window=phase_window, layout=layout, projector_size=size,
+                                       homography_window=homography_window, accept_poor=accept_poor)
+        except QualityGateError as e:  # show the figures, then the error (exit 2, nothing written)
+            _show(e.summary, json_, quiet)
+            raise
         if truth is not None:
             s["truth_comparison"] = compare_to_truth(load_calibration(output).rig, truth)
-        if json_:
-            print_json(s)
-            return
-        if quiet:
-            return
-        rows_ = [[p["name"], p["points"], p["camera_rms_px"], p["projector_rms_px"]] for p in s["poses"]]
-        console.print(make_table("per-pose reprojection RMS (px)", ["pose", "points", "camera", "projector"], rows_))
-        console.print(make_table("overall", ["figure", "value"], [[k, v] for k, v in s["rms"].items()]))
-        if "truth_comparison" in s:
-            console.print(make_table("calibrated vs true rig", ["figure", "error"],
-                                     [[k, v] for k, v in s["truth_comparison"].items()]))
-        for name in s["skipped_poses"]:
-            console.print(f"skipped (board not found): {name}")
-        for k, v in s["written"].items():
-            info(f"wrote {k}: {v}")
+        _show(s, json_, quiet)
+
+
+def _show(s: dict, json_: bool, quiet: bool) -> None:
+    """Print a calibration summary: JSON, or tables of residuals, model choice and quality gates."""
+    if json_:
+        print_json(s)
+        return
+    if quiet:
+        return
+    rows_ = [[p["name"], p["points"], p["camera_rms_px"], p["projector_rms_px"]] for p in s["poses"]]
+    console.print(make_table("per-pose reprojection RMS (px)", ["pose", "points", "camera", "projector"], rows_))
+    console.print(make_table("overall", ["figure", "value"], [[k, v] for k, v in s["rms"].items()]))
+    if "truth_comparison" in s:
+        console.print(make_table("calibrated vs true rig", ["figure", "error"],
+                                 [[k, v] for k, v in s["truth_comparison"].items()]))
+    q = s.get("quality", {})
+    for dev, c in q.get("model_choice", {}).items():
+        errs = ", ".join(f"{m} {v:.4g}" if v is not None and v < float("inf") else f"{m} failed"
+                         for m, v in c.get("held_out_rms_px", {}).items())
+        info(f"{dev} distortion: {c['chosen']} ({errs or c.get('reason')}; held-out RMS px)")
+    for d in q.get("dropped_poses", []):
+        console.print(f"dropped outlier pose {d['name']}: camera {d['camera_rms_px']:.3g} px, projector "
+                      f"{d['projector_rms_px']:.3g} px ({q.get('outlier_rule')})")
+    gates = q.get("gates", [])
+    if gates:
+        console.print(make_table("quality gates", ["gate", "result", "value", "limit"],
+                                 [[g["name"], "pass" if g["passed"] else "FAIL", g["value"], g["limit"]]
+                                  for g in gates]))
+    for name in s["skipped_poses"]:
+        console.print(f"skipped (board not found): {name}")
+    for k, v in s["written"].items():
+        info(f"wrote {k}: {v}")
 
 
 def _import(path: Path, output: Path, node, camera_size, projector_size, unit: str, json_: bool,

@@ -272,7 +272,7 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
                      noise: bool = True, settings_overrides: dict | None = None, folder=None,
                      dark_albedo: float = 0.35, progress: bool = True, max_tilt_deg: float = 35.0,
                      edge_pixels: float | None = None, partial: int = 0,
-                     stripe: float | None = None) -> SimulatedSession:
+                     stripe: float | None = None, projector_dist=None) -> SimulatedSession:
     """Render a calibration session with the simulator.
 
     Parameters
@@ -300,9 +300,15 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
     partial : the last ``partial`` poses show only part of the board to the camera
         (:func:`sample_board_poses`; for ChArUco boards)
     stripe : Gray-code patterns: narrowest stripe (projector px)
+    max_tilt_deg : largest board tilt; a few degrees gives a degenerate session of
+        near-parallel poses (the calibration's orientation gate, :mod:`fringe3d.calibrate.gates`)
+    projector_dist : Brown coefficients ``(k1, k2, p1, p2, k3)`` of the true projector lens
+        (the presets' projectors have none); the renderer maps through them (Eq. 2.14-2.16)
     """
     p = presets.get(preset)
     rig = scaled_camera(p.rig, camera_scale)
+    if projector_dist is not None:
+        rig = Rig(rig.camera, replace(rig.projector, dist=np.asarray(projector_dist, np.float64)))
     model = "telecentric" if rig.telecentric else "pinhole"
     if board is None or isinstance(board, (str, tuple)):
         kind, *cols_rows = (board,) if isinstance(board, str) else board or ("circles",)
