@@ -128,14 +128,19 @@ def test_library_raises_a_typed_error_in_parameter_words(captures):
     assert any(issubclass(w.category, ReconstructionWarning) for w in caught)
 
 
-def test_histogram_without_z_min_creates_no_folder_and_the_corrected_run_works(tmp_path, capsys):
+@pytest.mark.parametrize("patterns, bad, expected", [
+    (lambda: sets.phase_shift(18, 3, "v", width=W, height=H), ["--method", "histogram"], "--z-min"),
+    (lambda: sets.two_frequency(18, 144, "v", width=W, height=H), ["--z-min", "-20"], "behind"),
+], ids=["histogram-without-z-min", "z-min-behind-the-camera"])
+def test_a_refused_sequence_creates_no_folder_and_the_corrected_run_works(patterns, bad, expected, tmp_path, capsys):
     cap = tmp_path / "cap"
-    simulate_capture(cap, preset="tiny", scene="plane", patterns=sets.phase_shift(18, 3, "v", width=W, height=H),
-                     frames=6, seed=1, progress=False)  # two cycles: a resumable sequence
-    base = ["reconstruct", cap, "-c", cap / "rig.json", "-o", tmp_path / "seq", "--method", "histogram", "-q"]
-    code, _, err = run(base, capsys)
-    assert code == 2 and "--z-min" in err and not (tmp_path / "seq").exists()
-    code, _, err = run(base + ["--z-min", Z_MIN], capsys)
+    ps = patterns()
+    simulate_capture(cap, preset="tiny", scene="plane", patterns=ps, frames=2 * len(ps), seed=1,
+                     progress=False)  # two cycles: a resumable sequence, its store made before the first frame
+    base = ["reconstruct", cap, "-c", cap / "rig.json", "-o", tmp_path / "seq", "-q"]
+    code, _, err = run(base + bad, capsys)
+    assert code == 2 and expected in err and not (tmp_path / "seq").exists()
+    code, _, err = run(base + [a for a in bad if a not in ("--z-min", "-20")] + ["--z-min", Z_MIN], capsys)
     assert code == 0, err
     assert (tmp_path / "seq" / "points.zarr").is_dir()
 

@@ -147,6 +147,10 @@ def register(app: typer.Typer) -> None:
         OUT/points.zarr (one point map per cycle or window, with its quality map and sigma_z; resumable) and/or
         OUT/ply/.
 
+        A direction unwrapped with none (wrapped phase) or spatial (relative phase) is refused before
+        anything is written, naming the absolute methods the manifest can feed (--allow-relative
+        writes it anyway, marked in reconstruct.json).
+
         Example: fringe3d reconstruct sphere-capture --calibration calib.json -o sphere-3d --ply
         """
         set_quiet(quiet or json_)

@@ -152,8 +152,8 @@ def check_geometry(ps: PatternSet, rig: Rig | None, z_min: float | None) -> None
         z = z_min if z_min is not None else p.options.get("z_min")
         if z is None:
             raise MissingGeometryError(p.direction, p.method, "z_min")
-        for period in p.periods:  # cached: the decoder reuses these maps
-            cached_minimum_phase(rig, float(z), float(period), p.angle)
+        if p.periods:  # the coarsest period's map: the one every geometric method uses, cached for it
+            cached_minimum_phase(rig, float(z), float(p.periods[-1]), p.angle)
 
 
 def check_plans(ps: PatternSet, rig: Rig | None, z_min: float | None, *, original: PatternSet | None = None,
