@@ -125,7 +125,7 @@ def test_z_min_behind_camera(noisy_capture, tmp_path, capsys):
 def test_geometric_without_z_min(noisy_capture, tmp_path, capsys):
     code, _, err = run(["reconstruct", str(noisy_capture), "-c", str(noisy_capture / "rig.json"), "-o",
                         str(tmp_path / "o"), "--method", "geometric"], capsys)
-    assert code == 2 and "z_min" in err
+    assert code == 2 and "--z-min" in err and not (tmp_path / "o").exists()
 
 
 def test_empty_mask_is_a_clear_error(noisy_capture, tmp_path, capsys):

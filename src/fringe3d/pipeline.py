@@ -17,13 +17,14 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.decode import DecodeOptions
+from fringe3d.decode.plan_checks import check_plans
 from fringe3d.decode.texture import TEXTURE_UNIT
 from fringe3d.io.capture import Capture, read_capture
 from fringe3d.io.images import write_image
 from fringe3d.io.ply_standard import write_measurement_ply
 from fringe3d.io.pointcloud import _colors, organized_normals, write_ply
 from fringe3d.optics import Rig
-from fringe3d.patterns.manifest import PatternSet
+from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.reconstruct.depth import depth_map
 from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
 from fringe3d.unwrap.geometric import propose_z_min
@@ -175,7 +176,8 @@ def check_sizes(rig: Rig, frames: np.ndarray, calibration) -> None:
 
 def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: float | None = None,
                       triangulation: str = "auto", min_modulation: float | None = None, edge_mask: bool = True,
-                      edge_margin: float | None = None, backend: str = "cpu") -> Reconstruction:
+                      edge_margin: float | None = None, backend: str = "cpu",
+                      allow_relative: bool = False) -> Reconstruction:
     """Reconstruct the first pattern cycle of a capture in memory.
 
     Parameters
@@ -198,11 +200,25 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
         Projector-edge band (projector px); default 2 px + twice the estimated blur.
     backend : {"cpu", "cuda"}
         Where the per-pixel kernels run (:class:`fringe3d.reconstruct.sequence.FrameReconstructor`).
+    allow_relative : bool
+        Triangulate a wrapped or relative phase (method ``none`` or ``spatial``) anyway, with a
+        warning; its 3D is off by an unknown number of fringe periods in depth.
+
+    Raises
+    ------
+    fringe3d.decode.plan_checks.RelativePhaseError
+        A direction's phase is wrapped or relative (and not ``allow_relative``); the message names
+        the absolute methods the manifest can feed.
+    fringe3d.decode.plan_checks.MissingGeometryError
+        A geometric-constraint method without ``z_min``.
     """
     ps = with_method(cap.patterns, method)
+    source = f"{cap.folder / MANIFEST_NAME}" if cap.folder is not None else "the manifest"
+    check_plans(ps, rig, z_min, original=cap.patterns, source=source, allow_relative=allow_relative)
     options = DecodeOptions(z_min=z_min, bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation,
                             edge_mask=edge_mask, edge_margin=edge_margin)
-    rec = FrameReconstructor(ps, rig, options, triangulation=triangulation, backend=backend)
+    rec = FrameReconstructor(ps, rig, options, triangulation=triangulation, backend=backend,
+                             allow_relative=allow_relative)
     c = rec.reconstruct(np.ascontiguousarray(cap.frames))
     return Reconstruction(points=c.points, texture=c.texture, mask=np.isfinite(c.points[..., 0]), patterns=ps,
                           path=rec.path, quality=c.quality, sigma_xyz=c.sigma_xyz)
@@ -211,7 +227,7 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
 def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLike | Rig, method: str | None = None,
                         z_min: float | None = None, triangulation: str = "auto",
                         min_modulation: float | None = None, edge_mask: bool = True,
-                        edge_margin: float | None = None) -> Reconstruction:
+                        edge_margin: float | None = None, allow_relative: bool = False) -> Reconstruction:
     """A capture folder's first pattern cycle as a point map.
 
     Parameters
@@ -220,10 +236,11 @@ def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLik
         Capture folder (``manifest.json`` + frames).
     calibration : path or Rig
         Calibration JSON (with a ``rig`` entry) or rig JSON, or a :class:`Rig`.
-    method, z_min, triangulation, min_modulation, edge_mask, edge_margin
+    method, z_min, triangulation, min_modulation, edge_mask, edge_margin, allow_relative
         As in :func:`reconstruct_cycle`: the unwrapping method overriding the manifest's plan,
         the nearest depth for the geometric constraint (mm), closed form or least squares, the
-        modulation threshold (camera counts) and the edge / mixed-pixel masking.
+        modulation threshold (camera counts), the edge / mixed-pixel masking and whether a
+        wrapped or relative phase may be triangulated (``RelativePhaseError`` otherwise).
 
     Returns
     -------
@@ -235,7 +252,8 @@ def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLik
     cap = read_capture(folder, max_cycles=1)
     check_sizes(rig, cap.frames, calibration)
     return reconstruct_cycle(cap, rig, method=method, z_min=z_min, triangulation=triangulation,
-                             min_modulation=min_modulation, edge_mask=edge_mask, edge_margin=edge_margin)
+                             min_modulation=min_modulation, edge_mask=edge_mask, edge_margin=edge_margin,
+                             allow_relative=allow_relative)
 
 
 def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool,

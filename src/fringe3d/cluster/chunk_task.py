@@ -36,7 +36,8 @@ class SequenceJob:
     ``"cuda"`` runs the per-pixel kernels on the worker's GPU (its tasks ask for the worker
     resource ``{"GPU": 1}``, see :mod:`fringe3d.cluster.engine`), a chunk's cycles in one launch.
     ``command`` is the client's command line, recorded in the files the worker writes (PLY
-    provenance comments) as the serial path records it.
+    provenance comments) as the serial path records it. ``allow_relative``: the client accepted a
+    wrapped or relative phase (:class:`~fringe3d.reconstruct.sequence.FrameReconstructor`).
     """
 
     key: str
@@ -51,6 +52,7 @@ class SequenceJob:
     ply_dir: str | None = None
     backend: str = "cpu"
     command: str = ""
+    allow_relative: bool = False
 
 
 _WORKER_CACHE: dict[str, tuple] = {}  # job key -> (reconstructor, frames, store)
@@ -61,7 +63,7 @@ def _worker_state(job: SequenceJob):
     if job.key not in _WORKER_CACHE:
         _WORKER_CACHE.clear()  # one job at a time per worker: drop the previous job's tables
         rec = FrameReconstructor(job.patterns, job.rig, job.options, triangulation=job.triangulation,
-                                 backend=job.backend)
+                                 backend=job.backend, allow_relative=job.allow_relative)
         frames = open_frames(job.capture, limit=job.limit)  # a referenced camera file, else frames/ files
         frames = frames if frames is not None else CaptureFrames(job.capture, limit=job.limit)
         store = PointMapStore.open_existing(job.store) if job.store else None

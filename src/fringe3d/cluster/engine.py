@@ -123,18 +123,20 @@ def reconstruct_capture_on_dask(capture: str | os.PathLike, patterns: PatternSet
                                 mode: str = "cycle", step: int | None = None, ply: bool = False, store: bool = True,
                                 triangulation: str = "auto", client=None, chunk: int = DEFAULT_CHUNK,
                                 progress: bool = True, layout: str = "auto", store_quality: bool = True,
-                                backend: str = "cpu", codec: str | None = None) -> dict:
+                                backend: str = "cpu", codec: str | None = None,
+                                allow_relative: bool = False) -> dict:
     """:func:`fringe3d.reconstruct.sequence.reconstruct_sequence` of a capture folder, on Dask.
 
     Same store, same point maps (bit-identical: the same per-window code runs on the workers),
     same summary, plus ``workers`` and ``tasks``. ``client`` from :func:`connect`; ``layout``
-    ``store_quality`` and ``codec`` as there; ``backend`` as :class:`~fringe3d.cluster.chunk_task.SequenceJob`.
+    ``store_quality``, ``codec`` and ``allow_relative`` as there; ``backend`` as
+    :class:`~fringe3d.cluster.chunk_task.SequenceJob`.
     """
     frames = open_frames(capture, limit=limit)
     frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
     out = Path(out)
     options = options or DecodeOptions()
-    rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation)
+    rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, allow_relative=allow_relative)
     starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store, rec=rec,
                                   layout=layout, store_quality=store_quality, codec=codec)
     key = fingerprint([capture], {"patterns": patterns.to_dict(), "rig": rig.to_dict(), "options": repr(options),
@@ -144,7 +146,7 @@ def reconstruct_capture_on_dask(capture: str | os.PathLike, patterns: PatternSet
                       options=options, starts=tuple(starts), triangulation=triangulation,
                       store=str((out / STORE_NAME).resolve()) if st is not None else None,
                       ply_dir=str((out / PLY_DIR).resolve()) if ply else None, backend=backend,
-                      command=command_line())
+                      command=command_line(), allow_relative=allow_relative)
     res = reconstruct_on_dask(job, client, chunk=chunk, progress=progress)
     return {"out": str(out), "frames_3d": len(starts), **res, "path": rec.path, "mode": mode, "backend": backend,
             "store": str(out / STORE_NAME) if store else None, "ply_dir": str(out / PLY_DIR) if ply else None,

@@ -14,7 +14,9 @@ from fringe3d.commands.import_options import SRC_HELP
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
+from fringe3d.commands.plan_errors import in_flag_words
 from fringe3d.decode import DecodeOptions, decode, with_method
+from fringe3d.decode.plan_checks import check_geometry
 from fringe3d.io.capture import read_capture, read_meta
 from fringe3d.io.importer import load_images, parse_size
 from fringe3d.patterns.manifest import MANIFEST_NAME
@@ -163,6 +165,8 @@ def register(app: typer.Typer) -> None:
         if ftp_window is not None:
             opts["ftp_window"] = ftp_window
         rig_obj = _load_rig(rig)
+        with in_flag_words():  # a geometric method without --calibration / --z-min: before anything is written
+            check_geometry(patterns, rig_obj, z_min)
         n = cap.cycles
         if cap.source is not None:
             total = len(cap.source) // len(patterns)

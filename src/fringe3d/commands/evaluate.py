@@ -8,6 +8,7 @@ import typer
 
 from fringe3d.analyze.evaluation import evaluate_points, load_points, truth_frame_index
 from fringe3d.analyze.truth_points import TruthPoints, load_truth_points
+from fringe3d.decode.phase_kinds import METHOD_KINDS, is_relative
 from fringe3d.sim.truth import Truth
 from fringe3d.utils.console import console, make_table, print_json, set_quiet, warn
 from fringe3d.utils.jsonfile import write_json
@@ -31,6 +32,16 @@ def load_truth(folder: Path, info: dict, frame: int, shape) -> Truth | TruthPoin
         raise ValueError(f"the truth in {folder} is {t.xyz.shape[1]}x{t.xyz.shape[0]} pixels but the point map is "
                          f"{shape[1]}x{shape[0]}; expected the truth of the capture that was reconstructed")
     return t
+
+
+def relative_phase(info: dict) -> dict[str, str]:
+    """``{direction: method}`` of the directions a reconstruction triangulated from wrapped or
+    relative phase, from its reconstruct.json (``methods``, ``relative_phase``); empty otherwise."""
+    methods = info.get("methods") if isinstance(info.get("methods"), dict) else {}
+    out = {d: m for d, m in methods.items() if m in METHOD_KINDS and is_relative(m)}
+    for d in info.get("relative_phase") or []:
+        out.setdefault(str(d), str(methods.get(d, "relative")))
+    return out
 
 
 def register(app: typer.Typer) -> None:
@@ -74,6 +85,12 @@ def register(app: typer.Typer) -> None:
             raise ValueError("choose one of --sphere, --plane, --ball-bar")
         points, info = load_points(result, frame)
         out: dict = {"result": str(result), "frame": frame}
+        relative = relative_phase(info)
+        if relative:
+            out["relative_phase"] = relative
+            warn(f"{result} was triangulated from wrapped or relative phase ({relative}): its points are off by an "
+                 "unknown number of fringe periods in depth, so these figures measure that offset, not the "
+                 "measurement. Reconstruct it with an absolute method (fringe3d reconstruct names them).")
         t = None
         if truth is not None and (truth.is_file() or truth.suffix in (".npy", ".ply")):
             t = load_truth(truth, info, frame, points.shape[:2])
@@ -101,4 +118,5 @@ def register(app: typer.Typer) -> None:
             for k, v in out.get(sect, {}).items():
                 if not isinstance(v, (dict, list, tuple)):
                     rows.append([f"{sect}.{k}", v])
-        console.print(make_table(f"evaluation of {result}", ["figure", "value (mm)"], rows))
+        title = f"evaluation of {result}" + (" - RELATIVE PHASE, NOT A MEASUREMENT" if relative else "")
+        console.print(make_table(title, ["figure", "value (mm)"], rows))

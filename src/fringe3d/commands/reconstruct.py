@@ -13,12 +13,16 @@ from fringe3d.decode import DecodeOptions
 from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
+from fringe3d.commands.plan_errors import in_flag_words
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.decode import decode
+from fringe3d.decode.phase_kinds import METHOD_KINDS
+from fringe3d.decode.plan_checks import check_plans
 from fringe3d.gpu import BACKENDS, cuda_module
 from fringe3d.io.capture import list_frame_files, open_frames, read_capture
 from fringe3d.io.store import CODECS
 from fringe3d.optics import Rig
+from fringe3d.patterns.manifest import MANIFEST_NAME
 from fringe3d.utils.output_folder import open_output
 from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
 from fringe3d.reconstruct.depth import EmptyMaskError
@@ -40,8 +44,7 @@ from fringe3d.utils.jsonfile import write_json
 #: Units of reconstruct.json's fields.
 RECONSTRUCT_UNITS = {"depth_min": "mm", "depth_max": "mm", "z_min": "mm", "valid_share": "1",
                      "shape": "px (rows, columns)", "seconds": "s", "points": "mm (camera frame)"}
-METHODS = ("none", "geometric", "two_frequency_geometric", "hierarchical", "heterodyne", "gray_code",
-           "binary_code", "hybrid", "spatial", "histogram")
+METHODS = tuple(METHOD_KINDS)
 
 
 def empty_reason(cap, patterns, rig, min_modulation) -> str:
@@ -60,19 +63,21 @@ def empty_reason(cap, patterns, rig, min_modulation) -> str:
 
 def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOptions, window, ply: bool, store: bool,
               progress: bool, triangulation: str, client, chunk: int, layout: str = "auto",
-              store_quality: bool = True, backend: str = "cpu", codec: str = "lz4") -> dict:
+              store_quality: bool = True, backend: str = "cpu", codec: str = "lz4",
+              allow_relative: bool = False) -> dict:
     """The sequence branch: in this process, or on Dask when a ``client`` is given."""
     mode = "window" if window else "cycle"
     if client is not None:
         return reconstruct_capture_on_dask(capture, ps, rig, out, options, limit=limit, mode=mode, step=window,
                                            ply=ply, store=store, triangulation=triangulation, client=client,
                                            chunk=chunk, progress=progress, layout=layout, store_quality=store_quality,
-                                           backend=backend, codec=codec)
+                                           backend=backend, codec=codec, allow_relative=allow_relative)
     frames = open_frames(capture, limit=limit)  # a referenced camera file, read on demand; else None
     frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
     return reconstruct_sequence(frames, ps, rig, out, options=options, mode=mode, step=window, ply=ply,
                                 store=store, progress=progress, triangulation=triangulation, layout=layout,
-                                store_quality=store_quality, backend=backend, codec=codec)
+                                store_quality=store_quality, backend=backend, codec=codec,
+                                allow_relative=allow_relative)
 
 
 def register(app: typer.Typer) -> None:
@@ -126,6 +131,11 @@ def register(app: typer.Typer) -> None:
         edge_margin: float = edge_margin_option(),
         overwrite: bool = overwrite_option(),
         allow_empty: bool = allow_empty_option(),
+        allow_relative: bool = typer.Option(False, "--allow-relative",
+                                            help="Triangulate a wrapped or relative phase (method none or spatial) "
+                                                 "anyway: its 3D is off by an unknown number of fringe periods in "
+                                                 "depth; reconstruct.json marks it (relative_phase) and evaluate "
+                                                 "says so. Default: refuse, naming the absolute methods."),
         json_: bool = typer.Option(False, "--json", help="Print one JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars or tables."),
     ) -> None:
@@ -136,6 +146,10 @@ def register(app: typer.Typer) -> None:
         units and provenance in the header; --mesh adds the grid's triangles) and OUT/reconstruct.json. A sequence:
         OUT/points.zarr (one point map per cycle or window, with its quality map and sigma_z; resumable) and/or
         OUT/ply/.
+
+        A direction unwrapped with none (wrapped phase) or spatial (relative phase) is refused before
+        anything is written, naming the absolute methods the manifest can feed (--allow-relative
+        writes it anyway, marked in reconstruct.json).
 
         Example: fringe3d reconstruct sphere-capture --calibration calib.json -o sphere-3d --ply
         """
@@ -177,6 +191,9 @@ def register(app: typer.Typer) -> None:
         n_files = len(referenced) if referenced is not None else len(list_frame_files(capture))
         cycles = n_files // len(cap.patterns) if max_cycles is None else min(max_cycles, n_files // len(cap.patterns))
         ps = with_method(cap.patterns, method)
+        with in_flag_words(z_min_from=True):  # relative phase, geometric method without z_min: before writing
+            relative = check_plans(ps, rig, z_min, original=cap.patterns, source=str(capture / MANIFEST_NAME),
+                                   allow_relative=allow_relative)
         opts = {"bit_depth": cap.meta.get("bit_depth"), "min_modulation": min_modulation, "edge_mask": edge_mask,
                 "edge_margin": edge_margin}
         methods = {p.direction: p.method for p in ps.plans}
@@ -184,6 +201,8 @@ def register(app: typer.Typer) -> None:
                    "device": device,
                    "z_min": z_min, "cycles": cycles, "cycle_length": len(ps), "step": window,
                    "shape": list(cap.frames.shape[1:])}
+        if relative:  # forced with --allow-relative: evaluate reads this
+            summary["relative_phase"] = list(relative)
         sequence = not (cycles == 1 and window is None)
         if mesh and sequence:
             raise ValueError("--mesh writes the faces into one cycle's points.ply; a sequence's ply/frame_*.ply "
@@ -191,6 +210,8 @@ def register(app: typer.Typer) -> None:
         fp_options = {"method": method, "z_min": z_min, "window": window, "triangulation": triangulation,
                       "min_modulation": min_modulation, "cycles": cycles, "ply": ply, "mesh": mesh, "store": store,
                       "edge_mask": edge_mask, "edge_margin": edge_margin}
+        if allow_relative:  # (only) when set, so that other runs keep their fingerprint
+            fp_options["allow_relative"] = True
         if sequence and store:  # (only) store options join the fingerprint where they change it
             fp_options.update({"store_layout": store_layout, "store_quality": store_quality,
                                "store_codec": store_codec})
@@ -204,7 +225,8 @@ def register(app: typer.Typer) -> None:
                     try:
                         r = reconstruct_cycle(cap, rig, method, z_min, triangulation=triangulation,
                                               min_modulation=min_modulation, edge_mask=edge_mask,
-                                              edge_margin=edge_margin, backend=device)
+                                              edge_margin=edge_margin, backend=device,
+                                              allow_relative=allow_relative)
                     except EmptyMaskError:
                         raise ValueError(f"{capture}: no valid 3D point: "
                                          f"{empty_reason(cap, ps, rig, min_modulation)}. Nothing was written") from None
@@ -219,7 +241,7 @@ def register(app: typer.Typer) -> None:
                 else:
                     seq = _sequence(o.path, capture, cycles * len(ps), ps, rig, DecodeOptions(z_min=z_min, **opts),
                                     window, ply, store, not (quiet or json_), triangulation, client, chunk,
-                                    store_layout, store_quality, device, store_codec)
+                                    store_layout, store_quality, device, store_codec, allow_relative)
                     summary.update(o.final_paths(seq))
                     if seq.get("empty_frames") == seq.get("frames_3d") and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point in any frame of the sequence: "

@@ -10,12 +10,9 @@ import numpy as np
 
 from fringe3d.decode import edges
 from fringe3d.decode.context import DecodeContext, PhaseGroup
+from fringe3d.decode.phase_kinds import RELATIVE_METHODS
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase import noise
-
-
-#: Methods whose phase is relative (per object, Eq. 5.12), not a projector coordinate.
-RELATIVE_METHODS = ("spatial",)
 
 
 class Assessment(NamedTuple):

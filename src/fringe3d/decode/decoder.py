@@ -16,11 +16,13 @@ from typing import Any, Iterator
 import numpy as np
 
 from fringe3d.decode import edges
-from fringe3d.decode.assess import RELATIVE_METHODS, assess
+from fringe3d.decode.assess import assess
 from fringe3d.decode.context import DecodeContext, phase_groups
 from fringe3d.decode.method_plans import with_method  # noqa: F401  (re-exported: fringe3d.decode.with_method)
 from fringe3d.decode.methods import method_for
 from fringe3d.decode.options import DecodeOptions
+from fringe3d.decode.phase_kinds import CODE_METHODS, RELATIVE_METHODS
+from fringe3d.decode.phase_kinds import plans_to_decode as _plans
 from fringe3d.decode.result import Decoded, Unwrapped
 from fringe3d.decode.texture import as_fraction
 from fringe3d.optics.rig import Rig
@@ -29,10 +31,6 @@ from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import quality
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.utils.console import progress_bar
-
-
-#: Methods that decode a direction from its code frames alone when it has no phase frames.
-CODE_METHODS = ("gray_code", "binary_code", "gray_code_only")
 
 
 def _check_count(n_frames: int, ps: PatternSet, sequence: bool) -> int:
@@ -49,18 +47,6 @@ def _check_count(n_frames: int, ps: PatternSet, sequence: bool) -> int:
         raise ValueError(f"got {n_frames} frames but the manifest ({ps.name or 'unnamed set'}) lists {n} frames; "
                          f"expected exactly {n}{hint}")
     return 1
-
-
-def _plans(ps: PatternSet) -> list[DirectionPlan]:
-    plans = list(ps.plans)
-    planned = {p.direction for p in plans}
-    for d in ps.directions():
-        if d not in planned and ps.groups(direction=d, role="phase"):
-            f = ps.frames[ps.indices(direction=d)[0]]
-            plans.append(DirectionPlan(direction=d, angle=f.angle, method="none"))
-    if not plans:
-        raise ValueError("the pattern manifest has no phase frames and no unwrapping plans; nothing to decode")
-    return plans
 
 
 def decode(frames, patterns: PatternSet, rig: Rig | None = None, options: DecodeOptions | None = None) -> Decoded:

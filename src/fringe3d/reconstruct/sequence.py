@@ -21,6 +21,7 @@ import dataclasses
 import os
 from collections import deque
 import time
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Iterator, NamedTuple
@@ -34,6 +35,8 @@ from fringe3d.decode.method_plans import with_method as plans_with_method
 from fringe3d.decode.decoder import decode
 from fringe3d.decode.edges import INVALID, oblique_factor
 from fringe3d.decode.options import DecodeOptions
+from fringe3d.decode.phase_kinds import method_kind
+from fringe3d.decode.plan_checks import check_plans
 from fringe3d.decode.texture import as_fraction, fringe_texture
 from fringe3d.gpu.runtime import check_backend
 from fringe3d.io.capture import list_frame_files
@@ -51,19 +54,24 @@ from fringe3d.reconstruct.triangulate import FastThreeStep, ThreeStepFields, Tri
 from fringe3d.reconstruct.uncertainty import point_sigma
 from fringe3d.unwrap.geometric import cached_minimum_phase, check_wrap_around
 from fringe3d.utils.console import progress_bar
+from fringe3d.utils.warning_types import ReconstructionWarning
 
 STORE_NAME = "points.zarr"
 PLY_DIR = "ply"
 
 # ----------------------------------------------------------------------------- plans
 def with_method(ps: PatternSet, method: str | None) -> PatternSet:
-    """:func:`fringe3d.decode.method_plans.with_method`, keeping only the directions with phase
-    frames (the ones that triangulate); ``ValueError`` when the manifest has none."""
+    """:func:`fringe3d.decode.method_plans.with_method`, keeping only the directions that
+    triangulate: those with phase frames, and for a code method (``gray_code_only``, ...) those
+    with code frames; ``ValueError`` when the manifest has none."""
     if method is None:
         return ps
-    dirs = [d for d in ps.directions() if ps.groups(direction=d, role="phase")]
+    code = method_kind(method).code
+    dirs = [d for d in ps.directions() if ps.groups(direction=d, role="phase") or
+            (code and ps.indices(role="code", direction=d))]
     if not dirs:
-        raise ValueError(f"the manifest ({ps.name or 'unnamed set'}) has no phase frames; nothing to reconstruct")
+        raise ValueError(f"the manifest ({ps.name or 'unnamed set'}) has no phase frames"
+                         + (" and no code frames" if code else "") + "; nothing to reconstruct")
     chosen = plans_with_method(ps, method)
     return dataclasses.replace(chosen, plans=tuple(p for p in chosen.plans if p.direction in dirs))
 
@@ -126,14 +134,26 @@ class FrameReconstructor:
     fused kernel on the fused path, the fused three-frequency kernel on the decode path
     (``DecodeOptions.backend``); the quality tests, texture and everything else stay on the CPU,
     so the results equal the CPU backend's to float rounding.
+
+    The plans are checked first (:func:`fringe3d.decode.plan_checks.check_plans`): a geometric
+    method without ``options.z_min`` raises ``MissingGeometryError``, a wrapped or relative
+    phase (method ``none``, ``spatial``) ``RelativePhaseError`` unless ``allow_relative``, which
+    triangulates it with a :class:`~fringe3d.utils.warning_types.ReconstructionWarning` and
+    lists its directions in :attr:`relative`.
     """
 
     def __init__(self, patterns: PatternSet, rig: Rig, options: DecodeOptions | None = None,
-                 triangulation: str = "auto", fast: bool = True, backend: str = "cpu"):
+                 triangulation: str = "auto", fast: bool = True, backend: str = "cpu",
+                 allow_relative: bool = False):
         self.patterns = patterns
         self.rig = rig
         self.backend = check_backend(backend)
         self.options = dataclasses.replace(options or DecodeOptions(), backend=self.backend)
+        self.relative = check_plans(patterns, rig, self.options.z_min, allow_relative=allow_relative)
+        if self.relative:
+            warnings.warn(f"triangulating the wrapped or relative phase of direction(s) {list(self.relative)} "
+                          "(allow_relative): the 3D is off by an unknown number of fringe periods in depth",
+                          ReconstructionWarning, stacklevel=2)
         self.z_min = self.options.z_min
         self.triangulation = triangulation
         self._range_checked = False
@@ -421,7 +441,7 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
                          options: DecodeOptions | None = None, mode: str = "cycle", step: int | None = None,
                          ply: bool = False, store: bool = True, progress: bool = True, triangulation: str = "auto",
                          fast: bool = True, layout: str = "auto", store_quality: bool = True,
-                         backend: str = "cpu", codec: str | None = None) -> dict:
+                         backend: str = "cpu", codec: str | None = None, allow_relative: bool = False) -> dict:
     """Reconstruct every 3D frame of a sequence into ``out`` (resumable).
 
     Parameters
@@ -441,6 +461,8 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
         (:data:`fringe3d.io.store.CODECS`; its cost per 3D frame: ``docs/long-sequences.md``)
     backend : ``"cpu"`` or ``"cuda"`` (:class:`FrameReconstructor`; on the CUDA fused path
         :data:`CUDA_BATCH` cycles go to the device per launch)
+    allow_relative : triangulate a wrapped or relative phase anyway (:class:`FrameReconstructor`;
+        ``RelativePhaseError`` before anything is written otherwise)
 
     Returns a summary dict (3D frames, done now / before, seconds, 3D frames per second, path,
     store layout).
@@ -448,7 +470,8 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
     frames = frames if hasattr(frames, "shape") else np.asarray(frames)
     out = Path(out)
     options = options or DecodeOptions()
-    rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, fast=fast, backend=backend)
+    rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, fast=fast, backend=backend,
+                             allow_relative=allow_relative)
     starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store, rec=rec,
                                   layout=layout, store_quality=store_quality, codec=codec)
 
