@@ -1,7 +1,8 @@
 """Decoding method ``gray_code_only``: a Gray- or binary-code capture without phase frames.
 
 Each code bit is 1 where the code frame is brighter than its inverse frame or, without
-inverse frames, than the mean of the white and black frames. The codeword selects the
+inverse frames, than the mean of the white and black frames (or the plan's fixed
+``threshold`` level; :mod:`fringe3d.decode.code_threshold`). The codeword selects the
 projector stripe (:func:`fringe3d.unwrap.temporal.code_centers`), of centre ``c`` (px); the
 projector coordinate ``w`` is then refined within the stripe from the zero crossings of the bit
 differences between neighbouring pixels (:func:`fringe3d.unwrap.sub_stripe.sub_stripe_coordinate`;
@@ -32,6 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringe3d.decode.code_threshold import code_reference
 from fringe3d.decode.context import DecodeContext
 from fringe3d.decode.methods.temporal import code_frames, unwrap_gray_code
 from fringe3d.patterns.conventions import point_at_fringe_coordinate, w_range
@@ -97,16 +99,14 @@ def pixel_code_centers(ctx: DecodeContext, direct: list[int]) -> np.ndarray:
 
 
 def code_differences(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
-                     wb: tuple[np.ndarray, np.ndarray] | None, white_thr: float) -> tuple[np.ndarray, float]:
-    """(diff (B, H, W) float32, margin): each bit's ``I - I_inv`` (without inverses ``I - (W + B)/2``)
-    and the smallest ``|diff|`` that decides a bit (``white_thr``; ``white_thr / 2`` without inverses)."""
+                     reference: np.ndarray | None, white_thr: float) -> tuple[np.ndarray, float]:
+    """(diff (B, H, W) float32, margin): each bit's ``I - I_inv``, or without inverses ``I - reference``
+    (:func:`fringe3d.decode.code_threshold.code_reference`: the white/black mean or a fixed level), and
+    the smallest ``|diff|`` that decides a bit (``white_thr``; ``white_thr / 2`` without inverses)."""
     code = ctx.frames[direct].astype(np.float32)
     if inverse is not None:
         return code - ctx.frames[inverse].astype(np.float32), white_thr
-    if wb is not None:
-        return code - 0.5 * (wb[0] + wb[1]), 0.5 * white_thr
-    raise ValueError(f"direction {ctx.direction!r}: a code-only capture needs inverse code frames or a white "
-                     "and a black frame to threshold the code bits; the manifest has neither")
+    return code - reference, 0.5 * white_thr
 
 
 def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: float,
@@ -147,10 +147,11 @@ def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
     docstring. With inverse frames (and method option ``sub_stripe``, default True) the
     coordinate is refined within the stripe (:func:`fringe3d.unwrap.sub_stripe.sub_stripe_coordinate`)."""
     direct, inverse = code_frames(ctx)
+    inverse, reference = code_reference(ctx, inverse, None)
     period = float(ctx.patterns.frames[direct[0]].period)
     white_thr, black_thr = code_thresholds(ctx)
     wb = white_black(ctx)
-    diff, margin = code_differences(ctx, direct, inverse, wb, white_thr)
+    diff, margin = code_differences(ctx, direct, inverse, reference, white_thr)
     centres = pixel_code_centers(ctx, direct)
     edge_margin = edge_threshold(ctx, inverse is not None) * (1.0 if inverse is not None else 0.5)
     decided, straddling, word, contrast = decide_edges(diff, margin, centres, period, edge_margin)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringe3d.decode.code_threshold import code_reference
 from fringe3d.decode.context import DecodeContext, combined_mask
 from fringe3d.decode.result import Unwrapped
 from fringe3d.patterns.conventions import point_at_fringe_coordinate, w_range
@@ -84,21 +85,13 @@ def projector_code_centers(ctx: DecodeContext, direct: list[int]) -> np.ndarray:
 
 def unwrap_gray_code(ctx: DecodeContext) -> Unwrapped:
     """Plan ``method="gray_code"`` or ``"binary_code"``: the fringe order from the code frames,
-    thresholded by their inverses, the white/black frames or the phase average
-    (:func:`fringe3d.unwrap.temporal.gray_code_order`)."""
+    thresholded by their inverses, the white/black frames, the phase average or a fixed level
+    (:func:`fringe3d.decode.code_threshold.code_reference`; :func:`fringe3d.unwrap.temporal.gray_code_order`)."""
     groups = ctx.groups_for_plan()
     g = groups[0]
     pr = ctx.group_phase(g)
     direct, inv = code_frames(ctx)
-    threshold = None
-    if inv is None:
-        ps = ctx.patterns
-        white = ps.indices(kind="white")
-        black = ps.indices(kind="black")
-        if white and black:
-            threshold = 0.5 * (ctx.frames[white[0]].astype(np.float32) + ctx.frames[black[0]].astype(np.float32))
-        else:
-            threshold = pr.average
+    inv, threshold = code_reference(ctx, inv, pr.average)
     centers = projector_code_centers(ctx, direct)
     res = gray_code_order(ctx.frames, direct, pr.phase, g.period, centers, inverse_index=inv, threshold=threshold)
     return Unwrapped(res.phase, combined_mask(ctx, groups) & res.valid)
