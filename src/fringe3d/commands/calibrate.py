@@ -83,11 +83,14 @@ def register(app: typer.Typer) -> None:
                                                 "layout)."),
         partial: int = typer.Option(0, help="--simulate: this many poses show only part of the board to the "
                                             "camera (ChArUco)."),
-        import_opencv: Path = typer.Option(None, "--import-opencv", help="Do not calibrate: read K/dist/R/T "
-                                           "from this OpenCV FileStorage YAML/XML and write the rig JSON to -o."),
+        import_opencv: list[Path] = typer.Option(None, "--import-opencv", help="Do not calibrate: read K/dist/R/T "
+                                                 "from this OpenCV FileStorage YAML/XML and write the rig JSON to "
+                                                 "-o; repeat it for OpenCV's two files (intrinsics.yml: M1 D1 M2 "
+                                                 "D2, extrinsics.yml: R T), or give the folder holding them."),
         node: list[str] = typer.Option(None, "--node", help="--import-opencv: KEY=NODE maps a node name, e.g. "
                                                             "cam_int=K1 (keys: cam_int cam_dist proj_int proj_dist "
-                                                            "R T cam_size proj_size)."),
+                                                            "R T cam_size proj_size); cam_dist=none or "
+                                                            "proj_dist=none: no lens distortion."),
         camera_size: str = typer.Option(None, "--camera-size", help="--import-opencv: camera WxH when the file "
                                                                      "has no size node."),
         projector_size: str = typer.Option(None, "--projector-size", help="--layout: the projector WxH (px); "
@@ -110,8 +113,8 @@ def register(app: typer.Typer) -> None:
         --projector-size 1024x768 --board chessboard --cols 9 --rows 7 --spacing 20 -o calib.json
         """
         set_quiet(quiet or json_)
-        if import_opencv is not None:
-            with open_output_file(output, overwrite=overwrite, inputs=[import_opencv]):
+        if import_opencv:
+            with open_output_file(output, overwrite=overwrite, inputs=list(import_opencv)):
                 _import(import_opencv, output, node, camera_size, projector_size, unit, json_, quiet)
             return
         for value, option in ((spacing, "--spacing"), (radius, "--radius"), (camera_scale, "--camera-scale")):
@@ -194,16 +197,16 @@ def register(app: typer.Typer) -> None:
             info(f"wrote {k}: {v}")
 
 
-def _import(path: Path, output: Path, node, camera_size, projector_size, unit: str, json_: bool,
+def _import(path: list[Path], output: Path, node, camera_size, projector_size, unit: str, json_: bool,
             quiet: bool) -> None:
     """``--import-opencv``: OpenCV FileStorage calibration -> fringe3d rig JSON (``Rig.load`` reads it)."""
     rig = load_opencv_calibration(path, parse_node_map(node), parse_size(camera_size, "--camera-size"),
                                   parse_size(projector_size, "--projector-size"), unit)
     rig.save(output)
-    s = {"imported": str(path), "written": {"rig": str(output)}, "baseline_mm": rig.baseline,
+    s = {"imported": " + ".join(map(str, path)), "written": {"rig": str(output)}, "baseline_mm": rig.baseline,
          "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}
     if json_:
         print_json(s)
     elif not quiet:
-        info(f"imported {path}: baseline {rig.baseline:.3f} mm")
+        info(f"imported {s['imported']}: baseline {rig.baseline:.3f} mm")
         info(f"wrote rig: {output}")

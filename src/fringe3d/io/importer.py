@@ -479,7 +479,7 @@ def load_images(src: str | os.PathLike | None, *, list_file: str | os.PathLike |
     check_source(src, list_file)
     patterns, name = described_patterns(manifest, layout, projector_size, **layout_options)
     kind = camera_file_kind(src, list_file, channel)
-    if kind is not None:
+    if kind is not None and src is not None:
         _, used, meta = camera_file_range(kind, src, patterns, name, first_frame, frame_count, bit_depth)
         meta["conversion"] = "none (camera file read)"
         return Capture(np.asarray(used[:len(patterns)]), patterns, meta, source=used)
@@ -516,7 +516,7 @@ def import_images(src: str | os.PathLike | None, out: str | os.PathLike, *, list
     patterns, name = described_patterns(manifest, layout, projector_size, **layout_options)
     ranged = (first_frame, frame_count) != (0, None)
     kind = camera_file_kind(src, list_file, channel, convert_tiff=copy_frames and not ranged)
-    if kind is not None:
+    if kind is not None and src is not None:
         return import_camera_file(src, out, patterns, name, bit_depth=bit_depth, first_frame=first_frame,
                                   frame_count=frame_count, copy_frames=copy_frames, overwrite=overwrite)
     check_no_range(src, first_frame, frame_count)
