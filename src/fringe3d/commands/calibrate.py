@@ -11,7 +11,7 @@ from fringe3d.calibrate.evaluation import compare_to_truth
 from fringe3d.calibrate.opencv_file import load_opencv_calibration, parse_node_map, parse_size
 from fringe3d.calibrate.code_mapping import DEFAULT_WINDOW
 from fringe3d.calibrate.session import board_from_options, calibrate_to_files
-from fringe3d.calibrate.square_boards import BOARD_KINDS
+from fringe3d.calibrate.square_boards import BOARD_KINDS, squares_from_inner_corners
 from fringe3d.io.importer import parse_size as parse_projector_size
 from fringe3d.sim.calibration_session import PATTERN_KINDS, simulate_session
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
@@ -34,8 +34,14 @@ def register(app: typer.Typer) -> None:
         board_kind: str = typer.Option("circles", "--board", help="Board kind: circles (circle grid), chessboard "
                                                                   "(cv2.findChessboardCornersSB) or charuco "
                                                                   "(cv2.aruco.CharucoDetector, partial views)."),
-        cols: int = typer.Option(9, help="Board circles per row (chessboard/charuco: squares per row)."),
-        rows: int = typer.Option(9, help="Board rows of circles (chessboard/charuco: rows of squares)."),
+        cols: int = typer.Option(None, help="Board circles per row (chessboard/charuco: squares per row, one "
+                                            "more than OpenCV's inner corners); default 9."),
+        rows: int = typer.Option(None, help="Board rows of circles (chessboard/charuco: rows of squares); "
+                                            "default 9."),
+        inner_corners: str = typer.Option(None, "--inner-corners", help="Chessboard/charuco size as OpenCV tools "
+                                                                        "count it: COLSxROWS inner corners "
+                                                                        "(patternSize), e.g. 9x6 = --cols 10 "
+                                                                        "--rows 7."),
         spacing: float = typer.Option(None, help="Board circle spacing or square size (mm); default from "
                                                  "session.json."),
         radius: float = typer.Option(None, help="Board circle radius (mm); default spacing/4."),
@@ -125,6 +131,7 @@ def register(app: typer.Typer) -> None:
         check_number(marker, "--marker", positive=True)
         if board_kind not in BOARD_KINDS:
             raise ValueError(f"--board must be one of {', '.join(BOARD_KINDS)}, got {board_kind!r}")
+        cols, rows = board_counts(board_kind, cols, rows, inner_corners)
         if sim_patterns not in PATTERN_KINDS:
             raise ValueError(f"--patterns must be one of {', '.join(PATTERN_KINDS)}, got {sim_patterns!r}")
         if layout is not None and layout != "opencv-graycode":  # the only layout of a calibration set
@@ -195,6 +202,22 @@ def register(app: typer.Typer) -> None:
             console.print(f"skipped (board not found): {name}")
         for k, v in s["written"].items():
             info(f"wrote {k}: {v}")
+
+
+def board_counts(board_kind: str, cols: int | None, rows: int | None, inner_corners: str | None) -> tuple[int, int]:
+    """(cols, rows) of the board: ``--inner-corners`` (chessboard/charuco, OpenCV's count) turned
+    into squares, else ``--cols``/``--rows`` (default 9); both given must agree."""
+    if inner_corners is None:
+        return (9 if cols is None else cols), (9 if rows is None else rows)
+    if board_kind == "circles":
+        raise ValueError("--inner-corners counts a chessboard's or ChArUco board's corners; a circle grid is "
+                         "--cols/--rows circles")
+    squares = squares_from_inner_corners(inner_corners)
+    for given, n, option in ((cols, squares[0], "--cols"), (rows, squares[1], "--rows")):
+        if given is not None and given != n:
+            raise ValueError(f"--inner-corners {inner_corners} is a board of {squares[0]}x{squares[1]} squares, but "
+                             f"{option} says {given}; give one of them")
+    return squares
 
 
 def _import(path: list[Path], output: Path, node, camera_size, projector_size, unit: str, json_: bool,
