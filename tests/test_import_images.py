@@ -318,3 +318,32 @@ def test_list_file_alone_names_the_frames_and_a_source_beside_it_is_refused(tmp_
     err = " ".join(capsys.readouterr().err.split())
     assert "--list" in err and "not both" in err and not (tmp_path / "both").exists()
     assert cli("decode", "--list", src / "order.txt", "-o", tmp_path / "dec", *opts) == 0
+
+
+def test_interleaved_two_direction_phase_shift_imports_and_decodes(tmp_path):
+    v_p, u_p = np.mgrid[0:24, 0:40].astype(float) + np.array([[0.25]])
+    src = tmp_path / "src"
+    src.mkdir()
+    for k in range(3):  # column step k, then row step k: I = 1/2 (1 + cos(2 pi w / T + 2 pi k / 3))
+        for d, w in (("v", u_p), ("h", v_p)):
+            img = 40 + 160 * 0.5 * (1 + np.cos(2 * np.pi * w / PERIOD + 2 * np.pi * k / 3))
+            assert cv2.imwrite(str(src / f"f{2 * k + (d == 'h')}.png"), np.rint(img).astype(np.uint8))
+    assert cli("import", src, "-o", tmp_path / "cap", "--set", "phase-shift", "--period", PERIOD, "--steps", 3,
+               "--projector-size", "40x24", "--direction", "v,h", "--interleave", "--quiet") == 0
+    assert cli("decode", tmp_path / "cap", "-o", tmp_path / "dec", "--quiet") == 0
+    dec = np.load(tmp_path / "dec" / "decoded.npz")
+    for d, w in (("v", u_p), ("h", v_p)):
+        m = dec[f"mask_{d}"]
+        err = np.angle(np.exp(1j * (dec[f"wrapped_{d}"] - 2 * np.pi * w / PERIOD)))
+        assert m.mean() > 0.5 and np.abs(err[m]).max() < 0.03, d
+
+
+def test_frames_read_as_several_one_direction_cycles_warn_about_two_directions(tmp_path):
+    from fringe3d.utils.warning_types import DataQualityWarning
+
+    write_interleaved_gray_code(tmp_path / "src", white_black=True)  # 13 frames: 6 column + 5 row bits + 2
+    for f in sorted((tmp_path / "src").glob("*.png"))[:1]:
+        f.unlink()  # 12 frames: two 6-frame cycles of a one-direction, inverse-free 64-px code
+    with pytest.warns(DataQualityWarning, match=r"2 cycles.*--direction v,h"):
+        import_images(tmp_path / "src", tmp_path / "cap", layout="gray-code", projector_size=(64, 32), period=1,
+                      inverse=False, threshold=115)

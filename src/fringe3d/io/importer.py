@@ -281,6 +281,11 @@ def read_images(files: Sequence[Path], patterns: PatternSet, layout: str = "mani
     frames, names, colour = read_frames(files, channel)
     if len(frames) % len(patterns):
         raise ValueError(count_message(layout, patterns, len(frames)))
+    if len(frames) > len(patterns) and layout in ("gray-code", "phase-shift") and len(patterns.directions()) == 1:
+        n = len(patterns)
+        warnings.warn(f"{len(frames)} frames read as {len(frames) // n} cycles of the {n}-frame {patterns.name} "
+                      "layout; if they hold columns and rows, describe both: --direction v,h (--interleave when "
+                      "they alternate)", DataQualityWarning, stacklevel=2)
     bits = check_bit_depth(frames, bit_depth, colour or None)
     conversion = ("none (grey input)" if not colour else f"channel {channel}" if channel
                   else "ITU-R BT.601 luma 0.299 R + 0.587 G + 0.114 B, float32 (not rounded)")

@@ -7,6 +7,12 @@
 the column code is bit ``k`` of the reflected Gray code of the projector column ``j``
 (``j ^ (j >> 1)``), one projector pixel per stripe, exactly fringe3d's
 :func:`fringe3d.patterns.sets.gray_code` with stripe width 1 px.
+
+Other labs' layouts: :func:`combine_directions` joins per-direction sets (columns then rows, or
+interleaved bit by bit), :func:`with_white_black` adds a white and a black frame, and
+:func:`parse_threshold` / :func:`with_threshold` set what code bits are compared with (a plan's
+``options["threshold"]``: the inverse frame, the white/black mean, the phase average or a fixed
+level in camera counts).
 """
 from __future__ import annotations
 
