@@ -106,6 +106,9 @@ def code_differences(ctx: DecodeContext, direct: list[int], inverse: list[int] |
     code = ctx.frames[direct].astype(np.float32)
     if inverse is not None:
         return code - ctx.frames[inverse].astype(np.float32), white_thr
+    if reference is None:
+        raise ValueError(f"direction {ctx.direction!r}: code bits without inverse frames need a reference "
+                         "(fringe3d.decode.code_threshold.code_reference)")
     return code - reference, 0.5 * white_thr
 
 
