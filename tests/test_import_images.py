@@ -347,3 +347,21 @@ def test_frames_read_as_several_one_direction_cycles_warn_about_two_directions(t
     with pytest.warns(DataQualityWarning, match=r"2 cycles.*--direction v,h"):
         import_images(tmp_path / "src", tmp_path / "cap", layout="gray-code", projector_size=(64, 32), period=1,
                       inverse=False, threshold=115)
+
+
+def test_threshold_applies_to_the_opencv_layout_and_to_a_manifest(tmp_path):
+    ps = opencv_graycode(64, 32)
+    for i, f in enumerate(render_set(ps)):
+        cv2.imwrite(str(tmp_path / f"pattern_{i}.bmp"), f[:, 8:40] // 2 + 40)
+    ps.save(tmp_path / "m.json")
+    for k, described in enumerate((["--layout", "opencv-graycode", "--projector-size", "64x32"],
+                                   ["--manifest", tmp_path / "m.json"])):
+        out = tmp_path / f"cap{k}"
+        assert cli("import", tmp_path / "pattern_*.bmp", "-o", out, *described, "--threshold", "white-black",
+                   "--quiet") == 0
+        cap = read_capture(out)
+        assert [p.options["threshold"] for p in cap.patterns.plans] == ["white-black", "white-black"]
+        d = decode(cap.frames, cap.patterns)  # the bits against (W + B) / 2 instead of their inverses
+        assert d.mask["v"].all()
+        np.testing.assert_allclose(d.projector_coordinate("v"), np.broadcast_to(np.arange(8, 40), (32, 32)),
+                                   atol=0.02)

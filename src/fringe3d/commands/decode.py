@@ -168,7 +168,7 @@ def register(app: typer.Typer) -> None:
                 "white_thr": white_thr, "black_thr": black_thr, "edge_thr": edge_thr, "edge_mask": edge_mask,
                 "edge_margin": edge_margin}
         patterns = cap.patterns if method is None else with_method(cap.patterns, method)
-        if threshold is not None and not described:  # a capture folder: the plans' code threshold
+        if threshold is not None:  # the plans' code threshold, also of a capture folder
             patterns = with_threshold(patterns, threshold)
         if ftp_window is not None:
             opts["ftp_window"] = ftp_window

@@ -103,9 +103,10 @@ def layout_arguments(layout: str | None, *, steps: int, period: float | None, di
                      shift_order: str | None, shift_sign: int, unwrap: str | None, no_inverse: bool,
                      interleave: bool = False, white_black: str = "none", threshold: str | None = None) -> dict:
     """The ``--set`` parameters as keyword arguments of
-    :func:`fringe3d.io.importer.layout_patterns` (none for a manifest or ``opencv-graycode``)."""
+    :func:`fringe3d.io.importer.layout_patterns` (for a manifest or ``opencv-graycode`` only
+    ``threshold``, which :func:`fringe3d.io.importer.described_patterns` applies to any set)."""
     if layout is None or layout == "opencv-graycode":
-        return {}
+        return {} if threshold is None else {"threshold": threshold}
     opts: dict = {"period": period, "direction": direction, "unwrap": unwrap, "interleave": interleave,
                   "white_black": white_black, "threshold": threshold}
     if layout == "phase-shift":

@@ -36,7 +36,7 @@ from fringe3d.io.frame_sources import FrameRange, FrameSource, guess_kind, open_
 from fringe3d.io.images import write_image
 from fringe3d.patterns import sets
 from fringe3d.patterns.layouts import (combine_directions, opencv_graycode, opencv_graycode_bits,
-                                       opencv_graycode_count, parse_threshold, with_white_black)
+                                       opencv_graycode_count, parse_threshold, with_threshold, with_white_black)
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.utils.jsonfile import write_json
 from fringe3d.utils.warning_types import DataQualityWarning
@@ -198,7 +198,8 @@ def layout_patterns(layout: str, projector_size: tuple[int, int] | None = None, 
         raise ValueError(f"unknown layout {layout!r}; expected one of {LAYOUTS} or a manifest (--manifest)")
     width, height = require_size(projector_size, layout)
     if layout == "opencv-graycode":
-        return opencv_graycode(width, height)
+        return opencv_graycode(width, height) if threshold is None else with_threshold(opencv_graycode(width, height),
+                                                                                      threshold)
     if period is None:
         raise ValueError(f"--set {layout} needs the fringe/stripe period in projector pixels (--period T)")
     directions = [d.strip() for d in direction.split(",")]
@@ -462,14 +463,20 @@ def check_source(src: str | os.PathLike | None, list_file: str | os.PathLike | N
 def described_patterns(manifest: str | os.PathLike | None, layout: str | None,
                        projector_size: tuple[int, int] | None = None, **layout_options) -> tuple[PatternSet, str]:
     """(patterns, name) of what was projected: the pattern ``manifest`` file or the ``layout``
-    (:func:`layout_patterns`); exactly one must be given."""
+    (:func:`layout_patterns`); exactly one must be given. A ``threshold`` among
+    ``layout_options`` sets every plan's code threshold, also of a manifest or of
+    ``opencv-graycode`` (:func:`fringe3d.patterns.layouts.with_threshold`)."""
     if (manifest is None) == (layout is None):
         raise ValueError("describe what was projected with exactly one of --manifest FILE or --set/--layout "
                          f"({', '.join(LAYOUTS)})")
-    if manifest is not None:
-        return PatternSet.load(manifest), f"manifest {manifest}"
-    assert layout is not None
-    return layout_patterns(layout, projector_size, **layout_options), layout
+    if manifest is None:
+        assert layout is not None
+        return layout_patterns(layout, projector_size, **layout_options), layout
+    ps, threshold = PatternSet.load(manifest), layout_options.get("threshold")
+    if threshold is not None:
+        ps = with_threshold(ps, threshold)
+        check_code_threshold(ps, parse_threshold(threshold))
+    return ps, f"manifest {manifest}"
 
 
 def load_images(src: str | os.PathLike | None, *, list_file: str | os.PathLike | None = None,
