@@ -365,3 +365,7 @@ def test_threshold_applies_to_the_opencv_layout_and_to_a_manifest(tmp_path):
         assert d.mask["v"].all()
         np.testing.assert_allclose(d.projector_coordinate("v"), np.broadcast_to(np.arange(8, 40), (32, 32)),
                                    atol=0.02)
+    # the layout options of --set gray-code/phase-shift are refused, not ignored, for a fixed layout
+    assert cli("import", tmp_path / "pattern_*.bmp", "-o", tmp_path / "x", "--manifest", tmp_path / "m.json",
+               "--interleave") == 2
+    assert not (tmp_path / "x").exists()

@@ -106,6 +106,9 @@ def layout_arguments(layout: str | None, *, steps: int, period: float | None, di
     :func:`fringe3d.io.importer.layout_patterns` (for a manifest or ``opencv-graycode`` only
     ``threshold``, which :func:`fringe3d.io.importer.described_patterns` applies to any set)."""
     if layout is None or layout == "opencv-graycode":
+        if interleave or white_black != "none" or "," in direction:
+            raise ValueError("--direction v,h, --interleave and --white-black describe a --set gray-code or "
+                             f"phase-shift layout; {'the manifest' if layout is None else layout} fixes its frames")
         return {} if threshold is None else {"threshold": threshold}
     opts: dict = {"period": period, "direction": direction, "unwrap": unwrap, "interleave": interleave,
                   "white_black": white_black, "threshold": threshold}
