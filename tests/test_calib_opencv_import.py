@@ -130,3 +130,74 @@ def test_long_distortion_vectors_load_and_keep_their_extra_terms(tmp_path):
     _write_filestorage(tmp_path / "c.yaml", {**nodes, "proj_size": np.array([[80, 60]])})
     with pytest.raises(ValueError, match=r"c\.yaml.*'D1'.*\(12,\) or \(14,\), got 6 values"):
         load_opencv_calibration(tmp_path / "c.yaml")
+
+
+K_CAM = np.array([[800.0, 0, 319.5], [0, 805.0, 239.5], [0, 0, 1]])
+K_PRJ = np.array([[1500.0, 0, 455.5], [0, 1500.0, 1139.0], [0, 0, 1]])
+D_CAM = np.array([[-0.12, 0.05, 0.001, -0.002, 0.0]])
+R_RIG = cv2.Rodrigues(np.array([0.02, -0.3, 0.01]))[0]
+T_RIG = np.array([[150.0], [-5.0], [20.0]])
+
+
+def _stereo_calib_files(folder, d1=D_CAM):
+    """OpenCV's stereo_calib sample's two files, written by cv2.FileStorage: intrinsics.yml
+    (M1 D1 M2 D2) and extrinsics.yml (R T R1 R2 P1 P2 Q, from cv2.stereoRectify)."""
+    folder.mkdir(exist_ok=True)
+    R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(K_CAM, D_CAM, K_PRJ, np.zeros(5), (640, 480), R_RIG, T_RIG)
+    intrinsics = {"M1": K_CAM, "M2": K_PRJ, "D2": np.zeros((1, 5))} | ({} if d1 is None else {"D1": d1})
+    _write_filestorage(folder / "intrinsics.yml", intrinsics)
+    _write_filestorage(folder / "extrinsics.yml", {"R": R_RIG, "T": T_RIG, "R1": R1, "R2": R2, "P1": P1, "P2": P2,
+                                                   "Q": Q})
+    return folder / "intrinsics.yml", folder / "extrinsics.yml"
+
+
+def test_opencv_two_file_stereo_layout_imports_from_the_cli(tmp_path, capsys):
+    intr, extr = _stereo_calib_files(tmp_path / "cv")
+    sizes = ["--camera-size", "640x480", "--projector-size", "912x1140"]
+    two_files, folder = ["--import-opencv", intr, "--import-opencv", extr], ["--import-opencv", tmp_path / "cv"]
+    for k, source in enumerate((two_files, folder)):
+        out = tmp_path / f"rig{k}.json"
+        assert main(["calibrate", *map(str, source), *sizes, "-o", str(out), "-q"]) == 0
+        rig = Rig.load(out)
+        np.testing.assert_array_equal(rig.camera.K, K_CAM)
+        np.testing.assert_array_equal(rig.camera.dist, D_CAM.ravel())
+        np.testing.assert_array_equal(rig.projector.K, K_PRJ)
+        np.testing.assert_allclose(rig.projector.R, R_RIG, atol=1e-15)
+        np.testing.assert_array_equal(rig.projector.t, T_RIG.ravel())
+    capsys.readouterr()  # the intrinsics alone: R and T are missing, and the message says where they are
+    assert main(["calibrate", "--import-opencv", str(intr), *sizes, "-o", str(tmp_path / "half.json")]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "extrinsics.yml" in err and not (tmp_path / "half.json").exists()
+
+
+def test_node_dist_none_imports_a_lens_without_distortion(tmp_path, capsys):
+    intr, extr = _stereo_calib_files(tmp_path / "cv", d1=None)
+    args = ["calibrate", "--import-opencv", str(intr), "--import-opencv", str(extr), "--camera-size", "640x480",
+            "--projector-size", "912x1140"]
+    assert main([*args, "-o", str(tmp_path / "no.json")]) == 2
+    assert "cam_dist=none" in " ".join(capsys.readouterr().err.split())
+    assert main([*args, "--node", "cam_dist=none", "-o", str(tmp_path / "rig.json"), "-q"]) == 0
+    rig = Rig.load(tmp_path / "rig.json")
+    assert not np.any(rig.camera.dist)
+    pts = np.array([[100.0, -50.0, 900.0], [0.0, 30.0, 800.0]])
+    uv = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), K_CAM, None)[0].reshape(-1, 2)
+    np.testing.assert_allclose(rig.camera.project(pts), uv, atol=1e-9)
+
+
+def test_an_image_shape_in_rows_cols_order_never_gives_a_transposed_camera(tmp_path, capsys):
+    base = {"K1": K_CAM, "D1": D_CAM, "K2": K_PRJ, "D2": np.zeros((1, 5)), "R": R_RIG, "T": T_RIG,
+            "proj_size": np.array([[912, 1140]])}
+    _write_filestorage(tmp_path / "shape.xml", {**base, "img_shape": np.array([[480, 640]])})  # numpy's (rows, cols)
+    assert load_opencv_calibration(tmp_path / "shape.xml").camera.size == (640, 480)
+    _write_filestorage(tmp_path / "wh.xml", {**base, "img_shape": np.array([[640, 480]])})  # [w, h] under that name
+    with pytest.warns(UserWarning, match="img_shape.*640x480"):
+        assert load_opencv_calibration(tmp_path / "wh.xml").camera.size == (640, 480)
+    _write_filestorage(tmp_path / "sz.xml", {**base, "sz": np.array([[480, 640]])})
+    with pytest.warns(UserWarning, match="rows, cols"):
+        assert load_opencv_calibration(tmp_path / "sz.xml", {"cam_size": "sz"}).camera.size == (640, 480)
+    # a principal point that cannot tell the order: refused, naming the node and the way out
+    _write_filestorage(tmp_path / "amb.xml", {**base, "K1": np.diag([800.0, 800.0, 1.0]), "sz": np.array([[480, 640]])})
+    assert main(["calibrate", "--import-opencv", str(tmp_path / "amb.xml"), "--node", "cam_size=sz",
+                 "-o", str(tmp_path / "amb.json")]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "'sz'" in err and "--camera-size" in err and not (tmp_path / "amb.json").exists()

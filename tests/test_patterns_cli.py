@@ -63,3 +63,31 @@ def test_patterns_command_hierarchical_set(tmp_path):
                  "--width", "64", "--height", "48", "-o", str(tmp_path), "-q"]) == 0
     ps = PatternSet.load(tmp_path)
     assert ps.plan("v").method == "hierarchical" and len(ps) == 12
+
+
+def test_patterns_direction_v_h_writes_both_directions_of_any_set_into_one_manifest(tmp_path):
+    from fringe3d.decode import decode
+
+    for set_name in ("phase-shift", "psp-gray", "gray-code", "two-frequency", "hybrid", "ftp"):
+        out = tmp_path / set_name
+        assert main(["patterns", "--set", set_name, "--direction", "v,h", "--width", "64", "--height", "48",
+                     "-o", str(out), "-q"]) == 0
+        ps = PatternSet.load(out)
+        assert [p.direction for p in ps.plans] == ["v", "h"] and ps.directions() == ["v", "h"], set_name
+        one = {d: PatternSet.load(_single(tmp_path, set_name, d)) for d in ("v", "h")}
+        assert ps.frames == one["v"].frames + one["h"].frames, set_name
+    # a camera seeing the projector 1:1 decodes both projector coordinates from the written set
+    ps = PatternSet.load(tmp_path / "psp-gray")
+    frames = np.stack([read_image(f) for f in sorted((tmp_path / "psp-gray").glob("*.png"))]) // 2 + 40
+    d = decode(frames, ps)
+    v, u = np.mgrid[0:48, 0:64]
+    np.testing.assert_allclose(d.projector_coordinate("v")[d.mask["v"]], u[d.mask["v"]], atol=0.05)
+    np.testing.assert_allclose(d.projector_coordinate("h")[d.mask["h"]], v[d.mask["h"]], atol=0.05)
+    assert d.mask["v"].mean() > 0.75 and d.mask["h"].mean() > 0.75  # the rim of the 64x48 image is masked
+
+
+def _single(tmp_path, set_name: str, direction: str):
+    out = tmp_path / f"{set_name}-{direction}"
+    assert main(["patterns", "--set", set_name, "--direction", direction, "--width", "64", "--height", "48",
+                 "-o", str(out), "-q"]) == 0
+    return out

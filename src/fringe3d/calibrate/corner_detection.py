@@ -98,12 +98,29 @@ def find_chessboard(image: np.ndarray, board: ChessBoard) -> tuple[np.ndarray | 
         found, corners = cv2.findChessboardCornersSB(img8, board.pattern_size, flags=flags)
         if found and corners is not None:
             break
+    check_not_larger(img8, board)
     if not found or corners is None:
         return None, "not found"
     uv = np.asarray(corners, np.float64).reshape(-1, 2)
     if uv.shape[0] != board.count:
         return None, f"found {uv.shape[0]} of its {board.count} corners"
     return refine_corners(image, uv), ""
+
+
+def check_not_larger(img8: np.ndarray, board: ChessBoard) -> None:
+    """Refuse a board stated smaller than the one in the image: ``findChessboardCornersSB``
+    matches any sub-grid of a larger chessboard (a 5x3 grid of a 9x7-corner board, silently
+    wrong object points), so the image is searched once more with ``CALIB_CB_LARGER``; more
+    corners than ``board`` has raise ``ValueError`` saying how OpenCV counts them."""
+    found, _, meta = cv2.findChessboardCornersSBWithMeta(img8, board.pattern_size,
+                                                         flags=CHESSBOARD_FLAGS[0] | cv2.CALIB_CB_LARGER)
+    if not found or meta is None or meta.size <= board.count:
+        return
+    a, b = sorted(meta.shape, reverse=True)
+    c, r = board.pattern_size
+    raise ValueError(f"the image shows a chessboard of {a}x{b} inner corners ({a + 1}x{b + 1} squares), larger "
+                     f"than the stated {board.describe()}: only a {c}x{r} part of it would be matched. State the "
+                     f"board as OpenCV counts it, --inner-corners {a}x{b} (or --cols {a + 1} --rows {b + 1} squares)")
 
 
 def find_charuco(image: np.ndarray, board: CharucoBoard,
@@ -113,7 +130,12 @@ def find_charuco(image: np.ndarray, board: CharucoBoard,
     ``min_corners`` corners)."""
     img8 = to_uint8(image)
     det = cv2.aruco.CharucoDetector(board.cv_board())
-    corners, ids, _, _ = det.detectBoard(img8)
+    corners, ids, _, marker_ids = det.detectBoard(img8)
+    markers = len(board.cv_board().getIds())
+    if marker_ids is not None and len(marker_ids) and int(np.max(marker_ids)) >= markers:
+        raise ValueError(f"the image shows {board.dictionary} marker id {int(np.max(marker_ids))}, but the stated "
+                         f"{board.describe()} has markers 0..{markers - 1}: the board is larger than stated "
+                         "(--cols/--rows count squares; --inner-corners COLSxROWS counts corners as OpenCV does)")
     n = 0 if ids is None else len(np.asarray(ids).ravel())
     if n < min_corners:
         return None, "not found" if n == 0 else f"only {n} corner(s) seen; need {min_corners}"

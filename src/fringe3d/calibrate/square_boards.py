@@ -176,6 +176,20 @@ class CharucoBoard(_SquareGrid):
         return {"kind": self.kind, **asdict(self)}
 
 
+def squares_from_inner_corners(text: str, option: str = "--inner-corners") -> tuple[int, int]:
+    """(cols, rows) squares of a chessboard/ChArUco board given as OpenCV counts it, ``"COLSxROWS"``
+    inner corners (``patternSize``): one square more each way. ``ValueError`` naming ``option``.
+
+    >>> squares_from_inner_corners("9x6")
+    (10, 7)
+    """
+    c, sep, r = str(text).lower().partition("x")
+    if not (sep and c.strip().isdigit() and r.strip().isdigit() and int(c) >= 2 and int(r) >= 2):
+        raise ValueError(f"{option} {text!r}: expected COLSxROWS inner corners (at least 2x2), e.g. 9x6 as "
+                         "cv2.findChessboardCorners' patternSize")
+    return int(c) + 1, int(r) + 1
+
+
 def board_from_dict(d: dict):
     """A :class:`~fringe3d.calibrate.boards.CircleBoard`, :class:`ChessBoard` or
     :class:`CharucoBoard` from its ``to_dict()`` form (no ``"kind"``: a circle grid).

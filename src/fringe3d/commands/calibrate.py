@@ -13,7 +13,7 @@ from fringe3d.calibrate.model_choice import check_dist_option
 from fringe3d.calibrate.opencv_file import load_opencv_calibration, parse_node_map, parse_size
 from fringe3d.calibrate.code_mapping import DEFAULT_WINDOW
 from fringe3d.calibrate.session import board_from_options, calibrate_to_files
-from fringe3d.calibrate.square_boards import BOARD_KINDS
+from fringe3d.calibrate.square_boards import BOARD_KINDS, squares_from_inner_corners
 from fringe3d.io.importer import parse_size as parse_projector_size
 from fringe3d.sim.calibration_session import PATTERN_KINDS, simulate_session
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
@@ -36,8 +36,14 @@ def register(app: typer.Typer) -> None:
         board_kind: str = typer.Option("circles", "--board", help="Board kind: circles (circle grid), chessboard "
                                                                   "(cv2.findChessboardCornersSB) or charuco "
                                                                   "(cv2.aruco.CharucoDetector, partial views)."),
-        cols: int = typer.Option(9, help="Board circles per row (chessboard/charuco: squares per row)."),
-        rows: int = typer.Option(9, help="Board rows of circles (chessboard/charuco: rows of squares)."),
+        cols: int = typer.Option(None, help="Board circles per row (chessboard/charuco: squares per row, one "
+                                            "more than OpenCV's inner corners); default 9."),
+        rows: int = typer.Option(None, help="Board rows of circles (chessboard/charuco: rows of squares); "
+                                            "default 9."),
+        inner_corners: str = typer.Option(None, "--inner-corners", help="Chessboard/charuco size as OpenCV tools "
+                                                                        "count it: COLSxROWS inner corners "
+                                                                        "(patternSize), e.g. 9x6 = --cols 10 "
+                                                                        "--rows 7."),
         spacing: float = typer.Option(None, help="Board circle spacing or square size (mm); default from "
                                                  "session.json."),
         radius: float = typer.Option(None, help="Board circle radius (mm); default spacing/4."),
@@ -90,11 +96,14 @@ def register(app: typer.Typer) -> None:
                                                 "layout)."),
         partial: int = typer.Option(0, help="--simulate: this many poses show only part of the board to the "
                                             "camera (ChArUco)."),
-        import_opencv: Path = typer.Option(None, "--import-opencv", help="Do not calibrate: read K/dist/R/T "
-                                           "from this OpenCV FileStorage YAML/XML and write the rig JSON to -o."),
+        import_opencv: list[Path] = typer.Option(None, "--import-opencv", help="Do not calibrate: read K/dist/R/T "
+                                                 "from this OpenCV FileStorage YAML/XML and write the rig JSON to "
+                                                 "-o; repeat it for OpenCV's two files (intrinsics.yml: M1 D1 M2 "
+                                                 "D2, extrinsics.yml: R T), or give the folder holding them."),
         node: list[str] = typer.Option(None, "--node", help="--import-opencv: KEY=NODE maps a node name, e.g. "
                                                             "cam_int=K1 (keys: cam_int cam_dist proj_int proj_dist "
-                                                            "R T cam_size proj_size)."),
+                                                            "R T cam_size proj_size); cam_dist=none or "
+                                                            "proj_dist=none: no lens distortion."),
         camera_size: str = typer.Option(None, "--camera-size", help="--import-opencv: camera WxH when the file "
                                                                      "has no size node."),
         projector_size: str = typer.Option(None, "--projector-size", help="--layout: the projector WxH (px); "
@@ -117,8 +126,8 @@ def register(app: typer.Typer) -> None:
         --projector-size 1024x768 --board chessboard --cols 9 --rows 7 --spacing 20 -o calib.json
         """
         set_quiet(quiet or json_)
-        if import_opencv is not None:
-            with open_output_file(output, overwrite=overwrite, inputs=[import_opencv]):
+        if import_opencv:
+            with open_output_file(output, overwrite=overwrite, inputs=list(import_opencv)):
                 _import(import_opencv, output, node, camera_size, projector_size, unit, json_, quiet)
             return
         for value, option in ((spacing, "--spacing"), (radius, "--radius"), (camera_scale, "--camera-scale")):
@@ -131,6 +140,7 @@ def register(app: typer.Typer) -> None:
         check_dist_option(projector_dist, "--projector-dist")
         if board_kind not in BOARD_KINDS:
             raise ValueError(f"--board must be one of {', '.join(BOARD_KINDS)}, got {board_kind!r}")
+        cols, rows = board_counts(board_kind, cols, rows, inner_corners)
         if sim_patterns not in PATTERN_KINDS:
             raise ValueError(f"--patterns must be one of {', '.join(PATTERN_KINDS)}, got {sim_patterns!r}")
         if layout is not None and layout != "opencv-graycode":  # the only layout of a calibration set
@@ -225,16 +235,32 @@ def _show(s: dict, json_: bool, quiet: bool) -> None:
         info(f"wrote {k}: {v}")
 
 
-def _import(path: Path, output: Path, node, camera_size, projector_size, unit: str, json_: bool,
+def board_counts(board_kind: str, cols: int | None, rows: int | None, inner_corners: str | None) -> tuple[int, int]:
+    """(cols, rows) of the board: ``--inner-corners`` (chessboard/charuco, OpenCV's count) turned
+    into squares, else ``--cols``/``--rows`` (default 9); both given must agree."""
+    if inner_corners is None:
+        return (9 if cols is None else cols), (9 if rows is None else rows)
+    if board_kind == "circles":
+        raise ValueError("--inner-corners counts a chessboard's or ChArUco board's corners; a circle grid is "
+                         "--cols/--rows circles")
+    squares = squares_from_inner_corners(inner_corners)
+    for given, n, option in ((cols, squares[0], "--cols"), (rows, squares[1], "--rows")):
+        if given is not None and given != n:
+            raise ValueError(f"--inner-corners {inner_corners} is a board of {squares[0]}x{squares[1]} squares, but "
+                             f"{option} says {given}; give one of them")
+    return squares
+
+
+def _import(path: list[Path], output: Path, node, camera_size, projector_size, unit: str, json_: bool,
             quiet: bool) -> None:
     """``--import-opencv``: OpenCV FileStorage calibration -> fringe3d rig JSON (``Rig.load`` reads it)."""
     rig = load_opencv_calibration(path, parse_node_map(node), parse_size(camera_size, "--camera-size"),
                                   parse_size(projector_size, "--projector-size"), unit)
     rig.save(output)
-    s = {"imported": str(path), "written": {"rig": str(output)}, "baseline_mm": rig.baseline,
+    s = {"imported": " + ".join(map(str, path)), "written": {"rig": str(output)}, "baseline_mm": rig.baseline,
          "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}
     if json_:
         print_json(s)
     elif not quiet:
-        info(f"imported {path}: baseline {rig.baseline:.3f} mm")
+        info(f"imported {s['imported']}: baseline {rig.baseline:.3f} mm")
         info(f"wrote rig: {output}")

@@ -20,6 +20,7 @@ from fringe3d.decode.plan_checks import check_geometry
 from fringe3d.io.capture import read_capture, read_meta
 from fringe3d.io.importer import load_images, parse_size
 from fringe3d.patterns.manifest import MANIFEST_NAME
+from fringe3d.patterns.layouts import with_threshold
 from fringe3d.optics import Rig
 from fringe3d.decode.result import SUMMARY_NAME
 from fringe3d.utils.jsonfile import read_json
@@ -71,8 +72,9 @@ def _decode_all(cap, n: int, patterns, rig, options: DecodeOptions, out: Path, c
 def register(app: typer.Typer) -> None:
     @app.command("decode", cls=AliasCommand)
     def decode_cmd(
-        capture: str = typer.Argument(..., help="Capture folder: manifest.json + frames/00000.png ... "
-                                                "(+ capture.json); or, with --set/--manifest/--list, what "
+        capture: str = typer.Argument(None, help="Capture folder: manifest.json + frames/00000.png ... "
+                                                 "(+ capture.json); or, with --set/--manifest (none with "
+                                                 "--list), what "
                                                 "fringe3d import reads: " + SRC_HELP),
         out: Path = typer.Option(..., "-o", "--output",
                                  help="Output folder (decoded.npz, 32-bit float TIFFs, decoded.json)."),
@@ -94,6 +96,9 @@ def register(app: typer.Typer) -> None:
         shift_sign: int = io.shift_sign_option(),
         unwrap: str = io.unwrap_option(),
         no_inverse: bool = io.no_inverse_option(),
+        interleave: bool = io.interleave_option(),
+        white_black: str = io.white_black_option(),
+        threshold: str = io.threshold_option(),
         channel: str = io.channel_option(),
         first_frame: int = io.first_frame_option(),
         frame_count: int = io.frame_count_option(),
@@ -140,13 +145,16 @@ def register(app: typer.Typer) -> None:
         check_number(min_modulation, "--min-modulation", minimum=0)
         check_number(edge_margin, "--edge-margin", minimum=0)
         described = layout is not None or manifest is not None or list_file is not None
+        if capture is None and list_file is None:
+            raise ValueError("give the capture folder (or frames with --set/--manifest), or --list FILE")
         if described:  # what fringe3d import reads, in memory
             cap = load_images(capture, list_file=list_file, manifest=manifest, layout=layout,
                               projector_size=parse_size(projector_size), channel=channel, bit_depth=bit_depth,
                               first_frame=first_frame, frame_count=frame_count,
                               **io.layout_arguments(layout, steps=steps, period=period, direction=direction,
                                                     shift_order=shift_order, shift_sign=shift_sign, unwrap=unwrap,
-                                                    no_inverse=no_inverse))
+                                                    no_inverse=no_inverse, interleave=interleave,
+                                                    white_black=white_black, threshold=threshold))
             if cap.source is None and max_cycles is not None:
                 cap.frames = cap.frames[:max(1, max_cycles) * len(cap.patterns)]
         else:
@@ -162,6 +170,8 @@ def register(app: typer.Typer) -> None:
                 "white_thr": white_thr, "black_thr": black_thr, "edge_thr": edge_thr, "edge_mask": edge_mask,
                 "edge_margin": edge_margin}
         patterns = cap.patterns if method is None else with_method(cap.patterns, method)
+        if threshold is not None:  # the plans' code threshold, also of a capture folder
+            patterns = with_threshold(patterns, threshold)
         if ftp_window is not None:
             opts["ftp_window"] = ftp_window
         rig_obj = _load_rig(rig)
@@ -173,12 +183,13 @@ def register(app: typer.Typer) -> None:
             n = total if max_cycles is None else min(max(1, max_cycles), total)
         results = []
         options = {k: v for k, v in opts.items()} | {"z_min": z_min, "method": method, "max_cycles": max_cycles}
-        inputs = [Path(capture), rig]
+        inputs = [Path(capture) if capture is not None else list_file, rig]
         if described:
             options |= {"src": capture, "layout": layout, "projector_size": projector_size, "channel": channel,
                         "first_frame": first_frame, "frame_count": frame_count, "steps": steps, "period": period,
                         "direction": direction, "shift_order": shift_order, "shift_sign": shift_sign,
-                        "unwrap": unwrap, "no_inverse": no_inverse}
+                        "unwrap": unwrap, "no_inverse": no_inverse, "interleave": interleave,
+                        "white_black": white_black, "threshold": threshold}
             inputs = io.source_inputs(capture, list_file, manifest, rig)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -189,7 +200,8 @@ def register(app: typer.Typer) -> None:
             finally:
                 for msg in dict.fromkeys(str(w.message) for w in caught):
                     warn(msg)
-        summary = {"capture": str(capture), "out": str(out), "cycles": n, "patterns": patterns.name,
+        label = capture if capture is not None else list_file
+        summary = {"capture": str(label), "out": str(out), "cycles": n, "patterns": patterns.name,
                    "frames": n * len(patterns), "shape": list(cap.frames.shape[1:]),
                    "seconds": round(time.perf_counter() - t0, 3), "results": results}
         if json_:

@@ -10,14 +10,15 @@ from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.import_options import SRC_HELP
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
-from fringe3d.io.importer import import_images, parse_size
+from fringe3d.io.importer import check_source, import_images, parse_size
 from fringe3d.utils.console import console, make_table, print_json, set_quiet
 
 
 def register(app: typer.Typer) -> None:
     @app.command("import", cls=AliasCommand)
     def import_cmd(
-        src: str = typer.Argument(..., help=SRC_HELP + " A camera file is referenced, not converted."),
+        src: str = typer.Argument(None, help=SRC_HELP + " A camera file is referenced, not converted. "
+                                             "None with --list."),
         out: Path = typer.Option(..., "-o", "--output", help="Capture folder to write (must be empty)."),
         list_file: Path = io.list_option(),
         manifest: Path = io.manifest_option(),
@@ -30,6 +31,9 @@ def register(app: typer.Typer) -> None:
         shift_sign: int = io.shift_sign_option(),
         unwrap: str = io.unwrap_option(),
         no_inverse: bool = io.no_inverse_option(),
+        interleave: bool = io.interleave_option(),
+        white_black: str = io.white_black_option(),
+        threshold: str = io.threshold_option(),
         channel: str = io.channel_option(),
         bit_depth: int = io.bit_depth_option(),
         first_frame: int = io.first_frame_option(),
@@ -47,7 +51,9 @@ def register(app: typer.Typer) -> None:
         """
         set_quiet(quiet or json_)
         opts = io.layout_arguments(layout, steps=steps, period=period, direction=direction, shift_order=shift_order,
-                                   shift_sign=shift_sign, unwrap=unwrap, no_inverse=no_inverse)
+                                   shift_sign=shift_sign, unwrap=unwrap, no_inverse=no_inverse,
+                                   interleave=interleave, white_black=white_black, threshold=threshold)
+        check_source(src, list_file)
         inputs = io.source_inputs(src, list_file, manifest)
         with open_output(out, overwrite=overwrite, inputs=inputs,
                          options={"src": src, "layout": layout, "first_frame": first_frame,
@@ -63,4 +69,5 @@ def register(app: typer.Typer) -> None:
             rows = [[k, str(v)] for k, v in summary.items() if k != "source_files"]
             if "source_files" in summary:
                 rows.append(["source_files", f"{summary['source_files'][0]} ... ({len(summary['source_files'])})"])
-            console.print(make_table(f"imported {src} -> {out}", ["field", "value"], rows))
+            label = src if src is not None else list_file
+            console.print(make_table(f"imported {label} -> {out}", ["field", "value"], rows))

@@ -13,7 +13,7 @@ SRC_HELP = ("Folder or glob of frames (PNG, TIFF, BMP, JPEG), naturally sorted (
 
 def list_option() -> Path:
     return typer.Option(None, "--list", help="Text file listing the frames in projection order (one path a line, "
-                                             "relative to the file).")
+                                             "relative to the file), instead of SRC.")
 
 
 def manifest_option() -> Path:
@@ -40,7 +40,27 @@ def period_option() -> float:
 
 
 def direction_option() -> str:
-    return typer.Option("v", "--direction", help="v (vertical stripes, columns) or h (rows).")
+    return typer.Option("v", "--direction", help="v (vertical stripes, columns) or h (rows); v,h: both, the "
+                                                 "columns' frames first (or alternating: --interleave).")
+
+
+def interleave_option() -> bool:
+    return typer.Option(False, "--interleave", help="--direction v,h: the directions alternate frame by frame "
+                                                    "(column bit 0, row bit 0, column bit 1, ...; a bit with its "
+                                                    "inverse, or a phase step), most significant bit first; a "
+                                                    "direction with more bits ends alone.")
+
+
+def white_black_option() -> str:
+    return typer.Option("none", "--white-black", help="gray-code/phase-shift: a white then a black frame "
+                                                      "'first' (before the patterns) or 'last'; default none.")
+
+
+def threshold_option() -> str:
+    return typer.Option(None, "--threshold", help="Code bit threshold: inverse (each bit's inverse frame), "
+                                                  "white-black (their mean), average (the phase frames' mean) "
+                                                  "or a fixed level in camera counts, e.g. 128; default: "
+                                                  "inverse, else white-black, else average.")
 
 
 def shift_order_option() -> str:
@@ -80,12 +100,18 @@ def frame_count_option() -> int:
 
 
 def layout_arguments(layout: str | None, *, steps: int, period: float | None, direction: str,
-                     shift_order: str | None, shift_sign: int, unwrap: str | None, no_inverse: bool) -> dict:
+                     shift_order: str | None, shift_sign: int, unwrap: str | None, no_inverse: bool,
+                     interleave: bool = False, white_black: str = "none", threshold: str | None = None) -> dict:
     """The ``--set`` parameters as keyword arguments of
-    :func:`fringe3d.io.importer.layout_patterns` (none for a manifest or ``opencv-graycode``)."""
+    :func:`fringe3d.io.importer.layout_patterns` (for a manifest or ``opencv-graycode`` only
+    ``threshold``, which :func:`fringe3d.io.importer.described_patterns` applies to any set)."""
     if layout is None or layout == "opencv-graycode":
-        return {}
-    opts: dict = {"period": period, "direction": direction, "unwrap": unwrap}
+        if interleave or white_black != "none" or "," in direction:
+            raise ValueError("--direction v,h, --interleave and --white-black describe a --set gray-code or "
+                             f"phase-shift layout; {'the manifest' if layout is None else layout} fixes its frames")
+        return {} if threshold is None else {"threshold": threshold}
+    opts: dict = {"period": period, "direction": direction, "unwrap": unwrap, "interleave": interleave,
+                  "white_black": white_black, "threshold": threshold}
     if layout == "phase-shift":
         opts.update(steps=steps, shift_sign=shift_sign,
                     shift_order=None if shift_order is None else [int(k) for k in shift_order.split(",")])
@@ -100,8 +126,8 @@ def source_inputs(src, list_file: Path | None, manifest: Path | None, *more: Pat
     glob is no path, so the output guard could not see its folder), then the other files."""
     from fringe3d.io.importer import list_sources
 
-    p = Path(src)
-    if list_file is None and p.exists():
+    p = Path(src) if src is not None else None
+    if list_file is None and p is not None and p.exists():
         frames = [p]
     else:
         try:

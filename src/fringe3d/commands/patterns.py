@@ -37,7 +37,29 @@ def _numbers(text: str, what: str, cast=float) -> list:
 
 def build_set(set_name: str, period: str | None, steps: str | None, direction: str, angle_deg: float | None,
               kind: str, width: int, height: int, bits: int | None):
-    """The :class:`PatternSet` the command-line options describe (see ``fringe3d patterns --help``)."""
+    """The :class:`PatternSet` the command-line options describe (see ``fringe3d patterns --help``).
+
+    ``direction`` may list several directions (``"v,h"``): every set but the calibration sets
+    (which take them themselves) is then built per direction and the sets concatenated in that
+    order into one manifest, a plan per direction."""
+    directions = [d.strip() for d in direction.split(",")]
+    if len(directions) == 1 or set_name in ("calibration", "optimal-angle"):
+        return _build_one(set_name, period, steps, direction, angle_deg, kind, width, height, bits)
+    if angle_deg is not None:
+        raise ValueError(f"--angle fixes one fringe angle; --direction {direction} names several directions "
+                         "(v and h have their own angles): drop --angle or give one direction")
+    if len(set(directions)) != len(directions) or not all(directions):
+        raise ValueError(f"--direction {direction!r}: expected distinct directions, e.g. v,h")
+    parts = [_build_one(set_name, period, steps, d, None, kind, width, height, bits) for d in directions]
+    out = parts[0]
+    for p in parts[1:]:
+        out = out.concat(p)
+    return out
+
+
+def _build_one(set_name: str, period: str | None, steps: str | None, direction: str, angle_deg: float | None,
+               kind: str, width: int, height: int, bits: int | None):
+    """One direction's set (see :func:`build_set`)."""
     if set_name not in SETS:
         raise ValueError(f"unknown pattern set {set_name!r}; choose one of {', '.join(SETS)}")
     if not (1 <= width <= MAX_SIDE and 1 <= height <= MAX_SIDE) or width * height > MAX_PIXELS:
@@ -91,7 +113,8 @@ def register(app: typer.Typer) -> None:
                                               "two-frequency/hybrid: HIGH,LOW)."),
         steps: str = typer.Option(None, help="Phase-shift steps, comma-separated per period (three-frequency: 9,3,3)."),
         direction: str = typer.Option("v", help="Fringe direction: v (vertical stripes, encodes u_p), h (horizontal), "
-                                                "or a label used with --angle; calibration takes v,h."),
+                                                "or a label used with --angle; several, e.g. v,h, write "
+                                                "both directions into one manifest (one plan each)."),
         angle: float = typer.Option(None, help="Fringe angle in degrees (0 = horizontal stripes, 90 = vertical); "
                                                "for optimal-angle: alpha_opt."),
         kind: str = typer.Option("sinusoid", help="sinusoid, square, bayer, floyd_steinberg, area_modulated or pwm."),

@@ -11,8 +11,10 @@ multi-page TIFF stack, a zarr frame store — is not converted: :func:`import_ca
 ``capture.json`` whose ``source`` references the file (``copy_frames=True`` writes PNGs).
 
 Colour conversion (the one place; the command line and the API both call it): ITU-R BT.601
-luma ``Y = 0.299 R + 0.587 G + 0.114 B``, rounded to the source dtype, or one channel
-(``channel="r" | "g" | "b"``).
+luma ``Y = 0.299 R + 0.587 G + 0.114 B`` kept as float32 (not rounded to the source's 8 or 16
+bits: rounding an 8-bit luma costs 0.03-0.05 projector px of phase; the capture's frames are
+then float32 TIFFs in the source's counts, ``bit_depth`` the source's), or one channel
+(``channel="r" | "g" | "b"``, the source dtype unchanged).
 """
 from __future__ import annotations
 
@@ -33,7 +35,8 @@ from fringe3d.io.capture_source import check_header, make_source
 from fringe3d.io.frame_sources import FrameRange, FrameSource, guess_kind, open_source
 from fringe3d.io.images import write_image
 from fringe3d.patterns import sets
-from fringe3d.patterns.layouts import opencv_graycode, opencv_graycode_bits, opencv_graycode_count
+from fringe3d.patterns.layouts import (combine_directions, opencv_graycode, opencv_graycode_bits,
+                                       opencv_graycode_count, parse_threshold, with_threshold, with_white_black)
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.utils.jsonfile import write_json
 from fringe3d.utils.warning_types import DataQualityWarning
@@ -42,6 +45,8 @@ from fringe3d.utils.warning_types import DataQualityWarning
 IMPORT_SUFFIXES = (".png", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg")
 #: BT.601 luma weights (R, G, B).
 BT601 = (0.299, 0.587, 0.114)
+#: The same weights in thousandths (exact in floating point: a grey R = G = B keeps its value).
+BT601_PERMILLE = (299.0, 587.0, 114.0)
 CHANNELS = {"r": 0, "g": 1, "b": 2}
 LAYOUTS = ("phase-shift", "gray-code", "opencv-graycode")
 
@@ -51,7 +56,7 @@ def natural_key(path: Path) -> list:
     return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", path.name)]
 
 
-def list_sources(src: str | os.PathLike, list_file: str | os.PathLike | None = None) -> list[Path]:
+def list_sources(src: str | os.PathLike | None, list_file: str | os.PathLike | None = None) -> list[Path]:
     """Frame files in projection order: the lines of ``list_file`` (relative to its folder;
     blank lines and ``#`` comments skipped), else the image files of folder ``src`` or of the
     glob ``src``, naturally sorted. ``FileNotFoundError`` naming what is missing."""
@@ -78,13 +83,14 @@ def list_sources(src: str | os.PathLike, list_file: str | os.PathLike | None = N
 
 def to_grey(img: np.ndarray, channel: str | None = None) -> np.ndarray:
     """(H, W) grey image from (H, W) or RGB(A) (H, W, C) ``img`` (channels in R, G, B order):
-    BT.601 luma ``0.299 R + 0.587 G + 0.114 B`` rounded to the input dtype, or the
-    ``channel`` ``"r"``/``"g"``/``"b"``. Grey input is returned unchanged.
+    BT.601 luma ``(299 R + 587 G + 114 B) / 1000`` as float32, not rounded (the weights are
+    exact, so a white ``R = G = B = 255`` stays 255.0 and saturation is still seen), or the
+    ``channel`` ``"r"``/``"g"``/``"b"`` in the input dtype. Grey input is returned unchanged.
 
     Examples
     --------
-    >>> to_grey(np.array([[[100, 200, 50]]], np.uint8)).tolist()
-    [[153]]
+    >>> to_grey(np.array([[[100, 201, 50]]], np.uint8)).tolist()
+    [[153.58700561523438]]
     """
     if img.ndim == 2:
         return img
@@ -96,10 +102,8 @@ def to_grey(img: np.ndarray, channel: str | None = None) -> np.ndarray:
         if channel not in CHANNELS:
             raise ValueError(f"channel must be one of {sorted(CHANNELS)}, got {channel!r}")
         return np.ascontiguousarray(img[..., CHANNELS[channel]])
-    y = img[..., :3].astype(np.float64) @ np.asarray(BT601)
-    if img.dtype.kind in "ui":
-        return np.clip(np.rint(y), 0, np.iinfo(img.dtype).max).astype(img.dtype)
-    return y.astype(img.dtype)
+    y = img[..., :3].astype(np.float64) @ np.asarray(BT601_PERMILLE, np.float64) / 1000.0
+    return y.astype(np.float32)
 
 
 def read_pages(path: Path) -> list[np.ndarray]:
@@ -122,41 +126,45 @@ def read_pages(path: Path) -> list[np.ndarray]:
     return [img]
 
 
-def read_frames(files: Sequence[Path], channel: str | None = None) -> tuple[np.ndarray, list[str], bool]:
-    """((F, H, W) frames, source names ``file`` or ``file#page``, any colour input) of the
-    files in order, converted by :func:`to_grey`; ``ValueError`` naming the first file whose
-    size or dtype differs from the first frame's."""
+def read_frames(files: Sequence[Path], channel: str | None = None) -> tuple[np.ndarray, list[str], str]:
+    """((F, H, W) frames, source names ``file`` or ``file#page``, the source dtype of colour
+    input or ``""`` for grey input) of the files in order, converted by :func:`to_grey` (colour
+    luma: float32); ``ValueError`` naming the first file whose size or dtype differs from the
+    first frame's, or that is not 8- or 16-bit."""
     frames: list[np.ndarray] = []
     names: list[str] = []
-    colour = False
+    colour = ""
     for f in files:
         pages = read_pages(f)
         for k, img in enumerate(pages):
-            colour |= img.ndim == 3 and img.shape[2] >= 3
+            name = f"{f}#{k}" if len(pages) > 1 else str(f)
+            if img.dtype not in (np.uint8, np.uint16):
+                raise ValueError(f"{name} is {img.dtype}; expected 8- or 16-bit integer images")
+            if img.ndim == 3 and img.shape[2] >= 3:
+                colour = str(img.dtype)
             g = to_grey(img, channel)
             if frames and (g.shape != frames[0].shape or g.dtype != frames[0].dtype):
-                raise ValueError(f"{f}{f'#{k}' if len(pages) > 1 else ''} is {g.shape[1]}x{g.shape[0]} {g.dtype} "
+                raise ValueError(f"{name} is {g.shape[1]}x{g.shape[0]} {g.dtype} "
                                  f"but {names[0]} is {frames[0].shape[1]}x{frames[0].shape[0]} {frames[0].dtype}; "
-                                 "all frames must have one size and bit depth")
+                                 "all frames must have one size, bit depth and colour type")
             frames.append(g)
-            names.append(f"{f}#{k}" if len(pages) > 1 else str(f))
-    if frames[0].dtype not in (np.uint8, np.uint16):
-        raise ValueError(f"{names[0]} is {frames[0].dtype}; expected 8- or 16-bit integer images")
+            names.append(name)
     return np.stack(frames), names, colour
 
 
-def check_bit_depth(frames: np.ndarray, bit_depth: int | None) -> int:
+def check_bit_depth(frames: np.ndarray, bit_depth: int | None, dtype: str | np.dtype | None = None) -> int:
     """The frames' bit depth: ``bit_depth`` (8, 10, 12, 14 or 16; 10-14 stored in 16-bit
-    files, checked against the largest value) or the dtype's 8 / 16."""
-    native = 8 if frames.dtype == np.uint8 else 16
+    files, checked against the largest value) or the source ``dtype``'s (default the frames')
+    8 / 16."""
+    native = 8 if np.dtype(dtype or frames.dtype) == np.uint8 else 16
     if bit_depth is None:
         return native
     if bit_depth not in (8, 10, 12, 14, 16) or bit_depth > native:
-        raise ValueError(f"bit depth {bit_depth} does not fit {frames.dtype} frames; expected 8 for 8-bit files, "
-                         "10, 12, 14 or 16 for 16-bit files")
-    top = int(frames.max())
+        raise ValueError(f"bit depth {bit_depth} does not fit {dtype or frames.dtype} frames; expected 8 for 8-bit "
+                         "files, 10, 12, 14 or 16 for 16-bit files")
+    top = float(frames.max())
     if top >= 2 ** bit_depth:
-        raise ValueError(f"frames reach {top}, above the {bit_depth}-bit maximum {2 ** bit_depth - 1}; "
+        raise ValueError(f"frames reach {top:g}, above the {bit_depth}-bit maximum {2 ** bit_depth - 1}; "
                          "is the bit depth right (or are the values left-aligned in 16 bits)?")
     return bit_depth
 
@@ -171,26 +179,65 @@ def require_size(projector_size: tuple[int, int] | None, layout: str) -> tuple[i
 
 def layout_patterns(layout: str, projector_size: tuple[int, int] | None = None, steps: int = 3,
                     period: float | None = None, direction: str = "v", shift_order: Sequence[int] | None = None,
-                    shift_sign: int = 1, unwrap: str | None = None, inverse: bool = True) -> PatternSet:
+                    shift_sign: int = 1, unwrap: str | None = None, inverse: bool = True, interleave: bool = False,
+                    white_black: str = "none", threshold: str | float | None = None) -> PatternSet:
     """The :class:`PatternSet` a layout describes: ``"phase-shift"`` (``steps`` frames of
     ``period`` px along ``direction``; captured step order ``shift_order`` (frame i holds
     step ``shift_order[i]``), ``shift_sign=-1`` for shifts ``-2 pi k / N``; plan method
     ``unwrap``, default ``"none"``), ``"gray-code"`` (stripes of ``period`` px, with or
     without inverses) or ``"opencv-graycode"`` (:func:`fringe3d.patterns.layouts.opencv_graycode`).
-    The projector size is required."""
+    The projector size is required.
+
+    ``direction`` may name several directions (``"v,h"``): one set each, concatenated, or with
+    ``interleave`` alternating bit by bit (step by step;
+    :func:`fringe3d.patterns.layouts.combine_directions`). ``white_black`` (``"first"``,
+    ``"last"``) adds a white and a black frame; ``threshold`` (``"inverse"``, ``"white-black"``,
+    ``"average"`` or a level in camera counts) is the plans' code threshold. A code without
+    inverse frames, white/black frames or phase frames needs a fixed ``threshold``."""
     if layout not in LAYOUTS:
         raise ValueError(f"unknown layout {layout!r}; expected one of {LAYOUTS} or a manifest (--manifest)")
     width, height = require_size(projector_size, layout)
     if layout == "opencv-graycode":
-        return opencv_graycode(width, height)
+        return opencv_graycode(width, height) if threshold is None else with_threshold(opencv_graycode(width, height),
+                                                                                      threshold)
     if period is None:
         raise ValueError(f"--set {layout} needs the fringe/stripe period in projector pixels (--period T)")
+    directions = [d.strip() for d in direction.split(",")]
+    if len(set(directions)) != len(directions) or not all(directions):
+        raise ValueError(f"--direction {direction!r}: expected one direction or distinct ones, e.g. v,h")
+    if interleave and len(directions) < 2:
+        raise ValueError("--interleave alternates the frames of several directions: give them, e.g. --direction v,h")
     if layout == "gray-code":
-        ps = sets.gray_code(period, direction, width=width, height=height, inverse=inverse)
+        parts = [sets.gray_code(period, d, width=width, height=height, inverse=inverse) for d in directions]
     else:
-        ps = phase_shift_layout(sets.phase_shift(period, steps, direction, width=width, height=height),
-                                shift_order, shift_sign)
-    return ps if unwrap is None else replace(ps, plans=tuple(replace(p, method=unwrap) for p in ps.plans))
+        parts = [phase_shift_layout(sets.phase_shift(period, steps, d, width=width, height=height),
+                                    shift_order, shift_sign) for d in directions]
+    ps = with_white_black(combine_directions(parts, interleave), white_black)
+    level = parse_threshold(threshold)
+    check_code_threshold(ps, level)
+    plans = tuple(replace(p, method=p.method if unwrap is None else unwrap,
+                          options=p.options if level is None else {**p.options, "threshold": level})
+                  for p in ps.plans)
+    return replace(ps, plans=plans)
+
+
+def check_code_threshold(ps: PatternSet, threshold: str | float | None) -> None:
+    """A code the decoder can threshold: ``ValueError`` saying which option is missing when
+    ``ps`` has code frames without inverses, white/black frames or phase frames and no fixed
+    ``threshold``, or when ``threshold`` names frames ``ps`` does not have."""
+    code = [f for f in ps.frames if f.role == "code"]
+    if not code:
+        return
+    has = {"inverse": any(f.inverse for f in code),
+           "white-black": bool(ps.indices(kind="white") and ps.indices(kind="black")),
+           "average": any(f.role == "phase" for f in ps.frames)}
+    if isinstance(threshold, str) and not has[threshold]:
+        raise ValueError(f"--threshold {threshold}: the layout has no {threshold} frames to threshold the code "
+                         "against; add them (--white-black first|last) or give a level in camera counts")
+    if threshold is None and not any(has.values()):
+        raise ValueError("a Gray code without inverse frames (--no-inverse), white/black frames (--white-black) "
+                         "or phase frames cannot be thresholded: give --white-black first|last or a fixed "
+                         "--threshold LEVEL in camera counts (e.g. half the lit level)")
 
 
 def phase_shift_layout(ps: PatternSet, shift_order: Sequence[int] | None, shift_sign: int) -> PatternSet:
@@ -235,11 +282,16 @@ def read_images(files: Sequence[Path], patterns: PatternSet, layout: str = "mani
     frames, names, colour = read_frames(files, channel)
     if len(frames) % len(patterns):
         raise ValueError(count_message(layout, patterns, len(frames)))
-    bits = check_bit_depth(frames, bit_depth)
+    if len(frames) > len(patterns) and layout in ("gray-code", "phase-shift") and len(patterns.directions()) == 1:
+        n = len(patterns)
+        warnings.warn(f"{len(frames)} frames read as {len(frames) // n} cycles of the {n}-frame {patterns.name} "
+                      "layout; if they hold columns and rows, describe both: --direction v,h (--interleave when "
+                      "they alternate)", DataQualityWarning, stacklevel=2)
+    bits = check_bit_depth(frames, bit_depth, colour or None)
     conversion = ("none (grey input)" if not colour else f"channel {channel}" if channel
-                  else "ITU-R BT.601 luma 0.299 R + 0.587 G + 0.114 B")
+                  else "ITU-R BT.601 luma 0.299 R + 0.587 G + 0.114 B, float32 (not rounded)")
     return frames, {"imported": True, "layout": layout, "source_files": names, "conversion": conversion,
-                    "source_dtype": str(frames.dtype), "bit_depth": bits, "patterns": patterns.name}
+                    "source_dtype": colour or str(frames.dtype), "bit_depth": bits, "patterns": patterns.name}
 
 
 def import_capture(files: Sequence[Path], out: str | os.PathLike, patterns: PatternSet, layout: str = "manifest",
@@ -254,7 +306,7 @@ def import_capture(files: Sequence[Path], out: str | os.PathLike, patterns: Patt
     out = Path(out)
     check_output(out, overwrite)
     frames, meta = read_images(files, patterns, layout, channel, bit_depth)
-    write_capture(out, frames, patterns, meta)
+    write_capture(out, frames, patterns, meta, fmt="png" if frames.dtype.kind == "u" else "tif")
     return {**meta, "folder": str(out), "frames": int(len(frames)), "camera": [int(frames.shape[2]),
                                                                                 int(frames.shape[1])]}
 
@@ -330,11 +382,12 @@ def camera_file_range(kind: str, path: str | os.PathLike, patterns: PatternSet, 
     return src, frames, meta
 
 
-def camera_file_kind(src: str | os.PathLike, list_file, channel: str | None, convert_tiff: bool = False) -> str | None:
+def camera_file_kind(src: str | os.PathLike | None, list_file, channel: str | None,
+                     convert_tiff: bool = False) -> str | None:
     """The camera-file kind of ``src`` (:func:`guess_kind`; None for image files, a list file,
     or a TIFF stack to be converted page by page with ``convert_tiff``). ``--channel`` on a
     camera file is an error: its frames are read as grey."""
-    kind = guess_kind(src) if list_file is None else None
+    kind = guess_kind(src) if list_file is None and src is not None else None
     if kind == "tiff" and convert_tiff:
         return None
     if kind is not None and channel is not None:
@@ -343,7 +396,7 @@ def camera_file_kind(src: str | os.PathLike, list_file, channel: str | None, con
     return kind
 
 
-def check_no_range(src: str | os.PathLike, first_frame: int, frame_count: int | None) -> None:
+def check_no_range(src: str | os.PathLike | None, first_frame: int, frame_count: int | None) -> None:
     """``--first-frame`` / ``--frame-count`` name frames of a camera file: an error for image files."""
     if (first_frame, frame_count) != (0, None):
         raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .cine, .tif, zarr); "
@@ -397,20 +450,36 @@ def parse_size(text: str | None) -> tuple[int, int] | None:
     return int(m.group(1)), int(m.group(2))
 
 
+def check_source(src: str | os.PathLike | None, list_file: str | os.PathLike | None) -> None:
+    """Exactly one frame source: ``src`` (a folder, glob or camera file) or ``list_file``;
+    ``ValueError`` saying which flag to drop (a source beside ``--list`` would be ignored)."""
+    if src is not None and list_file is not None:
+        raise ValueError(f"give the frames either as SRC ({src}) or as --list {list_file}, not both: the list "
+                         "names every frame, so SRC would be ignored")
+    if src is None and list_file is None:
+        raise ValueError("no frames given: pass SRC (a folder, glob or camera file) or --list FILE")
+
+
 def described_patterns(manifest: str | os.PathLike | None, layout: str | None,
                        projector_size: tuple[int, int] | None = None, **layout_options) -> tuple[PatternSet, str]:
     """(patterns, name) of what was projected: the pattern ``manifest`` file or the ``layout``
-    (:func:`layout_patterns`); exactly one must be given."""
+    (:func:`layout_patterns`); exactly one must be given. A ``threshold`` among
+    ``layout_options`` sets every plan's code threshold, also of a manifest or of
+    ``opencv-graycode`` (:func:`fringe3d.patterns.layouts.with_threshold`)."""
     if (manifest is None) == (layout is None):
         raise ValueError("describe what was projected with exactly one of --manifest FILE or --set/--layout "
                          f"({', '.join(LAYOUTS)})")
-    if manifest is not None:
-        return PatternSet.load(manifest), f"manifest {manifest}"
-    assert layout is not None
-    return layout_patterns(layout, projector_size, **layout_options), layout
+    if manifest is None:
+        assert layout is not None
+        return layout_patterns(layout, projector_size, **layout_options), layout
+    ps, threshold = PatternSet.load(manifest), layout_options.get("threshold")
+    if threshold is not None:
+        ps = with_threshold(ps, threshold)
+        check_code_threshold(ps, parse_threshold(threshold))
+    return ps, f"manifest {manifest}"
 
 
-def load_images(src: str | os.PathLike, *, list_file: str | os.PathLike | None = None,
+def load_images(src: str | os.PathLike | None, *, list_file: str | os.PathLike | None = None,
                 manifest: str | os.PathLike | None = None, layout: str | None = None,
                 projector_size: tuple[int, int] | None = None, channel: str | None = None,
                 bit_depth: int | None = None, first_frame: int = 0, frame_count: int | None = None,
@@ -419,9 +488,10 @@ def load_images(src: str | os.PathLike, *, list_file: str | os.PathLike | None =
     :class:`fringe3d.io.capture.Capture` of the frames of ``src`` (a folder or glob of images,
     or ``list_file``; a camera file is read on demand as its ``source``) described by
     ``manifest`` or ``layout``. Same arguments and errors as :func:`import_images`."""
+    check_source(src, list_file)
     patterns, name = described_patterns(manifest, layout, projector_size, **layout_options)
     kind = camera_file_kind(src, list_file, channel)
-    if kind is not None:
+    if kind is not None and src is not None:
         _, used, meta = camera_file_range(kind, src, patterns, name, first_frame, frame_count, bit_depth)
         meta["conversion"] = "none (camera file read)"
         return Capture(np.asarray(used[:len(patterns)]), patterns, meta, source=used)
@@ -430,12 +500,12 @@ def load_images(src: str | os.PathLike, *, list_file: str | os.PathLike | None =
     return Capture(frames, patterns, meta)
 
 
-def import_images(src: str | os.PathLike, out: str | os.PathLike, *, list_file: str | os.PathLike | None = None,
+def import_images(src: str | os.PathLike | None, out: str | os.PathLike, *, list_file: str | os.PathLike | None = None,
                   manifest: str | os.PathLike | None = None, layout: str | None = None,
                   projector_size: tuple[int, int] | None = None, channel: str | None = None,
                   bit_depth: int | None = None, overwrite: bool = False, first_frame: int = 0,
                   frame_count: int | None = None, copy_frames: bool = False, **layout_options) -> dict:
-    """``fringe3d import``: frames of ``src`` (folder or glob; or ``list_file``) described by
+    """``fringe3d import``: frames of ``src`` (folder or glob) or of ``list_file`` (exactly one) described by
     a pattern ``manifest`` file or a ``layout`` (:func:`layout_patterns` with
     ``projector_size`` and ``layout_options``) -> capture folder ``out`` (:func:`import_capture`).
     A camera file ``src`` (:func:`guess_kind`) is referenced, not converted
@@ -454,10 +524,11 @@ def import_images(src: str | os.PathLike, out: str | os.PathLike, *, list_file: 
     >>> s["frames"], s["bit_depth"], s["source_files"][0].endswith("shot_1.bmp")
     (3, 8, True)
     """
+    check_source(src, list_file)
     patterns, name = described_patterns(manifest, layout, projector_size, **layout_options)
     ranged = (first_frame, frame_count) != (0, None)
     kind = camera_file_kind(src, list_file, channel, convert_tiff=copy_frames and not ranged)
-    if kind is not None:
+    if kind is not None and src is not None:
         return import_camera_file(src, out, patterns, name, bit_depth=bit_depth, first_frame=first_frame,
                                   frame_count=frame_count, copy_frames=copy_frames, overwrite=overwrite)
     check_no_range(src, first_frame, frame_count)

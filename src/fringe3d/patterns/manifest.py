@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Iterable
@@ -27,6 +28,7 @@ from fringe3d.patterns.manifest_schema import ManifestModel
 from fringe3d.utils.jsonfile import read_json, write_json
 from fringe3d.utils.provenance import PROVENANCE_KEY
 from fringe3d.utils.schema import validate
+from fringe3d.utils.warning_types import DataQualityWarning
 
 MANIFEST_VERSION = 1
 MANIFEST_NAME = "manifest.json"
@@ -200,6 +202,19 @@ class PatternSet:
                 out.append(f.group)
         return out
 
+    def unused_groups(self) -> list[str]:
+        """Phase groups no plan decodes: those of a direction whose plan lists ``periods``
+        without the group's period (a plan without ``periods`` uses all its direction's groups)."""
+        out: list[str] = []
+        for f in self.frames:
+            if f.role != "phase" or not f.group or f.group in out:
+                continue
+            plan = next((p for p in self.plans if p.direction == f.direction), None)
+            if plan is not None and plan.periods and not any(abs(f.period - t) <= 1e-9 * max(1.0, t)
+                                                             for t in plan.periods):
+                out.append(f.group)
+        return out
+
     def concat(self, other: "PatternSet", name: str | None = None) -> "PatternSet":
         """Frames of ``self`` then ``other`` (same projector size)."""
         if (self.width, self.height) != (other.width, other.height):
@@ -256,8 +271,14 @@ class PatternSet:
         if unplanned:
             raise ValueError(f"{where}: field plans: no unwrapping plan for direction(s) {unplanned}; every "
                              "direction with phase or code frames needs a plan (direction, angle, method)")
-        return cls(width=int(d["width"]), height=int(d["height"]), frames=tuple(frames),
-                   plans=tuple(plans), bit_depth=int(d.get("bit_depth", 8)), name=d.get("name", ""))
+        ps = cls(width=int(d["width"]), height=int(d["height"]), frames=tuple(frames),
+                 plans=tuple(plans), bit_depth=int(d.get("bit_depth", 8)), name=d.get("name", ""))
+        unused = ps.unused_groups()
+        if unused:
+            warnings.warn(f"{where}: phase group(s) {unused} are used by no plan (their periods are not in "
+                          "their direction's plan 'periods'); their frames are not decoded", DataQualityWarning,
+                          stacklevel=2)
+        return ps
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write JSON atomically (temporary name, then rename). ``path`` may be a folder."""

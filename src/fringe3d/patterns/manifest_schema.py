@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, StrictBool, StrictStr, field_validator
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr, field_validator
 
 from fringe3d.utils.schema import FiniteFloat, Label, Size, Strict, StrictInt
 
@@ -52,6 +52,44 @@ class PlanModel(Strict):
     method: StrictStr
     periods: Annotated[list[Annotated[FiniteFloat, Field(gt=0, le=1e7)]], Field(max_length=16)] = []
     options: dict[str, Any] = {}
+
+
+class PlanOptionsModel(BaseModel):
+    """The keys a plan's ``options`` may hold (docs/file-formats.md describes each): written by
+    the pattern-set builders and read by the decoder. Documentation and a reference for tests;
+    a plan's ``options`` stays a free object (other keys are kept and ignored)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    # written by the builders (patterns.sets, patterns.layouts); informational unless noted
+    phase: str | None = None                 # psp, ftp, modified_ftp, ftp+psp, none
+    w_range: list[float] | None = None       # [w_min, w_max] projector px; read by unwrapping
+    beats: list[list[float]] | None = None   # heterodyne: [[T1, T2, T12], [T12, T3, T123]]
+    steps: list[int] | None = None           # heterodyne: the groups' step counts
+    code: str | None = None                  # gray or binary
+    code_group: str | None = None            # the code frames' group label
+    bits: int | None = None                  # code length
+    inverse: bool | None = None              # code frames come with inverses
+    order_offset: int | None = None          # w0 / stripe width: stripe c starts at w0 + c T
+    code_period: float | None = None         # psp-gray: the code's stripe width (px)
+    high_group: str | None = None            # hybrid: the high-frequency (FTP) group
+    low_group: str | None = None             # hybrid: the low-frequency group
+    alpha_opt: float | None = None           # optimal-angle calibration: alpha_opt (rad)
+    threshold: str | float | None = None     # code threshold: inverse, white-black, average or counts
+    # read by the decoder (DecodeOptions of the same name take precedence)
+    z_min: float | None = None
+    z_max: float | None = None
+    min_modulation_fraction: float | None = None
+    white_thr: float | None = None
+    black_thr: float | None = None
+    edge_thr: float | None = None
+    sub_stripe: bool | None = None
+    ftp_window: str | None = None
+    erode: int | None = None
+    min_size: int | None = None
+    min_ratio: float | None = None
+    max_shift: float | None = None
+    cross_motion: bool | None = None
 
 
 class ManifestModel(Strict):

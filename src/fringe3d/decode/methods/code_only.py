@@ -1,7 +1,8 @@
 """Decoding method ``gray_code_only``: a Gray- or binary-code capture without phase frames.
 
 Each code bit is 1 where the code frame is brighter than its inverse frame or, without
-inverse frames, than the mean of the white and black frames. The codeword selects the
+inverse frames, than the mean of the white and black frames (or the plan's fixed
+``threshold`` level; :mod:`fringe3d.decode.code_threshold`). The codeword selects the
 projector stripe (:func:`fringe3d.unwrap.temporal.code_centers`), of centre ``c`` (px); the
 projector coordinate ``w`` is then refined within the stripe from the zero crossings of the bit
 differences between neighbouring pixels (:func:`fringe3d.unwrap.sub_stripe.sub_stripe_coordinate`;
@@ -40,6 +41,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fringe3d.decode.code_threshold import code_reference, threshold_mode
 from fringe3d.decode.context import DecodeContext
 from fringe3d.decode.methods.temporal import code_frames, unwrap_gray_code
 from fringe3d.patterns.conventions import point_at_fringe_coordinate, w_range
@@ -105,20 +107,21 @@ def pixel_code_centers(ctx: DecodeContext, direct: list[int]) -> np.ndarray:
 
 
 def code_differences(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
-                     wb: tuple[np.ndarray, np.ndarray] | None, white_thr: float) -> tuple[np.ndarray, float]:
-    """(diff (B, H, W) float32, margin): each bit's ``I - I_inv`` (without inverses ``I - (W + B)/2``)
-    and the smallest ``|diff|`` that decides a bit (``white_thr``; ``white_thr / 2`` without inverses)."""
+                     reference: np.ndarray | None, white_thr: float) -> tuple[np.ndarray, float]:
+    """(diff (B, H, W) float32, margin): each bit's ``I - I_inv``, or without inverses ``I - reference``
+    (:func:`fringe3d.decode.code_threshold.code_reference`: the white/black mean or a fixed level), and
+    the smallest ``|diff|`` that decides a bit (``white_thr``; ``white_thr / 2`` without inverses)."""
     code = ctx.frames[direct].astype(np.float32)
     if inverse is not None:
         return code - ctx.frames[inverse].astype(np.float32), white_thr
-    if wb is not None:
-        return code - 0.5 * (wb[0] + wb[1]), 0.5 * white_thr
-    raise ValueError(f"direction {ctx.direction!r}: a code-only capture needs inverse code frames or a white "
-                     "and a black frame to threshold the code bits; the manifest has neither")
+    if reference is None:
+        raise ValueError(f"direction {ctx.direction!r}: code bits without inverse frames need a reference "
+                         "(fringe3d.decode.code_threshold.code_reference)")
+    return code - reference, 0.5 * white_thr
 
 
 def clipped_pairs(ctx: DecodeContext, direct: list[int], inverse: list[int] | None,
-                  wb: tuple[np.ndarray, np.ndarray] | None, margin: float) -> np.ndarray:
+                  reference: np.ndarray | None, white: np.ndarray | None, margin: float) -> np.ndarray:
     """(B, H, W) bool: bits whose order clipping erased.
 
     With inverse frames: the code frame and its inverse both at the saturation level ``L``.
@@ -126,23 +129,25 @@ def clipped_pairs(ctx: DecodeContext, direct: list[int], inverse: list[int] | No
     bit whose brighter frame alone is clipped is still decided by its difference; only a pair
     clipped on both sides is undecidable, whatever its (clipped, zero) difference says.
 
-    Thresholded against ``(W + B)/2`` (``wb``): where the white frame is clipped the true
-    threshold is unknown but at least the clipped one, so a code value from ``margin`` below the
-    clipped threshold up to just below ``L`` may lie on either side of it (an edge pixel whose
-    true level is not known): undecidable. A clipped code value counts as lit (its true value is
-    at least ``L``, above the true threshold unless the white frame exceeds about ``2 L``), an
-    unclipped one below that band as dark."""
+    Thresholded against a ``reference`` (H, W): a code value and a reference both clipped are
+    undecidable. Where the reference is the white/black mean ``(W + B)/2`` and the ``white``
+    frame is clipped, the true threshold is unknown but at least the clipped one, so a code value
+    from ``margin`` below the clipped threshold up to just below ``L`` may lie on either side of
+    it (an edge pixel whose true level is not known): undecidable. A clipped code value counts as
+    lit (its true value is at least ``L``, above the true threshold unless the white frame
+    exceeds about ``2 L``), an unclipped one below that band as dark."""
     level = quality.saturation_level(ctx.frames, ctx.bit_depth)
     shape = (len(direct),) + ctx.frames.shape[1:]
-    if not np.isfinite(level) or (inverse is None and wb is None):
+    if not np.isfinite(level) or (inverse is None and reference is None):
         return np.zeros(shape, bool)
     code = ctx.frames[direct]
     if inverse is not None:
         return np.asarray((code >= level) & (ctx.frames[inverse] >= level))
-    assert wb is not None
-    reference = 0.5 * (wb[0] + wb[1])
-    return np.asarray(((code >= level) & (reference >= level))
-                      | ((wb[0] >= level) & (code < level) & (code >= reference - margin)))
+    assert reference is not None
+    both = (code >= level) & (reference >= level)
+    if white is None:
+        return np.asarray(both)
+    return np.asarray(both | ((white >= level) & (code < level) & (code >= reference - margin)))
 
 
 def decide_edges(diff: np.ndarray, margin: float, centres: np.ndarray, period: float,
@@ -188,11 +193,13 @@ def unwrap_code_only(ctx: DecodeContext) -> Unwrapped:
     docstring. With inverse frames (and method option ``sub_stripe``, default True) the
     coordinate is refined within the stripe (:func:`fringe3d.unwrap.sub_stripe.sub_stripe_coordinate`)."""
     direct, inverse = code_frames(ctx)
+    inverse, reference = code_reference(ctx, inverse, None)
     period = float(ctx.patterns.frames[direct[0]].period)
     white_thr, black_thr = code_thresholds(ctx)
     wb = white_black(ctx)
-    diff, margin = code_differences(ctx, direct, inverse, wb, white_thr)
-    clipped = clipped_pairs(ctx, direct, inverse, wb, margin)
+    diff, margin = code_differences(ctx, direct, inverse, reference, white_thr)
+    white = wb[0] if (wb is not None and threshold_mode(ctx) in (None, "white-black")) else None
+    clipped = clipped_pairs(ctx, direct, inverse, reference, white, margin)
     centres = pixel_code_centers(ctx, direct)
     edge_margin = edge_threshold(ctx, inverse is not None) * (1.0 if inverse is not None else 0.5)
     decided, straddling, word, contrast = decide_edges(diff, margin, centres, period, edge_margin, clipped)

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from fringe3d.decode.code_threshold import code_reference
 from fringe3d.decode.context import DecodeContext, clipping_broken, combined_mask
 from fringe3d.decode.result import Unwrapped
 from fringe3d.patterns.conventions import point_at_fringe_coordinate, w_range
@@ -123,22 +124,15 @@ def wide_stripe_coordinate(ctx: DecodeContext, direct: list[int], inverse: list[
 
 def unwrap_gray_code(ctx: DecodeContext) -> Unwrapped:
     """Plan ``method="gray_code"`` or ``"binary_code"``: the fringe order from the code frames,
-    thresholded by their inverses, the white/black frames or the phase average, and the wrapped
-    phase together (:func:`fringe3d.unwrap.temporal.gray_code_order`); pixels more than
-    ``max_code_residual`` periods outside their codeword's stripe are ``order_inconsistent``."""
+    thresholded by their inverses, the white/black frames, the phase average or a fixed level
+    (:func:`fringe3d.decode.code_threshold.code_reference`), and the wrapped phase together
+    (:func:`fringe3d.unwrap.temporal.gray_code_order`); pixels more than ``max_code_residual``
+    periods outside their codeword's stripe are ``order_inconsistent``."""
     groups = ctx.groups_for_plan()
     g = groups[0]
     pr = ctx.group_phase(g)
     direct, inv = code_frames(ctx)
-    threshold = None
-    if inv is None:
-        ps = ctx.patterns
-        white = ps.indices(kind="white")
-        black = ps.indices(kind="black")
-        if white and black:
-            threshold = 0.5 * (ctx.frames[white[0]].astype(np.float32) + ctx.frames[black[0]].astype(np.float32))
-        else:
-            threshold = pr.average
+    inv, threshold = code_reference(ctx, inv, pr.average)
     stripes = projector_code_stripes(ctx, direct)
     coordinate = wide_stripe_coordinate(ctx, direct, inv, threshold, stripes, g.period)
     # a clear bit's |D| where code and fringes share the projector's range: 2 B with inverses, B without
