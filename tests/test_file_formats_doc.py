@@ -58,7 +58,7 @@ def test_every_capture_source_and_decode_summary_field_is_documented():
 
 SRC = Path(__file__).parents[1] / "src" / "fringe3d"
 #: How the library reads or writes a plan option: ``method_option("x"``, ``options.get("x"``, ``options["x"]``.
-OPTION_USE = re.compile(r"""(?:method_option\(|options\.get\(|options\[)\s*["']([a-z_]+)["']""")
+OPTION_USE = re.compile(r"""(?:\bmethod_option\(|\boptions\.get\(|\boptions\[)\s*["']([a-z_]+)["']""")
 
 
 def built_plan_options() -> set[str]:
