@@ -187,6 +187,10 @@ def _run(argv: list[str] | None) -> int:
         if hasattr(e, "show") and hasattr(e, "exit_code"):  # ClickException / UsageError
             e.show()
             return EXIT_BAD_INPUT
+        if type(e).__name__ == "Abort" and isinstance(e.__cause__, EOFError):  # click turns EOFError into Abort
+            err_console.print(f"[bold red]error:[/] a file ended before its data did (empty or truncated): "
+                              f"{escape(str(e.__cause__) or 'end of file')}")
+            return EXIT_BAD_INPUT
         if type(e).__name__ == "Abort":  # click turns Ctrl-C into Abort
             return _interrupted()
         return _internal(e)

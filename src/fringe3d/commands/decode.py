@@ -12,13 +12,14 @@ from fringe3d.commands import import_options as io
 from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.import_options import SRC_HELP
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
-from fringe3d.commands.checks import check_number
+from fringe3d.commands.checks import BIT_DEPTHS, check_choice, check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.decode import DecodeOptions, decode, with_method
 from fringe3d.io.capture import read_capture, read_meta
 from fringe3d.io.importer import load_images, parse_size
 from fringe3d.patterns.manifest import MANIFEST_NAME
 from fringe3d.optics import Rig
+from fringe3d.phase.ftp import WINDOWS
 from fringe3d.decode.result import SUMMARY_NAME
 from fringe3d.utils.jsonfile import read_json
 from fringe3d.utils.output_folder import open_output
@@ -137,6 +138,8 @@ def register(app: typer.Typer) -> None:
         t0 = time.perf_counter()
         check_number(min_modulation, "--min-modulation", minimum=0)
         check_number(edge_margin, "--edge-margin", minimum=0)
+        check_choice(bit_depth, "--bit-depth", BIT_DEPTHS)
+        check_choice(ftp_window, "--ftp-window", WINDOWS)
         described = layout is not None or manifest is not None or list_file is not None
         if described:  # what fringe3d import reads, in memory
             cap = load_images(capture, list_file=list_file, manifest=manifest, layout=layout,
