@@ -37,7 +37,7 @@ from fringe3d.commands import (
 )
 from fringe3d.gpu.runtime import CudaUnavailableError
 from fringe3d.utils.console import err_console, set_quiet, settings, warn
-from fringe3d.utils.output_folder import interrupt_requested, request_interrupt, set_command_line
+from fringe3d.utils.output_folder import interrupt_requested, output_note, request_interrupt, set_command_line
 from fringe3d.utils.warning_types import Fringe3DWarning
 
 #: The sub-command modules, in the order they are registered (and listed by ``--help``).
@@ -105,10 +105,15 @@ def _interrupted() -> int:
     if settings.progress is not None:
         what, done, total = settings.progress
         where = f"; {done} of {total} done ({what})" if total else f"; {done} done ({what})"
-    err_console.print(f"[bold red]interrupted[/]{escape(where)}. Nothing unfinished is marked complete: run the "
-                      "same command again to resume (sequences continue where they stopped) or with --overwrite "
-                      "to start over.")
+    note = output_note() or "Nothing unfinished is marked complete"
+    err_console.print(f"[bold red]interrupted[/]{escape(where)}. {escape(note)}.")
     return EXIT_INTERRUPTED
+
+
+def _with_note(message: str) -> str:
+    """``message`` and, when an output block did not finish, what became of its output."""
+    note = output_note()
+    return f"{message}. {note}" if note else message
 
 
 def _internal(e: BaseException) -> int:
@@ -138,6 +143,7 @@ def _unraisable(hook):
 def main(argv: list[str] | None = None) -> int:
     """Entry point: run the app, turning known error types into clear messages and exit codes."""
     request_interrupt(False)
+    output_note(clear=True)
     try:
         previous = signal.signal(signal.SIGINT, _on_sigint)
     except ValueError:  # not the main thread: keep Python's handler
@@ -171,17 +177,17 @@ def _run(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         return _interrupted()
     except (ValueError, FileNotFoundError, KeyError, NotADirectoryError, IsADirectoryError, CudaUnavailableError) as e:
-        err_console.print(f"[bold red]error:[/] {escape(str(e))}")
+        err_console.print(f"[bold red]error:[/] {escape(_with_note(str(e)))}")
         return EXIT_BAD_INPUT
     except MemoryError:
         err_console.print("[bold red]error:[/] not enough memory for this input; use smaller frames, fewer cycles "
                           "(--max-cycles) or a machine with more memory")
         return EXIT_BAD_INPUT
     except PermissionError as e:
-        err_console.print(f"[bold red]cannot write output:[/] {escape(str(e))}")
+        err_console.print(f"[bold red]cannot write output:[/] {escape(_with_note(str(e)))}")
         return EXIT_WRITE
     except OSError as e:
-        err_console.print(f"[bold red]I/O error:[/] {escape(str(e))}")
+        err_console.print(f"[bold red]I/O error:[/] {escape(_with_note(str(e)))}")
         return EXIT_WRITE
     except Exception as e:  # usage errors of typer's (vendored) click, and the rest
         if hasattr(e, "show") and hasattr(e, "exit_code"):  # ClickException / UsageError
