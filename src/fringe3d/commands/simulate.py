@@ -10,7 +10,7 @@ from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
 from fringe3d.sim.simulate import simulate_capture
-from fringe3d.utils.console import console, make_table, print_json, set_quiet
+from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
 
 
 #: Most frames one ``simulate`` run renders. Frames and truth are written as they are rendered (memory
@@ -45,6 +45,7 @@ def register(app: typer.Typer) -> None:
         Writes OUT/frames/*.png, OUT/manifest.json, OUT/capture.json, OUT/truth/ and OUT/rig.json.
         Each frame (and a moving scene's per-frame truth) is written as it is rendered, so memory
         does not grow with --frames; OUT stays marked incomplete (fringe3d.json) until the end.
+        An interrupted run resumes when the same command is run again: the frames it wrote are kept.
 
         Example: fringe3d simulate --preset macro --scene sphere --patterns three-frequency -o sphere-capture
         """
@@ -59,11 +60,13 @@ def register(app: typer.Typer) -> None:
         inputs = [Path(x) for x in (scene, patterns) if x is not None and Path(x).suffix == ".json"]
         with open_output(out, overwrite=overwrite, inputs=inputs, options=dict(
                 preset=preset, scene=scene, patterns=patterns, frames=frames, frame_rate=frame_rate, exposure=exposure,
-                noise=noise, defocus=defocus, bit_depth=bit_depth, ideal=ideal, seed=seed)) as o:
+                noise=noise, defocus=defocus, bit_depth=bit_depth, ideal=ideal, seed=seed), resumable=True) as o:
+            if o.resumed:
+                info(f"resuming the unfinished capture in {out}: frames already written are kept")
             summary = o.final_paths(simulate_capture(o.path, preset, scene, patterns, frames=frames,
                                                      frame_rate=frame_rate, exposure=exposure, noise=noise,
                                                      defocus=defocus, bit_depth=bit_depth, seed=seed,
-                                                     progress=not (quiet or json_), **extra))
+                                                     progress=not (quiet or json_), resume=o.resumed, **extra))
         if json_:
             print_json(summary)
             return

@@ -262,7 +262,7 @@ def _dead_run(marker: dict) -> str:
 @contextmanager
 def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = False,
                 inputs: Iterable[str | os.PathLike | None] = (), options: dict | None = None,
-                resumable: bool = False) -> Iterator[Output]:
+                resumable: bool = False, keep_unfinished: bool = False) -> Iterator[Output]:
     """Guarded writing of an output folder (see the module docstring).
 
     Parameters
@@ -275,6 +275,8 @@ def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = 
     options : the options that shape the result, part of the fingerprint
     resumable : an unfinished set with the same fingerprint is continued instead of refused; an
         interrupted or failed run keeps its files for that (else a folder the block created is removed)
+    keep_unfinished : a failed run keeps what it wrote, marked incomplete, for inspection (a capture's
+        frames are data that cannot be made again); a rerun starts over
 
     The lock is taken before the folder's state is judged, so a live writer is always reported as
     such (:class:`BusyOutputError` naming its pid and start), never as a folder to overwrite. An
@@ -322,7 +324,7 @@ def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = 
         if nonempty:
             yield from _replace(final, info)
         else:
-            yield from _fresh(final, info, created, resumable)
+            yield from _fresh(final, info, created, resumable or keep_unfinished)
     finally:
         _unlock(lock, final)
 
@@ -353,8 +355,8 @@ def _failed_fresh(final: Path, created: bool, resumable: bool) -> None:
     """Leave a failed fresh output resumable (marked incomplete) or remove what this run wrote."""
     if resumable and _file_list(final):
         clean_partials(final)
-        _Outcome.note = (f"{final} is kept, marked incomplete: run the same command again to resume it, or pass "
-                         "--overwrite to start over")
+        _Outcome.note = (f"{final} is kept, marked incomplete: run the same command again to "
+                         + ("resume it, or pass --overwrite to start over" if _resumes(final) else "start over"))
         return
     if created:
         shutil.rmtree(final, ignore_errors=True)
@@ -364,6 +366,11 @@ def _failed_fresh(final: Path, created: bool, resumable: bool) -> None:
         if p.name != LOCK_NAME:
             shutil.rmtree(p, ignore_errors=True) if p.is_dir() and not p.is_symlink() else p.unlink(missing_ok=True)
     _Outcome.note = f"what this run wrote in {final} was removed (the folder was empty before)"
+
+
+def _resumes(folder: Path) -> bool:
+    marker = read_marker(folder)
+    return bool(marker and marker.get("resumable"))
 
 
 def _resume(final: Path, info: dict, marker: dict):
