@@ -125,6 +125,18 @@ def _internal(e: BaseException) -> int:
     return EXIT_INTERNAL
 
 
+def _from_ctrl_c(e: BaseException) -> bool:
+    """Whether ``e`` was caused by a Ctrl-C: a ``KeyboardInterrupt`` raised where C code (numba's
+    dispatcher, a C callback) could only report it as "returned a result with an exception set"."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False
+
+
 def _on_sigint(signum, frame) -> None:
     request_interrupt()
     raise KeyboardInterrupt
@@ -177,6 +189,8 @@ def _run(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         return _interrupted()
     except (ValueError, FileNotFoundError, KeyError, NotADirectoryError, IsADirectoryError, CudaUnavailableError) as e:
+        if interrupt_requested():  # what Ctrl-C cut short is not an input error
+            return _interrupted()
         err_console.print(f"[bold red]error:[/] {escape(_with_note(str(e)))}")
         return EXIT_BAD_INPUT
     except MemoryError:
@@ -187,9 +201,13 @@ def _run(argv: list[str] | None) -> int:
         err_console.print(f"[bold red]cannot write output:[/] {escape(_with_note(str(e)))}")
         return EXIT_WRITE
     except OSError as e:
+        if interrupt_requested():
+            return _interrupted()
         err_console.print(f"[bold red]I/O error:[/] {escape(_with_note(str(e)))}")
         return EXIT_WRITE
     except Exception as e:  # usage errors of typer's (vendored) click, and the rest
+        if interrupt_requested() or _from_ctrl_c(e):  # e.g. SystemError of a compiled kernel that Ctrl-C cut
+            return _interrupted()
         if hasattr(e, "show") and hasattr(e, "exit_code"):  # ClickException / UsageError
             e.show()
             return EXIT_BAD_INPUT

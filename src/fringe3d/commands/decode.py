@@ -22,7 +22,7 @@ from fringe3d.optics import Rig
 from fringe3d.phase.ftp import WINDOWS
 from fringe3d.decode.result import SUMMARY_NAME
 from fringe3d.utils.jsonfile import read_json
-from fringe3d.utils.output_folder import open_output
+from fringe3d.utils.output_folder import check_complete, open_output
 from fringe3d.utils.console import (
     console,
     info,
@@ -152,6 +152,8 @@ def register(app: typer.Typer) -> None:
                 cap.frames = cap.frames[:max(1, max_cycles) * len(cap.patterns)]
         else:
             folder = Path(capture)
+            if folder.is_dir():
+                check_complete(folder, "capture folder")  # an unfinished capture has no manifest yet
             if folder.is_dir() and not (folder / MANIFEST_NAME).is_file():
                 raise ValueError(f"{folder} has no {MANIFEST_NAME}, so it is not a capture folder; to decode a "
                                  "folder of frames say what was projected with --set (phase-shift, gray-code, "

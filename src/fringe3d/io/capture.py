@@ -204,10 +204,10 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
     folder = Path(folder)
     if not folder.is_dir():
         raise FileNotFoundError(f"capture folder {folder} does not exist")
+    check_complete(folder, "capture folder")  # first: an unfinished capture has no manifest yet
     if not (folder / MANIFEST_NAME).is_file():
         raise FileNotFoundError(f"capture folder {folder} has no {MANIFEST_NAME}; copy the pattern "
                                 f"manifest there (fringe3d patterns writes it next to the PNGs)")
-    check_complete(folder, "capture folder")
     patterns = PatternSet.load(folder / MANIFEST_NAME)
     meta = read_meta(folder)
     if "source" in meta:
