@@ -331,3 +331,69 @@ def test_a_board_of_10_9_columns_in_session_json_is_refused_before_opencv_search
     assert proc.returncode == 2, proc.stderr
     assert "board: field cols: expected a whole number in [2, 100], got 1000000000" in " ".join(proc.stderr.split())
     assert not (tmp_path / "c.json").exists()
+
+
+def _hold_output(out: Path) -> subprocess.Popen:
+    """Another process writing ``out`` (inside open_output) until killed."""
+    code = ("import time; from fringe3d.utils.output_folder import open_output\n"
+            f"with open_output({str(out)!r}) as o:\n"
+            "    (o.path / 'part.txt').write_text('1 of 2'); print('in', flush=True); time.sleep(120)\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONPATH": str(SRC)})
+    assert proc.stdout.readline().strip() == "in"
+    return proc
+
+
+@pytest.mark.parametrize("extra", [[], ["--overwrite"]])
+def test_a_second_writer_is_told_who_holds_the_output_and_never_to_overwrite_it(tmp_path, capsys, extra):
+    out = tmp_path / "pats"
+    proc = _hold_output(out)
+    try:
+        before = _snapshot(tmp_path)
+        code = main(["patterns", "--set", "phase-shift", "-o", str(out), "-q"] + extra)
+        err = " ".join(capsys.readouterr().err.split())
+        assert code == 3, err
+        assert re.search(rf"another fringe3d \(pid {proc.pid}, started [0-9T:+-]+\) is writing .*pats", err), err
+        assert "--overwrite" not in err and "not empty" not in err
+        assert _snapshot(tmp_path) == before, "the live run's files changed"
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+def test_leftovers_of_a_killed_run_are_cleaned_with_a_notice_and_the_rerun_succeeds(tmp_path, capsys):
+    """SIGKILL leaves the marker (complete: false), the lock file and .part temporaries; the pid is gone
+    and the lock free, so the same command starts over (patterns) with a warning."""
+    out = tmp_path / "pats"
+    out.mkdir()
+    (out / "fringe3d.json").write_text(json.dumps({"format": "fringe3d-output", "version": 1, "complete": False,
+                                                   "command": "fringe3d patterns -o pats", "pid": 999999,
+                                                   "resumable": False}))
+    (out / ".fringe3d.lock").write_text(json.dumps({"pid": 999999, "started": "2026-01-01T00:00:00+00:00"}))
+    (out / ".00002.png.k3j.part.png").write_bytes(b"half a png")
+    (out / "00000.png").write_bytes(b"from the killed run")
+    assert main(["patterns", "--set", "phase-shift", "-o", str(out), "-q"]) == 0
+    err = " ".join(capsys.readouterr().err.split())
+    assert "holds the unfinished run of `fringe3d patterns -o pats` (pid 999999" in err and "starting over" in err
+    assert not list(out.rglob("*.part*")) and not (out / ".fringe3d.lock").exists()
+    assert json.loads((out / "fringe3d.json").read_text())["complete"] is True
+    assert (out / "00000.png").read_bytes() != b"from the killed run"
+    assert [p.name for p in tmp_path.iterdir()] == ["pats"], "no temporary sibling is left"
+
+
+def test_a_disk_full_run_removes_the_folder_it_created_and_says_so(tmp_path, monkeypatch, capsys):
+    out = tmp_path / "pats"
+    replace = os.replace
+    calls = []
+
+    def disk_full_at_third_file(src, dst):
+        calls.append(dst)
+        if len(calls) == 3:
+            raise OSError(28, "No space left on device")
+        replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", disk_full_at_third_file)
+    assert main(["patterns", "--set", "phase-shift", "-o", str(out), "-q"]) == 3
+    err = " ".join(capsys.readouterr().err.split())
+    assert "No space left on device" in err and f"{out} was removed (this run had created it)" in err, err
+    assert list(tmp_path.iterdir()) == []

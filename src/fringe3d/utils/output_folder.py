@@ -300,7 +300,7 @@ def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = 
     _Outcome.note = ""
     created = not final.exists()
     final.mkdir(parents=True, exist_ok=True)
-    lock = _lock(final, info["command"])
+    lock = _lock(final, str(info["command"]))
     try:
         nonempty = any(p.name != LOCK_NAME for p in final.iterdir())
         if nonempty and not overwrite:
