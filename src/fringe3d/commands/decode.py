@@ -140,6 +140,7 @@ def register(app: typer.Typer) -> None:
         check_number(edge_margin, "--edge-margin", minimum=0)
         check_choice(bit_depth, "--bit-depth", BIT_DEPTHS)
         check_choice(ftp_window, "--ftp-window", WINDOWS)
+        check_number(max_cycles, "--max-cycles", minimum=1)
         described = layout is not None or manifest is not None or list_file is not None
         if described:  # what fringe3d import reads, in memory
             cap = load_images(capture, list_file=list_file, manifest=manifest, layout=layout,
@@ -168,6 +169,11 @@ def register(app: typer.Typer) -> None:
         if ftp_window is not None:
             opts["ftp_window"] = ftp_window
         rig_obj = _load_rig(rig)
+        if rig_obj is not None and (rig_obj.projector.width, rig_obj.projector.height) != (patterns.width,
+                                                                                             patterns.height):
+            raise ValueError(f"the calibration {rig} describes a {rig_obj.projector.width}x{rig_obj.projector.height} "
+                             f"projector but the pattern manifest is {patterns.width}x{patterns.height}: calibration "
+                             "and patterns disagree (expected the calibration of the projector that showed them)")
         n = cap.cycles
         if cap.source is not None:
             total = len(cap.source) // len(patterns)
