@@ -9,6 +9,8 @@ from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
+from fringe3d.patterns.manifest import PatternSet
+from fringe3d.sim.scene_file import load_scene
 from fringe3d.sim.simulate import simulate_capture
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
 
@@ -58,6 +60,10 @@ def register(app: typer.Typer) -> None:
         if frames is not None and not 1 <= frames <= MAX_SIM_FRAMES:
             raise ValueError(f"--frames must be between 1 and {MAX_SIM_FRAMES}, got {frames}")
         inputs = [Path(x) for x in (scene, patterns) if x is not None and Path(x).suffix == ".json"]
+        if scene is not None and Path(scene).suffix == ".json":
+            load_scene(scene)  # a bad scene file fails before any output exists
+        if patterns is not None and Path(patterns).suffix == ".json":
+            PatternSet.load(patterns)
         with open_output(out, overwrite=overwrite, inputs=inputs, options=dict(
                 preset=preset, scene=scene, patterns=patterns, frames=frames, frame_rate=frame_rate, exposure=exposure,
                 noise=noise, defocus=defocus, bit_depth=bit_depth, ideal=ideal, seed=seed), resumable=True) as o:
