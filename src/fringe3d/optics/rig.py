@@ -94,9 +94,11 @@ class Rig:
         d = read_json(path, "rig file")
         where = f"rig file {path}"
         if "rig" in d and "camera" not in d:  # a calibration file embeds a rig
-            if d.get("format") != CALIBRATION_FORMAT or d.get("version") not in CALIBRATION_VERSIONS:
+            version = d.get("version", 1)  # absent: the first version, as every fringe3d file
+            known = not isinstance(version, bool) and version in CALIBRATION_VERSIONS
+            if d.get("format") != CALIBRATION_FORMAT or not known:
                 raise ValueError(f"calibration file {path}: field format/version: {d.get('format')!r} version "
-                                 f"{d.get('version')!r} is not one this fringe3d reads ({CALIBRATION_FORMAT!r} "
+                                 f"{version!r} is not one this fringe3d reads ({CALIBRATION_FORMAT!r} "
                                  f"version {', '.join(map(str, CALIBRATION_VERSIONS))})")
             d, where = d["rig"], f"calibration file {path}: field rig"
         return cls.from_dict(d, where)
