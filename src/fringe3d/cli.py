@@ -37,7 +37,13 @@ from fringe3d.commands import (
 )
 from fringe3d.gpu.runtime import CudaUnavailableError
 from fringe3d.utils.console import err_console, set_quiet, settings, warn
-from fringe3d.utils.output_folder import interrupt_requested, output_note, request_interrupt, set_command_line
+from fringe3d.utils.output_folder import (
+    BusyOutputError,
+    interrupt_requested,
+    output_note,
+    request_interrupt,
+    set_command_line,
+)
 from fringe3d.utils.warning_types import Fringe3DWarning
 
 #: The sub-command modules, in the order they are registered (and listed by ``--help``).
@@ -197,6 +203,9 @@ def _run(argv: list[str] | None) -> int:
         err_console.print("[bold red]error:[/] not enough memory for this input; use smaller frames, fewer cycles "
                           "(--max-cycles) or a machine with more memory")
         return EXIT_BAD_INPUT
+    except BusyOutputError as e:  # another live run holds the output: nothing to overwrite or clean
+        err_console.print(f"[bold red]output busy:[/] {escape(str(e))}")
+        return EXIT_WRITE
     except PermissionError as e:
         err_console.print(f"[bold red]cannot write output:[/] {escape(_with_note(str(e)))}")
         return EXIT_WRITE
