@@ -401,3 +401,20 @@ def test_a_disk_full_run_removes_the_folder_it_created_and_says_so(tmp_path, mon
     err = " ".join(capsys.readouterr().err.split())
     assert "No space left on device" in err and f"{out} was removed (this run had created it)" in err, err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_point_store_whose_creation_was_cut_short_is_made_again_when_its_output_resumes(tmp_path):
+    """Disk full (or Ctrl-C) between zarr's first files and the store's attributes left a group with no
+    format; resuming the reconstruction refused it as 'not a fringe3d point store'."""
+    import zarr
+
+    from fringe3d.io.store import PointMapStore
+    from fringe3d.utils.write_guard import writing_into
+
+    zarr.open_group(str(tmp_path / "points.zarr"), mode="w").create_array("points", shape=(2, 4, 5, 3),
+                                                                          dtype="float32")
+    with pytest.raises(ValueError, match="not a fringe3d point store"):  # outside a resumed output: refused
+        PointMapStore.open(tmp_path / "points.zarr", 2, 4, 5)
+    with writing_into(tmp_path):
+        store = PointMapStore.open(tmp_path / "points.zarr", 2, 4, 5)
+    assert store.frames == 2 and not store.is_done(0)
