@@ -14,9 +14,15 @@ A command writes through :func:`open_output` (a folder) or :func:`open_output_fi
   ``"complete": false`` and the inputs' fingerprint, rewritten with ``"complete": true``, the
   fringe3d version, the command and the file list as the very last step. Readers call
   :func:`check_complete` and refuse an unfinished set with a message saying how to finish it.
-- ``resumable`` outputs (long sequences) may continue an unfinished set made from the same inputs
-  and options (same fingerprint); another fingerprint is refused, and an advisory lock
-  (``fcntl.flock``) stops a second writer.
+- ``resumable`` outputs (long sequences, simulate) may continue an unfinished set made from the
+  same inputs and options (same fingerprint); another fingerprint is refused.
+- An advisory lock (``fcntl.flock`` on ``.fringe3d.lock``, whose text names the writer's pid,
+  host, command and start) is taken before the folder is judged: a second writer is told
+  "another fringe3d (pid N, started T) is writing OUT" and never offered ``--overwrite``. A free
+  lock beside an unfinished marker is a dead run's: its ``.part`` files are removed with a
+  warning and the set is resumed (resumable) or started over.
+- A run that fails or is interrupted keeps a resumable set (marked incomplete) or removes what it
+  wrote; :func:`output_note` says which, for the command's message.
 """
 from __future__ import annotations
 
