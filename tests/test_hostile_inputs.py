@@ -203,6 +203,8 @@ CASES = {
                                             "summary.json: field title: required field is missing"),
     "evaluate points holding +-inf": (_infinite_points, ["evaluate", "{cap}/points.npy", "--plane"],
                                       "2 point.s. hold an infinite coordinate"),
+    "report of an empty folder": (lambda cap: (cap / "empty").mkdir(), ["report", "{cap}/empty", "-o", "{out}.html"],
+                                  "nothing to report in"),
     "evaluate with nothing to evaluate": (_result_folder, ["evaluate", "{cap}/rec"], "nothing to evaluate"),
     "session of an interrupted capture": (_session(BOARD, UNFINISHED), CALIBRATE,
                                           "calibration session .* is incomplete: `fringe3d capture --session s`"),
