@@ -420,3 +420,11 @@ def test_a_point_store_whose_creation_was_cut_short_is_made_again_when_its_outpu
     with writing_into(tmp_path):
         store = PointMapStore.open(tmp_path / "points.zarr", 2, 4, 5)
     assert store.frames == 2 and not store.is_done(0)
+
+
+def test_a_pattern_set_of_infinite_period_is_refused_by_the_library_too():
+    """``period: inf`` was written as ``null`` into manifest.json, which decode then refused."""
+    from fringe3d.patterns import sets
+
+    with pytest.raises(ValueError, match="fringe period must be a finite number > 0, got inf"):
+        sets.phase_shift(float("inf"), 3, "v", width=64, height=48)
