@@ -123,7 +123,7 @@ def test_an_unfinished_set_is_refused_by_readers_and_resumed_only_with_the_same_
     with pytest.raises(ValueError, match="other inputs or options"):
         with open_output(out, inputs=[capture], options={"k": 2}, resumable=True):
             pass
-    with pytest.raises(ValueError, match="not empty"):
+    with pytest.raises(ValueError, match="not empty: it holds the unfinished run .* no longer running"):
         with open_output(out, inputs=[capture], options={"k": 1}):  # not resumable: refused
             pass
     with open_output(out, inputs=[capture], options={"k": 1}, resumable=True) as o:
@@ -140,7 +140,7 @@ def test_an_unfinished_capture_folder_is_refused_by_decode(tmp_path, capture, ca
     assert "is incomplete" in err and "fringe3d simulate -o cap" in err
 
 
-def test_a_second_writer_is_stopped_by_the_lock(tmp_path, capture):
+def test_a_second_writer_is_stopped_by_a_lock_that_names_its_holder(tmp_path, capture):
     out = tmp_path / "out"
     code = ("import sys, time; from fringe3d.utils.output_folder import open_output\n"
             f"with open_output({str(out)!r}, resumable=True) as o:\n"
@@ -149,11 +149,15 @@ def test_a_second_writer_is_stopped_by_the_lock(tmp_path, capture):
                             env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1] / "src")})
     try:
         assert proc.stdout.readline().strip() == "in"
-        with pytest.raises(BusyOutputError, match="another fringe3d run is writing"):
+        holder = rf"another fringe3d \(pid {proc.pid}, started [0-9T:+-]+\) is writing"
+        with pytest.raises(BusyOutputError, match=holder):
             with open_output(out, resumable=True):
                 pass
-        with pytest.raises(BusyOutputError):
+        with pytest.raises(BusyOutputError, match=holder):  # never "pass --overwrite" against a live run
             with open_output(out, overwrite=True):
+                pass
+        with pytest.raises(BusyOutputError, match=holder):  # nor "not empty" / "other inputs"
+            with open_output(out, inputs=[capture]):
                 pass
     finally:
         proc.kill()

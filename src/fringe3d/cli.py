@@ -25,7 +25,13 @@ from fringe3d import __version__
 from fringe3d.commands.lazy import LazyCommands
 from fringe3d.gpu.runtime import CudaUnavailableError
 from fringe3d.utils.console import err_console, set_quiet, settings, warn
-from fringe3d.utils.output_folder import interrupt_requested, request_interrupt, set_command_line
+from fringe3d.utils.output_folder import (
+    BusyOutputError,
+    interrupt_requested,
+    output_note,
+    request_interrupt,
+    set_command_line,
+)
 from fringe3d.utils.warning_types import Fringe3DWarning
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_WRITE, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
@@ -86,10 +92,15 @@ def _interrupted() -> int:
     if settings.progress is not None:
         what, done, total = settings.progress
         where = f"; {done} of {total} done ({what})" if total else f"; {done} done ({what})"
-    err_console.print(f"[bold red]interrupted[/]{escape(where)}. Nothing unfinished is marked complete: run the "
-                      "same command again to resume (sequences continue where they stopped) or with --overwrite "
-                      "to start over.")
+    note = output_note() or "Nothing unfinished is marked complete"
+    err_console.print(f"[bold red]interrupted[/]{escape(where)}. {escape(note)}.")
     return EXIT_INTERRUPTED
+
+
+def _with_note(message: str) -> str:
+    """``message`` and, when an output block did not finish, what became of its output."""
+    note = output_note()
+    return f"{message}. {note}" if note else message
 
 
 def _internal(e: BaseException) -> int:
@@ -99,6 +110,18 @@ def _internal(e: BaseException) -> int:
                       f"in fringe3d, not in your input: please report it at {ISSUES_URL} with the command line "
                       "(run it again with `fringe3d --debug ...` for the traceback).")
     return EXIT_INTERNAL
+
+
+def _from_ctrl_c(e: BaseException) -> bool:
+    """Whether ``e`` was caused by a Ctrl-C: a ``KeyboardInterrupt`` raised where C code (numba's
+    dispatcher, a C callback) could only report it as "returned a result with an exception set"."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False
 
 
 def _on_sigint(signum, frame) -> None:
@@ -119,6 +142,7 @@ def _unraisable(hook):
 def main(argv: list[str] | None = None) -> int:
     """Entry point: run the app, turning known error types into clear messages and exit codes."""
     request_interrupt(False)
+    output_note(clear=True)
     try:
         previous = signal.signal(signal.SIGINT, _on_sigint)
     except ValueError:  # not the main thread: keep Python's handler
@@ -152,21 +176,34 @@ def _run(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         return _interrupted()
     except (ValueError, FileNotFoundError, KeyError, NotADirectoryError, IsADirectoryError, CudaUnavailableError) as e:
-        err_console.print(f"[bold red]error:[/] {escape(str(e))}")
+        if interrupt_requested():  # what Ctrl-C cut short is not an input error
+            return _interrupted()
+        err_console.print(f"[bold red]error:[/] {escape(_with_note(str(e)))}")
         return EXIT_BAD_INPUT
     except MemoryError:
         err_console.print("[bold red]error:[/] not enough memory for this input; use smaller frames, fewer cycles "
                           "(--max-cycles) or a machine with more memory")
         return EXIT_BAD_INPUT
+    except BusyOutputError as e:  # another live run holds the output: nothing to overwrite or clean
+        err_console.print(f"[bold red]output busy:[/] {escape(str(e))}")
+        return EXIT_WRITE
     except PermissionError as e:
-        err_console.print(f"[bold red]cannot write output:[/] {escape(str(e))}")
+        err_console.print(f"[bold red]cannot write output:[/] {escape(_with_note(str(e)))}")
         return EXIT_WRITE
     except OSError as e:
-        err_console.print(f"[bold red]I/O error:[/] {escape(str(e))}")
+        if interrupt_requested():
+            return _interrupted()
+        err_console.print(f"[bold red]I/O error:[/] {escape(_with_note(str(e)))}")
         return EXIT_WRITE
     except Exception as e:  # usage errors of typer's (vendored) click, and the rest
+        if interrupt_requested() or _from_ctrl_c(e):  # e.g. SystemError of a compiled kernel that Ctrl-C cut
+            return _interrupted()
         if hasattr(e, "show") and hasattr(e, "exit_code"):  # ClickException / UsageError
             e.show()
+            return EXIT_BAD_INPUT
+        if type(e).__name__ == "Abort" and isinstance(e.__cause__, EOFError):  # click turns EOFError into Abort
+            err_console.print(f"[bold red]error:[/] a file ended before its data did (empty or truncated): "
+                              f"{escape(str(e.__cause__) or 'end of file')}")
             return EXIT_BAD_INPUT
         if type(e).__name__ == "Abort":  # click turns Ctrl-C into Abort
             return _interrupted()

@@ -165,8 +165,14 @@ def _optional(module: str, method: str):
                           f"(or pip install {module}) ({e})") from e
 
 
-def check_sizes(rig: Rig, frames: np.ndarray, calibration) -> None:
-    """ValueError when the calibration's camera and the captured frames ``(F, H, W)`` differ in size."""
+def check_sizes(rig: Rig, frames: np.ndarray, calibration, patterns: PatternSet | None = None) -> None:
+    """ValueError when the calibration's camera and the captured frames ``(F, H, W)`` differ in size,
+    or its projector and the pattern manifest ``patterns`` (projector pixels) do."""
+    if patterns is not None and (rig.projector.width, rig.projector.height) != (patterns.width, patterns.height):
+        raise ValueError(f"the calibration {calibration} describes a {rig.projector.width}x{rig.projector.height} "
+                         f"projector but the capture's pattern manifest is {patterns.width}x{patterns.height}: "
+                         "calibration and patterns disagree (expected the calibration of the projector that showed "
+                         "these patterns)")
     H, W = frames.shape[1:]
     if (rig.camera.height, rig.camera.width) != (H, W):
         raise ValueError(f"the calibration {calibration} describes a {rig.camera.width}x{rig.camera.height} camera "
@@ -250,7 +256,7 @@ def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLik
     """
     rig = calibration if isinstance(calibration, Rig) else Rig.load(calibration)
     cap = read_capture(folder, max_cycles=1)
-    check_sizes(rig, cap.frames, calibration)
+    check_sizes(rig, cap.frames, calibration, cap.patterns)
     return reconstruct_cycle(cap, rig, method=method, z_min=z_min, triangulation=triangulation,
                              min_modulation=min_modulation, edge_mask=edge_mask, edge_margin=edge_margin,
                              allow_relative=allow_relative)

@@ -51,19 +51,29 @@ def load_points(result: Path, frame: int = 0) -> tuple[np.ndarray, dict]:
             if not st.is_done(frame):
                 raise ValueError(f"3D frame {frame} of {result / 'points.zarr'} was never completed; rerun reconstruct")
             info["frame"] = frame
-            return st.read(frame), info
+            return check_finite_points(st.read(frame), result / "points.zarr"), info
         raise FileNotFoundError(f"{result} holds neither points.npy nor points.zarr; run fringe3d reconstruct first")
     if result.suffix == ".npy":
         return check_point_map(load_array(result, "point map"), result), info
     if result.suffix == ".ply":
-        return read_ply(result).points, info
+        return check_finite_points(read_ply(result).points, result), info
     raise ValueError(f"{result}: expected a reconstruct output folder, a .npy point map or a .ply file")
 
 
 def check_point_map(P: np.ndarray, where) -> np.ndarray:
-    """``P`` unless it is not an (H, W, 3) point map (ValueError)."""
+    """``P`` unless it is not an (H, W, 3) point map or holds an infinite coordinate (ValueError)."""
     if P.ndim != 3 or P.shape[-1] != 3:
         raise ValueError(f"{where}: expected an (H, W, 3) point map, got shape {P.shape}")
+    return check_finite_points(P, where)
+
+
+def check_finite_points(P: np.ndarray, where) -> np.ndarray:
+    """``P`` (..., 3) mm unless a point holds +-inf: fringe3d marks an invalid point with NaN, so an
+    infinite coordinate is a damaged or foreign file, refused rather than silently dropped."""
+    bad = int(np.count_nonzero(np.isinf(np.asarray(P, dtype=np.float64)).any(axis=-1)))
+    if bad:
+        raise ValueError(f"{where}: {bad} point(s) hold an infinite coordinate; expected finite mm or NaN (invalid) "
+                         "in every coordinate")
     return P
 
 

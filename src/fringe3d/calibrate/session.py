@@ -35,6 +35,7 @@ from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.utils.console import progress_bar
 from fringe3d.utils.warning_types import CalibrationWarning
 from fringe3d.utils.jsonfile import read_json
+from fringe3d.utils.output_folder import check_complete
 
 from .boards import CircleBoard
 from .calibration_file import Calibration
@@ -93,12 +94,15 @@ def find_pose_folders(paths, layout: str | None = None,
         if not p.is_dir():
             raise ValueError(f"calibration input {p} is not a folder; expected a pose (capture) folder "
                              "or a session folder of pose folders")
+        check_complete(p, "calibration session")  # an interrupted capture never reaches calibration
         if (p / SESSION_NAME).is_file():
             meta = {**meta, **read_json(p / SESSION_NAME, "calibration session file")}
         if (p / MANIFEST_NAME).is_file():
             out.append(p)
             continue
         subs = sorted(q for q in p.iterdir() if q.is_dir() and (q / MANIFEST_NAME).is_file())
+        for q in subs:
+            check_complete(q, "calibration pose")
         if not subs:
             raise ValueError(f"{p} holds neither a {MANIFEST_NAME} (pose folder) nor pose folders (session folder)")
         out += subs

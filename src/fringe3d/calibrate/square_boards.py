@@ -23,6 +23,8 @@ its ``to_dict()`` form; a description without ``"kind"`` is a circle grid (the o
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import asdict, dataclass
 
 import cv2
@@ -196,6 +198,7 @@ def board_from_dict(d: dict):
     ``ValueError`` naming unknown kinds and fields."""
     if not isinstance(d, dict):
         raise ValueError(f"board: expected an object with the board's fields, got {d!r}")
+    check_board_fields(d)
     fields = dict(d)
     kind = fields.pop("kind", "circles")
     if kind == "circles":
@@ -209,6 +212,29 @@ def board_from_dict(d: dict):
     if unknown:
         raise ValueError(f"board ({kind}): unknown field(s) {unknown}; allowed {sorted(known | {'kind'})}")
     return cls(**fields)
+
+
+#: Most circles / squares along one side of a board read from a file (bounds OpenCV's grid search).
+MAX_FILE_BOARD_SIDE = 100
+_BOARD_NUMBERS = ("spacing", "radius", "marker")
+_BOARD_FLAGS = ("asymmetric", "dark_circles")
+
+
+def check_board_fields(d: dict) -> None:
+    """Refuse, before any board is built or searched for, a board description whose ``cols``/``rows``
+    are not whole numbers in [2, :data:`MAX_FILE_BOARD_SIDE`], whose sizes are not finite numbers
+    > 0 mm or whose flags are not true/false (a hostile ``cols: 1e9`` would make OpenCV search forever)."""
+    for k in ("cols", "rows"):
+        v = d.get(k, 2)
+        if isinstance(v, bool) or not isinstance(v, int) or not 2 <= v <= MAX_FILE_BOARD_SIDE:
+            raise ValueError(f"board: field {k}: expected a whole number in [2, {MAX_FILE_BOARD_SIDE}], got {v!r}")
+    for k in _BOARD_NUMBERS:
+        v = d.get(k, 1.0)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
+            raise ValueError(f"board: field {k}: expected a finite number > 0 (mm), got {v!r}")
+    for k in _BOARD_FLAGS:
+        if not isinstance(d.get(k, False), bool):
+            raise ValueError(f"board: field {k}: expected true or false, got {d[k]!r}")
 
 
 def describe_board(board) -> str:

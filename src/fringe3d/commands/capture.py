@@ -208,10 +208,12 @@ def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gai
             outputs.enter_context(open_output_file(output, overwrite=overwrite, inputs=[patterns]))
         elif session is not None:
             session = outputs.enter_context(open_output(session, overwrite=overwrite, inputs=[patterns],
-                                                        options={"camera": camera, "poses": poses})).path
+                                                        options={"camera": camera, "poses": poses},
+                                                        keep_unfinished=True)).path
         else:
             output = outputs.enter_context(open_output(output, overwrite=overwrite, inputs=[patterns],
-                                                       options={"camera": camera, "cycles": cycles})).path
+                                                       options={"camera": camera, "cycles": cycles},
+                                                       keep_unfinished=True)).path
         _run_with_devices(ps, images, packed, output, projector, camera, sync, cycles, exposure, gain, pixel_format,
                           roi_v, features, frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto,
                           still, pose_timeout, preview, cols, rows, spacing, patterns, json_, quiet)

@@ -17,3 +17,13 @@ def check_number(value: float | None, option: str, minimum: float | None = None,
         raise ValueError(f"{option} must be at least {minimum:g}, got {value:g}")
     if maximum is not None and value > maximum:
         raise ValueError(f"{option} must be at most {maximum:g}, got {value:g}")
+
+
+#: Camera bit depths fringe3d reads (10-14 stored in 16-bit files).
+BIT_DEPTHS = (8, 10, 12, 14, 16)
+
+
+def check_choice(value, option: str, choices) -> None:
+    """Refuse a value of ``option`` outside ``choices`` (None passes: the option was not given)."""
+    if value is not None and value not in choices:
+        raise ValueError(f"{option} must be one of {', '.join(map(str, choices))}, got {value!r}")

@@ -12,7 +12,7 @@ from fringe3d.commands import import_options as io
 from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.import_options import SRC_HELP
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
-from fringe3d.commands.checks import check_number
+from fringe3d.commands.checks import BIT_DEPTHS, check_choice, check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.plan_errors import in_flag_words
 from fringe3d.decode import DecodeOptions, decode, with_method
@@ -22,9 +22,10 @@ from fringe3d.io.importer import load_images, parse_size
 from fringe3d.patterns.manifest import MANIFEST_NAME
 from fringe3d.patterns.layouts import with_threshold
 from fringe3d.optics import Rig
+from fringe3d.phase.ftp import WINDOWS
 from fringe3d.decode.result import SUMMARY_NAME
 from fringe3d.utils.jsonfile import read_json
-from fringe3d.utils.output_folder import open_output
+from fringe3d.utils.output_folder import check_complete, open_output
 from fringe3d.utils.console import (
     console,
     info,
@@ -144,6 +145,9 @@ def register(app: typer.Typer) -> None:
         t0 = time.perf_counter()
         check_number(min_modulation, "--min-modulation", minimum=0)
         check_number(edge_margin, "--edge-margin", minimum=0)
+        check_choice(bit_depth, "--bit-depth", BIT_DEPTHS)
+        check_choice(ftp_window, "--ftp-window", WINDOWS)
+        check_number(max_cycles, "--max-cycles", minimum=1)
         described = layout is not None or manifest is not None or list_file is not None
         if capture is None and list_file is None:
             raise ValueError("give the capture folder (or frames with --set/--manifest), or --list FILE")
@@ -159,6 +163,8 @@ def register(app: typer.Typer) -> None:
                 cap.frames = cap.frames[:max(1, max_cycles) * len(cap.patterns)]
         else:
             folder = Path(capture)
+            if folder.is_dir():
+                check_complete(folder, "capture folder")  # an unfinished capture has no manifest yet
             if folder.is_dir() and not (folder / MANIFEST_NAME).is_file():
                 raise ValueError(f"{folder} has no {MANIFEST_NAME}, so it is not a capture folder; to decode a "
                                  "folder of frames say what was projected with --set (phase-shift, gray-code, "
@@ -175,6 +181,11 @@ def register(app: typer.Typer) -> None:
         if ftp_window is not None:
             opts["ftp_window"] = ftp_window
         rig_obj = _load_rig(rig)
+        if rig_obj is not None and (rig_obj.projector.width, rig_obj.projector.height) != (patterns.width,
+                                                                                             patterns.height):
+            raise ValueError(f"the calibration {rig} describes a {rig_obj.projector.width}x{rig_obj.projector.height} "
+                             f"projector but the pattern manifest is {patterns.width}x{patterns.height}: calibration "
+                             "and patterns disagree (expected the calibration of the projector that showed them)")
         with in_flag_words():  # a geometric method without --calibration / --z-min: before anything is written
             check_geometry(patterns, rig_obj, z_min)
         n = cap.cycles

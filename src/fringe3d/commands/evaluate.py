@@ -83,6 +83,9 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"{result / 'evaluate.json'} exists; pass --overwrite to replace it")
         if sum([sphere, plane, ball_bar]) > 1:
             raise ValueError("choose one of --sphere, --plane, --ball-bar")
+        if not (sphere or plane or ball_bar or truth is not None):
+            raise ValueError("nothing to evaluate: give --sphere, --plane or --ball-bar (a fit), or --truth (the "
+                             "error against the true surface); nothing was written")
         points, info = load_points(result, frame)
         out: dict = {"result": str(result), "frame": frame}
         relative = relative_phase(info)

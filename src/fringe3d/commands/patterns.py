@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -15,8 +16,9 @@ from fringe3d.patterns.gamma import load_gamma
 from fringe3d.utils.console import console, info, print_json, set_quiet
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
+from fringe3d.patterns.manifest import PatternSet
 from fringe3d.patterns.manifest_schema import MAX_PIXELS
-from fringe3d.utils.schema import MAX_SIDE
+from fringe3d.utils.schema import LABEL_PATTERN, MAX_SIDE
 
 SETS = ("phase-shift", "three-frequency", "hierarchical", "gray-code", "binary-code", "psp-gray", "ftp", "modified-ftp",
         "two-frequency", "hybrid", "calibration", "optimal-angle")
@@ -30,9 +32,13 @@ DEFAULT_STEPS = {"three-frequency": "9,3,3", "calibration": "9,3,3", "optimal-an
 
 def _numbers(text: str, what: str, cast=float) -> list:
     try:
-        return [cast(x) for x in text.split(",") if x.strip()]
+        values = [cast(x) for x in text.split(",") if x.strip()]
     except ValueError:
         raise ValueError(f"--{what} must be a number or a comma-separated list, got {text!r}") from None
+    bad = [v for v in values if not (math.isfinite(v) and v > 0)]
+    if bad or not values:
+        raise ValueError(f"--{what} must be finite numbers > 0, got {text!r}")
+    return values
 
 
 def build_set(set_name: str, period: str | None, steps: str | None, direction: str, angle_deg: float | None,
@@ -65,6 +71,10 @@ def _build_one(set_name: str, period: str | None, steps: str | None, direction: 
     if not (1 <= width <= MAX_SIDE and 1 <= height <= MAX_SIDE) or width * height > MAX_PIXELS:
         raise ValueError(f"--width/--height {width}x{height}: a projector side must be 1..{MAX_SIDE} pixels and a "
                          f"frame at most {MAX_PIXELS} pixels")
+    for label in direction.split(","):
+        if not re.fullmatch(LABEL_PATTERN, label):
+            raise ValueError(f"--direction {direction!r}: a direction label becomes part of file names, so it may "
+                             "hold only letters, digits, '_' and '-' (e.g. v, h, a1)")
     periods = _numbers(period or DEFAULT_PERIODS.get(set_name, "18"), "period")
     adaptive = period is None and set_name in ADAPTIVE_PERIODS  # the library picks them for this projector
     nsteps = _numbers(steps or DEFAULT_STEPS.get(set_name, "3"), "steps", int)
@@ -140,7 +150,10 @@ def register(app: typer.Typer) -> None:
         set_quiet(quiet or json_)
         if bits is not None and bits not in (1, 8):
             raise ValueError(f"--bits must be 1 or 8, got {bits}")
+        if not 1 <= dither_size <= 256:
+            raise ValueError(f"--dither-size must be 1..256 (the Bayer matrix side), got {dither_size}")
         ps = build_set(set_name, period, steps, direction, angle, kind, width, height, bits)
+        PatternSet.from_dict(ps.to_dict(), where="the pattern set these options describe")  # as decode reads it
         g = None
         if gamma is not None:
             g = load_gamma(gamma)

@@ -186,7 +186,7 @@ def register(app: typer.Typer) -> None:
             info(f"z_min = {z_min:.3f} mm from {z_min_from} (nearest depth - {z_margin:g} mm)")
         rig = Rig.load(calibration)
         cap = read_capture(capture, max_cycles=1)  # checks the folder; the rest is read on demand
-        check_sizes(rig, cap.frames, calibration)
+        check_sizes(rig, cap.frames, calibration, cap.patterns)
         referenced = open_frames(capture)  # a camera file (capture.json source), read on demand; else None
         n_files = len(referenced) if referenced is not None else len(list_frame_files(capture))
         cycles = n_files // len(cap.patterns) if max_cycles is None else min(max_cycles, n_files // len(cap.patterns))

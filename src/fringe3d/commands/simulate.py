@@ -9,8 +9,10 @@ from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
+from fringe3d.patterns.manifest import PatternSet
+from fringe3d.sim.scene_file import load_scene
 from fringe3d.sim.simulate import simulate_capture
-from fringe3d.utils.console import console, make_table, print_json, set_quiet
+from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
 
 
 #: Most frames one ``simulate`` run renders. Frames and truth are written as they are rendered (memory
@@ -47,6 +49,7 @@ def register(app: typer.Typer) -> None:
         Writes OUT/frames/*.png, OUT/manifest.json, OUT/capture.json, OUT/truth/ and OUT/rig.json.
         Each frame (and a moving scene's per-frame truth) is written as it is rendered, so memory
         does not grow with --frames; OUT stays marked incomplete (fringe3d.json) until the end.
+        An interrupted run resumes when the same command is run again: the frames it wrote are kept.
 
         Example: fringe3d simulate --preset macro --scene sphere --patterns three-frequency -o sphere-capture
         """
@@ -62,13 +65,19 @@ def register(app: typer.Typer) -> None:
         if frames is not None and not 1 <= frames <= MAX_SIM_FRAMES:
             raise ValueError(f"--frames must be between 1 and {MAX_SIM_FRAMES}, got {frames}")
         inputs = [Path(x) for x in (scene, patterns) if x is not None and Path(x).suffix == ".json"]
+        if scene is not None and Path(scene).suffix == ".json":
+            load_scene(scene)  # a bad scene file fails before any output exists
+        if patterns is not None and Path(patterns).suffix == ".json":
+            PatternSet.load(patterns)
         with open_output(out, overwrite=overwrite, inputs=inputs, options=dict(
                 preset=preset, scene=scene, patterns=patterns, frames=frames, frame_rate=frame_rate, exposure=exposure,
-                noise=noise, gain=gain, defocus=defocus, bit_depth=bit_depth, ideal=ideal, seed=seed)) as o:
+                noise=noise, gain=gain, defocus=defocus, bit_depth=bit_depth, ideal=ideal, seed=seed), resumable=True) as o:
+            if o.resumed:
+                info(f"resuming the unfinished capture in {out}: frames already written are kept")
             summary = o.final_paths(simulate_capture(o.path, preset, scene, patterns, frames=frames,
                                                      frame_rate=frame_rate, exposure=exposure, noise=noise,
                                                      defocus=defocus, bit_depth=bit_depth, seed=seed,
-                                                     progress=not (quiet or json_), **extra))
+                                                     progress=not (quiet or json_), resume=o.resumed, **extra))
         if json_:
             print_json(summary)
             return

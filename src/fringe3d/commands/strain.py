@@ -29,7 +29,10 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.analyze.anchors import parse_anchors
 from fringe3d.analyze.wing_strain import run_strain
+from fringe3d.commands.checks import check_number
+from fringe3d.io.point_sequence import read_point_sequence
 from fringe3d.cluster.engine import close, connect
 from fringe3d.cluster.strain_frames import frames_on_dask
 from fringe3d.commands.deprecated import AliasCommand
@@ -75,6 +78,9 @@ def register(app: typer.Typer) -> None:
         options = {"anchors": anchors, "thickness": thickness, "window": window, "step": step, "wings": wings,
                    "radius": radius, "reference": reference, "figures": not no_figures, "fill_dots": fill_dots}
         check_schedulers(workers, dask_workers, scheduler)
+        check_number(thickness, "--thickness", positive=True)
+        parse_anchors(anchors)  # bad anchors, then a missing, empty or damaged sequence, fail before any output
+        read_point_sequence(sequence)
         client = None  # connected before anything is written: an unreachable scheduler leaves no folder
         if dask_workers is not None or scheduler is not None:
             client = connect(scheduler, dask_workers)

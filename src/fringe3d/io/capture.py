@@ -204,10 +204,10 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
     folder = Path(folder)
     if not folder.is_dir():
         raise FileNotFoundError(f"capture folder {folder} does not exist")
+    check_complete(folder, "capture folder")  # first: an unfinished capture has no manifest yet
     if not (folder / MANIFEST_NAME).is_file():
         raise FileNotFoundError(f"capture folder {folder} has no {MANIFEST_NAME}; copy the pattern "
                                 f"manifest there (fringe3d patterns writes it next to the PNGs)")
-    check_complete(folder, "capture folder")
     patterns = PatternSet.load(folder / MANIFEST_NAME)
     meta = read_meta(folder)
     if "source" in meta:
@@ -291,8 +291,12 @@ WRITE_THREADS = 4
 
 
 def write_capture_frames(folder: str | os.PathLike, frames: Iterable[np.ndarray], count: int, patterns: PatternSet,
-                         meta: dict | None = None, fmt: str = "png", progress: bool | None = None) -> Path:
+                         meta: dict | None = None, fmt: str = "png", progress: bool | None = None,
+                         start: int = 0) -> Path:
     """:func:`write_capture` from an iterable of ``count`` frames (H, W), each written as it comes.
+
+    ``start`` (resuming): frames ``0 .. start - 1`` are already in ``frames/`` (written by an
+    interrupted run of the same command) and ``frames`` yields ``start .. count - 1`` only.
 
     At most :data:`WRITE_THREADS` frames are held (being written) at any time, so a take of any
     length is written in bounded memory. The manifest and ``capture.json`` are written after the
@@ -314,18 +318,21 @@ def write_capture_frames(folder: str | os.PathLike, frames: Iterable[np.ndarray]
         m = _FRAME_NAME.match(stale.name)
         if m and (int(m.group(1)) >= count or stale.suffix.lower() != f".{fmt}"):
             guard_write(stale).unlink()
+    if not 0 <= start < count:
+        raise ValueError(f"start must be in [0, {count}), got {start}")
     first: np.ndarray | None = None
-    n = 0
+    n = start
     pending: deque = deque()
-    with progress_bar(f"writing {count} frames", count, enabled=count > 60 if progress is None else progress) \
-            as advance, ThreadPoolExecutor(max_workers=min(WRITE_THREADS, os.cpu_count() or 1)) as pool:
+    with progress_bar(f"writing {count - start} frames", count - start,
+                      enabled=count > 60 if progress is None else progress) as advance, \
+            ThreadPoolExecutor(max_workers=min(WRITE_THREADS, os.cpu_count() or 1)) as pool:
         for img in frames:
             img = np.asarray(img)
             if first is None:
                 first = img
             if img.ndim != 2 or img.shape != first.shape or img.dtype != first.dtype:
                 raise ValueError(f"frame {n} is {img.dtype} {img.shape}; expected every frame a 2D "
-                                 f"{first.dtype} image of shape {first.shape} like frame 0")
+                                 f"{first.dtype} image of shape {first.shape} like frame {start}")
             if fmt == "png" and img.dtype not in (np.uint8, np.uint16):
                 raise ValueError(f"PNG frames must be uint8 or uint16, got {img.dtype}; use fmt='tif'")
             if n >= count:

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from fringe3d.io.arrays import load_array
 from fringe3d.io.images import read_image
 from fringe3d.io.store import STORE_FORMAT, PointMapStore
 
@@ -93,13 +94,13 @@ def read_point_sequence(path: str | Path) -> PointSequence:
     tex_arr: Any
     if p.is_file():
         if p.suffix == ".npz":
-            z = np.load(p)
+            z = load_array(p, "point sequence")
             if "points" not in z:
                 raise ValueError(f"{p} has no 'points' array; found {sorted(z.files)}")
             arr = z["points"]
             tex_arr = z["texture"] if "texture" in z else None
         elif p.suffix == ".npy":
-            arr, tex_arr = np.load(p, mmap_mode="r"), None
+            arr, tex_arr = load_array(p, "point sequence", mmap_mode="r"), None
         else:
             raise ValueError(f"unsupported sequence file {p.name}; expected .npy, .npz or a folder")
         if arr.ndim != 4:
@@ -136,18 +137,18 @@ def read_point_sequence(path: str | Path) -> PointSequence:
         if not files:
             raise FileNotFoundError(f"no points_*.npy files in {p}; expected per-frame point maps "
                                     "points_00000.npy … (H, W, 3) mm")
-        shapes = [np.load(f, mmap_mode="r").shape for f in files]
+        shapes = [load_array(f, "point map", mmap_mode="r").shape for f in files]
         check_point_map_shape(shapes[0], files[0].name)
         for f, s in zip(files, shapes):
             if s != shapes[0]:
                 raise ValueError(f"frames differ in size: {f.name} is {s}, {files[0].name} is {shapes[0]}; "
                                  "expected every frame from the same camera")
-        loaders = [lambda f=f: np.load(f) for f in files]
+        loaders = [lambda f=f: load_array(f, "point map") for f in files]
         shape = tuple(shapes[0])
         tfiles = [f.with_name(f.name.replace("points_", "texture_")) for f in files]
         tpng = [t.with_suffix(".png") for t in tfiles]
         if all(t.exists() for t in tfiles):
-            tex = [lambda t=t: np.load(t) for t in tfiles]
+            tex = [lambda t=t: load_array(t, "texture map") for t in tfiles]
         elif all(t.exists() for t in tpng):
             tex = [lambda t=t: read_image(t) for t in tpng]
     check_point_map_shape(shape, str(p))

@@ -41,6 +41,7 @@ import numpy as np
 
 from fringe3d.io._chunk_write import chunk_writer
 from fringe3d.optics.rays import ray_points
+from fringe3d.utils.write_guard import is_being_written
 
 STORE_FORMAT = "fringe3d-point-store"
 STORE_VERSION = 2
@@ -151,8 +152,12 @@ class PointMapStore:
             except Exception as e:
                 raise ValueError(f"{path} exists but is not a fringe3d point store ({e}); choose another output "
                                  "or remove it") from None
-            if attrs.get("format") != STORE_FORMAT:
+            unfinished = "format" not in attrs and is_being_written(path)  # its creation was cut short
+            if attrs.get("format") != STORE_FORMAT and not unfinished:
                 raise ValueError(f"{path} exists but is not a fringe3d point store (format {attrs.get('format')!r})")
+            if unfinished:  # an interrupted run of this output started the store but recorded no frame in it
+                return cls.open(path, frames, height, width, meta, overwrite=True, layout=layout, rays=rays,
+                                quality=quality, sigma=sigma, codec=codec)
             got = (attrs.get("frames"), attrs.get("height"), attrs.get("width"))
             if got != (frames, height, width):
                 raise ValueError(f"{path} holds {got[0]} frames of {got[2]}x{got[1]}, "

@@ -43,6 +43,11 @@ def device_from_dict(d: dict[str, Any], where: str) -> Camera:
     raise ValueError(f"{where}: unknown device kind {kind!r}; expected 'pinhole' or 'telecentric'")
 
 
+#: The calibration files (:mod:`fringe3d.calibrate.calibration_file`) whose embedded rig ``Rig.load`` reads.
+CALIBRATION_FORMAT = "fringe3d-calibration"
+CALIBRATION_VERSIONS = (1,)
+
+
 @dataclass(frozen=True, eq=False)
 class Rig:
     """Camera + projector in one world frame (mm).
@@ -89,5 +94,11 @@ class Rig:
         d = read_json(path, "rig file")
         where = f"rig file {path}"
         if "rig" in d and "camera" not in d:  # a calibration file embeds a rig
+            version = d.get("version", 1)  # absent: the first version, as every fringe3d file
+            known = not isinstance(version, bool) and version in CALIBRATION_VERSIONS
+            if d.get("format") != CALIBRATION_FORMAT or not known:
+                raise ValueError(f"calibration file {path}: field format/version: {d.get('format')!r} version "
+                                 f"{version!r} is not one this fringe3d reads ({CALIBRATION_FORMAT!r} "
+                                 f"version {', '.join(map(str, CALIBRATION_VERSIONS))})")
             d, where = d["rig"], f"calibration file {path}: field rig"
         return cls.from_dict(d, where)

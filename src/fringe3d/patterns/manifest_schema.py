@@ -10,7 +10,9 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr, field_validator
+import math
+
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr, field_validator, model_validator
 
 from fringe3d.utils.schema import FiniteFloat, Label, Size, Strict, StrictInt
 
@@ -45,6 +47,25 @@ class FrameModel(Strict):
             raise ValueError("a group label may not hold '..' or start with '/'")
         return v
 
+    @model_validator(mode="after")
+    def _phase_steps(self) -> "FrameModel":
+        if self.role == "phase" and not 0 <= self.step < self.steps:
+            raise ValueError(f"a phase frame needs steps >= 1 and 0 <= step < steps, got step {self.step} of "
+                             f"steps {self.steps}")
+        return self
+
+
+def _finite_numbers(value: Any, at: str = "options") -> None:
+    """Refuse NaN/inf anywhere in a plan's free ``options`` (beats, ranges, steps)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ValueError(f"{at}: expected a finite number, got {value}")
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _finite_numbers(v, f"{at}.{k}")
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _finite_numbers(v, f"{at}[{i}]")
+
 
 class PlanModel(Strict):
     direction: Label
@@ -52,6 +73,20 @@ class PlanModel(Strict):
     method: StrictStr
     periods: Annotated[list[Annotated[FiniteFloat, Field(gt=0, le=1e7)]], Field(max_length=16)] = []
     options: dict[str, Any] = {}
+
+    @field_validator("options")
+    @classmethod
+    def _checked_options(cls, v: dict[str, Any]) -> dict[str, Any]:
+        _finite_numbers(v)
+        for name in ("steps", "beats"):
+            flat = v.get(name, [])
+            flat = [x for row in flat for x in (row if isinstance(row, list) else [row])] if isinstance(flat, list) \
+                else [flat]
+            if any(isinstance(x, bool) or not isinstance(x, (int, float)) or not x > 0 for x in flat):
+                raise ValueError(f"options.{name}: expected numbers > 0, got {v.get(name)!r}")
+            if name == "steps" and any(not isinstance(x, int) or x > MAX_STEPS for x in flat):
+                raise ValueError(f"options.steps: expected whole numbers 1..{MAX_STEPS}, got {v.get(name)!r}")
+        return v
 
 
 class PlanOptionsModel(BaseModel):

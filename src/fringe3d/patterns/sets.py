@@ -83,8 +83,8 @@ def group_name(direction: str, period: float) -> str:
 def phase_frames(period: float, steps: int, direction: str, angle: float, kind: str = "sinusoid",
                  shifts: list[float] | None = None) -> tuple[FrameSpec, ...]:
     """N phase-shifted frames ``shift_k = 2 pi k / N`` (or the given ``shifts``)."""
-    if not period > 0:
-        raise ValueError(f"fringe period must be positive, got {period}")
+    if not (period > 0 and math.isfinite(period)):
+        raise ValueError(f"fringe period must be a finite number > 0, got {period}")
     if steps < 1:
         raise ValueError(f"phase-shift steps must be >= 1, got {steps}")
     if shifts is None:

@@ -164,4 +164,7 @@ def discover(results: str | Path) -> FolderContents:
     c.points, c.points_source = _points(results)
     c.maps = _maps(results)
     c.pngs += sorted((results / "maps").glob("*.png"))[:MAX_PNGS] if (results / "maps").is_dir() else []
+    if not (c.marker or c.calibration or c.evaluation or c.summaries or c.points is not None or c.maps or c.pngs):
+        raise ValueError(f"nothing to report in {results}: it holds no fringe3d output (no fringe3d.json, summary, "
+                         "evaluation, calibration, point map or figures); give a folder a fringe3d command wrote")
     return c

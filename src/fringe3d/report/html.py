@@ -64,8 +64,14 @@ def _img(folder: Path, name: str | None, alt: str) -> str:
     return f'<img class="fig" alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
 
 
+#: Fields that make a ``summary.json`` a demo summary (``fringe3d strain`` writes other ones).
+DEMO_FIELDS = {"title", "stages", "measurements", "accuracy", "calibration"}
+
+
 def is_demo_folder(folder: Path) -> bool:
-    """Whether ``folder`` holds a demo-style ``summary.json`` (a JSON object with a ``title``)."""
+    """Whether ``folder`` holds a demo-style ``summary.json``: a JSON object with a ``title`` or any
+    other field of :class:`~fringe3d.report.results.SummaryModel` (then :func:`load_summary` checks it,
+    so a demo summary that lost its title is refused by name instead of reported as a plain folder)."""
     path = Path(folder) / SUMMARY_NAME
     if not path.is_file():
         return False
@@ -73,7 +79,7 @@ def is_demo_folder(folder: Path) -> bool:
         d = json.loads(path.read_text())
     except (OSError, ValueError, RecursionError):
         return True  # let load_summary name the damage
-    return isinstance(d, dict) and "title" in d
+    return isinstance(d, dict) and bool(DEMO_FIELDS & set(d))
 
 
 def build_report(folder: str | Path) -> str:

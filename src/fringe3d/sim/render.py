@@ -105,6 +105,9 @@ class RenderStream:
 
     def __init__(self, scene: Scene, rig: Rig, sampler: PatternSampler, times: np.ndarray):
         self.scene, self.rig, self.sampler, self.times = scene, rig, sampler, times
+        #: Frames before ``skip`` are yielded with ``image`` None (not shaded): a resumed capture has
+        #: them already; a moving scene still casts them for their truth.
+        self.skip = 0
         self.moving = bool(scene.moving)
         self.dirs_info = directions_of(sampler.patterns)
         self.meta = scene_meta(scene, rig, float(times[0]))
@@ -145,6 +148,9 @@ def _static_frames(st: RenderStream):
     check_visible(geo)
     ft = frame_truth(geo, (H, W), st.dirs_info)
     for k in range(len(st.times)):
+        if k < st.skip:
+            yield k, None, ft, float(st.times[0])
+            continue
         spec = patterns.frames[k % len(patterns.frames)]
         img = irradiance(pad, st.sampler.values(spec, pad), s, scene.ambient)
         yield k, sense(img.reshape(H + 2 * m, W + 2 * m), s, k, m), ft, float(st.times[0])
@@ -167,10 +173,12 @@ def _moving_frames(st: RenderStream):
             g = cast(scene, rig, origins, dirs, off, ts, s.shadows, work=work[j])
             if j == len(sub) // 2:  # truth at the middle sub-sample of the exposure
                 geo, t_truth = crop(g, (Hp, Wp), m), ts
-            img += irradiance(g, st.sampler.values(spec, g), s, scene.ambient) / len(sub)
+            if k >= st.skip:
+                img += irradiance(g, st.sampler.values(spec, g), s, scene.ambient) / len(sub)
         if k == 0:
             check_visible(geo)
-        yield k, sense(img.reshape(Hp, Wp), s, k, m), frame_truth(geo, (H, W), st.dirs_info), float(t_truth)
+        shot = sense(img.reshape(Hp, Wp), s, k, m) if k >= st.skip else None
+        yield k, shot, frame_truth(geo, (H, W), st.dirs_info), float(t_truth)
 
 
 def check_inputs(rig: Rig, patterns: PatternSet) -> None:

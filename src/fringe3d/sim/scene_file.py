@@ -37,6 +37,10 @@ from .textures import texture_from_dict
 from .wing import Wing
 
 SCENE_FORMAT = "fringe3d-scene"
+#: The scene-file versions this fringe3d reads.
+SCENE_VERSION = 1
+#: Inclusive ranges of the whole-number fields (a count of 10^9 would exhaust memory).
+INT_RANGES = {"steps": (1, 4096), "cols": (2, 200), "rows": (2, 200), "seed": (0, 2**32 - 1)}
 
 # field kinds: vec3, vec2, number, int, bool, str, rotation (3-vector or 3x3), texture, motion,
 # points2 (list of [x, y]), table4 (list of 4-number rows), path
@@ -111,7 +115,8 @@ def _check(value, kind, at, base: Path | None):
     elif kind == "number":
         ok = _finite(value)
     elif kind == "int":
-        ok = isinstance(value, int) and not isinstance(value, bool)
+        lo, hi = INT_RANGES.get(at.rsplit(".", 1)[-1], (0, 2**31 - 1))
+        ok = isinstance(value, int) and not isinstance(value, bool) and lo <= value <= hi
     elif kind == "bool":
         ok = isinstance(value, bool)
     elif kind in ("str", "path"):
@@ -127,7 +132,10 @@ def _check(value, kind, at, base: Path | None):
     elif kind == "motion":
         return _motion(value, at)
     if not ok:
-        raise ValueError(f"{at}: expected {_KIND_TEXT[kind]}, got {json.dumps(value)}")
+        what = _KIND_TEXT[kind]
+        if kind == "int":
+            what += " in [{}, {}]".format(*INT_RANGES.get(at.rsplit(".", 1)[-1], (0, 2**31 - 1)))
+        raise ValueError(f"{at}: expected {what}, got {json.dumps(value)}")
     if kind == "path":
         p = Path(value)
         return p if p.is_absolute() or base is None else base / p
@@ -208,6 +216,10 @@ def scene_from_dict(d, where: str = "scene", base: Path | None = None) -> Scene:
         raise ValueError(f"{where}.{unknown[0]}: unknown field; allowed: {sorted(allowed)}")
     if d.get("format", SCENE_FORMAT) != SCENE_FORMAT:
         raise ValueError(f"{where}.format: {d['format']!r} is not {SCENE_FORMAT!r}")
+    version = d.get("version", SCENE_VERSION)
+    if isinstance(version, bool) or version != SCENE_VERSION:
+        raise ValueError(f"{where}.version: {json.dumps(version)} is not supported (this fringe3d reads scene "
+                         f"files of version {SCENE_VERSION})")
     objs = d.get("objects")
     if not isinstance(objs, list) or not objs:
         raise ValueError(f"{where}.objects: expected a non-empty list of objects")

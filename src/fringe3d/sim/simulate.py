@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.io.capture import write_capture_frames
+from fringe3d.io.capture import FRAMES_DIR, write_capture_frames
 from fringe3d.optics import TelecentricCamera
 from fringe3d.patterns import sets
 from fringe3d.patterns.manifest import PatternSet
@@ -157,6 +157,15 @@ def _view_direction(preset: Preset) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- capture
+def _frames_done(folder: Path, count: int, fmt: str) -> int:
+    """How many frames ``0, 1, ...`` an interrupted run already wrote (atomically, so each is whole);
+    at most ``count - 1`` (the last is rendered again: the capture's metadata comes from it)."""
+    n = 0
+    while n < count - 1 and (folder / FRAMES_DIR / f"{n:05d}.{fmt}").is_file():
+        n += 1
+    return n
+
+
 def _write_streamed(folder: Path, stream: RenderStream, p: Preset, ps: PatternSet, meta: dict, fmt: str,
                     progress: bool) -> float:
     """Render ``stream`` frame by frame into ``folder``: each frame file written as it is rendered,
@@ -175,10 +184,11 @@ def _write_streamed(folder: Path, stream: RenderStream, p: Preset, ps: PatternSe
                     truth_times.append(t_truth)
                 elif not first:
                     first.update(ft)
-                yield img
+                if img is not None:  # None: written by the run this one resumes
+                    yield img
                 advance()
 
-        write_capture_frames(folder, frames(), len(stream), ps, meta, fmt=fmt, progress=False)
+        write_capture_frames(folder, frames(), len(stream), ps, meta, fmt=fmt, progress=False, start=stream.skip)
         tmeta = {**truth_meta(stream.dirs_info, stream.times, not stream.moving, p.rig), **stream.meta}
         if stream.moving:
             tmeta["truth_times"] = truth_times  # differs from ``times`` when motion_samples > 1
@@ -199,7 +209,7 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
                      cycles: int = 1, frame_rate: float | None = None, exposure: float | None = None,
                      noise: float | None = None, defocus: float | None = None, bit_depth: int | None = 0,
                      seed: int | None = None, settings: RenderSettings | None = None, progress: bool = True,
-                     **overrides) -> dict:
+                     resume: bool = False, **overrides) -> dict:
     """Render and write a capture folder with ``truth/`` and ``rig.json``.
 
     Parameters
@@ -222,6 +232,10 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
         writes float32 TIFF frames; ``0`` keeps the preset's.
     settings : RenderSettings, optional
         Replace the preset's settings entirely (overrides still apply).
+    resume : bool
+        ``folder`` holds the frames ``0, 1, ...`` of an interrupted run with the same arguments: they
+        are kept and not shaded again (every frame's noise is seeded by its index, so the result is
+        bit-identical to an uninterrupted run).
     **overrides
         Any other :class:`RenderSettings` field.
 
@@ -272,8 +286,10 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
             "render_settings": s.to_dict(), "volume": p.volume}
     if s.bit_depth is not None:
         meta["bit_depth"] = s.bit_depth
-    valid = _write_streamed(folder, render_stream(sc, p.rig, ps, s, times=times), p, ps, meta,
-                            "png" if s.bit_depth is not None else "tif", progress)
+    fmt = "png" if s.bit_depth is not None else "tif"
+    stream = render_stream(sc, p.rig, ps, s, times=times)
+    stream.skip = _frames_done(folder, len(stream), fmt) if resume else 0
+    valid = _write_streamed(folder, stream, p, ps, meta, fmt, progress)
     summary = {"folder": str(folder), "preset": p.name, "scene": meta["scene"], "patterns": ps.name,
                "frames": int(frames), "frame_rate": s.frame_rate, "camera": [p.rig.camera.width, p.rig.camera.height],
                "valid_fraction": valid, "seed": s.seed, "seconds": round(time.perf_counter() - t0, 2)}

@@ -7,9 +7,24 @@ scene files can store it; :func:`texture_from_dict` reads it back.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
+
+
+def _check_fields(obj, positive: tuple[str, ...], unit: tuple[str, ...] = ("contrast",)) -> None:
+    """Refuse a texture whose ``positive`` fields are not finite and > 0 or whose ``unit`` fields
+    are not in [0, 1] (a period of 0 would divide by zero at every pixel)."""
+    name = type(obj).__name__.lower()
+    for f in positive:
+        v = getattr(obj, f)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{name} texture field {f}: expected a finite number > 0, got {v!r}")
+    for f in unit:
+        v = getattr(obj, f)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v <= 1:
+            raise ValueError(f"{name} texture field {f}: expected a number in [0, 1], got {v!r}")
 
 
 @dataclass(frozen=True)
@@ -19,6 +34,9 @@ class Checker:
 
     period: float = 10.0
     contrast: float = 0.5
+
+    def __post_init__(self) -> None:
+        _check_fields(self, ("period",))
 
     def __call__(self, uv: np.ndarray) -> np.ndarray:
         cells = np.floor(uv[:, 0] / self.period) + np.floor(uv[:, 1] / self.period)
@@ -36,6 +54,9 @@ class Stripes:
     period: float = 10.0
     contrast: float = 0.5
 
+    def __post_init__(self) -> None:
+        _check_fields(self, ("period",))
+
     def __call__(self, uv: np.ndarray) -> np.ndarray:
         return 1.0 - self.contrast * 0.5 * (1 + np.cos(2 * np.pi * uv[:, 0] / self.period))
 
@@ -52,6 +73,11 @@ class Blotches:
     contrast: float = 0.4
     seed: int = 0
     n: int = 6
+
+    def __post_init__(self) -> None:
+        _check_fields(self, ("scale", "n"))
+        if not isinstance(self.n, int) or self.n > 1000:
+            raise ValueError(f"blotches texture field n: expected a whole number in [1, 1000], got {self.n!r}")
 
     def __call__(self, uv: np.ndarray) -> np.ndarray:
         rng = np.random.default_rng(self.seed)
@@ -83,5 +109,5 @@ def texture_from_dict(d: dict | None, where: str = "texture"):
     fields = {k: v for k, v in d.items() if k != "type"}
     try:
         return TEXTURES[kind](**fields)
-    except TypeError as e:
+    except (TypeError, ValueError) as e:
         raise ValueError(f"{where}: bad field for texture {kind!r}: {e}") from None

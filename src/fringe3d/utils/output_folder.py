@@ -14,9 +14,15 @@ A command writes through :func:`open_output` (a folder) or :func:`open_output_fi
   ``"complete": false`` and the inputs' fingerprint, rewritten with ``"complete": true``, the
   fringe3d version, the command and the file list as the very last step. Readers call
   :func:`check_complete` and refuse an unfinished set with a message saying how to finish it.
-- ``resumable`` outputs (long sequences) may continue an unfinished set made from the same inputs
-  and options (same fingerprint); another fingerprint is refused, and an advisory lock
-  (``fcntl.flock``) stops a second writer.
+- ``resumable`` outputs (long sequences, simulate) may continue an unfinished set made from the
+  same inputs and options (same fingerprint); another fingerprint is refused.
+- An advisory lock (``fcntl.flock`` on ``.fringe3d.lock``, whose text names the writer's pid,
+  host, command and start) is taken before the folder is judged: a second writer is told
+  "another fringe3d (pid N, started T) is writing OUT" and never offered ``--overwrite``. A free
+  lock beside an unfinished marker is a dead run's: its ``.part`` files are removed with a
+  warning and the set is resumed (resumable) or started over.
+- A run that fails or is interrupted keeps a resumable set (marked incomplete) or removes what it
+  wrote; :func:`output_note` says which, for the command's message.
 """
 from __future__ import annotations
 
@@ -26,7 +32,9 @@ import json
 import os
 import shlex
 import shutil
+import socket
 import tempfile
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,11 +42,12 @@ from typing import Iterable, Iterator
 
 from fringe3d.utils.atomic import atomic_write_text
 from fringe3d.utils.provenance import FOLDER_UNITS, _CommandLine, command_line, version
+from fringe3d.utils.warning_types import OutputWarning
 from fringe3d.utils.write_guard import OutsideOutputError, guard_write, is_being_written, writing_into
 
 __all__ = ["open_output", "set_command_line", "request_interrupt", "interrupt_requested",
            "open_output_file", "check_complete", "read_marker", "fingerprint",
-           "clean_partials", "OutsideOutputError", "BusyOutputError", "guard_write", "MARKER_NAME"]
+           "clean_partials", "OutsideOutputError", "BusyOutputError", "guard_write", "MARKER_NAME", "output_note"]
 
 MARKER_NAME = "fringe3d.json"
 LOCK_NAME = ".fringe3d.lock"
@@ -188,23 +197,56 @@ def _check_not_inputs(out: Path, inputs: Iterable[str | os.PathLike | None]) -> 
                              "choose another output folder")
 
 
-def _lock(folder: Path):
+class _Outcome:
+    #: What the last output block left behind when it did not finish, for the CLI's message.
+    note = ""
+
+
+def output_note(clear: bool = False) -> str:
+    """What happened to the output of the last block that did not finish (removed, kept for
+    resuming, old set kept), as a sentence for the command's error message; "" when none.
+    ``clear`` forgets it (a new command starts)."""
+    note = _Outcome.note
+    if clear:
+        _Outcome.note = ""
+    return note
+
+
+def _holder(folder: Path) -> str:
+    """``pid N, started T`` of the lock's holder as its lock file records it (or "pid unknown")."""
+    try:
+        d = json.loads((folder / LOCK_NAME).read_text() or "{}")
+    except (OSError, ValueError):
+        d = {}
+    pid = d.get("pid", "unknown") if isinstance(d, dict) else "unknown"
+    started = d.get("started", "at an unknown time") if isinstance(d, dict) else "at an unknown time"
+    host = d.get("host") if isinstance(d, dict) else None
+    return f"pid {pid}" + (f" on {host}" if host and host != socket.gethostname() else "") + f", started {started}"
+
+
+def _lock(folder: Path, command: str = ""):
+    """Take the output's advisory lock (``fcntl.flock``) and record who holds it (pid, start, host,
+    command) in the lock file; :class:`BusyOutputError` naming the holder when a live process has it."""
     fd = os.open(folder / LOCK_NAME, os.O_CREAT | os.O_RDWR, 0o644)
     try:
         import fcntl
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         os.close(fd)
-        raise BusyOutputError(f"another fringe3d run is writing {folder}; wait for it to finish or choose "
-                              "another output folder") from None
+        raise BusyOutputError(f"another fringe3d ({_holder(folder)}) is writing {folder}; wait for it to finish "
+                              "or choose another output folder") from None
     except ImportError:  # pragma: no cover - no fcntl (Windows): no advisory lock
         pass
+    me = {"pid": os.getpid(), "host": socket.gethostname(), "command": command or _CommandLine.text,
+          "started": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
+    os.ftruncate(fd, 0)
+    os.write(fd, json.dumps(me).encode())
     return fd
 
 
 def _unlock(fd: int, folder: Path) -> None:
-    os.close(fd)
     (folder / LOCK_NAME).unlink(missing_ok=True)
+    os.close(fd)
 
 
 def clean_partials(folder: Path) -> int:
@@ -217,10 +259,16 @@ def clean_partials(folder: Path) -> int:
     return n
 
 
+def _dead_run(marker: dict) -> str:
+    """``the unfinished run of `CMD` (pid N, started T, no longer running)`` for messages."""
+    return (f"the unfinished run of `{marker.get('command') or 'fringe3d'}` (pid {marker.get('pid', 'unknown')}, "
+            f"started {marker.get('started', 'at an unknown time')}, no longer running)")
+
+
 @contextmanager
 def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = False,
                 inputs: Iterable[str | os.PathLike | None] = (), options: dict | None = None,
-                resumable: bool = False) -> Iterator[Output]:
+                resumable: bool = False, keep_unfinished: bool = False) -> Iterator[Output]:
     """Guarded writing of an output folder (see the module docstring).
 
     Parameters
@@ -231,7 +279,15 @@ def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = 
     overwrite : replace an existing non-empty folder (atomically, by a swap at the end)
     inputs : folders/files the command reads; the output may not be, hold or lie in one of them
     options : the options that shape the result, part of the fingerprint
-    resumable : an unfinished set with the same fingerprint is continued instead of refused
+    resumable : an unfinished set with the same fingerprint is continued instead of refused; an
+        interrupted or failed run keeps its files for that (else a folder the block created is removed)
+    keep_unfinished : a failed run keeps what it wrote, marked incomplete, for inspection (a capture's
+        frames are data that cannot be made again); a rerun starts over
+
+    The lock is taken before the folder's state is judged, so a live writer is always reported as
+    such (:class:`BusyOutputError` naming its pid and start), never as a folder to overwrite. An
+    unfinished set whose writer died (its lock is free) is resumed (same fingerprint, resumable),
+    or, when it was not resumable, started over with a warning; its ``.part`` temporaries are removed.
 
     Raises ``ValueError`` (bad request: non-empty folder, output in an input, an unfinished set of
     other inputs), :class:`BusyOutputError` (another run holds the lock).
@@ -246,22 +302,37 @@ def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = 
     info = {"format": MARKER_FORMAT, "version": 1, "fringe3d": version(), "command": command or _CommandLine.text,
             "started": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
             "complete": False, "inputs": [str(Path(p)) for p in inputs_], "fingerprint": fp,
-            "units": dict(FOLDER_UNITS)}
-    nonempty = final.is_dir() and any(p.name != LOCK_NAME for p in final.iterdir())
-    if nonempty and not overwrite:
-        marker = read_marker(final)
-        if not (resumable and marker is not None and marker.get("complete") is not True):
-            raise ValueError(f"output folder {out} is not empty; choose a new folder or pass --overwrite to "
-                             "replace its contents")
-        if marker.get("fingerprint") != fp:
-            raise ValueError(f"output folder {out} holds an unfinished run made from other inputs or options; "
-                             "resume with the same inputs and options, or pass --overwrite to start over")
-        yield from _resume(final, info, marker)
-        return
-    if nonempty:
-        yield from _replace(final, info)
-        return
-    yield from _fresh(final, info)
+            "units": dict(FOLDER_UNITS), "pid": os.getpid(), "resumable": resumable}
+    _Outcome.note = ""
+    created = not final.exists()
+    final.mkdir(parents=True, exist_ok=True)
+    lock = _lock(final, str(info["command"]))
+    try:
+        nonempty = any(p.name != LOCK_NAME for p in final.iterdir())
+        if nonempty and not overwrite:
+            marker = read_marker(final)
+            if marker is None or marker.get("complete") is True:
+                raise ValueError(f"output folder {out} is not empty; choose a new folder or pass --overwrite to "
+                                 "replace its contents")
+            if resumable and marker.get("fingerprint") != fp:
+                raise ValueError(f"output folder {out} holds {_dead_run(marker)} made from other inputs or options; "
+                                 "resume it with the same inputs and options, or pass --overwrite to discard it and "
+                                 "start over")
+            if resumable:
+                yield from _resume(final, info, marker)
+                return
+            if marker.get("resumable"):
+                raise ValueError(f"output folder {out} is not empty: it holds {_dead_run(marker)}, which running "
+                                 "that command again resumes; or pass --overwrite to discard it")
+            warnings.warn(f"{out} holds {_dead_run(marker)}; starting over (its files are replaced once this run "
+                          "completes)", OutputWarning, stacklevel=3)
+            nonempty = True
+        if nonempty:
+            yield from _replace(final, info)
+        else:
+            yield from _fresh(final, info, created, resumable or keep_unfinished)
+    finally:
+        _unlock(lock, final)
 
 
 def _finish(folder: Path, info: dict) -> None:
@@ -273,16 +344,8 @@ def _finish(folder: Path, info: dict) -> None:
     _write_marker(folder, info)
 
 
-def _fresh(final: Path, info: dict):
-    created = not final.exists()
-    final.mkdir(parents=True, exist_ok=True)
-    try:
-        fd = os.open(final / MARKER_NAME, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
-    except FileExistsError:
-        raise BusyOutputError(f"another fringe3d run started writing {final}; choose another output folder") from None
-    os.write(fd, json.dumps(info, indent=1).encode())
-    os.close(fd)
-    lock = _lock(final)
+def _fresh(final: Path, info: dict, created: bool, resumable: bool):
+    _write_marker(final, info)
     ok = False
     try:
         with writing_into(final):
@@ -290,46 +353,66 @@ def _fresh(final: Path, info: dict):
         _finish(final, info)
         ok = True
     finally:
-        _unlock(lock, final)
-        if not ok and created and not _file_list(final):
-            shutil.rmtree(final, ignore_errors=True)  # nothing but our marker: leave no trace
+        if not ok:
+            _failed_fresh(final, created, resumable)
+
+
+def _failed_fresh(final: Path, created: bool, resumable: bool) -> None:
+    """Leave a failed fresh output resumable (marked incomplete) or remove what this run wrote."""
+    if resumable and _file_list(final):
+        clean_partials(final)
+        _Outcome.note = (f"{final} is kept, marked incomplete: run the same command again to "
+                         + ("resume it, or pass --overwrite to start over" if _resumes(final) else "start over"))
+        return
+    if created:
+        shutil.rmtree(final, ignore_errors=True)
+        _Outcome.note = f"{final} was removed (this run had created it)"
+        return
+    for p in final.iterdir():  # the folder was empty before this run: empty it again
+        if p.name != LOCK_NAME:
+            shutil.rmtree(p, ignore_errors=True) if p.is_dir() and not p.is_symlink() else p.unlink(missing_ok=True)
+    _Outcome.note = f"what this run wrote in {final} was removed (the folder was empty before)"
+
+
+def _resumes(folder: Path) -> bool:
+    marker = read_marker(folder)
+    return bool(marker and marker.get("resumable"))
 
 
 def _resume(final: Path, info: dict, marker: dict):
-    lock = _lock(final)
+    n = clean_partials(final)
+    if n:
+        warnings.warn(f"removed {n} temporary .part file(s) left in {final} by {_dead_run(marker)}", OutputWarning,
+                      stacklevel=4)
+    info = {**info, "started": marker.get("started", info["started"]), "resumed": True}
+    ok = False
     try:
-        clean_partials(final)
-        info = {**info, "started": marker.get("started", info["started"]), "resumed": True}
         with writing_into(final):
             yield Output(final, final, resumed=True)
         _finish(final, info)
+        ok = True
     finally:
-        _unlock(lock, final)
+        if not ok:
+            clean_partials(final)
+            _Outcome.note = (f"{final} is kept, marked incomplete: run the same command again to resume it, or "
+                             "pass --overwrite to start over")
 
 
 def _replace(final: Path, info: dict):
-    had_lock = (final / LOCK_NAME).exists()
-    old_lock = _lock(final)  # refuse to replace a set another run is still writing
-    swapped = False
+    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".fringe3d-new", dir=final.parent))
     try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".fringe3d-new", dir=final.parent))
-        try:
-            _write_marker(tmp, info)
-            with writing_into(tmp):
-                yield Output(tmp, final)
-            _finish(tmp, info)
-            trash = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".fringe3d-old", dir=final.parent))
-            os.replace(final, trash / final.name)
-            os.replace(tmp, final)
-            swapped = True
-            shutil.rmtree(trash, ignore_errors=True)
-        except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
-            raise
-    finally:
-        os.close(old_lock)
-        if not swapped and not had_lock:
-            (final / LOCK_NAME).unlink(missing_ok=True)
+        _write_marker(tmp, info)
+        with writing_into(tmp):
+            yield Output(tmp, final)
+        _finish(tmp, info)
+        trash = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".fringe3d-old", dir=final.parent))
+        os.replace(final, trash / final.name)
+        os.replace(tmp, final)
+        shutil.rmtree(trash, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        _Outcome.note = f"the new set was discarded; {final} still holds what it held before"
+        raise
 
 
 @contextmanager

@@ -41,3 +41,7 @@ class UnwrapRangeWarning(Fringe3DWarning):
 
 class DeviceWarning(Fringe3DWarning):
     """A projector or camera setting was adjusted, is unknown, or was not reported by the device."""
+
+
+class OutputWarning(Fringe3DWarning):
+    """An output folder's state was repaired: a dead run's temporaries removed, an unfinished set restarted."""
