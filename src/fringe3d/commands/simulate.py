@@ -69,9 +69,10 @@ def register(app: typer.Typer) -> None:
             load_scene(scene)  # a bad scene file fails before any output exists
         if patterns is not None and Path(patterns).suffix == ".json":
             PatternSet.load(patterns)
-        with open_output(out, overwrite=overwrite, inputs=inputs, options=dict(
-                preset=preset, scene=scene, patterns=patterns, frames=frames, frame_rate=frame_rate, exposure=exposure,
-                noise=noise, gain=gain, defocus=defocus, bit_depth=bit_depth, ideal=ideal, seed=seed), resumable=True) as o:
+        options = dict(preset=preset, scene=scene, patterns=patterns, frames=frames, frame_rate=frame_rate,
+                       exposure=exposure, noise=noise, gain=gain, defocus=defocus, bit_depth=bit_depth, ideal=ideal,
+                       seed=seed)
+        with open_output(out, overwrite=overwrite, inputs=inputs, options=options, resumable=True) as o:
             if o.resumed:
                 info(f"resuming the unfinished capture in {out}: frames already written are kept")
             summary = o.final_paths(simulate_capture(o.path, preset, scene, patterns, frames=frames,
