@@ -15,13 +15,15 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/fringe3d demo --overwrite  # demo-out/ is the demo's own output: replaced as a whole
 
-# The checks CI runs (.ci/run): layer contracts, lint, types, then the tests and docstring examples.
+# The checks CI runs (.ci/run): layer contracts, lint, types, then the tests and docstring examples,
+# on one worker process per core (pytest-xdist, whole files per worker) with numba's compiled kernels
+# carried over from the last run on the same package source (scripts/numba_cache.py).
 test: $(STAMP)
 	bash scripts/ensure-system-packages.sh
 	$(VENV)/bin/lint-imports
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/mypy
-	$(VENV)/bin/python -m pytest -q
+	$(VENV)/bin/python scripts/numba_cache.py -- $(VENV)/bin/python -m pytest -q -n auto --dist loadfile
 
 # Peers (the non-commercial `fringes` package, OpenCV contrib's structured_light) live in a separate
 # venv so that opencv-contrib never shadows the package's opencv-python-headless.

@@ -1,6 +1,7 @@
 """A private Xvfb X server for the device tests (``make test`` installs Xvfb through
 scripts/ensure-system-packages.sh; a missing Xvfb is a failure, not a skip)."""
 import os
+import select
 import shutil
 import subprocess
 import time
@@ -12,32 +13,44 @@ import pytest
 SCREEN = (256, 200)
 
 
-def _free_display() -> int:
-    for n in range(90, 200):
-        if not Path(f"/tmp/.X11-unix/X{n}").exists() and not Path(f"/tmp/.X{n}-lock").exists():
-            return n
-    raise RuntimeError("no free X display number in :90..:199")
+def _read_display(fd: int, proc: subprocess.Popen, wait: float = 60.0) -> str:
+    """The display number Xvfb writes to ``fd`` (``-displayfd``), "" if it exits or is silent."""
+    got = b""
+    deadline = time.monotonic() + wait
+    while not got.endswith(b"\n") and time.monotonic() < deadline:
+        ready, _, _ = select.select([fd], [], [], 0.1)
+        if ready:
+            chunk = os.read(fd, 16)
+            if not chunk:
+                break
+            got += chunk
+        elif proc.poll() is not None:
+            break
+    return got.decode().strip() if got.endswith(b"\n") else ""
 
 
 @pytest.fixture(scope="session")
 def xvfb():
-    """Start ``Xvfb :N -screen 0 256x200x24`` and point DISPLAY at it; yields ":N"."""
+    """Start ``Xvfb -displayfd FD -screen 0 256x200x24`` and point DISPLAY at it; yields ":N".
+
+    ``-displayfd``: the server takes the first free display number itself (under its lock file), so
+    parallel test processes (pytest -n) and other sessions never race for one."""
     exe = shutil.which("Xvfb")
     if exe is None:
         pytest.fail("Xvfb is not installed: run 'bash scripts/ensure-system-packages.sh' (make test does) or "
                     "'apt-get install xvfb'; the window-projector tests need an X server", pytrace=False)
-    n = _free_display()
-    proc = subprocess.Popen([exe, f":{n}", "-screen", "0", f"{SCREEN[0]}x{SCREEN[1]}x24", "-nolisten", "tcp"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    read_fd, write_fd = os.pipe()
+    proc = subprocess.Popen([exe, "-displayfd", str(write_fd), "-screen", "0", f"{SCREEN[0]}x{SCREEN[1]}x24",
+                             "-nolisten", "tcp"], pass_fds=(write_fd,), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE)
+    os.close(write_fd)
+    n = _read_display(read_fd, proc)
+    os.close(read_fd)
     sock = Path(f"/tmp/.X11-unix/X{n}")
-    for _ in range(200):
-        if sock.exists() or proc.poll() is not None:
-            break
-        time.sleep(0.05)
-    if proc.poll() is not None or not sock.exists():
-        err = proc.stderr.read().decode(errors="replace") if proc.poll() is not None else ""
+    if not n or proc.poll() is not None or not sock.exists():
         proc.kill()
-        pytest.fail(f"Xvfb :{n} did not start: {err[-500:]}", pytrace=False)
+        err = proc.stderr.read().decode(errors="replace")
+        pytest.fail(f"Xvfb did not start (display {n!r}): {err[-500:]}", pytrace=False)
     old = os.environ.get("DISPLAY")
     os.environ["DISPLAY"] = f":{n}"
     yield f":{n}"

@@ -94,7 +94,7 @@ def test_reconstruct_evaluate_report_renders_at_two_widths(evaluated: Path):
             n_maps = page.locator(".map .colorbar").count()
             has_gl = page.locator("#plot3d_0 canvas").count() + page.locator("#plot3d_0 .gl-container").count()
             n_figures = page.locator("table.figures tbody tr").count()
-            shot = Path(f"/tmp/fringe3d_report_{width}.png")
+            shot = evaluated.parent / f"report_{width}.png"
             page.screenshot(path=str(shot), full_page=True)
             assert n_maps >= 3 and has_gl > 0 and n_figures >= 5
             assert shot.stat().st_size > 20_000
