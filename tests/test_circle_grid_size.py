@@ -1,0 +1,84 @@
+"""A circle grid stated smaller than the one in the image is refused, not matched as a sub-grid
+(issue 23: a wrong board size exits non-zero naming it); board flags are not silently ignored."""
+import cv2
+import numpy as np
+import pytest
+
+from fringe3d.calibrate.board_detection import find_board
+from fringe3d.calibrate.boards import CircleBoard
+from fringe3d.calibrate.grid_extent import check_not_larger, grid_extent
+from fringe3d.cli import main
+from fringe3d.optics import PinholeDevice, Rig, intrinsics
+from fringe3d.patterns.manifest import PatternSet
+from fringe3d.patterns.sets import white_frame
+from fringe3d.sim.calibration_session import render_board_poses, simulate_session
+from fringe3d.sim.settings import RenderSettings
+
+
+@pytest.fixture(scope="module")
+def nine_by_seven(tmp_path_factory):
+    """A simulated session of a 9x7 circle grid (tiny rig, six poses)."""
+    folder = tmp_path_factory.mktemp("grid") / "session"
+    return simulate_session("tiny", n_poses=6, seed=0, board=("circles", 9, 7), folder=folder, progress=False)
+
+
+@pytest.mark.parametrize("cols, rows", [(8, 7), (9, 6), (7, 5)])
+def test_calibrate_refuses_a_circle_grid_stated_smaller_than_the_image_and_writes_nothing(nine_by_seven, cols, rows,
+                                                                                         tmp_path, capsys):
+    out = tmp_path / "out" / "calib.json"
+    rc = main(["calibrate", str(nine_by_seven.folder), "--cols", str(cols), "--rows", str(rows),
+               "--spacing", str(nine_by_seven.board.spacing), "-o", str(out), "--no-plot", "-q"])
+    err = " ".join(capsys.readouterr().err.split())
+    assert rc == 2 and "Traceback" not in err
+    assert "pose pose_00, white frame" in err
+    assert f"at least 9x7 circles where {cols}x{rows} were given" in err and "Pass --cols 9 --rows 7" in err
+    assert not out.parent.exists()
+
+
+def test_the_true_circle_grid_size_is_found_in_every_pose_at_the_true_centres(nine_by_seven):
+    board = nine_by_seven.board
+    assert board.pattern_size == (9, 7)
+    cam = nine_by_seven.rig.camera
+    for pose, (R, t) in zip(nine_by_seven.poses, nine_by_seven.board_poses):
+        uv, why = find_board(pose.frames[0], board)
+        truth = cam.project(board.object_points() @ R.T + t)
+        d = np.linalg.norm(uv[:, None] - truth[None], axis=-1)  # OpenCV may start at another corner
+        assert why == "" and len(set(d.argmin(1))) == board.count and d.min(1).max() < 0.5
+
+
+def test_an_asymmetric_grid_of_the_true_size_is_found_and_not_refused():
+    board = CircleBoard(cols=4, rows=9, spacing=15.0, radius=4.0, asymmetric=True)
+    cam = PinholeDevice(K=intrinsics(900, 900, 319.5, 239.5), width=640, height=480)
+    prj = PinholeDevice(K=intrinsics(700, 700, 399.5, 299.5), width=800, height=600, t=[-60.0, 0, 0])
+    R, _ = cv2.Rodrigues(np.array([0.3, -0.2, 0.1]))
+    t = np.array([0, 0, 500.0]) - R @ board.object_points().mean(0)
+    img = render_board_poses(Rig(cam, prj), RenderSettings(bit_depth=16, shadows=False), board, [(R, t)],
+                             PatternSet(800, 600, (white_frame(),)), progress=False)[0].frames[0]
+    uv, why = find_board(img, board)
+    truth = cam.project(board.object_points() @ R.T + t)
+    assert why == "" and np.linalg.norm(uv[:, None] - truth[None], axis=-1).min(1).max() < 0.5
+
+
+def test_an_asymmetric_sub_grid_grows_to_the_whole_board_seen_in_perspective():
+    """OpenCV's asymmetric finder does not match sub-grids in these renders, so the blobs are
+    placed directly: a 4x9 asymmetric board under a perspective homography, a 3x7 part of it
+    (rows 2-8, columns 1-3) given as the detection."""
+    full = CircleBoard(cols=4, rows=9, spacing=15.0, radius=4.0, asymmetric=True)
+    H = np.array([[3.1, 0.4, 80.0], [-0.3, 2.8, 40.0], [4e-4, -6e-4, 1.0]])
+    blobs = cv2.perspectiveTransform(full.object_points()[:, None, :2], H)[:, 0]
+    sub = CircleBoard(cols=3, rows=7, spacing=15.0, radius=4.0, asymmetric=True)
+    i, j = np.divmod(np.arange(sub.count), sub.cols)
+    uv = blobs[(i + 2) * full.cols + j + 1]
+    assert grid_extent(blobs, np.full(len(blobs), 20.0), uv, sub) == (4, 9)
+    assert grid_extent(blobs, np.full(len(blobs), 20.0), blobs, full) == (4, 9)
+    with pytest.raises(ValueError, match=r"larger asymmetric circle grid: at least 4x9 circles where 3x7.*--cols 4"):
+        check_not_larger(blobs, np.full(len(blobs), 20.0), uv, sub)
+
+
+def test_board_flags_without_spacing_are_refused_not_silently_replaced_by_session_json(nine_by_seven, tmp_path,
+                                                                                       capsys):
+    out = tmp_path / "calib.json"
+    rc = main(["calibrate", str(nine_by_seven.folder), "--cols", "8", "-o", str(out), "--no-plot", "-q"])
+    err = " ".join(capsys.readouterr().err.split())
+    assert rc == 2 and "--cols describe(s) the board only together with --spacing" in err
+    assert not out.exists()
