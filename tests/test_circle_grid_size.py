@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from fringe3d.calibrate.board_detection import find_board
+from fringe3d.calibrate.board_detection import blob_detector, find_board, to_uint8
 from fringe3d.calibrate.boards import CircleBoard
 from fringe3d.calibrate.grid_extent import check_not_larger, grid_extent
 from fringe3d.cli import main
@@ -35,18 +35,24 @@ def test_calibrate_refuses_a_circle_grid_stated_smaller_than_the_image_and_write
     assert not out.parent.exists()
 
 
-def test_the_true_circle_grid_size_is_found_in_every_pose_at_the_true_centres(nine_by_seven):
+def test_the_true_size_is_found_at_the_true_centres_and_a_smaller_one_refused_in_every_pose(nine_by_seven):
     board = nine_by_seven.board
     assert board.pattern_size == (9, 7)
+    smaller = CircleBoard(cols=8, rows=7, spacing=board.spacing, radius=board.radius)
     cam = nine_by_seven.rig.camera
     for pose, (R, t) in zip(nine_by_seven.poses, nine_by_seven.board_poses):
         uv, why = find_board(pose.frames[0], board)
         truth = cam.project(board.object_points() @ R.T + t)
         d = np.linalg.norm(uv[:, None] - truth[None], axis=-1)  # OpenCV may start at another corner
         assert why == "" and len(set(d.argmin(1))) == board.count and d.min(1).max() < 0.5
+        with pytest.raises(ValueError, match="at least 9x7 circles where 8x7 were given"):
+            find_board(pose.frames[0], smaller)
 
 
-def test_an_asymmetric_grid_of_the_true_size_is_found_and_not_refused():
+def test_an_asymmetric_grid_is_found_whole_and_a_part_of_it_grows_back_to_the_whole():
+    """OpenCV's asymmetric finder matched no sub-grid of this render (every smaller size: not
+    found), so the part is taken from the whole detection: rows 2-8, columns 1-3 of a 4x9 grid,
+    grown over the blobs the detector sees in the image."""
     board = CircleBoard(cols=4, rows=9, spacing=15.0, radius=4.0, asymmetric=True)
     cam = PinholeDevice(K=intrinsics(900, 900, 319.5, 239.5), width=640, height=480)
     prj = PinholeDevice(K=intrinsics(700, 700, 399.5, 299.5), width=800, height=600, t=[-60.0, 0, 0])
@@ -54,25 +60,18 @@ def test_an_asymmetric_grid_of_the_true_size_is_found_and_not_refused():
     t = np.array([0, 0, 500.0]) - R @ board.object_points().mean(0)
     img = render_board_poses(Rig(cam, prj), RenderSettings(bit_depth=16, shadows=False), board, [(R, t)],
                              PatternSet(800, 600, (white_frame(),)), progress=False)[0].frames[0]
-    uv, why = find_board(img, board)
+    uv, why = find_board(img, board)  # the true size is not refused
     truth = cam.project(board.object_points() @ R.T + t)
     assert why == "" and np.linalg.norm(uv[:, None] - truth[None], axis=-1).min(1).max() < 0.5
-
-
-def test_an_asymmetric_sub_grid_grows_to_the_whole_board_seen_in_perspective():
-    """OpenCV's asymmetric finder does not match sub-grids in these renders, so the blobs are
-    placed directly: a 4x9 asymmetric board under a perspective homography, a 3x7 part of it
-    (rows 2-8, columns 1-3) given as the detection."""
-    full = CircleBoard(cols=4, rows=9, spacing=15.0, radius=4.0, asymmetric=True)
-    H = np.array([[3.1, 0.4, 80.0], [-0.3, 2.8, 40.0], [4e-4, -6e-4, 1.0]])
-    blobs = cv2.perspectiveTransform(full.object_points()[:, None, :2], H)[:, 0]
-    sub = CircleBoard(cols=3, rows=7, spacing=15.0, radius=4.0, asymmetric=True)
-    i, j = np.divmod(np.arange(sub.count), sub.cols)
-    uv = blobs[(i + 2) * full.cols + j + 1]
-    assert grid_extent(blobs, np.full(len(blobs), 20.0), uv, sub) == (4, 9)
-    assert grid_extent(blobs, np.full(len(blobs), 20.0), blobs, full) == (4, 9)
+    keypoints = blob_detector(board, (3.0, 30.0)).detect(to_uint8(img))
+    blobs = np.array([k.pt for k in keypoints]).reshape(-1, 2)
+    sizes = np.array([k.size for k in keypoints])
+    part = CircleBoard(cols=3, rows=7, spacing=15.0, radius=4.0, asymmetric=True)
+    i, j = np.divmod(np.arange(part.count), part.cols)
+    assert grid_extent(blobs, sizes, uv, board) == (4, 9)
+    assert grid_extent(blobs, sizes, uv[(i + 2) * board.cols + j + 1], part) == (4, 9)
     with pytest.raises(ValueError, match=r"larger asymmetric circle grid: at least 4x9 circles where 3x7.*--cols 4"):
-        check_not_larger(blobs, np.full(len(blobs), 20.0), uv, sub)
+        check_not_larger(blobs, sizes, uv[(i + 2) * board.cols + j + 1], part)
 
 
 def test_board_flags_without_spacing_are_refused_not_silently_replaced_by_session_json(nine_by_seven, tmp_path,
