@@ -7,6 +7,7 @@ import pytest
 from fringe3d.calibrate.board_detection import blob_detector, find_board, to_uint8
 from fringe3d.calibrate.boards import CircleBoard
 from fringe3d.calibrate.grid_extent import check_not_larger, grid_extent
+from fringe3d.calibrate.session import observe_session
 from fringe3d.cli import main
 from fringe3d.optics import PinholeDevice, Rig, intrinsics
 from fringe3d.patterns.manifest import PatternSet
@@ -47,6 +48,15 @@ def test_the_true_size_is_found_at_the_true_centres_and_a_smaller_one_refused_in
         assert why == "" and len(set(d.argmin(1))) == board.count and d.min(1).max() < 0.5
         with pytest.raises(ValueError, match="at least 9x7 circles where 8x7 were given"):
             find_board(pose.frames[0], smaller)
+
+
+def test_a_gray_code_session_of_a_larger_grid_is_refused_naming_the_pose_and_the_white_frame():
+    ss = simulate_session("tiny", n_poses=2, seed=0, board=("circles", 9, 7), patterns="gray-code", progress=False)
+    stated = CircleBoard(cols=9, rows=6, spacing=ss.board.spacing, radius=ss.board.radius)
+    white = ss.poses[0].patterns.indices(kind="white")[0]
+    with pytest.raises(ValueError, match=rf"pose pose_00, white frame \(frame {white}\): .*at least 9x7 circles "
+                                         r"where 9x6 were given.*Pass --cols 9 --rows 7"):
+        observe_session(ss.poses, stated, progress=False)
 
 
 def test_an_asymmetric_grid_is_found_whole_and_a_part_of_it_grows_back_to_the_whole():
