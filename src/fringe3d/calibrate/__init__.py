@@ -4,6 +4,7 @@
 * :mod:`.square_boards` - chessboard and ChArUco geometry (:class:`ChessBoard`,
   :class:`CharucoBoard`, :func:`board_from_dict`).
 * :mod:`.board_detection` - sub-pixel circle-centre detection (OpenCV).
+* :mod:`.grid_extent` - a circle grid stated smaller than the one in the image (refused).
 * :mod:`.corner_detection` - chessboard / ChArUco corners, any board (:func:`locate_board`).
 * :mod:`.camera` - camera intrinsics and distortion from board views.
 * :mod:`.phase_mapping` - the projector "sees" the circle centres through absolute phase

@@ -11,6 +11,7 @@ import cv2
 import numpy as np
 
 from .boards import CircleBoard
+from .grid_extent import check_not_larger
 
 
 def to_uint8(image: np.ndarray) -> np.ndarray:
@@ -75,6 +76,12 @@ def find_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, fl
     -------
     ``(uv, reason)``: (rows*cols, 2) float64 pixel centres ``(u, v)`` in OpenCV order and "",
     or None and why ("not found", or found but its circles could not be labelled consistently).
+
+    Raises
+    ------
+    ValueError
+        When the grid found continues past the stated board: the image holds a larger circle
+        grid (:func:`fringe3d.calibrate.grid_extent.check_not_larger`).
     """
     if np.ndim(image) != 2:
         raise ValueError(f"board image must be a 2-D grey image, got shape {np.shape(image)}")
@@ -99,6 +106,9 @@ def find_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, fl
             cand = np.asarray(centres, dtype=np.float64).reshape(-1, 2)  # OpenCV 4: (N,1,2); 5: may be (N,2)
             if cand.shape[0] == board.count and grid_is_consistent(cand, board):
                 uv = cand
+                keypoints = det.detect(im)
+                check_not_larger(np.array([k.pt for k in keypoints], float).reshape(-1, 2),
+                                 np.array([k.size for k in keypoints], float), uv, board)
                 break
             mislabelled = True
     if uv is None:

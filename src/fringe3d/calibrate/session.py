@@ -232,10 +232,14 @@ def observe_pose(pose: PoseCapture, board, min_modulation_fraction: float = 0.1,
     (default, the dissertation's) or a local modulation-weighted fit of the phase around each
     point. Gray-code sets (:func:`is_code_set`): local homographies over
     ``homography_window`` camera px (:mod:`.code_mapping`). Returns None (after a warning
-    naming the pose) when the board is not found.
+    naming the pose) when the board is not found; ``ValueError`` naming the pose when the
+    white frame holds a larger board than ``board`` (a sub-grid would get wrong board points).
     """
     iw = check_calibration_set(pose.patterns, pose.name)
-    uv, why = locate_board(pose.frames[iw], board)
+    try:
+        uv, why = locate_board(pose.frames[iw], board)
+    except ValueError as e:  # e.g. the image holds a larger board than the one stated
+        raise ValueError(f"pose {pose.name}, white frame (frame {iw}): {e}") from None
     if uv is None:
         what = "was not found" if why in ("not found", "the image is flat") else f"is unusable: {why}"
         warnings.warn(f"pose {pose.name}: the {describe_board(board)} {what} in the white frame; "

@@ -140,6 +140,8 @@ def register(app: typer.Typer) -> None:
         check_dist_option(projector_dist, "--projector-dist")
         if board_kind not in BOARD_KINDS:
             raise ValueError(f"--board must be one of {', '.join(BOARD_KINDS)}, got {board_kind!r}")
+        stated = {"board_kind": board_kind != "circles", "cols": cols, "rows": rows, "inner_corners": inner_corners,
+                  "radius": radius, "asymmetric": asymmetric, "bright": bright, "marker": marker}
         cols, rows = board_counts(board_kind, cols, rows, inner_corners)
         if sim_patterns not in PATTERN_KINDS:
             raise ValueError(f"--patterns must be one of {', '.join(PATTERN_KINDS)}, got {sim_patterns!r}")
@@ -160,6 +162,8 @@ def register(app: typer.Typer) -> None:
         if not inputs:
             raise ValueError("give the pose capture folders (or a session folder) to calibrate, "
                              "or --import-opencv FILE")
+        if spacing is None and not simulate and layout is None:
+            check_board_flags_need_spacing(**stated)
         board = board_from_options(cols, rows, spacing, radius, asymmetric, bright, board_kind, marker, dictionary)
         size = None
         if layout is not None:
@@ -233,6 +237,18 @@ def _show(s: dict, json_: bool, quiet: bool) -> None:
         console.print(f"skipped (board not found): {name}")
     for k, v in s["written"].items():
         info(f"wrote {k}: {v}")
+
+
+def check_board_flags_need_spacing(**given) -> None:
+    """Board flags without ``--spacing`` would be ignored (the board then comes from the session's
+    session.json): ``ValueError`` naming them. ``given`` maps each flag's name to its value
+    (None or False: not given)."""
+    named = [f"--{k.replace('_', '-')}" if k != "board_kind" else "--board" for k, v in given.items()
+             if v is not None and v is not False]
+    if named:
+        raise ValueError(f"{', '.join(named)} describe(s) the board only together with --spacing; without "
+                         "--spacing the board is read from the session's session.json and these would be "
+                         "ignored. Give the whole board (--spacing too) or leave them out")
 
 
 def board_counts(board_kind: str, cols: int | None, rows: int | None, inner_corners: str | None) -> tuple[int, int]:
