@@ -22,7 +22,7 @@ from fringe3d.decode.texture import TEXTURE_UNIT
 from fringe3d.io.capture import Capture, read_capture
 from fringe3d.io.images import write_image
 from fringe3d.io.ply_standard import write_measurement_ply
-from fringe3d.io.pointcloud import _colors, organized_normals, write_ply
+from fringe3d.io.pointcloud import _colors, organized_normals
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.reconstruct.depth import depth_map
@@ -72,8 +72,10 @@ class Reconstruction:
         return None if self.sigma_xyz is None else np.ascontiguousarray(self.sigma_xyz[..., 2])
 
     def save_ply(self, path: str | os.PathLike) -> Path:
-        """Write the valid points as a PLY cloud coloured by the texture; returns the path."""
-        return write_ply(Path(path), self.points, colors=self.texture)
+        """Write the valid points as the measurement PLY every path writes
+        (:func:`fringe3d.io.ply_standard.write_measurement_ply`: normals, texture colour,
+        ``scalar_roughness_mm``, units and provenance); returns the path."""
+        return write_measurement_ply(Path(path), self.points, self.texture, mask=self.mask)
 
     def _valid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Valid points ``(N, 3)`` float64, their unit normals ``(N, 3)`` (NaN-free: 0 where the grid
@@ -262,7 +264,7 @@ def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, 
     all written atomically; returns ``{kind: path}``.
 
     The PLY (:func:`fringe3d.io.ply_standard.write_measurement_ply`) carries normals from the
-    grid, the texture as colour, a ``quality`` scalar (local roughness, mm), units and provenance
+    grid, the texture as colour, a ``scalar_roughness_mm`` field (local roughness), units and provenance
     in its header and, with ``mesh``, the grid's triangles."""
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "points.npy") as tmp:
