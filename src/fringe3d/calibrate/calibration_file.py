@@ -31,7 +31,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from fringe3d.optics import Rig
+from fringe3d.optics import Rig, TelecentricCamera
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.console import to_jsonable
 from fringe3d.utils.jsonfile import read_json, write_json
@@ -183,7 +183,7 @@ def export_rig_opencv_yaml(rig: Rig, path, extra: dict | None = None) -> Path:
             fs.write("version", VERSION)
             fs.write("model", model)
             cam, prj = rig.camera, rig.projector
-            if model == "telecentric":
+            if isinstance(cam, TelecentricCamera):
                 fs.write("camera_M", np.asarray(cam.M, np.float64))
             else:
                 fs.write("camera_K", np.asarray(cam.K, np.float64))
