@@ -43,21 +43,21 @@ def test_standard_ply_round_trips_through_meshio_and_trimesh(tmp_path, binary):
     P[0, 0] = np.nan
     tex = np.linspace(0, 1, P.shape[0] * P.shape[1]).reshape(P.shape[:2])
     q = local_roughness(P)
-    path = write_standard_ply(tmp_path / "p.ply", P, tex, quality=q, quality_name="local roughness (mm)",
-                              faces=True, comments=["fringe3d 9.9", "command: fringe3d reconstruct x"], binary=binary)
+    path = write_standard_ply(tmp_path / "p.ply", P, tex, scalars={"roughness_mm": (q, "local roughness (mm)")},
+                              faces=True, comments=["frame: camera"], binary=binary)
     head = path.read_bytes().split(b"end_header")[0].decode()
-    assert "comment units: mm" in head and "comment fringe3d 9.9" in head
-    assert "comment quality: local roughness (mm)" in head and "property float quality" in head
+    assert "comment units: mm" in head and "comment frame: camera" in head and "comment command: " in head
+    assert "comment scalar_roughness_mm: local roughness (mm)" in head and "property float scalar_roughness_mm" in head
     m = meshio.read(path)
     valid = np.isfinite(P[..., 0]).ravel()
     np.testing.assert_allclose(m.points, P.reshape(-1, 3)[valid], atol=1e-4)
     tri = m.cells_dict["triangle"]
     assert len(tri) == 2 * 19 * 29 - 1  # the missing corner pixel had one triangle
-    np.testing.assert_allclose(m.point_data["quality"], q.ravel()[valid], atol=1e-6, equal_nan=True)
+    np.testing.assert_allclose(m.point_data["scalar_roughness_mm"], q.ravel()[valid], atol=1e-6, equal_nan=True)
     back = read_ply(path)
     assert len(back.points) == valid.sum() and back.normals is not None and back.colors is not None
-    ok = np.isfinite(back.normals).all(axis=1)
-    np.testing.assert_allclose(np.abs(back.normals[ok] @ np.array([-0.1, 0, 1]) / np.hypot(0.1, 1)), 1, atol=1e-5)
+    assert np.isfinite(back.normals).all()
+    np.testing.assert_allclose(np.abs(back.normals @ np.array([-0.1, 0, 1]) / np.hypot(0.1, 1)), 1, atol=1e-5)
 
 
 def test_reconstruct_mesh_writes_faces_and_provenance(tmp_path, capsys):

@@ -165,3 +165,17 @@ def test_a_long_take_s_gif_holds_the_capped_frames(sequence, tmp_path, monkeypat
     with Image.open(tmp_path / "out" / "strain.gif") as gif:
         assert gif.n_frames == 2  # frames 0 and 2 of 3
     assert len(list((tmp_path / "out" / "maps").glob("strain_*.png"))) == 3  # every frame's map still written
+
+
+def test_pvd_time_steps_are_seconds_from_the_frame_rate(sequence, tmp_path, capsys):
+    pv = pytest.importorskip("pyvista")  # VTK's PVD reader
+    folder, anchors0, _ = sequence
+    arg = ",".join(f"{x:.3f}" for x in anchors0.ravel())
+    rate = 1.0 / (TIMES[1] - TIMES[0])  # the sequence's frames are TIMES (s) apart
+    out = tmp_path / "o"
+    assert main(["strain", str(folder), "--anchors", arg, "-o", str(out), "-q", "--no-figures", "--step", "8",
+                 "--frame-rate", str(rate)]) == 0
+    np.testing.assert_allclose(pv.get_reader(str(out / "strain.pvd")).time_values, TIMES, atol=1e-12)
+    assert json.loads((out / "summary.json").read_text())["pvd_time_unit"] == "s"
+    _expect_error(["strain", str(folder), "--anchors", arg, "-o", str(tmp_path / "bad"), "--frame-rate", "0"],
+                  tmp_path / "bad", capsys, "--frame-rate must be > 0 Hz")

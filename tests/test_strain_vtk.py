@@ -19,7 +19,7 @@ def _frame(step: int = 4, nu: int = 5, nv: int = 4, seed: int = 0):
     xyz = np.column_stack([uv * 0.1, 500 + rng.normal(0, 0.01, n)])
     ok = np.ones(n, bool)
     ok[3] = False
-    xyz[7] = np.nan  # lost point: written at the origin with ok = 0
+    xyz[7] = np.nan  # lost point: written with NaN position and strain, ok = 0
     ok[7] = False
     E = rng.normal(0, 1e-3, (n, 2, 2))
     residual = np.abs(rng.normal(0, 0.01, n))
@@ -51,8 +51,8 @@ def test_frames_and_series_read_back_with_meshio_and_pyvista(tmp_path):
     assert not np.isin(m.cells_dict["triangle"], [3, 7]).any()
     for j, name in enumerate(FIELDS[3:], start=3):
         want = table[:, j] if name != "ok" else table[:, j] * np.isfinite(table[:, :3]).all(axis=1)
-        np.testing.assert_allclose(m.point_data[name], want, err_msg=name)
-    assert np.array_equal(m.points[7], [0, 0, 0]) and m.point_data["ok"][7] == 0
+        np.testing.assert_allclose(m.point_data[name], want, err_msg=name, equal_nan=True)
+    assert np.isnan(m.points[7]).all() and m.point_data["ok"][7] == 0
     root = ET.parse(pvd).getroot()
     sets = root.findall("./Collection/DataSet")
     assert [d.get("file") for d in sets] == [f"vtk/frame_{f:05d}.vtu" for f in range(3)]
@@ -70,7 +70,7 @@ def test_frames_and_series_read_back_with_meshio_and_pyvista(tmp_path):
 def test_vertex_cells_without_triangles(tmp_path):
     table, _, _ = _frame()
     m = meshio.read(write_strain_frame(tmp_path / "f.vtu", table))
-    assert m.cells_dict["vertex"].shape == (len(table), 1)
+    assert m.cells_dict["vertex"].shape == (len(table) - 1, 1)  # none for the lost point 7
 
 
 def test_csv_header_carries_units(tmp_path):
@@ -82,3 +82,31 @@ def test_csv_header_carries_units(tmp_path):
     assert "E_dominant" in header and header[-1] == "ok"
     data = np.genfromtxt(tmp_path / "s.csv", delimiter=",", names=True)
     np.testing.assert_allclose(data["E_dominant"], table[:, FIELDS.index("E_dominant")])
+
+
+def test_untracked_points_have_nan_position_and_nan_strain_in_vtu_and_csv(tmp_path):
+    pv = pytest.importorskip("pyvista")  # VTK's reader, independent of the meshio writer
+    table, _, ok = _frame()
+    grid = pv.read(write_strain_frame(tmp_path / "f.vtu", table))
+    pts = np.asarray(grid.points)
+    assert np.isnan(pts[7]).all() and np.isfinite(np.delete(pts, 7, axis=0)).all()
+    for name in ("E11", "E12", "E22", "E_min", "E_max", "E_dominant"):
+        values = np.asarray(grid.point_data[name])
+        np.testing.assert_array_equal(np.isnan(values), ~ok, err_msg=name)  # point 3 flagged, point 7 lost
+    write_strain_csv(tmp_path / "s.csv", table)
+    data = np.genfromtxt(tmp_path / "s.csv", delimiter=",", names=True)
+    assert np.isnan(data["x_mm"][7]) and np.isnan(data["E_dominant"][[3, 7]]).all() and data["ok"][7] == 0
+
+
+def test_pvd_time_steps_in_seconds_from_a_frame_rate_else_frame_numbers(tmp_path):
+    pv = pytest.importorskip("pyvista")
+    table, uv, ok = _frame()
+    files = [write_strain_frame(tmp_path / f"f{k}.vtu", table) for k in range(3)]
+    pvd = write_strain_pvd(tmp_path / "s.pvd", files, frame_rate=250.0)
+    np.testing.assert_allclose(pv.get_reader(str(pvd)).time_values, [0.0, 0.004, 0.008], atol=1e-12)
+    assert "timestep unit: s" in pvd.read_text()
+    plain = write_strain_pvd(tmp_path / "p.pvd", files)
+    np.testing.assert_allclose(pv.get_reader(str(plain)).time_values, [0, 1, 2])
+    assert "frame index" in plain.read_text()
+    with pytest.raises(ValueError, match="frame_rate"):
+        write_strain_pvd(tmp_path / "x.pvd", files, frame_rate=0.0)

@@ -23,7 +23,7 @@ from fringe3d.calibrate.gates import Gate, failure_message
 from fringe3d.calibrate.plots import residual_plot
 from fringe3d.calibrate.session import calibrate_observations, observe_session
 from fringe3d.decode import decode
-from fringe3d.io.pointcloud import write_ply
+from fringe3d.io.ply_standard import write_measurement_ply
 from fringe3d.patterns import sets
 from fringe3d.reconstruct.triangulate import triangulate
 from fringe3d.report import write_report
@@ -187,7 +187,7 @@ def _write_outputs(out: Path, points, err, masks, metrics, texture) -> list:
         m = masks[name]
         sub = np.where(m[..., None], points, np.nan).astype(np.float32)
         tex = None if texture is None else np.clip(texture / max(float(np.nanmax(texture)), 1e-9), 0, 1)
-        write_ply(out / f"{name}.ply", sub, colors=tex, mask=m)
+        write_measurement_ply(out / f"{name}.ply", sub, tex, mask=m)
         _save_npy(out / f"points_{name}.npy", sub)
         if name in metrics:
             _error_png(out / f"error_{name}.png", np.where(m, err, np.nan), f"{name}: |measured − truth| (mm)")

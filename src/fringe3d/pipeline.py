@@ -22,7 +22,8 @@ from fringe3d.decode.texture import TEXTURE_UNIT
 from fringe3d.io.capture import Capture, read_capture
 from fringe3d.io.images import write_image
 from fringe3d.io.ply_standard import write_measurement_ply
-from fringe3d.io.pointcloud import _colors, organized_normals, write_ply
+from fringe3d.io.point_attributes import grid_normals
+from fringe3d.io.pointcloud import _colors
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.reconstruct.depth import depth_map
@@ -72,15 +73,19 @@ class Reconstruction:
         return None if self.sigma_xyz is None else np.ascontiguousarray(self.sigma_xyz[..., 2])
 
     def save_ply(self, path: str | os.PathLike) -> Path:
-        """Write the valid points as a PLY cloud coloured by the texture; returns the path."""
-        return write_ply(Path(path), self.points, colors=self.texture)
+        """Write the valid points as the measurement PLY every path writes
+        (:func:`fringe3d.io.ply_standard.write_measurement_ply`: normals, texture colour,
+        ``scalar_roughness_mm``, units and provenance); returns the path."""
+        return write_measurement_ply(Path(path), self.points, self.texture, mask=self.mask)
 
     def _valid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Valid points ``(N, 3)`` float64, their unit normals ``(N, 3)`` (NaN-free: 0 where the grid
-        has none) and RGB colours ``(N, 3)`` float64 in [0, 1] (grey texture; mid-grey without one)."""
+        """Valid points ``(N, 3)`` float64, their unit normals ``(N, 3)`` (the PLY's rule,
+        :func:`fringe3d.io.point_attributes.grid_normals`: finite everywhere) and RGB colours
+        ``(N, 3)`` float64 in [0, 1] (grey texture; mid-grey without one)."""
         m = self.mask & np.isfinite(self.points).all(axis=-1)
         pts = np.asarray(self.points, np.float64)[m]
-        normals = np.nan_to_num(organized_normals(self.points)[m].astype(np.float64))
+        P = np.where(m[..., None], self.points, np.nan)
+        normals = grid_normals(P)[m].astype(np.float64)
         if self.texture is None:
             colors = np.full_like(pts, 0.5)
         else:
@@ -94,7 +99,8 @@ class Reconstruction:
         -------
         open3d.geometry.PointCloud
             Points, colours from the texture (RGB in [0, 1]) and unit normals from the organized
-            grid (oriented towards the camera; zero where a neighbour is missing).
+            grid (oriented towards the camera; one-sided at borders, the line of sight for a lone
+            point, as in the PLY).
 
         Raises
         ------
@@ -115,8 +121,8 @@ class Reconstruction:
         Returns
         -------
         pyvista.PolyData
-            Point data ``rgb`` (uint8 colours from the texture), ``normals`` (unit, zero where the
-            grid has none), ``quality`` (uint8 bits, :attr:`quality`) and ``sigma_z`` (float32 mm,
+            Point data ``rgb`` (uint8 colours from the texture), ``normals`` (unit, as in the PLY),
+            ``quality`` (uint8 bits, :attr:`quality`) and ``sigma_z`` (float32 mm,
             :attr:`sigma_z`) where those are known.
 
         Raises
@@ -268,7 +274,7 @@ def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, 
     all written atomically; returns ``{kind: path}``.
 
     The PLY (:func:`fringe3d.io.ply_standard.write_measurement_ply`) carries normals from the
-    grid, the texture as colour, a ``quality`` scalar (local roughness, mm), units and provenance
+    grid, the texture as colour, a ``scalar_roughness_mm`` field (local roughness), units and provenance
     in its header and, with ``mesh``, the grid's triangles."""
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "points.npy") as tmp:

@@ -139,9 +139,14 @@ def _ok_values(folders: list[Path], name: str, transform=None):
     return values
 
 
+def frame_label(f: int, frame_rate: float | None) -> str:
+    """``frame F`` and, with a frame rate (Hz), its time ``t = F / rate`` in ms."""
+    return f"frame {f}" + (f", t = {1e3 * f / frame_rate:.4g} ms" if frame_rate else "")
+
+
 def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window: int = 11, step: int = 4,
                wings: int = 1, radius: int = 3, reference: int = 0, figures: bool = True, fill_dots: int = 8,
-               workers: int = 1, frames: FrameScheduler | None = None) -> dict:
+               workers: int = 1, frames: FrameScheduler | None = None, frame_rate: float | None = None) -> dict:
     """Track a wing sequence and map its bending strain (Eq. 6.9-6.21): everything
     ``fringe3d strain`` does; returns the JSON summary. Validates all inputs before any file
     is written (``strain.csv``, ``vtk/frame_*.vtu`` + ``strain.pvd``, ``arrays/wing_K/*.npy`` (F, N, ...)
@@ -149,7 +154,9 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
     atomically). ``workers``: frames processed at once on threads (the same output for any number).
     ``frames``: another frame scheduler (e.g. :func:`fringe3d.cluster.strain_frames.frames_on_dask`'s),
     given the :class:`~fringe3d.analyze.frame_task.StrainFrameTask` and the frame count; then
-    ``workers`` must be 1. Every file is written here, in frame order, whatever the scheduler."""
+    ``workers`` must be 1. Every file is written here, in frame order, whatever the scheduler.
+    ``frame_rate``: rate of the 3D frames (Hz); the PVD time steps and figure titles are then in
+    seconds (else frame numbers)."""
     t0 = time.perf_counter()
     if not (thickness > 0):
         raise ValueError(f"--thickness must be > 0 mm; got {thickness}")
@@ -159,6 +166,8 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         raise ValueError(f"--step must be ≥ 1 pixel; got {step}")
     if workers < 1:
         raise ValueError(f"--workers must be ≥ 1; got {workers}")
+    if frame_rate is not None and not frame_rate > 0:
+        raise ValueError(f"--frame-rate must be > 0 Hz; got {frame_rate}")
     if frames is not None and workers != 1:
         raise ValueError(f"--workers {workers} (threads) runs the frames in this process; it cannot be combined "
                          "with another frame scheduler (Dask)")
@@ -209,25 +218,28 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
             tri = np.concatenate([grid_triangles(rf.q, step, r.ok & np.isfinite(r.xyz).all(axis=-1)) + o
                                   for rf, r, o in zip(refs, results, offsets)])
             frame_files.append(write_strain_frame(out / "vtk" / f"frame_{f:05d}.vtu", np.vstack(tables), tri))
-    write_strain_pvd(out / "strain.pvd", frame_files)
+    write_strain_pvd(out / "strain.pvd", frame_files, frame_rate=frame_rate)
     p99 = streamed_percentile(_ok_values(folders, "dominant", np.abs), 99)
     if figures:
         vmax = p99 if ok_count else 1e-6
         images = _StrainImages(folders, seq.shape[:2], max(step // 2, 1), nf)
         for f in range(nf):
-            strain_map_png(out / "maps" / f"strain_{f:05d}.png", images[f], f"dominant bending strain, frame {f}",
-                           vmax)
+            strain_map_png(out / "maps" / f"strain_{f:05d}.png", images[f],
+                           f"dominant bending strain, {frame_label(f, frame_rate)}", vmax)
         picks = gif_frames(nf)
-        strain_animation(out / "strain.gif", _Subset(images, picks), [f"frame {f}" for f in picks], vmax)
+        strain_animation(out / "strain.gif", _Subset(images, picks), [frame_label(f, frame_rate) for f in picks],
+                         vmax)
     summary = {
         "frames": nf, "wings": len(refs), "points_per_wing": [int(len(r.q)) for r in refs],
         "tracked_fraction": ok_count / total if total else float("nan"),
         "median_residual_mm": streamed_median(_ok_values(folders, "residual")),
         "dominant_strain_p99": p99,
+        "frame_rate_hz": frame_rate, "pvd_time_unit": "s" if frame_rate else "frame",
         "thickness_mm": thickness, "window_px": window, "step_px": step, "geodesic_window_px": 2 * radius + 1,
         "seconds": round(time.perf_counter() - t0, 2), "output": str(out),
     }
     write_json(out / "summary.json", summary, units={"median_residual_mm": "mm", "thickness_mm": "mm",
                                                      "dominant_strain_p99": "1 (strain)", "window_px": "px",
+                                                     "frame_rate_hz": "Hz",
                                                      "step_px": "px", "geodesic_window_px": "px", "seconds": "s"})
     return summary

@@ -31,7 +31,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from fringe3d.optics import Rig
+from fringe3d.optics import Rig, TelecentricCamera
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.console import to_jsonable
 from fringe3d.utils.jsonfile import read_json, write_json
@@ -168,15 +168,22 @@ def export_opencv_yaml(cal: Calibration, path) -> Path:
     ``camera_size``, ``projector_K``, ``projector_dist``, ``projector_size``, ``R``, ``T``
     (world -> projector), ``camera_rms``, ``projector_rms`` and ``period_<direction>``.
     """
+    return export_rig_opencv_yaml(cal.rig, path, _figures(cal))
+
+
+def export_rig_opencv_yaml(rig: Rig, path, extra: dict | None = None) -> Path:
+    """Write a rig as an OpenCV ``FileStorage`` YAML (atomic): the nodes of
+    :func:`export_opencv_yaml` up to ``T`` (mm), then ``extra`` (name -> float)."""
     path = Path(path)
+    model = "telecentric" if rig.telecentric else "pinhole"
     with atomic_path(path, suffix=".yaml") as tmp:
         fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_FORMAT_YAML)
         try:
             fs.write("format", FORMAT)
             fs.write("version", VERSION)
-            fs.write("model", cal.model)
-            cam, prj = cal.rig.camera, cal.rig.projector
-            if cal.model == "telecentric":
+            fs.write("model", model)
+            cam, prj = rig.camera, rig.projector
+            if isinstance(cam, TelecentricCamera):
                 fs.write("camera_M", np.asarray(cam.M, np.float64))
             else:
                 fs.write("camera_K", np.asarray(cam.K, np.float64))
@@ -187,10 +194,27 @@ def export_opencv_yaml(cal: Calibration, path) -> Path:
             fs.write("projector_size", np.array([[prj.width, prj.height]], np.int32))
             fs.write("R", np.asarray(prj.R, np.float64))
             fs.write("T", np.asarray(prj.t, np.float64).reshape(3, 1))
-            fs.write("camera_rms", float(cal.rms["camera_px"]))
-            fs.write("projector_rms", float(cal.rms["projector_px"]))
-            for k, v in cal.periods.items():
-                fs.write(f"period_{k}", float(v))
+            for k, v in (extra or {}).items():
+                fs.write(k, float(v))
         finally:
             fs.release()
     return path
+
+
+def rig_for_export(path) -> tuple[Rig, dict]:
+    """The rig of a calibration JSON (with its ``camera_rms``, ``projector_rms`` and
+    ``period_<d>`` figures for :func:`export_rig_opencv_yaml`) or of a plain rig JSON
+    (``Rig.save``, ``--import-opencv``; no figures). Errors name the file and the field."""
+    path = Path(path)
+    d = read_json(path, "calibration file", require_object=False)
+    if isinstance(d, dict) and d.get("format") == FORMAT:
+        cal = Calibration.from_dict(d, where=str(path))
+        return cal.rig, _figures(cal)
+    if not isinstance(d, dict):
+        raise ValueError(f"{path}: expected a calibration or rig JSON object at the top level")
+    return Rig.from_dict(d.get("rig", d), f"{path}: field rig"), {}
+
+
+def _figures(cal: Calibration) -> dict:
+    return {"camera_rms": float(cal.rms["camera_px"]), "projector_rms": float(cal.rms["projector_px"]),
+            **{f"period_{k}": float(v) for k, v in cal.periods.items()}}

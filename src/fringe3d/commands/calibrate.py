@@ -6,7 +6,7 @@ from pathlib import Path
 import typer
 
 from fringe3d.commands.deprecated import AliasCommand
-from fringe3d.calibrate.calibration_file import load_calibration
+from fringe3d.calibrate.calibration_file import export_rig_opencv_yaml, load_calibration, rig_for_export
 from fringe3d.calibrate.evaluation import compare_to_truth
 from fringe3d.calibrate.gates import QualityGateError
 from fringe3d.calibrate.model_choice import check_dist_option
@@ -31,7 +31,7 @@ def register(app: typer.Typer) -> None:
     @app.command("calibrate", cls=AliasCommand)
     def calibrate(
         inputs: list[Path] = typer.Argument(None, help="Pose capture folders, or a session folder holding them "
-                                                       "(none with --import-opencv)."),
+                                                       "(none with --import-opencv or --export-opencv)."),
         output: Path = typer.Option(Path("calib.json"), "-o", "--output", help="Calibration JSON to write."),
         board_kind: str = typer.Option("circles", "--board", help="Board kind: circles (circle grid), chessboard "
                                                                   "(cv2.findChessboardCornersSB) or charuco "
@@ -100,6 +100,9 @@ def register(app: typer.Typer) -> None:
                                                  "from this OpenCV FileStorage YAML/XML and write the rig JSON to "
                                                  "-o; repeat it for OpenCV's two files (intrinsics.yml: M1 D1 M2 "
                                                  "D2, extrinsics.yml: R T), or give the folder holding them."),
+        export_opencv: Path = typer.Option(None, "--export-opencv", help="Do not calibrate: write this existing "
+                                           "calibration (or rig) JSON as an OpenCV FileStorage YAML to -o "
+                                           "(K, dist, sizes, R, T in mm; rms and periods when known)."),
         node: list[str] = typer.Option(None, "--node", help="--import-opencv: KEY=NODE maps a node name, e.g. "
                                                             "cam_int=K1 (keys: cam_int cam_dist proj_int proj_dist "
                                                             "R T cam_size proj_size); cam_dist=none or "
@@ -126,6 +129,9 @@ def register(app: typer.Typer) -> None:
         --projector-size 1024x768 --board chessboard --cols 9 --rows 7 --spacing 20 -o calib.json
         """
         set_quiet(quiet or json_)
+        if export_opencv is not None:
+            _export(export_opencv, output, bool(import_opencv or inputs), overwrite, json_, quiet)
+            return
         if import_opencv:
             with open_output_file(output, overwrite=overwrite, inputs=list(import_opencv)):
                 _import(import_opencv, output, node, camera_size, projector_size, unit, json_, quiet)
@@ -265,6 +271,23 @@ def board_counts(board_kind: str, cols: int | None, rows: int | None, inner_corn
             raise ValueError(f"--inner-corners {inner_corners} is a board of {squares[0]}x{squares[1]} squares, but "
                              f"{option} says {given}; give one of them")
     return squares
+
+
+def _export(source: Path, output: Path, other_inputs: bool, overwrite: bool, json_: bool, quiet: bool) -> None:
+    """``--export-opencv``: an existing calibration / rig JSON -> OpenCV FileStorage YAML at ``-o``."""
+    if other_inputs:
+        raise ValueError("--export-opencv converts an existing calibration: give no pose folders and no "
+                         "--import-opencv")
+    if output.suffix.lower() not in (".yaml", ".yml"):
+        raise ValueError(f"--export-opencv writes an OpenCV YAML: -o must end in .yaml or .yml, got {output}")
+    rig, figures = rig_for_export(source)  # every check before the output exists
+    with open_output_file(output, overwrite=overwrite, inputs=[source]):
+        export_rig_opencv_yaml(rig, output, figures)
+    s = {"exported": str(source), "written": {"yaml": str(output)}, "baseline_mm": rig.baseline}
+    if json_:
+        print_json(s)
+    elif not quiet:
+        info(f"wrote {output} (OpenCV FileStorage) from {source}")
 
 
 def _import(path: list[Path], output: Path, node, camera_size, projector_size, unit: str, json_: bool,

@@ -56,6 +56,8 @@ def register(app: typer.Typer) -> None:
         reference: int = typer.Option(0, help="Index of the undeformed reference frame."),
         fill_dots: int = typer.Option(8, "--fill-dots", help="Fill unreconstructed anchor-dot holes up to this "
                                                              "radius (px) from the surrounding surface; 0 = off."),
+        frame_rate: float = typer.Option(None, "--frame-rate", help="Rate of the 3D frames (Hz): the PVD time "
+                                                                    "steps in seconds (default: frame numbers)."),
         no_figures: bool = typer.Option(False, "--no-figures", help="Skip the PNG maps and the GIF."),
         workers: int = typer.Option(1, "--workers", help="3D frames processed at once (threads); the output is "
                                                          "the same for any number."),
@@ -76,7 +78,10 @@ def register(app: typer.Typer) -> None:
         """
         set_quiet(quiet or json_)
         options = {"anchors": anchors, "thickness": thickness, "window": window, "step": step, "wings": wings,
-                   "radius": radius, "reference": reference, "figures": not no_figures, "fill_dots": fill_dots}
+                   "radius": radius, "reference": reference, "figures": not no_figures, "fill_dots": fill_dots,
+                   "frame_rate": frame_rate}
+        if frame_rate is not None and not frame_rate > 0:
+            raise ValueError(f"--frame-rate must be > 0 Hz; got {frame_rate}")
         check_schedulers(workers, dask_workers, scheduler)
         check_number(thickness, "--thickness", positive=True)
         parse_anchors(anchors)  # bad anchors, then a missing, empty or damaged sequence, fail before any output
@@ -89,7 +94,7 @@ def register(app: typer.Typer) -> None:
                 frames = frames_on_dask(client) if client is not None else None
                 summary = o.final_paths(run_strain(sequence, anchors, o.path, thickness, window, step, wings, radius,
                                                    reference, figures=not no_figures, fill_dots=fill_dots,
-                                                   workers=workers, frames=frames))
+                                                   workers=workers, frames=frames, frame_rate=frame_rate))
         finally:
             if client is not None:
                 close(client, own_cluster=scheduler is None)

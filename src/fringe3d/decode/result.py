@@ -169,10 +169,10 @@ class Decoded:
         return f"no valid pixel in any direction: {why}"
 
     def save(self, folder: str | os.PathLike) -> Path:
-        """Write ``decoded.npz``, ``decoded.json`` and one 32-bit float TIFF per map
-        (``phase_<d>.tif``, ``wrapped_<d>.tif``, ``modulation_<d>.tif``, ``mask_<d>.tif`` as
-        0/1, ``phase_sigma_<d>.tif``, ``average.tif``, ``texture.tif``) plus ``quality_<d>.tif``
-        as uint8 bits, each atomically. Returns the folder."""
+        """Write ``decoded.npz``, ``decoded.json`` and one TIFF per map, each atomically: 32-bit
+        float ``phase_<d>.tif`` and ``phase_sigma_<d>.tif`` (NaN outside the mask),
+        ``wrapped_<d>.tif``, ``modulation_<d>.tif``, ``average.tif``, ``texture.tif``; uint8
+        ``mask_<d>.tif`` (0/1) and ``quality_<d>.tif`` (bits). Returns the folder."""
 
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
@@ -193,10 +193,21 @@ class Decoded:
                 np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
         for key, arr in arrays.items():
             quantity = key.rsplit("_", 1)[0] if key not in MAP_UNITS else key
-            dtype = np.uint8 if key.startswith("quality_") else np.float32
-            write_tiff(folder / f"{key}.tif", np.asarray(arr, dtype=dtype), key, MAP_UNITS[quantity])
+            write_tiff(folder / f"{key}.tif", self._tiff_map(quantity, key, arr), key, MAP_UNITS[quantity])
         write_json(folder / SUMMARY_NAME, self.summary(), units=SUMMARY_UNITS)
         return folder
+
+    def _tiff_map(self, quantity: str, key: str, arr: np.ndarray) -> np.ndarray:
+        """A map as its TIFF holds it: ``quality`` and ``mask`` as uint8, ``phase`` and
+        ``phase_sigma`` float32 with NaN outside the direction's mask (no inf or huge
+        placeholder there), the others float32 as computed."""
+        if quantity in ("quality", "mask"):
+            return np.asarray(arr, np.uint8)
+        out = np.asarray(arr, np.float32)
+        if quantity in ("phase", "phase_sigma"):
+            valid = np.asarray(self.mask[key[len(quantity) + 1:]], bool) & np.isfinite(out)
+            out = np.where(valid, out, np.float32(np.nan))
+        return out
 
     @classmethod
     def load(cls, folder: str | os.PathLike) -> "Decoded":

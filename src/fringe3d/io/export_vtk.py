@@ -5,7 +5,10 @@ Every writer goes through :func:`fringe3d.utils.atomic.atomic_path`, so a reader
 half-written file. Columns / point-data arrays (:data:`FIELDS`, units in :data:`UNITS`): ``x, y,
 z`` (mm), the strain components ``E11, E12, E22`` (material basis), the principal values ``E_min,
 E_max`` and the dominant principal value ``E_dominant`` (all dimensionless, mm/mm), the image
-position ``u, v`` (px), the tracking residual (mm) and ``ok`` (1 = tracked and fitted, 0 = flagged).
+position ``u, v`` (px), the tracking residual (mm) and ``ok`` (1 = tracked and fitted, 0 = flagged;
+the strain columns are NaN where ``ok`` is 0, and ``x, y, z`` NaN where the point was lost). The
+PVD time steps are seconds when the frame rate is known (``fringe3d strain --frame-rate``), else
+frame numbers (the file says which in a comment).
 The CSV header spells the unit into each name (``x_mm``, ``E11``, ``u_px``, ...; see :func:`csv_names`).
 
 The per-frame files are VTK XML unstructured grids (``.vtu``, binary, zlib-compressed): meshio
@@ -25,8 +28,8 @@ import numpy as np
 
 from fringe3d.utils.atomic import atomic_path
 
-__all__ = ["strain_table", "write_strain_csv", "StrainCsvWriter", "write_strain_frame", "write_strain_pvd",
-           "grid_triangles", "csv_names", "FIELDS", "UNITS"]
+__all__ = ["STRAIN_FIELDS", "strain_table", "write_strain_csv", "StrainCsvWriter", "write_strain_frame",
+           "write_strain_pvd", "grid_triangles", "csv_names", "FIELDS", "UNITS"]
 
 FIELDS = ["x", "y", "z", "E11", "E12", "E22", "E_min", "E_max", "E_dominant", "u", "v", "residual", "ok"]
 #: Unit of each column of :data:`FIELDS` ("" = dimensionless strain or a flag).
@@ -49,15 +52,26 @@ def csv_names(fields: list[str] | None = None) -> list[str]:
     """
     return [f"{n}_{UNITS[n]}" if UNITS.get(n) else n for n in (FIELDS if fields is None else fields)]
 
+#: Columns of :data:`FIELDS` that are strain (NaN at a point that is not ``ok``).
+STRAIN_FIELDS = ("E11", "E12", "E22", "E_min", "E_max", "E_dominant")
+
+
 def strain_table(xyz, E, principal, dominant, uv, residual, ok) -> np.ndarray:
-    """Stack per-point quantities of one frame into an (N, 13) float64 table (columns FIELDS)."""
+    """Stack per-point quantities of one frame into an (N, 13) float64 table (columns FIELDS).
+
+    A point that is not ``ok`` (lost by the tracker or not fitted) has NaN strain columns, and
+    NaN ``x, y, z`` where its position is unknown: no finite strain at a point never measured."""
     xyz = np.asarray(xyz, float).reshape(-1, 3)
     n = xyz.shape[0]
     E = np.asarray(E, float).reshape(n, 2, 2)
     cols = [xyz, E[:, 0, 0:1], E[:, 0, 1:2], E[:, 1, 1:2], np.asarray(principal, float).reshape(n, 2),
             np.asarray(dominant, float).reshape(n, 1), np.asarray(uv, float).reshape(n, 2),
             np.asarray(residual, float).reshape(n, 1), np.asarray(ok, float).reshape(n, 1)]
-    return np.hstack(cols)
+    table = np.hstack(cols)
+    bad = (table[:, -1] == 0) | ~np.isfinite(table[:, :3]).all(axis=1)
+    table[np.ix_(bad, [FIELDS.index(f) for f in STRAIN_FIELDS])] = np.nan
+    table[bad, -1] = 0
+    return table
 
 
 def write_strain_csv(path: str | os.PathLike, table: np.ndarray, frame: np.ndarray | None = None,
@@ -168,8 +182,8 @@ def write_strain_frame(path: str | os.PathLike, table: np.ndarray, triangles: np
         File to write (atomically); ``.vtu``.
     table : (N, 13) float
         From :func:`strain_table`; every column but ``x, y, z`` becomes point data (``ok`` as int32).
-        Points with non-finite coordinates are written at the origin with ``ok = 0`` so indices
-        stay aligned with the CSV.
+        Points with non-finite coordinates (untracked) keep NaN coordinates and NaN strain, with
+        ``ok = 0``, so indices stay aligned with the CSV; no cell uses them.
     triangles : (M, 3) int, optional
         Surface cells (:func:`grid_triangles`); none or empty: one vertex cell per point.
 
@@ -183,16 +197,16 @@ def write_strain_frame(path: str | os.PathLike, table: np.ndarray, triangles: np
     table = np.asarray(table, float)
     if table.ndim != 2 or table.shape[1] != len(FIELDS):
         raise ValueError(f"table must have shape (N, {len(FIELDS)}); got {table.shape}")
-    n = table.shape[0]
     finite = np.isfinite(table[:, :3]).all(axis=1)
-    xyz = np.where(finite[:, None], table[:, :3], 0.0)
+    xyz = np.ascontiguousarray(table[:, :3])
     ok = (table[:, -1] * finite).astype(np.int32)
+    strain = np.isin(FIELDS, STRAIN_FIELDS)
     if triangles is not None and len(triangles):
         cells = [("triangle", np.asarray(triangles, np.int64).reshape(-1, 3))]
     else:
-        cells = [("vertex", np.arange(n, dtype=np.int64).reshape(-1, 1))]
-    data = {name: (ok if name == "ok" else np.ascontiguousarray(table[:, j])) for j, name in enumerate(FIELDS)
-            if j >= 3}
+        cells = [("vertex", np.flatnonzero(finite).astype(np.int64).reshape(-1, 1))]
+    data = {name: (ok if name == "ok" else np.where(strain[j] & (ok == 0), np.nan, table[:, j]))
+            for j, name in enumerate(FIELDS) if j >= 3}
     path = Path(path)
     with atomic_path(path) as tmp:
         meshio.write(tmp, meshio.Mesh(xyz, cells, point_data=data), file_format="vtu", binary=True,
@@ -200,7 +214,8 @@ def write_strain_frame(path: str | os.PathLike, table: np.ndarray, triangles: np
     return path
 
 
-def write_strain_pvd(path: str | os.PathLike, files: list[str | os.PathLike], times: list[float] | None = None) -> Path:
+def write_strain_pvd(path: str | os.PathLike, files: list[str | os.PathLike], times: list[float] | None = None,
+                     frame_rate: float | None = None) -> Path:
     """A ParaView ``.pvd`` collection: the per-frame files as one time series.
 
     Parameters
@@ -210,7 +225,9 @@ def write_strain_pvd(path: str | os.PathLike, files: list[str | os.PathLike], ti
     files : list of path-like
         Per-frame files in frame order (:func:`write_strain_frame`).
     times : list of float, optional
-        Time of each frame (default: the frame index).
+        Time of each frame (s; default: from ``frame_rate``, else the frame index).
+    frame_rate : float, optional
+        Rate of the frames (Hz): frame ``k`` is at ``k / frame_rate`` s.
 
     Returns
     -------
@@ -218,13 +235,18 @@ def write_strain_pvd(path: str | os.PathLike, files: list[str | os.PathLike], ti
         The written file.
     """
     path = Path(path)
-    times = list(range(len(files))) if times is None else list(times)
+    if frame_rate is not None and not frame_rate > 0:
+        raise ValueError(f"frame_rate must be > 0 Hz, got {frame_rate}")
+    unit = "s" if times is not None or frame_rate is not None else "frame index (frame rate unknown)"
+    if times is None:
+        times = [k / frame_rate for k in range(len(files))] if frame_rate else list(range(len(files)))
+    times = list(times)
     if len(times) != len(files):
         raise ValueError(f"{len(files)} frame files but {len(times)} times")
     rows = [f'    <DataSet timestep="{t:.9g}" group="" part="0" file={quoteattr(os.path.relpath(f, path.parent))}/>'
             for t, f in zip(times, files)]
     text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
-            "  <Collection>\n" + "\n".join(rows) + "\n  </Collection>\n</VTKFile>\n")
+            f"  <!-- timestep unit: {unit} -->\n  <Collection>\n" + "\n".join(rows) + "\n  </Collection>\n</VTKFile>\n")
     with atomic_path(path) as tmp:
         Path(tmp).write_text(text)
     return path

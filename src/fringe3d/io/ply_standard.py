@@ -1,29 +1,36 @@
-"""PLY files for other tools: points with normals, colour, a per-point quality scalar and,
-optionally, the triangle faces of the pixel grid; units and provenance in header comments.
+"""The one PLY writer of fringe3d: every point cloud (``reconstruct``, sequences, the demo,
+:meth:`fringe3d.pipeline.Reconstruction.save_ply`, :func:`fringe3d.io.pointcloud.write_ply`)
+goes through :func:`write_standard_ply`.
 
 Layout (binary little-endian, or ASCII)::
 
     ply
     format binary_little_endian 1.0
     comment units: mm
-    comment <caller's comments: fringe3d version, command, frame ...>
+    comment fringe3d <version>
+    comment command: <the fringe3d command line, or "none (Python API)">
+    comment <caller's comments: frame, normals, one line per scalar field ...>
     element vertex N
     property float x / y / z          # mm
-    property float nx / ny / nz       # unit normal towards the camera (from the grid)
+    property float nx / ny / nz       # unit normal towards the camera (organized maps)
     property uchar red / green / blue # texture (when given)
-    property float quality            # per-point quality (when given; the comment names it)
+    property float scalar_<name>      # per-point scalars; a comment says what each is (units)
     element face F                    # only with faces
     property list uchar int vertex_indices
     end_header
 
-MeshLab, CloudCompare, Open3D and trimesh read it (``quality`` is MeshLab's per-vertex quality
-name). Points without a normal (grid border, lone pixels) get NaN normals rather than being
-dropped, so a point map and its PLY hold the same points.
+Normals are finite at every point written (:func:`fringe3d.io.point_attributes.grid_normals`:
+one-sided differences at borders and holes, the line of sight for a lone point), so a point map
+and its PLY hold the same points and no reader turns a NaN normal into a made-up one. Scalar
+fields are named ``scalar_<name>`` (CloudCompare's convention; Open3D's tensor reader, MeshLab,
+meshio and trimesh keep any name). VTK's PLY reader (ParaView, PyVista) keeps only points,
+normals and colours: use the VTK exports for scalars there. A scalar is NaN where it is unknown.
 """
 from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
@@ -31,7 +38,10 @@ from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.output_folder import provenance_comments
 
 from .grid_mesh import grid_faces, local_roughness
-from .pointcloud import _colors, organized_normals
+from .point_attributes import NORMALS_NOTE, colors_u8, grid_normals
+
+#: ``name -> (values, description with units)``; written as ``scalar_<name>``.
+Scalars = Mapping[str, tuple[np.ndarray, str]]
 
 
 def _header(n: int, fields: list[tuple[str, str]], n_faces: int | None, comments, binary: bool) -> bytes:
@@ -41,67 +51,92 @@ def _header(n: int, fields: list[tuple[str, str]], n_faces: int | None, comments
     lines += [f"property {t} {name}" for name, t in fields]
     if n_faces is not None:
         lines += [f"element face {n_faces}", "property list uchar int vertex_indices"]
-    return ("\n".join(lines) + "\nend_header\n").encode("ascii")
+    return ("\n".join(lines) + "\nend_header\n").encode("ascii", "replace")
 
 
-def write_standard_ply(path: str | os.PathLike, points, texture=None, *, quality=None, quality_name: str = "",
-                       faces: bool = False, comments=(), binary: bool = True) -> Path:
-    """Write an organized point map ``(H, W, 3)`` (mm, NaN invalid) as a PLY file, atomically.
+def _valid_points(path, points, mask) -> tuple[np.ndarray, np.ndarray]:
+    P = np.asarray(points, np.float32)
+    if P.ndim not in (2, 3) or P.shape[-1] != 3:
+        raise ValueError(f"points must be an organized map (H, W, 3) or a list (N, 3) in mm, got {P.shape}")
+    valid = np.all(np.isfinite(P), axis=-1)
+    if mask is not None:
+        m = np.asarray(mask, bool)
+        if m.shape != P.shape[:-1]:
+            raise ValueError(f"mask has shape {m.shape} but the points are {P.shape[:-1]}")
+        valid &= m
+    if not valid.any():
+        raise ValueError(f"no valid point to write to {path} (all NaN or masked); expected at least one finite point")
+    return P, valid
+
+
+def write_standard_ply(path: str | os.PathLike, points, texture=None, *, scalars: Scalars | None = None,
+                       normals: bool = True, mask=None, faces: bool = False, comments=(),
+                       binary: bool = True) -> Path:
+    """Write the valid points (finite, and ``mask`` where given) as a PLY file, atomically.
 
     Parameters
     ----------
     path : output ``.ply``
-    points : (H, W, 3) float, mm
-    texture : (H, W) grey or (H, W, 3) RGB, float [0, 1] or uint8, optional
-    quality : (H, W) float, optional
-        Per-point scalar written as ``quality``; ``quality_name`` says what it is (a comment).
+    points : (H, W, 3) organized map or (N, 3) list, float, mm, NaN invalid
+    texture : grey (H, W) / (N,) or RGB (..., 3), float [0, 1] or uint8, optional
+    scalars : mapping ``name -> (values of the points' leading shape, description)``, optional
+        Written as float ``scalar_<name>`` with a ``comment scalar_<name>: <description>``.
+    normals : bool
+        Write grid normals (organized maps only; finite at every point written).
+    mask : bool array of the points' leading shape, optional
     faces : bool
-        Also write the grid's triangles (:func:`fringe3d.io.grid_mesh.grid_faces`).
+        Also write the grid's triangles (:func:`fringe3d.io.grid_mesh.grid_faces`; organized maps).
     comments : iterable of str
-        Extra header comments (one line each), e.g. version and command.
+        Extra header comments (one line each) after the units, version and command.
     binary : binary little-endian (default) or ASCII
 
     Returns the path; ValueError when no point is valid or shapes disagree.
     """
-    P = np.asarray(points, np.float32)
-    if P.ndim != 3 or P.shape[-1] != 3:
-        raise ValueError(f"a PLY with normals needs an organized point map (H, W, 3) in mm, got {P.shape}")
-    lead = P.shape[:2]
-    valid = np.all(np.isfinite(P), axis=-1).ravel()
-    if not valid.any():
-        raise ValueError(f"no valid point to write to {path} (all NaN); expected at least one finite point")
-    fields = [(a, "float") for a in ("x", "y", "z", "nx", "ny", "nz")]
+    P, valid = _valid_points(path, points, mask)
+    lead = P.shape[:-1]
+    organized = P.ndim == 3
+    if (normals or faces) and not organized:
+        raise ValueError(f"normals and faces need an organized point map (H, W, 3), got {P.shape}")
+    if organized:
+        P = np.where(valid[..., None], P, np.nan)  # masked points are not neighbours either
+    fields = [(a, "float") for a in ("x", "y", "z")]
     cols = {"x": P[..., 0], "y": P[..., 1], "z": P[..., 2]}
-    N = organized_normals(P)
-    cols.update(nx=N[..., 0], ny=N[..., 1], nz=N[..., 2])
+    notes = [*provenance_comments(), *comments]
+    if normals:
+        N = grid_normals(P)
+        fields += [(a, "float") for a in ("nx", "ny", "nz")]
+        cols.update(nx=N[..., 0], ny=N[..., 1], nz=N[..., 2])
+        notes.append(NORMALS_NOTE)
     if texture is not None:
-        C = _colors(texture, lead)
+        C = colors_u8(texture, lead)
         fields += [(a, "uchar") for a in ("red", "green", "blue")]
         cols.update(red=C[..., 0], green=C[..., 1], blue=C[..., 2])
-    comments = list(comments)
-    if quality is not None:
-        q = np.asarray(quality, np.float32)
+    for name, (values, description) in (scalars or {}).items():
+        q = np.asarray(values, np.float32)
         if q.shape != lead:
-            raise ValueError(f"quality must be one value per pixel {lead}, got {q.shape}")
-        fields.append(("quality", "float"))
-        cols["quality"] = q
-        comments.append(f"quality: {quality_name or 'per-point quality'}")
+            raise ValueError(f"scalar {name!r} must be one value per point {lead}, got {q.shape}")
+        fields.append((f"scalar_{name}", "float"))
+        cols[f"scalar_{name}"] = q
+        notes.append(f"scalar_{name}: {description}")
     dtype = np.dtype([(name, "<f4" if t == "float" else "u1") for name, t in fields])
     vert = np.empty(int(valid.sum()), dtype)
     for name, _ in fields:
-        vert[name] = np.asarray(cols[name]).ravel()[valid]
+        vert[name] = np.asarray(cols[name])[valid]
     F = None
     if faces:
         remap = np.full(valid.size, -1, np.int64)
-        remap[valid] = np.arange(int(valid.sum()))
+        remap[valid.ravel()] = np.arange(int(valid.sum()))
         F = remap[grid_faces(P)]
     body = _body(vert, F, binary)
     path = Path(path)
     with atomic_path(path) as tmp:
-        with open(tmp, "wb") as f:
-            f.write(_header(len(vert), fields, None if F is None else len(F), comments, binary))
-            f.write(body)
+        _write_bytes(tmp, _header(len(vert), fields, None if F is None else len(F), notes, binary) + body)
     return path
+
+
+def _write_bytes(path: Path, data: bytes) -> None:
+    with open(path, "wb") as f:
+        f.write(data)
 
 
 def _body(vert: np.ndarray, F: np.ndarray | None, binary: bool) -> bytes:
@@ -113,19 +148,27 @@ def _body(vert: np.ndarray, F: np.ndarray | None, binary: bool) -> bytes:
             fd["v"] = F
             out += fd.tobytes()
         return out
-    rows = [" ".join(f"{v:.9g}" if isinstance(v, np.floating) else str(v) for v in r) for r in vert.tolist()]
+    rows = [" ".join(f"{v:.9g}" if isinstance(v, float) else str(v) for v in r) for r in vert.tolist()]
     if F is not None:
         rows += [f"3 {a} {b} {c}" for a, b, c in F.tolist()]
     return ("\n".join(rows) + "\n").encode("ascii")
 
 
-ROUGHNESS_NAME = "local roughness (mm): RMS distance of the 3x3 neighbourhood to its best plane"
+#: The measurement PLY's scalar: ``scalar_roughness_mm``.
+ROUGHNESS_FIELD = "roughness_mm"
+ROUGHNESS_NAME = ("local roughness (mm): RMS distance of the 3x3 neighbourhood to its best plane "
+                  "(NaN with fewer than 5 neighbours)")
 CAMERA_FRAME = "frame: camera coordinates (camera centre at the origin, z along its axis)"
 
 
-def write_measurement_ply(path: str | os.PathLike, points, texture=None, faces: bool = False) -> Path:
-    """A reconstructed point map as a standard PLY: normals, texture colour, ``quality`` = local
-    roughness (mm, :func:`fringe3d.io.grid_mesh.local_roughness`), the version and command in the
-    header and, with ``faces``, the grid's triangles."""
-    return write_standard_ply(path, points, texture, quality=local_roughness(points), quality_name=ROUGHNESS_NAME,
-                              faces=faces, comments=[*provenance_comments(), CAMERA_FRAME])
+def write_measurement_ply(path: str | os.PathLike, points, texture=None, faces: bool = False, mask=None,
+                          binary: bool = True) -> Path:
+    """A reconstructed point map ``(H, W, 3)`` (mm, NaN invalid) as the standard PLY every path
+    writes: normals, texture colour, ``scalar_roughness_mm`` (:func:`fringe3d.io.grid_mesh.local_roughness`),
+    the version and command in the header and, with ``faces``, the grid's triangles."""
+    P = np.asarray(points, np.float32)
+    if mask is not None and P.ndim == 3 and np.shape(mask) == P.shape[:2]:
+        P = np.where(np.asarray(mask, bool)[..., None], P, np.nan)
+    rough = local_roughness(P) if P.ndim == 3 else np.full(P.shape[:-1], np.nan, np.float32)
+    return write_standard_ply(path, P, texture, scalars={ROUGHNESS_FIELD: (rough, ROUGHNESS_NAME)}, mask=mask,
+                              faces=faces, comments=[CAMERA_FRAME], binary=binary)

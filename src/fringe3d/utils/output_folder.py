@@ -78,8 +78,9 @@ class BusyOutputError(OSError):
 
 
 def provenance_comments() -> list[str]:
-    """``fringe3d <version>`` and the command line now writing outputs, for file-header comments."""
-    return [f"fringe3d {version()}", f"command: {command_line()}"]
+    """``fringe3d <version>`` and the command line now writing outputs, for file-header comments
+    (``command: none (Python API)`` when no command line is recorded: never an empty one)."""
+    return [f"fringe3d {version()}", f"command: {command_line() or 'none (Python API)'}"]
 
 
 # -- fingerprints ---------------------------------------------------------------------------
