@@ -121,8 +121,9 @@ def _local_fit_chunk(ph, wt, pts, r, min_valid):
     for _ in range(2):  # fit, drop pixels off by > pi/2 (a stray fringe order), fit again
         wkeep = np.where(keep, wk, 0.0)
         enough = keep.sum(1) >= min_valid
-        AtA = np.einsum("npi,np,npj->nij", A, wkeep, A)
-        Atb = np.einsum("npi,np,np->ni", A, wkeep, val)
+        Aw = A * wkeep[..., None]  # the weighted normal equations as batched matrix products (BLAS)
+        AtA = Aw.transpose(0, 2, 1) @ A
+        Atb = (Aw.transpose(0, 2, 1) @ val[..., None])[..., 0]
         AtA[~enough] = np.eye(6)  # placeholders, discarded below
         coef = np.linalg.solve(AtA, Atb[..., None])[..., 0]
         keep = ok & (np.abs(np.einsum("npi,ni->np", A, coef) - val) < np.pi / 2)
