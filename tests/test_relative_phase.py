@@ -14,11 +14,10 @@ import pytest
 
 from fringe3d.cli import main
 from fringe3d.decode import METHODS
-from fringe3d.decode.phase_kinds import METHOD_KINDS, RELATIVE_METHODS, is_relative
 from fringe3d.decode.plan_checks import RelativePhaseError
 from fringe3d.patterns import sets
 from fringe3d.patterns.layouts import opencv_graycode
-from fringe3d.patterns.manifest import UNWRAP_METHODS
+from fringe3d.patterns.method_registry import is_relative, method_names, relative_methods
 from fringe3d.pipeline import reconstruct_capture
 from fringe3d.sim import presets, simulate_capture
 from fringe3d.sim.truth import Truth
@@ -65,8 +64,8 @@ def truth_rms(out, capture, capsys) -> float:
 
 
 def test_one_table_names_every_method_and_gray_code_only_is_absolute():
-    assert set(METHOD_KINDS) == set(UNWRAP_METHODS) == set(METHODS)
-    assert set(RELATIVE_METHODS) == {"none", "spatial"}
+    assert set(method_names()) == set(METHODS)
+    assert set(relative_methods()) == {"none", "spatial"}
     assert not is_relative("gray_code_only") and not is_relative("histogram") and is_relative("none")
 
 

@@ -28,10 +28,10 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.decode import decode
-from fringe3d.decode.decoder import CODE_METHODS
 from fringe3d.io.capture import read_capture
 from fringe3d.io.importer import layout_patterns, list_sources, read_frames
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
+from fringe3d.patterns.method_registry import method_facts
 from fringe3d.utils.console import progress_bar
 from fringe3d.utils.warning_types import CalibrationWarning
 from fringe3d.utils.jsonfile import read_json
@@ -166,7 +166,8 @@ def check_calibration_set(ps: PatternSet, where: str) -> int:
 def is_code_set(ps: PatternSet) -> bool:
     """Whether every direction of ``ps`` is a Gray/binary code without phase frames (its
     decoded projector coordinates are stripe centres: mapped by local homographies)."""
-    return all(p.method in CODE_METHODS and not ps.groups(direction=p.direction, role="phase") for p in ps.plans)
+    return all(method_facts(p.method).code_only and not ps.groups(direction=p.direction, role="phase")
+               for p in ps.plans)
 
 
 def correspondence_label(ps: PatternSet, window: int) -> str:

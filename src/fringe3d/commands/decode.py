@@ -21,6 +21,7 @@ from fringe3d.io.capture import read_capture, read_meta
 from fringe3d.io.importer import load_images, parse_size
 from fringe3d.patterns.manifest import MANIFEST_NAME
 from fringe3d.patterns.layouts import with_threshold
+from fringe3d.patterns.method_registry import method_names
 from fringe3d.optics import Rig
 from fringe3d.phase.ftp import WINDOWS
 from fringe3d.decode.result import SUMMARY_NAME
@@ -111,7 +112,8 @@ def register(app: typer.Typer) -> None:
                                       help="Flip the FTP phase sign (a mirrored view decoded without --calibration)."),
         method: str = typer.Option(None, "--method",
                                    help="Unwrapping method for every direction, overriding the manifest's plans "
-                                        "(e.g. spatial for a single 3-step set; gray_code_only for codes)."),
+                                        "(e.g. spatial for a single 3-step set; gray_code_only for codes). "
+                                        f"One of: {', '.join(method_names())}."),
         white_thr: float = typer.Option(None, "--white-thr",
                                         help="Code-only decoding: smallest code/inverse difference (counts; "
                                              "default OpenCV's 5 at 8 bits, scaled to the bit depth)."),

@@ -8,7 +8,7 @@ import typer
 
 from fringe3d.analyze.evaluation import evaluate_points, load_points, truth_frame_index
 from fringe3d.analyze.truth_points import TruthPoints, load_truth_points
-from fringe3d.decode.phase_kinds import METHOD_KINDS, is_relative
+from fringe3d.patterns.method_registry import is_known, is_relative
 from fringe3d.sim.truth import Truth
 from fringe3d.utils.console import console, make_table, print_json, set_quiet, warn
 from fringe3d.utils.jsonfile import write_json
@@ -38,7 +38,7 @@ def relative_phase(info: dict) -> dict[str, str]:
     """``{direction: method}`` of the directions a reconstruction triangulated from wrapped or
     relative phase, from its reconstruct.json (``methods``, ``relative_phase``); empty otherwise."""
     methods = info.get("methods") if isinstance(info.get("methods"), dict) else {}
-    out = {d: m for d, m in methods.items() if m in METHOD_KINDS and is_relative(m)}
+    out = {d: m for d, m in methods.items() if is_known(m) and is_relative(m)}
     for d in info.get("relative_phase") or []:
         out.setdefault(str(d), str(methods.get(d, "relative")))
     return out

@@ -5,12 +5,12 @@ from __future__ import annotations
 from contextlib import contextmanager
 from typing import Iterator
 
-from fringe3d.decode.phase_kinds import method_kind
 from fringe3d.decode.plan_checks import MissingGeometryError, RelativePhaseError
+from fringe3d.patterns.method_registry import method_facts
 
 
 def _fix(method: str, z_min: float | None) -> str:
-    if not method_kind(method).geometry:
+    if not method_facts(method).geometry:
         return f"--method {method}"
     return f"--method {method} --z-min {'MM' if z_min is None else f'{z_min:g}'}"
 

@@ -16,13 +16,13 @@ from fringe3d.commands.output_options import allow_empty_option, overwrite_optio
 from fringe3d.commands.plan_errors import in_flag_words
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.decode import decode
-from fringe3d.decode.phase_kinds import METHOD_KINDS
 from fringe3d.decode.plan_checks import check_plans
 from fringe3d.gpu import BACKENDS, cuda_module
 from fringe3d.io.capture import list_frame_files, open_frames, read_capture
 from fringe3d.io.store import CODECS
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import MANIFEST_NAME
+from fringe3d.patterns.method_registry import method_names, relative_methods
 from fringe3d.utils.output_folder import open_output
 from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
 from fringe3d.reconstruct.depth import EmptyMaskError
@@ -44,7 +44,6 @@ from fringe3d.utils.jsonfile import write_json
 #: Units of reconstruct.json's fields.
 RECONSTRUCT_UNITS = {"depth_min": "mm", "depth_max": "mm", "z_min": "mm", "valid_share": "1",
                      "shape": "px (rows, columns)", "seconds": "s", "points": "mm (camera frame)"}
-METHODS = tuple(METHOD_KINDS)
 
 
 def empty_reason(cap, patterns, rig, min_modulation) -> str:
@@ -89,7 +88,7 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(..., "-o", "--output", help="Output folder."),
         method: str = typer.Option(None, "--method", "-m",
                                    help=f"Unwrapping method for every direction (default: the manifest's plans). "
-                                        f"One of: {', '.join(METHODS)}."),
+                                        f"One of: {', '.join(method_names())}."),
         z_min: float = typer.Option(None, "--z-min", help="Nearest depth of the scene (mm), for geometric methods."),
         z_min_from: Path = typer.Option(None, "--z-min-from",
                                         help="Propose z_min from a reference measurement (points.npy or a reconstruct "
@@ -132,7 +131,8 @@ def register(app: typer.Typer) -> None:
         overwrite: bool = overwrite_option(),
         allow_empty: bool = allow_empty_option(),
         allow_relative: bool = typer.Option(False, "--allow-relative",
-                                            help="Triangulate a wrapped or relative phase (method none or spatial) "
+                                            help=f"Triangulate a wrapped or relative phase (method "
+                                                 f"{' or '.join(relative_methods())}) "
                                                  "anyway: its 3D is off by an unknown number of fringe periods in "
                                                  "depth; reconstruct.json marks it (relative_phase) and evaluate "
                                                  "says so. Default: refuse, naming the absolute methods."),
@@ -155,8 +155,8 @@ def register(app: typer.Typer) -> None:
         """
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
-        if method is not None and method not in METHODS:
-            raise ValueError(f"unknown --method {method!r}; expected one of {', '.join(METHODS)}")
+        if method is not None and method not in method_names():
+            raise ValueError(f"unknown --method {method!r}; expected one of {', '.join(method_names())}")
         check_number(min_modulation, "--min-modulation", minimum=0)
         check_number(z_min, "--z-min")
         check_number(z_margin, "--z-margin", minimum=0)

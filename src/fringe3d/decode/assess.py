@@ -10,8 +10,8 @@ import numpy as np
 
 from fringe3d.decode import edges
 from fringe3d.decode.context import DecodeContext, PhaseGroup
-from fringe3d.decode.phase_kinds import RELATIVE_METHODS
 from fringe3d.patterns.conventions import phase_to_w
+from fringe3d.patterns.method_registry import is_relative
 from fringe3d.phase import noise
 
 
@@ -109,7 +109,7 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     lo, hi = ctx.w_range()
     f = edges.oblique_factor(ctx.plan.angle)  # w-extent of a pixel, w-width of the band (edges docstring)
     # a relative phase (one unknown 2 pi k per object) has no place on the projector: no EDGE test
-    extent = None if ctx.plan.method in RELATIVE_METHODS else (lo - 0.5 * f, hi + 0.5 * f)
+    extent = None if is_relative(ctx.plan.method) else (lo - 0.5 * f, hi + 0.5 * f)
     q = edges.quality_map(mask, w, extent, margin * f, modulation, average, residual,
                           max_disagreement=float(opts.max_disagreement), gradient_ratio=float(opts.gradient_ratio),
                           modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim), order=order,

@@ -18,16 +18,16 @@ import numpy as np
 from fringe3d.decode import edges
 from fringe3d.decode.assess import assess
 from fringe3d.decode.context import DecodeContext, phase_groups
+from fringe3d.decode.method_plans import plans_to_decode as _plans
 from fringe3d.decode.method_plans import with_method  # noqa: F401  (re-exported: fringe3d.decode.with_method)
 from fringe3d.decode.methods import method_for
 from fringe3d.decode.options import DecodeOptions
-from fringe3d.decode.phase_kinds import CODE_METHODS, RELATIVE_METHODS
-from fringe3d.decode.phase_kinds import plans_to_decode as _plans
 from fringe3d.decode.result import Decoded, Unwrapped
 from fringe3d.decode.texture import as_fraction
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import w_range
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
+from fringe3d.patterns.method_registry import code_only_methods, is_relative, method_facts
 from fringe3d.phase import quality
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.utils.console import progress_bar
@@ -130,10 +130,10 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     for plan in plans:
         ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig,
                             options=opts, min_modulation=min_mod)
-        if not groups_of[plan.direction] and plan.method not in CODE_METHODS:
+        if not groups_of[plan.direction] and not method_facts(plan.method).code_only:
             raise ValueError(f"direction {plan.direction!r} has an unwrapping plan ({plan.method}) but no phase frames "
                              "in the manifest; the decoder needs phase-shifted or FTP frames, or code frames with "
-                             f"one of the code methods {list(CODE_METHODS)}")
+                             f"one of the code methods {list(code_only_methods())}")
         result = method_for(plan.method)(ctx)
         phi, mask = result.phase, result.mask
         # narrowest group of the plan (= ctx.groups_for_plan()[0] without re-reading the manifest thrice)
@@ -218,7 +218,7 @@ def mask_projector_border(out: Decoded, ps: PatternSet, plans: list[DirectionPla
     the larger edge margin of any projector border, or where one direction's own band test set
     EDGE (the same projector pixel lights the pixel in every direction), in place; mask and phase
     follow. One oblique direction alone sees only part of that band (:mod:`fringe3d.decode.edges`)."""
-    usable = [p for p in plans if p.method not in RELATIVE_METHODS and _spans_projector(p, ps)
+    usable = [p for p in plans if not is_relative(p.method) and _spans_projector(p, ps)
               and "edge_margin" in out.info.get("quality", {}).get(p.direction, {})]
     pair = next(((a, b) for i, a in enumerate(usable) for b in usable[i + 1:]
                  if abs(math.sin(a.angle - b.angle)) > 0.1), None)

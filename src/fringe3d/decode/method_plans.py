@@ -4,7 +4,8 @@ manifest holds.
 :func:`with_method` replaces every direction's plan by ``method``; for a direction with phase
 frames :func:`plan_for_method` also picks the periods the method needs (the narrowest; the
 narrowest and the coarsest; all of them) or says what the manifest lacks; a code-only direction
-(Gray/binary code frames, no phase) keeps its code and takes the method as given.
+(Gray/binary code frames, no phase) keeps its code and takes the method as given. What a method
+needs and which periods it takes are its facts in :mod:`fringe3d.patterns.method_registry`.
 """
 from __future__ import annotations
 
@@ -13,14 +14,7 @@ import dataclasses
 from fringe3d.decode.context import phase_groups
 from fringe3d.decode.methods import method_for
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
-
-#: What each unwrapping method needs from a direction: (minimum phase groups, code kind or None).
-METHOD_NEEDS = {
-    "none": (1, None), "geometric": (1, None), "spatial": (1, None), "histogram": (1, None),
-    "two_frequency_geometric": (2, None), "hierarchical": (2, None), "heterodyne": (2, None),
-    "hybrid": (2, None), "gray_code": (1, "gray_code"), "binary_code": (1, "binary_code"),
-}
-
+from fringe3d.patterns.method_registry import ALL, NARROWEST_AND_COARSEST, method_facts
 
 def _group_periods(ps: PatternSet, direction: str) -> list[float]:
     return [g.period for g in phase_groups(ps, direction)]
@@ -29,12 +23,13 @@ def _group_periods(ps: PatternSet, direction: str) -> list[float]:
 def plan_for_method(ps: PatternSet, direction: str, method: str) -> DirectionPlan:
     """A plan that unwraps ``direction`` of ``ps`` with ``method``, or a ValueError saying what
     the manifest lacks ("a method the manifest cannot feed")."""
-    if method not in METHOD_NEEDS:
-        raise ValueError(f"unknown unwrapping method {method!r}; expected one of {sorted(METHOD_NEEDS)}")
+    facts = method_facts(method)
+    if facts.groups < 1:
+        raise ValueError(f"method {method!r} reads code frames only; it takes no phase groups (periods)")
     for p in ps.plans:
         if p.direction == direction and p.method == method:
             return p
-    need_groups, code = METHOD_NEEDS[method]
+    need_groups, code = facts.groups, facts.code
     periods = sorted(_group_periods(ps, direction))
     label = ps.name or "unnamed set"
     if len(periods) < need_groups:
@@ -45,9 +40,9 @@ def plan_for_method(ps: PatternSet, direction: str, method: str) -> DirectionPla
         raise ValueError(f"method {method!r} needs {code} frames for direction {direction!r}, but the manifest "
                          f"({label}) has none; choose a method the pattern set can feed")
     chosen: tuple[float, ...]
-    if method in ("two_frequency_geometric", "hybrid"):
+    if facts.periods == NARROWEST_AND_COARSEST:
         chosen = (periods[0], periods[-1])
-    elif method in ("hierarchical", "heterodyne"):
+    elif facts.periods == ALL:
         chosen = tuple(periods)
     else:
         chosen = (periods[0],)
@@ -71,10 +66,11 @@ def with_method(ps: PatternSet, method: str | None) -> PatternSet:
     if method is None:
         return ps
     method_for(method)
+    takes_groups = method_facts(method).groups > 0
     plans = []
     for d in ps.directions():
         old = next((p for p in ps.plans if p.direction == d), None)
-        if ps.groups(direction=d, role="phase") and method in METHOD_NEEDS:
+        if ps.groups(direction=d, role="phase") and takes_groups:
             plans.append(plan_for_method(ps, d, method))
         elif old is not None:
             plans.append(dataclasses.replace(old, method=method))
@@ -82,3 +78,17 @@ def with_method(ps: PatternSet, method: str | None) -> PatternSet:
             angle = ps.frames[ps.indices(direction=d)[0]].angle
             plans.append(DirectionPlan(direction=d, angle=angle, method=method))
     return dataclasses.replace(ps, plans=tuple(plans))
+
+
+def plans_to_decode(ps: PatternSet) -> list[DirectionPlan]:
+    """The plans the decoder runs: the manifest's, plus ``method="none"`` (wrapped phase) for
+    every direction with phase frames but no plan; ValueError when there is nothing to decode."""
+    plans = list(ps.plans)
+    planned = {p.direction for p in plans}
+    for d in ps.directions():
+        if d not in planned and ps.groups(direction=d, role="phase"):
+            f = ps.frames[ps.indices(direction=d)[0]]
+            plans.append(DirectionPlan(direction=d, angle=f.angle, method="none"))
+    if not plans:
+        raise ValueError("the pattern manifest has no phase frames and no unwrapping plans; nothing to decode")
+    return plans

@@ -1,6 +1,6 @@
 """What a reconstruction checks on its unwrapping plans before anything is computed or written.
 
-* Every direction that triangulates must have an absolute phase (:mod:`fringe3d.decode.phase_kinds`):
+* Every direction that triangulates must have an absolute phase (:mod:`fringe3d.patterns.method_registry`):
   3D from a wrapped or relative phase is off by an unknown number of fringe periods along every
   ray, so :func:`check_plans` raises :class:`RelativePhaseError` naming, for each such direction,
   the absolute methods the manifest can feed (and, when ``z_min`` is known, how deep the
@@ -20,10 +20,11 @@ from typing import Callable
 
 import numpy as np
 
-from fringe3d.decode.method_plans import plan_for_method
-from fringe3d.decode.phase_kinds import WRAPPED, is_relative, method_kind, plans_to_decode
+from fringe3d.decode.method_plans import plan_for_method, plans_to_decode
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
+from fringe3d.patterns.method_registry import WRAPPED, is_relative
+from fringe3d.patterns.method_registry import method_facts as method_kind
 from fringe3d.unwrap.geometric import cached_minimum_phase, depth_limit
 
 #: Absolute methods offered instead of a relative plan, best first: the codes (no depth limit),

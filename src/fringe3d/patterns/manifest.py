@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from fringe3d.patterns.manifest_schema import ManifestModel
+from fringe3d.patterns.method_registry import method_facts
 from fringe3d.utils.jsonfile import read_json, write_json
 from fringe3d.utils.provenance import PROVENANCE_KEY
 from fringe3d.utils.schema import validate
@@ -51,11 +52,6 @@ FRAME_KINDS = (
 )
 #: What a frame is used for by the decoder.
 FRAME_ROLES = ("phase", "code", "reference", "texture")
-#: Unwrapping methods a direction may name.
-UNWRAP_METHODS = (
-    "none", "hierarchical", "heterodyne", "gray_code", "binary_code", "gray_code_only",
-    "geometric", "two_frequency_geometric", "hybrid", "spatial", "histogram",
-)
 
 
 @dataclass(frozen=True)
@@ -117,7 +113,8 @@ class FrameSpec:
 class DirectionPlan:
     """How one fringe direction is unwrapped.
 
-    ``method`` is one of :data:`UNWRAP_METHODS`; ``periods`` lists the phase groups' periods
+    ``method`` is a registered unwrapping method
+    (:func:`fringe3d.patterns.method_registry.method_names`); ``periods`` lists the phase groups' periods
     from the one to be unwrapped (narrowest, first) to the coarsest; ``options`` holds
     method-specific settings (JSON-serialisable).
     """
@@ -129,8 +126,7 @@ class DirectionPlan:
     options: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.method not in UNWRAP_METHODS:
-            raise ValueError(f"unknown unwrap method {self.method!r}; expected one of {UNWRAP_METHODS}")
+        method_facts(self.method)  # ValueError naming the registered methods
 
 
 @dataclass(frozen=True)

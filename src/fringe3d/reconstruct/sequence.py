@@ -30,12 +30,12 @@ import numba
 import numpy as np
 
 from fringe3d.decode.context import phase_groups
-from fringe3d.decode.method_plans import METHOD_NEEDS, plan_for_method  # noqa: F401  (re-exported)
+from fringe3d.decode.method_plans import plan_for_method  # noqa: F401  (re-exported)
 from fringe3d.decode.method_plans import with_method as plans_with_method
 from fringe3d.decode.decoder import decode
 from fringe3d.decode.edges import INVALID, oblique_factor
 from fringe3d.decode.options import DecodeOptions
-from fringe3d.decode.phase_kinds import method_kind
+from fringe3d.patterns.method_registry import method_facts
 from fringe3d.decode.plan_checks import check_plans
 from fringe3d.decode.texture import as_fraction, fringe_texture
 from fringe3d.gpu.runtime import check_backend
@@ -66,7 +66,7 @@ def with_method(ps: PatternSet, method: str | None) -> PatternSet:
     with code frames; ``ValueError`` when the manifest has none."""
     if method is None:
         return ps
-    code = method_kind(method).code
+    code = method_facts(method).code_only
     dirs = [d for d in ps.directions() if ps.groups(direction=d, role="phase") or
             (code and ps.indices(role="code", direction=d))]
     if not dirs:
