@@ -81,10 +81,9 @@ def method_for(name: str) -> Method:
     try:
         return METHODS[name]
     except KeyError:
-        if is_known(name):
-            raise ValueError(f"unwrapping method {name!r} has facts in the method registry but no function; "
-                             "register it with fringe3d.decode.register_method") from None
-        raise ValueError(f"unknown unwrapping method {name!r}; known methods: {sorted(METHODS)}") from None
+        why = ("has facts in the method registry but no function (register it with "
+               "fringe3d.decode.register_method)" if is_known(name) else "is unknown")
+        raise ValueError(f"unwrapping method {name!r} {why}; known methods: {sorted(METHODS)}") from None
 
 
 def run_method(ctx: DecodeContext) -> Unwrapped:
