@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -107,3 +108,6 @@ def test_the_user_guide_table_is_the_registry():
     assert set(BUILTIN_METHODS) <= set(method_names())
     assert set(BUILTIN_METHODS) == {m for m in METHODS if m != NAME}
     assert methods_table(BUILTIN_METHODS) in DOCS.read_text(encoding="utf-8")
+    formats = (DOCS.parent / "file-formats.md").read_text(encoding="utf-8")
+    row = next(line for line in formats.splitlines() if line.startswith("| `method` | string |"))
+    assert set(re.findall(r"`([a-z_]+)`", row)) - {"method"} == set(BUILTIN_METHODS)
