@@ -124,7 +124,8 @@ def method_facts(name: str) -> MethodFacts:
     try:
         return _REGISTRY[name]
     except (KeyError, TypeError):
-        raise ValueError(f"unknown unwrapping method {name!r}; expected one of {list(_REGISTRY)}") from None
+        raise ValueError(f"unknown unwrapping method {name!r}; expected one of {list(_REGISTRY)} (a method of "
+                         "your own: fringe3d.decode.register_method before the manifest is read)") from None
 
 
 def is_known(name: str) -> bool:
