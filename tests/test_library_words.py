@@ -81,8 +81,8 @@ def test_every_flag_of_the_table_is_an_option_of_the_command_line():
 def test_backticked_table_words_become_flags_and_nothing_else_changes():
     assert in_flag_words("pass `z_min`, or `overwrite=True`; `store_quality=False`") == \
         "pass --z-min, or --overwrite; --no-store-quality"
-    assert in_flag_words("z_min and 'z_min' and `z_min_from` and `dask worker`") == \
-        "z_min and 'z_min' and `z_min_from` and `dask worker`"
+    assert in_flag_words("z_min and 'z_min' and `z_min_mm` and `dask worker`") == \
+        "z_min and 'z_min' and `z_min_mm` and `dask worker`"
 
 
 def test_a_python_caller_is_told_the_parameter_and_the_command_line_user_the_flag(tmp_path, capsys):

@@ -12,6 +12,7 @@ import re
 #: backticked library word -> the flag (or command) a command-line user types instead
 FLAGS: dict[str, str] = {
     "accept_poor=True": "--accept-poor",
+    "allow_relative=True": "--allow-relative",
     "anchors": "--anchors",
     "auto=True": "--auto",
     "backend='cpu'": "--device cpu",
@@ -38,6 +39,7 @@ FLAGS: dict[str, str] = {
     "layout": "--set/--layout",
     "list_file": "--list",
     "manifest": "--manifest",
+    "method": "--method",
     "min_modulation": "--min-modulation",
     "node": "--node",
     "overwrite=True": "--overwrite",
@@ -64,6 +66,7 @@ FLAGS: dict[str, str] = {
     "window": "--window",
     "workers": "--workers",
     "z_min": "--z-min",
+    "z_min_from": "--z-min-from",
 }
 
 _BACKTICKED = re.compile(r"`([^`\s]+)`")
