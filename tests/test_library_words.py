@@ -41,9 +41,9 @@ def _docstrings(tree: ast.AST) -> set[int]:
     return out
 
 
-def _flag_literals() -> list[str]:
-    """Every string literal (f-string parts included, docstrings left out) of a library module
-    outside ``commands/`` and ``cli.py`` that holds ``--`` followed by a letter, and is not allowed."""
+def _library_literals() -> list[tuple[str, int, str]]:
+    """(module, line, text) of every string literal (f-string parts included, docstrings left
+    out) of the library modules outside ``commands/`` and ``cli.py``."""
     found = []
     for path in sorted(PACKAGE.rglob("*.py")):
         rel = path.relative_to(PACKAGE).as_posix()
@@ -51,16 +51,20 @@ def _flag_literals() -> list[str]:
             continue
         tree = ast.parse(path.read_text(encoding="utf-8"))
         docs = _docstrings(tree)
-        for node in ast.walk(tree):
-            if (isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docs
-                    and FLAG.search(node.value)
-                    and not any(rel == m and text in node.value for m, text in ALLOWED)):
-                found.append(f"{rel}:{node.lineno}: {node.value!r}")
+        found += [(rel, node.lineno, node.value) for node in ast.walk(tree)
+                  if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docs]
     return found
 
 
 def test_no_library_string_outside_the_commands_names_a_flag():
-    assert _flag_literals() == []
+    flags = [f"{rel}:{line}: {text!r}" for rel, line, text in _library_literals()
+             if FLAG.search(text) and not any(rel == m and part in text for m, part in ALLOWED)]
+    assert flags == []
+
+
+def test_every_backticked_word_of_a_library_string_has_its_flag_in_the_table():
+    words = {(rel, w) for rel, _, text in _library_literals() for w in re.findall(r"`([^`\s]+)`", text)}
+    assert words and {(rel, w) for rel, w in words if w not in FLAGS} == set()
 
 
 def test_every_flag_of_the_table_is_an_option_of_the_command_line():

@@ -43,6 +43,7 @@ FLAGS: dict[str, str] = {
     "min_modulation": "--min-modulation",
     "node": "--node",
     "overwrite=True": "--overwrite",
+    "patterns": "the pattern folder (fringe3d patterns --set calibration)",
     "period": "--period",
     "poses": "--poses",
     "preview=True": "--preview",
