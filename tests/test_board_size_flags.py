@@ -30,7 +30,7 @@ def chessboard_image(cols: int, rows: int) -> tuple[np.ndarray, np.ndarray]:
 def test_a_chessboard_stated_smaller_than_the_image_is_refused_not_matched_as_a_sub_grid():
     img, corners = chessboard_image(10, 8)  # 9x7 inner corners
     for stated in (ChessBoard(cols=7, rows=5, spacing=10.0), ChessBoard(cols=9, rows=7, spacing=10.0)):
-        with pytest.raises(ValueError, match=r"9x7 inner corners.*--inner-corners 9x7"):
+        with pytest.raises(ValueError, match=r"9x7 inner corners.*`inner_corners` 9x7"):
             locate_board(img, stated)
     uv, why = locate_board(img, ChessBoard(cols=10, rows=8, spacing=10.0))
     assert why == "" and uv.shape == (63, 2)

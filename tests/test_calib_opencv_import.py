@@ -111,7 +111,7 @@ def test_missing_node_names_the_node_and_the_file(tmp_path, capsys):
     assert rc == 2 and "'T'" in capsys.readouterr().err and not (tmp_path / "r.json").exists()
     _write_filestorage(yaml, {"K1": np.eye(3), "D1": np.zeros((1, 5)), "K2": np.eye(3), "D2": np.zeros((1, 5)),
                               "R": np.eye(3), "T": np.zeros((3, 1))})
-    with pytest.raises(ValueError, match="cam_size.*--camera-size"):
+    with pytest.raises(ValueError, match="cam_size.*`camera_size`"):
         load_opencv_calibration(yaml)
 
 

@@ -55,7 +55,7 @@ def test_a_gray_code_session_of_a_larger_grid_is_refused_naming_the_pose_and_the
     stated = CircleBoard(cols=9, rows=6, spacing=ss.board.spacing, radius=ss.board.radius)
     white = ss.poses[0].patterns.indices(kind="white")[0]
     with pytest.raises(ValueError, match=rf"pose pose_00, white frame \(frame {white}\): .*at least 9x7 circles "
-                                         r"where 9x6 were given.*Pass --cols 9 --rows 7"):
+                                         r"where 9x6 were given.*Pass `cols` 9 `rows` 7"):
         observe_session(ss.poses, stated, progress=False)
 
 
@@ -80,7 +80,7 @@ def test_an_asymmetric_grid_is_found_whole_and_a_part_of_it_grows_back_to_the_wh
     i, j = np.divmod(np.arange(part.count), part.cols)
     assert grid_extent(blobs, sizes, uv, board) == (4, 9)
     assert grid_extent(blobs, sizes, uv[(i + 2) * board.cols + j + 1], part) == (4, 9)
-    with pytest.raises(ValueError, match=r"larger asymmetric circle grid: at least 4x9 circles where 3x7.*--cols 4"):
+    with pytest.raises(ValueError, match=r"larger asymmetric circle grid: at least 4x9 circles where 3x7.*`cols` 4"):
         check_not_larger(blobs, sizes, uv[(i + 2) * board.cols + j + 1], part)
 
 

@@ -341,7 +341,7 @@ def test_frames_read_as_several_one_direction_cycles_warn_about_two_directions(t
     write_interleaved_gray_code(tmp_path / "src", white_black=True)  # 13 frames: 6 column + 5 row bits + 2
     for f in sorted((tmp_path / "src").glob("*.png"))[:1]:
         f.unlink()  # 12 frames: two 6-frame cycles of a one-direction, inverse-free 64-px code
-    with pytest.warns(DataQualityWarning, match=r"2 cycles.*--direction v,h"):
+    with pytest.warns(DataQualityWarning, match=r"2 cycles.*`direction` v,h"):
         import_images(tmp_path / "src", tmp_path / "cap", layout="gray-code", projector_size=(64, 32), period=1,
                       inverse=False, threshold=115)
 

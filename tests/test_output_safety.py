@@ -168,7 +168,7 @@ def test_a_second_writer_is_stopped_by_a_lock_that_names_its_holder(tmp_path, ca
 def test_single_file_outputs_need_overwrite(tmp_path):
     target = tmp_path / "calib.json"
     target.write_text("{}")
-    with pytest.raises(ValueError, match="exists; choose another name or pass --overwrite"):
+    with pytest.raises(ValueError, match="exists; choose another name or pass `overwrite=True`"):
         with open_output_file(target):
             pass
     with open_output_file(target, overwrite=True):

@@ -23,6 +23,7 @@ from rich.markup import escape
 
 from fringe3d import __version__
 from fringe3d.commands.lazy import LazyCommands
+from fringe3d.commands.flag_words import in_flag_words
 from fringe3d.gpu.runtime import CudaUnavailableError
 from fringe3d.utils.console import err_console, set_quiet, settings, warn
 from fringe3d.utils.output_folder import (
@@ -78,7 +79,7 @@ def show_warning(message, category, filename, lineno, file=None, line=None) -> N
     """``warnings.showwarning`` of the CLI: fringe3d's warnings as ``warning: <message>`` lines
     on stderr, any other warning as Python shows it."""
     if issubclass(category, Fringe3DWarning):
-        warn(str(message))
+        warn(in_flag_words(str(message)))
     else:
         _python_showwarning(message, category, filename, lineno, file, line)
 
@@ -93,14 +94,14 @@ def _interrupted() -> int:
         what, done, total = settings.progress
         where = f"; {done} of {total} done ({what})" if total else f"; {done} done ({what})"
     note = output_note() or "Nothing unfinished is marked complete"
-    err_console.print(f"[bold red]interrupted[/]{escape(where)}. {escape(note)}.")
+    err_console.print(f"[bold red]interrupted[/]{escape(where)}. {escape(in_flag_words(note))}.")
     return EXIT_INTERRUPTED
 
 
 def _with_note(message: str) -> str:
     """``message`` and, when an output block did not finish, what became of its output."""
     note = output_note()
-    return f"{message}. {note}" if note else message
+    return in_flag_words(f"{message}. {note}" if note else message)
 
 
 def _internal(e: BaseException) -> int:

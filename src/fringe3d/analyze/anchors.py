@@ -62,7 +62,7 @@ def find_anchor_dots(texture: np.ndarray, count: int = 2, min_area: float = 4.0,
     blobs = dark_dots(texture, min_area, max_area, darkness, surface)
     if len(blobs) < count:
         raise ValueError(f"found {len(blobs)} anchor dot(s) in the texture image; expected {count} dark dots "
-                         f"of {min_area:g}–{max_area:g} px on the surface (pass --anchors u1,v1,u2,v2 instead)")
+                         f"of {min_area:g}–{max_area:g} px on the surface (pass `anchors` u1,v1,u2,v2 instead)")
     pts = blobs[:count, :2]
     return pts[np.lexsort((pts[:, 1], pts[:, 0]))]
 
@@ -212,8 +212,8 @@ def follow_anchors(texture, n_frames: int, start: list[np.ndarray], search: floa
 def auto_anchors(seq: PointSequence, wings: int) -> list[np.ndarray]:
     """Detect 2 × ``wings`` dark dots in the reference texture and pair them per wing."""
     if not seq.has_texture:
-        raise ValueError(f"--anchors auto needs texture images in {seq.source} (texture_00000.npy/.png or a "
-                         "'texture' array); none found. Pass --anchors u1,v1,u2,v2 instead")
+        raise ValueError(f"`anchors` auto needs texture images in {seq.source} (texture_00000.npy/.png or a "
+                         "'texture' array); none found. Pass `anchors` u1,v1,u2,v2 instead")
     dots = find_anchor_dots(seq.texture(0), count=2 * wings)
     return pair_anchors(dots, seq[0]) if wings > 1 else [dots]
 

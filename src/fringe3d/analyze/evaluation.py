@@ -47,7 +47,7 @@ def load_points(result: Path, frame: int = 0) -> tuple[np.ndarray, dict]:
         if (result / "points.zarr").exists():
             st = PointMapStore.open_existing(result / "points.zarr")
             if not 0 <= frame < st.frames:
-                raise ValueError(f"--frame {frame} is outside the store's 3D frames 0..{st.frames - 1}")
+                raise ValueError(f"`frame` {frame} is outside the store's 3D frames 0..{st.frames - 1}")
             if not st.is_done(frame):
                 raise ValueError(f"3D frame {frame} of {result / 'points.zarr'} was never completed; rerun reconstruct")
             info["frame"] = frame
@@ -242,7 +242,7 @@ def evaluate_points(points: np.ndarray, truth=None, *, sphere: bool = False, pla
         out["truth"] = truth_point_errors(points, truth)
     elif t is not None:
         if not organized:
-            raise ValueError("--truth needs an organized point map (points.npy / points.zarr), not a PLY cloud")
+            raise ValueError("`truth` needs an organized point map (points.npy / points.zarr), not a PLY cloud")
         out["truth"] = truth_errors(points, t)
         ok = np.isfinite(points[..., 0]) & t.mask
         err = np.where(ok, np.linalg.norm(np.where(ok[..., None], points - t.xyz, 0.0), axis=-1), np.nan)
@@ -258,12 +258,12 @@ def evaluate_points(points: np.ndarray, truth=None, *, sphere: bool = False, pla
             return [(m, oid) for oid, m in objs[:n]]
         if not organized:
             if n > 1:
-                raise ValueError("--ball-bar needs an organized point map to separate the spheres")
+                raise ValueError("`ball_bar` needs an organized point map to separate the spheres")
             return [(None, None)]
         objs = measured_objects(points, kind)
         if len(objs) < n:
             raise ValueError(f"found {len(objs)} {kind}-like surface(s) in the point map, need {n} "
-                             "(pass --truth to pick objects from the simulator's ids)")
+                             "(pass `truth` to pick objects from the simulator's ids)")
         return [(m, None) for m in objs[:n]]
 
     def true_fit(oid, m):

@@ -159,22 +159,22 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
     seconds (else frame numbers)."""
     t0 = time.perf_counter()
     if not (thickness > 0):
-        raise ValueError(f"--thickness must be > 0 mm; got {thickness}")
+        raise ValueError(f"`thickness` must be > 0 mm; got {thickness}")
     if window < 3 or window % 2 == 0:
-        raise ValueError(f"--window must be an odd number of pixels ≥ 3; got {window}")
+        raise ValueError(f"`window` must be an odd number of pixels ≥ 3; got {window}")
     if step < 1:
-        raise ValueError(f"--step must be ≥ 1 pixel; got {step}")
+        raise ValueError(f"`step` must be ≥ 1 pixel; got {step}")
     if workers < 1:
-        raise ValueError(f"--workers must be ≥ 1; got {workers}")
+        raise ValueError(f"`workers` must be ≥ 1; got {workers}")
     if frame_rate is not None and not frame_rate > 0:
-        raise ValueError(f"--frame-rate must be > 0 Hz; got {frame_rate}")
+        raise ValueError(f"`frame_rate` must be > 0 Hz; got {frame_rate}")
     if frames is not None and workers != 1:
-        raise ValueError(f"--workers {workers} (threads) runs the frames in this process; it cannot be combined "
+        raise ValueError(f"`workers` {workers} (threads) runs the frames in this process; it cannot be combined "
                          "with another frame scheduler (Dask)")
     start = parse_anchors(anchors)
     seq = read_point_sequence(sequence)
     if not (0 <= reference < len(seq)):
-        raise ValueError(f"--reference {reference} is outside the sequence's {len(seq)} frames")
+        raise ValueError(f"`reference` {reference} is outside the sequence's {len(seq)} frames")
     if start is None:
         start = auto_anchors(seq, wings)
     ref = seq[reference]

@@ -120,7 +120,7 @@ def check_not_larger(img8: np.ndarray, board: ChessBoard) -> None:
     c, r = board.pattern_size
     raise ValueError(f"the image shows a chessboard of {a}x{b} inner corners ({a + 1}x{b + 1} squares), larger "
                      f"than the stated {board.describe()}: only a {c}x{r} part of it would be matched. State the "
-                     f"board as OpenCV counts it, --inner-corners {a}x{b} (or --cols {a + 1} --rows {b + 1} squares)")
+                     f"board as OpenCV counts it, `inner_corners` {a}x{b} (or `cols` {a + 1} `rows` {b + 1} squares)")
 
 
 def find_charuco(image: np.ndarray, board: CharucoBoard,
@@ -135,7 +135,7 @@ def find_charuco(image: np.ndarray, board: CharucoBoard,
     if marker_ids is not None and len(marker_ids) and int(np.max(marker_ids)) >= markers:
         raise ValueError(f"the image shows {board.dictionary} marker id {int(np.max(marker_ids))}, but the stated "
                          f"{board.describe()} has markers 0..{markers - 1}: the board is larger than stated "
-                         "(--cols/--rows count squares; --inner-corners COLSxROWS counts corners as OpenCV does)")
+                         "(`cols`/`rows` count squares; `inner_corners` COLSxROWS counts corners as OpenCV does)")
     n = 0 if ids is None else len(np.asarray(ids).ravel())
     if n < min_corners:
         return None, "not found" if n == 0 else f"only {n} corner(s) seen; need {min_corners}"

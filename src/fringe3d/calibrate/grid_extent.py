@@ -110,6 +110,6 @@ def check_not_larger(blobs: np.ndarray, sizes: np.ndarray, uv: np.ndarray, board
         return
     kind = "asymmetric circle grid" if board.asymmetric else "circle grid"
     raise ValueError(f"the image holds a larger {kind}: at least {cols}x{rows} circles where "
-                     f"{board.cols}x{board.rows} were given (--cols {board.cols} --rows {board.rows}); only part of "
+                     f"{board.cols}x{board.rows} were given (`cols` {board.cols} `rows` {board.rows}); only part of "
                      "it would be matched, with wrong board coordinates. "
-                     f"Pass --cols {cols} --rows {rows}")
+                     f"Pass `cols` {cols} `rows` {rows}")

@@ -84,9 +84,9 @@ def parse_node_map(items) -> dict[str, str]:
     for item in items or ():
         key, sep, node = str(item).partition("=")
         if not sep or not node or key not in NODE_CANDIDATES:
-            raise ValueError(f"--node {item!r}: expected KEY=NODE with KEY one of {', '.join(NODE_CANDIDATES)}")
+            raise ValueError(f"`node` {item!r}: expected KEY=NODE with KEY one of {', '.join(NODE_CANDIDATES)}")
         if node == NO_DISTORTION and key not in DIST_KEYS:
-            raise ValueError(f"--node {item!r}: only {' and '.join(DIST_KEYS)} may be '{NO_DISTORTION}' "
+            raise ValueError(f"`node` {item!r}: only {' and '.join(DIST_KEYS)} may be '{NO_DISTORTION}' "
                              "(no lens distortion)")
         out[key] = node
     return out
@@ -123,12 +123,12 @@ def _missing(key: str, names: dict[str, str], path, extra: str = "") -> ValueErr
     looked = (names[key],) if key in names else NODE_CANDIDATES[key]
     hint = ""
     if key in ("R", "T") and "intrinsics" in str(path) and "extrinsics" not in str(path):
-        hint = "; OpenCV's stereo_calib writes R and T to extrinsics.yml: give both files (--import-opencv " \
-               "intrinsics.yml --import-opencv extrinsics.yml)"
+        hint = "; OpenCV's stereo_calib writes R and T to extrinsics.yml: give both files (`import_opencv` " \
+               "intrinsics.yml `import_opencv` extrinsics.yml)"
     if key in DIST_KEYS:
         extra += f" (or {key}={NO_DISTORTION} for a lens without distortion)"
     return ValueError(f"{path}: no calibration node for {key!r} (looked for {', '.join(looked)}); "
-                      f"map it with --node {key}=NAME{extra}{hint}")
+                      f"map it with `node` {key}=NAME{extra}{hint}")
 
 
 def _read_matrix(fs, key: str, names: dict[str, str], path, shapes: tuple[tuple[int, ...], ...]):
@@ -284,8 +284,8 @@ def load_opencv_calibration(path, names: dict[str, str] | None = None, camera_si
         npd, dp = _read_matrix(fs, "proj_dist", names, where, tuple((n,) for n in OPENCV_LENGTHS))
         nR, Rm = _read_matrix(fs, "R", names, where, ((3, 3), (3,)))
         _, T = _read_matrix(fs, "T", names, where, ((3,),))
-        cw, ch = _read_size(fs, "cam_size", names, where, camera_size, "--camera-size", Kc)
-        pw, ph = _read_size(fs, "proj_size", names, where, projector_size, "--projector-size", Kp)
+        cw, ch = _read_size(fs, "cam_size", names, where, camera_size, "`camera_size`", Kc)
+        pw, ph = _read_size(fs, "proj_size", names, where, projector_size, "`projector_size`", Kp)
     finally:
         for f in fs:
             f.release()

@@ -425,7 +425,7 @@ def calibrate_session(paths, board=None, model: str | None = None, progress: boo
     folders, meta = find_pose_folders(paths, layout, projector_size)
     if board is None:
         if "board" not in meta:
-            raise ValueError("no board description: pass the board (--board KIND, --cols, --rows, --spacing ...) "
+            raise ValueError("no board description: pass the board (`board` KIND, `cols`, `rows`, `spacing` ...) "
                              f"or put {{\"board\": {{...}}}} in the session folder's {SESSION_NAME}")
         board = board_from_dict(meta["board"])
     model = model or meta.get("model", "pinhole")
@@ -451,7 +451,7 @@ def board_from_options(cols: int, rows: int, spacing: float | None, radius: floa
     if kind == "charuco":
         return CharucoBoard(cols=cols, rows=rows, spacing=spacing, marker=marker if marker else 0.7 * spacing,
                             dictionary=dictionary)
-    raise ValueError(f"--board must be circles, chessboard or charuco, got {kind!r}")
+    raise ValueError(f"`board` must be circles, chessboard or charuco, got {kind!r}")
 
 
 def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist="auto", projector_dist="auto",
@@ -474,10 +474,10 @@ def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist
     gates = [Gate(**g) for g in cal.quality["gates"]]
     if failed(gates):
         if not accept_poor:
-            raise QualityGateError(failure_message(gates) + "\nnothing was written; --accept-poor writes the "
+            raise QualityGateError(failure_message(gates) + "\nnothing was written; `accept_poor=True` writes the "
                                    "calibration anyway and records the failed gates in it", _summary(cal, {}))
         cal.quality["accepted_poor"] = True
-        warnings.warn(failure_message(gates) + "\nwritten anyway (--accept-poor); the file records the failed "
+        warnings.warn(failure_message(gates) + "\nwritten anyway (`accept_poor=True`); the file records the failed "
                       "gates", CalibrationWarning, stacklevel=2)
     cal.save(output)
     written = {"calibration": str(output)}

@@ -178,7 +178,7 @@ class CharucoBoard(_SquareGrid):
         return {"kind": self.kind, **asdict(self)}
 
 
-def squares_from_inner_corners(text: str, option: str = "--inner-corners") -> tuple[int, int]:
+def squares_from_inner_corners(text: str, option: str = "`inner_corners`") -> tuple[int, int]:
     """(cols, rows) squares of a chessboard/ChArUco board given as OpenCV counts it, ``"COLSxROWS"``
     inner corners (``patternSize``): one square more each way. ``ValueError`` naming ``option``.
 

@@ -40,6 +40,7 @@ from fringe3d.utils.console import (
 )
 from fringe3d.utils.jsonfile import write_json
 from fringe3d.commands.output_options import overwrite_option
+from fringe3d.commands.flag_words import in_flag_words
 from fringe3d.utils.output_folder import open_output, open_output_file
 
 #: Exit code of a capture that stopped or lost frames (the folder is not marked complete).
@@ -175,7 +176,7 @@ def register(app: typer.Typer) -> None:
         try:
             run_capture(**opts)
         except (ValueError, FileNotFoundError) as e:  # printed here: device messages name extras in [] (no markup)
-            err_console.print("[bold red]error:[/] " + escape(str(e)))
+            err_console.print("[bold red]error:[/] " + escape(in_flag_words(str(e))))
             raise SystemExit(2) from None
 
 

@@ -46,5 +46,5 @@ def code_reference(ctx: DecodeContext, inverse: list[int] | None,
         return None, np.asarray(average, np.float32)
     what = f"threshold {mode!r} needs {mode} frames, which" if mode else "the code bits need a reference, which"
     raise ValueError(f"direction {ctx.direction!r}: {what} the manifest does not have (inverse code frames, a white "
-                     "and a black frame, or phase frames); set the plan option 'threshold' to a level in camera "
-                     "counts (fringe3d import/decode --threshold LEVEL)")
+                     "and a black frame, or phase frames); set `threshold` (a plan option) to a level in camera "
+                     "counts")

@@ -248,11 +248,11 @@ def require_geometry(ctx: DecodeContext, method: str) -> tuple[Rig, float]:
     the decoder lacks them; ``z_min`` from the options or the plan's ``options["z_min"]``."""
     if ctx.rig is None:
         raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs the calibrated rig "
-                         "(pass rig=... to decode, or --calibration on the command line)")
+                         "(pass `rig`)")
     z_min = ctx.z_min if ctx.z_min is not None else ctx.plan.options.get("z_min")
     if z_min is None:
         raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs z_min, the nearest depth of the "
-                         "measurement volume in mm (pass z_min=... / --z-min, or set it in the plan's options)")
+                         "measurement volume in mm (pass `z_min`, or set it in the plan's options)")
     H, W = ctx.frames.shape[1:]
     ch, cw = camera_shape(ctx.rig)
     if (ch, cw) != (H, W):

@@ -159,7 +159,7 @@ class Decoded:
             parts.append(f"direction {d}: modulation at most ~{top:.3g} (99th percentile)")
         why = "; ".join(parts)
         if thr is not None:
-            why += f"; the modulation threshold is {thr:.3g} (lower it with --min-modulation, or check the exposure"
+            why += f"; the modulation threshold is {thr:.3g} (lower it with `min_modulation`, or check the exposure"
             why += " and that the projector lit the scene)"
         checks = self.info.get("frame_checks") or {}
         if checks.get("frames") and len(checks.get("dark", ())) == checks["frames"]:

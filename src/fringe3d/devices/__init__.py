@@ -51,7 +51,7 @@ def open_projector(spec) -> Projector:
         return WindowProjector(screen, display_latency=option(spec.options, "latency", 0.0, float),
                                vsync=option(spec.options, "vsync", True, bool))
     raise ValueError(f"unknown projector backend {spec.backend!r}; expected one of {', '.join(PROJECTOR_BACKENDS)} "
-                     f"(e.g. --projector window:1)")
+                     f"(e.g. `projector` window:1)")
 
 
 def open_camera(spec, features: list[tuple[str, str]] | None = None) -> Camera:
@@ -69,10 +69,10 @@ def open_camera(spec, features: list[tuple[str, str]] | None = None) -> Camera:
     if spec.backend == "opencv":
         check_unknown_options(spec, {"flush"})
         if features:
-            raise ValueError("the opencv camera has no GenICam features; drop --camera-feature")
+            raise ValueError("the opencv camera has no GenICam features; drop `camera_features`")
         return OpenCVCamera(spec.ident, flush=option(spec.options, "flush", 2, int))
     raise ValueError(f"unknown camera backend {spec.backend!r}; expected one of {', '.join(CAMERA_BACKENDS)} "
-                     f"(e.g. --camera pylon:40012345)")
+                     f"(e.g. `camera` pylon:40012345)")
 
 
 __all__ = [

@@ -401,7 +401,7 @@ def _check_inputs(projector, patterns: PatternSet, images, planes, sync: str, cy
     if sync not in SYNC_MODES:
         raise ValueError(f"sync mode {sync!r} is not one of {', '.join(SYNC_MODES)}")
     if cycles < 1:
-        raise ValueError(f"--cycles must be >= 1, got {cycles}")
+        raise ValueError(f"`cycles` must be >= 1, got {cycles}")
     images = list(images)
     n_pat = len(patterns)
     planes = list(planes) if planes is not None else [1] * len(images)
@@ -410,7 +410,7 @@ def _check_inputs(projector, patterns: PatternSet, images, planes, sync: str, cy
                          f"manifest's {n_pat} frames")
     if max(planes) > 1 and sync != "hardware":
         raise ValueError("packed bit-plane frames are shown as several patterns per video frame; only the "
-                         "projector's trigger output can time them: use --sync hardware")
+                         "projector's trigger output can time them: use `sync` hardware")
     if patterns.width > projector.width or patterns.height > projector.height:
         raise ValueError(f"the patterns are {patterns.width}x{patterns.height} but the projector is "
                          f"{projector.width}x{projector.height}; patterns larger than the screen cannot be shown 1:1")

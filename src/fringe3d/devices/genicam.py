@@ -30,7 +30,7 @@ def parse_ident(ident: str) -> tuple[str, str]:
     """``/path/producer.cti#SERIAL`` -> (producer path, serial)."""
     producer, _, serial = ident.partition("#")
     if not producer:
-        raise ValueError("the genicam camera needs its GenTL producer: --camera genicam:/path/to/producer.cti#SERIAL "
+        raise ValueError("the genicam camera needs its GenTL producer: `camera` genicam:/path/to/producer.cti#SERIAL "
                          "(the .cti file ships with the camera vendor's SDK)")
     if not Path(producer).is_file():
         raise FileNotFoundError(f"GenTL producer {producer} does not exist; give the path of the vendor's .cti file")

@@ -54,7 +54,7 @@ class OpenCVCamera:
     @trigger_mode.setter
     def trigger_mode(self, mode: str) -> None:
         if mode == "hardware":
-            raise ValueError("an OpenCV (UVC) camera has no trigger input; use --sync software")
+            raise ValueError("an OpenCV (UVC) camera has no trigger input; use `sync` software")
         self._trigger_mode = mode  # "software": emulated by flushing frames after each pattern
 
     @property

@@ -129,7 +129,7 @@ class PylonCamera(GenICamFeatures):
     def gain(self, db: float) -> None:
         node = self._node("Gain")
         if node is None:
-            raise ValueError(f"camera {self.model} has no Gain (dB) feature; set GainRaw with --camera-feature")
+            raise ValueError(f"camera {self.model} has no Gain (dB) feature; set GainRaw with `camera_features`")
         node.SetValue(float(db))
 
 

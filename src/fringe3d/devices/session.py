@@ -101,12 +101,13 @@ def capture_session(projector, camera, patterns, images, folder, poses: int, *, 
     dict: folder, poses, pose folders, preview frames per pose.
     """
     if poses < 1:
-        raise ValueError(f"--poses must be >= 1, got {poses}")
+        raise ValueError(f"`poses` must be >= 1, got {poses}")
     if not preview and not auto:
-        raise ValueError("without the preview window nothing can press the capture key: use --auto or --preview")
+        raise ValueError("without the preview window nothing can press the capture key: use "
+                         "`auto=True` or `preview=True`")
     if not any(f.kind == "white" for f in patterns.frames):
-        raise ValueError("the calibration pattern set has no white frame to find the board in; use "
-                         "fringe3d patterns --set calibration")
+        raise ValueError("the calibration pattern set has no white frame to find the board in; pass "
+                         "the 'calibration' pattern set as `patterns`")
     board = _board(cols, rows, spacing, radius)
 
     folder = Path(folder)

@@ -173,7 +173,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
                   "assumed 7.6 um DMD pitch; the object-space camera figure is px / (pixels per mm)",
                   "phase at the circle centres: 'bilinear' = Eq. 2.30-2.31 (the dissertation's); 'local fit' = a "
                   "modulation-weighted quadratic fit of the absolute phase within half a circle spacing of the "
-                  "centre (calibrate --phase-window auto), which averages the sensor noise over the circle",
+                  "centre (calibration phase window 'auto'), which averages the sensor noise over the circle",
                   "sequential = the dissertation's steps (projector, LM board poses from the projector alone, "
                   "affine camera by least squares); the joint refinement then adjusts board poses, camera M and "
                   "projector intrinsics on both devices' residuals (the narrow-field projector fixes board depth "

@@ -17,7 +17,7 @@ class CudaUnavailableError(RuntimeError):
     installed, or there is no CUDA driver or device. The message says which."""
 
 
-_ADVICE = ("run with the cpu backend (--device cpu, backend='cpu'), or check the NVIDIA driver and "
+_ADVICE = ("run with the cpu backend (`backend='cpu'`), or check the NVIDIA driver and "
            "CUDA_VISIBLE_DEVICES")
 
 

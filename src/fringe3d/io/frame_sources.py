@@ -267,7 +267,7 @@ class TiffSource:
             raise ValueError(f"{self.path} is not a readable TIFF ({type(e).__name__}: {e})") from None
         if len(first.shape) != 2:
             raise ValueError(f"{self.path}: pages are {first.shape}, not grey (H, W) images; import with "
-                             "--copy-frames to convert colour pages")
+                             "`copy_frames=True` to convert colour pages")
         self.dtype = np.dtype(first.dtype)
         if self.dtype not in (np.uint8, np.uint16):
             raise ValueError(f"{self.path}: pages are {self.dtype}; expected 8- or 16-bit integer images")

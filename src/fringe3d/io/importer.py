@@ -172,7 +172,7 @@ def check_bit_depth(frames: np.ndarray, bit_depth: int | None, dtype: str | np.d
 def require_size(projector_size: tuple[int, int] | None, layout: str) -> tuple[int, int]:
     """The projector size, or ``ValueError`` saying the layout needs it."""
     if projector_size is None:
-        raise ValueError(f"--layout/--set {layout} needs the projector size (--projector-size WxH, e.g. 1024x768): "
+        raise ValueError(f"`layout` {layout} needs the projector size (`projector_size` WxH, e.g. 1024x768): "
                          "it fixes the code bits and the unwrapping range and is not guessed")
     return projector_size
 
@@ -195,18 +195,19 @@ def layout_patterns(layout: str, projector_size: tuple[int, int] | None = None, 
     ``"average"`` or a level in camera counts) is the plans' code threshold. A code without
     inverse frames, white/black frames or phase frames needs a fixed ``threshold``."""
     if layout not in LAYOUTS:
-        raise ValueError(f"unknown layout {layout!r}; expected one of {LAYOUTS} or a manifest (--manifest)")
+        raise ValueError(f"unknown layout {layout!r}; expected one of {LAYOUTS} or a manifest (`manifest`)")
     width, height = require_size(projector_size, layout)
     if layout == "opencv-graycode":
         return opencv_graycode(width, height) if threshold is None else with_threshold(opencv_graycode(width, height),
                                                                                       threshold)
     if period is None:
-        raise ValueError(f"--set {layout} needs the fringe/stripe period in projector pixels (--period T)")
+        raise ValueError(f"`layout` {layout} needs the fringe/stripe period in projector pixels (`period` T)")
     directions = [d.strip() for d in direction.split(",")]
     if len(set(directions)) != len(directions) or not all(directions):
-        raise ValueError(f"--direction {direction!r}: expected one direction or distinct ones, e.g. v,h")
+        raise ValueError(f"`direction` {direction!r}: expected one direction or distinct ones, e.g. v,h")
     if interleave and len(directions) < 2:
-        raise ValueError("--interleave alternates the frames of several directions: give them, e.g. --direction v,h")
+        raise ValueError("`interleave=True` alternates the frames of several directions: give them, "
+                         "e.g. `direction` v,h")
     if layout == "gray-code":
         parts = [sets.gray_code(period, d, width=width, height=height, inverse=inverse) for d in directions]
     else:
@@ -232,12 +233,12 @@ def check_code_threshold(ps: PatternSet, threshold: str | float | None) -> None:
            "white-black": bool(ps.indices(kind="white") and ps.indices(kind="black")),
            "average": any(f.role == "phase" for f in ps.frames)}
     if isinstance(threshold, str) and not has[threshold]:
-        raise ValueError(f"--threshold {threshold}: the layout has no {threshold} frames to threshold the code "
-                         "against; add them (--white-black first|last) or give a level in camera counts")
+        raise ValueError(f"`threshold` {threshold}: the layout has no {threshold} frames to threshold the code "
+                         "against; add them (`white_black` first|last) or give a level in camera counts")
     if threshold is None and not any(has.values()):
-        raise ValueError("a Gray code without inverse frames (--no-inverse), white/black frames (--white-black) "
-                         "or phase frames cannot be thresholded: give --white-black first|last or a fixed "
-                         "--threshold LEVEL in camera counts (e.g. half the lit level)")
+        raise ValueError("a Gray code without inverse frames (`inverse=False`), white/black frames (`white_black`) "
+                         "or phase frames cannot be thresholded: give `white_black` first|last or a fixed "
+                         "`threshold` LEVEL in camera counts (e.g. half the lit level)")
 
 
 def phase_shift_layout(ps: PatternSet, shift_order: Sequence[int] | None, shift_sign: int) -> PatternSet:
@@ -246,9 +247,9 @@ def phase_shift_layout(ps: PatternSet, shift_order: Sequence[int] | None, shift_
     n = len(ps.frames)
     order = list(range(n)) if shift_order is None else [int(k) for k in shift_order]
     if sorted(order) != list(range(n)):
-        raise ValueError(f"--shift-order {order} must list the steps 0..{n - 1} once each")
+        raise ValueError(f"`shift_order` {order} must list the steps 0..{n - 1} once each")
     if shift_sign not in (1, -1):
-        raise ValueError(f"--shift-sign must be +1 or -1, got {shift_sign}")
+        raise ValueError(f"`shift_sign` must be +1 or -1, got {shift_sign}")
     frames = tuple(replace(ps.frames[k], shift=shift_sign * ps.frames[k].shift) for k in order)
     return replace(ps, frames=frames)
 
@@ -257,7 +258,7 @@ def count_message(layout: str, patterns: PatternSet, got: int) -> str:
     """What a layout expects, for a frame count that does not match."""
     if layout == "opencv-graycode":
         bu, bv = opencv_graycode_bits(patterns.width, patterns.height)
-        return (f"--layout opencv-graycode for a {patterns.width}x{patterns.height} projector expects "
+        return (f"`layout` opencv-graycode for a {patterns.width}x{patterns.height} projector expects "
                 f"2*({bu}+{bv})+2 = {opencv_graycode_count(patterns.width, patterns.height)} frames, got {got}")
     return (f"{layout} ({patterns.name}) expects {len(patterns)} frames (or a multiple, for a sequence), got {got}")
 
@@ -267,7 +268,7 @@ def check_output(out: Path, overwrite: bool) -> None:
     if out.exists() and not out.is_dir():
         raise ValueError(f"output {out} exists and is not a folder")
     if out.is_dir() and any(out.iterdir()) and not overwrite:
-        raise ValueError(f"output folder {out} is not empty; choose an empty folder or pass --overwrite")
+        raise ValueError(f"output folder {out} is not empty; choose an empty folder or pass `overwrite=True`")
 
 
 def read_images(files: Sequence[Path], patterns: PatternSet, layout: str = "manifest",
@@ -285,7 +286,7 @@ def read_images(files: Sequence[Path], patterns: PatternSet, layout: str = "mani
     if len(frames) > len(patterns) and layout in ("gray-code", "phase-shift") and len(patterns.directions()) == 1:
         n = len(patterns)
         warnings.warn(f"{len(frames)} frames read as {len(frames) // n} cycles of the {n}-frame {patterns.name} "
-                      "layout; if they hold columns and rows, describe both: --direction v,h (--interleave when "
+                      "layout; if they hold columns and rows, describe both: `direction` v,h (`interleave=True` when "
                       "they alternate)", DataQualityWarning, stacklevel=2)
     bits = check_bit_depth(frames, bit_depth, colour or None)
     conversion = ("none (grey input)" if not colour else f"channel {channel}" if channel
@@ -347,8 +348,8 @@ def source_bit_depth(frames: FrameRange, bit_depth: int | None) -> int:
         return src.bit_depth
     native = 8 * src.dtype.itemsize
     if src.bit_depth != native:
-        raise ValueError(f"{src.path}: the header says bit depth {src.bit_depth} but --bit-depth is {bit_depth}; "
-                         f"expected {src.bit_depth} (or leave --bit-depth out)")
+        raise ValueError(f"{src.path}: the header says bit depth {src.bit_depth} but `bit_depth` is {bit_depth}; "
+                         f"expected {src.bit_depth} (or leave `bit_depth` out)")
     check_bit_depth(np.array([range_max(frames)], src.dtype), bit_depth)
     return bit_depth
 
@@ -391,15 +392,15 @@ def camera_file_kind(src: str | os.PathLike | None, list_file, channel: str | No
     if kind == "tiff" and convert_tiff:
         return None
     if kind is not None and channel is not None:
-        raise ValueError(f"{src}: --channel converts colour frames; a camera file is read as grey frames"
-                         + (" (add --copy-frames to convert a TIFF stack page by page)" if kind == "tiff" else ""))
+        raise ValueError(f"{src}: `channel` converts colour frames; a camera file is read as grey frames"
+                         + (" (add `copy_frames=True` to convert a TIFF stack page by page)" if kind == "tiff" else ""))
     return kind
 
 
 def check_no_range(src: str | os.PathLike | None, first_frame: int, frame_count: int | None) -> None:
     """``--first-frame`` / ``--frame-count`` name frames of a camera file: an error for image files."""
     if (first_frame, frame_count) != (0, None):
-        raise ValueError("--first-frame / --frame-count apply to a camera file (.cih/.cihx/.mraw, .cine, .tif, zarr); "
+        raise ValueError("`first_frame` / `frame_count` apply to a camera file (.cih/.cihx/.mraw, .cine, .tif, zarr); "
                          f"{src} is a folder or glob of images")
 
 
@@ -454,10 +455,10 @@ def check_source(src: str | os.PathLike | None, list_file: str | os.PathLike | N
     """Exactly one frame source: ``src`` (a folder, glob or camera file) or ``list_file``;
     ``ValueError`` saying which flag to drop (a source beside ``--list`` would be ignored)."""
     if src is not None and list_file is not None:
-        raise ValueError(f"give the frames either as SRC ({src}) or as --list {list_file}, not both: the list "
+        raise ValueError(f"give the frames either as SRC ({src}) or as `list_file` {list_file}, not both: the list "
                          "names every frame, so SRC would be ignored")
     if src is None and list_file is None:
-        raise ValueError("no frames given: pass SRC (a folder, glob or camera file) or --list FILE")
+        raise ValueError("no frames given: pass SRC (a folder, glob or camera file) or `list_file` FILE")
 
 
 def described_patterns(manifest: str | os.PathLike | None, layout: str | None,
@@ -467,7 +468,7 @@ def described_patterns(manifest: str | os.PathLike | None, layout: str | None,
     ``layout_options`` sets every plan's code threshold, also of a manifest or of
     ``opencv-graycode`` (:func:`fringe3d.patterns.layouts.with_threshold`)."""
     if (manifest is None) == (layout is None):
-        raise ValueError("describe what was projected with exactly one of --manifest FILE or --set/--layout "
+        raise ValueError("describe what was projected with exactly one of `manifest` FILE or `layout` "
                          f"({', '.join(LAYOUTS)})")
     if manifest is None:
         assert layout is not None

@@ -20,7 +20,7 @@ def write_packed(folder: str | os.PathLike, ps: PatternSet, images: np.ndarray) 
     ``packing`` entry to ``folder/manifest.json`` (atomic writes)."""
     if ps.bit_depth != 1:
         raise ValueError(f"pattern set {ps.name!r} is {ps.bit_depth}-bit; only 1-bit sets can be packed into "
-                         f"bit-planes (use a binary --kind such as square or bayer, or a Gray code)")
+                         f"bit-planes (use a binary `kind` such as square or bayer, or a Gray code)")
     folder = Path(folder)
     packed = pack_bitplanes(images)
     pdir = folder / PACKED_DIR

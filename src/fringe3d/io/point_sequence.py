@@ -45,7 +45,7 @@ class PointSequence:
 
     def texture(self, i: int) -> np.ndarray:
         if self._tex is None:
-            raise ValueError(f"{self.source} holds no texture images; pass --anchors u1,v1,u2,v2")
+            raise ValueError(f"{self.source} holds no texture images; pass `anchors` u1,v1,u2,v2")
         return np.asarray(self._tex[i](), dtype=np.float64)
 
 

@@ -341,11 +341,11 @@ class PointMapStore:
     def quality(self, k: int) -> np.ndarray:
         """(H, W) uint8 quality bits of frame ``k`` (ValueError when the store holds none)."""
         if self.quality_array is None:
-            raise ValueError(f"{self.path} holds no quality maps (reconstructed with --no-store-quality)")
+            raise ValueError(f"{self.path} holds no quality maps (reconstructed with `store_quality=False`)")
         return np.asarray(self.quality_array[k])
 
     def sigma_z(self, k: int) -> np.ndarray:
         """(H, W) float32 sigma_z (mm) of frame ``k`` (ValueError when the store holds none)."""
         if self.sigma_array is None:
-            raise ValueError(f"{self.path} holds no sigma_z maps (reconstructed with --no-store-quality)")
+            raise ValueError(f"{self.path} holds no sigma_z maps (reconstructed with `store_quality=False`)")
         return np.asarray(self.sigma_array[k], np.float32)

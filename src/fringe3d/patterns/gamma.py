@@ -85,7 +85,7 @@ def load_gamma(path: str | os.PathLike) -> float:
     if d.get("format") != GAMMA_FORMAT:
         raise ValueError(f"{path} is not a projector gamma file "
                          f"(format {d.get('format')!r}, expected {GAMMA_FORMAT!r}); "
-                         f"write one with fringe3d capture --gamma")
+                         f"write one with `save_gamma`")
     g = d.get("gamma")
     if not (isinstance(g, (int, float)) and math.isfinite(g) and g > 0):
         raise ValueError(f"{path}: gamma must be a positive number, got {g!r}")

@@ -102,7 +102,7 @@ def with_white_black(ps: PatternSet, place: str) -> PatternSet:
     ``"none"``; the decoder thresholds code bits against their mean when the code has no
     inverse frames (or the plan's ``threshold`` is ``"white-black"``)."""
     if place not in WHITE_BLACK_PLACES:
-        raise ValueError(f"--white-black must be one of {', '.join(WHITE_BLACK_PLACES)}, got {place!r}")
+        raise ValueError(f"`white_black` must be one of {', '.join(WHITE_BLACK_PLACES)}, got {place!r}")
     if place == "none":
         return ps
     wb = (FrameSpec(kind="white", role="texture"), FrameSpec(kind="black", role="reference"))
@@ -115,7 +115,7 @@ def with_white_black(ps: PatternSet, place: str) -> PatternSet:
 THRESHOLD_MODES = ("inverse", "white-black", "average")
 
 
-def parse_threshold(value: str | float | None, where: str = "--threshold") -> str | float | None:
+def parse_threshold(value: str | float | None, where: str = "`threshold`") -> str | float | None:
     """A plan's code threshold: one of :data:`THRESHOLD_MODES`, or a fixed level in camera
     counts (a number >= 0; a string holding one is converted); None stays None. ``ValueError``
     naming ``where`` otherwise."""

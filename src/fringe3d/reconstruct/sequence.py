@@ -391,7 +391,7 @@ def store_layout(rec: FrameReconstructor, layout: str = "auto") -> str:
         raise ValueError(f"unknown store layout {layout!r}; expected auto, {', '.join(LAYOUTS)}")
     if layout == "ray_depth" and rec.store_layout != "ray_depth":
         raise ValueError(f"the ray_depth store layout needs the fused 3-step + geometric path; this manifest and rig "
-                         f"take {rec.path!r}, whose points are stored as xyz (use --store-layout auto or xyz)")
+                         f"take {rec.path!r}, whose points are stored as xyz (use `store_layout` auto or xyz)")
     return layout
 
 

@@ -9,7 +9,7 @@ DEFINITIONS: dict[str, dict[str, tuple[str, str, str]]] = {
                  "with free radius (VDI/VDE 2634-2)"),
         "size": ("probing error size P_S", "mm", "fitted diameter - calibrated diameter (VDI/VDE 2634-2)"),
         "diameter": ("fitted diameter", "mm", "2 r of the geometric least-squares sphere"),
-        "true_diameter": ("calibrated diameter", "mm", "from --diameter or the true surface"),
+        "true_diameter": ("calibrated diameter", "mm", "from the stated diameter or the true surface"),
         "rms": ("sphere RMS", "mm", "sqrt(mean((|p - c| - r)^2)) over the points kept"),
         "fit_rms": ("fit RMS", "mm", "RMS of the radial residuals of the fit"),
         "n_points": ("points", "", "points in the fit after outlier exclusion"),
@@ -24,7 +24,7 @@ DEFINITIONS: dict[str, dict[str, tuple[str, str, str]]] = {
         "error": ("sphere-spacing error SD", "mm", "measured - calibrated distance between the two sphere centres "
                   "(VDI/VDE 2634-2)"),
         "distance": ("measured centre distance", "mm", "|c_a - c_b| of the two free-radius sphere fits"),
-        "true_distance": ("calibrated distance", "mm", "from --distance or the true surface"),
+        "true_distance": ("calibrated distance", "mm", "from the stated distance or the true surface"),
     },
     "truth": {
         "rms_mm": ("3D error RMS", "mm", "sqrt(mean(e^2)), e = distance of a measured point to the true surface"),

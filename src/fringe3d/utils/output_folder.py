@@ -120,7 +120,7 @@ def read_marker(folder: str | os.PathLike) -> dict | None:
         d = json.loads(path.read_text())
     except (OSError, ValueError, RecursionError):
         raise ValueError(f"{path} is damaged (not valid JSON); the set it describes cannot be trusted: "
-                         "make it again with --overwrite") from None
+                         "make it again with `overwrite=True`") from None
     if not isinstance(d, dict) or d.get("format") != MARKER_FORMAT:
         raise ValueError(f"{path}: expected a JSON object with format {MARKER_FORMAT!r}")
     return d
@@ -136,7 +136,7 @@ def check_complete(folder: str | os.PathLike, what: str = "output folder") -> No
         cmd = d.get("command") or "the command"
         raise ValueError(f"{what} {folder} is incomplete: `{cmd}` did not finish writing it "
                          f"({MARKER_NAME} has complete: false). Run the command again (a sequence resumes) "
-                         "or with --overwrite to start over")
+                         "or with `overwrite=True` to start over")
 
 
 def _write_marker(folder: Path, info: dict) -> None:
@@ -313,18 +313,18 @@ def open_output(out: str | os.PathLike, *, command: str = "", overwrite: bool = 
         if nonempty and not overwrite:
             marker = read_marker(final)
             if marker is None or marker.get("complete") is True:
-                raise ValueError(f"output folder {out} is not empty; choose a new folder or pass --overwrite to "
+                raise ValueError(f"output folder {out} is not empty; choose a new folder or pass `overwrite=True` to "
                                  "replace its contents")
             if resumable and marker.get("fingerprint") != fp:
                 raise ValueError(f"output folder {out} holds {_dead_run(marker)} made from other inputs or options; "
-                                 "resume it with the same inputs and options, or pass --overwrite to discard it and "
-                                 "start over")
+                                 "resume it with the same inputs and options, or pass `overwrite=True` to discard it "
+                                 "and start over")
             if resumable:
                 yield from _resume(final, info, marker)
                 return
             if marker.get("resumable"):
                 raise ValueError(f"output folder {out} is not empty: it holds {_dead_run(marker)}, which running "
-                                 "that command again resumes; or pass --overwrite to discard it")
+                                 "that command again resumes; or pass `overwrite=True` to discard it")
             warnings.warn(f"{out} holds {_dead_run(marker)}; starting over (its files are replaced once this run "
                           "completes)", OutputWarning, stacklevel=3)
             nonempty = True
@@ -363,7 +363,7 @@ def _failed_fresh(final: Path, created: bool, resumable: bool) -> None:
     if resumable and _file_list(final):
         clean_partials(final)
         _Outcome.note = (f"{final} is kept, marked incomplete: run the same command again to "
-                         + ("resume it, or pass --overwrite to start over" if _resumes(final) else "start over"))
+                         + ("resume it, or pass `overwrite=True` to start over" if _resumes(final) else "start over"))
         return
     if created:
         shutil.rmtree(final, ignore_errors=True)
@@ -396,7 +396,7 @@ def _resume(final: Path, info: dict, marker: dict):
         if not ok:
             clean_partials(final)
             _Outcome.note = (f"{final} is kept, marked incomplete: run the same command again to resume it, or "
-                             "pass --overwrite to start over")
+                             "pass `overwrite=True` to start over")
 
 
 def _replace(final: Path, info: dict):
@@ -433,6 +433,6 @@ def open_output_file(*paths: str | os.PathLike | None, overwrite: bool = False,
         if any(target == p or p in target.parents for p in inputs):
             raise ValueError(f"output {path} is also an input (or inside one); choose another file name")
         if target.exists() and not overwrite:
-            raise ValueError(f"output file {path} exists; choose another name or pass --overwrite to replace it")
+            raise ValueError(f"output file {path} exists; choose another name or pass `overwrite=True` to replace it")
     with writing_into(*targets) as first:
         yield first
