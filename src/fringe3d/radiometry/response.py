@@ -21,12 +21,14 @@ shape measurement using a digital video projector", Appl. Opt. 46(1), 36-43 (200
 """
 from __future__ import annotations
 
+import os
 from typing import NamedTuple
 
 import numpy as np
 
-from fringe3d.patterns.gamma import normalised_response
+from fringe3d.patterns.gamma import GAMMA_FORMAT, normalised_response
 from fringe3d.phase.psp import default_shifts, wrapped_phase
+from fringe3d.utils.jsonfile import read_json
 
 
 class ResponseLUT(NamedTuple):
@@ -109,6 +111,33 @@ def fit_response(levels, frames, full_scale: float | None = None, min_contrast: 
     order = np.argsort(levels, kind="stable")
     x = levels[order].astype(float) / 255.0
     x, first = np.unique(x, return_index=True)
+    y = np.clip(monotone(r[order][first]), 0.0, 1.0)
+    y[0], y[-1] = 0.0, 1.0
+    return ResponseLUT(x, y)
+
+
+def load_response(path: str | os.PathLike) -> ResponseLUT:
+    """The measured response table of a ``gamma.json`` (``fringe3d capture --gamma``).
+
+    Its ``levels`` and ``response`` (mean normalised camera response per grey level) become a
+    :class:`ResponseLUT` as in :func:`fit_response`. ``ValueError`` naming the file and field
+    when it is not one or the table is unusable.
+    """
+    d = read_json(path, "projector gamma file")
+    if d.get("format") != GAMMA_FORMAT:
+        raise ValueError(f"{path} is not a projector gamma file (format {d.get('format')!r}, expected "
+                         f"{GAMMA_FORMAT!r}); write one with fringe3d capture --gamma")
+    try:
+        levels = np.asarray(d["levels"], float)
+        r = np.asarray(d["response"], float)
+    except (KeyError, TypeError, ValueError) as e:
+        raise ValueError(f"{path}: 'levels' and 'response' must be lists of numbers ({e})") from None
+    if levels.ndim != 1 or levels.shape != r.shape or 0 not in levels or 255 not in levels \
+            or not np.all(np.isfinite(r)):
+        raise ValueError(f"{path}: 'levels' (0..255, with 0 and 255) and 'response' must be lists of the same "
+                         f"length of finite numbers; got {levels.size} levels and {r.size} responses")
+    order = np.argsort(levels, kind="stable")
+    x, first = np.unique(levels[order] / 255.0, return_index=True)
     y = np.clip(monotone(r[order][first]), 0.0, 1.0)
     y[0], y[-1] = 0.0, 1.0
     return ResponseLUT(x, y)
