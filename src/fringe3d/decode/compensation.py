@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 
 COMPENSATIONS = ("response", "harmonic")
 #: Pixels used by the harmonic estimate and the diagnostic (a regular subsample beyond this).
-SAMPLE_PIXELS = 65536
+SAMPLE_PIXELS = 16384
 
 
 def equal_steps(shifts) -> bool:

@@ -76,7 +76,7 @@ def observed_ratio(gamma: float, steps: int, samples: int = 512) -> float:
     phi = 2.0 * np.pi * np.arange(samples) / samples
     d = 2.0 * np.pi * np.arange(steps) / steps
     frames = (0.5 * (1.0 + np.cos(phi[None, None, :] + d[:, None, None]))) ** gamma
-    return _ratio(_bins(frames), np.ones((1, samples), bool))[0]
+    return _ratio(_bins(frames), np.ones((1, samples), bool), steps)[0]
 
 
 def gamma_from_ratio(ratio: float, steps: int) -> float:
@@ -91,24 +91,26 @@ def gamma_from_ratio(ratio: float, steps: int) -> float:
 
 
 def _bins(frames: np.ndarray) -> np.ndarray:
-    """DFT bins ``(1/N) sum_k I_k exp(-i m delta_k)``, (N, H, W) complex."""
+    """DFT bins 1 and 2, ``(1/N) sum_k I_k exp(-i m delta_k)``, (2, H, W) complex (real products only)."""
     n = frames.shape[0]
-    k = np.arange(n)
-    w = np.exp(-2j * np.pi * np.outer(np.arange(n), k) / n)
-    return np.tensordot(w, frames, axes=1) / n
+    ang = 2.0 * np.pi * np.outer([1, 2], np.arange(n)) / n
+    flat = frames.reshape(n, -1)
+    re = (np.cos(ang) @ flat) / n
+    im = (-np.sin(ang) @ flat) / n
+    return (re + 1j * im).reshape((2,) + frames.shape[1:])
 
 
-def _ratio(s: np.ndarray, ok: np.ndarray) -> tuple[float, float]:
-    """Least-squares ``c_2 / c_1`` over pixels ``ok`` from DFT bins ``s`` (N, H, W), and its standard error."""
-    n = s.shape[0]
-    s1 = s[1][ok]
+def _ratio(s: np.ndarray, ok: np.ndarray, n: int) -> tuple[float, float]:
+    """Least-squares ``c_2 / c_1`` over pixels ``ok`` of an ``n``-step set from its DFT bins 1 and 2
+    ``s`` (2, H, W) (:func:`_bins`), and its standard error."""
+    s1 = s[0][ok]
     amp = np.abs(s1)
     rot = (np.conj(s1) / amp) ** 2                  # e^{-2 i phi}
     if n == 4:                                      # Nyquist bin: S_2 = c_2 cos(2 phi), real
-        y = s[2][ok].real.astype(complex)
+        y = s[1][ok].real.astype(complex)
         model = (2.0 * amp * np.real(1.0 / rot)).astype(complex)  # c_1 cos(2 phi)
     else:                                           # S_2 e^{-2 i phi} = c_2 / 2, |S_1| = c_1 / 2
-        y = s[2][ok] * rot
+        y = s[1][ok] * rot
         model = amp.astype(complex)
     den = float(np.sum(np.abs(model) ** 2))
     ratio = float(np.sum(np.real(np.conj(model) * y)) / den)
@@ -146,12 +148,12 @@ def estimate_gamma(frames, mask=None, min_modulation: float = 0.0) -> HarmonicEs
         raise ValueError(f"a {n}-step set holds no harmonic of its own (needs N >= 4 equal steps); "
                          "measure the response with a grey ramp instead")
     s = _bins(f)
-    ok = np.abs(s[1]) > max(min_modulation, 1e-12)
+    ok = np.abs(s[0]) > max(min_modulation, 1e-12)
     if mask is not None:
         ok &= np.asarray(mask, bool)
     if not ok.any():
         raise ValueError("no pixel with fringe modulation to estimate the harmonics from")
-    ratio, sigma = _ratio(s, ok)
+    ratio, sigma = _ratio(s, ok, n)
     return HarmonicEstimate(n, ratio, sigma, gamma_from_ratio(ratio, n), int(ok.sum()))
 
 
