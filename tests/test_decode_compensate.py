@@ -76,3 +76,12 @@ def test_compensate_response_without_a_response_file_exits_2_before_writing(tmp_
     _capture(tmp_path / "cap", 2.2, steps=3)
     assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "dec"), "--compensate", "response"]) == 2
     assert "--response" in capsys.readouterr().err and not (tmp_path / "dec").exists()
+
+
+def test_a_response_file_that_is_not_a_gamma_file_exits_2_naming_it(tmp_path, capsys):
+    _capture(tmp_path / "cap", 2.2, steps=3)
+    (tmp_path / "r.json").write_text(json.dumps({"format": "something-else"}))
+    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "dec"), "--response",
+                 str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err
+    assert "r.json" in err and "not a projector gamma file" in err and not (tmp_path / "dec").exists()
