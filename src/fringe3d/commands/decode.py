@@ -16,6 +16,7 @@ from fringe3d.commands.checks import BIT_DEPTHS, check_choice, check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.plan_errors import in_flag_words
 from fringe3d.decode import DecodeOptions, decode, with_method
+from fringe3d.decode.compensation import COMPENSATIONS
 from fringe3d.decode.plan_checks import check_geometry
 from fringe3d.io.capture import read_capture, read_meta
 from fringe3d.io.importer import load_images, parse_size
@@ -24,6 +25,7 @@ from fringe3d.patterns.layouts import with_threshold
 from fringe3d.patterns.method_registry import method_names
 from fringe3d.optics import Rig
 from fringe3d.phase.ftp import WINDOWS
+from fringe3d.radiometry import load_response
 from fringe3d.decode.result import SUMMARY_NAME
 from fringe3d.utils.jsonfile import read_json
 from fringe3d.utils.output_folder import check_complete, open_output
@@ -126,6 +128,13 @@ def register(app: typer.Typer) -> None:
                                             "without, at 8 bits, scaled; 0 keeps every edge pixel)."),
         edge_mask: bool = edge_mask_option(),
         edge_margin: float = edge_margin_option(),
+        compensate: str = typer.Option(None, "--compensate",
+                                       help="Correct the phase error of a nonlinear projector: harmonic (estimated "
+                                            "from the capture itself; groups of 4 or more equal steps) or response "
+                                            "(the grey-ramp response of --response)."),
+        response: Path = typer.Option(None, "--response",
+                                      help="gamma.json from fringe3d capture --gamma: the projector's measured "
+                                           "response, for --compensate response (implies it)."),
         overwrite: bool = overwrite_option(),
         allow_empty: bool = allow_empty_option(),
         json_: bool = typer.Option(False, "--json", help="Print one JSON summary instead of a table."),
@@ -150,6 +159,11 @@ def register(app: typer.Typer) -> None:
         check_choice(bit_depth, "--bit-depth", BIT_DEPTHS)
         check_choice(ftp_window, "--ftp-window", WINDOWS)
         check_number(max_cycles, "--max-cycles", minimum=1)
+        check_choice(compensate, "--compensate", COMPENSATIONS)
+        compensate = "response" if compensate is None and response is not None else compensate
+        if compensate == "response" and response is None:
+            raise ValueError("--compensate response needs --response gamma.json (fringe3d capture --gamma writes it)")
+        response_lut = load_response(response) if response is not None else None
         described = layout is not None or manifest is not None or list_file is not None
         if capture is None and list_file is None:
             raise ValueError("give the capture folder (or frames with --set/--manifest), or --list FILE")
@@ -176,7 +190,7 @@ def register(app: typer.Typer) -> None:
         bits = bit_depth if bit_depth is not None else cap.meta.get("bit_depth")
         opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1,
                 "white_thr": white_thr, "black_thr": black_thr, "edge_thr": edge_thr, "edge_mask": edge_mask,
-                "edge_margin": edge_margin}
+                "edge_margin": edge_margin, "compensate": compensate}
         patterns = cap.patterns if method is None else with_method(cap.patterns, method)
         if threshold is not None:  # the plans' code threshold, also of a capture folder
             patterns = with_threshold(patterns, threshold)
@@ -207,12 +221,16 @@ def register(app: typer.Typer) -> None:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                _decode_all(cap, n, patterns, rig_obj, DecodeOptions(z_min=z_min, **opts), out, capture, results,
+                dopts = DecodeOptions(z_min=z_min, response=response_lut, **opts)
+                _decode_all(cap, n, patterns, rig_obj, dopts, out, capture, results,
                             overwrite=overwrite, allow_empty=allow_empty, inputs=inputs,
                             fingerprint_options=options)
             finally:
                 for msg in dict.fromkeys(str(w.message) for w in caught):
                     warn(msg)
+        for d, rad in (results[0].get("info", {}).get("radiometry", {}) if results and not compensate else {}).items():
+            if rad.get("diagnostic", {}).get("fix"):
+                warn(f"direction {d}: {rad['diagnostic']['fix']}")
         label = capture if capture is not None else list_file
         summary = {"capture": str(label), "out": str(out), "cycles": n, "patterns": patterns.name,
                    "frames": n * len(patterns), "shape": list(cap.frames.shape[1:]),

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from fringe3d.decode import compensation
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.optics.rays import camera_shape, pixel_rays
 from fringe3d.optics.rig import Rig
@@ -163,8 +164,12 @@ def group_phase_and_saturation(ctx: DecodeContext, group: PhaseGroup) -> tuple[P
     level = quality.saturation_level(ctx.frames, ctx.bit_depth)
     n = len(group.indices)
     if n >= 3:
-        return wrapped_phase(ctx.frames, shifts=group.shifts, index=group.indices, saturation_level=level,
-                             return_saturated=True)
+        pr, sat = wrapped_phase(ctx.frames, shifts=group.shifts, index=group.indices, saturation_level=level,
+                                return_saturated=True)
+        if ctx.options.compensate is not None:
+            pr, done = compensation.compensate_group(ctx, group, pr)
+            ctx.cache.setdefault("radiometry", {}).setdefault("compensation", []).append(done)
+        return pr, sat
     sel = ctx.frames[list(group.indices)]
     saturated: np.ndarray = (np.asarray((sel >= level).any(axis=0)) if np.isfinite(level)
                              else np.zeros(sel.shape[1:], bool))

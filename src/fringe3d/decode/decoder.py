@@ -15,7 +15,7 @@ from typing import Any, Iterator
 
 import numpy as np
 
-from fringe3d.decode import edges
+from fringe3d.decode import compensation, edges
 from fringe3d.decode.assess import assess
 from fringe3d.decode.context import DecodeContext, phase_groups
 from fringe3d.decode.method_plans import plans_to_decode as _plans
@@ -167,6 +167,9 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         out.period[d] = period
         out.angle[d] = float(plan.angle)
         out.method[d] = plan.method
+        rad = compensation.radiometry_info(ctx, g)
+        if rad is not None:
+            out.info.setdefault("radiometry", {})[d] = rad
         if first is None:
             first = (ctx, g, result)
     assert first is not None  # _plans returns at least one plan

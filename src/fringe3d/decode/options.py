@@ -90,6 +90,13 @@ class DecodeOptions:
         and unlit rims, mixed by the pixel footprint and blur; default 1, 0 turns it off).
     extra : mapping
         Further options for user-added methods (read as ``ctx.options.extra``).
+    compensate : {"response", "harmonic"}, optional
+        Correct the projector-nonlinearity phase error of every phase-shifted group
+        (:mod:`fringe3d.decode.compensation`): ``"response"`` by the phase-error table of
+        ``response`` (Zhang & Yau 2007), ``"harmonic"`` by the harmonic model estimated from the
+        capture itself (groups of N >= 4 equal steps). Turns the fused kernel off.
+    response : fringe3d.radiometry.ResponseLUT, optional
+        The projector's measured response, for ``compensate="response"``.
     backend : {"cpu", "cuda"}
         Where the fused three-frequency kernel runs (``"cuda"``: :mod:`fringe3d.gpu`; the rest
         of the decode stays on the CPU).
@@ -128,3 +135,11 @@ class DecodeOptions:
     rim: int = 1
     extra: Mapping[str, Any] = field(default_factory=dict)
     backend: str = "cpu"
+    compensate: str | None = None
+    response: Any = None
+
+    def __post_init__(self) -> None:
+        if self.compensate not in (None, "response", "harmonic"):
+            raise ValueError(f"compensate must be 'response' or 'harmonic', got {self.compensate!r}")
+        if self.compensate == "response" and self.response is None:
+            raise ValueError("compensate='response' needs the projector's response (DecodeOptions.response)")

@@ -3,9 +3,10 @@ noise-free camera signal, and when each frame (and each motion sub-sample) is ex
 
 Photometric model (:mod:`fringe3d.sim.settings`), per camera pixel in full-scale units:
 
-``I = gain * (exposure * frame_rate) * albedo * (ambient + brightness * cos(theta) * P**gamma)``
+``I = gain * (exposure * frame_rate) * albedo * (ambient + brightness * cos(theta) * R(P))``
 
-with ``P`` the (defocused) pattern value (:mod:`fringe3d.sim.projector_sampling`) and
+with ``R(P) = P**gamma`` or the tabulated ``RenderSettings.response``, ``P`` the (defocused)
+pattern value (:mod:`fringe3d.sim.projector_sampling`) and
 ``cos(theta)`` the Lambert cosine toward the projector centre, 0 in projector shadow or outside
 its image (:class:`~fringe3d.sim.geometry.Geometry`). The sensor (blur, shot and read noise,
 quantisation) follows in :func:`fringe3d.sim.noise.sense`.
@@ -48,7 +49,11 @@ def irradiance(geo: Geometry, pattern: np.ndarray, settings: RenderSettings,
     s = settings
     # No clipping for gamma = 1: the FFT defocus model is band-limited, so a blurred binary
     # pattern can overshoot [0, 1] by a few percent (Gibbs) while its harmonics follow the OTF.
-    shaped = pattern if s.gamma == 1.0 else np.power(np.clip(pattern, 0.0, None), s.gamma)
+    if s.response is not None:
+        table = np.asarray(s.response)
+        shaped = np.interp(np.clip(pattern, 0.0, 1.0), np.linspace(0.0, 1.0, table.size), table)
+    else:
+        shaped = pattern if s.gamma == 1.0 else np.power(np.clip(pattern, 0.0, None), s.gamma)
     proj = s.brightness * geo.shade * shaped
     ambient = s.ambient + scene_ambient * s.brightness
     return s.gain * s.exposure_fraction * geo.albedo * (ambient + proj) * geo.hit

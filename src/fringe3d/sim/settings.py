@@ -18,6 +18,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields, replace
 
+import numpy as np
+
 from fringe3d.optics.defocus import MODELS
 
 BIT_DEPTHS = (8, 10, 12, 16)
@@ -43,6 +45,9 @@ class RenderSettings:
         Extra defocus size per mm away from the focal plane (pixels/mm).
     gamma : float
         Projector gamma (output = input ** gamma); 1 = linear.
+    response : tuple of float | None
+        Projector response table (a knee, a toe, a measured curve): output at equally spaced
+        inputs 0..1, non-decreasing, in [0, 1]; interpolated linearly. Replaces ``gamma`` when set.
     ambient : float
         Ambient light (full-scale units, before albedo).
     brightness : float
@@ -77,6 +82,7 @@ class RenderSettings:
     focus_distance: float | None = None
     defocus_growth: float = 0.0
     gamma: float = 1.0
+    response: tuple[float, ...] | None = None
     ambient: float = 0.05
     brightness: float = 0.8
     gain: float = 1.0
@@ -98,6 +104,8 @@ class RenderSettings:
         _finite_nonneg("defocus_growth (pixels/mm)", self.defocus_growth)
         if not (math.isfinite(self.gamma) and self.gamma > 0):
             raise ValueError(f"projector gamma must be a positive number, got {self.gamma}")
+        if self.response is not None:
+            object.__setattr__(self, "response", _response_table(self.response))
         for name in ("ambient", "brightness", "gain", "read_noise", "camera_blur"):
             _finite_nonneg(name, getattr(self, name))
         if not (math.isfinite(self.frame_rate) and self.frame_rate > 0):
@@ -144,6 +152,14 @@ class RenderSettings:
         if unknown:
             raise ValueError(f"render settings: unknown field(s) {unknown}; valid: {sorted(names)}")
         return cls(**d)
+
+
+def _response_table(values) -> tuple[float, ...]:
+    r = np.asarray(values, dtype=float).ravel()
+    if r.size < 2 or not np.all(np.isfinite(r)) or r.min() < 0 or r.max() > 1 or np.any(np.diff(r) < 0):
+        raise ValueError(f"projector response must be >= 2 non-decreasing values in [0, 1] "
+                         f"(output at equally spaced inputs 0..1), got {np.round(r, 4).tolist()}")
+    return tuple(r.tolist())
 
 
 def _finite_nonneg(name: str, value: float) -> None:

@@ -49,7 +49,8 @@ def unwrap_heterodyne(ctx: DecodeContext) -> Unwrapped:
     are masked where clipping biases a group's phase beyond its noise
     (:func:`fringe3d.decode.context.clipping_broken`)."""
     groups = ctx.groups_for_plan()
-    if len(groups) == 3 and all(len(g.indices) >= 3 for g in groups) and ctx.options.fused:
+    if len(groups) == 3 and all(len(g.indices) >= 3 for g in groups) and ctx.options.fused \
+            and ctx.options.compensate is None:
         r = three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
                                    [g.period for g in groups], w_range=ctx.w_range(),
                                    min_modulation=ctx.min_modulation, saturation_level=np.inf,

@@ -1,0 +1,87 @@
+"""Projector-nonlinearity compensation and diagnosis of a phase group (issue 25).
+
+:class:`~fringe3d.decode.options.DecodeOptions` ``compensate``:
+
+* ``"response"``: the phase-error table (Zhang & Yau 2007) of the measured response
+  ``DecodeOptions.response`` (:class:`fringe3d.radiometry.ResponseLUT`, e.g. from a grey-ramp
+  ``gamma.json``) for the group's shifts; any N >= 3.
+* ``"harmonic"``: the self-calibrating harmonic model (:mod:`fringe3d.radiometry.harmonics`)
+  estimated from the group's own frames; groups of N >= 4 equal steps only (others are left as
+  they are and say so in ``Decoded.info["radiometry"]``).
+
+:func:`diagnose_group` runs :func:`fringe3d.radiometry.diagnose` on a subsample of a group of
+N >= 4 equal steps, for ``Decoded.info["radiometry"]`` whether or not a compensation is chosen.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from fringe3d.phase.psp import PhaseResult, default_shifts
+from fringe3d.radiometry import diagnose, estimate_gamma, lut_from_response, power_law
+from fringe3d.radiometry.phase_error import wrap
+
+if TYPE_CHECKING:
+    from fringe3d.decode.context import DecodeContext, PhaseGroup
+
+COMPENSATIONS = ("response", "harmonic")
+#: Pixels used by the harmonic estimate and the diagnostic (a regular subsample beyond this).
+SAMPLE_PIXELS = 16384
+
+
+def equal_steps(shifts) -> bool:
+    """The shifts are ``shift_0 + 2 pi k / N`` in step order (what the harmonic model needs)."""
+    d = np.asarray(shifts, float)
+    return d.size >= 4 and bool(np.allclose(wrap(d - d[0] - default_shifts(d.size)), 0.0, atol=1e-6))
+
+
+def _sample(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> tuple[np.ndarray, np.ndarray]:
+    h, w = pr.phase.shape
+    step = max(1, int(np.ceil(np.sqrt(h * w / SAMPLE_PIXELS))))
+    frames = np.stack([np.asarray(ctx.frames[i][::step, ::step], np.float32) for i in group.indices])
+    return frames, pr.modulation[::step, ::step] >= max(ctx.min_modulation, 1e-12)
+
+
+def diagnose_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> dict[str, Any] | None:
+    """The nonlinearity report (:class:`fringe3d.radiometry.NonlinearityReport` as a dict) of a
+    group of N >= 4 equal steps; None for other groups or without usable pixels."""
+    if not equal_steps(group.shifts):
+        return None
+    frames, ok = _sample(ctx, group, pr)
+    if ok.sum() < 100:
+        return None
+    return {"group": group.name, **diagnose(frames, ok, period=group.period).as_dict()}
+
+
+def compensate_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> tuple[PhaseResult, dict[str, Any]]:
+    """The group's phase with ``ctx.options.compensate`` applied, and what was done (JSON-ready)."""
+    how = ctx.options.compensate
+    info: dict[str, Any] = {"group": group.name, "compensation": how, "applied": False}
+    if how == "response":
+        lut = lut_from_response(ctx.options.response, shifts=group.shifts)
+    elif not equal_steps(group.shifts):
+        info["reason"] = (f"the harmonic model needs N >= 4 equally shifted steps; group {group.name!r} has "
+                          f"{len(group.shifts)}")
+        return pr, info
+    else:
+        frames, ok = _sample(ctx, group, pr)
+        est = estimate_gamma(frames, ok)
+        lut = lut_from_response(power_law(est.gamma), shifts=group.shifts)
+        info["gamma"] = est.gamma
+    info.update(applied=True, ripple_rad=lut.amplitude)
+    return PhaseResult(lut.correct(pr.phase), pr.average, pr.modulation), info
+
+
+def radiometry_info(ctx: DecodeContext, group: PhaseGroup | None) -> dict[str, Any] | None:
+    """``Decoded.info["radiometry"][direction]``: the diagnostic of the plan's narrowest group
+    (when it has N >= 4 equal steps) and what each group's compensation did; None when neither."""
+    out: dict[str, Any] = {}
+    if group is not None and len(group.indices) >= 4:
+        report = diagnose_group(ctx, group, ctx.group_phase(group))
+        if report is not None:
+            out["diagnostic"] = report
+    done = ctx.cache.get("radiometry", {}).get("compensation")
+    if done:
+        out["compensation"] = done
+    return out or None

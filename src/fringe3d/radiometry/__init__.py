@@ -1,0 +1,15 @@
+"""Radiometry: the projector's response and the phase error it causes, for captures already taken.
+
+* :mod:`.response`: a monotone response LUT from a grey ramp, its inverse, linearised frames;
+* :mod:`.phase_error`: the phase-error LUT indexed by wrapped phase (Zhang & Yau 2007);
+* :mod:`.harmonics`: the self-calibrating harmonic model for N >= 4 steps;
+* :mod:`.diagnostic`: "your projector is nonlinear, this is the ripple, this is the fix".
+"""
+from .diagnostic import NonlinearityReport, diagnose
+from .harmonics import HarmonicEstimate, estimate_gamma, harmonic_lut
+from .phase_error import PhaseErrorLUT, lut_from_reference, lut_from_response
+from .response import ResponseLUT, fit_response, linearise_frames, load_response, power_law, response_phase
+
+__all__ = ["HarmonicEstimate", "NonlinearityReport", "PhaseErrorLUT", "ResponseLUT", "diagnose",
+           "estimate_gamma", "fit_response", "harmonic_lut", "linearise_frames", "load_response", "lut_from_reference",
+           "lut_from_response", "power_law", "response_phase"]

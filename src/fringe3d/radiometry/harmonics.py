@@ -1,0 +1,163 @@
+"""Self-calibrating harmonic model: the projector's nonlinearity estimated from the capture itself.
+
+With ``N`` equally shifted frames (``delta_k = 2 pi k / N``) the DFT of each pixel's samples has
+bins ``m = 0 .. N-1``. A response ``r`` turns the pattern ``1/2 (1 + cos t)`` into a Fourier
+series ``sum_m c_m cos(m t)``; harmonic ``m`` lands in bin ``m mod N``. Harmonics ``N - 1`` and
+``N + 1`` fold onto bin 1 and cause the familiar ripple ``e(phi) ~ eps sin(N phi)`` of the
+phase (Pan et al. 2009); they cannot be told apart from a warping of the phase, so no per-pixel
+fit recovers them. The harmonics ``2 .. N - 2`` (present when ``N >= 4``) land in bins of their
+own: the residual of the first-harmonic fit. Their ratio to the first harmonic is the same at
+every pixel of a matte surface, so the whole capture measures it precisely.
+
+The model closes the gap: a power-law response ``r = x ** gamma`` fixes every ``c_m / c_1``, so
+the measured ``c_2 / c_1`` gives ``gamma`` (Hoang et al. 2010), and the phase-error table of that
+response (:func:`fringe3d.radiometry.phase_error.lut_from_response`, Zhang & Yau 2007) corrects
+the ripple. With N = 3 no bin is free and :func:`estimate_gamma` raises.
+
+References
+----------
+B. Pan, Q. Kemao, L. Huang and A. Asundi, "Phase error analysis and compensation for
+nonsinusoidal waveforms in phase-shifting digital fringe projection profilometry",
+Opt. Lett. 34(4), 416-418 (2009).
+T. Hoang, B. Pan, D. Nguyen and Z. Wang, "Generic gamma correction for accuracy enhancement in
+fringe-projection profilometry", Opt. Lett. 35(12), 1992-1994 (2010).
+S. Zhang and S.-T. Yau, Appl. Opt. 46(1), 36-43 (2007).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .phase_error import PhaseErrorLUT, lut_from_response
+from .response import power_law
+
+GAMMA_RANGE = (0.2, 8.0)
+
+
+class HarmonicEstimate(NamedTuple):
+    """What the residual bins of an N-step capture say about the projector.
+
+    Attributes
+    ----------
+    steps : int
+        N.
+    ratio : float
+        Second-to-first harmonic ratio ``c_2 / c_1`` (0 for a linear projector).
+    ratio_sigma : float
+        Its standard error from the spread over pixels.
+    gamma : float
+        The power-law gamma with that ratio.
+    pixels : int
+        Pixels used.
+    """
+
+    steps: int
+    ratio: float
+    ratio_sigma: float
+    gamma: float
+    pixels: int
+
+
+def harmonic_ratio(gamma: float, order: int = 2, samples: int = 4096) -> float:
+    """``c_order / c_1`` of ``(1/2 (1 + cos t)) ** gamma`` (numerical Fourier series)."""
+    t = 2.0 * np.pi * np.arange(samples) / samples
+    spec = np.fft.rfft((0.5 * (1.0 + np.cos(t))) ** gamma)
+    return float(spec[order].real / spec[1].real)
+
+
+def observed_ratio(gamma: float, steps: int, samples: int = 512) -> float:
+    """The ratio :func:`estimate_gamma` measures on an ideal N-step capture of ``x ** gamma``.
+
+    Equals :func:`harmonic_ratio` up to the higher harmonics folding onto bin 2 and the ripple
+    of the phase used to rotate it; matching this instead removes both biases.
+    """
+    phi = 2.0 * np.pi * np.arange(samples) / samples
+    d = 2.0 * np.pi * np.arange(steps) / steps
+    frames = (0.5 * (1.0 + np.cos(phi[None, None, :] + d[:, None, None]))) ** gamma
+    return _ratio(_bins(frames), np.ones((1, samples), bool), steps)[0]
+
+
+def gamma_from_ratio(ratio: float, steps: int) -> float:
+    """The gamma whose observed ratio (:func:`observed_ratio`) is ``ratio``, clipped to ``GAMMA_RANGE``."""
+    lo, hi = GAMMA_RANGE
+    f = lambda g: observed_ratio(g, steps) - ratio  # noqa: E731
+    if f(lo) >= 0:
+        return lo
+    if f(hi) <= 0:
+        return hi
+    return float(brentq(f, lo, hi, xtol=1e-6))
+
+
+def _bins(frames: np.ndarray) -> np.ndarray:
+    """DFT bins 1 and 2, ``(1/N) sum_k I_k exp(-i m delta_k)``, (2, H, W) complex (real products only)."""
+    n = frames.shape[0]
+    ang = 2.0 * np.pi * np.outer([1, 2], np.arange(n)) / n
+    flat = frames.reshape(n, -1)
+    re = (np.cos(ang) @ flat) / n
+    im = (-np.sin(ang) @ flat) / n
+    return (re + 1j * im).reshape((2,) + frames.shape[1:])
+
+
+def _ratio(s: np.ndarray, ok: np.ndarray, n: int) -> tuple[float, float]:
+    """Least-squares ``c_2 / c_1`` over pixels ``ok`` of an ``n``-step set from its DFT bins 1 and 2
+    ``s`` (2, H, W) (:func:`_bins`), and its standard error."""
+    s1 = s[0][ok]
+    amp = np.abs(s1)
+    rot = (np.conj(s1) / amp) ** 2                  # e^{-2 i phi}
+    if n == 4:                                      # Nyquist bin: S_2 = c_2 cos(2 phi), real
+        y = s[1][ok].real.astype(complex)
+        model = (2.0 * amp * np.real(1.0 / rot)).astype(complex)  # c_1 cos(2 phi)
+    else:                                           # S_2 e^{-2 i phi} = c_2 / 2, |S_1| = c_1 / 2
+        y = s[1][ok] * rot
+        model = amp.astype(complex)
+    den = float(np.sum(np.abs(model) ** 2))
+    ratio = float(np.sum(np.real(np.conj(model) * y)) / den)
+    resid = y - ratio * model
+    sigma = float(np.sqrt(np.sum(np.abs(resid) ** 2) / max(1, amp.size - 1) / den))
+    return ratio, sigma
+
+
+def estimate_gamma(frames, mask=None, min_modulation: float = 0.0) -> HarmonicEstimate:
+    """Estimate the projector's gamma from one equally shifted N-step set (N >= 4).
+
+    Parameters
+    ----------
+    frames : (N, H, W)
+        Frames ``I_k = a + b r(1/2 (1 + cos(phi + 2 pi k / N)))`` (Eq. 2.2-2.3 with a response).
+    mask : (H, W) bool, optional
+        Pixels to use (default all).
+    min_modulation : float
+        Pixels whose first-bin magnitude is below this (frame units) are left out.
+
+    Returns
+    -------
+    HarmonicEstimate
+
+    Raises
+    ------
+    ValueError
+        N < 4 (the second harmonic folds onto the first), or no usable pixel.
+    """
+    f = np.asarray(frames, float)
+    if f.ndim != 3:
+        raise ValueError(f"frames must be an (N, H, W) stack, got shape {f.shape}")
+    n = f.shape[0]
+    if n < 4:
+        raise ValueError(f"a {n}-step set holds no harmonic of its own (needs N >= 4 equal steps); "
+                         "measure the response with a grey ramp instead")
+    s = _bins(f)
+    ok = np.abs(s[0]) > max(min_modulation, 1e-12)
+    if mask is not None:
+        ok &= np.asarray(mask, bool)
+    if not ok.any():
+        raise ValueError("no pixel with fringe modulation to estimate the harmonics from")
+    ratio, sigma = _ratio(s, ok, n)
+    return HarmonicEstimate(n, ratio, sigma, gamma_from_ratio(ratio, n), int(ok.sum()))
+
+
+def harmonic_lut(frames, mask=None, bins: int = 256) -> tuple[PhaseErrorLUT, HarmonicEstimate]:
+    """The phase-error table of the gamma estimated from the capture itself (N >= 4)."""
+    est = estimate_gamma(frames, mask)
+    return lut_from_response(power_law(est.gamma), steps=est.steps, bins=bins), est

@@ -1,0 +1,152 @@
+"""Phase-error look-up table indexed by the wrapped phase (Zhang & Yau 2007).
+
+A nonlinear projector response makes the N-step phase (Eq. 2.4) deviate from the true phase by
+an error that depends only on the phase itself (and on the response, not on the pixel's ambient
+or albedo): ``phi_measured = phi + e(phi)``. The table stores ``e`` on a grid of *measured*
+phase, so a capture already taken is corrected by ``phi - e(phi_measured)`` with one periodic
+interpolation per pixel (:meth:`PhaseErrorLUT.correct`).
+
+Two ways to build it:
+
+* :func:`lut_from_response`: simulate the N-step algorithm on the measured response curve
+  (Zhang & Yau's construction from the projector's gamma curve);
+* :func:`lut_from_reference`: bin the difference between a measured phase and a known
+  reference phase (a flat board, or a capture decoded with a linear projector), by measured phase.
+
+References
+----------
+S. Zhang and S.-T. Yau, "Generic nonsinusoidal phase error correction for three-dimensional
+shape measurement using a digital video projector", Appl. Opt. 46(1), 36-43 (2007).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from fringe3d.phase.psp import default_shifts, lsq_coefficients
+
+from .response import ResponseLUT
+
+TWO_PI = 2.0 * np.pi
+
+
+def wrap(phi) -> np.ndarray:
+    """Phase wrapped to [-pi, pi) (rad), float64."""
+    return np.mod(np.asarray(phi, float) + np.pi, TWO_PI) - np.pi
+
+
+class PhaseErrorLUT(NamedTuple):
+    """Phase error ``e`` (rad) on ``bins`` equally spaced measured phases covering [-pi, pi).
+
+    Attributes
+    ----------
+    phase : (M,) float64
+        Bin centres, rad, ``-pi + 2 pi (j + 1/2) / M``.
+    error : (M,) float64
+        Mean ``phi_measured - phi_true`` in each bin, rad.
+    """
+
+    phase: np.ndarray
+    error: np.ndarray
+
+    def at(self, measured) -> np.ndarray:
+        """``e(phi_measured)`` by periodic linear interpolation, same shape as ``measured``."""
+        return np.interp(wrap(measured), self.phase, self.error, period=TWO_PI)
+
+    def correct(self, measured) -> np.ndarray:
+        """Corrected wrapped phase ``wrap(phi_measured - e(phi_measured))`` (rad, float32)."""
+        m = np.asarray(measured, float)
+        return wrap(m - self.at(m)).astype(np.float32)
+
+    @property
+    def amplitude(self) -> float:
+        """Largest ``|e|`` in the table (rad)."""
+        return float(np.max(np.abs(self.error)))
+
+
+def bin_centres(bins: int) -> np.ndarray:
+    """``-pi + 2 pi (j + 1/2) / bins``, (bins,) float64."""
+    return -np.pi + TWO_PI * (np.arange(bins) + 0.5) / bins
+
+
+def simulate_phase(response: ResponseLUT, phi, shifts) -> np.ndarray:
+    """N-step least-squares phase (Eq. 2.4) of ``r(1/2 (1 + cos(phi + delta_k)))``; rad, like ``phi``."""
+    d = np.asarray(shifts, float)
+    phi = np.asarray(phi, float)
+    samples = response.apply(0.5 * (1.0 + np.cos(phi[None] + d.reshape((-1,) + (1,) * phi.ndim))))
+    _, b, c = np.tensordot(lsq_coefficients(d), samples, axes=1)
+    return np.arctan2(-c, b)
+
+
+def lut_from_response(response: ResponseLUT, shifts=None, steps: int | None = None, bins: int = 256,
+                      samples: int = 8192) -> PhaseErrorLUT:
+    """Phase-error table of a projector response for one phase-shift set (Zhang & Yau 2007).
+
+    Parameters
+    ----------
+    response : ResponseLUT
+    shifts : (N,) float, optional
+        Phase shifts (rad); default ``2 pi k / steps``.
+    steps : int, optional
+        N when ``shifts`` is not given.
+    bins : int
+        Table size (phases per period).
+    samples : int
+        True phases simulated per period.
+    """
+    if shifts is None:
+        if steps is None:
+            raise ValueError("give the phase shifts or the number of steps")
+        shifts = default_shifts(steps)
+    true = bin_centres(samples)
+    return lut_from_reference(simulate_phase(response, true, shifts), true, bins=bins)
+
+
+def lut_from_reference(measured, reference, mask=None, bins: int = 256) -> PhaseErrorLUT:
+    """Phase-error table from a measured phase and a known reference phase of the same pixels.
+
+    Parameters
+    ----------
+    measured : (...) float
+        Measured wrapped (or absolute) phase, rad.
+    reference : (...) float
+        The true phase of the same pixels (a plane fitted to a flat board's absolute phase, or the
+        phase from a linear projector), rad; only its value modulo 2 pi matters.
+    mask : (...) bool, optional
+        Pixels to use (default: all finite).
+    bins : int
+        Table size.
+
+    Returns
+    -------
+    PhaseErrorLUT
+        Mean of ``wrap(measured - reference)`` per bin of ``wrap(measured)``; empty bins are
+        filled by periodic interpolation.
+
+    Raises
+    ------
+    ValueError
+        Shapes differ, or fewer than half of the bins receive a pixel.
+    """
+    m = np.asarray(measured, float)
+    r = np.asarray(reference, float)
+    if m.shape != r.shape:
+        raise ValueError(f"measured phase {m.shape} and reference phase {r.shape} must have the same shape")
+    ok = np.isfinite(m) & np.isfinite(r)
+    if mask is not None:
+        ok &= np.asarray(mask, bool)
+    mw = wrap(m[ok])
+    err = wrap(mw - r[ok])
+    idx = np.minimum(((mw + np.pi) / TWO_PI * bins).astype(int), bins - 1)
+    count = np.bincount(idx, minlength=bins)
+    if np.count_nonzero(count) < bins // 2:
+        raise ValueError(f"the reference region covers only {np.count_nonzero(count)} of {bins} phase bins; "
+                         "use a larger flat region (at least one full fringe period) or fewer bins")
+    # average the error as a unit vector so bins straddling +-pi do not cancel
+    s = np.bincount(idx, np.sin(err), bins)
+    c = np.bincount(idx, np.cos(err), bins)
+    centres = bin_centres(bins)
+    full = count > 0
+    e = np.arctan2(s[full], c[full])
+    return PhaseErrorLUT(centres, np.interp(centres, centres[full], e, period=TWO_PI))
