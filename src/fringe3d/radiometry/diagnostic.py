@@ -93,8 +93,8 @@ def diagnose(frames, mask=None, period: float | None = None, threshold_rad: floa
     if nonlinear:
         size = f"{ripple:.3g} rad" + ("" if px is None else f" = {px:.3g} px")
         fix = (f"the projector is nonlinear (gamma ~ {est.gamma:.2f}): the phase ripples {est.steps} times per "
-               f"fringe by up to {size}; decode with the harmonic compensation, or measure the response "
-               f"with a grey ramp and use the response LUT, or pre-distort the patterns "
-               f"(patterns --gamma {est.gamma:.2f})")
+               f"fringe by up to {size}; decode with `compensate='harmonic'`, or measure the response "
+               f"with a grey ramp and decode with `compensate='response'`, or pre-distort the patterns "
+               f"(`pattern_gamma` {est.gamma:.2f})")
     return NonlinearityReport(est.steps, bool(nonlinear), est.ratio, est.ratio_sigma, est.gamma, est.steps,
                               float(ripple), px, fix)

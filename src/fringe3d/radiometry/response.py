@@ -126,7 +126,7 @@ def load_response(path: str | os.PathLike) -> ResponseLUT:
     d = read_json(path, "projector gamma file")
     if d.get("format") != GAMMA_FORMAT:
         raise ValueError(f"{path} is not a projector gamma file (format {d.get('format')!r}, expected "
-                         f"{GAMMA_FORMAT!r}); write one with fringe3d capture --gamma")
+                         f"{GAMMA_FORMAT!r}); write one with `save_gamma`")
     try:
         levels = np.asarray(d["levels"], float)
         r = np.asarray(d["response"], float)
