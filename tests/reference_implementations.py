@@ -34,3 +34,45 @@ def wrapped_phase_reference(frames, shifts=None) -> PhaseResult:
         a, b, c = (s.reshape(f.shape[1:]) for s in sol)
         phase, average, modulation = np.arctan2(-c, b), a, np.hypot(b, c)
     return PhaseResult(phase.astype(np.float32), average.astype(np.float32), modulation.astype(np.float32))
+
+
+def disagreement_reference(phase, period, wrapped, periods):
+    """Plain-NumPy reference of :func:`fringe3d.decode.edges.disagreement`:
+    ``max_g |angle(exp(i (phi_g - Phi T_0 / T_g)))|`` in complex128, NaN ignored (``fmax``)."""
+    out = np.zeros(np.shape(phase), np.float32)
+    for phi_g, t_g in zip(wrapped, periods):
+        r = np.angle(np.exp(1j * (np.asarray(phi_g, np.float64) - np.asarray(phase, np.float64) * (period / t_g))))
+        out = np.fmax(out, np.abs(r).astype(np.float32))
+    return out
+
+
+def fit_residual_variance_reference(frames, index, shifts):
+    """Plain-NumPy reference of :func:`fringe3d.phase.noise.fit_residual_variance`:
+    ``|(I - D P) I|^2 / (N - 3)`` by ``tensordot`` and ``einsum`` in float32."""
+    from fringe3d.phase.psp import lsq_coefficients
+    d = np.asarray(shifts, np.float64)
+    design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1)
+    proj = (np.eye(d.size) - design @ lsq_coefficients(d)).astype(np.float32)
+    stack = np.asarray(frames)[list(index)].astype(np.float32)
+    res = np.tensordot(proj, stack, axes=1)
+    return np.einsum("khw,khw->hw", res, res) / np.float32(d.size - 3)
+
+
+def fit_noise_model_reference(variance, average, mask):
+    """Plain-NumPy reference of :func:`fringe3d.phase.noise.fit_noise_model`: ordinary least
+    squares of ``v = c0 + c1 A`` by ``numpy.linalg.lstsq`` over the mask's finite pixels, then
+    again on ``v < 5 max(c0 + c1 A, 1e-12)``; ``c1 < 0``: ``(mean v, 0)``."""
+    m = np.asarray(mask, bool) & np.isfinite(variance) & np.isfinite(average)
+    if m.sum() < 10:
+        return float("nan"), float("nan")
+    v = np.asarray(variance, np.float64)[m]
+    a = np.asarray(average, np.float64)[m]
+    keep = np.ones(v.size, bool)
+    c0 = c1 = 0.0
+    for _ in range(2):
+        design = np.stack([np.ones(int(keep.sum())), a[keep]], axis=1)
+        c0, c1 = (float(c) for c in np.linalg.lstsq(design, v[keep], rcond=None)[0])
+        if c1 < 0:
+            c0, c1 = float(v[keep].mean()), 0.0
+        keep = v < 5.0 * np.maximum(c0 + c1 * a, 1e-12)
+    return c0, c1

@@ -56,6 +56,7 @@ from typing import Sequence
 
 import numpy as np
 
+from fringe3d.decode._disagreement_kernel import max_wrapped_residual
 from fringe3d.decode._fused_quality import fused_quality_map  # noqa: F401  (quality_map in three passes)
 from fringe3d.decode._stencils import dilate3, erode_cross, max5, median5, neighbour_jump
 
@@ -131,11 +132,12 @@ def border_band(u: np.ndarray, v: np.ndarray, width: int, height: int, margin: f
 def disagreement(phase: np.ndarray, period: float, wrapped: Sequence[np.ndarray],
                  periods: Sequence[float]) -> np.ndarray:
     """(H, W) float32 largest unwrapping residual (rad) over the coarser groups:
-    ``max_g |wrap(phi_g - Phi T_0 / T_g)|`` with ``Phi`` the absolute phase of period ``T_0``."""
+    ``max_g |wrap(phi_g - Phi T_0 / T_g)|`` with ``Phi`` the absolute phase of period ``T_0``,
+    ``wrap(x) = x - 2 pi round(x / 2 pi)`` in float64 per pixel (one numba pass per group); 0
+    where every residual is NaN."""
     out = np.zeros(np.shape(phase), np.float32)
     for phi_g, t_g in zip(wrapped, periods):
-        r = np.angle(np.exp(1j * (np.asarray(phi_g, np.float64) - np.asarray(phase, np.float64) * (period / t_g))))
-        out = np.fmax(out, np.abs(r).astype(np.float32))
+        max_wrapped_residual(np.asarray(phase), np.asarray(phi_g), period / t_g, out)
     return out
 
 

@@ -1,0 +1,70 @@
+"""The numba assessment passes (disagreement, fit residual, noise-model fit) equal their
+plain-NumPy references (tests/reference_implementations.py) within stated tolerances."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from reference_implementations import (disagreement_reference, fit_noise_model_reference,
+                                       fit_residual_variance_reference)
+
+from fringe3d.decode import edges
+from fringe3d.phase import noise
+
+
+def test_disagreement_equals_the_complex_exponential_reference():
+    rng = np.random.default_rng(3)
+    phase = rng.uniform(0, 320, (37, 53)).astype(np.float32)
+    phase[rng.random(phase.shape) < 0.05] = np.nan
+    wrapped = [rng.uniform(-np.pi, np.pi, phase.shape).astype(np.float32) for _ in range(2)]
+    wrapped[1][rng.random(phase.shape) < 0.05] = np.nan
+    got = edges.disagreement(phase, 18.0, wrapped, [21.0, 144.0])
+    ref = disagreement_reference(phase, 18.0, wrapped, [21.0, 144.0])
+    assert got.dtype == np.float32 and got.shape == phase.shape
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-6)  # both float64 inside: rounding only
+    assert (got == 0)[np.isnan(phase)].all()
+
+
+def test_disagreement_of_a_residual_beyond_pi_is_wrapped():
+    phase = np.full((3, 4), 100.0, np.float32)
+    for delta in (0.3, 2.9, -2.9, 3.5, -6.0):
+        coarse = (phase.astype(np.float64) * 18 / 144 + delta).astype(np.float32)  # not wrapped: same residual
+        want = abs(np.angle(np.exp(1j * delta)))
+        np.testing.assert_allclose(edges.disagreement(phase, 18.0, [coarse], [144.0]), want, atol=1e-5)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+def test_fit_residual_variance_equals_the_tensordot_reference(dtype):
+    rng = np.random.default_rng(4)
+    n = 9
+    shifts = 2 * np.pi * np.arange(n) / n + 0.1
+    phi = rng.uniform(-np.pi, np.pi, (23, 31))
+    frames = 100 + 60 * np.cos(phi[None] + shifts[:, None, None]) + rng.normal(0, 2, (n, 23, 31))
+    stack = np.concatenate([frames, frames[:2]]).clip(0, 255).astype(dtype)  # two frames of another group
+    index = list(range(n))
+    got = noise.fit_residual_variance(stack, index, shifts)
+    ref = fit_residual_variance_reference(stack, index, shifts)
+    assert got.dtype == np.float32
+    np.testing.assert_allclose(got, ref, rtol=1e-4, atol=1e-3)  # the reference sums in float32
+
+
+def test_noise_model_fit_equals_the_lstsq_reference_with_outliers_and_nan():
+    rng = np.random.default_rng(5)
+    avg = rng.uniform(20, 200, (96, 80)).astype(np.float32)
+    var = ((1.5 + 0.05 * avg) * rng.chisquare(6, avg.shape) / 6).astype(np.float32)
+    var[rng.random(avg.shape) < 0.02] *= 40  # moving / mixed pixels: dropped by the robust step
+    var[0, :5] = np.nan
+    mask = rng.random(avg.shape) > 0.1
+    got = noise.fit_noise_model(var, avg, mask)
+    ref = fit_noise_model_reference(var, avg, mask)
+    np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-12)
+
+
+def test_noise_model_with_a_negative_slope_or_constant_average_is_the_mean_variance():
+    avg = np.linspace(20, 200, 400, dtype=np.float32).reshape(20, 20)
+    var = (10 - 0.02 * avg).astype(np.float32)
+    mask = np.ones(avg.shape, bool)
+    assert noise.fit_noise_model(var, avg, mask) == pytest.approx(fit_noise_model_reference(var, avg, mask))
+    flat = np.full(avg.shape, 4.0, np.float32)
+    c0, c1 = noise.fit_noise_model(var, flat, mask)
+    assert c1 == 0.0 and c0 == pytest.approx(float(var.astype(np.float64).mean()))
+    assert np.isnan(noise.fit_noise_model(var, avg, np.zeros(avg.shape, bool))).all()
