@@ -76,3 +76,35 @@ def fit_noise_model_reference(variance, average, mask):
             c0, c1 = float(v[keep].mean()), 0.0
         keep = v < 5.0 * np.maximum(c0 + c1 * a, 1e-12)
     return c0, c1
+
+
+def quality_map_reference(mask, w=None, extent=None, margin=2.0, modulation=None, average=None, residual=None,
+                          max_disagreement=np.inf, gradient_ratio=4.0, gradient_floor=1.0, modulation_ratio=0.5,
+                          rim=1, order=None, saturated=None):
+    """Plain-NumPy reference of :func:`fringe3d.decode.edges.quality_map`: one whole-image pass
+    per bit with the stencils of :mod:`fringe3d.decode.edges` (the bits of its docstring)."""
+    from fringe3d.decode import edges
+
+    def bits(flag, bit):
+        return flag.astype(np.uint8) * np.uint8(bit)
+
+    valid = np.asarray(mask, bool)
+    q = bits(~valid, edges.INVALID)
+    if saturated is not None:
+        q |= bits(~valid & saturated, edges.SATURATED)
+    if order is not None:
+        bad = valid & np.asarray(order, bool)
+        valid = valid & ~bad
+        q |= bits(bad, edges.ORDER)
+    if w is not None and extent is not None:
+        q |= bits(valid & edges.edge_band(w, extent, margin), edges.EDGE)
+    if residual is not None and np.isfinite(max_disagreement):
+        with np.errstate(invalid="ignore"):
+            q |= bits(valid & (residual > max_disagreement), edges.INCONSISTENT)
+    if w is not None:
+        q |= bits(edges.gradient_jump(w, valid, gradient_ratio, gradient_floor), edges.GRADIENT)
+    if modulation is not None and average is not None:
+        q |= bits(edges.modulation_drop(modulation, average, valid, modulation_ratio), edges.MOD_DROP)
+    if rim > 0:
+        q |= bits(edges.rim_of_invalid(valid, rim), edges.RIM)
+    return q

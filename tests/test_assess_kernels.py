@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from reference_implementations import (disagreement_reference, fit_noise_model_reference,
-                                       fit_residual_variance_reference)
+                                       fit_residual_variance_reference, quality_map_reference)
 
 from fringe3d.decode import edges
 from fringe3d.phase import noise
@@ -68,3 +68,54 @@ def test_noise_model_with_a_negative_slope_or_constant_average_is_the_mean_varia
     c0, c1 = noise.fit_noise_model(var, flat, mask)
     assert c1 == 0.0 and c0 == pytest.approx(float(var.astype(np.float64).mean()))
     assert np.isnan(noise.fit_noise_model(var, avg, np.zeros(avg.shape, bool))).all()
+
+
+def _quality_inputs(shape, seed, nan_order=True):
+    """Maps with depth steps, holes, contrast drops, unlit pixels, order and clipping flags."""
+    rng = np.random.default_rng(seed)
+    H, W = shape
+    w = np.linspace(-3, 103, W, dtype=np.float32)[None, :].repeat(H, 0)
+    w += np.where(rng.random(shape) < 0.05, 6.0, 0.0).astype(np.float32)
+    w += rng.normal(0, 0.05, shape).astype(np.float32)
+    mask = rng.random(shape) > 0.1
+    order = rng.random(shape) < 0.05
+    w[~mask] = np.nan  # the decoder's w: NaN outside the method's mask ...
+    if nan_order:
+        w[order] = np.nan  # ... and on the order-inconsistent pixels
+    average = rng.uniform(20, 200, shape).astype(np.float32)
+    average[rng.random(shape) < 0.03] = 0.0
+    modulation = (average * rng.uniform(0.3, 0.9, shape)).astype(np.float32)
+    modulation[rng.random(shape) < 0.05] *= np.float32(0.2)
+    residual = rng.uniform(0, 1.2, shape).astype(np.float32)
+    residual[rng.random(shape) < 0.02] = np.nan
+    saturated = rng.random(shape) < 0.2
+    return dict(mask=mask, w=w, modulation=modulation, average=average, residual=residual, order=order,
+                saturated=saturated)
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (3, 8), (47, 61)])
+@pytest.mark.parametrize("extent", [(-0.5, 99.5), None])
+@pytest.mark.parametrize("flags", [(), ("order",), ("saturated", "residual"), ("order", "saturated", "residual")])
+def test_quality_map_equals_the_per_bit_numpy_reference(shape, extent, flags):
+    for seed, rim in ((0, 1), (1, 2), (2, 0)):
+        x = _quality_inputs(shape, seed, nan_order="order" in flags)
+        for name in ("order", "saturated", "residual"):
+            if name not in flags:
+                x[name] = None
+        kw = dict(extent=extent, margin=2.5, max_disagreement=0.9, rim=rim, **x)
+        got = edges.quality_map(**kw)
+        np.testing.assert_array_equal(got, quality_map_reference(**kw))
+
+
+def test_quality_map_sets_every_bit_on_these_inputs():
+    x = _quality_inputs((47, 61), 0)
+    q = edges.quality_map(extent=(-0.5, 99.5), margin=2.5, max_disagreement=0.9, **x)
+    for bit in edges.BITS:
+        assert (q & bit).any(), edges.BITS[bit]
+
+
+def test_quality_map_with_nan_on_valid_pixels_keeps_the_numpy_semantics():
+    x = _quality_inputs((31, 40), 3)  # w NaN on order pixels, but order not passed: NaN on valid pixels
+    x.update(order=None)
+    kw = dict(extent=(-0.5, 99.5), margin=2.0, max_disagreement=0.9, **x)
+    np.testing.assert_array_equal(edges.quality_map(**kw), quality_map_reference(**kw))

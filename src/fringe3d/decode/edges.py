@@ -57,7 +57,7 @@ from typing import Sequence
 import numpy as np
 
 from fringe3d.decode._disagreement_kernel import max_wrapped_residual
-from fringe3d.decode._fused_quality import fused_quality_map  # noqa: F401  (quality_map in three passes)
+from fringe3d.decode._fused_quality import finish_quality_map, fused_quality_map
 from fringe3d.decode._stencils import dilate3, erode_cross, max5, median5, neighbour_jump
 
 INVALID = 1
@@ -179,6 +179,10 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
                 saturated: np.ndarray | None = None) -> np.ndarray:
     """(H, W) uint8 quality map (bits of the module docstring) of one direction.
 
+    With float32 ``w``, ``modulation`` and ``average`` and ``w`` finite on the valid pixels (the
+    decoder's case) the map comes from four numba passes (:func:`_quality_map_fused`), else
+    from one whole-image pass per bit; the bits are the same.
+
     Parameters
     ----------
     mask : (H, W) bool
@@ -203,6 +207,15 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
     saturated : (H, W) bool, optional
         Where clipping broke the pixel; sets SATURATED on the invalid ones.
     """
+    if w is not None and modulation is not None and average is not None and all(
+            np.asarray(x).dtype == np.float32 for x in (w, modulation, average)):
+        valid = np.asarray(mask, bool)
+        if order is not None:
+            valid = valid & ~np.asarray(order, bool)
+        if not np.isnan(w, where=valid, out=np.zeros(valid.shape, bool)).any():
+            return _quality_map_fused(mask, valid, w, extent, margin, modulation, average, residual,
+                                      max_disagreement, gradient_ratio, gradient_floor, modulation_ratio, rim,
+                                      order, saturated)
     valid = np.asarray(mask, bool)
     q = _bits(~valid, INVALID)
     if saturated is not None:
@@ -222,6 +235,22 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
         q |= _bits(modulation_drop(modulation, average, valid, modulation_ratio), MOD_DROP)
     if rim > 0:
         q |= _bits(rim_of_invalid(valid, rim), RIM)
+    return q
+
+
+def _quality_map_fused(mask: np.ndarray, valid: np.ndarray, w: np.ndarray, extent: tuple[float, float] | None,
+                       margin: float, modulation: np.ndarray, average: np.ndarray, residual: np.ndarray | None,
+                       max_disagreement: float, gradient_ratio: float, gradient_floor: float,
+                       modulation_ratio: float, rim: int, order: np.ndarray | None,
+                       saturated: np.ndarray | None) -> np.ndarray:
+    """:func:`quality_map` from four numba passes (float32 ``w``, ``modulation``, ``average``,
+    ``w`` finite on ``valid = mask & ~order``): the bits of :func:`fused_quality_map` on
+    ``valid``, then ORDER, SATURATED and INCONSISTENT (:func:`finish_quality_map`); equal bit for
+    bit (``tests/test_assess_kernels.py``)."""
+    band = (extent, margin) if extent is not None else ((-math.inf, math.inf), 0.0)
+    q = fused_quality_map(valid, w, band[0], band[1], modulation, average, gradient_ratio=gradient_ratio,
+                          gradient_floor=gradient_floor, modulation_ratio=modulation_ratio, rim=rim)
+    finish_quality_map(q, mask, order, saturated, residual, max_disagreement)
     return q
 
 

@@ -46,22 +46,27 @@ def _residual_sumsq(frames, index, design, coef, out, scale):  # pragma: no cove
     F, H, W = frames.shape
     N = index.size
     for i in numba.prange(H):
-        vals = np.empty(N, np.float64)
+        # row-wise, frame by frame: the pixel loops are contiguous and vectorise
+        a = np.zeros(W, np.float64)
+        b = np.zeros(W, np.float64)
+        c = np.zeros(W, np.float64)
+        for k in range(N):
+            p0, p1, p2 = coef[0, k], coef[1, k], coef[2, k]
+            row = frames[index[k], i]
+            for j in range(W):
+                x = np.float64(row[j])
+                a[j] += p0 * x
+                b[j] += p1 * x
+                c[j] += p2 * x
+        s = np.zeros(W, np.float64)
+        for k in range(N):
+            d0, d1, d2 = design[k, 0], design[k, 1], design[k, 2]
+            row = frames[index[k], i]
+            for j in range(W):
+                r = np.float64(row[j]) - (d0 * a[j] + d1 * b[j] + d2 * c[j])
+                s[j] += r * r
         for j in range(W):
-            a = 0.0
-            b = 0.0
-            c = 0.0
-            for k in range(N):
-                x = np.float64(frames[index[k], i, j])
-                vals[k] = x
-                a += coef[0, k] * x
-                b += coef[1, k] * x
-                c += coef[2, k] * x
-            s = 0.0
-            for k in range(N):
-                r = vals[k] - (design[k, 0] * a + design[k, 1] * b + design[k, 2] * c)
-                s += r * r
-            out[i, j] = s * scale
+            out[i, j] = np.float32(s[j] * scale)
 
 
 def residual_sum_of_squares(frames: np.ndarray, index: np.ndarray, design: np.ndarray, coef: np.ndarray,
