@@ -108,3 +108,18 @@ def quality_map_reference(mask, w=None, extent=None, margin=2.0, modulation=None
     if rim > 0:
         q |= bits(edges.rim_of_invalid(valid, rim), edges.RIM)
     return q
+
+
+def estimate_blur_reference(mod_fine, mod_coarse, period_fine, period_coarse, mask):
+    """Plain-NumPy reference of :func:`fringe3d.decode.edges.estimate_blur`:
+    ``r = np.median(B_fine / B_coarse)`` over ``mask & B_coarse > 0``, then
+    ``sigma_b = sqrt(-ln r / (2 pi^2 (1/T_fine^2 - 1/T_coarse^2)))`` (0 unless 0 < r < 1)."""
+    import math
+    m = np.asarray(mask, bool) & (mod_coarse > 0)
+    if not m.any() or not period_coarse > period_fine:
+        return 0.0
+    r = float(np.median(mod_fine[m] / mod_coarse[m]))
+    if not 0 < r < 1:
+        return 0.0
+    den = 2 * math.pi ** 2 * (1 / period_fine ** 2 - 1 / period_coarse ** 2)
+    return float(min(math.sqrt(-math.log(r) / den), period_fine))

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from reference_implementations import (disagreement_reference, fit_noise_model_reference,
+from reference_implementations import (disagreement_reference, estimate_blur_reference, fit_noise_model_reference,
                                        fit_residual_variance_reference, quality_map_reference)
 
 from fringe3d.decode import edges
+from fringe3d.decode._ratio_median import ratio_median
 from fringe3d.phase import noise
 
 
@@ -119,3 +120,37 @@ def test_quality_map_with_nan_on_valid_pixels_keeps_the_numpy_semantics():
     x.update(order=None)
     kw = dict(extent=(-0.5, 99.5), margin=2.0, max_disagreement=0.9, **x)
     np.testing.assert_array_equal(edges.quality_map(**kw), quality_map_reference(**kw))
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (2, 3), (5, 7), (64, 49)])
+def test_ratio_median_equals_numpy_median_with_ties_zeros_and_empty_masks(shape):
+    rng = np.random.default_rng(sum(shape))
+    for trial in range(12):
+        fine = rng.uniform(0, 1, shape).astype(np.float32)
+        if trial % 3 == 0:
+            fine = np.round(fine * 8).astype(np.float32)  # ties and zeros
+        coarse = rng.uniform(0, 1.5, shape).astype(np.float32)
+        coarse[rng.random(shape) < 0.1] = 0  # excluded: no ratio
+        mask = rng.random(shape) > 0.3
+        m = mask & (coarse > 0)
+        want = float(np.median(fine[m] / coarse[m])) if m.any() else float("nan")
+        got = ratio_median(fine, coarse, mask)
+        assert got == want or (np.isnan(got) and np.isnan(want))
+
+
+def test_ratio_median_of_a_nan_ratio_is_nan_as_numpy():
+    fine = np.ones((4, 4), np.float32)
+    fine[1, 2] = np.nan
+    assert np.isnan(ratio_median(fine, np.ones((4, 4), np.float32), np.ones((4, 4), bool)))
+
+
+def test_estimate_blur_equals_the_numpy_median_reference():
+    rng = np.random.default_rng(9)
+    coarse = rng.uniform(10, 80, (40, 50)).astype(np.float32)
+    fine = (coarse * rng.uniform(0.7, 1.0, coarse.shape)).astype(np.float32)
+    mask = rng.random(coarse.shape) > 0.2
+    for pair in ((18.0, 144.0), (21.0, 144.0), (144.0, 18.0)):
+        assert edges.estimate_blur(fine, coarse, *pair, mask) == estimate_blur_reference(fine, coarse, *pair, mask)
+    none = np.zeros(mask.shape, bool)
+    assert edges.estimate_blur(fine, coarse, 18.0, 144.0, none) == 0.0 == estimate_blur_reference(
+        fine, coarse, 18.0, 144.0, none)

@@ -58,6 +58,7 @@ import numpy as np
 
 from fringe3d.decode._disagreement_kernel import max_wrapped_residual
 from fringe3d.decode._fused_quality import finish_quality_map, fused_quality_map
+from fringe3d.decode._ratio_median import ratio_median
 from fringe3d.decode._stencils import dilate3, erode_cross, max5, median5, neighbour_jump
 
 INVALID = 1
@@ -86,10 +87,15 @@ def estimate_blur(mod_fine: np.ndarray, mod_coarse: np.ndarray, period_fine: flo
     ``sigma_b = sqrt(-ln r / (2 pi^2 (1/T_fine^2 - 1/T_coarse^2)))`` (0 when ``r >= 1``). It
     lumps projector defocus, camera blur and pixel integration, as seen in projector pixels.
     """
-    m = np.asarray(mask, bool) & (mod_coarse > 0)
-    if not m.any() or not period_coarse > period_fine:
+    if not period_coarse > period_fine:
         return 0.0
-    r = float(np.median(mod_fine[m] / mod_coarse[m]))
+    if np.asarray(mod_fine).dtype == np.float32 and np.asarray(mod_coarse).dtype == np.float32:
+        r = ratio_median(mod_fine, mod_coarse, mask)  # two histogram passes, the same median (NaN: none)
+    else:
+        m = np.asarray(mask, bool) & (mod_coarse > 0)
+        if not m.any():
+            return 0.0
+        r = float(np.median(mod_fine[m] / mod_coarse[m]))
     if not 0 < r < 1:
         return 0.0
     den = 2 * math.pi ** 2 * (1 / period_fine ** 2 - 1 / period_coarse ** 2)
