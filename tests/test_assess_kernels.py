@@ -154,3 +154,26 @@ def test_estimate_blur_equals_the_numpy_median_reference():
     none = np.zeros(mask.shape, bool)
     assert edges.estimate_blur(fine, coarse, 18.0, 144.0, none) == 0.0 == estimate_blur_reference(
         fine, coarse, 18.0, 144.0, none)
+
+
+def test_model_phase_sigma_equals_noise_sigma_then_phase_sigma_bit_for_bit():
+    rng = np.random.default_rng(11)
+    avg = rng.uniform(-5, 200, (33, 45)).astype(np.float32)  # c0 + c1 A < 0 on some: sigma 0
+    avg[0, :3] = np.nan
+    mod = rng.uniform(-1, 60, avg.shape).astype(np.float32)  # B <= 0: inf
+    mod[1, :3] = np.nan
+    for model, steps in (((1.7, 0.043), 9), ((-2.0, 0.05), 3), ((0.3, 0.0), 4)):
+        want = noise.phase_sigma(noise.noise_sigma(model, avg), mod, steps)
+        got = noise.model_phase_sigma(model[0], model[1], avg, mod, steps)
+        np.testing.assert_array_equal(got, want)
+        assert got.dtype == np.float32
+
+
+def test_noise_model_of_a_mask_with_no_sampled_pixel_still_fits():
+    rng = np.random.default_rng(12)
+    avg = rng.uniform(20, 200, (40, 40)).astype(np.float32)
+    var = (1.0 + 0.1 * avg).astype(np.float32)
+    mask = np.zeros(avg.shape, bool)
+    mask[3::8, 5::8] = True  # no pixel on the every-8th-row/column sample: sums about (0, 0)
+    np.testing.assert_allclose(noise.fit_noise_model(var, avg, mask), fit_noise_model_reference(var, avg, mask),
+                               rtol=1e-9)

@@ -6,6 +6,8 @@ mask (each a full-image temporary; together about 10x slower on a 1280 x 1024 fr
 """
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -123,3 +125,28 @@ def line_moments(x: np.ndarray, y: np.ndarray, mask: np.ndarray, model: tuple[fl
                   float(c0), float(c1), float(limit) if model is not None else 0.0,
                   float(ref[0]), float(ref[1]), rows)
     return rows.sum(axis=0)
+
+
+@numba.njit(parallel=True, cache=True)
+def _model_phase_sigma(average, modulation, c0, c1, k, out):  # pragma: no cover - compiled
+    H, W = average.shape
+    inf = np.float32(np.inf)
+    zero = np.float32(0.0)
+    for i in numba.prange(H):
+        for j in range(W):
+            v = c1 * average[i, j] + c0  # float32, as numpy with Python-float scalars
+            s = np.sqrt(zero if v < zero else v)  # NaN stays NaN (np.maximum)
+            b = modulation[i, j]
+            out[i, j] = k * s / b if b > zero else inf
+
+
+def model_phase_sigma(c0: float, c1: float, average: np.ndarray, modulation: np.ndarray, steps: int) -> np.ndarray:
+    """(H, W) float32 ``sqrt(2/N) sqrt(max(c0 + c1 A, 0)) / B`` (inf where ``B <= 0``) in one
+    pass, each operation in float32 as :func:`fringe3d.phase.noise.noise_sigma` and
+    :func:`~fringe3d.phase.noise.phase_sigma` make it (equal bit for bit)."""
+    a = np.ascontiguousarray(average, np.float32)
+    out = np.empty(a.shape, np.float32)
+    f32 = np.float32
+    _model_phase_sigma(a, np.ascontiguousarray(modulation, np.float32), f32(c0), f32(c1),
+                       f32(math.sqrt(2.0 / steps)), out)
+    return out

@@ -23,7 +23,8 @@ from typing import Sequence
 import numpy as np
 from scipy import ndimage
 
-from fringe3d.phase._noise_kernel import interior_laplacian, line_moments, residual_sum_of_squares
+from fringe3d.phase._noise_kernel import (interior_laplacian, line_moments, model_phase_sigma,  # noqa: F401 (API)
+                                          residual_sum_of_squares)
 
 from fringe3d.phase.psp import lsq_coefficients
 
@@ -74,16 +75,22 @@ def fit_noise_model(variance: np.ndarray, average: np.ndarray, mask: np.ndarray)
     Each step is one numba pass of float64 sums (:func:`line_moments`), no per-pixel temporary.
     """
     a, v, m = np.asarray(average), np.asarray(variance), np.asarray(mask, bool)
-    n, sx, sy, _, _ = line_moments(a, v, m, None, 0.0, (0.0, 0.0))
-    if n < 10:
+    ref = _reference_point(a, v, m)  # sums about a point near the means: no cancellation in sum dx^2
+    moments = line_moments(a, v, m, None, 0.0, ref)
+    if moments[0] < 10:
         return float("nan"), float("nan")
-    ref = (sx / n, sy / n)  # centre the sums on the means: no cancellation in sum dx^2
-    model = None
-    c0 = c1 = 0.0
-    for _ in range(2):
-        c0, c1 = _line_from_moments(line_moments(a, v, m, model, 5.0, ref), ref)
-        model = (c0, c1)
-    return float(c0), float(c1)
+    c0, c1 = _line_from_moments(moments, ref)
+    return _line_from_moments(line_moments(a, v, m, (c0, c1), 5.0, ref), ref)
+
+
+def _reference_point(x: np.ndarray, y: np.ndarray, mask: np.ndarray) -> tuple[float, float]:
+    """Means of ``x`` and ``y`` over the finite masked pixels of every 8th row and column, a
+    centre for :func:`line_moments` (``(0, 0)`` where that sample is empty)."""
+    xs, ys, ms = x[::8, ::8], y[::8, ::8], mask[::8, ::8]
+    sel = ms & np.isfinite(xs) & np.isfinite(ys)
+    if not sel.any():
+        return 0.0, 0.0
+    return float(np.mean(xs[sel], dtype=np.float64)), float(np.mean(ys[sel], dtype=np.float64))
 
 
 def _line_from_moments(moments: np.ndarray, ref: tuple[float, float]) -> tuple[float, float]:
