@@ -177,3 +177,30 @@ def test_noise_model_of_a_mask_with_no_sampled_pixel_still_fits():
     mask[3::8, 5::8] = True  # no pixel on the every-8th-row/column sample: sums about (0, 0)
     np.testing.assert_allclose(noise.fit_noise_model(var, avg, mask), fit_noise_model_reference(var, avg, mask),
                                rtol=1e-9)
+
+
+def _ratios(shape, seed):
+    rng = np.random.default_rng(seed)
+    fine = np.round(rng.uniform(0, 1, shape) * 4000).astype(np.float32)  # ties
+    coarse = rng.uniform(0, 1.5, shape).astype(np.float32)
+    coarse[rng.random(shape) < 0.1] = 0
+    return fine, coarse, rng.random(shape) > 0.3
+
+
+@pytest.mark.parametrize("shape", [(400, 301), (257, 256)])
+def test_ratio_median_selects_inside_the_sampled_bracket_exactly(shape, monkeypatch):
+    from fringe3d.decode import _ratio_median
+    for seed in range(4):
+        fine, coarse, mask = _ratios(shape, seed)
+        m = mask & (coarse > 0)
+        want = float(np.median(fine[m] / coarse[m]))
+        with monkeypatch.context() as mp:  # the bracket must hold the median: no fallback
+            mp.setattr(_ratio_median, "_numpy_median", lambda *a: pytest.fail("fell back to numpy"))
+            assert ratio_median(fine, coarse, mask) == want
+
+
+def test_ratio_median_falls_back_when_the_sample_misleads():
+    fine, coarse, mask = _ratios((200, 160), 5)
+    fine[::8, ::8] = 1e6  # every sampled pixel far above the median: the bracket misses it
+    m = mask & (coarse > 0)
+    assert ratio_median(fine, coarse, mask) == float(np.median(fine[m] / coarse[m]))
