@@ -47,7 +47,10 @@ modulation ratio of two periods (:func:`estimate_blur`).
 The neighbourhood filters are the numba ones of :mod:`fringe3d.decode._stencils` (equal to
 their ``scipy.ndimage`` counterparts, several times faster), so the quality map of a 1280 x 1024
 frame costs a few milliseconds; :func:`fused_quality_map` gives the same map of one direction
-(no multi-frequency residual) in three passes, for the fused 3-step path of long sequences.
+(no multi-frequency residual) in three passes, for the fused 3-step path of long sequences, and
+:func:`quality_map` uses it with one more pass for ORDER, SATURATED and INCONSISTENT on the
+decoder's float32 maps. :func:`disagreement` and the median of :func:`estimate_blur` are numba
+passes too (no complex or full-size temporaries).
 """
 from __future__ import annotations
 
