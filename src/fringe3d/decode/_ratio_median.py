@@ -30,18 +30,17 @@ def _bracket_pass(fine, coarse, mask, lo, hi, keep, counts):  # pragma: no cover
         total = 0
         nan = 0
         for i in range(c * H // nch, (c + 1) * H // nch):
-            for j in range(W):
-                if mask[i, j] and coarse[i, j] > 0:
-                    r = np.float32(fine[i, j] / coarse[i, j])
-                    total += 1
-                    if r < lo:
-                        below += 1
-                    elif r <= hi:
-                        if inside < cap:
-                            keep[c, inside] = r
-                        inside += 1
-                    elif r != r:
-                        nan += 1
+            for j in range(W):  # the counts branch-free (the loop vectorises); a rare store for the bracket
+                d = coarse[i, j]
+                ok = mask[i, j] & (d > 0)
+                r = np.float32(fine[i, j] / d) if d > 0 else np.float32(0.0)
+                total += ok
+                below += ok & (r < lo)
+                nan += ok & (r != r)
+                if ok & (r >= lo) & (r <= hi):
+                    if inside < cap:
+                        keep[c, inside] = r
+                    inside += 1
         counts[c, 0] = below
         counts[c, 1] = inside
         counts[c, 2] = total
