@@ -34,3 +34,92 @@ def wrapped_phase_reference(frames, shifts=None) -> PhaseResult:
         a, b, c = (s.reshape(f.shape[1:]) for s in sol)
         phase, average, modulation = np.arctan2(-c, b), a, np.hypot(b, c)
     return PhaseResult(phase.astype(np.float32), average.astype(np.float32), modulation.astype(np.float32))
+
+
+def disagreement_reference(phase, period, wrapped, periods):
+    """Plain-NumPy reference of :func:`fringe3d.decode.edges.disagreement`:
+    ``max_g |angle(exp(i (phi_g - Phi T_0 / T_g)))|`` in complex128, NaN ignored (``fmax``)."""
+    out = np.zeros(np.shape(phase), np.float32)
+    for phi_g, t_g in zip(wrapped, periods):
+        r = np.angle(np.exp(1j * (np.asarray(phi_g, np.float64) - np.asarray(phase, np.float64) * (period / t_g))))
+        out = np.fmax(out, np.abs(r).astype(np.float32))
+    return out
+
+
+def fit_residual_variance_reference(frames, index, shifts):
+    """Plain-NumPy reference of :func:`fringe3d.phase.noise.fit_residual_variance`:
+    ``|(I - D P) I|^2 / (N - 3)`` by ``tensordot`` and ``einsum`` in float32."""
+    from fringe3d.phase.psp import lsq_coefficients
+    d = np.asarray(shifts, np.float64)
+    design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1)
+    proj = (np.eye(d.size) - design @ lsq_coefficients(d)).astype(np.float32)
+    stack = np.asarray(frames)[list(index)].astype(np.float32)
+    res = np.tensordot(proj, stack, axes=1)
+    return np.einsum("khw,khw->hw", res, res) / np.float32(d.size - 3)
+
+
+def fit_noise_model_reference(variance, average, mask):
+    """Plain-NumPy reference of :func:`fringe3d.phase.noise.fit_noise_model`: ordinary least
+    squares of ``v = c0 + c1 A`` by ``numpy.linalg.lstsq`` over the mask's finite pixels, then
+    again on ``v < 5 max(c0 + c1 A, 1e-12)``; ``c1 < 0``: ``(mean v, 0)``."""
+    m = np.asarray(mask, bool) & np.isfinite(variance) & np.isfinite(average)
+    if m.sum() < 10:
+        return float("nan"), float("nan")
+    v = np.asarray(variance, np.float64)[m]
+    a = np.asarray(average, np.float64)[m]
+    keep = np.ones(v.size, bool)
+    c0 = c1 = 0.0
+    for _ in range(2):
+        design = np.stack([np.ones(int(keep.sum())), a[keep]], axis=1)
+        c0, c1 = (float(c) for c in np.linalg.lstsq(design, v[keep], rcond=None)[0])
+        if c1 < 0:
+            c0, c1 = float(v[keep].mean()), 0.0
+        keep = v < 5.0 * np.maximum(c0 + c1 * a, 1e-12)
+    return c0, c1
+
+
+def quality_map_reference(mask, w=None, extent=None, margin=2.0, modulation=None, average=None, residual=None,
+                          max_disagreement=np.inf, gradient_ratio=4.0, gradient_floor=1.0, modulation_ratio=0.5,
+                          rim=1, order=None, saturated=None):
+    """Plain-NumPy reference of :func:`fringe3d.decode.edges.quality_map`: one whole-image pass
+    per bit with the stencils of :mod:`fringe3d.decode.edges` (the bits of its docstring)."""
+    from fringe3d.decode import edges
+
+    def bits(flag, bit):
+        return flag.astype(np.uint8) * np.uint8(bit)
+
+    valid = np.asarray(mask, bool)
+    q = bits(~valid, edges.INVALID)
+    if saturated is not None:
+        q |= bits(~valid & saturated, edges.SATURATED)
+    if order is not None:
+        bad = valid & np.asarray(order, bool)
+        valid = valid & ~bad
+        q |= bits(bad, edges.ORDER)
+    if w is not None and extent is not None:
+        q |= bits(valid & edges.edge_band(w, extent, margin), edges.EDGE)
+    if residual is not None and np.isfinite(max_disagreement):
+        with np.errstate(invalid="ignore"):
+            q |= bits(valid & (residual > max_disagreement), edges.INCONSISTENT)
+    if w is not None:
+        q |= bits(edges.gradient_jump(w, valid, gradient_ratio, gradient_floor), edges.GRADIENT)
+    if modulation is not None and average is not None:
+        q |= bits(edges.modulation_drop(modulation, average, valid, modulation_ratio), edges.MOD_DROP)
+    if rim > 0:
+        q |= bits(edges.rim_of_invalid(valid, rim), edges.RIM)
+    return q
+
+
+def estimate_blur_reference(mod_fine, mod_coarse, period_fine, period_coarse, mask):
+    """Plain-NumPy reference of :func:`fringe3d.decode.edges.estimate_blur`:
+    ``r = np.median(B_fine / B_coarse)`` over ``mask & B_coarse > 0``, then
+    ``sigma_b = sqrt(-ln r / (2 pi^2 (1/T_fine^2 - 1/T_coarse^2)))`` (0 unless 0 < r < 1)."""
+    import math
+    m = np.asarray(mask, bool) & (mod_coarse > 0)
+    if not m.any() or not period_coarse > period_fine:
+        return 0.0
+    r = float(np.median(mod_fine[m] / mod_coarse[m]))
+    if not 0 < r < 1:
+        return 0.0
+    den = 2 * math.pi ** 2 * (1 / period_fine ** 2 - 1 / period_coarse ** 2)
+    return float(min(math.sqrt(-math.log(r) / den), period_fine))

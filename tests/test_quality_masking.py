@@ -112,9 +112,13 @@ def test_decoded_save_load_keeps_quality_and_phase_sigma(tmp_path):
 
 def test_noise_model_line_fit_equals_numpy_least_squares():
     rng = np.random.default_rng(7)
-    a = rng.uniform(0, 255, 5000)
-    v = 3.0 + 0.04 * a + rng.normal(0, 0.5, a.size)
-    c0, c1 = noise._line_fit(a, v)
-    ref = np.linalg.lstsq(np.stack([np.ones(a.size), a], axis=1), v, rcond=None)[0]
+    a = rng.uniform(0, 255, (50, 100))
+    v = 3.0 + 0.04 * a + rng.normal(0, 0.5, a.shape)
+    ones = np.ones(a.shape, bool)
+    ref_point = (float(a.mean()), float(v.mean()))
+    c0, c1 = noise._line_from_moments(noise.line_moments(a, v, ones, None, 0.0, ref_point), ref_point)
+    ref = np.linalg.lstsq(np.stack([np.ones(a.size), a.ravel()], axis=1), v.ravel(), rcond=None)[0]
     assert np.allclose([c0, c1], ref, rtol=1e-10, atol=1e-12)
-    assert noise._line_fit(np.full(10, 4.0), np.arange(10.0)) == (4.5, 0.0)  # constant x: the mean, no slope
+    flat, y = np.full((1, 10), 4.0), np.arange(10.0)[None]
+    assert noise._line_from_moments(noise.line_moments(flat, y, np.ones((1, 10), bool), None, 0.0, (4.0, 0.0)),
+                                    (4.0, 0.0)) == (4.5, 0.0)  # constant x: the mean, no slope

@@ -17,13 +17,15 @@ cast to float32), so the map equals ``quality_map``'s bit for bit (``tests/test_
 """
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
 from fringe3d.decode._median_network import _median_kernel
 from fringe3d.decode._stencils import erode_cross
 
-INVALID, EDGE, GRADIENT, MOD_DROP, RIM = 1, 2, 8, 16, 32
+INVALID, EDGE, INCONSISTENT, GRADIENT, MOD_DROP, RIM, ORDER, SATURATED = 1, 2, 4, 8, 16, 32, 64, 128
 
 
 @numba.njit(parallel=True, cache=True)
@@ -132,3 +134,35 @@ def fused_quality_map(mask: np.ndarray, w: np.ndarray, extent: tuple[float, floa
     if rim > 1:  # wider rims: the iterated erosion of edges.rim_of_invalid
         q |= (valid & ~erode_cross(valid, int(rim))).astype(np.uint8) * np.uint8(RIM)
     return q
+
+
+@numba.njit(parallel=True, cache=True)
+def _finish_kernel(q, mask, order, saturated, residual, thr, has_order, has_sat, has_res):  # pragma: no cover
+    """The bits ``fused_quality_map`` does not set, in place: ``q`` was made from ``mask & ~order``."""
+    H, W = q.shape
+    for i in numba.prange(H):
+        for j in range(W):
+            if not mask[i, j]:
+                q[i, j] = np.uint8(INVALID | SATURATED) if (has_sat and saturated[i, j]) else np.uint8(INVALID)
+            elif has_order and order[i, j]:
+                q[i, j] = np.uint8(ORDER)
+            elif has_res and residual[i, j] > thr:
+                q[i, j] |= np.uint8(INCONSISTENT)
+
+
+def finish_quality_map(q: np.ndarray, mask: np.ndarray, order: np.ndarray | None, saturated: np.ndarray | None,
+                       residual: np.ndarray | None, max_disagreement: float) -> None:
+    """Add ORDER, SATURATED and INCONSISTENT to ``q`` (H, W) uint8 in place, ``q`` the
+    :func:`fused_quality_map` of ``mask & ~order``: the pixels of ``order`` (in ``mask``) become
+    ORDER alone, the pixels outside ``mask`` INVALID (with SATURATED where ``saturated``), the
+    valid ones get INCONSISTENT where ``residual > max_disagreement`` (compared in the
+    residual's dtype, as numpy does); one pass."""
+    m = np.ascontiguousarray(mask, bool)
+    has_order, has_sat = order is not None, saturated is not None
+    has_res = residual is not None and math.isfinite(max_disagreement)
+    o = np.ascontiguousarray(order, bool) if order is not None else m
+    s = np.ascontiguousarray(saturated, bool) if saturated is not None else m
+    r = (np.ascontiguousarray(residual) if residual is not None and has_res else np.zeros((1, 1), np.float32))
+    if r.dtype not in (np.float32, np.float64):
+        r = r.astype(np.float64)
+    _finish_kernel(q, m, o, s, r, r.dtype.type(max_disagreement), has_order, has_sat, has_res)

@@ -87,7 +87,7 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
         info["noise"] = {"c0": model[0] if math.isfinite(model[0]) else None,
                          "c1": model[1] if math.isfinite(model[1]) else None, "source": source}
         if math.isfinite(model[0]):
-            sigma_phi = noise.phase_sigma(noise.noise_sigma(model, average), modulation, len(groups[0].indices))
+            sigma_phi = noise.model_phase_sigma(model[0], model[1], average, modulation, len(groups[0].indices))
     broken = clipping_broken_map(ctx)
     if not opts.edge_mask or not groups or ctx.plan.method == "none":
         # code-only stripes and wrapped ("none") phases have no continuous w to test

@@ -190,7 +190,8 @@ def group_phase_and_saturation(ctx: DecodeContext, group: PhaseGroup) -> tuple[P
     else:
         r = ftp.ftp_analysis(sel[0].astype(np.float64), angle=lobe, **kw)
         phase, mod, average = r.phase, r.modulation, r.average
-    phase = np.angle(np.exp(1j * (phase - group.shifts[0])))  # frame k has phase phi + shift
+    phase = np.asarray(phase, np.float64) - group.shifts[0]  # frame k has phase phi + shift
+    phase -= (2 * np.pi) * np.round(phase / (2 * np.pi))  # wrapped to [-pi, pi] without complex temporaries
     return PhaseResult(phase.astype(np.float32), np.asarray(average, np.float32), mod.astype(np.float32)), saturated
 
 

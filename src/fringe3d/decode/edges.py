@@ -47,7 +47,10 @@ modulation ratio of two periods (:func:`estimate_blur`).
 The neighbourhood filters are the numba ones of :mod:`fringe3d.decode._stencils` (equal to
 their ``scipy.ndimage`` counterparts, several times faster), so the quality map of a 1280 x 1024
 frame costs a few milliseconds; :func:`fused_quality_map` gives the same map of one direction
-(no multi-frequency residual) in three passes, for the fused 3-step path of long sequences.
+(no multi-frequency residual) in three passes, for the fused 3-step path of long sequences, and
+:func:`quality_map` uses it with one more pass for ORDER, SATURATED and INCONSISTENT on the
+decoder's float32 maps. :func:`disagreement` and the median of :func:`estimate_blur` are numba
+passes too (no complex or full-size temporaries).
 """
 from __future__ import annotations
 
@@ -56,7 +59,9 @@ from typing import Sequence
 
 import numpy as np
 
-from fringe3d.decode._fused_quality import fused_quality_map  # noqa: F401  (quality_map in three passes)
+from fringe3d.decode._disagreement_kernel import max_wrapped_residual
+from fringe3d.decode._fused_quality import finish_quality_map, fused_quality_map
+from fringe3d.decode._ratio_median import ratio_median
 from fringe3d.decode._stencils import dilate3, erode_cross, max5, median5, neighbour_jump
 
 INVALID = 1
@@ -85,10 +90,15 @@ def estimate_blur(mod_fine: np.ndarray, mod_coarse: np.ndarray, period_fine: flo
     ``sigma_b = sqrt(-ln r / (2 pi^2 (1/T_fine^2 - 1/T_coarse^2)))`` (0 when ``r >= 1``). It
     lumps projector defocus, camera blur and pixel integration, as seen in projector pixels.
     """
-    m = np.asarray(mask, bool) & (mod_coarse > 0)
-    if not m.any() or not period_coarse > period_fine:
+    if not period_coarse > period_fine:
         return 0.0
-    r = float(np.median(mod_fine[m] / mod_coarse[m]))
+    if np.asarray(mod_fine).dtype == np.float32 and np.asarray(mod_coarse).dtype == np.float32:
+        r = ratio_median(mod_fine, mod_coarse, mask)  # two histogram passes, the same median (NaN: none)
+    else:
+        m = np.asarray(mask, bool) & (mod_coarse > 0)
+        if not m.any():
+            return 0.0
+        r = float(np.median(mod_fine[m] / mod_coarse[m]))
     if not 0 < r < 1:
         return 0.0
     den = 2 * math.pi ** 2 * (1 / period_fine ** 2 - 1 / period_coarse ** 2)
@@ -131,11 +141,12 @@ def border_band(u: np.ndarray, v: np.ndarray, width: int, height: int, margin: f
 def disagreement(phase: np.ndarray, period: float, wrapped: Sequence[np.ndarray],
                  periods: Sequence[float]) -> np.ndarray:
     """(H, W) float32 largest unwrapping residual (rad) over the coarser groups:
-    ``max_g |wrap(phi_g - Phi T_0 / T_g)|`` with ``Phi`` the absolute phase of period ``T_0``."""
+    ``max_g |wrap(phi_g - Phi T_0 / T_g)|`` with ``Phi`` the absolute phase of period ``T_0``,
+    ``wrap(x) = x - 2 pi round(x / 2 pi)`` in float64 per pixel (one numba pass per group); 0
+    where every residual is NaN."""
     out = np.zeros(np.shape(phase), np.float32)
     for phi_g, t_g in zip(wrapped, periods):
-        r = np.angle(np.exp(1j * (np.asarray(phi_g, np.float64) - np.asarray(phase, np.float64) * (period / t_g))))
-        out = np.fmax(out, np.abs(r).astype(np.float32))
+        max_wrapped_residual(np.asarray(phase), np.asarray(phi_g), period / t_g, out)
     return out
 
 
@@ -177,6 +188,10 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
                 saturated: np.ndarray | None = None) -> np.ndarray:
     """(H, W) uint8 quality map (bits of the module docstring) of one direction.
 
+    With float32 ``w``, ``modulation`` and ``average`` and ``w`` finite on the valid pixels (the
+    decoder's case) the map comes from four numba passes (:func:`_quality_map_fused`), else
+    from one whole-image pass per bit; the bits are the same.
+
     Parameters
     ----------
     mask : (H, W) bool
@@ -201,6 +216,15 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
     saturated : (H, W) bool, optional
         Where clipping broke the pixel; sets SATURATED on the invalid ones.
     """
+    if w is not None and modulation is not None and average is not None and all(
+            np.asarray(x).dtype == np.float32 for x in (w, modulation, average)):
+        valid = np.asarray(mask, bool)
+        if order is not None:
+            valid = valid & ~np.asarray(order, bool)
+        if not np.isnan(w, where=valid, out=np.zeros(valid.shape, bool)).any():
+            return _quality_map_fused(mask, valid, w, extent, margin, modulation, average, residual,
+                                      max_disagreement, gradient_ratio, gradient_floor, modulation_ratio, rim,
+                                      order, saturated)
     valid = np.asarray(mask, bool)
     q = _bits(~valid, INVALID)
     if saturated is not None:
@@ -220,6 +244,22 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
         q |= _bits(modulation_drop(modulation, average, valid, modulation_ratio), MOD_DROP)
     if rim > 0:
         q |= _bits(rim_of_invalid(valid, rim), RIM)
+    return q
+
+
+def _quality_map_fused(mask: np.ndarray, valid: np.ndarray, w: np.ndarray, extent: tuple[float, float] | None,
+                       margin: float, modulation: np.ndarray, average: np.ndarray, residual: np.ndarray | None,
+                       max_disagreement: float, gradient_ratio: float, gradient_floor: float,
+                       modulation_ratio: float, rim: int, order: np.ndarray | None,
+                       saturated: np.ndarray | None) -> np.ndarray:
+    """:func:`quality_map` from four numba passes (float32 ``w``, ``modulation``, ``average``,
+    ``w`` finite on ``valid = mask & ~order``): the bits of :func:`fused_quality_map` on
+    ``valid``, then ORDER, SATURATED and INCONSISTENT (:func:`finish_quality_map`); equal bit for
+    bit (``tests/test_assess_kernels.py``)."""
+    band = (extent, margin) if extent is not None else ((-math.inf, math.inf), 0.0)
+    q = fused_quality_map(valid, w, band[0], band[1], modulation, average, gradient_ratio=gradient_ratio,
+                          gradient_floor=gradient_floor, modulation_ratio=modulation_ratio, rim=rim)
+    finish_quality_map(q, mask, order, saturated, residual, max_disagreement)
     return q
 
 

@@ -23,7 +23,8 @@ from typing import Sequence
 import numpy as np
 from scipy import ndimage
 
-from fringe3d.phase._noise_kernel import interior_laplacian
+from fringe3d.phase._noise_kernel import (interior_laplacian, line_moments, model_phase_sigma,  # noqa: F401 (API)
+                                          residual_sum_of_squares)
 
 from fringe3d.phase.psp import lsq_coefficients
 
@@ -33,16 +34,15 @@ def fit_residual_variance(frames: np.ndarray, index: Sequence[int], shifts: Sequ
 
     ``s^2 = |I - D P I|^2 / (N - 3)`` with ``D`` (N, 3) the design ``[1, cos d_k, sin d_k]`` and
     ``P`` its pseudo-inverse (:func:`fringe3d.phase.psp.lsq_coefficients`); unbiased for white noise.
+    One numba pass in float64 over the frames (no (N, H, W) temporary).
     """
     idx = list(index)
     if len(idx) < 4:
         raise ValueError(f"a fit residual needs at least 4 phase steps, got {len(idx)}")
     d = np.asarray(shifts, np.float64)
     design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1)
-    proj = (np.eye(d.size) - design @ lsq_coefficients(d)).astype(np.float32)  # (N, N) residual maker
-    stack = np.asarray(frames)[idx].astype(np.float32)
-    res = np.tensordot(proj, stack, axes=1)
-    return np.einsum("khw,khw->hw", res, res) / np.float32(d.size - 3)
+    return residual_sum_of_squares(np.asarray(frames), np.asarray(idx, np.int64), design, lsq_coefficients(d),
+                                   1.0 / (d.size - 3))
 
 
 def average_difference_variance(avg1: np.ndarray, n1: int, avg2: np.ndarray, n2: int) -> np.ndarray:
@@ -72,31 +72,39 @@ def fit_noise_model(variance: np.ndarray, average: np.ndarray, mask: np.ndarray)
     A robust two-step fit: ordinary least squares, then again on the pixels whose variance is
     within 5 times the first model (drops mixed and moving pixels). ``c1`` is clipped at 0
     (then ``c0`` is the mean variance); ``(nan, nan)`` when fewer than 10 pixels are valid.
+    Each step is one numba pass of float64 sums (:func:`line_moments`), no per-pixel temporary.
     """
-    m = np.asarray(mask, bool) & np.isfinite(variance) & np.isfinite(average)
-    if m.sum() < 10:
+    a, v, m = np.asarray(average), np.asarray(variance), np.asarray(mask, bool)
+    ref = _reference_point(a, v, m)  # sums about a point near the means: no cancellation in sum dx^2
+    moments = line_moments(a, v, m, None, 0.0, ref)
+    if moments[0] < 10:
         return float("nan"), float("nan")
-    v = np.asarray(variance, np.float64)[m]
-    a = np.asarray(average, np.float64)[m]
-    keep = np.ones(v.size, bool)
-    c0 = c1 = 0.0
-    for _ in range(2):
-        c0, c1 = _line_fit(a[keep], v[keep])
-        if c1 < 0:
-            c0, c1 = float(v[keep].mean()), 0.0
-        model = np.maximum(c0 + c1 * a, 1e-12)
-        keep = v < 5.0 * model
-    return float(c0), float(c1)
+    c0, c1 = _line_from_moments(moments, ref)
+    return _line_from_moments(line_moments(a, v, m, (c0, c1), 5.0, ref), ref)
 
 
-def _line_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
-    """Least-squares line ``y = c0 + c1 x`` in closed form (the 2 x 2 normal equations, centred):
-    ``c1 = sum((x - mx)(y - my)) / sum((x - mx)^2)``, ``c0 = my - c1 mx``; ``c1 = 0`` where x is
-    constant. x, y (n,) float64."""
-    mx, my = float(x.mean()), float(y.mean())
-    dx = x - mx
-    sxx = float(dx @ dx)
-    c1 = float(dx @ (y - my)) / sxx if sxx > 0 else 0.0
+def _reference_point(x: np.ndarray, y: np.ndarray, mask: np.ndarray) -> tuple[float, float]:
+    """Means of ``x`` and ``y`` over the finite masked pixels of every 8th row and column, a
+    centre for :func:`line_moments` (``(0, 0)`` where that sample is empty)."""
+    xs, ys, ms = x[::8, ::8], y[::8, ::8], mask[::8, ::8]
+    sel = ms & np.isfinite(xs) & np.isfinite(ys)
+    if not sel.any():
+        return 0.0, 0.0
+    return float(np.mean(xs[sel], dtype=np.float64)), float(np.mean(ys[sel], dtype=np.float64))
+
+
+def _line_from_moments(moments: np.ndarray, ref: tuple[float, float]) -> tuple[float, float]:
+    """Least-squares line ``y = c0 + c1 x`` from :func:`line_moments` (sums of ``x - ref[0]``,
+    ``y - ref[1]``): ``c1 = S_xy / S_xx`` of the centred sums, ``c0 = my - c1 mx``; ``c1 = 0``
+    where x is constant; ``(mean y, 0)`` where the slope is negative."""
+    n, sx, sy, sxx, sxy = (float(t) for t in moments)
+    if n <= 0:
+        return float("nan"), float("nan")
+    mx, my = ref[0] + sx / n, ref[1] + sy / n
+    cxx = sxx - sx * sx / n
+    c1 = (sxy - sx * sy / n) / cxx if cxx > 1e-12 * n * max(1.0, mx * mx) * 1e-12 else 0.0
+    if c1 < 0:
+        return my, 0.0
     return my - c1 * mx, c1
 
 
