@@ -14,7 +14,7 @@ N >= 4 equal steps, for ``Decoded.info["radiometry"]`` whether or not a compensa
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol, Sequence
 
 import numpy as np
 
@@ -22,8 +22,30 @@ from fringe3d.phase.psp import PhaseResult, default_shifts
 from fringe3d.radiometry import diagnose, estimate_gamma, lut_from_response, power_law
 from fringe3d.radiometry.phase_error import wrap
 
-if TYPE_CHECKING:
-    from fringe3d.decode.context import DecodeContext, PhaseGroup
+
+class PhaseGroup(Protocol):
+    """What this module reads of a :class:`fringe3d.decode.context.PhaseGroup` (a protocol, so
+    that the context, which calls this module, is not imported back)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def indices(self) -> Sequence[int]: ...
+    @property
+    def shifts(self) -> Sequence[float]: ...
+    @property
+    def period(self) -> float: ...
+
+
+class DecodeContext(Protocol):
+    """What this module reads of a :class:`fringe3d.decode.context.DecodeContext`."""
+
+    frames: Any
+    min_modulation: float
+    options: Any
+    cache: dict
+
+    def group_phase(self, group: Any) -> PhaseResult: ...
 
 COMPENSATIONS = ("response", "harmonic")
 #: Pixels used by the harmonic estimate and the diagnostic (a regular subsample beyond this).
