@@ -73,3 +73,13 @@ def test_error_messages_keep_square_brackets_literally(tmp_path, capsys):
     missing = tmp_path / "take[raw]"  # rich markup would swallow "[raw]"
     assert main(["decode", str(missing), "-o", str(tmp_path / "out")]) == 2
     assert "take[raw]" in capsys.readouterr().err.replace("\n", "")
+
+
+@pytest.mark.parametrize("flag", [["--interleave"], ["--white-black", "first"]])
+def test_layout_flags_on_a_capture_folder_are_refused_not_ignored(tmp_path, capsys, flag):
+    from fringe3d.cli import main
+    out = tmp_path / "out"
+    assert main(["decode", str(tmp_path), "-o", str(out), *flag]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert flag[0] in err and "manifest already says how its frames are laid out" in err
+    assert not out.exists()

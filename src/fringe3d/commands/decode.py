@@ -178,6 +178,12 @@ def register(app: typer.Typer) -> None:
             if cap.source is None and max_cycles is not None:
                 cap.frames = cap.frames[:max(1, max_cycles) * len(cap.patterns)]
         else:
+            layout_only = [flag for flag, given in (("--interleave", interleave),
+                                                    ("--white-black", white_black != "none")) if given]
+            if layout_only:
+                raise ValueError(f"{' and '.join(layout_only)} describe frames being brought in (with --set, "
+                                 f"--manifest or --list); the capture folder {capture}'s manifest already says how "
+                                 "its frames are laid out: drop them, or import the frames again with them")
             folder = Path(capture)
             if folder.is_dir():
                 check_complete(folder, "capture folder")  # an unfinished capture has no manifest yet
