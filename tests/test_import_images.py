@@ -39,6 +39,15 @@ def sim_frames():
     return ps, frames, truth
 
 
+def numbered_pngs(src, frames):
+    """``src`` holding ``frames`` as img_1.png, img_2.png, ... and an order.txt listing them."""
+    src.mkdir()
+    for i, f in enumerate(frames):
+        assert cv2.imwrite(str(src / f"img_{i + 1}.png"), f)
+    (src / "order.txt").write_text("".join(f"img_{i + 1}.png\n" for i in range(len(frames))))
+    return src
+
+
 def colour(img: np.ndarray) -> np.ndarray:
     """An RGB image whose BT.601 luma is ``img`` within rounding: R = G = B = img, tinted."""
     rgb = np.repeat(img[..., None], 3, axis=2).astype(np.int16)
@@ -208,11 +217,7 @@ def test_import_and_decode_share_one_definition_of_the_import_options():
 
 def test_a_glob_or_list_source_is_an_input_the_output_may_not_replace(tmp_path, sim_frames, capsys):
     ps, frames, _ = sim_frames
-    src = tmp_path / "scan"
-    src.mkdir()
-    for i, f in enumerate(frames):
-        assert cv2.imwrite(str(src / f"img_{i + 1}.png"), f)
-    (src / "order.txt").write_text("".join(f"img_{i + 1}.png\n" for i in range(len(frames))))
+    src = numbered_pngs(tmp_path / "scan", frames)
     opts = ["--set", "phase-shift", "--steps", 3, "--period", PERIOD, "--projector-size", f"{ps.width}x{ps.height}",
             "--unwrap", "spatial", "--quiet"]
     before = {p.name: p.read_bytes() for p in src.iterdir()}
@@ -302,11 +307,7 @@ def test_decode_threshold_overrides_a_capture_folders_code_reference(tmp_path):
 
 def test_list_file_alone_names_the_frames_and_a_source_beside_it_is_refused(tmp_path, sim_frames, capsys):
     ps, frames, _ = sim_frames
-    src = tmp_path / "scan"
-    src.mkdir()
-    for i, f in enumerate(frames):
-        assert cv2.imwrite(str(src / f"img_{i + 1}.png"), f)
-    (src / "order.txt").write_text("".join(f"img_{i + 1}.png\n" for i in range(len(frames))))
+    src = numbered_pngs(tmp_path / "scan", frames)
     opts = ["--set", "phase-shift", "--period", PERIOD, "--projector-size", f"{ps.width}x{ps.height}", "--quiet"]
     assert cli("import", "--list", src / "order.txt", "-o", tmp_path / "cap", *opts) == 0
     np.testing.assert_array_equal(read_capture(tmp_path / "cap").frames, frames)
