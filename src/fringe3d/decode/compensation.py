@@ -18,7 +18,7 @@ from typing import Any, Protocol, Sequence
 
 import numpy as np
 
-from fringe3d.phase.psp import PhaseResult, default_shifts
+from fringe3d.phase.psp import PhaseResult, default_shifts, wrapped_phase
 from fringe3d.radiometry import diagnose, estimate_gamma, lut_from_response, power_law
 from fringe3d.radiometry.phase_error import wrap
 
@@ -58,16 +58,22 @@ def equal_steps(shifts) -> bool:
     return d.size >= 4 and bool(np.allclose(wrap(d - d[0] - default_shifts(d.size)), 0.0, atol=1e-6))
 
 
-def _sample(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> tuple[np.ndarray, np.ndarray]:
-    h, w = pr.phase.shape
+def _sample(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(N, h, w) float32 frames of a regular subsample of at most ~``SAMPLE_PIXELS`` pixels, and
+    their (h, w) bool mask modulation >= ``ctx.min_modulation`` (from ``pr`` when given, else the
+    subsample's own modulation, so that no full-size phase is computed for a diagnostic)."""
+    h, w = np.shape(ctx.frames[group.indices[0]])[-2:]
     step = max(1, int(np.ceil(np.sqrt(h * w / SAMPLE_PIXELS))))
     frames = np.stack([np.asarray(ctx.frames[i][::step, ::step], np.float32) for i in group.indices])
-    return frames, pr.modulation[::step, ::step] >= max(ctx.min_modulation, 1e-12)
+    modulation = (pr.modulation[::step, ::step] if pr is not None
+                  else wrapped_phase(frames, shifts=np.asarray(group.shifts, float)).modulation)
+    return frames, modulation >= max(ctx.min_modulation, 1e-12)
 
 
-def diagnose_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> dict[str, Any] | None:
+def diagnose_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None = None) -> dict[str, Any] | None:
     """The nonlinearity report (:class:`fringe3d.radiometry.NonlinearityReport` as a dict) of a
-    group of N >= 4 equal steps; None for other groups or without usable pixels."""
+    group of N >= 4 equal steps; None for other groups or without usable pixels. It reads a
+    subsample of the group's frames only (``pr``, when given, supplies the modulation mask)."""
     if not equal_steps(group.shifts):
         return None
     frames, ok = _sample(ctx, group, pr)
@@ -100,7 +106,7 @@ def radiometry_info(ctx: DecodeContext, group: PhaseGroup | None) -> dict[str, A
     (when it has N >= 4 equal steps) and what each group's compensation did; None when neither."""
     out: dict[str, Any] = {}
     if group is not None and len(group.indices) >= 4:
-        report = diagnose_group(ctx, group, ctx.group_phase(group))
+        report = diagnose_group(ctx, group, ctx.cache[group.name][0] if group.name in ctx.cache else None)
         if report is not None:
             out["diagnostic"] = report
     done = ctx.cache.get("radiometry", {}).get("compensation")
