@@ -86,7 +86,7 @@ def make_patterns(spec, width: int, height: int) -> PatternSet:
 
 # ----------------------------------------------------------------------------- scenes
 SCENE_NAMES = ("sphere", "plane", "spheres", "step", "board", "sculpture", "mesh", "falling-balls", "wing",
-               "textured-spheres")
+               "textured-spheres", "shiny-part", "printed-part")
 
 
 def make_scene(spec, preset: Preset) -> Scene:
