@@ -59,3 +59,29 @@ def render_bracket(scene: Scene, rig: Rig, patterns: PatternSet, settings: Rende
         truth = truth or tr
     assert truth is not None
     return np.stack(stacks), truth
+
+
+class BracketStream:
+    """The frames of a bracketed capture, one :class:`~fringe3d.sim.render.RenderStream` per exposure
+    chained exposure-major (frame ``e * F + k`` is pattern frame ``k`` at exposure ``e``), with the
+    interface :func:`fringe3d.sim.simulate.simulate_capture` writes from (static scenes only)."""
+
+    def __init__(self, streams: list):
+        if any(st.moving for st in streams):
+            raise ValueError("exposures: an exposure bracket needs a static scene (a moving scene changes "
+                             "between the exposures, so no pixel's cycles describe the same point)")
+        self.streams, self.moving = streams, False
+        first = streams[0]
+        self.times, self.dirs_info, self.meta = first.times, first.dirs_info, first.meta
+        self.skip = 0
+
+    def __len__(self) -> int:
+        return sum(len(st) for st in self.streams)
+
+    def __iter__(self):
+        base = 0
+        for st in self.streams:
+            st.skip = min(max(self.skip - base, 0), len(st))
+            for k, img, ft, t in st:
+                yield base + k, img, ft, t
+            base += len(st)
