@@ -58,3 +58,19 @@ def test_reconstruct_fuses_a_bracket(tmp_path, capsys):
                  str(tmp_path / "rec"), "--json"]) == 0
     out = capsys.readouterr().out
     assert json.loads(out[out.index("{"):])["cycles"] == 1
+
+
+def test_import_exposures_records_the_bracket_and_checks_its_frame_count(tmp_path):
+    cap_dir = _simulate(tmp_path, "--exposures", BRACKET)
+    frames = str(cap_dir / "frames")
+    manifest = str(cap_dir / "manifest.json")
+    assert main(["import", frames, "--manifest", manifest, "--exposures", BRACKET, "-o", str(tmp_path / "imp"),
+                 "-q"]) == 0
+    assert read_capture(tmp_path / "imp").meta["exposures"] == [0.000625, 0.0025, 0.01]
+    assert main(["decode", str(tmp_path / "imp"), "-o", str(tmp_path / "d1"), "-q"]) == 0
+    assert main(["decode", str(cap_dir), "-o", str(tmp_path / "d2"), "-q"]) == 0
+    assert np.array_equal(tifffile.imread(tmp_path / "d1" / "exposure_index.tif"),
+                          tifffile.imread(tmp_path / "d2" / "exposure_index.tif"))
+    assert main(["import", frames, "--manifest", manifest, "--exposures", "0.001,0.004",
+                 "-o", str(tmp_path / "bad"), "-q"]) == 2
+    assert not (tmp_path / "bad" / "capture.json").exists()
