@@ -74,3 +74,17 @@ def test_import_exposures_records_the_bracket_and_checks_its_frame_count(tmp_pat
     assert main(["import", frames, "--manifest", manifest, "--exposures", "0.001,0.004",
                  "-o", str(tmp_path / "bad"), "-q"]) == 2
     assert not (tmp_path / "bad" / "capture.json").exists()
+
+
+def test_capture_exposures_brackets_the_virtual_camera(tmp_path):
+    pats, cap_dir = tmp_path / "pats", tmp_path / "cap"
+    assert main(["patterns", "--set", "phase-shift", "--width", "256", "--height", "200", "-o", str(pats), "-q"]) == 0
+    assert main(["capture", str(pats), "-o", str(cap_dir), "--projector", "virtual:tiny", "--camera",
+                 "virtual:tiny?scene=shiny-part", "--exposures", "0.001,0.004", "-q"]) == 0
+    cap = read_capture(cap_dir)
+    assert cap.meta["exposures"] == [0.001, 0.004]
+    assert [r["exposure"] for r in cap.meta["frames"]] == [0.001] * len(cap.patterns) + [0.004] * len(cap.patterns)
+    stacks = split_bracket(cap.frames, 2, len(cap.patterns)).astype(float)
+    assert stacks[1].mean() > 2 * stacks[0].mean()  # the longer exposure is brighter
+    assert main(["decode", str(cap_dir), "-o", str(tmp_path / "dec"), "-q"]) == 0
+    assert (tmp_path / "dec" / "exposure_index.tif").is_file()
