@@ -100,3 +100,17 @@ def test_hdr_recovers_the_dark_half_of_the_printed_part():
     hdr = rows["HDR all 3 exposures"]
     assert best["valid"] < 0.8 and hdr["valid"] >= 0.95
     assert hdr["rms_on_best_mm"] <= best["rms_mm"]
+
+
+def test_scene_file_keeps_the_gloss(tmp_path):
+    from fringe3d.sim import presets
+    from fringe3d.sim.scene_file import scene_from_dict
+    from fringe3d.sim.simulate import named_scene
+
+    scene = named_scene("shiny-part", presets.get("tiny"))
+    back = scene_from_dict(scene.to_dict())
+    assert [(ob.specular, ob.roughness) for ob in back.objects] == [(1.0, 0.12), (0.6, 0.25)]
+    bad = scene.to_dict()
+    bad["objects"][0]["roughness"] = 0.0
+    with pytest.raises(ValueError, match=r"objects\[0\].*roughness"):
+        scene_from_dict(bad)

@@ -292,6 +292,8 @@ class PosedObject:
             if not isinstance(self.texture, Texture):
                 raise ValueError(f"{self.describe()}: its texture {self.texture!r} cannot be saved to a scene file")
             d["texture"] = self.texture.to_dict()
+        if self.specular > 0:
+            d["specular"], d["roughness"] = self.specular, self.roughness
         if motion and not self.motion.is_static:
             d["motion"] = self.motion.to_dict()
         return d
