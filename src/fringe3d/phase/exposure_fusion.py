@@ -76,18 +76,26 @@ def fuse_exposures(stacks: np.ndarray, saturation_level: float) -> Fusion:
         raise ValueError(f"exposure stacks must have shape (exposures, frames, H, W), got {s.shape}")
     if s.shape[0] > 255:
         raise ValueError(f"at most 255 exposures can be fused, got {s.shape[0]}")
-    clipped = (s >= saturation_level).sum(axis=1)  # (E, H, W) saturated samples
-    span = (s.max(axis=1).astype(np.float64) - s.min(axis=1))  # (E, H, W) temporal range
-    score = np.where(clipped == 0, span, -np.inf)
+    E = s.shape[0]
+    score = np.empty((E,) + s.shape[2:])
+    sat = np.empty((E,) + s.shape[2:], bool)
+    for e in range(E):  # per exposure: (H, W) maps only, no (E, F, H, W) temporaries
+        hi, lo = s[e].max(axis=0), s[e].min(axis=0)
+        sat[e] = hi >= saturation_level
+        score[e] = np.where(sat[e], -np.inf, hi.astype(np.float64) - lo)
     best = np.argmax(score, axis=0)
-    all_sat = np.all(clipped > 0, axis=0)
-    if all_sat.any():
-        least = np.argmin(clipped, axis=0)  # first (lowest index) of the fewest clipped samples
-        best = np.where(all_sat, least, best)
+    all_sat = sat.all(axis=0)
+    if all_sat.any():  # the fewest saturated samples; first (lowest index) on ties
+        rows = np.flatnonzero(all_sat)
+        clipped = np.stack([(s[e].reshape(s.shape[1], -1)[:, rows] >= saturation_level).sum(axis=0)
+                            for e in range(E)])
+        best.flat[rows] = np.argmin(clipped, axis=0)
     index = best.astype(np.uint8)
-    frames = np.take_along_axis(s, index[None, None].astype(np.intp), axis=0)[0]
-    share = np.bincount(index.ravel(), minlength=s.shape[0]) / index.size
-    return Fusion(frames=np.ascontiguousarray(frames), index=index, saturated=all_sat, share=share)
+    frames = np.array(s[0])
+    for e in range(1, E):
+        np.copyto(frames, s[e], where=(index == e)[None])
+    share = np.bincount(index.ravel(), minlength=E) / index.size
+    return Fusion(frames=frames, index=index, saturated=all_sat, share=share)
 
 
 def split_bracket(frames: np.ndarray, n_exposures: int, cycle_length: int) -> np.ndarray:
