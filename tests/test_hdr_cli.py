@@ -88,3 +88,13 @@ def test_capture_exposures_brackets_the_virtual_camera(tmp_path):
     assert stacks[1].mean() > 2 * stacks[0].mean()  # the longer exposure is brighter
     assert main(["decode", str(cap_dir), "-o", str(tmp_path / "dec"), "-q"]) == 0
     assert (tmp_path / "dec" / "exposure_index.tif").is_file()
+
+
+def test_simulate_read_noise_e_selects_the_emva_camera(tmp_path, capsys):
+    cap_dir = _simulate(tmp_path, "--read-noise-e", "15", "--full-well", "5000")
+    rs = read_capture(cap_dir).meta["render_settings"]
+    assert (rs["noise_model"], rs["read_noise_e"], rs["full_well"]) == ("emva", 15.0, 5000.0)
+    code = main(["simulate", "--scene", "shiny-part", "--noise", "0.01", "--read-noise-e", "15",
+                 "-o", str(tmp_path / "bad"), "-q"])
+    assert code == 2 and "--read-noise-e" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()

@@ -40,6 +40,11 @@ def register(app: typer.Typer) -> None:
         noise: float = typer.Option(None, help="Read-noise sigma as a fraction of full scale (e.g. 0.01)."),
         gain: float = typer.Option(None, help="Camera gain (multiplies the signal; above ~1.2 the bright "
                                               "frames clip at full scale: an overexposed capture)."),
+        read_noise_e: float = typer.Option(None, "--read-noise-e", help="EMVA 1288 camera: dark (read) noise "
+                                           "sigma in electrons; switches to the EMVA model (Poisson shot noise, "
+                                           "well clip, quantisation)."),
+        full_well: float = typer.Option(None, "--full-well", help="EMVA 1288 camera: electrons at full scale "
+                                        "(default 10000); switches to the EMVA model."),
         defocus: float = typer.Option(None, help="Projector defocus: Gaussian sigma in projector pixels."),
         bit_depth: int = typer.Option(0, "--bit-depth", help="Camera bit depth 8/10/12/16 (0: the preset's)."),
         ideal: bool = typer.Option(False, "--ideal", help="Analytic sinusoids, no projector pixelation or defocus."),
@@ -65,6 +70,16 @@ def register(app: typer.Typer) -> None:
         for value, option in ((frame_rate, "--frame-rate"), (exposure, "--exposure")):
             check_number(value, option, positive=True)
         check_number(noise, "--noise", minimum=0, maximum=1)
+        check_number(read_noise_e, "--read-noise-e", minimum=0)
+        check_number(full_well, "--full-well", positive=True)
+        if read_noise_e is not None or full_well is not None:
+            if noise is not None:
+                raise ValueError("--noise is the simple model's read noise; with --read-noise-e/--full-well "
+                                 "(the EMVA 1288 model) give the read noise in electrons instead")
+            extra["noise_model"] = "emva"
+            extra["read_noise_e"] = read_noise_e if read_noise_e is not None else 0.0
+            if full_well is not None:
+                extra["full_well"] = full_well
         check_number(defocus, "--defocus", minimum=0)
         bracket = parse_exposures(exposures, "--exposures")
         if bracket is not None and exposure is not None:
@@ -78,7 +93,7 @@ def register(app: typer.Typer) -> None:
             PatternSet.load(patterns)
         options = dict(preset=preset, scene=scene, patterns=patterns, frames=frames, frame_rate=frame_rate,
                        exposure=exposure, noise=noise, gain=gain, defocus=defocus, bit_depth=bit_depth, ideal=ideal,
-                       seed=seed, exposures=bracket)
+                       seed=seed, exposures=bracket, read_noise_e=read_noise_e, full_well=full_well)
         with open_output(out, overwrite=overwrite, inputs=inputs, options=options, resumable=True) as o:
             if o.resumed:
                 info(f"resuming the unfinished capture in {out}: frames already written are kept")
