@@ -84,7 +84,7 @@ def fuse_exposures(stacks: np.ndarray, saturation_level: float) -> Fusion:
         sat[e] = hi >= saturation_level
         score[e] = np.where(sat[e], -np.inf, hi.astype(np.float64) - lo)
     best = np.argmax(score, axis=0)
-    all_sat = sat.all(axis=0)
+    all_sat = np.asarray(sat.all(axis=0))
     if all_sat.any():  # the fewest saturated samples; first (lowest index) on ties
         rows = np.flatnonzero(all_sat)
         clipped = np.stack([(s[e].reshape(s.shape[1], -1)[:, rows] >= saturation_level).sum(axis=0)
