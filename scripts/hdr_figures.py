@@ -25,9 +25,11 @@ def main() -> None:
         rows = hdr_rows(scene, a.preset, EXPOSURES, seed=a.seed, gain=a.gain)
         out += rows
         print(f"\n{scene} ({a.preset}, seed {a.seed}, {time.perf_counter() - t0:.1f} s incl. rendering)")
-        print(f"{'run':28s} {'frames':>6s} {'valid':>7s} {'RMS mm':>8s} {'RMS on best-single px':>22s}")
+        print(f"{'run':28s} {'frames':>6s} {'valid':>7s} {'RMS mm':>8s} {'median mm':>9s} "
+              f"{'RMS on best-single px':>22s}")
         for r in rows:
-            print(f"{r['run']:28s} {r['frames']:6d} {r['valid']:7.2%} {r['rms_mm']:8.4f} {r['rms_on_best_mm']:22.4f}")
+            print(f"{r['run']:28s} {r['frames']:6d} {r['valid']:7.2%} {r['rms_mm']:8.4f} {r['median_mm']:9.4f} "
+                  f"{r['rms_on_best_mm']:22.4f}")
         print(f"best single exposure: {rows[0]['best_single']}")
     if a.json:
         print(json.dumps(out, indent=1))

@@ -10,7 +10,7 @@ and compared with the simulator's truth:
   what the rig reconstructs of the same geometry made matte, white and noiseless (float frames,
   no saturation), so that silhouette edges, shadows and the projector's border, which no exposure
   recovers, do not count;
-* ``rms_mm``: 3D RMS error (mm) over the pixels the row keeps;
+* ``rms_mm``, ``median_mm``: 3D RMS and median error (mm) over the pixels the row keeps;
 * ``rms_on_best_mm``: the HDR rows' RMS over the pixels kept by the best single exposure (the one
   with the largest valid share), the like-for-like comparison with that exposure's ``rms_mm``.
 """
@@ -81,7 +81,8 @@ def hdr_rows(scene_name: str, preset_name: str = "tiny", exposures=EXPOSURES, se
         err = np.linalg.norm(pts - truth.xyz, axis=-1)
         rows.append({"scene": scene_name, "run": label, "exposures": k, "frames": k * len(ps.frames),
                      "valid": float(ok.sum() / surface.sum()),
-                     "rms_mm": float(np.sqrt(np.mean(err[ok] ** 2))) if ok.any() else float("nan")})
+                     "rms_mm": float(np.sqrt(np.mean(err[ok] ** 2))) if ok.any() else float("nan"),
+                     "median_mm": float(np.median(err[ok])) if ok.any() else float("nan")})
         kept.append((ok, err))
     best = int(np.argmax([float(r["valid"]) for r in rows[:n]]))  # type: ignore[arg-type]
     for r, (ok, err) in zip(rows, kept):
