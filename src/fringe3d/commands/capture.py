@@ -39,6 +39,7 @@ from fringe3d.utils.console import (
     set_quiet,
 )
 from fringe3d.utils.jsonfile import write_json
+from fringe3d.commands.checks import parse_exposures
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.commands.flag_words import in_flag_words
 from fringe3d.utils.output_folder import open_output, open_output_file
@@ -127,6 +128,10 @@ def register(app: typer.Typer) -> None:
                                                   "projector's trigger output fires the camera)."),
         cycles: int = typer.Option(1, help="Repeat the pattern sequence N times (moving scenes)."),
         exposure: float = typer.Option(None, help="Camera exposure time (s)."),
+        exposures: str = typer.Option(None, help="HDR exposure bracket: comma-separated exposure times (s), "
+                                                 "shortest first; one pattern cycle per exposure (software sync; "
+                                                 "decode fuses them per pixel). Costs one cycle of frames and "
+                                                 "time per exposure."),
         gain: float = typer.Option(None, help="Camera gain (dB)."),
         pixel_format: str = typer.Option(None, "--pixel-format", help="Mono8, Mono10 or Mono12."),
         roi: str = typer.Option(None, help="Camera region of interest X,Y,WIDTH,HEIGHT (pixels)."),
@@ -180,7 +185,8 @@ def register(app: typer.Typer) -> None:
             raise SystemExit(2) from None
 
 
-def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gain, pixel_format, roi, camera_feature,
+def run_capture(patterns, output, projector, camera, sync, cycles, exposure, exposures, gain, pixel_format, roi,
+                camera_feature,
                 frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto, still, pose_timeout, preview,
                 cols, rows, spacing, overwrite, json_, quiet) -> None:
     """The body of ``fringe3d capture`` (see its --help)."""
@@ -204,6 +210,14 @@ def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gai
         raise ValueError("--gamma needs -o gamma.json")
     if cycles < 1:
         raise ValueError(f"--cycles must be at least 1, got {cycles}")
+    bracket = parse_exposures(exposures, "--exposures")
+    if bracket is not None:
+        clash = [f for f, on in (("--exposure", exposure is not None), ("--cycles", cycles != 1),
+                                 ("--sync hardware", sync != "software"), ("--latency", latency), ("--gamma", gamma),
+                                 ("--session", session is not None)) if on]
+        if clash:
+            raise ValueError(f"--exposures records one pattern cycle per exposure with software sync; drop "
+                             f"{', '.join(clash)}")
     with ExitStack() as outputs:
         if latency or gamma:
             outputs.enter_context(open_output_file(output, overwrite=overwrite, inputs=[patterns]))
@@ -217,12 +231,13 @@ def run_capture(patterns, output, projector, camera, sync, cycles, exposure, gai
                                                        keep_unfinished=True)).path
         _run_with_devices(ps, images, packed, output, projector, camera, sync, cycles, exposure, gain, pixel_format,
                           roi_v, features, frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto,
-                          still, pose_timeout, preview, cols, rows, spacing, patterns, json_, quiet)
+                          still, pose_timeout, preview, cols, rows, spacing, patterns, json_, quiet, bracket)
 
 
 def _run_with_devices(ps, images, packed, output, projector, camera, sync, cycles, exposure, gain, pixel_format,
                       roi_v, features, frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto,
-                      still, pose_timeout, preview, cols, rows, spacing, patterns, json_, quiet) -> None:
+                      still, pose_timeout, preview, cols, rows, spacing, patterns, json_, quiet,
+                      bracket=None) -> None:
     """Open the rig and run the chosen mode, writing into the (guarded) output."""
     proj, cam = open_rig(projector, camera, patterns=ps, features=features)
     try:
@@ -274,7 +289,11 @@ def _run_with_devices(ps, images, packed, output, projector, camera, sync, cycle
                 console.print(f"captured {summary['poses']} poses into {session}; calibrate with "
                               f"fringe3d calibrate {session}")
             return
-        total = len(ps) * cycles
+        total = len(ps) * (cycles if bracket is None else len(bracket))
+        if bracket is not None:
+            meta["options"]["exposures"] = bracket
+            for t in bracket:  # each exposure must fit the frame period before anything is captured
+                check_exposure(t, 1.0 / frame_rate if frame_rate else None, f"{frame_rate:g} Hz" if frame_rate else "")
         with progress_bar(f"capturing {total} frames", total, enabled=not (quiet or json_)) as advance:
             last = [0]
 
@@ -283,7 +302,7 @@ def _run_with_devices(ps, images, packed, output, projector, camera, sync, cycle
                 last[0] = n
             res = capture_sequence(proj, cam, ps, show, output, sync=sync, cycles=cycles, settle=settle,
                                    timeout=timeout, frame_rate=frame_rate, planes=planes, extra_meta=meta,
-                                   progress=prog)
+                                   progress=prog, exposures=bracket)
     except CaptureIncompleteError as e:
         err_console.print(f"[bold red]capture incomplete:[/] {e}")
         raise SystemExit(EXIT_INCOMPLETE) from None

@@ -27,3 +27,19 @@ def check_choice(value, option: str, choices) -> None:
     """Refuse a value of ``option`` outside ``choices`` (None passes: the option was not given)."""
     if value is not None and value not in choices:
         raise ValueError(f"{option} must be one of {', '.join(map(str, choices))}, got {value!r}")
+
+
+def parse_exposures(text: str | None, option: str) -> list[float] | None:
+    """``"0.001,0.004"`` as exposure times (s), each a finite number > 0, no repeats; ``None`` stays
+    ``None``. ``ValueError`` naming ``option`` otherwise."""
+    if text is None:
+        return None
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ValueError(f"{option}: expected comma-separated exposure times in seconds, got {text!r}") from None
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        raise ValueError(f"{option}: expected positive exposure times in seconds, got {text!r}")
+    if len(set(values)) != len(values):
+        raise ValueError(f"{option}: repeated exposure time in {text!r}")
+    return values

@@ -17,8 +17,10 @@ from fringe3d.commands.output_options import allow_empty_option, overwrite_optio
 from fringe3d.commands.plan_errors import in_flag_words
 from fringe3d.decode import DecodeOptions, decode, with_method
 from fringe3d.decode.compensation import COMPENSATIONS
+from fringe3d.decode.bracket import INDEX_NAME, fuse_bracket
 from fringe3d.decode.plan_checks import check_geometry
 from fringe3d.io.capture import read_capture, read_meta
+from fringe3d.io.images import write_tiff
 from fringe3d.io.importer import load_images, parse_size
 from fringe3d.patterns.manifest import MANIFEST_NAME
 from fringe3d.patterns.layouts import with_threshold
@@ -47,7 +49,7 @@ def _load_rig(path: Path | None):
 
 
 def _decode_all(cap, n: int, patterns, rig, options: DecodeOptions, out: Path, capture: Path, results: list, *,
-                overwrite: bool, allow_empty: bool, inputs: list, fingerprint_options: dict) -> None:
+                overwrite: bool, allow_empty: bool, inputs: list, fingerprint_options: dict, fusion=None) -> None:
     """Decode the first ``n`` cycles into the guarded output ``out`` (a referenced camera file is
     read one cycle at a time), appending each cycle's summary to ``results``."""
     length = len(patterns)
@@ -68,6 +70,12 @@ def _decode_all(cap, n: int, patterns, rig, options: DecodeOptions, out: Path, c
                                  "was written (pass --allow-empty to write it anyway)")
             dec.save(folder)
             s = dec.summary()
+            if fusion is not None:  # an exposure bracket: which exposure each pixel took
+                write_tiff(folder / INDEX_NAME, fusion.index, "exposure_index",
+                           "index into capture.json exposures (the exposure fused at the pixel)")
+                s["exposures"] = cap.meta["exposures"]
+                s["exposure_share"] = [round(float(x), 4) for x in fusion.share]
+                s["saturated_in_every_exposure"] = round(float(fusion.saturated.mean()), 4)
             s["cycle"], s["folder"] = c, str(o.final_paths(folder))
             results.append(s)
             advance()
@@ -194,6 +202,13 @@ def register(app: typer.Typer) -> None:
             referenced = "source" in read_meta(folder)  # a camera file: decode it one cycle at a time
             cap = read_capture(folder, max_cycles=1 if referenced else max_cycles)
         bits = bit_depth if bit_depth is not None else cap.meta.get("bit_depth")
+        fusion = None
+        if cap.meta.get("exposures") is not None:  # an exposure bracket (capture/simulate/import --exposures)
+            if cap.source is not None or max_cycles is not None:
+                raise ValueError(f"{capture} is an exposure bracket (capture.json field exposures): it is decoded "
+                                 "whole from its frames; drop --max-cycles")
+            fusion = fuse_bracket(cap.frames, cap.meta["exposures"], len(cap.patterns), bits)
+            cap.frames = fusion.frames
         opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1,
                 "white_thr": white_thr, "black_thr": black_thr, "edge_thr": edge_thr, "edge_mask": edge_mask,
                 "edge_margin": edge_margin, "compensate": compensate}
@@ -230,7 +245,7 @@ def register(app: typer.Typer) -> None:
                 dopts = DecodeOptions(z_min=z_min, response=response_lut, **opts)
                 _decode_all(cap, n, patterns, rig_obj, dopts, out, capture, results,
                             overwrite=overwrite, allow_empty=allow_empty, inputs=inputs,
-                            fingerprint_options=options)
+                            fingerprint_options=options, fusion=fusion)
             finally:
                 for msg in dict.fromkeys(str(w.message) for w in caught):
                     warn(msg)

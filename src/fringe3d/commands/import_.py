@@ -6,6 +6,7 @@ from pathlib import Path
 import typer
 
 from fringe3d.commands import import_options as io
+from fringe3d.commands.checks import parse_exposures
 from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.import_options import SRC_HELP
 from fringe3d.commands.output_options import overwrite_option
@@ -40,6 +41,9 @@ def register(app: typer.Typer) -> None:
         frame_count: int = io.frame_count_option(),
         copy_frames: bool = typer.Option(False, "--copy-frames", help="Camera file: write the frames as PNGs "
                                                                       "into frames/ instead of referencing it."),
+        exposures: str = typer.Option(None, help="The frames are an HDR exposure bracket: comma-separated exposure "
+                                                 "times (s), shortest first, one pattern cycle per exposure in "
+                                                 "that order (decode fuses them per pixel)."),
         overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No table."),
@@ -54,14 +58,17 @@ def register(app: typer.Typer) -> None:
                                    shift_sign=shift_sign, unwrap=unwrap, no_inverse=no_inverse,
                                    interleave=interleave, white_black=white_black, threshold=threshold)
         check_source(src, list_file)
+        bracket = parse_exposures(exposures, "--exposures")
         inputs = io.source_inputs(src, list_file, manifest)
         with open_output(out, overwrite=overwrite, inputs=inputs,
                          options={"src": src, "layout": layout, "first_frame": first_frame,
-                                  "frame_count": frame_count, "copy_frames": copy_frames, **opts}) as o:
+                                  "frame_count": frame_count, "copy_frames": copy_frames, "exposures": bracket,
+                                  **opts}) as o:
             summary = o.final_paths(import_images(src, o.path, list_file=list_file, manifest=manifest, layout=layout,
                                                   projector_size=parse_size(projector_size), channel=channel,
                                                   bit_depth=bit_depth, overwrite=True, first_frame=first_frame,
-                                                  frame_count=frame_count, copy_frames=copy_frames, **opts))
+                                                  frame_count=frame_count, copy_frames=copy_frames,
+                                                  exposures=bracket, **opts))
         if json_:
             print_json(summary)
             return

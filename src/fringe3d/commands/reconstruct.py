@@ -18,6 +18,7 @@ from fringe3d.commands.quality_options import edge_margin_option, edge_mask_opti
 from fringe3d.decode import decode
 from fringe3d.decode.plan_checks import check_plans
 from fringe3d.gpu import BACKENDS, cuda_module
+from fringe3d.decode.bracket import fuse_bracket
 from fringe3d.io.capture import list_frame_files, open_frames, read_capture
 from fringe3d.io.store import CODECS
 from fringe3d.optics import Rig
@@ -190,6 +191,13 @@ def register(app: typer.Typer) -> None:
         referenced = open_frames(capture)  # a camera file (capture.json source), read on demand; else None
         n_files = len(referenced) if referenced is not None else len(list_frame_files(capture))
         cycles = n_files // len(cap.patterns) if max_cycles is None else min(max_cycles, n_files // len(cap.patterns))
+        if cap.meta.get("exposures") is not None:  # an exposure bracket: fused per pixel into one cycle
+            if window is not None or referenced is not None or max_cycles is not None:
+                raise ValueError(f"{capture} is an exposure bracket (capture.json field exposures): it is "
+                                 "reconstructed whole from its frames as one fused cycle; drop --window/--max-cycles")
+            cap.frames = fuse_bracket(read_capture(capture).frames, cap.meta["exposures"], len(cap.patterns),
+                                      cap.meta.get("bit_depth")).frames
+            cycles = 1
         ps = with_method(cap.patterns, method)
         with in_flag_words(z_min_from=True):  # relative phase, geometric method without z_min: before writing
             relative = check_plans(ps, rig, z_min, original=cap.patterns, source=str(capture / MANIFEST_NAME),

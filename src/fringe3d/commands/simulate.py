@@ -6,7 +6,7 @@ from pathlib import Path
 import typer
 
 from fringe3d.commands.deprecated import AliasCommand
-from fringe3d.commands.checks import check_number
+from fringe3d.commands.checks import check_number, parse_exposures
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
 from fringe3d.patterns.manifest import PatternSet
@@ -26,16 +26,25 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(..., "-o", "--output", help="Output capture folder."),
         preset: str = typer.Option("tiny", help="Rig preset: macro, well-designed, microscope, high-speed, tiny."),
         scene: str = typer.Option(None, help="Scene name (sphere, plane, spheres, step, board, sculpture, mesh, "
-                                             "falling-balls, wing, textured-spheres) or a JSON scene file; "
+                                             "falling-balls, wing, textured-spheres, shiny-part, printed-part) "
+                                             "or a JSON scene file; "
                                              "default: the preset's."),
         patterns: str = typer.Option(None, help="Pattern set name (three-frequency, two-frequency, hybrid, ftp, "
                                                 "...) or a manifest.json; default: the preset's."),
         frames: int = typer.Option(None, help="Total frames (a multiple of the pattern count); default one cycle."),
         frame_rate: float = typer.Option(None, "--frame-rate", help="Frames per second (Hz)."),
         exposure: float = typer.Option(None, help="Exposure time (s), at most 1/frame-rate."),
+        exposures: str = typer.Option(None, help="HDR exposure bracket: comma-separated exposure times (s), "
+                                                 "shortest first, e.g. 0.000625,0.0025,0.01; one pattern cycle "
+                                                 "per exposure (decode fuses them per pixel)."),
         noise: float = typer.Option(None, help="Read-noise sigma as a fraction of full scale (e.g. 0.01)."),
         gain: float = typer.Option(None, help="Camera gain (multiplies the signal; above ~1.2 the bright "
                                               "frames clip at full scale: an overexposed capture)."),
+        read_noise_e: float = typer.Option(None, "--read-noise-e", help="EMVA 1288 camera: dark (read) noise "
+                                           "sigma in electrons; switches to the EMVA model (Poisson shot noise, "
+                                           "well clip, quantisation)."),
+        full_well: float = typer.Option(None, "--full-well", help="EMVA 1288 camera: electrons at full scale "
+                                        "(default 10000); switches to the EMVA model."),
         defocus: float = typer.Option(None, help="Projector defocus: Gaussian sigma in projector pixels."),
         bit_depth: int = typer.Option(0, "--bit-depth", help="Camera bit depth 8/10/12/16 (0: the preset's)."),
         ideal: bool = typer.Option(False, "--ideal", help="Analytic sinusoids, no projector pixelation or defocus."),
@@ -61,7 +70,20 @@ def register(app: typer.Typer) -> None:
         for value, option in ((frame_rate, "--frame-rate"), (exposure, "--exposure")):
             check_number(value, option, positive=True)
         check_number(noise, "--noise", minimum=0, maximum=1)
+        check_number(read_noise_e, "--read-noise-e", minimum=0)
+        check_number(full_well, "--full-well", positive=True)
+        if read_noise_e is not None or full_well is not None:
+            if noise is not None:
+                raise ValueError("--noise is the simple model's read noise; with --read-noise-e/--full-well "
+                                 "(the EMVA 1288 model) give the read noise in electrons instead")
+            extra["noise_model"] = "emva"
+            extra["read_noise_e"] = read_noise_e if read_noise_e is not None else 0.0
+            if full_well is not None:
+                extra["full_well"] = full_well
         check_number(defocus, "--defocus", minimum=0)
+        bracket = parse_exposures(exposures, "--exposures")
+        if bracket is not None and exposure is not None:
+            raise ValueError("give --exposure (one exposure) or --exposures (a bracket), not both")
         if frames is not None and not 1 <= frames <= MAX_SIM_FRAMES:
             raise ValueError(f"--frames must be between 1 and {MAX_SIM_FRAMES}, got {frames}")
         inputs = [Path(x) for x in (scene, patterns) if x is not None and Path(x).suffix == ".json"]
@@ -71,14 +93,15 @@ def register(app: typer.Typer) -> None:
             PatternSet.load(patterns)
         options = dict(preset=preset, scene=scene, patterns=patterns, frames=frames, frame_rate=frame_rate,
                        exposure=exposure, noise=noise, gain=gain, defocus=defocus, bit_depth=bit_depth, ideal=ideal,
-                       seed=seed)
+                       seed=seed, exposures=bracket, read_noise_e=read_noise_e, full_well=full_well)
         with open_output(out, overwrite=overwrite, inputs=inputs, options=options, resumable=True) as o:
             if o.resumed:
                 info(f"resuming the unfinished capture in {out}: frames already written are kept")
             summary = o.final_paths(simulate_capture(o.path, preset, scene, patterns, frames=frames,
                                                      frame_rate=frame_rate, exposure=exposure, noise=noise,
                                                      defocus=defocus, bit_depth=bit_depth, seed=seed,
-                                                     progress=not (quiet or json_), resume=o.resumed, **extra))
+                                                     progress=not (quiet or json_), resume=o.resumed,
+                                                     exposures=bracket, **extra))
         if json_:
             print_json(summary)
             return

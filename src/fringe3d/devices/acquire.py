@@ -122,8 +122,13 @@ def _place_burst(frames, n: int, period: float | None):
 
 def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *, sync: str = "software",
                      cycles: int = 1, settle: float = 0.0, timeout: float = 1.0, frame_rate: float | None = None,
-                     planes: list[int] | None = None, extra_meta: dict | None = None, progress=None) -> CaptureResult:
+                     planes: list[int] | None = None, extra_meta: dict | None = None, progress=None,
+                     exposures: list[float] | None = None) -> CaptureResult:
     """Capture ``cycles`` cycles of ``patterns`` into the capture folder ``folder``.
+
+    ``exposures`` (s, software sync): an HDR bracket, one cycle per exposure time, the camera's
+    exposure set before each cycle (``cycles`` is then ``len(exposures)``); ``capture.json`` gets
+    ``exposures`` and every frame record its ``exposure``.
 
     Parameters
     ----------
@@ -162,6 +167,10 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
     CaptureIncompleteError
         Frames were missing or duplicated; the folder is written but not marked complete.
     """
+    if exposures is not None:
+        if sync != "software":
+            raise ValueError("exposures: an exposure bracket changes the exposure between cycles; use software sync")
+        cycles = len(exposures)
     images, planes = _check_inputs(projector, patterns, images, planes, sync, cycles)
     n_pat = len(patterns)
     total = n_pat * cycles
@@ -183,6 +192,8 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
     bd = _bit_depth(camera)
     meta = _initial_meta(camera, projector, total, cycles, sync, settle, timeout, period, bd, planes)
     meta.update(extra_meta or {})
+    if exposures is not None:
+        meta["exposures"] = [float(e) for e in exposures]
     patterns.save(folder / MANIFEST_NAME)
     write_json(folder / META_NAME, meta, units=CAPTURE_UNITS)
 
@@ -194,6 +205,8 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
     try:
         camera.start()
         for c in range(cycles):
+            if exposures is not None:
+                camera.exposure = float(exposures[c])
             base = c * n_pat
             first = 0
             for j, img in enumerate(images):
@@ -218,6 +231,8 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
                     records[i] = {"index": i, "pattern": i % n_pat, "cycle": i // n_pat, "frame_id": int(fr.frame_id),
                                   "timestamp": float(fr.timestamp), "host_time": float(fr.host_time),
                                   "shown_at": float(shown)}
+                    if exposures is not None:
+                        records[i]["exposure"] = float(exposures[c])  # type: ignore[index]
                     received += 1
                     if progress is not None:
                         progress(received)

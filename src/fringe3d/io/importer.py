@@ -296,17 +296,25 @@ def read_images(files: Sequence[Path], patterns: PatternSet, layout: str = "mani
 
 
 def import_capture(files: Sequence[Path], out: str | os.PathLike, patterns: PatternSet, layout: str = "manifest",
-                   channel: str | None = None, bit_depth: int | None = None, overwrite: bool = False) -> dict:
+                   channel: str | None = None, bit_depth: int | None = None, overwrite: bool = False,
+                   exposures: Sequence[float] | None = None) -> dict:
     """Read ``files`` (:func:`read_images`) and write the capture folder ``out`` for
     ``patterns``. Returns the summary written as ``capture.json`` plus ``folder``, ``frames``
-    and ``camera``.
+    and ``camera``. ``exposures``: the frames are an exposure bracket, one cycle per exposure
+    time (s), exposure-major (``capture.json`` field ``exposures``, fused by ``fringe3d decode``).
 
-    Raises ``ValueError`` as :func:`read_images`, and for a non-empty output folder without
-    ``overwrite``.
+    Raises ``ValueError`` as :func:`read_images`, for a bracket whose frame count is not one cycle
+    per exposure, and for a non-empty output folder without ``overwrite``.
     """
     out = Path(out)
     check_output(out, overwrite)
     frames, meta = read_images(files, patterns, layout, channel, bit_depth)
+    if exposures is not None:
+        want = len(exposures) * len(patterns)
+        if len(frames) != want:
+            raise ValueError(f"exposures: a bracket of {len(exposures)} exposures needs {len(exposures)} x "
+                             f"{len(patterns)} = {want} frames (one pattern cycle per exposure), got {len(frames)}")
+        meta["exposures"] = [float(e) for e in exposures]
     write_capture(out, frames, patterns, meta, fmt="png" if frames.dtype.kind == "u" else "tif")
     return {**meta, "folder": str(out), "frames": int(len(frames)), "camera": [int(frames.shape[2]),
                                                                                 int(frames.shape[1])]}
@@ -505,7 +513,8 @@ def import_images(src: str | os.PathLike | None, out: str | os.PathLike, *, list
                   manifest: str | os.PathLike | None = None, layout: str | None = None,
                   projector_size: tuple[int, int] | None = None, channel: str | None = None,
                   bit_depth: int | None = None, overwrite: bool = False, first_frame: int = 0,
-                  frame_count: int | None = None, copy_frames: bool = False, **layout_options) -> dict:
+                  frame_count: int | None = None, copy_frames: bool = False, exposures: Sequence[float] | None = None,
+                  **layout_options) -> dict:
     """``fringe3d import``: frames of ``src`` (folder or glob) or of ``list_file`` (exactly one) described by
     a pattern ``manifest`` file or a ``layout`` (:func:`layout_patterns` with
     ``projector_size`` and ``layout_options``) -> capture folder ``out`` (:func:`import_capture`).
@@ -530,8 +539,12 @@ def import_images(src: str | os.PathLike | None, out: str | os.PathLike, *, list
     ranged = (first_frame, frame_count) != (0, None)
     kind = camera_file_kind(src, list_file, channel, convert_tiff=copy_frames and not ranged)
     if kind is not None and src is not None:
+        if exposures is not None:
+            raise ValueError(f"{src}: exposures: an exposure bracket is imported from image files, not from a "
+                             "camera file")
         return import_camera_file(src, out, patterns, name, bit_depth=bit_depth, first_frame=first_frame,
                                   frame_count=frame_count, copy_frames=copy_frames, overwrite=overwrite)
     check_no_range(src, first_frame, frame_count)
     files = list_sources(src, list_file)
-    return import_capture(files, out, patterns, name, channel=channel, bit_depth=bit_depth, overwrite=overwrite)
+    return import_capture(files, out, patterns, name, channel=channel, bit_depth=bit_depth, overwrite=overwrite,
+                          exposures=exposures)

@@ -22,10 +22,10 @@ from .primitives import Plane, Sphere
 from .scene import Scene
 from .scene_object import PosedObject
 from .sculpture import sculpture
-from .textures import Checker
+from .textures import Checker, Ramp
 from .wing import Wing
 
-NAMES = ("sculpture", "mesh", "falling-balls", "wing", "textured-spheres")
+NAMES = ("sculpture", "mesh", "falling-balls", "wing", "textured-spheres", "shiny-part", "printed-part")
 
 
 def preset_frame(preset: Preset) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -125,9 +125,37 @@ def textured_spheres_scene(preset) -> Scene:
     return Scene(objs, name="textured-spheres")
 
 
+def shiny_part_scene(preset) -> Scene:
+    """A machined metal part: a polished dome (sphere, radius 30% of the lateral volume, specular
+    weight 1, roughness 0.12) on a brushed plate (specular 0.6, roughness 0.25), both grey
+    (albedo 0.35) — specular highlights tens of times brighter than the diffuse part, which
+    saturate wherever the camera sees the projector's mirror image (:mod:`fringe3d.sim.specular`)."""
+    c, size, view, down = preset_frame(preset)
+    r = 0.3 * min(size[0], size[1])
+    dome = Sphere(c, r, albedo=0.35).set_gloss(1.0, 0.12)
+    plate = Plane(c + view * (0.5 * size[2]), -view, albedo=0.35).set_gloss(0.6, 0.25)
+    return Scene([dome, plate], name="shiny-part")
+
+
+def printed_part_scene(preset) -> Scene:
+    """A black-and-white printed part: a matte plate whose albedo ramps from black (0.05) to white
+    (1) across 80% of the view (left to right), carrying a dome printed with a black/white checker
+    (albedo 0.9 and 0.02). Dark areas drown in noise at an exposure that keeps the white ones
+    below saturation."""
+    c, size, view, down = preset_frame(preset)
+    right = np.cross(down, view)
+    R = facing_rotation(view, down)
+    plate = Plane(c + view * (0.4 * size[2]), -view, albedo=1.0, u_axis=right,
+                  texture=Ramp(start=-0.4 * size[0], length=0.8 * size[0], contrast=0.95))
+    dome = Sphere(c - right * (0.15 * size[0]), 0.2 * min(size[0], size[1]), albedo=0.9,
+                  texture=Checker(period=np.pi / 6, contrast=0.98), R=R)
+    return Scene([plate, dome], name="printed-part")
+
+
 _BUILDERS: dict[str, Callable[[Preset], Scene]] = {
     "sculpture": sculpture_scene, "mesh": mesh_scene, "falling-balls": falling_balls_scene,
-    "wing": wing_scene, "textured-spheres": textured_spheres_scene}
+    "wing": wing_scene, "textured-spheres": textured_spheres_scene,
+    "shiny-part": shiny_part_scene, "printed-part": printed_part_scene}
 
 
 def named_scene(name: str, preset) -> Scene:

@@ -20,6 +20,7 @@ from fringe3d.optics import Rig, TelecentricCamera
 from .rays import intersect_culled, occluded, shadow_rays
 from .scene import Scene
 from .scene_object import SupportsCircleCentres
+from .specular import specular_factor
 
 
 @dataclass
@@ -39,6 +40,7 @@ class Geometry:
     lit: np.ndarray          # (N,) bool: inside the projector, facing it, not shadowed
     proj_depth: np.ndarray   # (N,) distance along the projector axis (mm)
     extras: dict
+    specular: np.ndarray | None = None  # (N,) glossy lobe factor (:mod:`.specular`); None: all matte
 
 
 def crop(geo: Geometry, shape: tuple[int, int], margin: int) -> Geometry:
@@ -193,7 +195,8 @@ def cast(scene: Scene, rig: Rig, origins: np.ndarray, dirs: np.ndarray, depth_of
     return Geometry(hit=hit, points=pts, depth=depth, normal=normal, object_id=oid,
                     albedo=_where(hit, np.asarray(h.albedo, float), _buffer(work, "albedo", (n_pix,))),
                     material_uv=None if muv is None else np.asarray(muv, float),
-                    up=up, vp=vp, shade=shade, lit=inside, proj_depth=pdepth, extras=extras)
+                    up=up, vp=vp, shade=shade, lit=inside, proj_depth=pdepth, extras=extras,
+                    specular=specular_factor(scene.objects, oid, normal, L, -dirs, inside))
 
 
 def scene_meta(scene: Scene, rig: Rig, time: float) -> dict:

@@ -44,11 +44,33 @@ def sense(image: np.ndarray, settings: RenderSettings, index: int, margin: int =
     if margin:
         img = img[margin:img.shape[0] - margin, margin:img.shape[1] - margin]
     rng = frame_rng(settings.seed, index)
+    if settings.noise_model == "emva":
+        return sense_emva(img, settings, rng)
     if settings.shot_noise:
         img = shot_noise(img, settings.full_well, rng)
     if settings.read_noise > 0:
         img = img + settings.read_noise * rng.standard_normal(img.shape, dtype=np.float32)
     return quantize(img, settings.bit_depth)
+
+
+def sense_emva(img: np.ndarray, settings: RenderSettings, rng: np.random.Generator) -> np.ndarray:
+    """The EMVA 1288 linear camera model on full-scale irradiances ``img`` (H, W).
+
+    Mean electrons ``mu_e = I * full_well``; Poisson shot noise (:func:`shot_noise`); the well clips
+    at ``full_well``; dark noise ``N(0, read_noise_e**2)`` electrons; digital value
+    ``y = dark_offset_dn + K * e`` (``K`` = :attr:`RenderSettings.system_gain`), rounded and clipped
+    to ``[0, 2**bit_depth - 1]``. Below both clips (EMVA 1288 Eq. 6 and 9):
+
+    ``E[y] = dark_offset_dn + K * mu_e``,   ``Var[y] = K**2 * (read_noise_e**2 + mu_e) + 1/12``.
+    """
+    e = shot_noise(img, settings.full_well, rng) * settings.full_well
+    e = np.minimum(e, settings.full_well)
+    if settings.read_noise_e > 0:
+        e = e + settings.read_noise_e * rng.standard_normal(e.shape, dtype=np.float32)
+    y = settings.dark_offset_dn + settings.system_gain * e
+    top = 2 ** int(settings.bit_depth or 16) - 1
+    q = np.clip(np.rint(y), 0, top)
+    return q.astype(np.uint8 if settings.bit_depth == 8 else np.uint16)
 
 
 #: Above this many electrons the Poisson draw is replaced by its normal limit N(lam, lam).

@@ -3,12 +3,14 @@ noise-free camera signal, and when each frame (and each motion sub-sample) is ex
 
 Photometric model (:mod:`fringe3d.sim.settings`), per camera pixel in full-scale units:
 
-``I = gain * (exposure * frame_rate) * albedo * (ambient + brightness * cos(theta) * R(P))``
+``I = gain * (exposure * frame_rate) * (albedo * (ambient + brightness * cos(theta) * R(P))
++ brightness * S * R(P))``
 
 with ``R(P) = P**gamma`` or the tabulated ``RenderSettings.response``, ``P`` the (defocused)
 pattern value (:mod:`fringe3d.sim.projector_sampling`) and
 ``cos(theta)`` the Lambert cosine toward the projector centre, 0 in projector shadow or outside
-its image (:class:`~fringe3d.sim.geometry.Geometry`). The sensor (blur, shot and read noise,
+its image (:class:`~fringe3d.sim.geometry.Geometry`), ``S`` the specular lobe of a glossy object
+(:mod:`fringe3d.sim.specular`, 0 on matte ones). The sensor (blur, shot and read noise,
 quantisation) follows in :func:`fringe3d.sim.noise.sense`.
 
 >>> from fringe3d.sim.settings import RenderSettings
@@ -56,4 +58,7 @@ def irradiance(geo: Geometry, pattern: np.ndarray, settings: RenderSettings,
         shaped = pattern if s.gamma == 1.0 else np.power(np.clip(pattern, 0.0, None), s.gamma)
     proj = s.brightness * geo.shade * shaped
     ambient = s.ambient + scene_ambient * s.brightness
-    return s.gain * s.exposure_fraction * geo.albedo * (ambient + proj) * geo.hit
+    signal = geo.albedo * (ambient + proj)
+    if geo.specular is not None:
+        signal = signal + s.brightness * geo.specular * shaped
+    return s.gain * s.exposure_fraction * signal * geo.hit

@@ -13,7 +13,8 @@ Format (mm, radians, seconds, albedo in [0, 1])::
      ]}
 
 Types and their fields: see :data:`SCHEMAS` (``fields()`` lists them per type). ``mesh.path`` is
-relative to the scene file. ``motion`` (box, board, mesh, heightfield, sculpture) is
+relative to the scene file. ``specular`` (>= 0) and ``roughness`` (0.02..1) make an object glossy
+(:mod:`fringe3d.sim.specular`). ``motion`` (box, board, mesh, heightfield, sculpture) is
 ``{"velocity": [..], "acceleration": [..], "angular_velocity": [..], "t0": 0}``.
 """
 from __future__ import annotations
@@ -44,7 +45,7 @@ INT_RANGES = {"steps": (1, 4096), "cols": (2, 200), "rows": (2, 200), "seed": (0
 
 # field kinds: vec3, vec2, number, int, bool, str, rotation (3-vector or 3x3), texture, motion,
 # points2 (list of [x, y]), table4 (list of 4-number rows), path
-_COMMON = {"albedo": "number", "texture": "texture"}
+_COMMON = {"albedo": "number", "texture": "texture", "specular": "number", "roughness": "number"}
 SCHEMAS: dict[str, dict] = {
     "plane": {"required": {"point": "vec3", "normal": "vec3"},
               "optional": {**_COMMON, "u_axis": "vec3", "size": "vec2", "motion": "motion"}},
@@ -198,8 +199,12 @@ def object_from_dict(d, at: str = "object", base: Path | None = None) -> SceneOb
         if name not in allowed:
             raise ValueError(f"{at}.{name}: unknown field for a {kind}; allowed: {sorted(allowed)}")
     kw = {name: _check(v, allowed[name], f"{at}.{name}", base) for name, v in given.items()}
+    gloss = {k: kw.pop(k) for k in ("specular", "roughness") if k in kw}
     try:
-        return _build(kind, kw)
+        ob = _build(kind, kw)
+        if gloss:  # a glossy lobe (fringe3d.sim.specular): weight and roughness
+            ob.set_gloss(gloss.get("specular", 0.0), gloss.get("roughness", 1.0))  # type: ignore[attr-defined]
+        return ob
     except FileNotFoundError as e:
         raise FileNotFoundError(f"{at}.path: {e}") from None
     except (ValueError, TypeError) as e:

@@ -22,6 +22,7 @@ import numpy as np
 
 from .hits import Hit, as_rays
 from .motion import STATIC, RigidMotion, rotation_vector_to_matrix
+from .specular import check_gloss
 
 
 class CullingVolume(NamedTuple):
@@ -183,9 +184,17 @@ class PosedObject:
 
     albedo: float = 1.0
     texture: Texture | None = None
+    specular: float = 0.0    # glossy lobe weight k_s (:mod:`fringe3d.sim.specular`); 0 = matte
+    roughness: float = 1.0   # lobe roughness alpha in [0.02, 1]
     motion: RigidMotion = STATIC
     R: np.ndarray = np.eye(3)
     center: np.ndarray = np.zeros(3)
+
+    def set_gloss(self, specular: float, roughness: float):
+        """Make the object glossy: specular weight ``k_s`` >= 0 and roughness ``alpha`` in
+        [0.02, 1] of the Blinn-Phong lobe (:mod:`fringe3d.sim.specular`); returns the object."""
+        self.specular, self.roughness = check_gloss(specular, roughness)
+        return self
 
     # -- pose ------------------------------------------------------------------------------
     def pose(self, time: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -283,6 +292,8 @@ class PosedObject:
             if not isinstance(self.texture, Texture):
                 raise ValueError(f"{self.describe()}: its texture {self.texture!r} cannot be saved to a scene file")
             d["texture"] = self.texture.to_dict()
+        if self.specular > 0:
+            d["specular"], d["roughness"] = self.specular, self.roughness
         if motion and not self.motion.is_static:
             d["motion"] = self.motion.to_dict()
         return d

@@ -23,6 +23,7 @@ import numpy as np
 from fringe3d.optics.defocus import MODELS
 
 BIT_DEPTHS = (8, 10, 12, 16)
+NOISE_MODELS = ("simple", "emva")
 
 
 @dataclass(frozen=True)
@@ -70,6 +71,19 @@ class RenderSettings:
         8, 10, 12 or 16 (uint8 / uint16 frames with saturation), or ``None`` for float32.
     camera_blur : float
         Gaussian camera blur sigma (camera pixels); 0 = none.
+    noise_model : str
+        ``"simple"`` (the default: ``shot_noise``, ``read_noise`` in full-scale units) or ``"emva"``:
+        the EMVA 1288 linear camera model (:func:`fringe3d.sim.noise.sense_emva`): ``full_well``
+        electrons at full-scale irradiance (the well clips there), Poisson shot noise always,
+        ``read_noise_e`` electrons of dark noise, ``gain_dn_per_e`` DN per electron, a
+        ``dark_offset_dn`` offset, quantisation to ``bit_depth`` bits (required).
+    read_noise_e : float
+        EMVA dark (read) noise sigma, electrons.
+    gain_dn_per_e : float | None
+        EMVA overall system gain K (DN/e-); ``None`` = ``(2**bit_depth - 1) / full_well`` (the ADC's
+        top at the full well).
+    dark_offset_dn : float
+        EMVA dark offset (DN) added before quantisation.
     shadows : bool
         Cast shadow rays toward the projector (projector occlusion).
     seed : int
@@ -94,6 +108,10 @@ class RenderSettings:
     read_noise: float = 0.0
     bit_depth: int | None = 8
     camera_blur: float = 0.0
+    noise_model: str = "simple"
+    read_noise_e: float = 0.0
+    gain_dn_per_e: float | None = None
+    dark_offset_dn: float = 0.0
     shadows: bool = True
     seed: int = 0
 
@@ -124,6 +142,24 @@ class RenderSettings:
             raise ValueError(f"full_well must be a positive number of electrons, got {self.full_well}")
         if self.bit_depth is not None and self.bit_depth not in BIT_DEPTHS:
             raise ValueError(f"bit_depth must be one of {BIT_DEPTHS} or None (float32), got {self.bit_depth}")
+        self._check_emva()
+
+    def _check_emva(self) -> None:
+        if self.noise_model not in NOISE_MODELS:
+            raise ValueError(f"noise_model must be one of {NOISE_MODELS}, got {self.noise_model!r}")
+        for name in ("read_noise_e", "dark_offset_dn"):
+            _finite_nonneg(name, getattr(self, name))
+        if self.gain_dn_per_e is not None and not (math.isfinite(self.gain_dn_per_e) and self.gain_dn_per_e > 0):
+            raise ValueError(f"gain_dn_per_e must be a positive number of DN per electron, got {self.gain_dn_per_e!r}")
+        if self.noise_model == "emva" and self.bit_depth is None:
+            raise ValueError("noise_model 'emva' models a digital camera: set bit_depth (8, 10, 12 or 16)")
+
+    @property
+    def system_gain(self) -> float:
+        """EMVA system gain K (DN/e-): ``gain_dn_per_e`` or ``(2**bit_depth - 1) / full_well``."""
+        if self.gain_dn_per_e is not None:
+            return float(self.gain_dn_per_e)
+        return (2.0 ** (self.bit_depth or 16) - 1.0) / self.full_well
 
     @property
     def exposure_fraction(self) -> float:
@@ -132,7 +168,7 @@ class RenderSettings:
 
     @property
     def noiseless(self) -> bool:
-        return not self.shot_noise and self.read_noise == 0
+        return self.noise_model == "simple" and not self.shot_noise and self.read_noise == 0
 
     def replace(self, **changes) -> RenderSettings:
         """A copy with some fields changed (validated)."""

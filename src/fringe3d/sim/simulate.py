@@ -27,6 +27,7 @@ from fringe3d.utils.console import progress_bar
 from . import catalog
 from . import presets as _presets
 from .board import board_facing
+from .bracket import BRACKET_SEED_STEP, BracketStream, check_exposures
 from .presets import Preset
 from .primitives import Box, Plane, Sphere
 from .radiometry import frame_times
@@ -86,7 +87,7 @@ def make_patterns(spec, width: int, height: int) -> PatternSet:
 
 # ----------------------------------------------------------------------------- scenes
 SCENE_NAMES = ("sphere", "plane", "spheres", "step", "board", "sculpture", "mesh", "falling-balls", "wing",
-               "textured-spheres")
+               "textured-spheres", "shiny-part", "printed-part")
 
 
 def make_scene(spec, preset: Preset) -> Scene:
@@ -166,7 +167,7 @@ def _frames_done(folder: Path, count: int, fmt: str) -> int:
     return n
 
 
-def _write_streamed(folder: Path, stream: RenderStream, p: Preset, ps: PatternSet, meta: dict, fmt: str,
+def _write_streamed(folder: Path, stream: RenderStream | BracketStream, p: Preset, ps: PatternSet, meta: dict, fmt: str,
                     progress: bool) -> float:
     """Render ``stream`` frame by frame into ``folder``: each frame file written as it is rendered,
     a moving scene's per-frame truth appended to ``truth/`` (:class:`~fringe3d.sim.truth.TruthWriter`),
@@ -209,7 +210,7 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
                      cycles: int = 1, frame_rate: float | None = None, exposure: float | None = None,
                      noise: float | None = None, defocus: float | None = None, bit_depth: int | None = 0,
                      seed: int | None = None, settings: RenderSettings | None = None, progress: bool = True,
-                     resume: bool = False, **overrides) -> dict:
+                     resume: bool = False, exposures=None, **overrides) -> dict:
     """Render and write a capture folder with ``truth/`` and ``rig.json``.
 
     Parameters
@@ -236,6 +237,11 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
         ``folder`` holds the frames ``0, 1, ...`` of an interrupted run with the same arguments: they
         are kept and not shaded again (every frame's noise is seeded by its index, so the result is
         bit-identical to an uninterrupted run).
+    exposures : sequence of float, optional
+        An exposure bracket (s, each at most ``1 / frame_rate``; list it shortest first): one pattern
+        cycle per exposure, written exposure-major (frame ``e * len + k`` is pattern frame ``k`` at
+        ``exposures[e]``, :func:`fringe3d.sim.bracket.render_bracket`'s seeds), ``capture.json``
+        field ``exposures``; ``fringe3d decode`` fuses them per pixel. Static scenes, one cycle.
     **overrides
         Any other :class:`RenderSettings` field.
 
@@ -287,7 +293,18 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
     if s.bit_depth is not None:
         meta["bit_depth"] = s.bit_depth
     fmt = "png" if s.bit_depth is not None else "tif"
-    stream = render_stream(sc, p.rig, ps, s, times=times)
+    stream: RenderStream | BracketStream
+    if exposures is not None:
+        ex = check_exposures(exposures, s.frame_rate)
+        if frames != len(ps):
+            raise ValueError(f"exposures: a bracket records one pattern cycle per exposure; got {frames} frames "
+                             f"for the {len(ps)}-frame pattern set")
+        stream = BracketStream([render_stream(sc, p.rig, ps, s.replace(exposure=t, seed=s.seed + BRACKET_SEED_STEP * e),
+                                              times=times) for e, t in enumerate(ex)])
+        meta["exposures"], frames = list(ex), frames * len(ex)
+        meta.pop("exposure")
+    else:
+        stream = render_stream(sc, p.rig, ps, s, times=times)
     stream.skip = _frames_done(folder, len(stream), fmt) if resume else 0
     valid = _write_streamed(folder, stream, p, ps, meta, fmt, progress)
     summary = {"folder": str(folder), "preset": p.name, "scene": meta["scene"], "patterns": ps.name,

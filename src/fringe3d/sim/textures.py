@@ -94,7 +94,29 @@ class Blotches:
         return {"type": "blotches", **asdict(self)}
 
 
-TEXTURES = {"checker": Checker, "stripes": Stripes, "blotches": Blotches}
+@dataclass(frozen=True)
+class Ramp:
+    """Albedo from black to white along material ``u``: factor
+    ``clip((u - start) / length, 0, 1) * contrast + 1 - contrast`` (``contrast`` 1: from 0 to 1),
+    constant beyond the ramp's ends (material units)."""
+
+    start: float = 0.0
+    length: float = 50.0
+    contrast: float = 1.0
+
+    def __post_init__(self) -> None:
+        _check_fields(self, ("length",))
+        if isinstance(self.start, bool) or not isinstance(self.start, (int, float)) or not math.isfinite(self.start):
+            raise ValueError(f"ramp texture field start: expected a finite number, got {self.start!r}")
+
+    def __call__(self, uv: np.ndarray) -> np.ndarray:
+        return 1.0 - self.contrast + self.contrast * np.clip((uv[:, 0] - self.start) / self.length, 0.0, 1.0)
+
+    def to_dict(self) -> dict:
+        return {"type": "ramp", **asdict(self)}
+
+
+TEXTURES = {"checker": Checker, "stripes": Stripes, "blotches": Blotches, "ramp": Ramp}
 
 
 def texture_from_dict(d: dict | None, where: str = "texture"):
