@@ -14,6 +14,7 @@ install: $(STAMP)
 
 demo: $(STAMP)
 	$(VENV)/bin/fringe3d demo --overwrite  # demo-out/ is the demo's own output: replaced as a whole
+	$(VENV)/bin/fringe3d warmup -q  # the fused 3-step path's kernels too: the first real 3D frame compiles nothing
 
 # The checks CI runs (.ci/run): layer contracts, lint, types, then the tests and docstring examples,
 # on one worker process per core (pytest-xdist, whole files per worker) with numba's compiled kernels

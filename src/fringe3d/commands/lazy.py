@@ -46,6 +46,7 @@ COMMANDS: tuple[CommandEntry, ...] = (
     CommandEntry("strain", "strain", "Track every point of an inextensible wing by geodesic distances"),
     CommandEntry("report", "report", "Write one self-contained HTML page from what RESULTS holds"),
     CommandEntry("demo", "demo", "Render a calibration session, calibrate, render a measurement scene"),
+    CommandEntry("warmup", "warmup", "Compile the decode and reconstruction kernels ahead of the first frame."),
     CommandEntry("experiment", "experiment",
                  "Reproduce one of the dissertation's results in simulation, beside its own figure."),
 )
