@@ -5,3 +5,9 @@ reconstructed views), :mod:`.register` (coarse, fine and pose-graph registration
 :mod:`.fuse` (σ-weighted voxel fusion), :mod:`.mesh` (screened Poisson meshing), :mod:`.merge`
 (the whole chain, :func:`merge_views`).
 """
+from __future__ import annotations
+
+try:
+    import open3d  # noqa: F401  (every step runs on it)
+except ImportError as e:  # pragma: no cover - the test extra installs it
+    raise ImportError("fringe3d.multiview (fringe3d merge) needs open3d: pip install 'fringe3d[open3d]'") from e

@@ -75,7 +75,7 @@ def write_merge(folder: str | os.PathLike, merged: Merged) -> dict:
     files["poses"] = str(write_poses(folder / "poses.json", merged.names, merged.registration.poses))
     if merged.mesh is not None:
         with atomic_path(folder / "mesh.ply") as tmp:
-            if not o3d.io.write_triangle_mesh(str(tmp), merged.mesh):
+            if not o3d.io.write_triangle_mesh(tmp, merged.mesh):
                 raise OSError(f"could not write {folder / 'mesh.ply'}")
         files["mesh"] = str(folder / "mesh.ply")
     summary = {**merged.summary(), "files": files}

@@ -17,8 +17,8 @@ def poisson_mesh(points, voxel: float, depth: int = 8, trim_quantile: float = 0.
     pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, float)))
     pc.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=3 * voxel, max_nn=30))
     pc.orient_normals_towards_camera_location(np.asarray(camera, float))
-    mesh, dens = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(pc, depth=depth)
-    dens = np.asarray(dens)
+    mesh, support = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(pc, depth=depth)
+    dens = np.asarray(support, float)
     if trim_quantile > 0:
         mesh.remove_vertices_by_mask(dens < np.quantile(dens, trim_quantile))
     far, _ = cKDTree(np.asarray(points, float)).query(np.asarray(mesh.vertices))

@@ -56,8 +56,8 @@ def global_pair(src, tgt, voxel: float, seed: int = 0) -> np.ndarray:
     """FPFH + RANSAC transform mapping ``src`` onto ``tgt`` (no initial guess needed)."""
     o3d.utility.random.seed(seed)
     param = o3d.geometry.KDTreeSearchParamHybrid(radius=5 * voxel, max_nn=100)
-    fs = reg.compute_fpfh_feature(src, param)
-    ft = reg.compute_fpfh_feature(tgt, param)
+    fs = reg.compute_fpfh_feature(src, param)  # type: ignore[call-arg]  # open3d's stub: indices is optional
+    ft = reg.compute_fpfh_feature(tgt, param)  # type: ignore[call-arg]
     d = 1.5 * voxel
     r = reg.registration_ransac_based_on_feature_matching(
         src, tgt, fs, ft, True, d, reg.TransformationEstimationPointToPoint(False), 3,
@@ -131,7 +131,11 @@ def register_views(views: list[View], poses=None, voxel: float = 2.0, reach: int
 def residuals(clouds, P, dmax: float) -> np.ndarray:
     """Per view: RMS (mm) of point-to-plane distances to the nearest point of the other views
     (pairs closer than ``dmax``) once all are placed by ``P``."""
-    placed = [o3d.geometry.PointCloud(c).transform(p) for c, p in zip(clouds, P)]
+    placed = []
+    for c, p in zip(clouds, P):
+        q = o3d.geometry.PointCloud(c)
+        q.transform(p)
+        placed.append(q)
     out = np.full(len(placed), np.nan)
     for i, c in enumerate(placed):
         others = o3d.geometry.PointCloud()

@@ -13,10 +13,13 @@ reconstruct: they test registration, fusion and meshing, not the phase chain.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from fringe3d.devices.stage import rotation_about
+from fringe3d.io.images import write_image
+from fringe3d.multiview.poses import write_poses
 
 from .catalog import preset_frame, sculpture_scene
 from .presets import Preset
@@ -126,3 +129,22 @@ def sphere_bar_scene(preset: Preset, spacing: float | None = None, radius: float
 def sculpture_turntable(preset: Preset, seed: int = 0) -> Scene:
     """The seeded sculpture relief of :func:`fringe3d.sim.catalog.sculpture_scene`."""
     return sculpture_scene(preset, seed)
+
+
+def write_turntable(folder, scan: TurntableScan) -> list[Path]:
+    """Write ``scan`` as one reconstruct-like folder per view (``view-NN/points.npy`` float32 mm,
+    ``view-NN/sigma_z.tif`` mm) plus ``poses.json`` (the true view → model poses, what a
+    calibrated turntable gives) and ``truth.npz`` (``points``, ``normals``, ``poses``,
+    ``angles_deg``) in ``folder``; returns the view folders."""
+    folder = Path(folder)
+    names = [f"view-{i:02d}" for i in range(len(scan.points))]
+    out = []
+    for name, P, s in zip(names, scan.points, scan.sigma):
+        (folder / name).mkdir(parents=True, exist_ok=True)
+        np.save(folder / name / "points.npy", P.astype(np.float32))
+        write_image(folder / name / "sigma_z.tif", s.astype(np.float32), "depth uncertainty", "mm")
+        out.append(folder / name)
+    write_poses(folder / "poses.json", names, scan.true_poses)
+    np.savez_compressed(folder / "truth.npz", points=scan.truth_points, normals=scan.truth_normals,
+                        poses=scan.true_poses, angles_deg=scan.angles_deg)
+    return out
