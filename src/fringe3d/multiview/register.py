@@ -97,9 +97,11 @@ def _pairs(n: int, reach: int) -> list[tuple[int, int]]:
 
 
 def register_views(views: list[View], poses=None, voxel: float = 2.0, reach: int = 2,
-                   min_fitness: float = 0.3, seed: int = 0) -> Registration:
+                   min_fitness: float = 0.1, seed: int = 0) -> Registration:
     """Register ``views`` (≥ 2). ``poses`` (V, 4, 4) view → model start values (stage), or None
-    for free-hand (global feature step); ``voxel`` mm the registration sampling."""
+    for free-hand (global feature step); ``voxel`` mm the registration sampling. Pairs up to
+    ``reach`` views apart become graph edges (loop closures uncertain) when their ICP fitness
+    reaches ``min_fitness``; consecutive views always do."""
     if len(views) < 2:
         raise ValueError(f"registration needs at least 2 views, got {len(views)}")
     clouds = [cloud(v, voxel) for v in views]
@@ -112,7 +114,7 @@ def register_views(views: list[View], poses=None, voxel: float = 2.0, reach: int
     for i, j in _pairs(len(views), reach):
         init = np.linalg.inv(P0[j]) @ P0[i]
         T, info, fit, rmse = icp_pair(clouds[i], clouds[j], init, voxel, max(sig[i], sig[j]))
-        if fit < min_fitness:
+        if fit < min_fitness and j != i + 1:  # consecutive views always keep their edge: the graph stays connected
             continue
         graph.edges.append(reg.PoseGraphEdge(i, j, T, info, uncertain=j != i + 1))
         edges.append({"source": i, "target": j, "fitness": fit, "inlier_rms_mm": rmse})
