@@ -147,3 +147,17 @@ def test_merge_cli_refuses_bad_poses_with_exit_2_before_writing(scan_folder, tmp
     assert main(["merge", str(views[0]), str(views[1]), *flag, "-o", str(out)]) == 2
     assert expected in " ".join(capsys.readouterr().err.split())
     assert not out.exists()
+
+
+def test_fusion_resolves_overlap_by_inverse_variance_weights():
+    from fringe3d.multiview.fuse import fuse_views
+    from fringe3d.multiview.views import View
+    g = np.stack(np.meshgrid(np.arange(10.0), np.arange(10.0)), -1).reshape(-1, 2) + 0.5
+    flat = np.column_stack([g, np.full(len(g), 0.5)])
+    good = View("good", flat, np.full(len(g), 0.01))
+    poor = View("poor", flat + [0.0, 0.0, 0.3], np.full(len(g), 0.1))
+    f = fuse_views([good, poor], [np.eye(4), np.eye(4)], voxel=1.0)
+    w1, w2 = 1 / 0.01 ** 2, 1 / 0.1 ** 2
+    assert np.allclose(f.points[:, 2], (w1 * 0.5 + w2 * 0.8) / (w1 + w2))
+    assert np.allclose(f.sigma, (w1 + w2) ** -0.5)
+    assert np.all(f.views == 2)
