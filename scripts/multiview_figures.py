@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from fringe3d.analyze.vdi import sphere_spacing
+from fringe3d.analyze.vdi import multiview_sphere_spacing
 from fringe3d.devices.stage import rotation_about
 from fringe3d.multiview.accuracy import coverage, hausdorff, pose_errors, rms, surface_distances
 from fringe3d.multiview.fuse import place
@@ -69,10 +69,8 @@ def run(name, scene, preset, angles, seed, centres=None, radius=None):
               f"{rms(surface_distances(mv, scan.truth_points, scan.truth_normals)):.4f} mm, "
               f"Hausdorff {hausdorff(mv, scan.truth_points):.3f} mm")
         if centres is not None:
-            P = m.fused.points
-            masks = [np.linalg.norm(P - cc, axis=1) < radius + 1.0 for cc in centres]
-            sp = sphere_spacing(P, masks[0], masks[1], true_distance=float(np.linalg.norm(centres[1] - centres[0])),
-                                true_diameter=2 * radius)
+            sp = multiview_sphere_spacing(m.fused.points, centres, radius,
+                                          float(np.linalg.norm(centres[1] - centres[0])))
             print(f"   VDI/VDE 2634-3 sphere-spacing error SD = {1e3 * sp.error:.1f} um "
                   f"(measured {sp.distance:.4f} mm, true {np.linalg.norm(centres[1] - centres[0]):.4f} mm)")
 

@@ -161,3 +161,19 @@ def test_fusion_resolves_overlap_by_inverse_variance_weights():
     assert np.allclose(f.points[:, 2], (w1 * 0.5 + w2 * 0.8) / (w1 + w2))
     assert np.allclose(f.sigma, (w1 + w2) ** -0.5)
     assert np.all(f.views == 2)
+
+
+def test_sphere_spacing_across_views_matches_the_simulated_bar():
+    from fringe3d.analyze.vdi import multiview_sphere_spacing
+    from fringe3d.multiview.fuse import fuse_views
+    from fringe3d.sim.turntable import sphere_bar_scene
+    p = presets.get("tiny")
+    scene, centres, r = sphere_bar_scene(p)
+    bar = turntable_views(scene, p, [0.0, 30.0, 330.0], sigma=0.05, seed=2)
+    vs = [view_from_map(str(i), P, s) for i, (P, s) in enumerate(zip(bar.points, bar.sigma))]
+    fused = fuse_views(vs, bar.true_poses, 1.0)
+    true = float(np.linalg.norm(centres[1] - centres[0]))
+    sp = multiview_sphere_spacing(fused.points, centres, r, true)
+    assert abs(sp.error) < 0.05  # mm, with noise 0.05 mm and ~2 mm pixels
+    one = multiview_sphere_spacing(place(vs[0], bar.true_poses[0]), centres, r, true)
+    assert np.isfinite(one.error)
