@@ -126,3 +126,17 @@ def flatness(points, mask=None, exclude: float = 0.0, fit: PlaneFit | None = Non
     fit = fit or _refit(fit_plane, points, mask, exclude)
     return FlatnessFigures(residual_range(fit.residuals), fit.rms, fit.n_points,
                            tuple(float(v) for v in fit.normal))
+
+
+def multiview_sphere_spacing(points, centres, radius: float, true_distance: float | None = None,
+                             margin: float = 1.0, exclude: float = 0.0) -> SpacingFigures:
+    """VDI/VDE 2634-3 sphere-spacing error of a ball bar measured from several views: the merged
+    cloud ``points`` (N, 3) mm is split by the nominal sphere ``centres`` (2, 3) mm (points within
+    ``radius + margin`` of each), then :func:`sphere_spacing` (free-radius fits, distance of the
+    centres minus ``true_distance``)."""
+    P = np.asarray(points, float).reshape(-1, 3)
+    C = np.asarray(centres, float)
+    if C.shape != (2, 3):
+        raise ValueError(f"centres must be two 3D points (2, 3), got shape {C.shape}")
+    masks = [np.linalg.norm(P - c, axis=1) < radius + margin for c in C]
+    return sphere_spacing(P, masks[0], masks[1], true_distance, 2 * radius, exclude)

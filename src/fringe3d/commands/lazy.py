@@ -43,6 +43,8 @@ COMMANDS: tuple[CommandEntry, ...] = (
                  "Reconstruct absolute 3D point maps from a capture and a calibration."),
     CommandEntry("evaluate", "evaluate",
                  "Accuracy figures of a reconstruction: fits, VDI/VDE 2634-2-style errors, error vs truth."),
+    CommandEntry("merge", "merge",
+                 "Register several reconstructed views, fuse them into one cloud and mesh it."),
     CommandEntry("strain", "strain", "Track every point of an inextensible wing by geodesic distances"),
     CommandEntry("report", "report", "Write one self-contained HTML page from what RESULTS holds"),
     CommandEntry("demo", "demo", "Render a calibration session, calibrate, render a measurement scene"),

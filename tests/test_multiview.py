@@ -1,0 +1,179 @@
+"""Multi-view registration, fusion and meshing against the virtual turntable's truth."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from fringe3d.cli import main
+from fringe3d.devices.stage import rotation_about
+from fringe3d.multiview.accuracy import coverage, pose_errors, rms, surface_distances
+from fringe3d.multiview.axis import fit_axis, turntable_poses
+from fringe3d.multiview.fuse import place
+from fringe3d.multiview.merge import merge_views
+from fringe3d.multiview.poses import read_poses, write_poses
+from fringe3d.multiview.views import view_from_map
+from fringe3d.sim import presets
+from fringe3d.sim.turntable import (VirtualTurntable, default_turntable, sculpture_turntable, turntable_views,
+                                    write_turntable)
+
+ANGLES = np.arange(-30.0, 31.0, 20.0)  # 4 views, 20 degrees apart
+
+
+@pytest.fixture(scope="module")
+def scan():
+    p = presets.get("tiny")  # 160 x 128 camera
+    return turntable_views(sculpture_turntable(p, seed=0), p, ANGLES, sigma=0.05, seed=0)
+
+
+@pytest.fixture(scope="module")
+def views(scan):
+    return [view_from_map(f"view-{i:02d}", P, s) for i, (P, s) in enumerate(zip(scan.points, scan.sigma))]
+
+
+def _perturbed(poses, centre, seed=1):
+    rng = np.random.default_rng(seed)
+    out = [poses[0]]
+    for P in poses[1:]:
+        T = rotation_about(rng.normal(size=3), 0.01, centre)  # 10 mrad
+        T[:3, 3] += rng.normal(size=3)  # ~1.7 mm
+        out.append(P @ T)
+    return np.stack(out)
+
+
+def test_registration_from_rough_stage_poses_recovers_true_poses(scan, views):
+    c = scan.truth_points.mean(0)
+    m = merge_views(views, _perturbed(scan.true_poses, c), voxel=4.0, mesh="none")
+    rot, tra = pose_errors(m.registration.poses, scan.true_poses, c)
+    start_rot, _ = pose_errors(_perturbed(scan.true_poses, c), scan.true_poses, c)
+    assert start_rot[1:].min() > 5.0
+    assert rot.max() < 5.0 and tra.max() < 100.0  # mrad, um
+    assert np.all(np.isfinite(m.registration.residual_rms_mm))
+    assert np.all(m.registration.residual_rms_mm < 0.5)
+    assert np.all(np.isfinite(m.registration.rotation_sigma_mrad))
+
+
+def test_free_hand_converges_from_the_global_step_alone(scan, views):
+    c = scan.truth_points.mean(0)
+    m = merge_views(views, None, voxel=4.0, mesh="none", seed=0)
+    rot, tra = pose_errors(m.registration.poses, scan.true_poses, c)
+    assert rot.max() < 5.0 and tra.max() < 100.0
+
+
+def test_fused_cloud_is_no_worse_than_one_view_and_covers_the_visible_surface(scan, views):
+    m = merge_views(views, scan.true_poses, voxel=4.0, mesh="poisson")
+    single = rms(surface_distances(place(views[0], scan.true_poses[0]), scan.truth_points, scan.truth_normals))
+    fused = rms(surface_distances(m.fused.points, scan.truth_points, scan.truth_normals))
+    assert fused <= 1.2 * single
+    assert coverage(m.fused.points, scan.truth_points, 2.0) >= 0.98
+    assert m.fused.views.max() >= 2  # overlap really fused
+    mesh_rms = rms(surface_distances(np.asarray(m.mesh.vertices), scan.truth_points, scan.truth_normals))
+    assert mesh_rms < 0.5
+
+
+def test_axis_fit_recovers_the_simulated_turntable_axis():
+    table = default_turntable(presets.get("tiny"))
+    table = VirtualTurntable(table.axis + [0.05, 0.0, 0.1], table.point + [3.0, -2.0, 5.0])
+    board = np.eye(4)
+    board[:3, 3] = table.point + [40.0, 10.0, -20.0]
+    rng = np.random.default_rng(3)
+    poses = []
+    for a in (0, 30, 60, 90, 120):
+        table.move_to(a)
+        noise = rotation_about(rng.normal(size=3), 1e-4, board[:3, 3])
+        poses.append(table.transform() @ noise @ board)
+    axis, point = fit_axis(poses)
+    assert 1e3 * np.arccos(min(1.0, axis @ table.axis)) < 1.0  # mrad
+    off = point - table.point
+    assert np.linalg.norm(off - (off @ table.axis) * table.axis) < 0.1  # mm from the true axis line
+    back = turntable_poses(axis, point, [0, 30])
+    table.move_to(30)
+    E = back[1] @ table.transform()  # view 1 -> model after the table's own motion: identity
+    assert np.abs(E[:3, :3] - np.eye(3)).max() < 1e-3 and np.abs(E[:3, 3]).max() < 0.2
+
+
+def test_poses_file_errors_name_the_file_and_the_field(tmp_path):
+    f = tmp_path / "poses.json"
+    f.write_text("{not json")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        read_poses(f)
+    f.write_text(json.dumps({"format": "fringe3d-poses", "views": [{"name": "a", "matrix": [[1, 0], [0, 1]]}]}))
+    with pytest.raises(ValueError, match=r"views\[0\]\.matrix"):
+        read_poses(f)
+    M = np.eye(4)
+    M[0, 0] = 2.0
+    write_poses(f, ["a"], [M])
+    with pytest.raises(ValueError, match="not a rigid transform"):
+        read_poses(f)
+
+
+@pytest.fixture(scope="module")
+def scan_folder(scan, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("turntable")
+    return folder, write_turntable(folder, scan)
+
+
+def test_merge_cli_writes_the_fused_cloud_mesh_and_registered_poses(scan_folder, tmp_path):
+    folder, views = scan_folder
+    out = tmp_path / "merged"
+    args = ["merge", *map(str, views), "--poses", str(folder / "poses.json"), "-o", str(out), "--voxel", "4", "-q"]
+    assert main(args) == 0
+    import open3d as o3d
+    assert len(o3d.io.read_point_cloud(str(out / "fused.ply")).points) > 1000
+    assert len(o3d.io.read_triangle_mesh(str(out / "mesh.ply")).triangles) > 1000
+    got = read_poses(out / "poses.json")
+    truth = np.load(folder / "truth.npz")
+    rot, _ = pose_errors(np.stack([got[v.name] for v in views]), truth["poses"], truth["points"].mean(0))
+    assert rot.max() < 5.0
+    assert main(args) == 2  # an existing output is refused without --overwrite
+
+
+@pytest.mark.parametrize("case, expected", [
+    ("missing", "does not exist"),
+    ("bad-json", "not valid JSON"),
+    ("no-view", "no entry in 'views' for view(s) view-01"),
+    ("neither", "exactly one of --poses FILE or --free-hand"),
+])
+def test_merge_cli_refuses_bad_poses_with_exit_2_before_writing(scan_folder, tmp_path, capsys, case, expected):
+    folder, views = scan_folder
+    poses = tmp_path / "poses.json"
+    if case == "bad-json":
+        poses.write_text('{"format": ')
+    elif case == "no-view":
+        write_poses(poses, ["view-00"], [np.eye(4)])
+    flag = [] if case == "neither" else ["--poses", str(poses)]
+    out = tmp_path / "merged"
+    assert main(["merge", str(views[0]), str(views[1]), *flag, "-o", str(out)]) == 2
+    assert expected in " ".join(capsys.readouterr().err.split())
+    assert not out.exists()
+
+
+def test_fusion_resolves_overlap_by_inverse_variance_weights():
+    from fringe3d.multiview.fuse import fuse_views
+    from fringe3d.multiview.views import View
+    g = np.stack(np.meshgrid(np.arange(10.0), np.arange(10.0)), -1).reshape(-1, 2) + 0.5
+    flat = np.column_stack([g, np.full(len(g), 0.5)])
+    good = View("good", flat, np.full(len(g), 0.01))
+    poor = View("poor", flat + [0.0, 0.0, 0.3], np.full(len(g), 0.1))
+    f = fuse_views([good, poor], [np.eye(4), np.eye(4)], voxel=1.0)
+    w1, w2 = 1 / 0.01 ** 2, 1 / 0.1 ** 2
+    assert np.allclose(f.points[:, 2], (w1 * 0.5 + w2 * 0.8) / (w1 + w2))
+    assert np.allclose(f.sigma, (w1 + w2) ** -0.5)
+    assert np.all(f.views == 2)
+
+
+def test_sphere_spacing_across_views_matches_the_simulated_bar():
+    from fringe3d.analyze.vdi import multiview_sphere_spacing
+    from fringe3d.multiview.fuse import fuse_views
+    from fringe3d.sim.turntable import sphere_bar_scene
+    p = presets.get("tiny")
+    scene, centres, r = sphere_bar_scene(p)
+    bar = turntable_views(scene, p, [0.0, 30.0, 330.0], sigma=0.05, seed=2)
+    vs = [view_from_map(str(i), P, s) for i, (P, s) in enumerate(zip(bar.points, bar.sigma))]
+    fused = fuse_views(vs, bar.true_poses, 1.0)
+    true = float(np.linalg.norm(centres[1] - centres[0]))
+    sp = multiview_sphere_spacing(fused.points, centres, r, true)
+    assert abs(sp.error) < 0.05  # mm, with noise 0.05 mm and ~2 mm pixels
+    one = multiview_sphere_spacing(place(vs[0], bar.true_poses[0]), centres, r, true)
+    assert np.isfinite(one.error)
