@@ -28,7 +28,8 @@ POINT_SUFFIXES = (".ply", *POINT_WRITERS)
 MESH_SUFFIXES = (".stl", ".obj", ".glb", ".ply")
 
 
-def _suffix(path, supported, what: str) -> str:
+def check_suffix(path, supported, what: str) -> str:
+    """``path``'s suffix, lower-case; ValueError naming the file and the ``supported`` suffixes."""
     s = Path(path).suffix.lower()
     if s not in supported:
         raise ValueError(f"cannot write {what} to {path}: unknown suffix {s or '(none)'!r}; "
@@ -51,7 +52,7 @@ def write_points(path: str | os.PathLike, points, attributes: Scalars | None = N
 
     Returns the path written. ValueError for an unknown suffix, no valid point or a shape mismatch.
     """
-    s = _suffix(path, POINT_SUFFIXES, "points")
+    s = check_suffix(path, POINT_SUFFIXES, "points")
     if s == ".ply":
         P = np.asarray(points, np.float32)
         return write_standard_ply(path, P, colors, scalars=attributes, normals=normals and P.ndim == 3, mask=mask)
@@ -69,7 +70,7 @@ def write_mesh(path: str | os.PathLike, vertices, faces, *, colors=None, attribu
     colors : per-vertex grey (V,) or RGB (V, 3), optional (OBJ, GLB, PLY; STL has none)
     attributes : per-vertex scalars ``name -> ((V,), description)`` (PLY only)
     """
-    s = _suffix(path, MESH_SUFFIXES, "a mesh")
+    s = check_suffix(path, MESH_SUFFIXES, "a mesh")
     if attributes and s != ".ply":
         raise ValueError(f"per-vertex attributes {sorted(attributes)} cannot be stored in {path}; "
                          "only .ply meshes keep scalar fields")
