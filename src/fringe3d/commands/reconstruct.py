@@ -18,7 +18,7 @@ from fringe3d.commands.quality_options import edge_margin_option, edge_mask_opti
 from fringe3d.decode import decode
 from fringe3d.decode.plan_checks import check_plans
 from fringe3d.gpu import BACKENDS, cuda_module
-from fringe3d.io.capture import list_frame_files, open_frames, read_capture
+from fringe3d.io.capture import list_frame_files, open_frames, read_capture, read_meta
 from fringe3d.io.store import CODECS
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import MANIFEST_NAME
@@ -76,7 +76,7 @@ def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOpti
     return reconstruct_sequence(frames, ps, rig, out, options=options, mode=mode, step=window, ply=ply,
                                 store=store, progress=progress, triangulation=triangulation, layout=layout,
                                 store_quality=store_quality, backend=backend, codec=codec,
-                                allow_relative=allow_relative)
+                                allow_relative=allow_relative, frame_rate=read_meta(capture).get("frame_rate"))
 
 
 def register(app: typer.Typer) -> None:
