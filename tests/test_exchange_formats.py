@@ -161,3 +161,13 @@ def test_mesh_attributes_are_refused_for_formats_without_scalar_fields(tmp_path)
     V, F, _ = tetrahedron()
     with pytest.raises(ValueError, match=r"m\.stl"):
         write_mesh(tmp_path / "m.stl", V, F, attributes={"d": (np.zeros(4), "mm")})
+
+
+def test_every_export_suffix_is_documented_with_its_units():
+    from pathlib import Path
+
+    doc = (Path(__file__).parents[1] / "docs" / "file-formats.md").read_text(encoding="utf-8")
+    rows = [line.split("|") for line in doc.splitlines() if line.startswith("| `.")]
+    for suffix in sorted(set(POINT_SUFFIXES) | set(MESH_SUFFIXES)):
+        units = [r[3] for r in rows if f"`{suffix}`" in r[1]]
+        assert units and any("mm" in u or "m " in u for u in units), f"{suffix} has no documented units"
