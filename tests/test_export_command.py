@@ -126,3 +126,24 @@ def test_reconstruct_ply_in_cloudcompare_keeps_every_scalar_field_and_finite_nor
     normals = table[:, 7:10]
     assert np.isfinite(normals).all()
     np.testing.assert_allclose(normals, grid_normals(P)[ok], atol=5e-3)  # CloudCompare quantizes normals
+
+
+def test_reconstruct_format_writes_points_laz_and_mat_beside_points_npy(out, tmp_path):
+    laspy = pytest.importorskip("laspy")
+    import scipy.io
+
+    cap = out.parent / "cap"
+    assert main(["reconstruct", str(cap), "-c", str(cap / "rig.json"), "-o", str(tmp_path / "r"), "--format", "laz",
+                 "--format", "mat", "-q"]) == 0
+    P, ok = truth(tmp_path / "r")
+    las = laspy.read(tmp_path / "r" / "points.laz")
+    np.testing.assert_allclose(np.stack([las.x, las.y, las.z], -1), P[ok], atol=0.5e-3 + 1e-6)
+    assert {"sigma_z_mm", "roughness_mm"} <= set(las.point_format.extra_dimension_names)
+    np.testing.assert_allclose(scipy.io.loadmat(tmp_path / "r" / "points.mat")["points"], P[ok], atol=1e-6)
+
+
+def test_reconstruct_refuses_an_unknown_format_before_writing_anything(out, tmp_path):
+    cap = out.parent / "cap"
+    assert main(["reconstruct", str(cap), "-c", str(cap / "rig.json"), "-o", str(tmp_path / "r"),
+                 "--format", "xyz"]) == 2
+    assert not (tmp_path / "r").exists()

@@ -67,10 +67,18 @@ def _read_folder(folder: Path) -> Measurement:
     out = Measurement(P)
     if (folder / "texture.tif").is_file():
         out.colors = _matching(folder / "texture.tif", P.shape[:2])
-    if (folder / "sigma_z.tif").is_file():
-        out.attributes["sigma_z_mm"] = (_matching(folder / "sigma_z.tif", P.shape[:2]),
-                                        "predicted depth standard deviation (mm), NaN unknown")
-    out.attributes[ROUGHNESS_FIELD] = (local_roughness(P.astype(np.float32)), ROUGHNESS_NAME)
+    sigma = _matching(folder / "sigma_z.tif", P.shape[:2]) if (folder / "sigma_z.tif").is_file() else None
+    out.attributes = measurement_attributes(P, sigma)
+    return out
+
+
+def measurement_attributes(points: np.ndarray, sigma_z: np.ndarray | None) -> dict[str, tuple[np.ndarray, str]]:
+    """The exported attributes of an organized point map (H, W, 3) mm: ``sigma_z_mm`` (when
+    given, mm, NaN unknown) and ``roughness_mm`` (:func:`fringe3d.io.grid_mesh.local_roughness`)."""
+    out: dict[str, tuple[np.ndarray, str]] = {}
+    if sigma_z is not None:
+        out["sigma_z_mm"] = (np.asarray(sigma_z, np.float32), "predicted depth standard deviation (mm), NaN unknown")
+    out[ROUGHNESS_FIELD] = (local_roughness(np.asarray(points, np.float32)), ROUGHNESS_NAME)
     return out
 
 
