@@ -147,3 +147,21 @@ def test_reconstruct_refuses_an_unknown_format_before_writing_anything(out, tmp_
     assert main(["reconstruct", str(cap), "-c", str(cap / "rig.json"), "-o", str(tmp_path / "r"),
                  "--format", "xyz"]) == 2
     assert not (tmp_path / "r").exists()
+
+
+def test_export_a_point_store_frame_to_las_with_its_sigma(tmp_path):
+    laspy = pytest.importorskip("laspy")
+    from fringe3d.io.store import PointMapStore
+
+    st = PointMapStore.open(tmp_path / "points.zarr", frames=2, height=6, width=7, sigma=True, quality=True)
+    v, u = np.mgrid[0:6, 0:7].astype(np.float32)
+    P = np.stack([u, v, 300 + 0.1 * u], -1)
+    sigma = np.full((6, 7), 0.25, np.float32)  # exact in the store's float16
+    st.write_frame(1, P, quality=np.zeros((6, 7), np.uint8), sigma_z=sigma)
+    st.mark_done([1])
+    assert main(["export", str(tmp_path / "points.zarr"), "-o", str(tmp_path / "f.las")]) == 2  # no --frame
+    assert main(["export", str(tmp_path / "points.zarr"), "--frame", "0", "-o", str(tmp_path / "f.las")]) == 2
+    assert main(["export", str(tmp_path / "points.zarr"), "--frame", "1", "-o", str(tmp_path / "f.las"), "-q"]) == 0
+    las = laspy.read(tmp_path / "f.las")
+    np.testing.assert_allclose(np.stack([las.x, las.y, las.z], -1), P.reshape(-1, 3), atol=0.5e-3 + 1e-6)
+    np.testing.assert_array_equal(np.asarray(las["sigma_z_mm"]), sigma.ravel())

@@ -20,11 +20,13 @@ def register(app: typer.Typer) -> None:
     @app.command("export")
     def export(
         source: Path = typer.Argument(..., metavar="INPUT",
-                                      help="A reconstruct output folder (points.npy, texture.tif, sigma_z.tif) "
-                                      "or a .ply point cloud / mesh."),
+                                      help="A reconstruct output folder (points.npy, texture.tif, sigma_z.tif), "
+                                      "a sequence's points.zarr (with --frame) or a .ply point cloud / mesh."),
         output: Path = typer.Option(..., "-o", "--output",
                                     help="File to write; its suffix chooses the format: points "
                                     f"{', '.join(POINT_SUFFIXES)}; meshes {', '.join(MESH_SUFFIXES)}."),
+        frame: int = typer.Option(None, "--frame", help="INPUT is a point store (points.zarr): the 3D frame to "
+                                  "export (0-based)."),
         mesh: bool = typer.Option(False, "--mesh", help="Write a .ply as a triangle mesh (the pixel grid's "
                                   "triangles, or the input PLY's faces) instead of a point cloud."),
         overwrite: bool = overwrite_option(),
@@ -45,7 +47,7 @@ def register(app: typer.Typer) -> None:
         check_suffix(output, MESH_SUFFIXES if as_mesh else POINT_SUFFIXES, "a mesh" if as_mesh else "points")
         inputs = [source] if source.is_file() else sorted(source.glob("*"))
         with open_output_file(output, overwrite=overwrite, inputs=inputs):
-            m = read_measurement(source)
+            m = read_measurement(source, frame)
             if as_mesh:
                 V, F, C = m.mesh(output)
                 path = write_mesh(output, V, F, colors=C)

@@ -1,5 +1,6 @@
 """A measurement read back for export (:mod:`fringe3d.io.export`): a ``reconstruct`` output folder
-(``points.npy``, ``texture.tif``, ``sigma_z.tif``) or a PLY point cloud / mesh (any tool's).
+(``points.npy``, ``texture.tif``, ``sigma_z.tif``), one frame of a sequence's point store
+(``points.zarr``, :mod:`fringe3d.io.store`) or a PLY point cloud / mesh (any tool's).
 
 Attributes carried: from a folder, ``sigma_z_mm`` (predicted depth σ, mm, NaN unknown) and
 ``roughness_mm`` (:func:`fringe3d.io.grid_mesh.local_roughness`); from a PLY, every float vertex
@@ -18,6 +19,7 @@ from .arrays import load_array
 from .grid_mesh import grid_faces, local_roughness
 from .images import read_image
 from .ply_standard import ROUGHNESS_FIELD, ROUGHNESS_NAME
+from .store import PointMapStore
 
 
 @dataclass
@@ -47,10 +49,14 @@ class Measurement:
         return self.points[valid], faces, colors
 
 
-def read_measurement(path: str | os.PathLike) -> Measurement:
-    """A ``reconstruct`` output folder or a ``.ply`` file (module docstring). FileNotFoundError /
-    ValueError naming the file and what was expected."""
+def read_measurement(path: str | os.PathLike, frame: int | None = None) -> Measurement:
+    """A ``reconstruct`` output folder, frame ``frame`` of a point store or a ``.ply`` file (module
+    docstring). FileNotFoundError / ValueError naming the file and what was expected."""
     path = Path(path)
+    if path.is_dir() and (path / "zarr.json").is_file():
+        return _read_store_frame(path, frame)
+    if frame is not None:
+        raise ValueError(f"a frame number is for a point store (points.zarr); {path} is not one")
     if path.is_dir():
         return _read_folder(path)
     if path.suffix.lower() == ".ply":
@@ -80,6 +86,18 @@ def measurement_attributes(points: np.ndarray, sigma_z: np.ndarray | None) -> di
         out["sigma_z_mm"] = (np.asarray(sigma_z, np.float32), "predicted depth standard deviation (mm), NaN unknown")
     out[ROUGHNESS_FIELD] = (local_roughness(np.asarray(points, np.float32)), ROUGHNESS_NAME)
     return out
+
+
+def _read_store_frame(path: Path, frame: int | None) -> Measurement:
+    st = PointMapStore.open_existing(path)
+    if frame is None:
+        raise ValueError(f"{path} is a point store of {st.frames} frames; name one with --frame (0..{st.frames - 1})")
+    if not 0 <= frame < st.frames:
+        raise ValueError(f"frame {frame} is outside the point store {path} (0..{st.frames - 1})")
+    if not st.is_done(frame):
+        raise ValueError(f"frame {frame} of {path} was never completely written (an interrupted run); resume it first")
+    P = np.asarray(st.points(frame), np.float64)
+    return Measurement(P, attributes=measurement_attributes(P, st.sigma_z(frame) if st.has_sigma else None))
 
 
 def _matching(path: Path, shape) -> np.ndarray:
