@@ -165,3 +165,18 @@ def test_export_a_point_store_frame_to_las_with_its_sigma(tmp_path):
     las = laspy.read(tmp_path / "f.las")
     np.testing.assert_allclose(np.stack([las.x, las.y, las.z], -1), P.reshape(-1, 3), atol=0.5e-3 + 1e-6)
     np.testing.assert_array_equal(np.asarray(las["sigma_z_mm"]), sigma.ravel())
+
+
+def test_export_without_pye57_exits_2_naming_the_extra_and_writes_nothing(out, tmp_path, monkeypatch, capsys):
+    import builtins
+
+    real = builtins.__import__
+
+    def no_pye57(name, *args, **kwargs):
+        if name == "pye57" or name.startswith("pye57."):
+            raise ImportError("No module named 'pye57'")
+        return real(name, *args, **kwargs)
+    monkeypatch.setattr(builtins, "__import__", no_pye57)
+    assert main(["export", str(out), "-o", str(tmp_path / "p.e57")]) == 2
+    assert "fringe3d[exchange]" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())

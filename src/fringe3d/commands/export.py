@@ -46,16 +46,25 @@ def register(app: typer.Typer) -> None:
         as_mesh = mesh or output.suffix.lower() in MESH_ONLY
         check_suffix(output, MESH_SUFFIXES if as_mesh else POINT_SUFFIXES, "a mesh" if as_mesh else "points")
         inputs = [source] if source.is_file() else sorted(source.glob("*"))
-        with open_output_file(output, overwrite=overwrite, inputs=inputs):
-            m = read_measurement(source, frame)
-            if as_mesh:
-                V, F, C = m.mesh(output)
-                path = write_mesh(output, V, F, colors=C)
-                counts = {"vertices": len(V), "faces": len(F)}
-            else:
-                path = write_points(output, m.points, m.attributes, colors=m.colors)
-                counts = {"points": int(np.all(np.isfinite(m.points), axis=-1).sum())}
+        try:
+            path, counts = _export(source, output, frame, as_mesh, overwrite, inputs)
+        except ImportError as e:  # an optional library of the exchange extra is missing
+            raise ValueError(str(e)) from None
         if json_:
             print_json({"output": str(path), **counts})
         elif not quiet:
             console.print(f"wrote {path}")
+
+
+def _export(source: Path, output: Path, frame: int | None, as_mesh: bool, overwrite: bool, inputs) -> tuple:
+    """Read ``source`` and write ``output``; returns the path written and its counts."""
+    with open_output_file(output, overwrite=overwrite, inputs=inputs):
+        m = read_measurement(source, frame)
+        if as_mesh:
+            V, F, C = m.mesh(output)
+            path = write_mesh(output, V, F, colors=C)
+            counts = {"vertices": len(V), "faces": len(F)}
+        else:
+            path = write_points(output, m.points, m.attributes, colors=m.colors)
+            counts = {"points": int(np.all(np.isfinite(m.points), axis=-1).sum())}
+    return path, counts

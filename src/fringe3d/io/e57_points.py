@@ -21,7 +21,10 @@ from .point_set import PointSet
 
 def write_e57(path: str | os.PathLike, cloud: PointSet) -> Path:
     """Write ``cloud`` as one E57 scan (metres). Returns the path."""
-    import pye57  # heavy optional dependency (the ``exchange`` extra)
+    try:
+        import pye57  # heavy optional dependency (the ``exchange`` extra)
+    except ImportError:
+        raise ImportError(f"writing E57 ({path}) needs pye57: pip install 'fringe3d[exchange]'") from None
 
     data: dict[str, np.ndarray] = {
         f"cartesian{a}": np.ascontiguousarray(cloud.points[:, i] / 1000.0) for i, a in enumerate("XYZ")}

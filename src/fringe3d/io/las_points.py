@@ -25,7 +25,10 @@ LAS_SCALE_MM = 0.001
 
 def write_las(path: str | os.PathLike, cloud: PointSet) -> Path:
     """Write ``cloud`` as LAS (``.las``) or LAZ (``.laz``, by suffix), mm with a 1 µm scale."""
-    import laspy  # heavy optional dependency (the ``exchange`` extra)
+    try:
+        import laspy  # heavy optional dependency (the ``exchange`` extra)
+    except ImportError:
+        raise ImportError(f"writing LAS/LAZ ({path}) needs laspy: pip install 'fringe3d[exchange]'") from None
 
     header = laspy.LasHeader(point_format=7 if cloud.colors is not None else 6, version="1.4")
     header.scales = np.full(3, LAS_SCALE_MM)
