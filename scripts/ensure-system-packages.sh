@@ -2,16 +2,18 @@
 # Installs the Debian packages the test suite needs when they are missing (needs root + apt):
 #   chromium  - the HTML-report browser test
 #   xvfb      - a virtual X server for the window-projector tests (tests start their own Xvfb)
+#   cloudcompare - CloudCompare's command line reads the reconstruct PLY in tests/test_export_command.py
 set -euo pipefail
 missing=()
 command -v chromium >/dev/null 2>&1 || missing+=(chromium)
 command -v Xvfb >/dev/null 2>&1 || missing+=(xvfb)
+command -v CloudCompare >/dev/null 2>&1 || missing+=(cloudcompare)
 if [ ${#missing[@]} -eq 0 ]; then exit 0; fi
 if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
   echo "installing Debian packages for the tests: ${missing[*]}..." >&2
   apt-get update -qq
   DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
 else
-  echo "missing Debian packages: ${missing[*]} (chromium: the report browser test; xvfb: the window-projector tests); install them with apt-get" >&2
+  echo "missing Debian packages: ${missing[*]} (chromium: the report browser test; xvfb: the window-projector tests; cloudcompare: the PLY reader test); install them with apt-get" >&2
   exit 1
 fi

@@ -21,6 +21,7 @@ from fringe3d.decode.plan_checks import check_plans
 from fringe3d.decode.texture import TEXTURE_UNIT
 from fringe3d.io.capture import Capture, read_capture
 from fringe3d.io.images import write_image
+from fringe3d.io.colour_texture import capture_chroma, rgb_texture
 from fringe3d.io.ply_standard import write_measurement_ply
 from fringe3d.io.point_attributes import grid_normals
 from fringe3d.io.pointcloud import _colors
@@ -57,6 +58,9 @@ class Reconstruction:
     sigma_xyz : (H, W, 3) float32 or None
         Predicted standard deviation of each coordinate (mm) from the phase noise
         (:mod:`fringe3d.reconstruct.uncertainty`); NaN where invalid.
+    texture_rgb : (H, W, 3) float32 or None
+        The texture in colour when the frames came from a colour camera
+        (:mod:`fringe3d.io.colour_texture`: luma = ``texture``); the PLY's colours then.
     """
 
     points: np.ndarray
@@ -66,6 +70,7 @@ class Reconstruction:
     path: str
     quality: np.ndarray | None = None
     sigma_xyz: np.ndarray | None = None
+    texture_rgb: np.ndarray | None = None
 
     @property
     def sigma_z(self) -> np.ndarray | None:
@@ -76,7 +81,12 @@ class Reconstruction:
         """Write the valid points as the measurement PLY every path writes
         (:func:`fringe3d.io.ply_standard.write_measurement_ply`: normals, texture colour,
         ``scalar_roughness_mm``, units and provenance); returns the path."""
-        return write_measurement_ply(Path(path), self.points, self.texture, mask=self.mask)
+        return write_measurement_ply(Path(path), self.points, self.colour, mask=self.mask)
+
+    @property
+    def colour(self) -> np.ndarray | None:
+        """The PLY's colours: ``texture_rgb`` when the camera is colour, else the grey ``texture``."""
+        return self.texture_rgb if self.texture_rgb is not None else self.texture
 
     def _valid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Valid points ``(N, 3)`` float64, their unit normals ``(N, 3)`` (the PLY's rule,
@@ -147,7 +157,7 @@ class Reconstruction:
         """Write ``points.npy``, ``depth.tif``, ``texture.tif``, ``quality.tif`` (uint8 bits),
         ``sigma_z.tif`` (float32 mm) (+ ``points.ply``, with faces when ``mesh``) into ``out``;
         see :func:`write_point_maps`."""
-        files = write_point_maps(Path(out), self.points, self.texture, ply, mesh)
+        files = write_point_maps(Path(out), self.points, self.texture, ply, mesh, colour=self.texture_rgb)
         if self.quality is not None:
             files["quality"] = str(write_image(Path(out) / "quality.tif", self.quality.astype(np.uint8),
                                                        "quality", "bit flags (fringe3d.decode.edges)"))
@@ -232,8 +242,12 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
     rec = FrameReconstructor(ps, rig, options, triangulation=triangulation, backend=backend,
                              allow_relative=allow_relative)
     c = rec.reconstruct(np.ascontiguousarray(cap.frames))
+    texture_rgb = None
+    if cap.folder is not None and c.texture is not None:
+        chroma = capture_chroma(cap.folder, len(ps))
+        texture_rgb = None if chroma is None else rgb_texture(c.texture, chroma)
     return Reconstruction(points=c.points, texture=c.texture, mask=np.isfinite(c.points[..., 0]), patterns=ps,
-                          path=rec.path, quality=c.quality, sigma_xyz=c.sigma_xyz)
+                          path=rec.path, quality=c.quality, sigma_xyz=c.sigma_xyz, texture_rgb=texture_rgb)
 
 
 def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLike | Rig, method: str | None = None,
@@ -269,13 +283,14 @@ def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLik
 
 
 def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool,
-                     mesh: bool = False) -> dict:
+                     mesh: bool = False, colour: np.ndarray | None = None) -> dict:
     """points.npy, depth.tif (float32 mm, NaN invalid), texture.tif and optionally points.ply,
     all written atomically; returns ``{kind: path}``.
 
     The PLY (:func:`fringe3d.io.ply_standard.write_measurement_ply`) carries normals from the
     grid, the texture as colour, a ``scalar_roughness_mm`` field (local roughness), units and provenance
-    in its header and, with ``mesh``, the grid's triangles."""
+    in its header and, with ``mesh``, the grid's triangles; ``colour`` (H, W, 3), a colour camera's
+    texture, replaces the grey texture as the PLY's colours."""
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "points.npy") as tmp:
         with open(tmp, "wb") as f:
@@ -286,7 +301,8 @@ def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, 
         files["texture"] = str(write_image(out / "texture.tif", texture.astype(np.float32), "texture",
                                                    TEXTURE_UNIT))
     if ply or mesh:
-        files["ply"] = str(write_measurement_ply(out / "points.ply", points, texture, faces=mesh))
+        files["ply"] = str(write_measurement_ply(out / "points.ply", points, colour if colour is not None else texture,
+                                                 faces=mesh))
     return files
 
 

@@ -41,6 +41,8 @@ COMMANDS: tuple[CommandEntry, ...] = (
                  "Calibrate camera and projector from board poses (circle grid, chessboard or ChArUco)"),
     CommandEntry("reconstruct", "reconstruct",
                  "Reconstruct absolute 3D point maps from a capture and a calibration."),
+    CommandEntry("export", "export",
+                 "Write a measurement in the file format other tools read (PLY, E57, LAS/LAZ, MAT, STL, OBJ, GLB)."),
     CommandEntry("evaluate", "evaluate",
                  "Accuracy figures of a reconstruction: fits, VDI/VDE 2634-2-style errors, error vs truth."),
     CommandEntry("merge", "merge",

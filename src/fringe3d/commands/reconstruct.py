@@ -11,7 +11,7 @@ import typer
 from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.decode import DecodeOptions
 from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
-from fringe3d.commands.checks import check_number
+from fringe3d.commands.checks import check_choice, check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.plan_errors import in_flag_words
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
@@ -19,7 +19,9 @@ from fringe3d.decode import decode
 from fringe3d.decode.plan_checks import check_plans
 from fringe3d.gpu import BACKENDS, cuda_module
 from fringe3d.decode.bracket import fuse_bracket
-from fringe3d.io.capture import list_frame_files, open_frames, read_capture
+from fringe3d.io.capture import list_frame_files, open_frames, read_capture, read_meta
+from fringe3d.io.export import write_points
+from fringe3d.io.measurement_source import measurement_attributes
 from fringe3d.io.store import CODECS
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import MANIFEST_NAME
@@ -61,6 +63,10 @@ def empty_reason(cap, patterns, rig, min_modulation) -> str:
                    "calibration belongs to this rig and the depth limits (--z-min)")
 
 
+#: ``--format`` words: point formats beside the PLY (``--ply``).
+EXTRA_FORMATS = ("e57", "las", "laz", "mat")
+
+
 def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOptions, window, ply: bool, store: bool,
               progress: bool, triangulation: str, client, chunk: int, layout: str = "auto",
               store_quality: bool = True, backend: str = "cpu", codec: str = "lz4",
@@ -77,7 +83,7 @@ def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOpti
     return reconstruct_sequence(frames, ps, rig, out, options=options, mode=mode, step=window, ply=ply,
                                 store=store, progress=progress, triangulation=triangulation, layout=layout,
                                 store_quality=store_quality, backend=backend, codec=codec,
-                                allow_relative=allow_relative)
+                                allow_relative=allow_relative, frame_rate=read_meta(capture).get("frame_rate"))
 
 
 def register(app: typer.Typer) -> None:
@@ -98,6 +104,9 @@ def register(app: typer.Typer) -> None:
         ply: bool = typer.Option(False, "--ply", help="Also write PLY point clouds (coloured by the texture)."),
         mesh: bool = typer.Option(False, "--mesh", help="One cycle: points.ply also holds the pixel grid's triangles "
                                   "(implies --ply)."),
+        formats: list[str] = typer.Option([], "--format",
+                                          help="One cycle: also write points.<FORMAT> (e57, las, laz or mat; "
+                                               "repeatable; ply is --ply; other formats: fringe3d export)."),
         store: bool = typer.Option(True, "--store/--no-store", help="Sequences: write the zarr point store."),
         store_layout: str = typer.Option("auto", "--store-layout",
                                          help="Sequences: auto (one depth per pixel along the camera ray where that "
@@ -212,6 +221,11 @@ def register(app: typer.Typer) -> None:
         if relative:  # forced with --allow-relative: evaluate reads this
             summary["relative_phase"] = list(relative)
         sequence = not (cycles == 1 and window is None)
+        for fmt in formats:
+            check_choice(fmt, "--format", EXTRA_FORMATS)
+        if formats and sequence:
+            raise ValueError("--format writes one cycle's points; for a sequence use the point store "
+                             "(or reconstruct one cycle with --max-cycles 1)")
         if mesh and sequence:
             raise ValueError("--mesh writes the faces into one cycle's points.ply; a sequence's ply/frame_*.ply "
                              "files hold points only (drop --mesh, or reconstruct one cycle with --max-cycles 1)")
@@ -242,8 +256,12 @@ def register(app: typer.Typer) -> None:
                         raise ValueError(f"{capture}: no valid 3D point: "
                                          f"{empty_reason(cap, ps, rig, min_modulation)}. "
                                          "Nothing was written (pass --allow-empty to write it anyway)")
-                    summary["files"] = {k: str(Path(v).relative_to(o.path))
-                                        for k, v in r.save(o.path, ply, mesh).items()}
+                    written = r.save(o.path, ply, mesh)
+                    for fmt in dict.fromkeys(formats):
+                        written[f"points_{fmt}"] = str(write_points(
+                            o.path / f"points.{fmt}", r.points, measurement_attributes(r.points, r.sigma_z),
+                            colors=r.colour))
+                    summary["files"] = {k: str(Path(v).relative_to(o.path)) for k, v in written.items()}
                     summary.update(r.summary())
                     summary["path"] = r.path
                 else:

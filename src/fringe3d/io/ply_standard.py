@@ -172,3 +172,43 @@ def write_measurement_ply(path: str | os.PathLike, points, texture=None, faces: 
     rough = local_roughness(P) if P.ndim == 3 else np.full(P.shape[:-1], np.nan, np.float32)
     return write_standard_ply(path, P, texture, scalars={ROUGHNESS_FIELD: (rough, ROUGHNESS_NAME)}, mask=mask,
                               faces=faces, comments=[CAMERA_FRAME], binary=binary)
+
+
+def write_mesh_ply(path: str | os.PathLike, vertices, faces, colors=None, *, scalars: Scalars | None = None,
+                   comments=(), binary: bool = True) -> Path:
+    """A general triangle mesh (not a pixel grid) in the same PLY flavour, atomically.
+
+    Parameters
+    ----------
+    path : output ``.ply``
+    vertices : (V, 3) float, mm, finite
+    faces : (F, 3) int vertex indices
+    colors : grey (V,) or RGB (V, 3), float [0, 1] or uint8, optional
+    scalars : ``name -> (values (V,), description)``, written as ``scalar_<name>``, optional
+    comments : extra header comments
+    binary : binary little-endian (default) or ASCII
+    """
+    V = np.asarray(vertices, np.float32)
+    F = np.asarray(faces, np.int64)
+    n = len(V)
+    fields = [(a, "float") for a in ("x", "y", "z")]
+    cols = {"x": V[:, 0], "y": V[:, 1], "z": V[:, 2]}
+    notes = [*provenance_comments(), *comments]
+    if colors is not None:
+        C = colors_u8(colors, (n,))
+        fields += [(a, "uchar") for a in ("red", "green", "blue")]
+        cols.update(red=C[:, 0], green=C[:, 1], blue=C[:, 2])
+    for name, (values, description) in (scalars or {}).items():
+        q = np.asarray(values, np.float32)
+        if q.shape != (n,):
+            raise ValueError(f"scalar {name!r} for {path} must be one value per vertex ({n},), got {q.shape}")
+        fields.append((f"scalar_{name}", "float"))
+        cols[f"scalar_{name}"] = q
+        notes.append(f"scalar_{name}: {description}")
+    vert = np.empty(n, np.dtype([(name, "<f4" if t == "float" else "u1") for name, t in fields]))
+    for name, _ in fields:
+        vert[name] = cols[name]
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        _write_bytes(tmp, _header(n, fields, len(F), notes, binary) + _body(vert, F, binary))
+    return path

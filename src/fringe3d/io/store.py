@@ -26,14 +26,18 @@ decode path) use ``xyz``.
 A frame is marked done only after its chunks have been written, so an interrupted run resumes
 by rewriting exactly the frames not marked done (:meth:`PointMapStore.pending`).
 
-Every array carries zarr v3 ``dimension_names`` (frame, row, column, axis), so
-``xarray.open_zarr(path, consolidated=False)`` opens the store as a Dataset; with ``ray_depth``
+Every array carries zarr v3 ``dimension_names`` (frame, row, column, axis) and the store holds
+coordinate arrays: ``frame`` (index), ``row`` / ``column`` (pixel indices), ``axis`` (``"x", "y",
+"z"``) and, when the frame rate is known, ``time`` (s, each 3D frame's first captured frame / rate,
+a non-index coordinate along ``frame``). Its metadata is consolidated, so a plain
+``xarray.open_zarr(path)`` opens the store as a Dataset without a warning; with ``ray_depth``
 the points are ``ds.ray_origin + ds.depth * ds.ray_direction`` (``axis`` then the last dimension
 after ``transpose``).
 """
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 from typing import Any, Literal
 
@@ -79,6 +83,33 @@ SIGMA_ATTRS: dict[str, Any] = {"units": "mm", "long_name": "predicted standard d
 DONE_ATTRS: dict[str, Any] = {"long_name": "1 once the frame is completely written", "flag_values": [0, 1]}
 
 
+def _write_coordinates(g, frames: int, height: int, width: int, times):
+    """Coordinate arrays (frame, row, column, axis, and time in s when given), then the group's
+    metadata consolidated (what ``xarray.open_zarr`` looks for first). Returns the consolidated
+    group: later attribute writes through it keep the consolidated metadata."""
+    import zarr
+
+    coords: dict[str, tuple[np.ndarray, dict]] = {
+        "frame": (np.arange(frames, dtype=np.int64), {"long_name": "3D frame index"}),
+        "row": (np.arange(height, dtype=np.int32), {"long_name": "camera pixel row", "units": "px"}),
+        "column": (np.arange(width, dtype=np.int32), {"long_name": "camera pixel column", "units": "px"})}
+    if times is not None:
+        t = np.asarray(times, np.float64)
+        if t.shape != (frames,):
+            raise ValueError(f"times must hold one value per frame ({frames},) in s, got {t.shape}")
+        coords["time"] = (t, {"units": "s", "long_name": "capture time of the 3D frame's first frame"})
+    for name, (values, attrs) in coords.items():
+        a = g.create_array(name, shape=values.shape, dtype=values.dtype, dimension_names=("frame",)
+                           if name == "time" else (name,))
+        a[:] = values
+        a.attrs.update(attrs)
+    ax = g.create_array("axis", shape=(3,), dtype=str, dimension_names=("axis",))
+    ax[:] = np.array(["x", "y", "z"])
+    with warnings.catch_warnings():  # "consolidated metadata is not part of the zarr 3 spec": xarray reads it
+        warnings.simplefilter("ignore", UserWarning)
+        return zarr.consolidate_metadata(g.store)
+
+
 #: The codecs a store can be written with (``--store-codec``).
 CODECS = ("lz4", "zstd", "none")
 
@@ -122,13 +153,15 @@ class PointMapStore:
     @classmethod
     def open(cls, path: str | os.PathLike, frames: int, height: int, width: int, meta: dict | None = None,
              overwrite: bool = False, layout: str = "xyz", rays: tuple[np.ndarray, np.ndarray] | None = None,
-             quality: bool = False, sigma: bool = False, codec: str | None = None) -> "PointMapStore":
+             quality: bool = False, sigma: bool = False, codec: str | None = None,
+             times=None) -> "PointMapStore":
         """Create a store for ``frames`` point maps of ``height x width``, or resume an existing one.
 
         ``layout`` ``"ray_depth"`` needs ``rays = (O (3,), D_planes (3, H, W))`` of the pinhole
         camera (:class:`fringe3d.optics.rays.RayGeometry`); ``quality`` / ``sigma`` add the
         per-frame quality and sigma_z arrays; ``codec`` is the per-frame arrays' compression
-        (:data:`CODECS`, default :data:`CODEC`; a resumed store keeps its own). An existing store
+        (:data:`CODECS`, default :data:`CODEC`; a resumed store keeps its own); ``times`` (F,)
+        the seconds of each frame (the ``time`` coordinate), optional. An existing store
         must hold the same number of frames, image size, layout and arrays (else ValueError, so a
         resumed run never mixes two different sequences).
         """
@@ -178,6 +211,8 @@ class PointMapStore:
                                dimension_names=dims, compressors=comp, config=FRAME_CONFIG,
                                chunk_key_encoding=FRAME_KEYS)
             a.attrs.update(attrs)
+            if times is not None:
+                a.attrs["coordinates"] = "time"  # CF: xarray reads ``time`` as this array's coordinate
 
         if layout == "xyz":
             per_frame("points", (height, width, 3), "float32", np.nan, POINT_DIMS, POINT_ATTRS)
@@ -199,7 +234,7 @@ class PointMapStore:
         done.attrs.update(DONE_ATTRS)
         g.attrs.update({"format": STORE_FORMAT, "version": STORE_VERSION, "layout": layout, "frames": frames,
                         "height": height, "width": width, "completed": 0, "meta": meta or {}})
-        return cls(g, path)
+        return cls(_write_coordinates(g, frames, height, width, times), path)
 
     @classmethod
     def open_existing(cls, path: str | os.PathLike) -> "PointMapStore":

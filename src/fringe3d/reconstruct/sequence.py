@@ -398,13 +398,15 @@ def store_layout(rec: FrameReconstructor, layout: str = "auto") -> str:
 def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out: Path,
                      options: DecodeOptions | None, mode: str, step: int | None, ply: bool,
                      store: bool, rec: FrameReconstructor, layout: str = "auto",
-                     store_quality: bool = True, codec: str | None = None) -> tuple[list[int], PointMapStore | None]:
+                     store_quality: bool = True, codec: str | None = None,
+                     frame_rate: float | None = None) -> tuple[list[int], PointMapStore | None]:
     """Check a sequence of frames of ``shape`` (F, H, W) against the rig, create (or resume) the
     point store and the PLY folder in ``out``; returns the windows' first frames and the store.
 
     ``rec`` (the sequence's reconstructor) chooses the store ``layout`` (:func:`store_layout`);
     ``store_quality`` adds the per-frame quality and sigma_z arrays; ``codec`` compresses them
-    (:data:`fringe3d.io.store.CODECS`, default lz4)."""
+    (:data:`fringe3d.io.store.CODECS`, default lz4); ``frame_rate`` (Hz, when known) gives the
+    store's ``time`` coordinate: each 3D frame's first captured frame / rate (s)."""
     if not (ply or store):
         raise ValueError("nothing to write: ask for the point store and/or PLY files")
     if len(shape) != 3:
@@ -424,7 +426,8 @@ def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out
     if lay is not None:
         st = PointMapStore.open(out / STORE_NAME, len(starts), H, W, meta=meta, layout=lay,
                                 rays=rec.rays if lay == "ray_depth" else None, quality=store_quality,
-                                sigma=store_quality, codec=codec)
+                                sigma=store_quality, codec=codec,
+                                times=None if frame_rate is None else np.asarray(starts, np.float64) / frame_rate)
     if ply:
         (out / PLY_DIR).mkdir(exist_ok=True)
     return starts, st
@@ -441,7 +444,8 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
                          options: DecodeOptions | None = None, mode: str = "cycle", step: int | None = None,
                          ply: bool = False, store: bool = True, progress: bool = True, triangulation: str = "auto",
                          fast: bool = True, layout: str = "auto", store_quality: bool = True,
-                         backend: str = "cpu", codec: str | None = None, allow_relative: bool = False) -> dict:
+                         backend: str = "cpu", codec: str | None = None, allow_relative: bool = False,
+                         frame_rate: float | None = None) -> dict:
     """Reconstruct every 3D frame of a sequence into ``out`` (resumable).
 
     Parameters
@@ -463,6 +467,7 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
         :data:`CUDA_BATCH` cycles go to the device per launch)
     allow_relative : triangulate a wrapped or relative phase anyway (:class:`FrameReconstructor`;
         ``RelativePhaseError`` before anything is written otherwise)
+    frame_rate : the camera's frame rate (Hz) when known: the store's ``time`` coordinate (s)
 
     Returns a summary dict (3D frames, done now / before, seconds, 3D frames per second, path,
     store layout).
@@ -473,7 +478,7 @@ def reconstruct_sequence(frames: np.ndarray, patterns: PatternSet, rig: Rig, out
     rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, fast=fast, backend=backend,
                              allow_relative=allow_relative)
     starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store, rec=rec,
-                                  layout=layout, store_quality=store_quality, codec=codec)
+                                  layout=layout, store_quality=store_quality, codec=codec, frame_rate=frame_rate)
 
     def done(k):
         return (st is None or st.is_done(k)) and (not ply or (out / PLY_DIR / ply_name(k)).exists())
