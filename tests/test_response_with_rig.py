@@ -1,0 +1,85 @@
+"""The projector response kept with the rig (rig file version 2) and used by ``decode`` and
+``reconstruct --compensate response`` without ``--response`` (issue 25), against the simulator's
+truth on a gamma-2.2 projector."""
+import json
+
+import numpy as np
+import pytest
+
+from fringe3d.cli import main
+from fringe3d.decode.result import Decoded
+from fringe3d.io.capture import write_capture
+from fringe3d.optics import Rig
+from fringe3d.patterns import sets
+from fringe3d.patterns.gamma import fit_gamma, save_gamma
+from fringe3d.radiometry import power_law, rig_response, with_response
+from fringe3d.sim import Plane, Scene, presets, render
+from fringe3d.sim.virtual_devices import VirtualRigState
+
+PRESET = presets.get("tiny")
+PROJ = PRESET.rig.projector
+
+
+def _scene():
+    return Scene([Plane(PRESET.center, (0.1, 0.05, -1.0))])
+
+
+def _setup(tmp_path):
+    """A 3-step + Gray-code capture through a gamma-2.2 projector, its grey-ramp gamma.json and rig.json."""
+    s = PRESET.settings.replace(ideal=True, bit_depth=16, read_noise=0.0, shot_noise=False, camera_blur=0.0,
+                                gamma=2.2)
+    ps = sets.psp_with_gray_code(18, 3, "v", width=PROJ.width, height=PROJ.height)
+    frames, truth = render(_scene(), PRESET.rig, ps, s, progress=False)
+    write_capture(tmp_path / "cap", frames, ps, {"bit_depth": 16})
+    rig = VirtualRigState(PRESET, _scene(), s.replace(bit_depth=8))
+    levels = np.arange(0, 256, 15)
+    ramp = []
+    for k, lv in enumerate(levels):
+        rig.set_image(np.full((PROJ.height, PROJ.width), lv, np.uint8))
+        ramp.append(rig.exposure_image(0.0, k))
+    save_gamma(tmp_path / "gamma.json", fit_gamma(levels, np.stack(ramp), full_scale=255))
+    PRESET.rig.save(tmp_path / "rig.json")
+    return truth
+
+
+def test_rig_file_keeps_the_response_and_version_1_files_still_load(tmp_path):
+    plain = PRESET.rig.to_dict()
+    assert plain["version"] == 1 and Rig.from_dict(plain).projector_response is None
+    with_table = with_response(PRESET.rig, power_law(2.2, 17))
+    d = with_table.to_dict()
+    assert d["version"] == 2
+    back = rig_response(Rig.from_dict(json.loads(json.dumps(d))))
+    assert np.allclose(back.apply([0.25, 0.5]), power_law(2.2, 17).apply([0.25, 0.5]))
+    d["projector_response"]["response"][3] = 0.9  # no longer non-decreasing
+    with pytest.raises(ValueError, match="projector_response"):
+        Rig.from_dict(d)
+
+
+def test_response_kept_with_the_rig_compensates_decode_and_reconstruct(tmp_path, capsys):
+    truth = _setup(tmp_path)
+    assert main(["response", str(tmp_path / "gamma.json"), "-c", str(tmp_path / "rig.json"),
+                 "-o", str(tmp_path / "rig-r.json"), "-q"]) == 0
+    assert rig_response(Rig.load(tmp_path / "rig-r.json")) is not None
+    m = truth.mask
+    for flags, name in (([], "raw"), (["--compensate", "response"], "comp")):
+        assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / f"dec-{name}"), "-q",
+                     "-c", str(tmp_path / "rig-r.json"), *flags]) == 0
+        assert main(["reconstruct", str(tmp_path / "cap"), "-o", str(tmp_path / f"rec-{name}"), "-q",
+                     "-c", str(tmp_path / "rig-r.json"), *flags]) == 0
+    err = {}
+    for name in ("raw", "comp"):
+        d = Decoded.load(tmp_path / f"dec-{name}")
+        ok = m & d.mask["v"]
+        ph = float(np.sqrt(np.mean(np.angle(np.exp(1j * (d.wrapped["v"] - truth.phase["v"])))[ok] ** 2)))
+        pts = np.load(tmp_path / f"rec-{name}" / "points.npy")
+        ok3 = m & np.isfinite(pts[..., 0])
+        err[name] = (ph, float(np.sqrt(np.mean(np.sum((pts[ok3] - truth.xyz[ok3]) ** 2, axis=-1)))))
+    assert err["comp"][0] < err["raw"][0] / 10
+    assert err["comp"][1] < err["raw"][1] / 10
+
+
+def test_compensate_response_with_a_rig_without_one_exits_2_before_writing(tmp_path, capsys):
+    _setup(tmp_path)
+    assert main(["reconstruct", str(tmp_path / "cap"), "-o", str(tmp_path / "rec"), "-c", str(tmp_path / "rig.json"),
+                 "--compensate", "response"]) == 2
+    assert "fringe3d response" in capsys.readouterr().err and not (tmp_path / "rec").exists()
