@@ -9,9 +9,11 @@ import pytest
 from fringe3d.cli import main
 from fringe3d.decode.result import Decoded
 from fringe3d.io.capture import write_capture
+from fringe3d.io.images import read_image
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
 from fringe3d.patterns.gamma import fit_gamma, save_gamma
+from fringe3d.phase.psp import wrapped_phase
 from fringe3d.radiometry import power_law, rig_response, with_response
 from fringe3d.sim import Plane, Scene, presets, render
 from fringe3d.sim.virtual_devices import VirtualRigState
@@ -83,3 +85,44 @@ def test_compensate_response_with_a_rig_without_one_exits_2_before_writing(tmp_p
     assert main(["reconstruct", str(tmp_path / "cap"), "-o", str(tmp_path / "rec"), "-c", str(tmp_path / "rig.json"),
                  "--compensate", "response"]) == 2
     assert "fringe3d response" in capsys.readouterr().err and not (tmp_path / "rec").exists()
+
+
+KNEE_X = np.linspace(0.0, 1.0, 33)
+KNEE = tuple(np.where(KNEE_X < 0.75, 0.9 * (KNEE_X / 0.75) ** 2, 0.9 + 0.1 * (KNEE_X - 0.75) / 0.25).tolist())
+
+
+def _project(folder, settings, n: int) -> np.ndarray:
+    """The camera frames of the first ``n`` PNGs of a pattern folder, shown by the virtual projector."""
+    rig = VirtualRigState(PRESET, _scene(), settings)
+    out = []
+    for k in range(n):
+        rig.set_image(read_image(folder / f"{k:05d}.png"))
+        out.append(rig.exposure_image(0.0, k))
+    return np.stack(out).astype(float)
+
+
+def test_patterns_predistorted_by_the_measured_table_cut_a_knee_projectors_phase_error(tmp_path):
+    s = PRESET.settings.replace(ideal=True, bit_depth=16, read_noise=0.0, shot_noise=False, camera_blur=0.0,
+                                response=KNEE)
+    ramp = VirtualRigState(PRESET, _scene(), s.replace(bit_depth=8))
+    levels = np.arange(0, 256, 5)
+    frames = []
+    for k, lv in enumerate(levels):
+        ramp.set_image(np.full((PROJ.height, PROJ.width), lv, np.uint8))
+        frames.append(ramp.exposure_image(0.0, k))
+    save_gamma(tmp_path / "gamma.json", fit_gamma(levels, np.stack(frames), full_scale=255))
+    size = ["--width", str(PROJ.width), "--height", str(PROJ.height)]
+    common = ["patterns", "--set", "phase-shift", "--period", "18", "--steps", "3", "--direction", "v", *size, "-q"]
+    assert main([*common, "-o", str(tmp_path / "plain")]) == 0
+    assert main([*common, "--response", str(tmp_path / "gamma.json"), "-o", str(tmp_path / "pre")]) == 0
+    ps = sets.phase_shift(18, 3, "v", width=PROJ.width, height=PROJ.height)
+    _, truth = render(_scene(), PRESET.rig, ps, s, progress=False)
+    m = truth.mask
+
+    def rms(folder):
+        ph = wrapped_phase(_project(folder, s, 3)).phase
+        return float(np.sqrt(np.mean(np.angle(np.exp(1j * (ph - truth.phase["v"])))[m] ** 2)))
+
+    pre, plain = rms(tmp_path / "pre"), rms(tmp_path / "plain")
+    print(f"phase RMS plain {plain:.5f} rad, pre-distorted {pre:.5f} rad")
+    assert pre < plain / 5

@@ -10,8 +10,9 @@ from .diagnostic import NonlinearityReport, diagnose
 from .harmonics import HarmonicEstimate, estimate_gamma, harmonic_lut
 from .phase_error import PhaseErrorLUT, lut_from_reference, lut_from_response
 from .rig_response import rig_response, with_response
-from .response import ResponseLUT, fit_response, linearise_frames, load_response, power_law, response_phase
+from .response import (ResponseLUT, fit_response, linearise_frames, load_response, power_law, predistort,
+                       response_phase)
 
 __all__ = ["HarmonicEstimate", "NonlinearityReport", "PhaseErrorLUT", "ResponseLUT", "diagnose",
            "estimate_gamma", "fit_response", "harmonic_lut", "linearise_frames", "load_response", "lut_from_reference",
-           "lut_from_response", "power_law", "response_phase", "rig_response", "with_response"]
+           "lut_from_response", "power_law", "predistort", "response_phase", "rig_response", "with_response"]
