@@ -15,6 +15,8 @@ from fringe3d.patterns import sets
 from fringe3d.patterns.gamma import fit_gamma, save_gamma
 from fringe3d.phase.psp import wrapped_phase
 from fringe3d.radiometry import power_law, rig_response, with_response
+from fringe3d.radiometry.ripple_size import mm_per_projector_px
+from fringe3d.reconstruct.triangulate import triangulate
 from fringe3d.sim import Plane, Scene, presets, render
 from fringe3d.sim.virtual_devices import VirtualRigState
 
@@ -126,3 +128,26 @@ def test_patterns_predistorted_by_the_measured_table_cut_a_knee_projectors_phase
     pre, plain = rms(tmp_path / "pre"), rms(tmp_path / "plain")
     print(f"phase RMS plain {plain:.5f} rad, pre-distorted {pre:.5f} rad")
     assert pre < plain / 5
+
+
+def test_mm_per_projector_pixel_matches_triangulating_one_pixel_shift_at_the_working_point():
+    ps = sets.phase_shift(18, 4, "v", width=PROJ.width, height=PROJ.height)
+    _, truth = render(_scene(), PRESET.rig, ps, PRESET.settings.replace(ideal=True), progress=False)
+    h, w = truth.mask.shape
+    centre = (slice(h // 2 - 2, h // 2 + 3), slice(w // 2 - 2, w // 2 + 3))
+    moved = triangulate(PRESET.rig, up=truth.up + 1.0, mask=truth.mask)
+    shift = np.linalg.norm(moved[centre] - truth.xyz[centre], axis=-1).mean()
+    assert mm_per_projector_px(PRESET.rig, "v") == pytest.approx(shift, rel=0.1)
+
+
+def test_decode_with_a_rig_reports_the_ripple_in_micrometres(tmp_path, capsys):
+    s = PRESET.settings.replace(ideal=True, bit_depth=16, read_noise=0.0, shot_noise=False, camera_blur=0.0,
+                                gamma=2.2)
+    ps = sets.phase_shift(18, 4, "v", width=PROJ.width, height=PROJ.height)
+    frames, _ = render(_scene(), PRESET.rig, ps, s, progress=False)
+    write_capture(tmp_path / "cap", frames, ps, {"bit_depth": 16})
+    PRESET.rig.save(tmp_path / "rig.json")
+    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "dec"), "-c", str(tmp_path / "rig.json")]) == 0
+    assert "um on the surface" in capsys.readouterr().err
+    diag = json.loads((tmp_path / "dec" / "decoded.json").read_text())["info"]["radiometry"]["v"]["diagnostic"]
+    assert diag["ripple_um"] == pytest.approx(diag["ripple_px"] * mm_per_projector_px(PRESET.rig, "v") * 1e3)

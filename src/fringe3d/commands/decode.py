@@ -227,8 +227,11 @@ def register(app: typer.Typer) -> None:
                 for msg in dict.fromkeys(str(w.message) for w in caught):
                     warn(msg)
         for d, rad in (results[0].get("info", {}).get("radiometry", {}) if results and not compensate else {}).items():
-            if rad.get("diagnostic", {}).get("fix"):
-                warn(f"direction {d}: {rad['diagnostic']['fix']}")
+            diag = rad.get("diagnostic", {})
+            if diag.get("fix"):
+                um = f" (about {diag['ripple_um']:.3g} um on the surface)" if diag.get("ripple_um") else ""
+                warn(f"direction {d}: {diag['fix']}{um}; here: --compensate harmonic (4 or more steps) or "
+                     "--compensate response with the grey ramp of capture --response, or patterns --response")
         label = capture if capture is not None else list_file
         summary = {"capture": str(label), "out": str(out), "cycles": n, "patterns": patterns.name,
                    "frames": n * len(patterns), "shape": list(cap.frames.shape[1:]),

@@ -10,7 +10,9 @@
   they are and say so in ``Decoded.info["radiometry"]``).
 
 :func:`diagnose_group` runs :func:`fringe3d.radiometry.diagnose` on a subsample of a group of
-N >= 4 equal steps, for ``Decoded.info["radiometry"]`` whether or not a compensation is chosen.
+N >= 4 equal steps, for ``Decoded.info["radiometry"]`` whether or not a compensation is chosen
+(with a rig, its ripple also in micrometres on the surface: ``ripple_um``,
+:func:`fringe3d.radiometry.ripple_size.mm_per_projector_px`).
 """
 from __future__ import annotations
 
@@ -21,6 +23,7 @@ import numpy as np
 from fringe3d.phase.psp import PhaseResult, default_shifts
 from fringe3d.radiometry import diagnose, estimate_gamma, lut_from_response, power_law
 from fringe3d.radiometry.phase_error import wrap
+from fringe3d.radiometry.ripple_size import mm_per_projector_px
 
 
 class PhaseGroup(Protocol):
@@ -41,6 +44,8 @@ class DecodeContext(Protocol):
     """What this module reads of a :class:`fringe3d.decode.context.DecodeContext`."""
 
     frames: Any
+    direction: str
+    rig: Any
     min_modulation: float
     options: Any
     cache: dict
@@ -73,7 +78,10 @@ def diagnose_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> di
     frames, ok = _sample(ctx, group, pr)
     if ok.sum() < 100:
         return None
-    return {"group": group.name, **diagnose(frames, ok, period=group.period).as_dict()}
+    report = {"group": group.name, **diagnose(frames, ok, period=group.period).as_dict()}
+    if ctx.rig is not None and report["ripple_px"] is not None:  # on the surface, at the rig's working point
+        report["ripple_um"] = report["ripple_px"] * mm_per_projector_px(ctx.rig, ctx.direction) * 1e3
+    return report
 
 
 def compensate_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> tuple[PhaseResult, dict[str, Any]]:
