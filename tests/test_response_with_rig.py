@@ -151,3 +151,17 @@ def test_decode_with_a_rig_reports_the_ripple_in_micrometres(tmp_path, capsys):
     assert "um on the surface" in capsys.readouterr().err
     diag = json.loads((tmp_path / "dec" / "decoded.json").read_text())["info"]["radiometry"]["v"]["diagnostic"]
     assert diag["ripple_um"] == pytest.approx(diag["ripple_px"] * mm_per_projector_px(PRESET.rig, "v") * 1e3)
+
+
+@pytest.mark.parametrize("gamma", [2.2, 1.0])
+def test_report_shows_the_diagnostic_and_the_fix_only_for_a_nonlinear_projector(tmp_path, gamma):
+    s = PRESET.settings.replace(ideal=True, bit_depth=16, read_noise=0.0, shot_noise=False, camera_blur=0.0,
+                                gamma=gamma)
+    ps = sets.phase_shift(18, 4, "v", width=PROJ.width, height=PROJ.height)
+    frames, _ = render(_scene(), PRESET.rig, ps, s, progress=False)
+    write_capture(tmp_path / "cap", frames, ps, {"bit_depth": 16})
+    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "dec"), "-q"]) == 0
+    assert main(["report", str(tmp_path / "dec"), "-o", str(tmp_path / "page.html"), "-q"]) == 0
+    page = (tmp_path / "page.html").read_text()
+    assert "Projector nonlinearity" in page and "second-harmonic ratio" in page
+    assert ("the projector is nonlinear (gamma ~ 2.20)" in page) == (gamma == 2.2)
