@@ -14,7 +14,9 @@ without compensation (``raw``) and with each compensation, all from the *measure
 (a 18-level grey ramp on a flat target, 8-bit, :func:`fringe3d.radiometry.fit_response`):
 ``response`` (per-pixel fit through the response table, :func:`response_phase`),
 ``phase-LUT`` (the phase-error table of the measured response, Zhang & Yau 2007) and
-``harmonic`` (the gamma estimated from the capture itself, N >= 4 only).
+``harmonic`` (the gamma estimated from the capture itself, N >= 4 only) and, for 3 steps,
+``2-freq`` (the ripple estimated from the disagreement with a second 3-step set at period 23
+px, after Xing & Guo 2018; fringe orders from the truth).
 
 Also printed: the response round trip (measured vs true table at the ramp's levels, in grey
 levels) and the diagnostic (:func:`fringe3d.radiometry.diagnose`) on a gamma-2.2 and a linear
@@ -28,7 +30,7 @@ import numpy as np
 
 from fringe3d.patterns import sets
 from fringe3d.phase.psp import wrapped_phase
-from fringe3d.radiometry import (ResponseLUT, diagnose, fit_response, harmonic_lut, lut_from_response,
+from fringe3d.radiometry import (ResponseLUT, diagnose, disagreement_lut, fit_response, harmonic_lut, lut_from_response,
                                  power_law, response_phase)
 from fringe3d.radiometry.phase_error import wrap
 from fringe3d.reconstruct.triangulate import triangulate
@@ -38,6 +40,7 @@ from fringe3d.sim.virtual_devices import VirtualRigState
 
 PRESET = presets.get("tiny")
 PERIOD = 18
+SECOND_PERIOD = 23
 SEED = 7
 _X = np.linspace(0.0, 1.0, 33)
 KNEE = tuple(np.where(_X < 0.75, 0.9 * (_X / 0.75) ** 2, 0.9 + 0.1 * (_X - 0.75) / 0.25).tolist())
@@ -63,10 +66,16 @@ def measure_response(curve: str) -> tuple[ResponseLUT, float]:
     return lut, float(err)
 
 
-def capture(scene_name: str, steps: int, curve: str):
+def absolute(wrapped: np.ndarray, truth, period: float) -> np.ndarray:
+    """The absolute phase of a measured wrapped phase, its fringe orders from the truth."""
+    true_abs = 2.0 * np.pi * truth.up / period
+    return true_abs + wrap(wrapped - true_abs)
+
+
+def capture(scene_name: str, steps: int, curve: str, period: float = PERIOD):
     s = PRESET.settings.replace(ideal=True, bit_depth=16, read_noise=0.0, shot_noise=False, camera_blur=0.0,
                                 seed=SEED, **CURVES[curve])
-    ps = sets.phase_shift(PERIOD, steps, "v", width=PRESET.rig.projector.width,
+    ps = sets.phase_shift(period, steps, "v", width=PRESET.rig.projector.width,
                           height=PRESET.rig.projector.height)
     frames, truth = render(make_scene(scene_name, PRESET), PRESET.rig, ps, s, progress=False)
     return frames.astype(np.float64), truth
@@ -92,6 +101,12 @@ def table(curve: str, lut: ResponseLUT) -> None:
                     "phase-LUT": errors(lut_from_response(lut, steps=steps).correct(raw), truth)}
             if steps >= 4:
                 rows["harmonic"] = errors(harmonic_lut(frames, truth.mask)[0].correct(raw), truth)
+            else:  # a second period, 23 px: the two frequencies' disagreement (Xing & Guo 2018)
+                frames_b, truth_b = capture(scene_name, steps, curve, period=SECOND_PERIOD)
+                lut_d = disagreement_lut(absolute(raw, truth, PERIOD), PERIOD,
+                                         absolute(wrapped_phase(frames_b).phase, truth_b, SECOND_PERIOD),
+                                         SECOND_PERIOD, steps, truth.mask)
+                rows["2-freq"] = errors(lut_d.correct(raw), truth)
             base = rows["raw"][0]
             for name, (ph, mm) in rows.items():
                 gain = "" if name in ("truth", "raw") else f"  ({base / max(ph, 1e-12):6.1f}x lower)"
