@@ -4,9 +4,10 @@ apply, against the simulator's true phase."""
 import numpy as np
 import pytest
 
+from fringe3d.decode import decode
 from fringe3d.patterns import sets
 from fringe3d.phase.psp import wrapped_phase
-from fringe3d.radiometry import disagreement_lut
+from fringe3d.radiometry import disagreement_lut, lut_from_response, power_law
 from fringe3d.radiometry.phase_error import wrap
 from fringe3d.sim import Plane, Scene, presets, render
 
@@ -48,3 +49,19 @@ def test_equal_periods_are_refused():
     phase = np.linspace(0, 30, 400).reshape(20, 20)
     with pytest.raises(ValueError, match="periods must differ"):
         disagreement_lut(phase, 18, phase, 18, steps=3)
+
+
+@pytest.mark.parametrize("gamma", [2.2, 1.0])
+def test_decode_diagnoses_a_3_step_three_frequency_capture_from_the_disagreement(gamma, tmp_path):
+    s = PRESET.settings.replace(ideal=True, bit_depth=16, read_noise=0.0, shot_noise=False, camera_blur=0.0,
+                                gamma=gamma)
+    ps = sets.three_frequency("v", steps=(3, 3, 3), width=PRESET.rig.projector.width,
+                              height=PRESET.rig.projector.height)
+    frames, _ = render(Scene([Plane(PRESET.center, (0.1, 0.05, -1.0))]), PRESET.rig, ps, s, progress=False)
+    diag = decode(frames, ps, rig=PRESET.rig).info["radiometry"]["v"]["diagnostic"]
+    assert diag["method"] == "disagreement" and diag["steps"] == 3
+    assert diag["nonlinear"] == (gamma == 2.2)
+    assert (diag["fix"] is not None) == (gamma == 2.2)
+    if gamma == 2.2:  # against the peak ripple of the true response's 3-step phase-error table
+        true_peak = lut_from_response(power_law(2.2), steps=3).amplitude
+        assert diag["ripple_rad"] == pytest.approx(true_peak, rel=0.15) and diag["ripple_um"] > 0
