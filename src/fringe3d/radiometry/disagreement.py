@@ -10,7 +10,8 @@ same projector coordinate ``u = T Phi / (2 pi)``; their disagreement
     ``d = T_a Phi_a / (2 pi) - T_b Phi_b / (2 pi) = (T_a e(phi_a) - T_b e(phi_b)) / (2 pi) + c``
 
 is linear in the coefficients of ``e = sum_k a_k sin(k N phi) + b_k cos(k N phi)`` (plus a
-constant ``c`` for a phase-origin offset), so least squares over all pixels estimates ``e``
+constant ``c`` for a phase-origin offset), so least squares over all pixels (refitted without
+the outliers a fringe-order error or a mixed pixel makes) estimates ``e``
 from the capture itself, also for 3-step sets where no DFT bin is free
 (:mod:`fringe3d.radiometry.harmonics` needs N >= 4). Assumes: a matte surface, the same
 response and shifts for both frequencies, unwrapped (absolute) phases without order errors.
@@ -79,6 +80,11 @@ def disagreement_lut(phase_a, period_a: float, phase_b, period_b: float, steps: 
     d = (period_a * pa - period_b * pb) / (2.0 * np.pi)
     design = (period_a * _basis(wrap(pa), steps, orders) - period_b * _basis(wrap(pb), steps, orders)) / (2 * np.pi)
     design = np.column_stack([design, np.ones(d.size)])
-    coef = np.linalg.lstsq(design, d, rcond=None)[0][:-1]
+    keep = np.abs(d - np.median(d)) < 0.25 * min(period_a, period_b)  # a fringe-order error jumps by a period
+    for _ in range(3):  # refit without outliers (order errors at edges, mixed pixels)
+        sol = np.linalg.lstsq(design[keep], d[keep], rcond=None)[0]
+        resid = np.abs(d - design @ sol)
+        keep = resid <= max(5.0 * 1.4826 * float(np.median(resid[keep])), 1e-9)
+    coef = sol[:-1]
     centres = bin_centres(bins)
     return PhaseErrorLUT(centres, _basis(centres, steps, orders) @ coef)
