@@ -65,4 +65,3 @@ def test_decode_diagnoses_a_3_step_three_frequency_capture_from_the_disagreement
     if gamma == 2.2:  # against the peak ripple of the true response's 3-step phase-error table
         true_peak = lut_from_response(power_law(2.2), steps=3).amplitude
         assert diag["ripple_rad"] == pytest.approx(true_peak, rel=0.15) and diag["ripple_um"] > 0
-
