@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -199,7 +200,8 @@ def check_sizes(rig: Rig, frames: np.ndarray, calibration, patterns: PatternSet 
 def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: float | None = None,
                       triangulation: str = "auto", min_modulation: float | None = None, edge_mask: bool = True,
                       edge_margin: float | None = None, backend: str = "cpu",
-                      allow_relative: bool = False) -> Reconstruction:
+                      allow_relative: bool = False, compensate: str | None = None,
+                      response: Any = None) -> Reconstruction:
     """Reconstruct the first pattern cycle of a capture in memory.
 
     Parameters
@@ -225,6 +227,9 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
     allow_relative : bool
         Triangulate a wrapped or relative phase (method ``none`` or ``spatial``) anyway, with a
         warning; its 3D is off by an unknown number of fringe periods in depth.
+    compensate, response
+        Projector-nonlinearity compensation (:class:`fringe3d.decode.DecodeOptions` ``compensate``
+        ``"response"`` or ``"harmonic"``) and the measured response for ``"response"``.
 
     Raises
     ------
@@ -238,7 +243,7 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
     source = f"{cap.folder / MANIFEST_NAME}" if cap.folder is not None else "the manifest"
     check_plans(ps, rig, z_min, original=cap.patterns, source=source, allow_relative=allow_relative)
     options = DecodeOptions(z_min=z_min, bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation,
-                            edge_mask=edge_mask, edge_margin=edge_margin)
+                            edge_mask=edge_mask, edge_margin=edge_margin, compensate=compensate, response=response)
     rec = FrameReconstructor(ps, rig, options, triangulation=triangulation, backend=backend,
                              allow_relative=allow_relative)
     c = rec.reconstruct(np.ascontiguousarray(cap.frames))

@@ -144,8 +144,10 @@ def register(app: typer.Typer) -> None:
         timeout: float = typer.Option(1.0, help="Seconds to wait for each frame before calling it dropped."),
         latency: bool = typer.Option(False, "--latency", help="Measure the display-to-camera delay by flashing "
                                                               "black/white, then exit."),
-        gamma: bool = typer.Option(False, "--gamma", help="Project a grey ramp, fit the projector gamma, write "
-                                                          "OUTPUT (gamma.json), then exit."),
+        gamma: bool = typer.Option(False, "--gamma", "--response",
+                                   help="Project a grey ramp on a flat target, fit the projector's response (the "
+                                        "monotone table and its gamma), write OUTPUT (gamma.json), then exit; "
+                                        "fringe3d response keeps it with the rig."),
         levels: int = typer.Option(17, help="--gamma: number of grey levels in the ramp."),
         session: Path = typer.Option(None, help="Calibration capture: write DIR/pose_XX/ capture folders."),
         poses: int = typer.Option(10, help="--session: number of board poses to capture."),

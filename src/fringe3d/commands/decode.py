@@ -11,6 +11,7 @@ import typer
 from fringe3d.commands import import_options as io
 from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.import_options import SRC_HELP
+from fringe3d.commands.compensate_options import compensate_option, resolve_compensation, response_option
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.commands.checks import BIT_DEPTHS, check_choice, check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
@@ -27,7 +28,6 @@ from fringe3d.patterns.layouts import with_threshold
 from fringe3d.patterns.method_registry import method_names
 from fringe3d.optics import Rig
 from fringe3d.phase.ftp import WINDOWS
-from fringe3d.radiometry import load_response
 from fringe3d.decode.result import SUMMARY_NAME
 from fringe3d.utils.jsonfile import read_json
 from fringe3d.utils.output_folder import check_complete, open_output
@@ -136,13 +136,8 @@ def register(app: typer.Typer) -> None:
                                             "without, at 8 bits, scaled; 0 keeps every edge pixel)."),
         edge_mask: bool = edge_mask_option(),
         edge_margin: float = edge_margin_option(),
-        compensate: str = typer.Option(None, "--compensate",
-                                       help="Correct the phase error of a nonlinear projector: harmonic (estimated "
-                                            "from the capture itself; groups of 4 or more equal steps) or response "
-                                            "(the grey-ramp response of --response)."),
-        response: Path = typer.Option(None, "--response",
-                                      help="gamma.json from fringe3d capture --gamma: the projector's measured "
-                                           "response, for --compensate response (implies it)."),
+        compensate: str = compensate_option(),
+        response: Path = response_option(),
         overwrite: bool = overwrite_option(),
         allow_empty: bool = allow_empty_option(),
         json_: bool = typer.Option(False, "--json", help="Print one JSON summary instead of a table."),
@@ -168,10 +163,6 @@ def register(app: typer.Typer) -> None:
         check_choice(ftp_window, "--ftp-window", WINDOWS)
         check_number(max_cycles, "--max-cycles", minimum=1)
         check_choice(compensate, "--compensate", COMPENSATIONS)
-        compensate = "response" if compensate is None and response is not None else compensate
-        if compensate == "response" and response is None:
-            raise ValueError("--compensate response needs --response gamma.json (fringe3d capture --gamma writes it)")
-        response_lut = load_response(response) if response is not None else None
         described = layout is not None or manifest is not None or list_file is not None
         if capture is None and list_file is None:
             raise ValueError("give the capture folder (or frames with --set/--manifest), or --list FILE")
@@ -209,6 +200,8 @@ def register(app: typer.Typer) -> None:
                                  "whole from its frames; drop --max-cycles")
             fusion = fuse_bracket(cap.frames, cap.meta["exposures"], len(cap.patterns), bits)
             cap.frames = fusion.frames
+        rig_obj = _load_rig(rig)
+        compensate, response_lut = resolve_compensation(compensate, response, rig_obj)
         opts = {"bit_depth": bits, "min_modulation": min_modulation, "ftp_sign": -1 if ftp_flip else 1,
                 "white_thr": white_thr, "black_thr": black_thr, "edge_thr": edge_thr, "edge_mask": edge_mask,
                 "edge_margin": edge_margin, "compensate": compensate}
@@ -217,7 +210,6 @@ def register(app: typer.Typer) -> None:
             patterns = with_threshold(patterns, threshold)
         if ftp_window is not None:
             opts["ftp_window"] = ftp_window
-        rig_obj = _load_rig(rig)
         if rig_obj is not None and (rig_obj.projector.width, rig_obj.projector.height) != (patterns.width,
                                                                                              patterns.height):
             raise ValueError(f"the calibration {rig} describes a {rig_obj.projector.width}x{rig_obj.projector.height} "
@@ -231,7 +223,7 @@ def register(app: typer.Typer) -> None:
             n = total if max_cycles is None else min(max(1, max_cycles), total)
         results = []
         options = {k: v for k, v in opts.items()} | {"z_min": z_min, "method": method, "max_cycles": max_cycles}
-        inputs = [Path(capture) if capture is not None else list_file, rig]
+        inputs = [Path(capture) if capture is not None else list_file, rig, response]
         if described:
             options |= {"src": capture, "layout": layout, "projector_size": projector_size, "channel": channel,
                         "first_frame": first_frame, "frame_count": frame_count, "steps": steps, "period": period,
@@ -250,8 +242,11 @@ def register(app: typer.Typer) -> None:
                 for msg in dict.fromkeys(str(w.message) for w in caught):
                     warn(msg)
         for d, rad in (results[0].get("info", {}).get("radiometry", {}) if results and not compensate else {}).items():
-            if rad.get("diagnostic", {}).get("fix"):
-                warn(f"direction {d}: {rad['diagnostic']['fix']}")
+            diag = rad.get("diagnostic", {})
+            if diag.get("fix"):
+                um = f" (about {diag['ripple_um']:.3g} um on the surface)" if diag.get("ripple_um") else ""
+                warn(f"direction {d}: {diag['fix']}{um}; here: --compensate harmonic (4 or more steps) or "
+                     "--compensate response with the grey ramp of capture --response, or patterns --response")
         label = capture if capture is not None else list_file
         summary = {"capture": str(label), "out": str(out), "cycles": n, "patterns": patterns.name,
                    "frames": n * len(patterns), "shape": list(cap.frames.shape[1:]),

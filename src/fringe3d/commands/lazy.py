@@ -39,6 +39,8 @@ COMMANDS: tuple[CommandEntry, ...] = (
                  "Decode a capture folder to absolute phase per fringe direction, driven by its manifest."),
     CommandEntry("calibrate", "calibrate",
                  "Calibrate camera and projector from board poses (circle grid, chessboard or ChArUco)"),
+    CommandEntry("response", "response",
+                 "Keep the projector's measured response with the rig, in a copy of its calibration file."),
     CommandEntry("reconstruct", "reconstruct",
                  "Reconstruct absolute 3D point maps from a capture and a calibration."),
     CommandEntry("export", "export",

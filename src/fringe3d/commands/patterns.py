@@ -13,6 +13,7 @@ from fringe3d.io.packed_patterns import write_packed
 from fringe3d.io.pattern_folder import write_pattern_folder
 from fringe3d.patterns import sets
 from fringe3d.patterns.gamma import load_gamma
+from fringe3d.radiometry import load_response
 from fringe3d.utils.console import console, info, print_json, set_quiet
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
@@ -134,6 +135,9 @@ def register(app: typer.Typer) -> None:
         dither_size: int = typer.Option(8, help="Bayer matrix size for --kind bayer."),
         gamma: Path = typer.Option(None, help="gamma.json from 'fringe3d capture --gamma': pre-compensate the "
                                               "8-bit patterns for the projector's gamma."),
+        response: Path = typer.Option(None, help="gamma.json from 'fringe3d capture --response': pre-distort the "
+                                                 "8-bit patterns through the inverse of the projector's measured "
+                                                 "response table (a knee or toe a single --gamma cannot describe)."),
         pack_bitplanes: bool = typer.Option(False, "--pack-bitplanes", help="Also pack the 1-bit patterns into the "
                                             "bit-planes of RGB frames (24 per frame, bitplanes/*.png) for DLP video "
                                             "pattern mode; the manifest records which plane is which pattern."),
@@ -159,12 +163,21 @@ def register(app: typer.Typer) -> None:
             g = load_gamma(gamma)
             if ps.bit_depth == 1:
                 raise ValueError("--gamma pre-compensates 8-bit patterns; a 1-bit set has only black and white")
+        lut = None
+        if response is not None:
+            if gamma is not None:
+                raise ValueError("give --gamma (one exponent) or --response (the measured table), not both")
+            lut = load_response(response)
+            if ps.bit_depth == 1:
+                raise ValueError("--response pre-distorts 8-bit patterns; a 1-bit set has only black and white")
         if pack_bitplanes and ps.bit_depth != 1:
             raise ValueError("--pack-bitplanes packs 1-bit patterns; use a binary --kind (square, bayer, ...) or "
                              "--bits 1, or a Gray-code set")
-        with open_output(output, overwrite=overwrite, inputs=[gamma],
-                         options={"manifest": ps.to_dict(), "gamma": g, "dither": dither_size}) as o:
-            paths = write_pattern_folder(ps, o.path, gamma=g, dither_size=dither_size)
+        fp = {"manifest": ps.to_dict(), "gamma": g, "dither": dither_size}
+        if lut is not None:  # (only) when set, so that other runs keep their fingerprint
+            fp["response"] = lut.response.tolist()
+        with open_output(output, overwrite=overwrite, inputs=[gamma, response], options=fp) as o:
+            paths = write_pattern_folder(ps, o.path, gamma=g, response=lut, dither_size=dither_size)
             if pack_bitplanes:
                 paths += write_packed(o.path, ps, np.stack([read_image(p) for p in paths]))
         summary = {"output": str(output), "name": ps.name, "frames": len(ps), "width": ps.width,

@@ -14,6 +14,7 @@ from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
 from fringe3d.commands.checks import check_choice, check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.plan_errors import in_flag_words
+from fringe3d.commands.compensate_options import compensate_option, resolve_compensation, response_option
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.decode import decode
 from fringe3d.decode.plan_checks import check_plans
@@ -138,6 +139,8 @@ def register(app: typer.Typer) -> None:
                                         "started with --resources GPU=1."),
         edge_mask: bool = edge_mask_option(),
         edge_margin: float = edge_margin_option(),
+        compensate: str = compensate_option(),
+        response: Path = response_option(),
         overwrite: bool = overwrite_option(),
         allow_empty: bool = allow_empty_option(),
         allow_relative: bool = typer.Option(False, "--allow-relative",
@@ -195,6 +198,7 @@ def register(app: typer.Typer) -> None:
             z_min = reference_z_min(z_min_from, z_margin)
             info(f"z_min = {z_min:.3f} mm from {z_min_from} (nearest depth - {z_margin:g} mm)")
         rig = Rig.load(calibration)
+        compensate, response_lut = resolve_compensation(compensate, response, rig)
         cap = read_capture(capture, max_cycles=1)  # checks the folder; the rest is read on demand
         check_sizes(rig, cap.frames, calibration, cap.patterns)
         referenced = open_frames(capture)  # a camera file (capture.json source), read on demand; else None
@@ -212,7 +216,7 @@ def register(app: typer.Typer) -> None:
             relative = check_plans(ps, rig, z_min, original=cap.patterns, source=str(capture / MANIFEST_NAME),
                                    allow_relative=allow_relative)
         opts = {"bit_depth": cap.meta.get("bit_depth"), "min_modulation": min_modulation, "edge_mask": edge_mask,
-                "edge_margin": edge_margin}
+                "edge_margin": edge_margin, "compensate": compensate, "response": response_lut}
         methods = {p.direction: p.method for p in ps.plans}
         summary = {"capture": str(capture), "calibration": str(calibration), "out": str(out), "methods": methods,
                    "device": device,
@@ -232,7 +236,8 @@ def register(app: typer.Typer) -> None:
         fp_options = {"method": method, "z_min": z_min, "window": window, "triangulation": triangulation,
                       "min_modulation": min_modulation, "cycles": cycles, "ply": ply, "mesh": mesh, "store": store,
                       "edge_mask": edge_mask, "edge_margin": edge_margin}
-        if allow_relative:  # (only) when set, so that other runs keep their fingerprint
+        if compensate is not None:  # (only) when set, so that other runs keep their fingerprint
+            fp_options["compensate"] = compensate  # (only) when set, so that other runs keep their fingerprint
             fp_options["allow_relative"] = True
         if sequence and store:  # (only) store options join the fingerprint where they change it
             fp_options.update({"store_layout": store_layout, "store_quality": store_quality,
@@ -241,14 +246,15 @@ def register(app: typer.Typer) -> None:
         if sequence and (workers or scheduler):
             client = connect(scheduler, workers, gpu=True) if device == "cuda" else connect(scheduler, workers)
         try:
-            with open_output(out, overwrite=overwrite, inputs=[capture, calibration, z_min_from],
+            with open_output(out, overwrite=overwrite, inputs=[capture, calibration, z_min_from, response],
                              options=fp_options, resumable=sequence) as o:
                 if not sequence:
                     try:
                         r = reconstruct_cycle(cap, rig, method, z_min, triangulation=triangulation,
                                               min_modulation=min_modulation, edge_mask=edge_mask,
                                               edge_margin=edge_margin, backend=device,
-                                              allow_relative=allow_relative)
+                                              allow_relative=allow_relative, compensate=compensate,
+                                              response=response_lut)
                     except EmptyMaskError:
                         raise ValueError(f"{capture}: no valid 3D point: "
                                          f"{empty_reason(cap, ps, rig, min_modulation)}. Nothing was written") from None

@@ -10,7 +10,9 @@
   they are and say so in ``Decoded.info["radiometry"]``).
 
 :func:`diagnose_group` runs :func:`fringe3d.radiometry.diagnose` on a subsample of a group of
-N >= 4 equal steps, for ``Decoded.info["radiometry"]`` whether or not a compensation is chosen.
+N >= 4 equal steps, for ``Decoded.info["radiometry"]`` whether or not a compensation is chosen
+(with a rig, its ripple also in micrometres on the surface: ``ripple_um``,
+:func:`fringe3d.radiometry.ripple_size.mm_per_projector_px`).
 """
 from __future__ import annotations
 
@@ -19,8 +21,9 @@ from typing import Any, Protocol, Sequence
 import numpy as np
 
 from fringe3d.phase.psp import PhaseResult, default_shifts, wrapped_phase
-from fringe3d.radiometry import diagnose, estimate_gamma, lut_from_response, power_law
+from fringe3d.radiometry import diagnose, disagreement_lut, estimate_gamma, lut_from_response, power_law
 from fringe3d.radiometry.phase_error import wrap
+from fringe3d.radiometry.ripple_size import mm_per_projector_px
 
 
 class PhaseGroup(Protocol):
@@ -41,11 +44,14 @@ class DecodeContext(Protocol):
     """What this module reads of a :class:`fringe3d.decode.context.DecodeContext`."""
 
     frames: Any
+    direction: str
+    rig: Any
     min_modulation: float
     options: Any
     cache: dict
 
     def group_phase(self, group: Any) -> PhaseResult: ...
+    def groups_for_plan(self) -> list[Any]: ...
 
 COMPENSATIONS = ("response", "harmonic")
 #: Pixels used by the harmonic estimate and the diagnostic (a regular subsample beyond this).
@@ -79,7 +85,10 @@ def diagnose_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None
     frames, ok = _sample(ctx, group, pr)
     if ok.sum() < 100:
         return None
-    return {"group": group.name, **diagnose(frames, ok, period=group.period).as_dict()}
+    report = {"group": group.name, **diagnose(frames, ok, period=group.period).as_dict()}
+    if ctx.rig is not None and report["ripple_px"] is not None:  # on the surface, at the rig's working point
+        report["ripple_um"] = report["ripple_px"] * mm_per_projector_px(ctx.rig, ctx.direction) * 1e3
+    return report
 
 
 def compensate_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> tuple[PhaseResult, dict[str, Any]]:
@@ -101,14 +110,65 @@ def compensate_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> 
     return PhaseResult(lut.correct(pr.phase), pr.average, pr.modulation), info
 
 
-def radiometry_info(ctx: DecodeContext, group: PhaseGroup | None) -> dict[str, Any] | None:
+def _steps_equal(shifts) -> bool:
+    d = np.asarray(shifts, float)
+    return d.size >= 3 and bool(np.allclose(wrap(d - d[0] - default_shifts(d.size)), 0.0, atol=1e-6))
+
+
+def disagreement_group(ctx: DecodeContext, group: PhaseGroup, phase: np.ndarray, mask: np.ndarray,
+                       threshold_rad: float = 0.005) -> dict[str, Any] | None:
+    """The ripple of the plan's narrowest group estimated from its disagreement with another
+    group of the plan with as many equal steps (:func:`fringe3d.radiometry.disagreement_lut`,
+    after Xing & Guo 2018), from the direction's absolute ``phase`` (rad at the group's period);
+    None without such a group or usable pixels. For 3-step multi-frequency captures, where the
+    harmonic diagnostic cannot apply."""
+    others = [h for h in ctx.groups_for_plan() if h.name != group.name and len(h.indices) == len(group.indices)
+              and not np.isclose(h.period, group.period) and _steps_equal(h.shifts)]
+    if not others or not _steps_equal(group.shifts):
+        return None
+    other = others[0]
+    h, w = phase.shape
+    step = max(1, int(np.ceil(np.sqrt(h * w / SAMPLE_PIXELS))))
+    big = np.asarray(phase[::step, ::step], float)
+    ok = np.asarray(mask[::step, ::step], bool) & np.isfinite(big)
+    if ok.sum() < 100:
+        return None
+    if other.name in ctx.cache:  # computed by the decode already
+        wrapped_b = np.asarray(ctx.cache[other.name][0].phase[::step, ::step], float)
+    else:  # the fused paths never computed it: the subsample's own phase, not a full-size one
+        sub = np.stack([np.asarray(ctx.frames[i][::step, ::step], np.float32) for i in other.indices])
+        wrapped_b = np.asarray(wrapped_phase(sub, shifts=np.asarray(other.shifts, float)).phase, float)
+    ratio = group.period / other.period
+    big_b = wrapped_b + 2 * np.pi * np.round((np.where(ok, big, 0.0) * ratio - wrapped_b) / (2 * np.pi))
+    amp = disagreement_lut(big, group.period, big_b, other.period, len(group.indices), ok).amplitude
+    px = amp * group.period / (2 * np.pi)
+    report: dict[str, Any] = {"group": group.name, "method": "disagreement", "with": other.name,
+                              "steps": len(group.indices), "ripple_order": len(group.indices), "ripple_rad": amp,
+                              "ripple_px": px, "nonlinear": bool(amp > threshold_rad), "fix": None}
+    if ctx.rig is not None:
+        report["ripple_um"] = px * mm_per_projector_px(ctx.rig, ctx.direction) * 1e3
+    if report["nonlinear"]:
+        report["fix"] = (f"the projector is nonlinear: the {group.name!r} and {other.name!r} fringes disagree by a "
+                         f"ripple {len(group.indices)} times per fringe of up to {amp:.3g} rad = {px:.3g} px; measure "
+                         "the response with a grey ramp and decode with `compensate='response'`, or pre-distort the "
+                         "patterns")
+    return report
+
+
+def radiometry_info(ctx: DecodeContext, group: PhaseGroup | None, phase: np.ndarray | None = None,
+                    mask: np.ndarray | None = None) -> dict[str, Any] | None:
     """``Decoded.info["radiometry"][direction]``: the diagnostic of the plan's narrowest group
-    (when it has N >= 4 equal steps) and what each group's compensation did; None when neither."""
+    (when it has N >= 4 equal steps; else, given the direction's absolute ``phase`` and ``mask``,
+    from its disagreement with another frequency: :func:`disagreement_group`) and what each
+    group's compensation did; None when neither."""
     out: dict[str, Any] = {}
+    report = None
     if group is not None and len(group.indices) >= 4:
         report = diagnose_group(ctx, group, ctx.cache[group.name][0] if group.name in ctx.cache else None)
-        if report is not None:
-            out["diagnostic"] = report
+    elif group is not None and phase is not None and mask is not None and not ctx.options.compensate:
+        report = disagreement_group(ctx, group, phase, mask)
+    if report is not None:
+        out["diagnostic"] = report
     done = ctx.cache.get("radiometry", {}).get("compensation")
     if done:
         out["compensation"] = done

@@ -167,7 +167,7 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         out.period[d] = period
         out.angle[d] = float(plan.angle)
         out.method[d] = plan.method
-        rad = compensation.radiometry_info(ctx, g)
+        rad = compensation.radiometry_info(ctx, g, phase, mask)
         if rad is not None:
             out.info.setdefault("radiometry", {})[d] = rad
         if first is None:

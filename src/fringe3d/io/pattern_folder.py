@@ -9,17 +9,20 @@ from pathlib import Path
 from fringe3d.patterns.gamma import precompensate
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.patterns.render import render_frame
+from fringe3d.radiometry import ResponseLUT, predistort
 from fringe3d.utils.console import progress_bar
 from fringe3d.utils.write_guard import guard_write
 
 from .images import write_image
 
 
-def write_pattern_folder(ps: PatternSet, out: Path, gamma: float | None = None, **render_options) -> list[Path]:
+def write_pattern_folder(ps: PatternSet, out: Path, gamma: float | None = None, response: ResponseLUT | None = None,
+                         **render_options) -> list[Path]:
     """Render ``ps`` and write ``out/00000.png ...`` plus ``out/manifest.json`` (atomically).
 
     ``gamma``: pre-compensate the 8-bit frames for a projector of that gamma
-    (:func:`fringe3d.patterns.gamma.precompensate`).
+    (:func:`fringe3d.patterns.gamma.precompensate`); ``response``: for a projector of that
+    measured response table (:func:`fringe3d.radiometry.predistort`).
     """
     out.mkdir(parents=True, exist_ok=True)
     for stale in out.glob("*.png"):  # a longer, older set must not leave frames behind
@@ -32,6 +35,8 @@ def write_pattern_folder(ps: PatternSet, out: Path, gamma: float | None = None, 
             img8 = ((img >= 0.5) * 255 if ps.bit_depth == 1 else (img * 255.0).round()).astype("uint8")
             if gamma is not None:
                 img8 = precompensate(img, gamma)
+            elif response is not None:
+                img8 = predistort(img, response)
             paths.append(write_image(out / f"{i:05d}.png", img8))
             advance()
     ps.save(out / "manifest.json")

@@ -56,10 +56,15 @@ class Rig:
     ----------
     camera : PinholeDevice | TelecentricCamera
     projector : PinholeDevice
+    projector_response : (inputs, response) tuple of float tuples, optional
+        The projector's measured grey-level response (:class:`fringe3d.radiometry.ResponseLUT`
+        as two tuples, both in [0, 1]), carried from capture to decode; a rig file with it is
+        version 2 (older files, version 1, load without it).
     """
 
     camera: Camera
     projector: PinholeDevice
+    projector_response: tuple[tuple[float, ...], tuple[float, ...]] | None = None
 
     @property
     def telecentric(self) -> bool:
@@ -74,15 +79,22 @@ class Rig:
         return float(np.linalg.norm(self.projector.center - cam.center))
 
     def to_dict(self) -> dict[str, Any]:
-        return {"format": RIG_FORMAT, "version": 1, "camera": self.camera.to_dict(),
-                "projector": self.projector.to_dict()}
+        d = {"format": RIG_FORMAT, "version": 1, "camera": self.camera.to_dict(),
+             "projector": self.projector.to_dict()}
+        if self.projector_response is not None:  # version 2 only where used, so older readers keep reading
+            inputs, response = self.projector_response
+            d.update(version=2, projector_response={"inputs": list(inputs), "response": list(response)})
+        return d
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], where: str = "rig file") -> "Rig":
         """A rig from its JSON form, validated first (:func:`~fringe3d.optics.rig_schema.validate_rig`)."""
         validate_rig(d, where)
+        resp = d.get("projector_response")
+        table = None if resp is None else (tuple(map(float, resp["inputs"])), tuple(map(float, resp["response"])))
         return cls(camera=device_from_dict(d["camera"], "rig camera"),
-                   projector=cast(PinholeDevice, device_from_dict(d["projector"], "rig projector")))
+                   projector=cast(PinholeDevice, device_from_dict(d["projector"], "rig projector")),
+                   projector_response=table)
 
     def save(self, path: str | os.PathLike) -> Path:
         path = Path(path)

@@ -71,11 +71,30 @@ class TelecentricModel(Strict):
 Device = Annotated[PinholeModel | TelecentricModel, Field(discriminator="kind")]
 
 
+class ResponseModel(Strict):
+    """The projector's measured response (issue 25): ``response[i] = r(inputs[i])``, both in [0, 1]."""
+
+    inputs: Annotated[list[FiniteFloat], Field(min_length=2)]
+    response: Annotated[list[FiniteFloat], Field(min_length=2)]
+
+    @model_validator(mode="after")
+    def _monotone(self) -> "ResponseModel":
+        x, r = np.asarray(self.inputs), np.asarray(self.response)
+        if x.shape != r.shape:
+            raise ValueError(f"inputs and response must have the same length, got {x.size} and {r.size}")
+        if x[0] != 0 or x[-1] != 1 or np.any(np.diff(x) <= 0):
+            raise ValueError("inputs: expected increasing projector inputs from 0 to 1")
+        if r[0] != 0 or r[-1] != 1 or np.any(np.diff(r) < 0):
+            raise ValueError("response: expected a non-decreasing normalised response from 0 to 1")
+        return self
+
+
 class RigModel(Strict):
     format: Literal["fringe3d-rig"] = "fringe3d-rig"
-    version: Annotated[StrictInt, Field(ge=1, le=1)] = 1
+    version: Annotated[StrictInt, Field(ge=1, le=2)] = 1
     camera: Device
     projector: PinholeModel
+    projector_response: ResponseModel | None = None
 
     @model_validator(mode="after")
     def _baseline(self) -> "RigModel":

@@ -58,6 +58,16 @@ class ResponseLUT(NamedTuple):
         return np.interp(np.clip(np.asarray(r, float), 0.0, 1.0), y, self.inputs[keep])
 
 
+def predistort(intensity, response: ResponseLUT) -> np.ndarray:
+    """8-bit projector levels that make a projector of ``response`` show ``intensity``.
+
+    ``round(255 r^-1(P))`` for desired intensities ``P`` in [0, 1] (any shape): the table
+    generalisation of :func:`fringe3d.patterns.gamma.precompensate` (``P ** (1 / gamma)``);
+    uint8, same shape.
+    """
+    return np.rint(255.0 * response.invert(intensity)).astype(np.uint8)
+
+
 def power_law(gamma: float, size: int = 256) -> ResponseLUT:
     """The response table of ``r = x ** gamma`` on ``size`` equally spaced inputs."""
     if not gamma > 0:

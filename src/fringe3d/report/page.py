@@ -13,6 +13,7 @@ from .calibration_view import calibration_tables
 from .definitions import DEFINITIONS, SECTION_TITLES
 from .discover import FolderContents
 from .plotly_bundle import draw_script, loader_script
+from .radiometry_view import radiometry_parts
 from .typed import JS_DECODE, b64_float32, b64_uint16, sample_points, shrink_map
 
 MAX_POINTS_3D = 60_000
@@ -124,6 +125,7 @@ def build_page(c: FolderContents, table, css: str, plotly_js: str) -> str:
             parts.append(f"<h3>{html.escape(t)}</h3><div class='scroll'>{table(rows, header, 'calibration')}</div>")
     if c.evaluation:
         parts += evaluation_parts(c.evaluation, table)
+    parts += radiometry_parts(c, table)
     if c.maps:
         parts.append("<h2>Error and quality maps</h2><div class='maps'>")
         for i, m in enumerate(c.maps):

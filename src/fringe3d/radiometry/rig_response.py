@@ -1,0 +1,29 @@
+"""The projector response kept with the rig (``Rig.projector_response``, rig file version 2).
+
+The grey-ramp response (:func:`fringe3d.radiometry.fit_response`, ``fringe3d capture --gamma``)
+is a property of the projector, so it travels in the rig / calibration file from capture to
+decode: ``decode --compensate response`` without ``--response`` uses it.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from fringe3d.optics.rig import Rig
+
+from .response import ResponseLUT
+
+
+def rig_response(rig: Rig) -> ResponseLUT | None:
+    """The rig's projector response as a :class:`ResponseLUT`, or None when the rig has none."""
+    if rig.projector_response is None:
+        return None
+    inputs, response = rig.projector_response
+    return ResponseLUT(np.asarray(inputs, float), np.asarray(response, float))
+
+
+def with_response(rig: Rig, response: ResponseLUT) -> Rig:
+    """A copy of ``rig`` carrying ``response`` (the table is stored as plain floats)."""
+    table = (tuple(float(v) for v in response.inputs), tuple(float(v) for v in response.response))
+    return replace(rig, projector_response=table)
