@@ -42,6 +42,7 @@ FACTS_JS = """() => {
           bodyLeft: b.left, bodyRight: window.innerWidth - b.right,
           fontPx: parseFloat(getComputedStyle(document.body).fontSize),
           h1: (document.querySelector('h1') || {}).textContent || '',
+          images: Array.from(document.querySelectorAll('img.fig')).map(e => e.alt),
           provenance: (document.querySelector('table.provenance') || {}).textContent || '',
           accuracyHeader: (document.querySelector('table.accuracy thead') || {}).textContent || null};
 }"""
@@ -172,6 +173,7 @@ def test_strain_report_plots_strain_over_time_in_seconds(facts):
 def test_calibration_and_demo_reports_carry_a_title_and_provenance(facts, runs):
     cal = facts["calibration", 1400]
     assert "calibration.json" in cal["h1"]
+    assert cal["images"] == ["calibration_residuals.png"]  # the residual plot beside the calibration
     marker = json.loads((runs["pages"]["demo"].parent / "fringe3d.json").read_text())
     assert "fringe3d version" in cal["provenance"] and "no fringe3d.json" not in cal["provenance"]
     demo = facts["demo", 1400]
