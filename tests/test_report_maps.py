@@ -59,3 +59,12 @@ def test_strain_series_in_seconds_from_the_frame_rate(tmp_path):
     np.testing.assert_allclose(s["wings"]["wing_0"]["median"], [0.0, 200.0, 500.0])
     assert s["peak_frame"] == 2
     assert strain_series(tmp_path, None)["t_title"].startswith("frame")
+
+
+def test_summary_rows_take_units_from_the_provenance_and_leave_it_out():
+    from fringe3d.report.page import summary_rows
+
+    summ = {"depth_min": 352.0, "files": {"depth": "depth.tif"}, "valid_share": 0.9,
+            "provenance": {"command": "fringe3d reconstruct", "units": {"depth_min": "mm", "valid_share": "1"}}}
+    assert summary_rows(summ) == [["depth_min", 352.0, "mm"], ["files.depth", "depth.tif", ""],
+                                  ["valid_share", 0.9, "1"]]

@@ -24,7 +24,7 @@ PAGE_CSS = """
 .strainplot{height:380px} figure.map{margin:0;border:1px solid #eee;min-width:0} .mapplot{height:360px}
 .maptitle{font-weight:600;font-size:.95em;padding:.3em .5em} .maptitle .muted{font-weight:400}
 .warn{background:#fff4d6;border-left:4px solid #e0a800;padding:.4em .8em}
-table.provenance td,table.provenance th,table.summary td{text-align:left} .scroll{overflow-x:auto}
+table.provenance td,table.provenance th,table.summary td,table.summary th{text-align:left} .scroll{overflow-x:auto}
 table.figures td:last-child{text-align:left;color:#555;max-width:520px}
 @media (max-width:900px){body{margin:1em auto} .plot3d{height:420px}}
 """
@@ -38,6 +38,14 @@ def _scalar_rows(d: dict, prefix: str = "") -> list[list]:
         elif not isinstance(v, list):
             rows.append([f"{prefix}{k}", v])
     return rows
+
+
+def summary_rows(summ: dict) -> list[list]:
+    """``[field, value, unit]`` rows of a command's summary JSON; its ``provenance`` (shown in the
+    provenance section) gives the units and is left out of the rows."""
+    units = ((summ.get("provenance") or {}).get("units") or {}) if isinstance(summ.get("provenance"), dict) else {}
+    body = {k: v for k, v in summ.items() if k != "provenance"}
+    return [[k, v, units.get(k, units.get(k.split(".")[-1], ""))] for k, v in _scalar_rows(body)]
 
 
 def file_provenance_rows(prov: dict, source: str) -> list[list]:
@@ -150,7 +158,7 @@ def build_page(c: FolderContents, table, css: str, plotly_js: str) -> str:
                      f'<img class="fig" alt="{html.escape(p.name)}" src="data:image/png;base64,{data}">')
     for name, summ in c.summaries.items():
         parts.append(f"<h2>{html.escape(name)}</h2><div class='scroll'>"
-                     + table(_scalar_rows(summ), ["field", "value"], "summary") + "</div>")
+                     + table(summary_rows(summ), ["field", "value", "unit"], "summary") + "</div>")
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             "<meta name='viewport' content='width=device-width, initial-scale=1'>"
             f"<title>{html.escape(title)}</title><style>{css}{PAGE_CSS}</style>"
