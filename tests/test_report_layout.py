@@ -174,6 +174,10 @@ def test_calibration_and_demo_reports_carry_a_title_and_provenance(facts, runs):
     cal = facts["calibration", 1400]
     assert "calibration.json" in cal["h1"]
     assert cal["images"] == ["calibration_residuals.png"]  # the residual plot beside the calibration
+    from PIL import Image
+
+    w, h = Image.open(runs["pages"]["demo"].parent / "calibration_residuals.png").size
+    assert h > 0.7 * w  # 2 x 2: the fourth panel is the residual map over the image
     marker = json.loads((runs["pages"]["demo"].parent / "fringe3d.json").read_text())
     assert "fringe3d version" in cal["provenance"] and "no fringe3d.json" not in cal["provenance"]
     demo = facts["demo", 1400]

@@ -68,3 +68,20 @@ def test_summary_rows_take_units_from_the_provenance_and_leave_it_out():
             "provenance": {"command": "fringe3d reconstruct", "units": {"depth_min": "mm", "valid_share": "1"}}}
     assert summary_rows(summ) == [["depth_min", 352.0, "mm"], ["files.depth", "depth.tif", ""],
                                   ["valid_share", 0.9, "1"]]
+
+
+def test_residual_plot_adds_the_map_over_the_image_only_when_points_match(tmp_path):
+    from PIL import Image
+
+    from fringe3d.calibrate.plots import residual_plot
+
+    rng = np.random.default_rng(0)
+    pts = [rng.uniform(0, 160, (20, 2)) for _ in range(3)]
+    res = [rng.normal(0, 0.1, (20, 2)) for _ in range(3)]
+    names = ["pose_00", "pose_01", "pose_02"]
+    w3, h3 = Image.open(residual_plot(tmp_path / "a.png", res, res, names)).size
+    w4, h4 = Image.open(residual_plot(tmp_path / "b.png", res, res, names, camera_points=pts,
+                                      image_size=(160, 128))).size
+    assert w3 > 2 * h3 and h4 > 0.7 * w4  # three panels in a row; 2 x 2 with the map
+    wrong = residual_plot(tmp_path / "c.png", res, res, names, camera_points=pts[:2], image_size=(160, 128))
+    assert Image.open(wrong).size == (w3, h3)  # points that do not match the residuals: no map

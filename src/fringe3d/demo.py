@@ -148,10 +148,9 @@ def run_demo(out: str | Path, profile: str = "default", seed: int = 0,
             warnings.warn(failure_message([Gate(**g) for g in cal.quality["gates"]]), CalibrationWarning,
                           stacklevel=2)
         cal.save(out / "calibration.json")
-        seen = {o.name: o.camera_uv[np.all(np.isfinite(o.camera_uv), axis=1)] for o in obs}
         residual_plot(out / "calibration_residuals.png", res.camera.residuals, res.projector.residuals,
                       res.pose_names, title="calibration reprojection residuals",
-                      camera_points=[seen.get(n, np.zeros((0, 2))) for n in res.pose_names],
+                      camera_points=getattr(res, "camera_points", None),
                       image_size=(sess.rig.camera.width, sess.rig.camera.height))
     with st.time("render measurement scene"):
         scene, ids, radius = measurement_scene(preset, seed)
