@@ -120,6 +120,7 @@ def test_page_fits_the_width_without_toolbar_over_titles_or_script_errors(facts,
     assert abs(f["bodyLeft"] - f["bodyRight"]) <= 2  # content centred, not flush left
     assert f["fontPx"] >= 14
     boxes = [mb for pl in f["plots"] for mb in pl["modebar"] if mb[2] > mb[0]]
+    assert len(boxes) == len(f["plots"])  # every plot has its toolbar in the DOM: the check below is real
     for t in f["titles"]:
         for mb in boxes:
             assert not _overlap(t["box"], mb), f"plotly toolbar covers the title {t['text']!r}"
