@@ -184,3 +184,8 @@ def test_calibration_and_demo_reports_carry_a_title_and_provenance(facts, runs):
     demo = facts["demo", 1400]
     assert marker["fringe3d"] in demo["provenance"]
     assert demo["accuracyHeader"] is not None and "truth" not in demo["accuracyHeader"]
+
+
+def test_truth_error_map_is_signed(runs):
+    err = read_image(runs["rec"] / "truth_error.tif")
+    assert np.nanmin(err) < 0 < np.nanmax(err)  # noise on both sides of the truth: |error| would be >= 0
