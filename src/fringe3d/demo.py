@@ -97,7 +97,8 @@ def _evaluate(points, truth, ids: dict, radius: float) -> tuple[dict, list]:
     """Sphere fits, ball-bar spacing and sculpture error against the truth (mm)."""
     valid = np.isfinite(points).all(axis=-1)
     masks = {k: binary_erosion(truth.object_id == i, iterations=2) & valid & truth.mask for k, i in ids.items()}
-    err = np.linalg.norm(points - truth.xyz, axis=-1)
+    diff = points - truth.xyz
+    err = np.linalg.norm(diff, axis=-1)
     metrics, accuracy = {}, []
     sph = probing_errors(points, masks["sphere"], true_diameter=2 * radius, exclude=VDI_EXCLUDE)
     metrics["sphere"] = {"sphere-fit RMS (mm)": sph.rms, "probing error form P_F (mm)": sph.form,
@@ -113,12 +114,12 @@ def _evaluate(points, truth, ids: dict, radius: float) -> tuple[dict, list]:
     accuracy += [
         {"quantity": "sphere-fit RMS", "value": sph.rms, "unit": "mm", "dissertation": "0.071 / 0.077 / 0.073 (ch. 2)"},
         {"quantity": "probing error form P_F", "value": sph.form, "unit": "mm"},
-        {"quantity": "probing error size P_S", "value": sph.size, "unit": "mm", "truth": 0.0},
-        {"quantity": "sphere spacing error", "value": bar.error, "unit": "mm", "truth": 0.0},
+        {"quantity": "probing error size P_S", "value": sph.size, "unit": "mm"},
+        {"quantity": "sphere spacing error", "value": bar.error, "unit": "mm"},
         {"quantity": "sculpture 3D error RMS", "value": metrics["sculpture"]["3D error RMS vs truth (mm)"],
          "unit": "mm"},
     ]
-    return metrics, accuracy, err, masks
+    return metrics, accuracy, np.copysign(err, diff[..., 2]), masks  # signed: + farther than the truth
 
 
 def run_demo(out: str | Path, profile: str = "default", seed: int = 0,
@@ -148,7 +149,9 @@ def run_demo(out: str | Path, profile: str = "default", seed: int = 0,
                           stacklevel=2)
         cal.save(out / "calibration.json")
         residual_plot(out / "calibration_residuals.png", res.camera.residuals, res.projector.residuals,
-                      res.pose_names, title="calibration reprojection residuals")
+                      res.pose_names, title="calibration reprojection residuals",
+                      camera_points=getattr(res, "camera_points", None),
+                      image_size=(sess.rig.camera.width, sess.rig.camera.height))
     with st.time("render measurement scene"):
         scene, ids, radius = measurement_scene(preset, seed)
         ps = sets.three_frequency("v", width=sess.rig.projector.width, height=sess.rig.projector.height)
@@ -190,7 +193,7 @@ def _write_outputs(out: Path, points, err, masks, metrics, texture) -> list:
         write_measurement_ply(out / f"{name}.ply", sub, tex, mask=m)
         _save_npy(out / f"points_{name}.npy", sub)
         if name in metrics:
-            _error_png(out / f"error_{name}.png", np.where(m, err, np.nan), f"{name}: |measured − truth| (mm)")
+            _error_png(out / f"error_{name}.png", np.where(m, err, np.nan), f"{name}: 3D error, signed by depth")
             entries.append({"name": name, "points": f"points_{name}.npy", "ply": f"{name}.ply",
                             "metrics": metrics[name], "error_map": f"error_{name}.png"})
     entries.append({"name": "ball bar", "metrics": metrics["ball bar"]})
@@ -203,21 +206,28 @@ def _save_npy(path: Path, arr: np.ndarray) -> None:
 
 
 def _error_png(path: Path, err: np.ndarray, title: str) -> None:
+    """Signed error map ``err`` (H, W) mm as a PNG: diverging colours centred on 0 (limits
+    ``±P99(|err|)``), axes in camera pixels of the full image (the crop keeps its coordinates),
+    colour bar in mm."""
     import matplotlib  # heavy: loaded only when a figure is written; Agg must be chosen before pyplot
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    r0, c0 = 0, 0
     rows, cols = np.nonzero(np.isfinite(err))
     if rows.size:  # crop to the object, with a small margin
         m = 8
-        err = err[max(rows.min() - m, 0):rows.max() + m + 1, max(cols.min() - m, 0):cols.max() + m + 1]
+        r0, c0 = max(rows.min() - m, 0), max(cols.min() - m, 0)
+        err = err[r0:rows.max() + m + 1, c0:cols.max() + m + 1]
     fig, ax = plt.subplots(figsize=(6, 4.5), dpi=100)
-    finite = err[np.isfinite(err)]
+    finite = np.abs(err[np.isfinite(err)])
     vmax = float(np.percentile(finite, 99)) if finite.size else 1.0
-    im = ax.imshow(err, cmap="magma", vmin=0, vmax=vmax)
+    h, w = err.shape
+    im = ax.imshow(err, cmap="RdBu_r", vmin=-vmax, vmax=vmax, extent=(c0 - 0.5, c0 + w - 0.5, r0 + h - 0.5, r0 - 0.5))
     ax.set_title(title)
-    ax.set_axis_off()
-    fig.colorbar(im, ax=ax, label="mm")
+    ax.set_xlabel("u (camera px)")
+    ax.set_ylabel("v (camera px)")
+    fig.colorbar(im, ax=ax, label="measured − truth (mm), + farther from the camera")
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", bbox_inches="tight")
     plt.close(fig)

@@ -245,7 +245,8 @@ def evaluate_points(points: np.ndarray, truth=None, *, sphere: bool = False, pla
             raise ValueError("`truth` needs an organized point map (points.npy / points.zarr), not a PLY cloud")
         out["truth"] = truth_errors(points, t)
         ok = np.isfinite(points[..., 0]) & t.mask
-        err = np.where(ok, np.linalg.norm(np.where(ok[..., None], points - t.xyz, 0.0), axis=-1), np.nan)
+        d = np.where(ok[..., None], points - t.xyz, 0.0)  # signed by depth: + farther than the truth
+        err = np.where(ok, np.copysign(np.linalg.norm(d, axis=-1), d[..., 2]), np.nan)
         if name := _write_map(result, "truth_error.tif", err):
             out["truth"]["error_map"] = name
     valid = np.all(np.isfinite(points), axis=-1)

@@ -488,7 +488,10 @@ def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist
             prj_r = res.projector.residuals
         else:
             cam_r, prj_r, names = res.camera_residuals, res.projector.residuals, res.pose_names
-        residual_plot(plot, cam_r, prj_r, names, title=f"{output.name}: reprojection residuals")
+        pinhole = cal.model == "pinhole"  # detected points over the image: the pinhole fit keeps them
+        residual_plot(plot, cam_r, prj_r, names, title=f"{output.name}: reprojection residuals",
+                      camera_points=getattr(res, "camera_points", None) if pinhole else None,
+                      image_size=(cal.rig.camera.width, cal.rig.camera.height) if pinhole else None)
         written["plot"] = str(plot)
     if yaml is not None:
         cal.export_opencv_yaml(yaml)

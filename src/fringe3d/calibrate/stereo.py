@@ -53,6 +53,7 @@ class RigCalibration:
     projector_poses: list[int] = field(default_factory=list)  # indices into pose_names of prj poses
     used_points: list[np.ndarray] = field(default_factory=list)  # per pose: bool (N,) valid projector points
     model_choice: dict = field(default_factory=dict)  # device -> report, for "auto" distortion models
+    camera_points: list = field(default_factory=list)  # per pose: (N_i, 2) px detected, rows of camera.residuals
 
 
 def circle_bias(board: CircleBoard, K, dist, rvec, tvec, samples: int = 96) -> np.ndarray:
@@ -170,4 +171,5 @@ def calibrate_pinhole_rig(board: CircleBoard, poses: list[PoseObservation], came
                               R=R, t=T)
     return RigCalibration(rig=Rig(camera=camera, projector=projector), camera=cam, projector=prj,
                           stereo_rms=stereo_rms, pose_names=[p.name for p in poses],
-                          projector_poses=proj_poses, used_points=keep, model_choice=choice)
+                          projector_poses=proj_poses, used_points=keep, model_choice=choice,
+                          camera_points=[u[c] for u, c in zip(cam_obs0, seen)])

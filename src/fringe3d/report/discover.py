@@ -25,19 +25,26 @@ from fringe3d.io.store import PointMapStore
 from fringe3d.utils.jsonfile import read_json
 from fringe3d.utils.output_folder import MARKER_NAME, check_complete, read_marker
 
+from .strain_view import strain_series
+
 CALIBRATION_FORMATS = ("fringe3d-calibration", "fringe3d-rig")
 SUMMARY_JSONS = ("reconstruct.json", "decoded.json", "summary.json")
-MAX_MAPS = 12
+MAX_MAPS = 16
 MAX_PNGS = 8
 
+#: Map kinds drawn as categories with a legend (:mod:`.map_view`), not a continuous colour bar.
+DISCRETE_KINDS = ("mask", "quality")
 #: file stem prefix -> (title, unit, plotly colour scale, centred on zero), in page order
 MAP_KINDS = (
-    ("truth_error", "3D error against the truth", "mm", "Inferno", False),
+    ("truth_error", "3D error against the truth, signed by depth (+ farther)", "mm", "RdBu_r", True),
     ("plane_residuals", "plane residuals (signed distance to the fit)", "mm", "RdBu", True),
     ("sphere_residuals", "sphere residuals (|p - c| - r)", "mm", "RdBu", True),
-    ("modulation", "fringe modulation (quality)", "counts", "Viridis", False),
-    ("mask", "valid-pixel mask", "", "Greys", False),
+    ("sigma_z", "predicted depth standard deviation σ_z", "mm", "Viridis", False),
+    ("quality", "quality: first reason a pixel was flagged", "", "", False),
+    ("modulation", "fringe modulation", "counts", "Viridis", False),
+    ("mask", "valid-pixel mask", "", "", False),
     ("depth", "depth", "mm", "Viridis", False),
+    ("phase_sigma", "phase standard deviation σ_φ", "rad", "Viridis", False),
     ("phase", "absolute phase", "rad", "Viridis", False),
     ("wrapped", "wrapped phase", "rad", "RdBu", False),
     ("average", "average intensity", "counts", "Greys", False),
@@ -47,7 +54,8 @@ MAP_KINDS = (
 
 @dataclass
 class MapItem:
-    """One (H, W) map: file ``name``, ``title``, ``unit``, plotly ``colorscale``, ``centred``."""
+    """One (H, W) map: file ``name``, ``title``, ``unit``, plotly ``colorscale``, ``centred``;
+    ``discrete`` names a categorical kind (``"mask"``, ``"quality"``) or is None."""
 
     name: str
     title: str
@@ -55,6 +63,7 @@ class MapItem:
     colorscale: str
     centred: bool
     values: np.ndarray
+    discrete: str | None = None
 
 
 @dataclass
@@ -62,6 +71,7 @@ class FolderContents:
     """What :func:`discover` found (fields empty / None when absent)."""
 
     folder: Path
+    name: str | None = None
     marker: dict | None = None
     calibration: dict | None = None
     calibration_source: str | None = None
@@ -71,6 +81,7 @@ class FolderContents:
     points_source: str | None = None
     maps: list = field(default_factory=list)
     pngs: list = field(default_factory=list)
+    strain: dict | None = None
 
 
 def _json_format(path: Path) -> str | None:
@@ -113,8 +124,14 @@ def _maps(folder: Path) -> list[MapItem]:
         if values.ndim != 2:
             continue
         suffix = p.stem[len(row[0]):].strip("_")
+        mask = folder / f"mask_{suffix}.tif"
+        if row[0] == "phase_sigma" and mask.is_file():  # sigma only where the phase is valid
+            m = np.asarray(read_image(mask))
+            if m.shape == values.shape:
+                values = np.where(m > 0, values, np.nan).astype(np.float32)
+        discrete = row[0] if row[0] in DISCRETE_KINDS else None
         items.append((MAP_KINDS.index(row), MapItem(p.name, row[1] + (f" ({suffix})" if suffix else ""),
-                                                    row[2], row[3], row[4], values)))
+                                                    row[2], row[3], row[4], values, discrete)))
     return [m for _, m in sorted(items, key=lambda t: (t[0], t[1].name))][:MAX_MAPS]
 
 
@@ -136,10 +153,10 @@ def discover(results: str | Path) -> FolderContents:
     if results.is_file():
         if _json_format(results) not in CALIBRATION_FORMATS:
             raise ValueError(f"{results}: expected a results folder or a fringe3d calibration JSON")
-        c = FolderContents(results.parent, calibration=read_json(results, "calibration"),
+        c = FolderContents(results.parent, name=results.name, calibration=read_json(results, "calibration"),
                            calibration_source=results.name)
-        png = results.with_suffix(".png")
-        c.pngs = [png] if png.is_file() else []
+        pngs = (results.with_suffix(".png"), results.with_name(results.stem + "_residuals.png"))
+        c.pngs = [p for p in pngs if p.is_file()][:1]  # the residual plot `calibrate --plot` / the demo writes
         return c
     if not results.is_dir():
         raise FileNotFoundError(f"results folder {results} does not exist")
@@ -163,8 +180,15 @@ def discover(results: str | Path) -> FolderContents:
             c.calibration, c.calibration_source = found
     c.points, c.points_source = _points(results)
     c.maps = _maps(results)
-    c.pngs += sorted((results / "maps").glob("*.png"))[:MAX_PNGS] if (results / "maps").is_dir() else []
-    if not (c.marker or c.calibration or c.evaluation or c.summaries or c.points is not None or c.maps or c.pngs):
+    rate = (c.summaries.get("summary.json") or {}).get("frame_rate_hz")
+    c.strain = strain_series(results, rate if isinstance(rate, (int, float)) and rate > 0 else None)
+    maps = sorted((results / "maps").glob("*.png")) if (results / "maps").is_dir() else []
+    if c.strain is not None and maps:  # the plot over time replaces the stack: one map, the peak frame
+        peak = results / "maps" / f"strain_{c.strain['peak_frame']:05d}.png"
+        maps = [peak if peak.is_file() else maps[0]]
+    c.pngs += maps[:MAX_PNGS]
+    if not (c.marker or c.calibration or c.evaluation or c.summaries or c.points is not None or c.maps or c.pngs
+            or c.strain):
         raise ValueError(f"nothing to report in {results}: it holds no fringe3d output (no fringe3d.json, summary, "
                          "evaluation, calibration, point map or figures); give a folder a fringe3d command wrote")
     return c

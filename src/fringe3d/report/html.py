@@ -19,19 +19,23 @@ import numpy as np
 from fringe3d.utils.atomic import atomic_write_text
 from fringe3d.io.arrays import load_array
 
-from .page import build_page, points_script
+from fringe3d.utils.output_folder import read_marker
+
+from .page import build_page, points_script, provenance_rows
 from .plotly_bundle import draw_script, loader_script
 from .results import SUMMARY_NAME, load_summary
 from .typed import JS_DECODE
 
 
 _CSS = """
-body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:2em auto;max-width:1100px;color:#222}
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;font-size:16px;line-height:1.45;
+margin:2em auto;max-width:1100px;padding:0 1em;color:#222;box-sizing:border-box}
 h1{font-size:1.6em} h2{border-bottom:1px solid #ddd;padding-bottom:.2em;margin-top:1.6em}
 table{border-collapse:collapse;margin:.6em 0} th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right}
 th{background:#f3f3f3} td:first-child,th:first-child{text-align:left}
-.fig{max-width:100%;border:1px solid #eee} .plot3d{width:100%;height:520px}
-.muted{color:#777;font-size:.9em}
+.fig{max-width:100%;height:auto;border:1px solid #eee} .plot3d{width:100%;height:520px}
+@media (max-width:900px){body{margin:1em auto;font-size:15px} .plot3d{height:420px}}
+.muted{color:#777;font-size:.9em} table.provenance td,table.provenance th{text-align:left}
 """
 
 
@@ -62,6 +66,15 @@ def _img(folder: Path, name: str | None, alt: str) -> str:
         return f'<p class="muted">figure {html.escape(name)} missing</p>'
     data = base64.b64encode(p.read_bytes()).decode()
     return f'<img class="fig" alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
+
+
+def accuracy_table(accuracy: list[dict]) -> str:
+    """The accuracy table: quantity, value, unit, then the ``truth`` and ``dissertation`` columns
+    only when some row has one (a column of blanks or zeros says nothing)."""
+    cols = ["quantity", "value", "unit"] + [k for k in ("truth", "dissertation")
+                                            if any(a.get(k) not in (None, "") for a in accuracy)]
+    rows = [[a.get(k, "") if a.get(k) is not None else "—" for k in cols] for a in accuracy]
+    return _table(rows, cols, "accuracy")
 
 
 #: Fields that make a ``summary.json`` a demo summary (``fringe3d strain`` writes other ones).
@@ -96,11 +109,11 @@ def build_report(folder: str | Path) -> str:
     if s.get("subtitle"):
         parts.append(f'<p class="muted">{html.escape(s["subtitle"])}</p>')
 
+    marker = read_marker(folder)  # the demo writes its report before it marks the folder complete
+    marker = {k: v for k, v in marker.items() if k not in ("complete", "finished", "files")} if marker else None
+    parts.append("<h2>Provenance</h2>" + _table(provenance_rows(marker), ["item", "value"], "provenance"))
     if s.get("accuracy"):
-        rows = [[a.get("quantity"), a.get("value"), a.get("unit", ""), a.get("truth", ""), a.get("dissertation", "")]
-                for a in s["accuracy"]]
-        parts.append("<h2>Accuracy</h2>"
-                     + _table(rows, ["quantity", "value", "unit", "truth", "dissertation"], "accuracy"))
+        parts.append("<h2>Accuracy</h2>" + accuracy_table(s["accuracy"]))
 
     cal = s.get("calibration")
     if cal:
@@ -122,7 +135,7 @@ def build_report(folder: str | Path) -> str:
         if m.get("points") and (folder / m["points"]).exists():
             div = f"plot3d_{i}"
             parts.append(f'<div id="{div}" class="plot3d"></div>')
-            plots.append(points_script(load_array(folder / m["points"], "point map"), div, m["name"]))
+            plots.append(points_script(load_array(folder / m["points"], "point map"), div))
         parts.append(_img(folder, m.get("error_map"), f"error map {m['name']}"))
 
     for name, seq in s.get("sequences", {}).items():
@@ -140,6 +153,7 @@ def build_report(folder: str | Path) -> str:
 
     scripts = JS_DECODE + "".join(plots)
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+            "<meta name='viewport' content='width=device-width, initial-scale=1'>"
             f"<title>{html.escape(s['title'])}</title><style>{_CSS}</style>"
             f"{loader_script(plotly.offline.get_plotlyjs())}</head><body>"
             + "\n".join(parts)

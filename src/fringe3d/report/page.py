@@ -13,18 +13,21 @@ from .calibration_view import calibration_tables
 from .definitions import DEFINITIONS, SECTION_TITLES
 from .discover import FolderContents
 from .plotly_bundle import draw_script, loader_script
+from .map_view import map_figure
 from .radiometry_view import radiometry_parts
-from .typed import JS_DECODE, b64_float32, b64_uint16, sample_points, shrink_map
+from .strain_view import strain_script
+from .typed import JS_DECODE, b64_uint16, sample_points
 
 MAX_POINTS_3D = 60_000
-MAX_MAP_SIDE = 400
 
 PAGE_CSS = """
 .maps{display:grid;grid-template-columns:repeat(auto-fit,minmax(340px,1fr));gap:12px}
-.map{height:360px;border:1px solid #eee} .warn{background:#fff4d6;border-left:4px solid #e0a800;padding:.4em .8em}
-table.provenance td,table.summary td{text-align:left} .scroll{overflow-x:auto}
+.strainplot{height:380px} figure.map{margin:0;border:1px solid #eee;min-width:0} .mapplot{height:360px}
+.maptitle{font-weight:600;font-size:.95em;padding:.3em .5em} .maptitle .muted{font-weight:400}
+.warn{background:#fff4d6;border-left:4px solid #e0a800;padding:.4em .8em}
+table.provenance td,table.provenance th,table.summary td,table.summary th{text-align:left} .scroll{overflow-x:auto}
 table.figures td:last-child{text-align:left;color:#555;max-width:520px}
-@media (max-width:900px){body{margin:1em .6em} .plot3d{height:420px}}
+@media (max-width:900px){body{margin:1em auto} .plot3d{height:420px}}
 """
 
 
@@ -38,15 +41,33 @@ def _scalar_rows(d: dict, prefix: str = "") -> list[list]:
     return rows
 
 
-def provenance_rows(marker: dict | None) -> list[list]:
-    """Rows of ``fringe3d.json``: version, command, times, inputs, fingerprint, completeness."""
+def summary_rows(summ: dict) -> list[list]:
+    """``[field, value, unit]`` rows of a command's summary JSON; its ``provenance`` (shown in the
+    provenance section) gives the units and is left out of the rows."""
+    units = ((summ.get("provenance") or {}).get("units") or {}) if isinstance(summ.get("provenance"), dict) else {}
+    body = {k: v for k, v in summ.items() if k != "provenance"}
+    return [[k, v, units.get(k, units.get(k.split(".")[-1], ""))] for k, v in _scalar_rows(body)]
+
+
+def file_provenance_rows(prov: dict, source: str) -> list[list]:
+    """Rows of the ``"provenance"`` object a fringe3d JSON file carries (version, time, command)."""
+    rows = [["from", f"{source} (its provenance)"], ["fringe3d version", prov.get("fringe3d_version")],
+            ["written", prov.get("written")], ["command", prov.get("command")]]
+    return [r for r in rows if r[1] is not None]
+
+
+def provenance_rows(marker: dict | None, fallback: tuple[dict, str] | None = None) -> list[list]:
+    """Rows of ``fringe3d.json``: version, command, times, inputs, fingerprint, completeness; without
+    one, the ``fallback`` ``(provenance, file name)`` of a JSON file (a calibration)."""
+    if not marker and fallback and isinstance(fallback[0], dict):
+        return file_provenance_rows(*fallback)
     if not marker:
         return [["provenance", "no fringe3d.json (a folder not written by fringe3d)"]]
     rows = [["fringe3d version", marker.get("fringe3d")], ["command", marker.get("command")],
             ["started", marker.get("started")], ["finished", marker.get("finished")],
             ["complete", marker.get("complete")], ["inputs", ", ".join(map(str, marker.get("inputs") or []))],
             ["input fingerprint", marker.get("fingerprint")], ["files", len(marker.get("files") or [])]]
-    return [r for r in rows if r[1] is not None]
+    return [r for r in rows if r[1] not in (None, "")]
 
 
 def evaluation_parts(ev: dict, table) -> list[str]:
@@ -74,50 +95,37 @@ def evaluation_parts(ev: dict, table) -> list[str]:
     return parts
 
 
-def _map_trace(m, div: str) -> str:
-    v = shrink_map(m.values, MAX_MAP_SIDE)
-    h, w = v.shape
-    finite = v[np.isfinite(v)]
-    trace = {"type": "heatmap", "colorscale": m.colorscale, "hoverongaps": False,
-             "colorbar": {"title": {"text": m.unit, "side": "right"}}}
-    if m.centred and finite.size:
-        a = float(np.max(np.abs(finite)))
-        trace.update(zmin=-a, zmax=a)
-    layout = {"title": {"text": m.title, "font": {"size": 13}}, "margin": {"l": 40, "r": 10, "t": 34, "b": 30},
-              "yaxis": {"autorange": "reversed", "scaleanchor": "x"}, "xaxis": {"constrain": "domain"}}
-    return (f"(function(){{const t={json.dumps(trace)};t.z=grid({json.dumps(b64_float32(v))},{h},{w});"
-            f"Plotly.newPlot({json.dumps(div)},[t],{json.dumps(layout)},{{responsive:true}});}})();")
-
-
-def points_script(points: np.ndarray, div: str, title: str) -> str:
+def points_script(points: np.ndarray, div: str) -> str:
     """JavaScript drawing at most :data:`MAX_POINTS_3D` of ``points`` as a plotly scatter3d
     (coordinates as base64 uint16 over their range, :func:`~.typed.b64_uint16`, coloured by z),
-    seen from the camera's side."""
+    seen from the camera's side (its caption is the caller's HTML, never a plotly title the toolbar
+    would cover)."""
     p = sample_points(points, MAX_POINTS_3D)
     data: dict = {}
     for i, ax in enumerate("xyz"):
         data[ax], data[ax + "0"], data["d" + ax] = b64_uint16(p[:, i])
     span = np.ptp(p, axis=0) if len(p) else np.ones(3)
     ratio = np.maximum(span / max(float(span.max()), 1e-12), 0.25)  # a flat plane stays visible
-    layout = {"title": {"text": title}, "margin": {"l": 0, "r": 0, "t": 30, "b": 0},
+    layout = {"margin": {"l": 0, "r": 0, "t": 10, "b": 0},
               "scene": {"aspectmode": "manual", "aspectratio": dict(zip("xyz", map(float, ratio))),
                         "xaxis": {"title": {"text": "x (mm)"}},
                         "yaxis": {"title": {"text": "y (mm)"}},
-                        "zaxis": {"title": {"text": "z (mm)"}},
+                        "zaxis": {"title": {"text": "z (mm)"}, "nticks": 4},
                         # seen from the camera's side (camera at the origin looking along +z, image y down)
                         "camera": {"up": {"x": 0, "y": -1, "z": 0}, "eye": {"x": 0.5, "y": -0.5, "z": -1.7}}}}
     return (f"(function(){{const d={json.dumps(data)};const x=u16(d.x,d.x0,d.dx),y=u16(d.y,d.y0,d.dy),"
             "z=u16(d.z,d.z0,d.dz);"
             "Plotly.newPlot(" + json.dumps(div) + ",[{type:'scatter3d',mode:'markers',x:x,y:y,z:z,"
             "marker:{size:1.5,color:z,colorscale:'Viridis',colorbar:{title:{text:'z (mm)'}}}}],"
-            f"{json.dumps(layout)},{{responsive:true}});}})();")
+            f"{json.dumps(layout)},{{responsive:true,displaylogo:false}});}})();")
 
 
 def build_page(c: FolderContents, table, css: str, plotly_js: str) -> str:
     """HTML text of the report of ``c`` (``table(rows, header, cls)`` renders a table)."""
-    title = f"fringe3d report: {c.folder.name}"
+    title = f"fringe3d report: {c.name or c.folder.resolve().name}"
+    cal_prov = ((c.calibration or {}).get("provenance"), str(c.calibration_source)) if c.calibration else None
     parts = [f"<h1>{html.escape(title)}</h1>", "<h2>Provenance</h2>",
-             table(provenance_rows(c.marker), ["item", "value"], "provenance")]
+             table(provenance_rows(c.marker, cal_prov), ["item", "value"], "provenance")]
     scripts = [JS_DECODE]
     if c.calibration is not None:
         parts.append(f"<h2>Calibration</h2><p class='muted'>from {html.escape(str(c.calibration_source))}</p>")
@@ -129,22 +137,30 @@ def build_page(c: FolderContents, table, css: str, plotly_js: str) -> str:
     if c.maps:
         parts.append("<h2>Error and quality maps</h2><div class='maps'>")
         for i, m in enumerate(c.maps):
-            parts.append(f'<div id="map_{i}" class="map" title="{html.escape(m.name)}"></div>')
-            scripts.append(_map_trace(m, f"map_{i}"))
+            fig, script = map_figure(m, f"map_{i}")
+            parts.append(fig)
+            scripts.append(script)
         parts.append("</div>")
     if c.points is not None:
         n = int(np.isfinite(np.asarray(c.points)).all(axis=-1).sum())
         parts.append(f"<h2>3D points</h2><p class='muted'>{html.escape(str(c.points_source))}: {n} valid points"
                      f"{f', {MAX_POINTS_3D} shown' if n > MAX_POINTS_3D else ''}</p>"
                      '<div id="plot3d_0" class="plot3d"></div>')
-        scripts.append(points_script(c.points, "plot3d_0", str(c.points_source)))
+        scripts.append(points_script(c.points, "plot3d_0"))
+    if c.strain is not None:
+        n = len(c.strain["t"])
+        parts.append("<h2>Strain over time</h2><p class='muted'>dominant principal strain of the tracked points per "
+                     f"frame ({n} frames): median and 5-95 % band, microstrain; the map below is the frame of "
+                     f"largest strain ({c.strain['peak_frame']}); every frame: maps/, strain.gif, strain.pvd</p>"
+                     '<div id="strain_0" class="strainplot"></div>')
+        scripts.append(strain_script(c.strain, "strain_0"))
     for p in c.pngs:
         data = base64.b64encode(p.read_bytes()).decode()
         parts.append(f"<h3>{html.escape(p.name)}</h3>"
                      f'<img class="fig" alt="{html.escape(p.name)}" src="data:image/png;base64,{data}">')
     for name, summ in c.summaries.items():
         parts.append(f"<h2>{html.escape(name)}</h2><div class='scroll'>"
-                     + table(_scalar_rows(summ), ["field", "value"], "summary") + "</div>")
+                     + table(summary_rows(summ), ["field", "value", "unit"], "summary") + "</div>")
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             "<meta name='viewport' content='width=device-width, initial-scale=1'>"
             f"<title>{html.escape(title)}</title><style>{css}{PAGE_CSS}</style>"
