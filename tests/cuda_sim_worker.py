@@ -64,6 +64,7 @@ def main(out_path: str) -> None:
     from fringe3d.io.store import PointMapStore
     from fringe3d.patterns import sets
     from fringe3d.phase.psp import wrapped_phase
+    from fringe3d.reconstruct.settings import DecodeSettings, RunSettings
     from fringe3d.reconstruct.sequence import reconstruct_sequence, with_method
     from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator
     from fringe3d.unwrap.geometric import geometric_unwrap, minimum_phase
@@ -155,8 +156,8 @@ def main(out_path: str) -> None:
         warnings.simplefilter("ignore")
         stores = {}
         for backend in ("cpu", "cuda"):
-            res = reconstruct_sequence(seq, ps3, rig, f"{tmp}/{backend}", options=opts, progress=False,
-                                       backend=backend)
+            res = reconstruct_sequence(seq, ps3, rig, f"{tmp}/{backend}", decode=DecodeSettings(options=opts),
+                                       run=RunSettings(progress=False, backend=backend))
             st = PointMapStore.open_existing(f"{tmp}/{backend}/points.zarr")
             stores[backend] = np.stack([st.read(k) for k in range(res["frames_3d"])])
             r[f"seq_{backend}_path"] = np.array(res["path"])
@@ -166,6 +167,7 @@ def main(out_path: str) -> None:
     from fringe3d.cli import main as cli
     from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
     from fringe3d.io.capture import write_capture
+    from fringe3d.io.capture_frames import CaptureFolder
 
     with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -183,8 +185,8 @@ def main(out_path: str) -> None:
         cap = write_capture(f"{tmp}/cap", seq, ps3)
         client = connect(workers=1, gpu=True)  # its worker process inherits NUMBA_ENABLE_CUDASIM
         try:
-            res = reconstruct_capture_on_dask(cap, ps3, rig, Path(f"{tmp}/out"), opts, client=client, chunk=1,
-                                              progress=False, backend="cuda")
+            res = reconstruct_capture_on_dask(CaptureFolder(str(cap)), ps3, rig, Path(f"{tmp}/out"), client,
+                                              DecodeSettings(opts), run=RunSettings("cuda", progress=False), chunk=1)
         finally:
             close(client, own_cluster=True)
         st = PointMapStore.open_existing(f"{tmp}/out/points.zarr")

@@ -26,11 +26,10 @@ from fringe3d.patterns.method_registry import method_names, relative_methods
 from fringe3d.utils.output_folder import open_output
 from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
 from fringe3d.reconstruct.depth import EmptyMaskError
-from fringe3d.reconstruct.sequence import (
-    CaptureFrames,
-    reconstruct_sequence,
-    with_method,
-)
+from fringe3d.io.capture_frames import CaptureFolder
+from fringe3d.reconstruct.frame import with_method
+from fringe3d.reconstruct.sequence import reconstruct_sequence
+from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.utils.console import (
     console,
     info,
@@ -60,23 +59,12 @@ def empty_reason(cap, patterns, rig, min_modulation) -> str:
                    "calibration belongs to this rig and the depth limits (--z-min)")
 
 
-def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOptions, window, ply: bool, store: bool,
-              progress: bool, triangulation: str, client, chunk: int, layout: str = "auto",
-              store_quality: bool = True, backend: str = "cpu", codec: str = "lz4",
-              allow_relative: bool = False) -> dict:
+def _sequence(out: Path, capture: CaptureFolder, ps, rig, settings: tuple[DecodeSettings, OutputSettings, RunSettings],
+              client, chunk: int) -> dict:
     """The sequence branch: in this process, or on Dask when a ``client`` is given."""
-    mode = "window" if window else "cycle"
     if client is not None:
-        return reconstruct_capture_on_dask(capture, ps, rig, out, options, limit=limit, mode=mode, step=window,
-                                           ply=ply, store=store, triangulation=triangulation, client=client,
-                                           chunk=chunk, progress=progress, layout=layout, store_quality=store_quality,
-                                           backend=backend, codec=codec, allow_relative=allow_relative)
-    frames = open_frames(capture, limit=limit)  # a referenced camera file, read on demand; else None
-    frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
-    return reconstruct_sequence(frames, ps, rig, out, options=options, mode=mode, step=window, ply=ply,
-                                store=store, progress=progress, triangulation=triangulation, layout=layout,
-                                store_quality=store_quality, backend=backend, codec=codec,
-                                allow_relative=allow_relative)
+        return reconstruct_capture_on_dask(capture, ps, rig, out, client, *settings, chunk=chunk)
+    return reconstruct_sequence(capture, ps, rig, out, *settings)
 
 
 def register(app: typer.Typer) -> None:
@@ -239,9 +227,13 @@ def register(app: typer.Typer) -> None:
                     summary.update(r.summary())
                     summary["path"] = r.path
                 else:
-                    seq = _sequence(o.path, capture, cycles * len(ps), ps, rig, DecodeOptions(z_min=z_min, **opts),
-                                    window, ply, store, not (quiet or json_), triangulation, client, chunk,
-                                    store_layout, store_quality, device, store_codec, allow_relative)
+                    settings = (DecodeSettings(DecodeOptions(z_min=z_min, **opts), triangulation,
+                                               allow_relative=allow_relative, mode="window" if window else "cycle",
+                                               step=window),
+                                OutputSettings(ply, store, store_layout, store_quality, store_codec),
+                                RunSettings(device, progress=not (quiet or json_)))
+                    seq = _sequence(o.path, CaptureFolder(str(capture), cycles * len(ps)), ps, rig, settings, client,
+                                    chunk)
                     summary.update(o.final_paths(seq))
                     if seq.get("empty_frames") == seq.get("frames_3d") and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point in any frame of the sequence: "
