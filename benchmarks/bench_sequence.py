@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pyMRAW
 
-from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
+from fringe3d.cluster.engine import close, connect, dask_executor, reconstruct_capture_on_dask
 from fringe3d.decode import DecodeOptions
 from fringe3d.io import store as store_module
 from fringe3d.io.capture import open_frames, read_capture, write_capture
@@ -169,8 +169,9 @@ def main() -> None:
                 def on_dask(workers=workers, client=client):
                     out = work / f"dask{workers}"
                     shutil.rmtree(out, ignore_errors=True)
-                    reconstruct_capture_on_dask(CaptureFolder(str(mraw_cap)), ps, rig, out, client,
-                                                DecodeSettings(opts), run=RunSettings(progress=False), chunk=8)
+                    reconstruct_capture_on_dask(CaptureFolder(str(mraw_cap)), ps, rig, out,
+                                                dask_executor(client, chunk=8), DecodeSettings(opts),
+                                                run=RunSettings(progress=False))
                 on_dask()  # warm the workers (imports, the reconstructor's tables)
                 res[f"end_to_end_dask_{workers}w_3d_per_s"] = args.cycles / _timed(on_dask)
             finally:

@@ -165,7 +165,7 @@ def main(out_path: str) -> None:
 
     # -- the same sequence as a capture folder: `fringe3d reconstruct --device cuda` and --device cpu
     from fringe3d.cli import main as cli
-    from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
+    from fringe3d.cluster.engine import close, connect, dask_executor, reconstruct_capture_on_dask
     from fringe3d.io.capture import write_capture
     from fringe3d.io.capture_frames import CaptureFolder
 
@@ -185,8 +185,9 @@ def main(out_path: str) -> None:
         cap = write_capture(f"{tmp}/cap", seq, ps3)
         client = connect(workers=1, gpu=True)  # its worker process inherits NUMBA_ENABLE_CUDASIM
         try:
-            res = reconstruct_capture_on_dask(CaptureFolder(str(cap)), ps3, rig, Path(f"{tmp}/out"), client,
-                                              DecodeSettings(opts), run=RunSettings("cuda", progress=False), chunk=1)
+            res = reconstruct_capture_on_dask(CaptureFolder(str(cap)), ps3, rig, Path(f"{tmp}/out"),
+                                              dask_executor(client, chunk=1), DecodeSettings(opts),
+                                              run=RunSettings("cuda", progress=False))
         finally:
             close(client, own_cluster=True)
         st = PointMapStore.open_existing(f"{tmp}/out/points.zarr")

@@ -17,7 +17,7 @@ from fringe3d.cluster.chunk_task import SequenceJob, run_chunk
 from fringe3d.io.capture_frames import CaptureFolder
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import PatternSet
-from fringe3d.reconstruct.executors import Executor, WindowJob
+from fringe3d.reconstruct.executors import Done, WindowJob
 from fringe3d.reconstruct.sequence import reconstruct_sequence
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.utils.output_folder import fingerprint
@@ -71,28 +71,35 @@ def gpu_workers(client) -> list[str]:
     return [a for a, w in workers.items() if (w.get("resources") or {}).get("GPU", 0) >= 1]
 
 
-def dask_executor(client, chunk: int = DEFAULT_CHUNK, retries: int = 3, in_flight: int | None = None) -> Executor:
+class dask_executor:  # noqa: N801 - used as a function, as the executors of fringe3d.reconstruct.executors
     """An executor (:mod:`fringe3d.reconstruct.executors`) computing chunks of ``chunk`` 3D frames
     on ``client``'s workers; the job must come from a capture folder the workers can read.
 
     A ``"cuda"`` job's tasks ask for :data:`GPU_RESOURCE`, so they run only on workers that
     declare it; ``ValueError`` when no worker does. Chunks are yielded as they complete; at most
     ``in_flight`` (default: two per worker thread, at least 2) are submitted and not yet written.
+    ``mark_every``: the writing loop marks frames done once per chunk (a killed run loses at most
+    the chunks in flight).
     """
 
-    def run(job: WindowJob, todo: list[int]) -> Iterator[tuple]:
+    def __init__(self, client, chunk: int = DEFAULT_CHUNK, retries: int = 3, in_flight: int | None = None):
+        self.client, self.chunk, self.retries, self.in_flight = client, max(1, int(chunk)), retries, in_flight
+        self.mark_every = self.chunk
+
+    def __call__(self, job: WindowJob, todo: list[int]) -> Iterator[Done]:
         import distributed  # optional extra, see connect()
 
+        client = self.client
         remote = sequence_job(job, client)
         resources = dict(GPU_RESOURCE) if remote.backend == "cuda" else None
-        parts = chunks_of(todo, max(1, chunk))
-        most = in_flight or max(2, 2 * sum(client.nthreads().values()))
+        parts = chunks_of(todo, self.chunk)
+        most = self.in_flight or max(2, 2 * sum(client.nthreads().values()))
         queue = distributed.as_completed()
         submitted = 0
         try:
             while submitted < len(parts) or not queue.is_empty():
                 while submitted < len(parts) and queue.count() < most:
-                    queue.add(client.submit(run_chunk, remote, parts[submitted], retries=retries, pure=False,
+                    queue.add(client.submit(run_chunk, remote, parts[submitted], retries=self.retries, pure=False,
                                             resources=resources))
                     submitted += 1
                 fut = next(queue)
@@ -101,8 +108,6 @@ def dask_executor(client, chunk: int = DEFAULT_CHUNK, retries: int = 3, in_fligh
                 yield from done
         finally:
             client.cancel(list(queue.futures))
-
-    return run
 
 
 def sequence_job(job: WindowJob, client) -> SequenceJob:
@@ -126,13 +131,13 @@ def sequence_job(job: WindowJob, client) -> SequenceJob:
                        quality=job.quality)
 
 
-def reconstruct_capture_on_dask(capture: CaptureFolder, patterns: PatternSet, rig: Rig, out: Path, client,
-                                decode: DecodeSettings | None = None, outputs: OutputSettings | None = None,
-                                run: RunSettings | None = None, chunk: int = DEFAULT_CHUNK) -> dict:
+def reconstruct_capture_on_dask(capture: CaptureFolder, patterns: PatternSet, rig: Rig, out: Path,
+                                executor: dask_executor, decode: DecodeSettings | None = None,
+                                outputs: OutputSettings | None = None, run: RunSettings | None = None) -> dict:
     """:func:`fringe3d.reconstruct.sequence.reconstruct_sequence` of a capture folder with the
-    :func:`dask_executor` of ``client`` (from :func:`connect`): same store, same point maps
+    :func:`dask_executor` ``executor`` (its client from :func:`connect`): same store, same point maps
     (bit-identical: the same per-window code runs on the workers, the same loop writes), same
     summary plus ``workers`` and ``tasks``. ``capture``: the folder and frame limit the workers read."""
-    res = reconstruct_sequence(capture, patterns, rig, out, decode, outputs, run, executor=dask_executor(client, chunk))
-    return {**res, "workers": len(client.scheduler_info().get("workers", {})),
-            "tasks": -(-res["done_now"] // max(1, chunk))}
+    res = reconstruct_sequence(capture, patterns, rig, out, decode, outputs, run, executor=executor)
+    return {**res, "workers": len(executor.client.scheduler_info().get("workers", {})),
+            "tasks": -(-res["done_now"] // executor.chunk)}

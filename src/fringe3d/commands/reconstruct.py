@@ -10,7 +10,7 @@ import typer
 
 from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.decode import DecodeOptions
-from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
+from fringe3d.cluster.engine import close, connect, dask_executor, reconstruct_capture_on_dask
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.plan_errors import in_flag_words
@@ -63,7 +63,7 @@ def _sequence(out: Path, capture: CaptureFolder, ps, rig, settings: tuple[Decode
               client, chunk: int) -> dict:
     """The sequence branch: in this process, or on Dask when a ``client`` is given."""
     if client is not None:
-        return reconstruct_capture_on_dask(capture, ps, rig, out, client, *settings, chunk=chunk)
+        return reconstruct_capture_on_dask(capture, ps, rig, out, dask_executor(client, chunk), *settings)
     return reconstruct_sequence(capture, ps, rig, out, *settings)
 
 

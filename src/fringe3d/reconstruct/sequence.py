@@ -120,7 +120,8 @@ def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig, out, decode: De
         (backend, progress); defaults when None
     executor : who computes the 3D frames (:mod:`fringe3d.reconstruct.executors`: :func:`serial`,
         ``threads(n)``, ``fringe3d.cluster.engine.dask_executor(client)``); this loop writes
-        them, marks them done and counts them whichever computes
+        them, marks them done (every ``executor.mark_every`` frames, default :data:`MARK_EVERY`)
+        and counts them whichever computes
 
     Returns a summary dict (3D frames, done now / before, empty frames, seconds, 3D frames per
     second, path, mode, backend, store, PLY folder, store layout).
@@ -142,7 +143,9 @@ def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig, out, decode: De
     job = WindowJob(rec, frames, tuple(starts), outputs.ply, st.layout if st is not None else None,
                     st is not None and st.has_quality, capture=capture)
     t0 = time.perf_counter()
-    empty = _write_all(executor(job, todo), out, st, outputs.ply, run.progress and len(todo) > 1, len(todo))
+    mark_every = int(getattr(executor, "mark_every", MARK_EVERY))
+    empty = _write_all(executor(job, todo), out, (st, mark_every), outputs.ply, run.progress and len(todo) > 1,
+                       len(todo))
     dt = time.perf_counter() - t0
     return {"out": str(out), "frames_3d": len(starts), "done_now": len(todo), "done_before": len(starts) - len(todo),
             "empty_frames": empty, "seconds": round(dt, 3),
@@ -152,10 +155,13 @@ def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig, out, decode: De
             "store_layout": st.layout if st is not None else None}
 
 
-def _write_all(results: Iterator, out: Path, st: PointMapStore | None, ply: bool, progress: bool, n: int) -> int:
+def _write_all(results: Iterator, out: Path, store: tuple[PointMapStore | None, int], ply: bool, progress: bool,
+               n: int) -> int:
     """Write every ``(k, cycle, empty)`` of ``results`` (PLY here, store writes on a writer thread
-    behind the next frame's compute), marking frames done every :data:`MARK_EVERY`; returns the
-    number of empty frames. Also when interrupted the frames whose writes finished are marked."""
+    behind the next frame's compute) into ``store`` = (the store or None, frames marked done at
+    once); returns the number of empty frames. Also when interrupted the frames whose writes
+    finished are marked."""
+    st, mark_every = store
     empty = 0
     writes: deque = deque()
     written: list[int] = []
@@ -171,7 +177,7 @@ def _write_all(results: Iterator, out: Path, st: PointMapStore | None, ply: bool
                     writes.append((k, writer.submit(st.write_frame, k, **store_arrays(cyc, st))))
                     while len(writes) > 2:  # at most two frames in flight: bounded memory
                         written.append(_finish(writes.popleft()))
-                    if len(written) >= MARK_EVERY:
+                    if len(written) >= mark_every:
                         st.mark_done(written)
                         written.clear()
                 advance()
