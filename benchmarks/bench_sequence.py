@@ -50,7 +50,7 @@ from fringe3d.io.importer import import_images
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
-from fringe3d.reconstruct.sequence import CaptureFrames, FrameReconstructor, reconstruct_sequence, with_method
+from fringe3d.reconstruct.sequence import CaptureFrames, FrameReconstructor, reconstruct_sequence, reconstruction_plans
 from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
 
@@ -85,7 +85,7 @@ def make_inputs(work: Path, cycles: int):
     import_images(str(Path(mraw).with_suffix(".cih")), work / "mraw-cap", manifest=one / "manifest.json")
     png_cycles = min(cycles, PNG_CYCLES)  # the PNG read rate needs no more
     write_capture(work / "png-cap", frames[:png_cycles * len(cap.patterns)], cap.patterns, meta={"bit_depth": 8})
-    return work / "mraw-cap", work / "png-cap", with_method(cap.patterns, "geometric"), rig, z_min
+    return work / "mraw-cap", work / "png-cap", reconstruction_plans(cap.patterns, "geometric"), rig, z_min
 
 
 def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dict:
@@ -131,7 +131,7 @@ def main() -> None:
         res: dict = {"cycles": args.cycles, "shape": list(cycle.shape[1:]), "path": rec.path,
                      "cores": os.cpu_count(), "load_average": os.getloadavg()[0]}
         res["kernel_3d_per_s"] = rate(lambda: [rec(cycle) for _ in range(20)], 20)
-        res["kernel_fused_only_3d_per_s"] = rate(lambda: [rec.fast.depth(cycle, rec._fast_index)
+        res["kernel_fused_only_3d_per_s"] = rate(lambda: [rec.fast.depth(cycle, rec.fused.index)
                                                           for _ in range(20)], 20)
         res["window_as_stored_3d_per_s"] = rate(lambda: [rec.reconstruct(cycle, uncertainty="z", points=False,
                                                                          texture=False)

@@ -65,7 +65,7 @@ def main(out_path: str) -> None:
     from fringe3d.patterns import sets
     from fringe3d.phase.psp import wrapped_phase
     from fringe3d.reconstruct.settings import DecodeSettings, RunSettings
-    from fringe3d.reconstruct.sequence import reconstruct_sequence, with_method
+    from fringe3d.reconstruct.sequence import reconstruct_sequence, reconstruction_plans
     from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator
     from fringe3d.unwrap.geometric import geometric_unwrap, minimum_phase
     from fringe3d.unwrap.temporal import three_frequency_decode
@@ -75,7 +75,7 @@ def main(out_path: str) -> None:
     rig = tiny_rig()
 
     # -- 3-step + geometric + triangulation (fused), and the same steps one by one
-    ps3 = with_method(sets.phase_shift(18.0, 3, "v", width=256, height=200), "geometric")
+    ps3 = reconstruction_plans(sets.phase_shift(18.0, 3, "v", width=256, height=200), "geometric")
     f3, truth = render_cycles(rig, ps3, 3, ideal_first=True, with_wall=False)
     f3 = np.concatenate([f3[:1], np.round(f3[1:])])  # cycles 1, 2 hold uint8 values
     r["truth_xyz"], r["truth_mask"] = truth.xyz, truth.mask

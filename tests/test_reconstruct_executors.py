@@ -13,7 +13,7 @@ from fringe3d.io.store import PointMapStore
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns import sets
 from fringe3d.reconstruct.executors import serial, threads
-from fringe3d.reconstruct.frame import with_method
+from fringe3d.reconstruct.frame import reconstruction_plans
 from fringe3d.reconstruct.sequence import reconstruct_sequence
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.sim import simulate_capture
@@ -32,7 +32,7 @@ def capture(tmp_path_factory):
 
 
 def run_with(capture, out, executor) -> dict:
-    ps = with_method(read_capture(capture, max_cycles=1).patterns, "geometric")
+    ps = reconstruction_plans(read_capture(capture, max_cycles=1).patterns, "geometric")
     rig = Rig.load(capture / "rig.json")
     decode = DecodeSettings(DecodeOptions(z_min=340.0))
     return reconstruct_sequence(CaptureFolder(str(capture)), ps, rig, out, decode, OutputSettings(ply=True),

@@ -15,7 +15,7 @@ from fringe3d.io.store import PointMapStore
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
-from fringe3d.reconstruct.sequence import FrameReconstructor, reconstruct_sequence, with_method
+from fringe3d.reconstruct.sequence import FrameReconstructor, reconstruct_sequence, reconstruction_plans
 from fringe3d.reconstruct.uncertainty import central_difference
 from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
@@ -30,7 +30,8 @@ def seq(tmp_path_factory):
     ps = sets.phase_shift(64, 3, "v", width=256, height=200)
     simulate_capture(folder, preset="tiny", scene="sphere", patterns=ps, cycles=3, seed=11, progress=False)
     cap = read_capture(folder)
-    return cap, with_method(cap.patterns, "geometric"), Rig.load(folder / "rig.json"), Truth.load(folder), folder
+    ps = reconstruction_plans(cap.patterns, "geometric")
+    return cap, ps, Rig.load(folder / "rig.json"), Truth.load(folder), folder
 
 
 @pytest.fixture(scope="module")

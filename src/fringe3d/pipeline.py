@@ -27,7 +27,7 @@ from fringe3d.io.pointcloud import _colors
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.reconstruct.depth import depth_map
-from fringe3d.reconstruct.frame import FrameReconstructor, with_method
+from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
 from fringe3d.unwrap.geometric import propose_z_min
 from fringe3d.utils.camera_size import check_camera_size
 from fringe3d.utils.atomic import atomic_path
@@ -222,7 +222,7 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
     fringe3d.decode.plan_checks.MissingGeometryError
         A geometric-constraint method without ``z_min``.
     """
-    ps = with_method(cap.patterns, method)
+    ps = reconstruction_plans(cap.patterns, method)
     source = f"{cap.folder / MANIFEST_NAME}" if cap.folder is not None else "the manifest"
     check_plans(ps, rig, z_min, original=cap.patterns, source=source, allow_relative=allow_relative)
     options = DecodeOptions(z_min=z_min, bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation,

@@ -27,7 +27,7 @@ from fringe3d.utils.output_folder import open_output
 from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
 from fringe3d.reconstruct.depth import EmptyMaskError
 from fringe3d.io.capture_frames import CaptureFolder
-from fringe3d.reconstruct.frame import with_method
+from fringe3d.reconstruct.frame import reconstruction_plans
 from fringe3d.reconstruct.sequence import reconstruct_sequence
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.utils.console import (
@@ -178,7 +178,7 @@ def register(app: typer.Typer) -> None:
         referenced = open_frames(capture)  # a camera file (capture.json source), read on demand; else None
         n_files = len(referenced) if referenced is not None else len(list_frame_files(capture))
         cycles = n_files // len(cap.patterns) if max_cycles is None else min(max_cycles, n_files // len(cap.patterns))
-        ps = with_method(cap.patterns, method)
+        ps = reconstruction_plans(cap.patterns, method)
         with in_flag_words(z_min_from=True):  # relative phase, geometric method without z_min: before writing
             relative = check_plans(ps, rig, z_min, original=cap.patterns, source=str(capture / MANIFEST_NAME),
                                    allow_relative=allow_relative)

@@ -18,7 +18,7 @@ import numpy as np
 
 from fringe3d.decode.context import phase_groups
 from fringe3d.decode.decoder import decode
-from fringe3d.decode.edges import INVALID, oblique_factor
+from fringe3d.decode.edges import INVALID, pixel_extent
 from fringe3d.decode.method_plans import with_method as plans_with_method
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.decode.plan_checks import check_plans
@@ -41,7 +41,7 @@ from fringe3d.utils.warning_types import ReconstructionWarning
 
 
 # ----------------------------------------------------------------------------- plans
-def with_method(ps: PatternSet, method: str | None) -> PatternSet:
+def reconstruction_plans(ps: PatternSet, method: str | None) -> PatternSet:
     """:func:`fringe3d.decode.method_plans.with_method`, keeping only the directions that
     triangulate: those with phase frames, and for a code method (``gray_code_only``, ...) those
     with code frames; ``ValueError`` when the manifest has none."""
@@ -283,10 +283,9 @@ def fused_path(patterns: PatternSet, rig: Rig, options: DecodeOptions, backend: 
     mp = cached_minimum_phase(rig, options.z_min, g.period, g.angle)
     wr = plans[0].options.get("w_range")
     lo, hi = (float(wr[0]), float(wr[1])) if wr is not None else w_range(g.angle, patterns.width, patterns.height)
-    f = oblique_factor(g.angle)
     kernel = FastThreeStep(Triangulator(rig, g.angle, warn_distortion=False), mp, g.shifts,
                            min_modulation=0.0, backend=backend)
-    return FusedPath(kernel, np.asarray(g.indices, np.int64), g.shifts, (lo - 0.5 * f, hi + 0.5 * f),
+    return FusedPath(kernel, np.asarray(g.indices, np.int64), g.shifts, pixel_extent(lo, hi, g.angle),
                      options.min_modulation)
 
 

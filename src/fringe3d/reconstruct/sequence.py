@@ -31,14 +31,14 @@ from fringe3d.io.store import PointMapStore
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.reconstruct.executors import Executor, WindowJob, serial
-from fringe3d.reconstruct.frame import Cycle, FrameReconstructor, store_layout, with_method
+from fringe3d.reconstruct.frame import Cycle, FrameReconstructor, store_layout, reconstruction_plans
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.reconstruct.windows import window_index, window_starts
 from fringe3d.utils.camera_size import check_camera_size
 from fringe3d.utils.console import progress_bar
 
 __all__ = ["CaptureFrames", "DecodeSettings", "FrameReconstructor", "OutputSettings", "RunSettings",
-           "prepare_sequence", "reconstruct_sequence", "window_index", "window_starts", "with_method"]
+           "prepare_sequence", "reconstruct_sequence", "window_index", "window_starts", "reconstruction_plans"]
 
 STORE_NAME = "points.zarr"
 PLY_DIR = "ply"
@@ -111,7 +111,7 @@ def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig, out, decode: De
     frames : (F, H, W) array (or a memory map, a :class:`CaptureFrames`, or a
         :class:`~fringe3d.io.capture_frames.CaptureFolder`, which executors running elsewhere
         need), in projection order
-    patterns : the manifest (its plans choose the unwrapping; see :func:`with_method`)
+    patterns : the manifest (its plans choose the unwrapping; see :func:`reconstruction_plans`)
     rig : the calibrated rig
     out : output folder: ``points.zarr`` and/or ``ply/frame_00000.ply`` ...
     decode, outputs, run : :class:`~fringe3d.reconstruct.settings.DecodeSettings` (options,
