@@ -41,14 +41,16 @@ from pathlib import Path
 import numpy as np
 import pyMRAW
 
-from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
+from fringe3d.cluster.engine import close, connect, dask_executor, reconstruct_capture_on_dask
 from fringe3d.decode import DecodeOptions
 from fringe3d.io import store as store_module
 from fringe3d.io.capture import open_frames, read_capture, write_capture
+from fringe3d.io.capture_frames import CaptureFolder
 from fringe3d.io.importer import import_images
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
-from fringe3d.reconstruct.sequence import CaptureFrames, FrameReconstructor, reconstruct_sequence, with_method
+from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
+from fringe3d.reconstruct.sequence import CaptureFrames, FrameReconstructor, reconstruct_sequence, reconstruction_plans
 from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
 
@@ -83,7 +85,7 @@ def make_inputs(work: Path, cycles: int):
     import_images(str(Path(mraw).with_suffix(".cih")), work / "mraw-cap", manifest=one / "manifest.json")
     png_cycles = min(cycles, PNG_CYCLES)  # the PNG read rate needs no more
     write_capture(work / "png-cap", frames[:png_cycles * len(cap.patterns)], cap.patterns, meta={"bit_depth": 8})
-    return work / "mraw-cap", work / "png-cap", with_method(cap.patterns, "geometric"), rig, z_min
+    return work / "mraw-cap", work / "png-cap", reconstruction_plans(cap.patterns, "geometric"), rig, z_min
 
 
 def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dict:
@@ -129,7 +131,7 @@ def main() -> None:
         res: dict = {"cycles": args.cycles, "shape": list(cycle.shape[1:]), "path": rec.path,
                      "cores": os.cpu_count(), "load_average": os.getloadavg()[0]}
         res["kernel_3d_per_s"] = rate(lambda: [rec(cycle) for _ in range(20)], 20)
-        res["kernel_fused_only_3d_per_s"] = rate(lambda: [rec.fast.depth(cycle, rec._fast_index)
+        res["kernel_fused_only_3d_per_s"] = rate(lambda: [rec.fast.depth(cycle, rec.fused.index)
                                                           for _ in range(20)], 20)
         res["window_as_stored_3d_per_s"] = rate(lambda: [rec.reconstruct(cycle, uncertainty="z", points=False,
                                                                          texture=False)
@@ -148,8 +150,10 @@ def main() -> None:
         def serial(store_quality=True, edge_mask=True, codec="lz4"):
             out = work / "serial"
             shutil.rmtree(out, ignore_errors=True)
-            reconstruct_sequence(frames, ps, rig, out, options=dataclasses.replace(opts, edge_mask=edge_mask),
-                                 progress=False, store_quality=store_quality, codec=codec)
+            reconstruct_sequence(frames, ps, rig, out,
+                                 decode=DecodeSettings(options=dataclasses.replace(opts, edge_mask=edge_mask)),
+                                 outputs=OutputSettings(store_quality=store_quality, codec=codec),
+                                 run=RunSettings(progress=False))
         serial()  # warm (numba's compiled kernels load on first use)
         res["end_to_end_serial_3d_per_s"] = args.cycles / _timed(serial)
         res["end_to_end_serial_codec_none_3d_per_s"] = args.cycles / _timed(lambda: serial(codec="none"))
@@ -165,8 +169,9 @@ def main() -> None:
                 def on_dask(workers=workers, client=client):
                     out = work / f"dask{workers}"
                     shutil.rmtree(out, ignore_errors=True)
-                    reconstruct_capture_on_dask(mraw_cap, ps, rig, out, opts, client=client, progress=False,
-                                                chunk=8)
+                    reconstruct_capture_on_dask(CaptureFolder(str(mraw_cap)), ps, rig, out,
+                                                dask_executor(client, chunk=8), DecodeSettings(opts),
+                                                run=RunSettings(progress=False))
                 on_dask()  # warm the workers (imports, the reconstructor's tables)
                 res[f"end_to_end_dask_{workers}w_3d_per_s"] = args.cycles / _timed(on_dask)
             finally:

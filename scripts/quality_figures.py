@@ -35,7 +35,7 @@ from scipy import ndimage
 from fringe3d.analyze.vdi import flatness, probing_errors
 from fringe3d.decode import DecodeOptions
 from fringe3d.patterns import sets
-from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
+from fringe3d.reconstruct.sequence import FrameReconstructor, reconstruction_plans
 from fringe3d.sim import presets, render
 from fringe3d.sim.calibration_session import scaled_camera
 from fringe3d.sim.noise import sense
@@ -158,7 +158,7 @@ def three_step_sets(rig):
     from the Laplacian of the average image)."""
     w, h = rig.projector.width, rig.projector.height
     hier = sets.hierarchical((16, 128, 1024), (3, 3, 3), "v", width=w, height=h)
-    single = with_method(sets.phase_shift(144, 3, "v", width=w, height=h), "geometric")
+    single = reconstruction_plans(sets.phase_shift(144, 3, "v", width=w, height=h), "geometric")
     return hier, single
 
 

@@ -64,7 +64,8 @@ def main(out_path: str) -> None:
     from fringe3d.io.store import PointMapStore
     from fringe3d.patterns import sets
     from fringe3d.phase.psp import wrapped_phase
-    from fringe3d.reconstruct.sequence import reconstruct_sequence, with_method
+    from fringe3d.reconstruct.settings import DecodeSettings, RunSettings
+    from fringe3d.reconstruct.sequence import reconstruct_sequence, reconstruction_plans
     from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator
     from fringe3d.unwrap.geometric import geometric_unwrap, minimum_phase
     from fringe3d.unwrap.temporal import three_frequency_decode
@@ -74,7 +75,7 @@ def main(out_path: str) -> None:
     rig = tiny_rig()
 
     # -- 3-step + geometric + triangulation (fused), and the same steps one by one
-    ps3 = with_method(sets.phase_shift(18.0, 3, "v", width=256, height=200), "geometric")
+    ps3 = reconstruction_plans(sets.phase_shift(18.0, 3, "v", width=256, height=200), "geometric")
     f3, truth = render_cycles(rig, ps3, 3, ideal_first=True, with_wall=False)
     f3 = np.concatenate([f3[:1], np.round(f3[1:])])  # cycles 1, 2 hold uint8 values
     r["truth_xyz"], r["truth_mask"] = truth.xyz, truth.mask
@@ -155,8 +156,8 @@ def main(out_path: str) -> None:
         warnings.simplefilter("ignore")
         stores = {}
         for backend in ("cpu", "cuda"):
-            res = reconstruct_sequence(seq, ps3, rig, f"{tmp}/{backend}", options=opts, progress=False,
-                                       backend=backend)
+            res = reconstruct_sequence(seq, ps3, rig, f"{tmp}/{backend}", decode=DecodeSettings(options=opts),
+                                       run=RunSettings(progress=False, backend=backend))
             st = PointMapStore.open_existing(f"{tmp}/{backend}/points.zarr")
             stores[backend] = np.stack([st.read(k) for k in range(res["frames_3d"])])
             r[f"seq_{backend}_path"] = np.array(res["path"])
@@ -164,8 +165,9 @@ def main(out_path: str) -> None:
 
     # -- the same sequence as a capture folder: `fringe3d reconstruct --device cuda` and --device cpu
     from fringe3d.cli import main as cli
-    from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
+    from fringe3d.cluster.engine import close, connect, dask_executor, reconstruct_capture_on_dask
     from fringe3d.io.capture import write_capture
+    from fringe3d.io.capture_frames import CaptureFolder
 
     with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -183,8 +185,9 @@ def main(out_path: str) -> None:
         cap = write_capture(f"{tmp}/cap", seq, ps3)
         client = connect(workers=1, gpu=True)  # its worker process inherits NUMBA_ENABLE_CUDASIM
         try:
-            res = reconstruct_capture_on_dask(cap, ps3, rig, Path(f"{tmp}/out"), opts, client=client, chunk=1,
-                                              progress=False, backend="cuda")
+            res = reconstruct_capture_on_dask(CaptureFolder(str(cap)), ps3, rig, Path(f"{tmp}/out"),
+                                              dask_executor(client, chunk=1), DecodeSettings(opts),
+                                              run=RunSettings("cuda", progress=False))
         finally:
             close(client, own_cluster=True)
         st = PointMapStore.open_existing(f"{tmp}/out/points.zarr")

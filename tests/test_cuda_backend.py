@@ -141,14 +141,17 @@ class _Client:
 
 
 def test_cuda_job_on_a_cluster_without_gpu_workers_is_a_clear_error():
-    from fringe3d.cluster.chunk_task import SequenceJob
-    from fringe3d.cluster.engine import gpu_workers, reconstruct_on_dask
+    from fringe3d.cluster.engine import gpu_workers, sequence_job
+    from fringe3d.io.capture_frames import CaptureFolder
+    from fringe3d.reconstruct.executors import WindowJob
+
+    class _Rec:  # only the backend is read before the check
+        backend = "cuda"
 
     assert gpu_workers(_Client([{}, {"GPU": 1}])) == ["tcp://w1"]
-    job = SequenceJob(key="k", capture="cap", limit=3, patterns=None, rig=None, options=None,  # type: ignore[arg-type]
-                      starts=(0,), backend="cuda")
+    job = WindowJob(_Rec(), None, (0,), False, "xyz", False, capture=CaptureFolder("cap", 3))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="--resources GPU=1"):
-        reconstruct_on_dask(job, _Client([{}, {"CPU": 4}]), progress=False)
+        sequence_job(job, _Client([{}, {"CPU": 4}]))
 
 
 def test_unknown_backend_is_a_value_error():

@@ -69,14 +69,14 @@ def test_fused_three_step_path_gives_decode_s_texture_a_plus_b(tmp_path):
     from fringe3d.optics import Rig
     from fringe3d.patterns import sets
     from fringe3d.phase.psp import wrapped_phase
-    from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
+    from fringe3d.reconstruct.sequence import FrameReconstructor, reconstruction_plans
     from fringe3d.sim import simulate_capture
 
     ps = sets.phase_shift(64, 3, "v", width=256, height=200)
     simulate_capture(tmp_path / "cap", preset="tiny", scene="sphere", patterns=ps, seed=7, progress=False)
     cap = read_capture(tmp_path / "cap")
     rig = Rig.load(tmp_path / "cap" / "rig.json")
-    ps = with_method(cap.patterns, "geometric")
+    ps = reconstruction_plans(cap.patterns, "geometric")
     opts = DecodeOptions(z_min=340.0, bit_depth=8)
     fast = FrameReconstructor(ps, rig, opts)
     assert fast.fast is not None  # the fused 3-step kernel

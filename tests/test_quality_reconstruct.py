@@ -13,7 +13,7 @@ from fringe3d.io.capture import read_capture
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
 from fringe3d.pipeline import reconstruct_capture
-from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
+from fringe3d.reconstruct.sequence import FrameReconstructor, reconstruction_plans
 from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
 
@@ -30,7 +30,7 @@ def three_step(tmp_path_factory):
 def test_fast_path_and_decode_path_mask_the_same_way(three_step):
     cap = read_capture(three_step)
     rig = Rig.load(three_step / "rig.json")
-    ps = with_method(cap.patterns, "geometric")
+    ps = reconstruction_plans(cap.patterns, "geometric")
     opts = DecodeOptions(z_min=340.0, bit_depth=cap.meta.get("bit_depth"))
     fast = FrameReconstructor(ps, rig, opts)
     slow = FrameReconstructor(ps, rig, opts, fast=False)

@@ -13,7 +13,8 @@ from fringe3d.io.store import PointMapStore
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
 from fringe3d.reconstruct import sequence
-from fringe3d.reconstruct.sequence import reconstruct_sequence, window_index, window_starts, with_method
+from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
+from fringe3d.reconstruct.sequence import reconstruct_sequence, window_index, window_starts, reconstruction_plans
 from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
 from fringe3d.utils.warning_types import DepthRangeWarning
@@ -58,8 +59,9 @@ def max_error(P, truth):
 @pytest.mark.parametrize("fast", [True, False])
 def test_every_cycle_equals_truth_in_store_and_ply(seq_capture, tmp_path, fast):
     cap, rig, truth = seq_capture
-    ps = with_method(cap.patterns, "geometric")
-    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, ply=True, progress=False, fast=fast)
+    ps = reconstruction_plans(cap.patterns, "geometric")
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, decode=DecodeSettings(options=Z340, fast=fast),
+                               outputs=OutputSettings(ply=True), run=RunSettings(progress=False))
     assert res["frames_3d"] == 3 and res["done_now"] == 3
     assert res["path"].startswith("fused") == fast
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
@@ -71,8 +73,9 @@ def test_every_cycle_equals_truth_in_store_and_ply(seq_capture, tmp_path, fast):
 
 def test_sliding_windows_give_one_3d_frame_per_captured_frame(seq_capture, tmp_path):
     cap, rig, truth = seq_capture
-    ps = with_method(cap.patterns, "geometric")
-    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", progress=False)
+    ps = reconstruction_plans(cap.patterns, "geometric")
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, decode=DecodeSettings(options=Z340, mode="window"),
+                               run=RunSettings(progress=False))
     assert res["frames_3d"] == 9 - 3 + 1
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     for k in range(st.frames):  # windows starting mid-cycle are reordered correctly
@@ -81,7 +84,7 @@ def test_sliding_windows_give_one_3d_frame_per_captured_frame(seq_capture, tmp_p
 
 def test_interrupted_run_resumes_where_it_stopped(seq_capture, tmp_path, monkeypatch):
     cap, rig, truth = seq_capture
-    ps = with_method(cap.patterns, "geometric")
+    ps = reconstruction_plans(cap.patterns, "geometric")
     real_call = sequence.FrameReconstructor.reconstruct
     calls = {"n": 0}
 
@@ -93,11 +96,15 @@ def test_interrupted_run_resumes_where_it_stopped(seq_capture, tmp_path, monkeyp
 
     monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", flaky)
     with pytest.raises(KeyboardInterrupt):
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", step=1, progress=False)
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path,
+                             decode=DecodeSettings(options=Z340, mode="window", step=1),
+                             run=RunSettings(progress=False))
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     assert st.pending() == [2, 3, 4, 5, 6]
     monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", real_call)
-    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", step=1, progress=False)
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path,
+                               decode=DecodeSettings(options=Z340, mode="window", step=1),
+                               run=RunSettings(progress=False))
     assert res["done_before"] == 2 and res["done_now"] == 5
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     assert st.pending() == [] and all(max_error(st.read(k), truth) < 1e-3 for k in range(7))
@@ -105,14 +112,17 @@ def test_interrupted_run_resumes_where_it_stopped(seq_capture, tmp_path, monkeyp
 
 def test_sequence_bad_inputs(seq_capture, tmp_path):
     cap, rig, truth = seq_capture
-    ps = with_method(cap.patterns, "geometric")
+    ps = reconstruction_plans(cap.patterns, "geometric")
     with pytest.raises(ValueError, match="nothing to write"):
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, ply=False, store=False)
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, decode=DecodeSettings(options=Z340),
+                             outputs=OutputSettings(ply=False, store=False))
     with pytest.raises(ValueError, match="sizes disagree"):
-        reconstruct_sequence(cap.frames[:, :100], ps, rig, tmp_path, options=Z340)
-    reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, progress=False)
+        reconstruct_sequence(cap.frames[:, :100], ps, rig, tmp_path, decode=DecodeSettings(options=Z340))
+    reconstruct_sequence(cap.frames, ps, rig, tmp_path, decode=DecodeSettings(options=Z340),
+                         run=RunSettings(progress=False))
     with pytest.raises(ValueError, match="new output folder"):  # a different sequence into the same store
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", progress=False)
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, decode=DecodeSettings(options=Z340, mode="window"),
+                             run=RunSettings(progress=False))
 
 
 def test_reconstruct_command_on_a_sequence_then_evaluate_a_frame(seq_capture, tmp_path, capsys):
@@ -133,7 +143,7 @@ def test_reconstruct_command_on_a_sequence_then_evaluate_a_frame(seq_capture, tm
 def test_fast_path_warns_when_the_scene_leaves_the_depth_range(seq_capture):
     from fringe3d.reconstruct.sequence import FrameReconstructor
     cap, rig, truth = seq_capture
-    ps = with_method(cap.patterns, "geometric")
+    ps = reconstruction_plans(cap.patterns, "geometric")
     n = len(ps)
     ok = FrameReconstructor(ps, rig, DecodeOptions(z_min=340.0))
     with warnings.catch_warnings():
@@ -159,7 +169,7 @@ def test_capture_frames_read_on_demand_match_the_capture(seq_capture):
 def test_resumed_run_equals_an_uninterrupted_one_when_frames_are_marked_in_batches(seq_capture, tmp_path,
                                                                                   monkeypatch):
     cap, rig, truth = seq_capture
-    ps = with_method(cap.patterns, "geometric")
+    ps = reconstruction_plans(cap.patterns, "geometric")
     monkeypatch.setattr(sequence, "MARK_EVERY", 2)  # marks written frames done two at a time
     real_call = sequence.FrameReconstructor.reconstruct
     calls = {"n": 0}
@@ -172,13 +182,16 @@ def test_resumed_run_equals_an_uninterrupted_one_when_frames_are_marked_in_batch
 
     monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", flaky)
     with pytest.raises(KeyboardInterrupt):
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path / "resumed", options=Z340, mode="window", progress=False)
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path / "resumed",
+                             decode=DecodeSettings(options=Z340, mode="window"), run=RunSettings(progress=False))
     # every frame whose chunks were written is marked, the batch not yet full included
     assert PointMapStore.open_existing(tmp_path / "resumed" / "points.zarr").pending() == [5, 6]
     monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", real_call)
-    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path / "resumed", options=Z340, mode="window", progress=False)
+    res = reconstruct_sequence(cap.frames, ps, rig, tmp_path / "resumed",
+                               decode=DecodeSettings(options=Z340, mode="window"), run=RunSettings(progress=False))
     assert res["done_now"] == 2
-    reconstruct_sequence(cap.frames, ps, rig, tmp_path / "whole", options=Z340, mode="window", progress=False)
+    reconstruct_sequence(cap.frames, ps, rig, tmp_path / "whole", decode=DecodeSettings(options=Z340, mode="window"),
+                         run=RunSettings(progress=False))
     a = PointMapStore.open_existing(tmp_path / "resumed" / "points.zarr")
     b = PointMapStore.open_existing(tmp_path / "whole" / "points.zarr")
     assert a.pending() == [] and a.layout == b.layout

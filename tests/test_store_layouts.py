@@ -14,7 +14,8 @@ from fringe3d.io.point_sequence import read_point_sequence
 from fringe3d.io.store import PointMapStore
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
-from fringe3d.reconstruct.sequence import FrameReconstructor, reconstruct_sequence, with_method
+from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
+from fringe3d.reconstruct.sequence import FrameReconstructor, reconstruct_sequence, reconstruction_plans
 from fringe3d.reconstruct.uncertainty import central_difference
 from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
@@ -29,7 +30,8 @@ def seq(tmp_path_factory):
     ps = sets.phase_shift(64, 3, "v", width=256, height=200)
     simulate_capture(folder, preset="tiny", scene="sphere", patterns=ps, cycles=3, seed=11, progress=False)
     cap = read_capture(folder)
-    return cap, with_method(cap.patterns, "geometric"), Rig.load(folder / "rig.json"), Truth.load(folder), folder
+    ps = reconstruction_plans(cap.patterns, "geometric")
+    return cap, ps, Rig.load(folder / "rig.json"), Truth.load(folder), folder
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +43,8 @@ def both(seq, tmp_path_factory):
         warnings.simplefilter("ignore")
         for layout in ("auto", "xyz"):
             d = tmp_path_factory.mktemp(layout)
-            res = reconstruct_sequence(cap.frames, ps, rig, d, options=Z340, progress=False, layout=layout)
+            res = reconstruct_sequence(cap.frames, ps, rig, d, decode=DecodeSettings(options=Z340),
+                                       outputs=OutputSettings(layout=layout), run=RunSettings(progress=False))
             out[layout] = (res, PointMapStore.open_existing(d / "points.zarr"))
     return out
 
@@ -109,20 +112,22 @@ def test_no_store_quality_leaves_the_arrays_out_and_a_resume_must_match(seq, tmp
     cap, ps, rig, _, _ = seq
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, progress=False, store_quality=False)
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, decode=DecodeSettings(options=Z340),
+                             outputs=OutputSettings(store_quality=False), run=RunSettings(progress=False))
         st = PointMapStore.open_existing(tmp_path / "points.zarr")
         assert not st.has_quality and not st.has_sigma
         with pytest.raises(ValueError, match="holds no quality maps"):
             st.quality(0)
         with pytest.raises(ValueError, match="new output folder"):
-            reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, progress=False)
+            reconstruct_sequence(cap.frames, ps, rig, tmp_path, decode=DecodeSettings(options=Z340),
+                                 run=RunSettings(progress=False))
 
 
 def test_ray_depth_is_refused_where_the_points_do_not_come_from_the_rays(seq, tmp_path):
     cap, ps, rig, _, _ = seq
     with pytest.raises(ValueError, match="ray_depth store layout needs the fused"):
-        reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, progress=False, fast=False,
-                             layout="ray_depth")
+        reconstruct_sequence(cap.frames, ps, rig, tmp_path, decode=DecodeSettings(options=Z340, fast=False),
+                             outputs=OutputSettings(layout="ray_depth"), run=RunSettings(progress=False))
 
 
 def test_a_ray_depth_store_opens_in_xarray_and_as_a_strain_sequence(both):
@@ -145,7 +150,8 @@ def test_an_empty_frame_is_stored_as_invalid(seq, tmp_path):
     frames[3:6] = 0  # no modulation in the second cycle
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = reconstruct_sequence(frames, ps, rig, tmp_path, options=Z340, progress=False)
+        res = reconstruct_sequence(frames, ps, rig, tmp_path, decode=DecodeSettings(options=Z340),
+                                   run=RunSettings(progress=False))
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     assert res["empty_frames"] == 1 and st.completed == 3
     assert np.isnan(st.depth(1)).all() and (st.quality(1) == INVALID).all() and np.isnan(st.sigma_z(1)).all()

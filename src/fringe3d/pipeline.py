@@ -29,8 +29,9 @@ from fringe3d.io.pointcloud import _colors
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.reconstruct.depth import depth_map
-from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
+from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
 from fringe3d.unwrap.geometric import propose_z_min
+from fringe3d.utils.camera_size import check_camera_size
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.io.arrays import load_array
 
@@ -190,11 +191,8 @@ def check_sizes(rig: Rig, frames: np.ndarray, calibration, patterns: PatternSet 
                          f"projector but the capture's pattern manifest is {patterns.width}x{patterns.height}: "
                          "calibration and patterns disagree (expected the calibration of the projector that showed "
                          "these patterns)")
-    H, W = frames.shape[1:]
-    if (rig.camera.height, rig.camera.width) != (H, W):
-        raise ValueError(f"the calibration {calibration} describes a {rig.camera.width}x{rig.camera.height} camera "
-                         f"but the capture's frames are {W}x{H}: calibration and capture sizes disagree "
-                         "(expected the calibration of the camera that recorded this capture)")
+    check_camera_size(frames.shape[1:], (rig.camera.height, rig.camera.width), what="the capture's frames",
+                      hint=f" (expected the calibration {calibration} of the camera that recorded this capture)")
 
 
 def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: float | None = None,
@@ -223,7 +221,7 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
     edge_margin : float, optional
         Projector-edge band (projector px); default 2 px + twice the estimated blur.
     backend : {"cpu", "cuda"}
-        Where the per-pixel kernels run (:class:`fringe3d.reconstruct.sequence.FrameReconstructor`).
+        Where the per-pixel kernels run (:class:`fringe3d.reconstruct.frame.FrameReconstructor`).
     allow_relative : bool
         Triangulate a wrapped or relative phase (method ``none`` or ``spatial``) anyway, with a
         warning; its 3D is off by an unknown number of fringe periods in depth.
@@ -239,7 +237,7 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
     fringe3d.decode.plan_checks.MissingGeometryError
         A geometric-constraint method without ``z_min``.
     """
-    ps = with_method(cap.patterns, method)
+    ps = reconstruction_plans(cap.patterns, method)
     source = f"{cap.folder / MANIFEST_NAME}" if cap.folder is not None else "the manifest"
     check_plans(ps, rig, z_min, original=cap.patterns, source=source, allow_relative=allow_relative)
     options = DecodeOptions(z_min=z_min, bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation,

@@ -1,33 +1,26 @@
 """Run a sequence reconstruction on ``dask.distributed``: a local cluster sized to the machine, or
 an existing scheduler (``tcp://HOST:8786``) whose workers read the capture from a shared path.
 
-Tasks are chunks of consecutive 3D frames; finished chunks are marked done in the point store by
-the client as they complete (so a resumed run skips them), a task whose worker dies is re-run on
-another worker (``retries``), and progress comes from the completed futures.
+:func:`dask_executor` is an executor for :func:`fringe3d.reconstruct.sequence.reconstruct_sequence`
+(as :func:`fringe3d.cluster.strain_frames.frames_on_dask` is a frame scheduler for strain): tasks
+are chunks of consecutive 3D frames computed on the workers and sent back; the client writes
+them and marks them done in the same loop as the serial path (so a resumed run skips them). A
+task whose worker dies is re-run on another worker (``retries``).
 """
 from __future__ import annotations
 
 import os
-import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from fringe3d.cluster.chunk_task import SequenceJob, run_chunk
-from fringe3d.decode.options import DecodeOptions
-from fringe3d.io.capture import open_frames
-from fringe3d.io.store import PointMapStore
+from fringe3d.io.capture_frames import CaptureFolder
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import PatternSet
-from fringe3d.reconstruct.sequence import (
-    PLY_DIR,
-    STORE_NAME,
-    CaptureFrames,
-    FrameReconstructor,
-    ply_name,
-    prepare_sequence,
-)
-from fringe3d.utils.console import progress_bar
+from fringe3d.reconstruct.executors import Done, WindowJob
+from fringe3d.reconstruct.sequence import reconstruct_sequence
+from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.utils.output_folder import fingerprint
-from fringe3d.utils.provenance import command_line
 
 #: 3D frames per task: large enough to amortise scheduling (~1 ms a task), small enough to balance.
 DEFAULT_CHUNK = 8
@@ -78,77 +71,73 @@ def gpu_workers(client) -> list[str]:
     return [a for a, w in workers.items() if (w.get("resources") or {}).get("GPU", 0) >= 1]
 
 
-def reconstruct_on_dask(job: SequenceJob, client, chunk: int = DEFAULT_CHUNK, progress: bool = True,
-                        retries: int = 3) -> dict:
-    """Reconstruct every pending 3D frame of ``job`` on ``client``'s workers.
+class dask_executor:  # noqa: N801 - used as a function, as the executors of fringe3d.reconstruct.executors
+    """An executor (:mod:`fringe3d.reconstruct.executors`) computing chunks of ``chunk`` 3D frames
+    on ``client``'s workers; the job must come from a capture folder the workers can read.
 
-    A ``job.backend == "cuda"`` job's tasks ask for :data:`GPU_RESOURCE`, so they run only on
-    workers that declare it, one task per GPU at a time; ``ValueError`` when no worker does.
-
-    Returns ``{"done_now", "done_before", "empty_frames", "seconds", "frames_3d_per_s", "tasks"}``.
+    A ``"cuda"`` job's tasks ask for :data:`GPU_RESOURCE`, so they run only on workers that
+    declare it; ``ValueError`` when no worker does. Chunks are yielded as they complete; at most
+    ``in_flight`` (default: two per worker thread, at least 2) are submitted and not yet written.
+    ``mark_every``: the writing loop marks frames done once per chunk (a killed run loses at most
+    the chunks in flight).
     """
-    resources = None
-    if job.backend == "cuda":
-        if not gpu_workers(client):
-            raise ValueError("the CUDA backend on Dask needs workers that declare a GPU: none of the cluster's "
-                             "workers has the resource GPU; start them with `dask worker SCHEDULER --resources "
-                             "GPU=1` on the GPU machines")
-        resources = dict(GPU_RESOURCE)
-    store = PointMapStore.open_existing(job.store) if job.store else None
-    if store is not None:
-        pending = store.pending()
-    else:  # PLY only: a frame is done when its file exists
-        pending = [k for k in range(len(job.starts)) if not (Path(str(job.ply_dir)) / ply_name(k)).exists()]
-    before = len(job.starts) - len(pending)
-    parts = chunks_of(pending, max(1, chunk))
-    t0 = time.perf_counter()
-    empty = 0
-    import distributed  # optional extra, see connect()
 
-    futures = [client.submit(run_chunk, job, ks, retries=retries, pure=False, resources=resources) for ks in parts]
-    with progress_bar("reconstructing 3D frames", len(pending), enabled=progress and len(pending) > 1) as advance:
-        for fut in distributed.as_completed(futures):
-            res = fut.result()
-            if store is not None:
-                store.mark_done(res["done"])
-            empty += res["empty"]
-            advance(len(res["done"]))
-    dt = time.perf_counter() - t0
-    return {"done_now": len(pending), "done_before": before, "empty_frames": empty, "seconds": round(dt, 3),
-            "frames_3d_per_s": (len(pending) / dt) if pending and dt > 0 else None, "tasks": len(parts)}
+    def __init__(self, client, chunk: int = DEFAULT_CHUNK, retries: int = 3, in_flight: int | None = None):
+        self.client, self.chunk, self.retries, self.in_flight = client, max(1, int(chunk)), retries, in_flight
+        self.mark_every = self.chunk
+
+    def __call__(self, job: WindowJob, todo: list[int]) -> Iterator[Done]:
+        import distributed  # optional extra, see connect()
+
+        client = self.client
+        remote = sequence_job(job, client)
+        resources = dict(GPU_RESOURCE) if remote.backend == "cuda" else None
+        parts = chunks_of(todo, self.chunk)
+        most = self.in_flight or max(2, 2 * sum(client.nthreads().values()))
+        queue = distributed.as_completed()
+        submitted = 0
+        try:
+            while submitted < len(parts) or not queue.is_empty():
+                while submitted < len(parts) and queue.count() < most:
+                    queue.add(client.submit(run_chunk, remote, parts[submitted], retries=self.retries, pure=False,
+                                            resources=resources))
+                    submitted += 1
+                fut = next(queue)
+                done = fut.result()
+                fut.release()
+                yield from done
+        finally:
+            client.cancel(list(queue.futures))
 
 
-def reconstruct_capture_on_dask(capture: str | os.PathLike, patterns: PatternSet, rig: Rig, out: Path,
-                                options: DecodeOptions | None = None, *, limit: int | None = None,
-                                mode: str = "cycle", step: int | None = None, ply: bool = False, store: bool = True,
-                                triangulation: str = "auto", client=None, chunk: int = DEFAULT_CHUNK,
-                                progress: bool = True, layout: str = "auto", store_quality: bool = True,
-                                backend: str = "cpu", codec: str | None = None,
-                                allow_relative: bool = False) -> dict:
-    """:func:`fringe3d.reconstruct.sequence.reconstruct_sequence` of a capture folder, on Dask.
+def sequence_job(job: WindowJob, client) -> SequenceJob:
+    """The picklable description of ``job`` that a worker rebuilds (:func:`run_chunk`); checks
+    that the frames come from a capture folder and, for the CUDA backend, that a worker has a GPU."""
+    if job.capture is None:
+        raise ValueError("the Dask executor reads the capture on the workers: pass the capture folder "
+                         "(not an array of frames) to reconstruct_sequence")
+    rec = job.rec
+    if rec.backend == "cuda" and not gpu_workers(client):
+        raise ValueError("the CUDA backend on Dask needs workers that declare a GPU: none of the cluster's "
+                         "workers has the resource GPU; start them with `dask worker SCHEDULER --resources "
+                         "GPU=1` on the GPU machines")
+    key = fingerprint([job.capture.path], {"patterns": rec.patterns.to_dict(), "rig": rec.rig.to_dict(),
+                                           "options": repr(rec.options), "starts": list(job.starts),
+                                           "limit": job.capture.limit, "triangulation": rec.triangulation,
+                                           "backend": rec.backend, "fast": rec.allow_fused})
+    return SequenceJob(key=key, capture=job.capture.path, limit=job.capture.limit, patterns=rec.patterns, rig=rec.rig,
+                       options=rec.options, starts=job.starts, triangulation=rec.triangulation, backend=rec.backend,
+                       allow_relative=rec.allow_relative, fast=rec.allow_fused, ply=job.ply, layout=job.layout,
+                       quality=job.quality)
 
-    Same store, same point maps (bit-identical: the same per-window code runs on the workers),
-    same summary, plus ``workers`` and ``tasks``. ``client`` from :func:`connect`; ``layout``
-    ``store_quality``, ``codec`` and ``allow_relative`` as there; ``backend`` as
-    :class:`~fringe3d.cluster.chunk_task.SequenceJob`.
-    """
-    frames = open_frames(capture, limit=limit)
-    frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
-    out = Path(out)
-    options = options or DecodeOptions()
-    rec = FrameReconstructor(patterns, rig, options, triangulation=triangulation, allow_relative=allow_relative)
-    starts, st = prepare_sequence(frames.shape, patterns, rig, out, options, mode, step, ply, store, rec=rec,
-                                  layout=layout, store_quality=store_quality, codec=codec)
-    key = fingerprint([capture], {"patterns": patterns.to_dict(), "rig": rig.to_dict(), "options": repr(options),
-                                  "mode": mode, "step": step, "limit": limit, "triangulation": triangulation,
-                                  "layout": layout, "store_quality": store_quality, "backend": backend})
-    job = SequenceJob(key=key, capture=str(Path(capture).resolve()), limit=len(frames), patterns=patterns, rig=rig,
-                      options=options, starts=tuple(starts), triangulation=triangulation,
-                      store=str((out / STORE_NAME).resolve()) if st is not None else None,
-                      ply_dir=str((out / PLY_DIR).resolve()) if ply else None, backend=backend,
-                      command=command_line(), allow_relative=allow_relative)
-    res = reconstruct_on_dask(job, client, chunk=chunk, progress=progress)
-    return {"out": str(out), "frames_3d": len(starts), **res, "path": rec.path, "mode": mode, "backend": backend,
-            "store": str(out / STORE_NAME) if store else None, "ply_dir": str(out / PLY_DIR) if ply else None,
-            "store_layout": st.layout if st is not None else None,
-            "workers": len(client.scheduler_info().get("workers", {}))}
+
+def reconstruct_capture_on_dask(capture: CaptureFolder, patterns: PatternSet, rig: Rig, out: Path,
+                                executor: dask_executor, decode: DecodeSettings | None = None,
+                                outputs: OutputSettings | None = None, run: RunSettings | None = None) -> dict:
+    """:func:`fringe3d.reconstruct.sequence.reconstruct_sequence` of a capture folder with the
+    :func:`dask_executor` ``executor`` (its client from :func:`connect`): same store, same point maps
+    (bit-identical: the same per-window code runs on the workers, the same loop writes), same
+    summary plus ``workers`` and ``tasks``. ``capture``: the folder and frame limit the workers read."""
+    res = reconstruct_sequence(capture, patterns, rig, out, decode, outputs, run, executor=executor)
+    return {**res, "workers": len(executor.client.scheduler_info().get("workers", {})),
+            "tasks": -(-res["done_now"] // executor.chunk)}

@@ -6,8 +6,10 @@ gamma.json) and ``--session DIR --poses N`` (calibration capture with a live pre
 from __future__ import annotations
 
 from contextlib import ExitStack
+from dataclasses import dataclass, fields, replace
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import typer
@@ -181,23 +183,74 @@ def register(app: typer.Typer) -> None:
         """
         opts = dict(locals())
         try:
-            run_capture(**opts)
+            run_capture(*(_group(cls, opts) for cls in (DeviceOptions, ModeOptions, RunOptions)))
         except (ValueError, FileNotFoundError) as e:  # printed here: device messages name extras in [] (no markup)
             err_console.print("[bold red]error:[/] " + escape(in_flag_words(str(e))))
             raise SystemExit(2) from None
 
 
-def run_capture(patterns, output, projector, camera, sync, cycles, exposure, exposures, gain, pixel_format, roi,
-                camera_feature,
-                frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto, still, pose_timeout, preview,
-                cols, rows, spacing, overwrite, json_, quiet) -> None:
-    """The body of ``fringe3d capture`` (see its --help)."""
+@dataclass(frozen=True)
+class DeviceOptions:
+    """The ``fringe3d capture`` flags that open and set up the devices."""
 
-    set_quiet(quiet or json_)
+    projector: str
+    camera: Any  # str; None only until run_capture refuses it
+    sync: str
+    exposure: float | None
+    exposures: Any  # the --exposures text; run_capture replaces it by the parsed bracket (s) or None
+    gain: float | None
+    pixel_format: str | None
+    roi: str | None
+    camera_feature: list[str] | None
+    frame_rate: float | None
+    settle: float
+    timeout: float
+
+
+@dataclass(frozen=True)
+class ModeOptions:
+    """The ``fringe3d capture`` flags that choose the mode (latency, gamma, calibration session)."""
+
+    latency: bool
+    gamma: bool
+    levels: int
+    session: Any  # Path or None
+    poses: int
+    auto: bool
+    still: float
+    pose_timeout: float
+    preview: bool
+    cols: int
+    rows: int
+    spacing: float
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """The ``fringe3d capture`` flags that say what to project, where to write and how to report."""
+
+    patterns: Path | None
+    output: Any  # Path or None
+    cycles: int
+    overwrite: bool
+    json_: bool
+    quiet: bool
+
+
+def _group(cls, opts: dict):
+    """The fields of dataclass ``cls`` taken from the command's ``opts`` (its parameters)."""
+    return cls(**{f.name: opts[f.name] for f in fields(cls)})
+
+
+def run_capture(dev: DeviceOptions, mode: ModeOptions, run: RunOptions) -> None:
+    """The body of ``fringe3d capture`` (see its --help)."""
+    camera, latency, gamma, session, patterns, output = dev.camera, mode.latency, mode.gamma, mode.session, \
+        run.patterns, run.output
+    set_quiet(run.quiet or run.json_)
     if camera is None:
         raise ValueError("--camera is required, e.g. --camera pylon:SERIAL or --camera virtual:tiny")
-    features = _parse_features(camera_feature)
-    roi_v = _parse_roi(roi)
+    features = _parse_features(dev.camera_feature)
+    roi_v = _parse_roi(dev.roi)
     modes = sum(bool(m) for m in (latency, gamma, session is not None))
     if modes > 1:
         raise ValueError("--latency, --gamma and --session are separate modes; give one")
@@ -210,37 +263,43 @@ def run_capture(patterns, output, projector, camera, sync, cycles, exposure, exp
             raise ValueError("-o/--output CAPTURE is required")
     if gamma and output is None:
         raise ValueError("--gamma needs -o gamma.json")
-    if cycles < 1:
-        raise ValueError(f"--cycles must be at least 1, got {cycles}")
-    bracket = parse_exposures(exposures, "--exposures")
-    if bracket is not None:
-        clash = [f for f, on in (("--exposure", exposure is not None), ("--cycles", cycles != 1),
-                                 ("--sync hardware", sync != "software"), ("--latency", latency), ("--gamma", gamma),
+    if run.cycles < 1:
+        raise ValueError(f"--cycles must be at least 1, got {run.cycles}")
+    dev = replace(dev, exposures=parse_exposures(dev.exposures, "--exposures"))
+    if dev.exposures is not None:
+        clash = [f for f, on in (("--exposure", dev.exposure is not None), ("--cycles", run.cycles != 1),
+                                 ("--sync hardware", dev.sync != "software"), ("--latency", latency), ("--gamma", gamma),
                                  ("--session", session is not None)) if on]
         if clash:
             raise ValueError(f"--exposures records one pattern cycle per exposure with software sync; drop "
                              f"{', '.join(clash)}")
     with ExitStack() as outputs:
         if latency or gamma:
-            outputs.enter_context(open_output_file(output, overwrite=overwrite, inputs=[patterns]))
+            outputs.enter_context(open_output_file(output, overwrite=run.overwrite, inputs=[patterns]))
         elif session is not None:
-            session = outputs.enter_context(open_output(session, overwrite=overwrite, inputs=[patterns],
-                                                        options={"camera": camera, "poses": poses},
-                                                        keep_unfinished=True)).path
+            mode = replace(mode, session=outputs.enter_context(
+                open_output(session, overwrite=run.overwrite, inputs=[patterns],
+                            options={"camera": camera, "poses": mode.poses}, keep_unfinished=True)).path)
         else:
-            output = outputs.enter_context(open_output(output, overwrite=overwrite, inputs=[patterns],
-                                                       options={"camera": camera, "cycles": cycles},
-                                                       keep_unfinished=True)).path
-        _run_with_devices(ps, images, packed, output, projector, camera, sync, cycles, exposure, gain, pixel_format,
-                          roi_v, features, frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto,
-                          still, pose_timeout, preview, cols, rows, spacing, patterns, json_, quiet, bracket)
+            run = replace(run, output=outputs.enter_context(
+                open_output(output, overwrite=run.overwrite, inputs=[patterns],
+                            options={"camera": camera, "cycles": run.cycles}, keep_unfinished=True)).path)
+        _run_with_devices((ps, images, packed), (roi_v, features), dev, mode, run)
 
 
-def _run_with_devices(ps, images, packed, output, projector, camera, sync, cycles, exposure, gain, pixel_format,
-                      roi_v, features, frame_rate, settle, timeout, latency, gamma, levels, session, poses, auto,
-                      still, pose_timeout, preview, cols, rows, spacing, patterns, json_, quiet,
-                      bracket=None) -> None:
-    """Open the rig and run the chosen mode, writing into the (guarded) output."""
+def _run_with_devices(loaded: tuple, parsed: tuple, dev: DeviceOptions, mode: ModeOptions, run: RunOptions) -> None:
+    """Open the rig and run the chosen mode, writing into the (guarded) output; ``loaded`` is the
+    pattern folder's ``(patterns, images, packed)``, ``parsed`` the ``(roi, features)`` flags."""
+    ps, images, packed = loaded
+    roi_v, features = parsed
+    projector, camera, sync, exposure, gain, pixel_format = (dev.projector, dev.camera, dev.sync, dev.exposure,
+                                                             dev.gain, dev.pixel_format)
+    frame_rate, settle, timeout = dev.frame_rate, dev.settle, dev.timeout
+    latency, gamma, levels, session, poses, auto = (mode.latency, mode.gamma, mode.levels, mode.session, mode.poses,
+                                                    mode.auto)
+    still, pose_timeout, preview, cols, rows, spacing = (mode.still, mode.pose_timeout, mode.preview, mode.cols,
+                                                         mode.rows, mode.spacing)
+    patterns, output, cycles, json_, quiet = run.patterns, run.output, run.cycles, run.json_, run.quiet
     proj, cam = open_rig(projector, camera, patterns=ps, features=features)
     try:
         configure_camera(cam, pixel_format=pixel_format, roi=roi_v, exposure=None, gain=gain)
@@ -256,14 +315,14 @@ def _run_with_devices(ps, images, packed, output, projector, camera, sync, cycle
                            f"{rate:g} Hz {'pattern rate' if sync == 'hardware' else 'frame rate'}" if rate else "")
             cam.exposure = exposure
         if latency:
-            res = measure_latency(proj, cam, timeout=timeout)
+            lat = measure_latency(proj, cam, timeout=timeout)
             if output is not None:
-                write_json(output, res, units={"latency": "s", "step": "s"})
+                write_json(output, lat, units={"latency": "s", "step": "s"})
             if json_:
-                print_json(res)
+                print_json(lat)
             else:
-                console.print(f"display-to-camera delay {res['latency'] * 1e3:.1f} ms (step {res['step'] * 1e3:.1f} ms)"
-                              f"; use --settle {res['latency']:.4f}")
+                console.print(f"display-to-camera delay {lat['latency'] * 1e3:.1f} ms (step {lat['step'] * 1e3:.1f} ms)"
+                              f"; use --settle {lat['latency']:.4f}")
             return
         if gamma:
             lv, frames = capture_ramp(proj, cam, levels=levels, settle=settle, timeout=timeout)
@@ -291,6 +350,7 @@ def _run_with_devices(ps, images, packed, output, projector, camera, sync, cycle
                 console.print(f"captured {summary['poses']} poses into {session}; calibrate with "
                               f"fringe3d calibrate {session}")
             return
+        bracket = dev.exposures
         total = len(ps) * (cycles if bracket is None else len(bracket))
         if bracket is not None:
             meta["options"]["exposures"] = bracket

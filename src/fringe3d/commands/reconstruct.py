@@ -10,7 +10,7 @@ import typer
 
 from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.decode import DecodeOptions
-from fringe3d.cluster.engine import close, connect, reconstruct_capture_on_dask
+from fringe3d.cluster.engine import close, connect, dask_executor, reconstruct_capture_on_dask
 from fringe3d.commands.checks import check_choice, check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.plan_errors import in_flag_words
@@ -30,11 +30,10 @@ from fringe3d.patterns.method_registry import method_names, relative_methods
 from fringe3d.utils.output_folder import open_output
 from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
 from fringe3d.reconstruct.depth import EmptyMaskError
-from fringe3d.reconstruct.sequence import (
-    CaptureFrames,
-    reconstruct_sequence,
-    with_method,
-)
+from fringe3d.io.capture_frames import CaptureFolder
+from fringe3d.reconstruct.frame import reconstruction_plans
+from fringe3d.reconstruct.sequence import reconstruct_sequence
+from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.utils.console import (
     console,
     info,
@@ -68,23 +67,12 @@ def empty_reason(cap, patterns, rig, min_modulation) -> str:
 EXTRA_FORMATS = ("e57", "las", "laz", "mat")
 
 
-def _sequence(out: Path, capture: Path, limit: int, ps, rig, options: DecodeOptions, window, ply: bool, store: bool,
-              progress: bool, triangulation: str, client, chunk: int, layout: str = "auto",
-              store_quality: bool = True, backend: str = "cpu", codec: str = "lz4",
-              allow_relative: bool = False) -> dict:
+def _sequence(out: Path, capture: CaptureFolder, ps, rig, settings: tuple[DecodeSettings, OutputSettings, RunSettings],
+              client, chunk: int) -> dict:
     """The sequence branch: in this process, or on Dask when a ``client`` is given."""
-    mode = "window" if window else "cycle"
     if client is not None:
-        return reconstruct_capture_on_dask(capture, ps, rig, out, options, limit=limit, mode=mode, step=window,
-                                           ply=ply, store=store, triangulation=triangulation, client=client,
-                                           chunk=chunk, progress=progress, layout=layout, store_quality=store_quality,
-                                           backend=backend, codec=codec, allow_relative=allow_relative)
-    frames = open_frames(capture, limit=limit)  # a referenced camera file, read on demand; else None
-    frames = frames if frames is not None else CaptureFrames(capture, limit=limit)
-    return reconstruct_sequence(frames, ps, rig, out, options=options, mode=mode, step=window, ply=ply,
-                                store=store, progress=progress, triangulation=triangulation, layout=layout,
-                                store_quality=store_quality, backend=backend, codec=codec,
-                                allow_relative=allow_relative, frame_rate=read_meta(capture).get("frame_rate"))
+        return reconstruct_capture_on_dask(capture, ps, rig, out, dask_executor(client, chunk), *settings)
+    return reconstruct_sequence(capture, ps, rig, out, *settings)
 
 
 def register(app: typer.Typer) -> None:
@@ -211,7 +199,7 @@ def register(app: typer.Typer) -> None:
             cap.frames = fuse_bracket(read_capture(capture).frames, cap.meta["exposures"], len(cap.patterns),
                                       cap.meta.get("bit_depth")).frames
             cycles = 1
-        ps = with_method(cap.patterns, method)
+        ps = reconstruction_plans(cap.patterns, method)
         with in_flag_words(z_min_from=True):  # relative phase, geometric method without z_min: before writing
             relative = check_plans(ps, rig, z_min, original=cap.patterns, source=str(capture / MANIFEST_NAME),
                                    allow_relative=allow_relative)
@@ -271,9 +259,14 @@ def register(app: typer.Typer) -> None:
                     summary.update(r.summary())
                     summary["path"] = r.path
                 else:
-                    seq = _sequence(o.path, capture, cycles * len(ps), ps, rig, DecodeOptions(z_min=z_min, **opts),
-                                    window, ply, store, not (quiet or json_), triangulation, client, chunk,
-                                    store_layout, store_quality, device, store_codec, allow_relative)
+                    settings = (DecodeSettings(DecodeOptions(z_min=z_min, **opts), triangulation,
+                                               allow_relative=allow_relative, mode="window" if window else "cycle",
+                                               step=window),
+                                OutputSettings(ply, store, store_layout, store_quality, store_codec,
+                                               frame_rate=read_meta(capture).get("frame_rate")),
+                                RunSettings(device, progress=not (quiet or json_)))
+                    seq = _sequence(o.path, CaptureFolder(str(capture), cycles * len(ps)), ps, rig, settings, client,
+                                    chunk)
                     summary.update(o.final_paths(seq))
                     if seq.get("empty_frames") == seq.get("frames_3d") and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point in any frame of the sequence: "

@@ -105,11 +105,11 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
         blur = edges.estimate_blur(modulation, ctx.group_phase(c).modulation, period, c.period, mask)
         residual = edges.disagreement(phase, period, [ctx.group_phase(g).phase for g in coarse],
                                       [g.period for g in coarse])
-    margin = edges.BASE_MARGIN + 2.0 * blur if opts.edge_margin is None else float(opts.edge_margin)
+    margin = edges.edge_margin(opts.edge_margin, blur)
     lo, hi = ctx.w_range()
-    f = edges.oblique_factor(ctx.plan.angle)  # w-extent of a pixel, w-width of the band (edges docstring)
+    f = edges.oblique_factor(ctx.plan.angle)  # w-width of the band (edges docstring)
     # a relative phase (one unknown 2 pi k per object) has no place on the projector: no EDGE test
-    extent = None if is_relative(ctx.plan.method) else (lo - 0.5 * f, hi + 0.5 * f)
+    extent = None if is_relative(ctx.plan.method) else edges.pixel_extent(lo, hi, ctx.plan.angle)
     q = edges.quality_map(mask, w, extent, margin * f, modulation, average, residual,
                           max_disagreement=float(opts.max_disagreement), gradient_ratio=float(opts.gradient_ratio),
                           modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim), order=order,

@@ -21,6 +21,7 @@ from fringe3d.patterns.conventions import fringe_coordinate, w_range
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import clipping, ftp, noise, quality
 from fringe3d.phase.psp import PhaseResult, wrapped_phase
+from fringe3d.utils.camera_size import check_camera_size
 from fringe3d.utils.warning_types import CalibrationWarning
 
 
@@ -259,11 +260,7 @@ def require_geometry(ctx: DecodeContext, method: str) -> tuple[Rig, float]:
     if z_min is None:
         raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs z_min, the nearest depth of the "
                          "measurement volume in mm (pass `z_min`, or set it in the plan's options)")
-    H, W = ctx.frames.shape[1:]
-    ch, cw = camera_shape(ctx.rig)
-    if (ch, cw) != (H, W):
-        raise ValueError(f"the capture is {W}x{H} pixels but the calibration's camera is "
-                         f"{cw}x{ch}: calibration and capture sizes disagree")
+    check_camera_size(ctx.frames.shape[1:], camera_shape(ctx.rig))
     return ctx.rig, float(z_min)
 
 

@@ -118,6 +118,20 @@ def oblique_factor(angle: float) -> float:
     return float(round(abs(math.cos(angle)) + abs(math.sin(angle)), 12))
 
 
+def edge_margin(option: float | None, blur: float = 0.0) -> float:
+    """The edge band's width (projector px, before :func:`oblique_factor`): the decode option
+    ``edge_margin`` when given, else :data:`BASE_MARGIN` plus twice the estimated ``blur`` (px;
+    0 where a single period gives no estimate, as on the fused 3-step path)."""
+    return BASE_MARGIN + 2.0 * blur if option is None else float(option)
+
+
+def pixel_extent(lo: float, hi: float, angle: float) -> tuple[float, float]:
+    """The pattern's extent along ``w`` from pixel edge to pixel edge: its pixel-centre range
+    ``[lo, hi]`` (px) widened by half a pixel's extent along ``w`` (:func:`oblique_factor`)."""
+    f = oblique_factor(angle)
+    return lo - 0.5 * f, hi + 0.5 * f
+
+
 def projector_position(w1: np.ndarray, angle1: float, w2: np.ndarray, angle2: float) -> tuple[np.ndarray, np.ndarray]:
     """(u_p, v_p) (H, W) float32 projector pixel from the fringe coordinates of two non-parallel
     directions: solves ``w_i = v_p cos a_i + u_p sin a_i`` (Eq. 2.1) for both."""

@@ -15,6 +15,7 @@ import numpy as np
 
 from fringe3d.gpu.runtime import cuda_module, is_device_array
 from fringe3d.gpu.streaming import DEFAULT_CHUNK, launch_grid, run_batched
+from fringe3d.utils.camera_size import check_camera_size
 
 
 def _cycles(frames, name: str = "frames"):
@@ -186,9 +187,7 @@ def three_step_points(frames, index, coef, min_mod2: float, phi_min, sign, scale
     parameters ``s`` of ``X = O + s*D``, (H, W) or (C, H, W) float32 mm."""
     cuda = cuda_module()
     stack, hw, single = _cycles(frames)
-    if tuple(D_planes.shape[1:]) != hw:
-        raise ValueError(f"frames are {hw[1]}x{hw[0]} pixels but the camera is {D_planes.shape[2]}x"
-                         f"{D_planes.shape[1]}: calibration and capture sizes disagree")
+    check_camera_size(hw, D_planes.shape[1:], what="the frames")
     d_idx = cuda.to_device(_check_index(index, stack.shape[1]))
     if constants is None:
         constants = three_step_constants(coef, phi_min, sign, O, D_planes, Q, P3)

@@ -7,8 +7,10 @@
 * :class:`FastThreeStep` - the superfast fused kernel: three frames -> wrapped phase ->
   geometric-constraint order -> point map, one pass.
 * :func:`single_shot` (ch. 4) and :func:`measure` (ch. 5, motion) - one-call measurements.
-* :mod:`.sequence` - many-frame captures -> one 3D frame per cycle / window (imported on use:
-  it pulls in the point stores).
+* :mod:`.frame` - the engine: one cycle -> decoded fields -> points (:class:`~.frame.FrameReconstructor`).
+* :mod:`.sequence` - many-frame captures -> one 3D frame per cycle / window, with settings
+  (:mod:`.settings`) and an injected executor (:mod:`.executors`) (imported on use: it pulls in
+  the point stores).
 """
 from fringe3d.reconstruct.depth import depth_map, points_from_decoded, projector_coordinates
 from fringe3d.reconstruct.motion import Measurement, dissertation_sequence, hybrid_view, measure

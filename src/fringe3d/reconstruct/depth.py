@@ -20,6 +20,7 @@ from fringe3d.optics.rays import camera_shape
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.reconstruct.triangulate import Triangulator, triangulate
+from fringe3d.utils.camera_size import check_camera_size
 
 
 class EmptyMaskError(ValueError):
@@ -94,10 +95,7 @@ def points_from_decoded(decoded: Decoded, rig: Rig, method: str = "auto", direct
     if method not in ("auto", "fast", "lsq"):
         raise ValueError(f"unknown triangulation method {method!r}; expected 'auto', 'fast' or 'lsq'")
     pc = projector_coordinates(decoded, directions)
-    shape = camera_shape(rig)
-    if pc["mask"].shape != shape:
-        raise ValueError(f"the capture is {pc['mask'].shape[1]}x{pc['mask'].shape[0]} pixels but the "
-                         f"calibration's camera is {shape[1]}x{shape[0]}: calibration and capture sizes disagree")
+    check_camera_size(pc["mask"].shape, camera_shape(rig))
     if not pc["mask"].any():
         raise EmptyMaskError("the decoded phase mask is empty: no pixel has a valid absolute phase "
                          "(check exposure, modulation threshold and that the scene is lit by the projector)")

@@ -69,8 +69,7 @@ def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shi
         pr = wrapped_phase(frames, shifts=shifts, index=index)
         avg, mod = pr.average, pr.modulation
     if options.edge_mask:
-        margin = edges.BASE_MARGIN if options.edge_margin is None else float(options.edge_margin)
-        margin *= edges.oblique_factor(fast.mp.angle)  # the band's width along w (decode.edges docstring)
+        margin = edges.edge_margin(options.edge_margin) * edges.oblique_factor(fast.mp.angle)  # as decode.assess
         q = edges.fused_quality_map(valid, w, extent, margin, mod, avg,
                                     gradient_ratio=float(options.gradient_ratio),
                                     modulation_ratio=float(options.modulation_ratio), rim=int(options.rim))

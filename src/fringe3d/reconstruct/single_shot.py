@@ -28,6 +28,7 @@ from fringe3d.unwrap.histogram import fringe_order_difference, mode_of_orders
 from fringe3d.unwrap.hybrid import carrier_from_minimum_phase, ftp_group_phase
 from fringe3d.unwrap.segmentation import foreground_mask, segment_objects
 from fringe3d.unwrap.spatial import unwrap_objects
+from fringe3d.utils.camera_size import check_camera_size
 from fringe3d.utils.warning_types import DepthRangeWarning
 
 TWO_PI = 2.0 * math.pi
@@ -107,10 +108,7 @@ def single_shot(images, rig: Rig, period: float, z_min: float, method: str = "ft
     if imgs.ndim != 3 or imgs.shape[0] != need:
         raise ValueError(f"method {method!r} needs {need} image(s) of shape (H, W), got an array of shape "
                          f"{np.asarray(images).shape}")
-    ch, cw = camera_shape(rig)
-    if imgs.shape[1:] != (ch, cw):
-        raise ValueError(f"the images are {imgs.shape[2]}x{imgs.shape[1]} pixels but the rig's camera is "
-                         f"{cw}x{ch}: calibration and capture sizes disagree")
+    check_camera_size(imgs.shape[1:], camera_shape(rig), what="the images")
     mp = minimum_phase(rig, z_min, period, angle)
     carrier = carrier_from_minimum_phase(mp.phi_min)
     pr = ftp_group_phase(imgs, list(shifts)[:need], carrier, window)

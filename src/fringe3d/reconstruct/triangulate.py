@@ -33,6 +33,7 @@ from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.psp import lsq_coefficients
 from fringe3d.reconstruct._kernels import lsq_kernel, three_step_fields_kernel, three_step_kernel
 from fringe3d.unwrap.geometric import MinimumPhase
+from fringe3d.utils.camera_size import check_camera_size
 from fringe3d.utils.warning_types import ReconstructionWarning
 
 __all__ = ["ANGLE_UP", "ANGLE_VP", "FastThreeStep", "Triangulator", "triangulate"]
@@ -245,6 +246,10 @@ class FastThreeStep:
         self.sign = np.ascontiguousarray(minimum_phase.sign, np.int8)
         self.scale = minimum_phase.period / (2 * math.pi)
 
+    def set_min_modulation(self, min_modulation: float) -> None:
+        """The modulation threshold (frames' units) below which a pixel is invalid, from now on."""
+        self.min_mod2 = float(min_modulation) ** 2
+
     def depth(self, frames, index=(0, 1, 2), out=None, device_output: bool = False) -> np.ndarray:
         """``(H, W)`` float32 ray parameters ``s`` of ``X = O + s*D`` (the camera-frame depth, mm;
         NaN invalid) from ``frames[index]`` of an ``(F, H, W)`` stack; ``out`` may be a
@@ -276,10 +281,9 @@ class FastThreeStep:
         """``(frames, index)`` as arrays, checked against the rig's camera (clear errors)."""
         frames = np.asarray(frames)
         H, W = self.tri.shape
-        if frames.ndim != 3 or frames.shape[1:] != (H, W):
-            raise ValueError(f"frames must be an (F, {H}, {W}) stack for this rig's camera, got {frames.shape}: "
-                             "calibration and capture sizes disagree" if frames.ndim == 3 else
-                             f"frames must be an (F, H, W) stack, got shape {frames.shape}")
+        if frames.ndim != 3:
+            raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
+        check_camera_size(frames.shape[1:], (H, W), what="the frames")
         idx = np.asarray(index, np.int64)
         if idx.shape != (3,) or idx.min() < 0 or idx.max() >= frames.shape[0]:
             raise ValueError(f"index must name 3 frames of the {frames.shape[0]}-frame stack, got {list(index)}")

@@ -1,0 +1,83 @@
+"""Executors: who computes a sequence's 3D frames (the loop that writes them is one,
+:func:`fringe3d.reconstruct.sequence.reconstruct_sequence`).
+
+An executor is a callable ``executor(job, todo)`` yielding ``(k, cycle, empty)`` for every 3D
+frame ``k`` of ``todo`` (any order) where ``job`` is a :class:`WindowJob`; it computes, the caller
+writes and keeps the books (store, PLY files, ``done`` marks, summary). :func:`serial` runs here,
+:func:`threads` on a thread pool, and ``fringe3d.cluster.engine.dask_executor`` on Dask workers.
+"""
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+from fringe3d.io.capture_frames import CaptureFolder
+from fringe3d.reconstruct.frame import Cycle, FrameReconstructor, reconstructed_windows
+
+#: Cycles per batched launch on the CUDA backend (one cycle at a time on the CPU).
+CUDA_BATCH = 32
+
+Done = tuple[int, Cycle, bool]
+Executor = Callable[["WindowJob", list[int]], Iterator[Done]]
+
+
+@dataclass(frozen=True)
+class WindowJob:
+    """The 3D frames to compute: the engine ``rec``, the capture's ``frames`` (F, H, W) array-like
+    (and, for executors that reopen it elsewhere, its ``capture`` folder), each
+    3D frame's first frame ``starts``, and what the outputs need: ``ply`` (points and texture),
+    ``layout`` (the store's, or None) and ``quality`` (quality map and sigma_z)."""
+
+    rec: FrameReconstructor
+    frames: Any
+    starts: tuple[int, ...]
+    ply: bool
+    layout: str | None
+    quality: bool
+    capture: CaptureFolder | None = None
+
+    def run(self, ks: list[int]) -> list[Done]:
+        """``(k, cycle, empty)`` of the 3D frames ``ks`` (:func:`reconstructed_windows`)."""
+        return list(reconstructed_windows(self.rec, self.frames, list(self.starts), list(ks), self.ply,
+                                          self.layout, self.quality))
+
+
+def batch_size(job: WindowJob) -> int:
+    """3D frames computed together: :data:`CUDA_BATCH` on the CUDA backend (one launch), else 1."""
+    return CUDA_BATCH if job.rec.backend == "cuda" else 1
+
+
+def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
+    """Every 3D frame of ``todo`` in this thread, in order."""
+    size = batch_size(job)
+    for b0 in range(0, len(todo), size):
+        yield from reconstructed_windows(job.rec, job.frames, list(job.starts), todo[b0:b0 + size], job.ply,
+                                         job.layout, job.quality)
+
+
+def threads(workers: int = 2, in_flight: int | None = None) -> Executor:
+    """An executor computing ``workers`` batches at once on a thread pool (the numba kernels
+    release the GIL), yielding in order; at most ``in_flight`` batches (default ``2 * workers``)
+    are computed ahead of the one being written (bounded memory)."""
+
+    def run(job: WindowJob, todo: list[int]) -> Iterator[Done]:
+        size = batch_size(job)
+        parts = [todo[i:i + size] for i in range(0, len(todo), size)]
+        most = in_flight or 2 * workers
+        with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="fringe3d-frames") as pool:
+            pending: deque = deque()
+            try:
+                for ks in parts:
+                    pending.append(pool.submit(job.run, ks))
+                    while len(pending) >= most:
+                        yield from pending.popleft().result()
+                while pending:
+                    yield from pending.popleft().result()
+            finally:
+                for fut in pending:
+                    fut.cancel()
+
+    return run

@@ -1,0 +1,302 @@
+"""The engine: one cycle of frames -> decoded fields -> points (:class:`FrameReconstructor`).
+
+Built once per rig and manifest, it reconstructs one cycle (the manifest's frames, in manifest
+order) into a :class:`Cycle`: points, texture, quality bits and predicted sigma. Two paths give
+the same numbers as :func:`fringe3d.decode.decode` + :func:`fringe3d.reconstruct.depth.
+points_from_decoded`: the decode path itself, and for a single-direction 3-step manifest
+unwrapped by the geometric constraint the fused :class:`~fringe3d.reconstruct.triangulate.
+FastThreeStep` kernel with the decode path's quality rules (:mod:`fringe3d.reconstruct.
+fast_quality`). Sequencing many cycles into files is :mod:`fringe3d.reconstruct.sequence`.
+"""
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from typing import Iterator, NamedTuple
+
+import numpy as np
+
+from fringe3d.decode.context import phase_groups
+from fringe3d.decode.decoder import decode
+from fringe3d.decode.edges import INVALID, pixel_extent
+from fringe3d.decode.method_plans import with_method as plans_with_method
+from fringe3d.decode.options import DecodeOptions
+from fringe3d.decode.plan_checks import check_plans
+from fringe3d.decode.texture import as_fraction, fringe_texture
+from fringe3d.gpu.runtime import check_backend
+from fringe3d.io.store import LAYOUTS
+from fringe3d.optics.rays import projector_fringe_coordinate
+from fringe3d.optics.rig import Rig
+from fringe3d.patterns.conventions import w_range, w_to_phase
+from fringe3d.patterns.manifest import PatternSet
+from fringe3d.patterns.method_registry import method_facts
+from fringe3d.phase.quality import default_min_modulation
+from fringe3d.reconstruct.depth import EmptyMaskError, points_from_decoded
+from fringe3d.reconstruct.fast_quality import fast_quality
+from fringe3d.reconstruct.triangulate import FastThreeStep, ThreeStepFields, Triangulator
+from fringe3d.reconstruct.uncertainty import point_sigma
+from fringe3d.reconstruct.windows import window_index
+from fringe3d.unwrap.geometric import cached_minimum_phase, check_wrap_around
+from fringe3d.utils.warning_types import ReconstructionWarning
+
+
+# ----------------------------------------------------------------------------- plans
+def reconstruction_plans(ps: PatternSet, method: str | None) -> PatternSet:
+    """:func:`fringe3d.decode.method_plans.with_method`, keeping only the directions that
+    triangulate: those with phase frames, and for a code method (``gray_code_only``, ...) those
+    with code frames; ``ValueError`` when the manifest has none."""
+    if method is None:
+        return ps
+    code = method_facts(method).code_only
+    dirs = [d for d in ps.directions() if ps.groups(direction=d, role="phase") or
+            (code and ps.indices(role="code", direction=d))]
+    if not dirs:
+        raise ValueError(f"the manifest ({ps.name or 'unnamed set'}) has no phase frames"
+                         + (" and no code frames" if code else "") + "; nothing to reconstruct")
+    chosen = plans_with_method(ps, method)
+    return dataclasses.replace(chosen, plans=tuple(p for p in chosen.plans if p.direction in dirs))
+
+
+class Cycle(NamedTuple):
+    """One reconstructed cycle: ``points`` (H, W, 3) float32 mm (NaN invalid; None when not
+    asked for), ``texture`` (H, W) float32 in [0, 1] (None when not asked for), ``quality`` (H, W) uint8 bits
+    (:mod:`fringe3d.decode.edges`; 0 = kept), ``sigma_xyz`` (H, W, 3) float32 mm predicted
+    standard deviations (or None), on the fused path ``depth`` (H, W) float32: the ray
+    parameter ``s`` of every point (``points = ray_points(O, D, depth)``; None elsewhere), and
+    ``sigma_z`` (H, W) float32 mm, ``sigma_xyz``'s z (or None)."""
+
+    points: np.ndarray | None
+    texture: np.ndarray | None
+    quality: np.ndarray
+    sigma_xyz: np.ndarray | None
+    depth: np.ndarray | None = None
+    sigma_z: np.ndarray | None = None
+
+
+class FrameReconstructor:
+    """Turns one cycle of frames (manifest order) into an ``(H, W, 3)`` float32 point map.
+
+    Built once per rig and manifest: the minimum phase map and ray coefficients are computed
+    once. ``fast=True`` takes the fused :class:`FastThreeStep` kernel when the manifest is one
+    3-step direction unwrapped by ``"geometric"`` and the projector has no distortion (it masks by
+    modulation, then the edge and mixed-pixel tests of :mod:`fringe3d.reconstruct.fast_quality`;
+    saturation is not checked on that path).
+
+    ``backend="cuda"`` runs the per-pixel kernels on a CUDA device (:mod:`fringe3d.gpu`): the
+    fused kernel on the fused path, the fused three-frequency kernel on the decode path
+    (``DecodeOptions.backend``); the quality tests, texture and everything else stay on the CPU,
+    so the results equal the CPU backend's to float rounding.
+
+    The plans are checked first (:func:`fringe3d.decode.plan_checks.check_plans`): a geometric
+    method without ``options.z_min`` raises ``MissingGeometryError``, a wrapped or relative
+    phase (method ``none``, ``spatial``) ``RelativePhaseError`` unless ``allow_relative``, which
+    triangulates it with a :class:`~fringe3d.utils.warning_types.ReconstructionWarning` and
+    lists its directions in :attr:`relative`.
+    """
+
+    def __init__(self, patterns: PatternSet, rig: Rig, options: DecodeOptions | None = None,
+                 triangulation: str = "auto", fast: bool = True, backend: str = "cpu",
+                 allow_relative: bool = False):
+        self.patterns = patterns
+        self.rig = rig
+        self.backend = check_backend(backend)
+        self.options = dataclasses.replace(options or DecodeOptions(), backend=self.backend)
+        self.relative = check_plans(patterns, rig, self.options.z_min, allow_relative=allow_relative)
+        if self.relative:
+            warnings.warn(f"triangulating the wrapped or relative phase of direction(s) {list(self.relative)} "
+                          "(allow_relative): the 3D is off by an unknown number of fringe periods in depth",
+                          ReconstructionWarning, stacklevel=2)
+        self.allow_relative = allow_relative
+        self.allow_fused = fast
+        self.z_min = self.options.z_min
+        self.triangulation = triangulation
+        self._range_checked = False
+        self.fused = fused_path(patterns, rig, self.options, self.backend) if fast else None
+        self.fast = self.fused.kernel if self.fused is not None else None
+
+    @property
+    def store_layout(self) -> str:
+        """The point store layout that holds this reconstruction exactly: ``"ray_depth"`` on the
+        fused path (it gives each point's ray parameter), ``"xyz"`` otherwise."""
+        return "ray_depth" if self.fast is not None else "xyz"
+
+    @property
+    def rays(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(O (3,), D_planes (3, H, W))`` of the fused path's camera rays."""
+        if self.fast is None:
+            raise ValueError("only the fused 3-step path reconstructs along stored camera rays")
+        return self.fast.tri.O, self.fast.tri.D_planes
+
+    @property
+    def path(self) -> str:
+        return "fused 3-step + geometric kernel" if self.fast is not None else "decode + triangulate"
+
+    def __call__(self, frames: np.ndarray) -> np.ndarray | None:
+        """Points ``(H, W, 3)`` float32 mm of one cycle (:meth:`reconstruct` without sigma)."""
+        return self.reconstruct(frames, uncertainty=False).points
+
+    def depths(self, cycles: list[np.ndarray]) -> list | None:
+        """On the CUDA fused path, the ray parameters (:meth:`FastThreeStep.depth`) of several
+        cycles (each (n, H, W), manifest order) in one batched launch, for :meth:`reconstruct`'s
+        ``depth``; None elsewhere (each cycle is then computed on its own)."""
+        if self.fast is None or self.backend != "cuda" or len(cycles) < 2:
+            return None
+        assert self.fused is not None
+        self._set_min_modulation(cycles[0])
+        return list(self.fast.depth(np.stack(cycles), index=self.fused.index))
+
+    def _set_min_modulation(self, frames: np.ndarray) -> None:
+        """The fused path's modulation threshold for ``frames`` (default: from their bit depth)."""
+        assert self.fused is not None
+        mm = self.fused.min_modulation
+        self.fused.kernel.set_min_modulation(default_min_modulation(frames, self.options.bit_depth) if mm is None
+                                             else mm)
+
+    def reconstruct(self, frames: np.ndarray, uncertainty: bool | str = True, points: bool = True,
+                    texture: bool = True, depth: np.ndarray | None = None) -> Cycle:
+        """One cycle (manifest order) -> :class:`Cycle`: points, texture, quality map (OR of the
+        directions' bits, :mod:`fringe3d.decode.edges`) and, with ``uncertainty``, ``sigma_xyz``
+        and ``sigma_z`` (:mod:`fringe3d.reconstruct.uncertainty`; ``"z"``: on the fused path
+        ``sigma_z`` alone). Both paths mask edge and mixed pixels unless ``options.edge_mask``
+        is False. ``points=False`` leaves ``points`` None on the fused path (its ``depth`` holds
+        them), ``texture=False`` leaves ``texture`` None there. ``depth``: the fused kernel's ray
+        parameters for these frames, already computed (:meth:`depths`)."""
+        if self.fast is not None:
+            return self._reconstruct_fused(frames, uncertainty, points, texture, depth)
+        dec = decode(frames, self.patterns, rig=self.rig, options=self.options)
+        pts = points_from_decoded(dec, self.rig, method=self.triangulation)
+        tex = np.asarray(dec.texture, np.float32)  # a fraction of full scale already (fringe3d.decode.texture)
+        quality = np.zeros(pts.shape[:2], np.uint8)
+        for q in dec.quality.values():
+            quality |= q
+        quality[~np.isfinite(pts[..., 0]) & (quality == 0)] |= INVALID  # e.g. behind the camera
+        sigma = point_sigma(dec, self.rig, method=self.triangulation) if uncertainty else None
+        return Cycle(pts, tex, quality, sigma, sigma_z=None if sigma is None else np.ascontiguousarray(sigma[..., 2]))
+
+    def _reconstruct_fused(self, frames: np.ndarray, uncertainty: bool | str, points: bool, texture: bool,
+                           depth: np.ndarray | None) -> Cycle:
+        """:meth:`reconstruct` on the fused path: one kernel pass gives the ray parameters and,
+        where the quality tests, sigma_z or the texture need them, ``w``, ``A`` and ``B``."""
+        fused = self.fused
+        assert fused is not None
+        fast = fused.kernel
+        if depth is not None:  # computed elsewhere (the CUDA batch): w, A, B are recomputed
+            fields = ThreeStepFields(depth)
+        else:
+            self._set_min_modulation(frames)
+            if self.backend == "cpu" and (self.options.edge_mask or uncertainty or texture):
+                fields = fast.depth_fields(frames, fused.index)
+            else:
+                fields = ThreeStepFields(fast.depth(frames, index=fused.index))
+        depth = fields.depth
+        if not self._range_checked:  # once: the depth-range warning the decode path gives
+            self._check_range(depth)
+        fq = fast_quality(fast, frames, fused.index, fused.shifts, fields, fused.extent,
+                          self.options, uncertainty)
+        tex = None
+        if texture:  # A + B as decode's; the kernel or the quality tests already have them
+            tex = (as_fraction(np.add(fq.average, fq.modulation, dtype=np.float32), frames, self.options.bit_depth)
+                   if fq.average is not None and fq.modulation is not None else
+                   fringe_texture(frames, fused.shifts, fused.index, self.options.bit_depth))
+        pts = fast.ray_points(depth) if points else None
+        return Cycle(pts, tex, fq.quality, fq.sigma_xyz, depth, fq.sigma_z)
+
+    def _check_range(self, depth: np.ndarray) -> None:
+        """The depth-range warning of the decode path (:func:`fringe3d.unwrap.geometric.
+        check_wrap_around`) from the points of ``depth`` before the edge tests mask any (an
+        empty mask is left to :func:`fast_quality`)."""
+        assert self.fast is not None
+        mp = self.fast.mp
+        valid = np.isfinite(depth)
+        if not valid.any():
+            return
+        X = np.where(valid[..., None], self.fast.ray_points(depth), 0.0).astype(np.float64)
+        w = projector_fringe_coordinate(self.rig, X, mp.angle)
+        check_wrap_around(np.where(valid, w_to_phase(w, mp.period, scale_first=True), np.nan), mp, valid)
+        self._range_checked = True
+
+
+def reconstruct_window(rec: FrameReconstructor, frames: np.ndarray, ply: bool, layout: str | None,
+                       quality: bool, depth: np.ndarray | None = None) -> tuple[Cycle, bool]:
+    """One window (manifest order) for a sequence's outputs: ``(cycle, empty)``.
+
+    ``ply`` asks for points and texture, ``layout`` (the store's, or None) for the points
+    (``"xyz"``) or only the ray parameters (``"ray_depth"``), ``quality`` for the quality map
+    and ``sigma_z``, ``depth`` for the fused kernel's ray parameters already computed
+    (:meth:`FrameReconstructor.depths`). A window whose phase mask is empty gives an all-NaN,
+    all-INVALID cycle and ``empty = True``.
+    """
+    want_points = ply or layout == "xyz"
+    try:
+        return rec.reconstruct(frames, uncertainty="z" if quality else False, points=want_points, texture=ply,
+                               depth=depth), False
+    except EmptyMaskError:
+        pass
+    H, W = frames.shape[1:]
+    nan = np.full((H, W), np.nan, np.float32)
+    return Cycle(np.full((H, W, 3), np.nan, np.float32) if want_points else None, None,
+                 np.full((H, W), INVALID, np.uint8), None, nan if rec.fast is not None else None), True
+
+
+def reconstructed_windows(rec: FrameReconstructor, frames, starts, ks: list[int], ply: bool, layout: str | None,
+                          quality: bool) -> Iterator[tuple[int, Cycle, bool]]:
+    """``(k, cycle, empty)`` of each 3D frame ``k`` of ``ks`` (:func:`reconstruct_window`), its
+    window read from ``frames`` (F, H, W) at ``starts[k]``; on the CUDA fused path the ray
+    parameters of all of ``ks`` come from one batched launch (:meth:`FrameReconstructor.depths`).
+    The one per-frame loop of the serial and the Dask paths."""
+    n = len(rec.patterns)
+    cycles = [np.ascontiguousarray(frames[window_index(starts[k], n)]) for k in ks]
+    depths = rec.depths(cycles)
+    for i, (k, cycle_frames) in enumerate(zip(ks, cycles)):
+        cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, layout, quality,
+                                            depth=None if depths is None else depths[i])
+        yield k, cyc, was_empty
+
+
+@dataclasses.dataclass(frozen=True)
+class FusedPath:
+    """What the fused 3-step path needs besides its kernel: the phase group's frame ``index``
+    (3,) and ``shifts`` (rad), the valid fringe-coordinate ``extent`` (px, widened by half a
+    pixel's extent as the decode path's, :mod:`fringe3d.decode.assess`) and the modulation
+    threshold ``min_modulation`` (counts; None: from the frames' bit depth)."""
+
+    kernel: FastThreeStep
+    index: np.ndarray
+    shifts: tuple
+    extent: tuple[float, float]
+    min_modulation: float | None
+
+
+def fused_path(patterns: PatternSet, rig: Rig, options: DecodeOptions, backend: str) -> FusedPath | None:
+    """The fused path for ``patterns`` on ``rig``, or None where it does not apply: it needs one
+    3-step direction unwrapped by ``"geometric"`` with ``options.z_min``, a pinhole camera and a
+    projector without distortion."""
+    plans = patterns.plans
+    if len(plans) != 1 or plans[0].method != "geometric" or options.z_min is None or rig.telecentric:
+        return None
+    if rig.projector.dist.any():
+        return None
+    groups = phase_groups(patterns, plans[0].direction)
+    if len(groups) != 1 or len(groups[0].indices) != 3 or len(patterns) != 3:
+        return None
+    g = groups[0]
+    mp = cached_minimum_phase(rig, options.z_min, g.period, g.angle)
+    wr = plans[0].options.get("w_range")
+    lo, hi = (float(wr[0]), float(wr[1])) if wr is not None else w_range(g.angle, patterns.width, patterns.height)
+    kernel = FastThreeStep(Triangulator(rig, g.angle, warn_distortion=False), mp, g.shifts,
+                           min_modulation=0.0, backend=backend)
+    return FusedPath(kernel, np.asarray(g.indices, np.int64), g.shifts, pixel_extent(lo, hi, g.angle),
+                     options.min_modulation)
+
+
+def store_layout(rec: FrameReconstructor, layout: str = "auto") -> str:
+    """The point store layout for ``rec``'s reconstruction: ``"auto"`` is ``"ray_depth"`` where it
+    is exact (the fused path), else ``"xyz"``; ``"ray_depth"`` where it is not exact is an error."""
+    if layout == "auto":
+        return rec.store_layout
+    if layout not in LAYOUTS:
+        raise ValueError(f"unknown store layout {layout!r}; expected auto, {', '.join(LAYOUTS)}")
+    if layout == "ray_depth" and rec.store_layout != "ray_depth":
+        raise ValueError(f"the ray_depth store layout needs the fused 3-step + geometric path; this manifest and rig "
+                         f"take {rec.path!r}, whose points are stored as xyz (use `store_layout` auto or xyz)")
+    return layout

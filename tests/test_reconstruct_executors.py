@@ -1,0 +1,79 @@
+"""One loop, three executors: the serial path, a thread pool and Dask workers compute the 3D frames
+of one capture and the same loop writes them (:func:`fringe3d.reconstruct.sequence.reconstruct_sequence`);
+the stores and PLY files must agree bit for bit, and so must the books (done, empty frames)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fringe3d.decode.options import DecodeOptions
+from fringe3d.io.capture import read_capture
+from fringe3d.io.capture_frames import CaptureFolder
+from fringe3d.io.store import PointMapStore
+from fringe3d.optics.rig import Rig
+from fringe3d.patterns import sets
+from fringe3d.reconstruct.executors import serial, threads
+from fringe3d.reconstruct.frame import reconstruction_plans
+from fringe3d.reconstruct.sequence import reconstruct_sequence
+from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
+from fringe3d.sim import simulate_capture
+
+distributed = pytest.importorskip("distributed")  # in the test extra: CI always has it
+CYCLES = 3
+
+
+@pytest.fixture(scope="module")
+def capture(tmp_path_factory):
+    """3 cycles of a 3-step T=64 capture of a sphere before a wall, with its rig."""
+    folder = tmp_path_factory.mktemp("executors") / "cap"
+    ps = sets.phase_shift(64, 3, "v", width=256, height=200)
+    simulate_capture(folder, preset="tiny", scene="sphere", patterns=ps, cycles=CYCLES, seed=5, progress=False)
+    return folder
+
+
+def run_with(capture, out, executor) -> dict:
+    ps = reconstruction_plans(read_capture(capture, max_cycles=1).patterns, "geometric")
+    rig = Rig.load(capture / "rig.json")
+    decode = DecodeSettings(DecodeOptions(z_min=340.0))
+    return reconstruct_sequence(CaptureFolder(str(capture)), ps, rig, out, decode, OutputSettings(ply=True),
+                                RunSettings(progress=False), executor=executor)
+
+
+def store_arrays(out) -> list[np.ndarray]:
+    st = PointMapStore.open_existing(out / "points.zarr")
+    assert st.completed == st.frames == CYCLES
+    return [np.stack([f(k) for k in range(st.frames)]) for f in (st.read, st.depth, st.quality, st.sigma_z)]
+
+
+def test_serial_threads_and_dask_write_the_same_store_bit_for_bit(capture, tmp_path):
+    from fringe3d.cluster.engine import dask_executor
+
+    summaries = {"serial": run_with(capture, tmp_path / "serial", serial),
+                 "threads": run_with(capture, tmp_path / "threads", threads(2))}
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None,
+                                  silence_logs=40) as cluster, distributed.Client(cluster) as client:
+        summaries["dask"] = run_with(capture, tmp_path / "dask", dask_executor(client, chunk=2))
+    want = store_arrays(tmp_path / "serial")
+    assert np.isfinite(want[0][..., 0]).mean() > 0.3  # the scene is there: not three empty stores
+    for name in ("threads", "dask"):
+        for got, ref in zip(store_arrays(tmp_path / name), want):  # points, depth, quality, sigma_z
+            np.testing.assert_array_equal(got, ref)
+        names = sorted(p.name for p in (tmp_path / "serial" / "ply").glob("*.ply"))
+        assert names and names == sorted(p.name for p in (tmp_path / name / "ply").glob("*.ply"))
+        for ply in names:  # the same measurement PLY, byte for byte
+            assert (tmp_path / name / "ply" / ply).read_bytes() == (tmp_path / "serial" / "ply" / ply).read_bytes()
+        assert {k: summaries[name][k] for k in ("frames_3d", "done_now", "done_before", "empty_frames")} == \
+            {k: summaries["serial"][k] for k in ("frames_3d", "done_now", "done_before", "empty_frames")}
+
+
+def test_a_resumed_dask_run_computes_only_the_frames_the_store_lacks(capture, tmp_path):
+    from fringe3d.cluster.engine import dask_executor
+
+    out = tmp_path / "out"
+    run_with(capture, out, serial)
+    st = PointMapStore.open_existing(out / "points.zarr")
+    (out / "ply" / "frame_00001.ply").unlink()  # frame 1 is no longer done
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None,
+                                  silence_logs=40) as cluster, distributed.Client(cluster) as client:
+        res = run_with(capture, out, dask_executor(client))
+    assert res["done_before"] == CYCLES - 1 and res["done_now"] == 1 and st.completed == CYCLES
