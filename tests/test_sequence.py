@@ -202,9 +202,9 @@ def test_resumed_run_equals_an_uninterrupted_one_when_frames_are_marked_in_batch
 def test_sequence_store_has_a_time_coordinate_in_seconds_from_the_frame_rate(seq_capture, tmp_path):
     xr = pytest.importorskip("xarray")
     cap, rig, _ = seq_capture
-    ps = with_method(cap.patterns, "geometric")
-    reconstruct_sequence(cap.frames, ps, rig, tmp_path, options=Z340, mode="window", step=2, progress=False,
-                         frame_rate=250.0)
+    ps = reconstruction_plans(cap.patterns, "geometric")
+    reconstruct_sequence(cap.frames, ps, rig, tmp_path, DecodeSettings(Z340, mode="window", step=2),
+                         OutputSettings(frame_rate=250.0), RunSettings(progress=False))
     ds = xr.open_zarr(tmp_path / "points.zarr")
     np.testing.assert_allclose(ds["time"].values, np.arange(0, 7, 2) / 250.0)  # window starts 0, 2, 4, 6
     assert ds["time"].attrs["units"] == "s" and "time" in ds["depth"].coords  # ray_depth layout

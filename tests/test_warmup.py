@@ -16,11 +16,10 @@ import numba.core.registry  # noqa: F401
 from fringe3d.decode import DecodeOptions
 from fringe3d.io.capture import read_capture
 from fringe3d.optics import Rig
-from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
-import fringe3d.reconstruct.sequence as seq
+from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
 warnings.simplefilter("ignore")
 cap = read_capture(sys.argv[1])
-rec = FrameReconstructor(with_method(cap.patterns, "geometric"), Rig.load(sys.argv[1] + "/rig.json"),
+rec = FrameReconstructor(reconstruction_plans(cap.patterns, "geometric"), Rig.load(sys.argv[1] + "/rig.json"),
                          DecodeOptions(z_min=340.0))
 rec.reconstruct(cap.frames[:3])
 from numba.core.dispatcher import Dispatcher

@@ -25,7 +25,7 @@ from fringe3d.io.capture import read_capture
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
 from fringe3d.pipeline import reconstruct_capture
-from fringe3d.reconstruct.sequence import FrameReconstructor, with_method
+from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
 from fringe3d.sim import simulate_capture
 
 #: Nearest depth (mm) of the tiny preset's working volume, for the geometric constraint.
@@ -43,7 +43,7 @@ def _fused_path(folder: Path) -> None:
     ps = sets.phase_shift(64, 3, "v", width=256, height=200)
     simulate_capture(cap, preset="tiny", scene="sphere", patterns=ps, seed=0, progress=False)
     capture = read_capture(cap)
-    rec = FrameReconstructor(with_method(capture.patterns, "geometric"), Rig.load(cap / "rig.json"),
+    rec = FrameReconstructor(reconstruction_plans(capture.patterns, "geometric"), Rig.load(cap / "rig.json"),
                              DecodeOptions(z_min=TINY_Z_MIN))
     rec.reconstruct(capture.frames[:3])
 

@@ -268,8 +268,8 @@ def run_capture(dev: DeviceOptions, mode: ModeOptions, run: RunOptions) -> None:
     dev = replace(dev, exposures=parse_exposures(dev.exposures, "--exposures"))
     if dev.exposures is not None:
         clash = [f for f, on in (("--exposure", dev.exposure is not None), ("--cycles", run.cycles != 1),
-                                 ("--sync hardware", dev.sync != "software"), ("--latency", latency), ("--gamma", gamma),
-                                 ("--session", session is not None)) if on]
+                                 ("--sync hardware", dev.sync != "software"), ("--latency", latency),
+                                 ("--gamma", gamma), ("--session", session is not None)) if on]
         if clash:
             raise ValueError(f"--exposures records one pattern cycle per exposure with software sync; drop "
                              f"{', '.join(clash)}")
