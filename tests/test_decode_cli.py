@@ -83,3 +83,38 @@ def test_layout_flags_on_a_capture_folder_are_refused_not_ignored(tmp_path, caps
     err = " ".join(capsys.readouterr().err.split())
     assert flag[0] in err and "manifest already says how its frames are laid out" in err
     assert not out.exists()
+
+
+def test_decode_capture_is_a_library_call_that_resumes_the_cycles_already_written(tmp_path):
+    from fringe3d.decode import decode_capture
+    ps = sets.three_frequency("v")
+    cycles = [capture_frames(ps, shift=s) for s in (0.0, 3.0)]
+    frames = np.concatenate([c[0] for c in cycles])
+
+    class StopsAtCycleOne:  # an interrupted run: the second cycle is never read
+        def __getitem__(self, s):
+            if s.start >= len(ps):
+                raise KeyboardInterrupt
+            return frames[s]
+
+    with pytest.raises(KeyboardInterrupt):
+        decode_capture(StopsAtCycleOne(), ps, tmp_path / "out", cycles=2)
+    again = decode_capture(frames, ps, tmp_path / "out", cycles=2)
+    assert [r["cycle"] for r in again] == [0, 1] and [r.get("resumed", False) for r in again] == [True, False]
+    for i, (_, truth) in enumerate(cycles):
+        d = Decoded.load(tmp_path / "out" / f"cycle_{i:05d}")
+        assert not np.round((d.phase["v"] - truth) / (2 * math.pi)).any()
+    first = decode_capture(frames, ps, tmp_path / "fresh", cycles=2)
+    assert again[0]["directions"] == first[0]["directions"]
+
+
+def test_an_empty_cycle_names_the_parameter_to_python_and_the_flag_on_the_command_line(tmp_path, capsys):
+    from fringe3d.decode import decode_capture
+    ps = sets.three_frequency("v")
+    with pytest.warns(UserWarning), pytest.raises(ValueError, match=r"pass `allow_empty=True` to write it anyway"):
+        decode_capture(np.zeros((15, H, W), np.uint8), ps, tmp_path / "py", name="dark take")
+    assert not (tmp_path / "py").exists()
+    write_capture(tmp_path / "cap", np.zeros((15, H, W), np.uint8), ps)
+    assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "out")]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "pass --allow-empty to write it anyway" in err and "`" not in err

@@ -12,6 +12,7 @@ import re
 #: backticked library word -> the flag (or command) a command-line user types instead
 FLAGS: dict[str, str] = {
     "accept_poor=True": "--accept-poor",
+    "allow_empty=True": "--allow-empty",
     "allow_relative=True": "--allow-relative",
     "anchors": "--anchors",
     "auto=True": "--auto",
