@@ -82,3 +82,12 @@ def test_the_validator_catches_an_undocumented_parameter_and_a_missing_returns()
     finally:
         del sys.modules["words_probe"]
     assert {"PR01", "RT01"} <= codes
+
+
+def test_the_architecture_page_places_every_package_in_its_layer_table():
+    from pathlib import Path
+    text = (Path(__file__).parents[1] / "docs" / "architecture.md").read_text(encoding="utf-8")
+    rows = [line.split("|")[1] for line in text.splitlines() if line.startswith("| `")]
+    named = {word for row in rows for word in row.replace("`", " ").replace("‖", " ").split()}
+    packages = {m.name for m in pkgutil.iter_modules(fringe3d.__path__) if m.ispkg} | {"pipeline"}
+    assert packages - named == set()
