@@ -118,3 +118,18 @@ def test_an_empty_cycle_names_the_parameter_to_python_and_the_flag_on_the_comman
     assert main(["decode", str(tmp_path / "cap"), "-o", str(tmp_path / "out")]) == 2
     err = " ".join(capsys.readouterr().err.split())
     assert "pass --allow-empty to write it anyway" in err and "`" not in err
+
+
+def test_a_decoded_direction_is_one_typed_record_of_the_same_arrays(tmp_path):
+    from fringe3d.decode import DirectionMaps, decode
+    ps = sets.three_frequency("v")
+    frames, truth = capture_frames(ps)
+    dec = decode(frames, ps)
+    v = dec["v"]
+    assert isinstance(v, DirectionMaps) and list(dec) == ["v"] and list(dec.by_direction()) == ["v"]
+    assert v.phase is dec.phase["v"] and v.mask is dec.mask["v"] and v.quality is dec.quality["v"]
+    assert v.period == dec.period["v"] and v.method == dec.method["v"]
+    assert not np.round((v.phase - truth) / (2 * math.pi)).any()
+    assert np.array_equal(v.projector_coordinate(), dec.projector_coordinate("v"), equal_nan=True)
+    with pytest.raises(KeyError, match="no fringe direction 'h'"):
+        dec["h"]

@@ -10,7 +10,7 @@ from fringe3d.decode.context import DecodeContext, PhaseGroup
 from fringe3d.decode.decoder import decode, decode_sequence, with_method
 from fringe3d.decode.methods import METHODS, register_method
 from fringe3d.decode.options import DecodeOptions
-from fringe3d.decode.result import Decoded, Unwrapped
+from fringe3d.decode.result import Decoded, DirectionMaps, Unwrapped
 
-__all__ = ["METHODS", "DecodeContext", "DecodeOptions", "Decoded", "PhaseGroup", "Unwrapped",
+__all__ = ["METHODS", "DecodeContext", "DecodeOptions", "Decoded", "DirectionMaps", "PhaseGroup", "Unwrapped",
            "decode", "decode_capture", "decode_sequence", "register_method", "with_method"]

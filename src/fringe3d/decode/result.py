@@ -7,7 +7,7 @@ import zipfile
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -87,6 +87,56 @@ class Unwrapped:
     order_inconsistent: np.ndarray | None = None
 
 
+@dataclass(frozen=True, eq=False)
+class DirectionMaps:
+    """One fringe direction of a :class:`Decoded`: its maps and plan facts, typed.
+
+    Attributes
+    ----------
+    direction : str
+        The direction's key (e.g. ``"v"``).
+    phase : (H, W) float32
+        Absolute phase (rad), NaN where invalid.
+    wrapped : (H, W) float32
+        Wrapped phase (rad) in (-pi, pi].
+    modulation : (H, W) float32
+        Fringe modulation (frames' units).
+    mask : (H, W) bool
+        Valid pixels.
+    period : float
+        Fringe period of ``phase`` (projector px).
+    angle : float
+        Fringe angle (rad).
+    method : str or None
+        The unwrapping method.
+    quality : (H, W) uint8 or None
+        Bit flags of why a pixel is masked (:mod:`fringe3d.decode.edges`); None in older outputs.
+    phase_sigma : (H, W) float32 or None
+        Predicted phase standard deviation (rad); None in older outputs.
+    """
+
+    direction: str
+    phase: np.ndarray
+    wrapped: np.ndarray
+    modulation: np.ndarray
+    mask: np.ndarray
+    period: float
+    angle: float
+    method: str | None = None
+    quality: np.ndarray | None = None
+    phase_sigma: np.ndarray | None = None
+
+    def projector_coordinate(self) -> np.ndarray:
+        """(H, W) float32 projector fringe coordinate ``w = Phi T / 2 pi`` (px), NaN invalid.
+
+        Returns
+        -------
+        (H, W) float32
+            The coordinate, as :meth:`Decoded.projector_coordinate`.
+        """
+        return phase_to_w(self.phase, float(self.period)).astype(np.float32)
+
+
 @dataclass
 class Decoded:
     """Decoded phase maps of one pattern cycle.
@@ -120,7 +170,32 @@ class Decoded:
 
     @property
     def directions(self) -> list[str]:
+        """The fringe directions, in decoding order."""
         return list(self.phase)
+
+    def __getitem__(self, direction: str) -> DirectionMaps:
+        """One direction's maps, typed: ``decoded["v"].phase`` is ``decoded.phase["v"]``."""
+        if direction not in self.phase:
+            raise KeyError(f"no fringe direction {direction!r}; this result has {self.directions}")
+        return DirectionMaps(direction=direction, phase=self.phase[direction], wrapped=self.wrapped[direction],
+                             modulation=self.modulation[direction], mask=self.mask[direction],
+                             period=float(self.period[direction]), angle=float(self.angle[direction]),
+                             method=self.method.get(direction), quality=self.quality.get(direction),
+                             phase_sigma=self.phase_sigma.get(direction))
+
+    def __iter__(self) -> Iterator[str]:
+        """The directions, as a mapping's keys (``for d in decoded``)."""
+        return iter(self.directions)
+
+    def by_direction(self) -> dict[str, DirectionMaps]:
+        """Every direction's :class:`DirectionMaps`, in decoding order.
+
+        Returns
+        -------
+        dict of str to DirectionMaps
+            ``{direction: decoded[direction]}``.
+        """
+        return {d: self[d] for d in self.directions}
 
     def projector_coordinate(self, direction: str) -> np.ndarray:
         """(H, W) float32 projector fringe coordinate ``w = Phi T / 2 pi`` (px), NaN invalid."""
