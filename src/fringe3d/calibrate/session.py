@@ -472,8 +472,8 @@ def calibrate_session(paths, board=None, model: str | None = None, progress: boo
         The calibration and the fit (unpacks as ``(Calibration, fit)``).
     """
     if min_modulation_fraction is not None:
-        warnings.warn("`min_modulation_fraction` is deprecated; pass `min_modulation_share`", DeprecationWarning,
-                      stacklevel=2)
+        warnings.warn("the parameter min_modulation_fraction is deprecated; pass `min_modulation_share`",
+                      DeprecationWarning, stacklevel=2)
         min_modulation_share = min_modulation_fraction
     folders, meta = find_pose_folders(paths, layout, projector_size)
     if board is None:

@@ -44,6 +44,7 @@ FLAGS: dict[str, str] = {
     "manifest": "--manifest",
     "method": "--method",
     "min_modulation": "--min-modulation",
+    "min_modulation_share": "--min-modulation-share",
     "node": "--node",
     "overwrite=True": "--overwrite",
     "patterns": "the pattern folder (fringe3d patterns --set calibration)",
