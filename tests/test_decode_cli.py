@@ -133,3 +133,21 @@ def test_a_decoded_direction_is_one_typed_record_of_the_same_arrays(tmp_path):
     assert np.array_equal(v.projector_coordinate(), dec.projector_coordinate("v"), equal_nan=True)
     with pytest.raises(KeyError, match="no fringe direction 'h'"):
         dec["h"]
+
+
+def test_the_decode_files_live_in_io_and_a_load_save_round_trip_rewrites_them_byte_for_byte(tmp_path):
+    from fringe3d.decode import decode
+    from fringe3d.io.decoded_files import NPZ_NAME, read_decoded_npz
+    ps = sets.three_frequency("v")
+    frames, _ = capture_frames(ps)
+    frames[:, :5, :5] = 0  # some invalid pixels: NaN in the phase TIFFs
+    dec = decode(frames, ps)
+    dec.save(tmp_path / "a")
+    Decoded.load(tmp_path / "a").save(tmp_path / "b")
+    files = sorted(p.name for p in (tmp_path / "a").iterdir())
+    assert files == sorted(p.name for p in (tmp_path / "b").iterdir()) and "phase_v.tif" in files
+    for name in files:
+        if name != "decoded.json":  # holds the time it was written
+            assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+    meta, arrays = read_decoded_npz(tmp_path / "a" / NPZ_NAME)
+    assert meta["directions"] == ["v"] and np.array_equal(arrays["phase_v"], dec.phase["v"], equal_nan=True)

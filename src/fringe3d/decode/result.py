@@ -2,7 +2,6 @@
 (absolute phase, wrapped phase, modulation and mask per direction of one pattern cycle)."""
 from __future__ import annotations
 
-import json
 import zipfile
 import os
 from dataclasses import dataclass, field
@@ -12,29 +11,16 @@ from typing import Any, Iterator
 import numpy as np
 
 from fringe3d.decode.edges import INVALID, ORDER
-from fringe3d.io.images import write_tiff
+from fringe3d.io.decoded_files import (MAP_UNITS, NPZ_NAME, SUMMARY_NAME, SUMMARY_UNITS,  # noqa: F401
+                                      read_decoded_npz, write_decoded_files)
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.quality import DARK_FRACTION, DARK_PERCENTILE
 
-from fringe3d.utils.atomic import atomic_path
-from fringe3d.utils.jsonfile import write_json
 from fringe3d.utils.output_folder import check_complete
 
-NPZ_NAME = "decoded.npz"
-SUMMARY_NAME = "decoded.json"
 _PER_DIRECTION = ("phase", "wrapped", "modulation", "mask")
 #: Per-direction maps that older decode outputs lack (read when present).
 _OPTIONAL = ("quality", "phase_sigma")
-#: Unit of each saved map (the TIFFs' descriptions). The texture is the scene under full projector
-#: illumination as a fraction of the camera's full scale (:mod:`fringe3d.decode.texture`).
-MAP_UNITS = {"phase": "rad", "wrapped": "rad", "modulation": "camera counts", "mask": "1 valid, 0 invalid",
-             "quality": "bit flags (fringe3d.decode.edges)", "phase_sigma": "rad", "average": "camera counts",
-             "texture": "fraction of full scale"}
-#: Units of decoded.json's fields.
-SUMMARY_UNITS = {"period": "projector px", "angle": "rad", "phase_min": "rad", "phase_max": "rad",
-                 "median_modulation": "camera counts", "valid_fraction": "1", "shape": "px (rows, columns)",
-                 "order_inconsistent": "1 (share of the method's valid pixels)",
-                 "edge_margin": "projector px", "blur": "projector px", "min_modulation": "camera counts"}
 
 
 def order_share(quality: np.ndarray) -> float:
@@ -249,8 +235,6 @@ class Decoded:
         ``wrapped_<d>.tif``, ``modulation_<d>.tif``, ``average.tif``, ``texture.tif``; uint8
         ``mask_<d>.tif`` (0/1) and ``quality_<d>.tif`` (bits). Returns the folder."""
 
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
         arrays = {}
         for d in self.directions:
             for name in _PER_DIRECTION:
@@ -263,26 +247,7 @@ class Decoded:
                 arrays[name] = getattr(self, name)
         meta = {"period": self.period, "angle": self.angle, "method": self.method,
                 "directions": self.directions}
-        with atomic_path(folder / NPZ_NAME) as tmp:
-            with open(tmp, "wb") as fh:
-                np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
-        for key, arr in arrays.items():
-            quantity = key.rsplit("_", 1)[0] if key not in MAP_UNITS else key
-            write_tiff(folder / f"{key}.tif", self._tiff_map(quantity, key, arr), key, MAP_UNITS[quantity])
-        write_json(folder / SUMMARY_NAME, self.summary(), units=SUMMARY_UNITS)
-        return folder
-
-    def _tiff_map(self, quantity: str, key: str, arr: np.ndarray) -> np.ndarray:
-        """A map as its TIFF holds it: ``quality`` and ``mask`` as uint8, ``phase`` and
-        ``phase_sigma`` float32 with NaN outside the direction's mask (no inf or huge
-        placeholder there), the others float32 as computed."""
-        if quantity in ("quality", "mask"):
-            return np.asarray(arr, np.uint8)
-        out = np.asarray(arr, np.float32)
-        if quantity in ("phase", "phase_sigma"):
-            valid = np.asarray(self.mask[key[len(quantity) + 1:]], bool) & np.isfinite(out)
-            out = np.where(valid, out, np.float32(np.nan))
-        return out
+        return write_decoded_files(Path(folder), arrays, meta, self.summary())
 
     @classmethod
     def load(cls, folder: str | os.PathLike) -> "Decoded":
@@ -302,16 +267,15 @@ class Decoded:
 
     @classmethod
     def _read(cls, path: Path) -> "Decoded":
-        with np.load(path, allow_pickle=False) as z:
-            meta = json.loads(str(z["meta"]))
-            out = cls(period={k: float(v) for k, v in meta["period"].items()},
-                      angle={k: float(v) for k, v in meta["angle"].items()}, method=dict(meta["method"]))
-            for d in meta["directions"]:
-                for name in _PER_DIRECTION:
+        meta, z = read_decoded_npz(path)
+        out = cls(period={k: float(v) for k, v in meta["period"].items()},
+                  angle={k: float(v) for k, v in meta["angle"].items()}, method=dict(meta["method"]))
+        for d in meta["directions"]:
+            for name in _PER_DIRECTION:
+                getattr(out, name)[d] = z[f"{name}_{d}"]
+            for name in _OPTIONAL:
+                if f"{name}_{d}" in z:
                     getattr(out, name)[d] = z[f"{name}_{d}"]
-                for name in _OPTIONAL:
-                    if f"{name}_{d}" in z:
-                        getattr(out, name)[d] = z[f"{name}_{d}"]
-            out.average = z["average"] if "average" in z else None
-            out.texture = z["texture"] if "texture" in z else None
+        out.average = z.get("average")
+        out.texture = z.get("texture")
         return out
