@@ -48,7 +48,7 @@ def write_decoded_files(folder: Path, arrays: dict[str, np.ndarray], meta: dict,
     folder.mkdir(parents=True, exist_ok=True)
     with atomic_path(folder / NPZ_NAME) as tmp:
         with open(tmp, "wb") as fh:
-            np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
+            np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)  # type: ignore[arg-type]
     for key, arr in arrays.items():
         quantity = key.rsplit("_", 1)[0] if key not in MAP_UNITS else key
         write_tiff(folder / f"{key}.tif", _tiff_map(arrays, quantity, key, arr), key, MAP_UNITS[quantity])
