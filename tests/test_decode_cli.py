@@ -151,3 +151,17 @@ def test_the_decode_files_live_in_io_and_a_load_save_round_trip_rewrites_them_by
             assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
     meta, arrays = read_decoded_npz(tmp_path / "a" / NPZ_NAME)
     assert meta["directions"] == ["v"] and np.array_equal(arrays["phase_v"], dec.phase["v"], equal_nan=True)
+
+
+def test_decode_capture_lets_the_caller_add_to_each_cycle_folder_and_summary(tmp_path):
+    from fringe3d.decode import decode_capture
+    ps = sets.three_frequency("v")
+    frames = np.concatenate([capture_frames(ps, shift=s)[0] for s in (0.0, 3.0)])
+
+    def mark(folder, summary):
+        (folder / "extra.txt").write_text("x")
+        summary["extra"] = folder.name
+
+    out = decode_capture(frames, ps, tmp_path / "out", cycles=2, on_cycle=mark)
+    assert [r["extra"] for r in out] == ["cycle_00000", "cycle_00001"]
+    assert (tmp_path / "out" / "cycle_00001" / "extra.txt").read_text() == "x"

@@ -6,7 +6,7 @@ an interrupted run resumes from the cycles whose summary (written last) exists.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +25,8 @@ from fringe3d.utils.output_folder import open_output
 def decode_capture(frames: Sequence[np.ndarray] | np.ndarray, patterns: PatternSet, out: Path, *,
                    rig: Rig | None = None, options: DecodeOptions | None = None, cycles: int = 1,
                    overwrite: bool = False, allow_empty: bool = False, inputs: Sequence[Any] = (),
-                   fingerprint: dict | None = None, name: str = "the capture") -> list[dict]:
+                   fingerprint: dict | None = None, name: str = "the capture",
+                   on_cycle: Callable[[Path, dict], None] | None = None) -> list[dict]:
     """Decode the first ``cycles`` pattern cycles of ``frames`` into the guarded folder ``out``.
 
     Parameters
@@ -54,6 +55,9 @@ def decode_capture(frames: Sequence[np.ndarray] | np.ndarray, patterns: PatternS
         Options fingerprinted into the output (a resumed run must have the same options).
     name : str
         How error messages name the capture (its folder or file).
+    on_cycle : callable, optional
+        ``on_cycle(folder, summary)`` after each decoded cycle is saved: writes what the caller
+        adds to the cycle's folder (e.g. an exposure bracket's index map) and amends its summary.
 
     Returns
     -------
@@ -86,6 +90,8 @@ def decode_capture(frames: Sequence[np.ndarray] | np.ndarray, patterns: PatternS
                                  "was written (pass `allow_empty=True` to write it anyway)")
             dec.save(folder)
             s = dec.summary()
+            if on_cycle is not None:
+                on_cycle(folder, s)
             s["cycle"], s["folder"] = c, str(o.final_paths(folder))
             results.append(s)
             advance()
