@@ -56,7 +56,7 @@ def test_fifteen_frame_capture_arrives_complete_in_order_and_decodes_to_the_fed_
 
 
 def test_skipped_trigger_is_reported_by_frame_number_and_not_marked_complete(fed, tmp_path, xvfb):
-    from fringe3d.commands.capture import load_pattern_folder
+    from fringe3d.io.pattern_folder import read_pattern_folder
     from fringe3d.devices import open_projector
     from fringe3d.devices.acquire import CaptureIncompleteError, capture_sequence
     from fringe3d.devices.pylon import PylonCamera
@@ -71,7 +71,7 @@ def test_skipped_trigger_is_reported_by_frame_number_and_not_marked_complete(fed
                 super().trigger()
 
     pats, sim = fed
-    ps, images, _ = load_pattern_folder(pats)
+    ps, images, _ = read_pattern_folder(pats)
     cam = SkipsTriggerSeven(EMU_SERIAL, features=[("ImageFilename", str(sim / "frames")), ("ImageFileMode", "On"),
                                                  ("TestImageSelector", "Off")])
     cam.roi = (0, 0, 160, 128)

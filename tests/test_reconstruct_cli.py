@@ -182,3 +182,15 @@ def test_ball_bar_evaluation_on_noise_free_spheres(tmp_path, capsys):
     code, stdout, err = run(["evaluate", str(out), "--ball-bar", "--json", "--overwrite"], capsys)
     assert code == 0, err
     assert json.loads(stdout)["ball_bar"]["distance"] == pytest.approx(ev["distance"], abs=1e-3)
+
+
+def test_why_no_points_is_the_decoders_reason_for_a_dark_capture_and_the_geometrys_otherwise(ideal_capture):
+    """The reconstruction's own options (its z_min) decode again: a dark geometric capture is called dark,
+    not "needs z_min" (the command's former empty_reason dropped z_min)."""
+    from fringe3d.decode import DecodeOptions
+    from fringe3d.reconstruct.why_empty import why_no_points
+    cap, rig = read_capture(ideal_capture), Rig.load(ideal_capture / "rig.json")
+    opts = DecodeOptions(z_min=300.0)
+    assert "no valid pixel" in why_no_points(np.zeros_like(cap.frames), cap.patterns, rig, opts)
+    lit = why_no_points(cap.frames, cap.patterns, rig, opts)
+    assert "no pixel triangulated" in lit and "`z_min`" in lit

@@ -35,7 +35,7 @@ ALLOWED = {
     "sim/calibration_session.py:simulate_session": "simulated session knobs",
     "sim/simulate.py:simulate_capture": "simulator knobs, one per simulate flag",
     "sim/wing.py:__init__": "the flapping-wing model's physical parameters",
-    "pipeline.py:reconstruct_cycle": "the one-call API's keywords (compensate/response joined, issue 25); to take DecodeOptions whole",
+    "pipeline.py:reconstruct_cycle": "the one-call API's keywords (+ compensate, response: issue 25)",
     "unwrap/hybrid.py:hybrid_unwrap": "hybrid unwrapping thresholds",
 }
 

@@ -16,7 +16,7 @@ Layout (``format = "fringe3d-calibration"``, ``version = 1``)::
      "extra":     {...}}                      # free-form (e.g. alpha_opt, stereo rms)
 
 ``quality`` is what :mod:`.gates` found (absent in files written before the gates existed);
-a file whose ``quality.passed`` is false was written with ``--accept-poor``.
+a file whose ``quality.passed`` is false was written with ``fringe3d calibrate --accept-poor``.
 
 :func:`load_calibration` validates it and names any missing or invalid field;
 :func:`export_opencv_yaml` writes the same numbers as an OpenCV ``FileStorage`` YAML. All
@@ -204,7 +204,7 @@ def export_rig_opencv_yaml(rig: Rig, path, extra: dict | None = None) -> Path:
 def rig_for_export(path) -> tuple[Rig, dict]:
     """The rig of a calibration JSON (with its ``camera_rms``, ``projector_rms`` and
     ``period_<d>`` figures for :func:`export_rig_opencv_yaml`) or of a plain rig JSON
-    (``Rig.save``, ``--import-opencv``; no figures). Errors name the file and the field."""
+    (``Rig.save``, ``fringe3d calibrate --import-opencv``; no figures). Errors name the file and the field."""
     path = Path(path)
     d = read_json(path, "calibration file", require_object=False)
     if isinstance(d, dict) and d.get("format") == FORMAT:

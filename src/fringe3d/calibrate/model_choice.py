@@ -1,5 +1,5 @@
-"""Choosing a device's distortion model by held-out reprojection error (``--camera-dist auto``,
-``--projector-dist auto``).
+"""Choosing a device's distortion model by held-out reprojection error (``fringe3d calibrate --camera-dist auto``,
+``fringe3d calibrate --projector-dist auto``).
 
 A richer Brown model (Eq. 2.14-2.16) always fits the poses it was fitted to at least as well
 as a simpler one; whether it describes the lens is shown by poses it was *not* fitted to. The

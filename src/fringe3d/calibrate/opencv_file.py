@@ -27,7 +27,7 @@ the reading that puts it near the image centre (normalised offset within
 :data:`CENTRE_TOLERANCE`, better than the other by :data:`ORDER_MARGIN`) wins; a ``[w, h]``
 node read as ``[rows, cols]`` (or the reverse) is swapped with a
 :class:`~fringe3d.utils.warning_types.CalibrationWarning`, and a size whose order neither its
-name nor the principal point decides is refused (pass ``--camera-size`` / ``--projector-size``)
+name nor the principal point decides is refused (pass ``camera_size`` / ``projector_size``)
 — never a silently transposed camera.
 
 ``R``, ``T`` follow ``cv2.stereoCalibrate``: they map a point from the camera's frame (the first

@@ -48,6 +48,7 @@ from .phase_mapping import FringeDirection, projector_points
 from .square_boards import CharucoBoard, ChessBoard, board_from_dict, describe_board
 from .plots import residual_plot
 from .stereo import PoseObservation, calibrate_pinhole_rig
+from .session_result import SessionCalibration, SessionFacts
 from .telecentric import calibrate_telecentric_rig
 
 SESSION_NAME = "session.json"
@@ -220,7 +221,7 @@ def phase_sampling_label(window) -> str:
     return "bilinear" if r == 0 else f"local fit, radius {r:g} px"
 
 
-def observe_pose(pose: PoseCapture, board, min_modulation_fraction: float = 0.1,
+def observe_pose(pose: PoseCapture, board, min_modulation_share: float = 0.1,
                  directions: list[FringeDirection] | None = None, phase_window=0.0,
                  homography_window: int = DEFAULT_WINDOW) -> PoseObservation | None:
     """Board points in the camera and in the projector.
@@ -228,7 +229,7 @@ def observe_pose(pose: PoseCapture, board, min_modulation_fraction: float = 0.1,
     The board (circle grid, chessboard or ChArUco; ChArUco corners not seen are NaN rows) is
     found in the white frame. Phase sets: the projector points come through phase
     (Eq. 2.30-2.34); points whose bilinearly sampled modulation is below
-    ``min_modulation_fraction`` times the 95th percentile of the valid modulation are NaN in
+    ``min_modulation_share`` times the 95th percentile of the valid modulation are NaN in
     ``projector_uv``; ``phase_window`` (see :func:`phase_window_px`) picks bilinear sampling
     (default, the dissertation's) or a local modulation-weighted fit of the phase around each
     point. Gray-code sets (:func:`is_code_set`): local homographies over
@@ -254,68 +255,80 @@ def observe_pose(pose: PoseCapture, board, min_modulation_fraction: float = 0.1,
             for d in dirs if d.modulation is not None]
     thr = 0.0
     if mods and all(m.size for m in mods):
-        thr = min_modulation_fraction * min(float(np.percentile(m, 95)) for m in mods)
+        thr = min_modulation_share * min(float(np.percentile(m, 95)) for m in mods)
     puv = projector_points(dirs, uv, min_modulation=thr, window=phase_window_px(phase_window, uv))
     return PoseObservation(name=pose.name, camera_uv=uv, projector_uv=puv)
 
 
 # ----------------------------------------------------------------------------- whole session
-def observe_session(poses, board, min_modulation_fraction: float = 0.1,
+def observe_session(poses, board, min_modulation_share: float = 0.1,
                     progress: bool = True, phase_window=0.0,
-                    homography_window: int = DEFAULT_WINDOW) -> tuple[list[PoseObservation], dict]:
+                    homography_window: int = DEFAULT_WINDOW) -> tuple[list[PoseObservation], SessionFacts]:
     """Observe every pose (an iterable of :class:`PoseCapture`, :class:`FramesFolder` or
     folders); ``phase_window`` and ``homography_window`` as in :func:`observe_pose`.
 
     Checks that all poses have the same camera size and projector size. Returns the usable
-    observations and ``{"camera_size", "projector_size", "periods", "angles", "skipped",
-    "correspondences", "names"}``.
+    observations and the :class:`.session_result.SessionFacts` of the session.
     """
     sampling = phase_sampling_label(phase_window)  # a bad value fails before any work
     poses = list(poses)
     obs: list[PoseObservation] = []
-    info: dict = {"skipped": []}
+    facts: SessionFacts | None = None
     with progress_bar("calibration poses", len(poses), enabled=progress) as advance:
         for p in poses:
             pose = read_pose(p) if not isinstance(p, PoseCapture) else p
-            cam_size = (pose.frames.shape[2], pose.frames.shape[1])
-            prj_size = (pose.patterns.width, pose.patterns.height)
-            if "camera_size" not in info:
-                info.update(camera_size=cam_size, projector_size=prj_size, first=pose.name)
-            elif cam_size != info["camera_size"]:
-                raise ValueError(f"pose {pose.name} has {cam_size[0]}x{cam_size[1]} images "
-                                 f"but pose {info['first']} has "
-                                 f"{info['camera_size'][0]}x{info['camera_size'][1]}; "
-                                 "all poses must come from one camera")
-            elif prj_size != info["projector_size"]:
-                raise ValueError(f"pose {pose.name} was projected at {prj_size[0]}x{prj_size[1]} but pose "
-                                 f"{info['first']} at {info['projector_size'][0]}x{info['projector_size'][1]}")
-            info.setdefault("names", []).append(pose.name)
-            info.setdefault("correspondences", correspondence_label(pose.patterns, homography_window))
-            o = observe_pose(pose, board, min_modulation_fraction, phase_window=phase_window,
+            facts = _same_sizes(facts, pose, homography_window)
+            facts.names.append(pose.name)
+            o = observe_pose(pose, board, min_modulation_share, phase_window=phase_window,
                              homography_window=homography_window)
             if o is None:
-                info["skipped"].append(pose.name)
+                facts.skipped.append(pose.name)
             else:
+                if not obs:
+                    _note_fringes(facts, pose.patterns)
                 obs.append(o)
-                if "periods" not in info:
-                    info["periods"] = {pl.direction: float(min(pl.periods)) if pl.periods else float("nan")
-                                       for pl in pose.patterns.plans}
-                    info["angles"] = {pl.direction: float(pl.angle) for pl in pose.patterns.plans}
-                    alpha = [pl.options.get("alpha_opt") for pl in pose.patterns.plans if "alpha_opt" in pl.options]
-                    if alpha:
-                        info["alpha_opt"] = float(alpha[0])
             advance()
-    if not poses:
+    if facts is None:
         raise ValueError("no calibration poses given")
-    info["phase_sampling"] = sampling
-    return obs, info
+    facts.phase_sampling = sampling
+    return obs, facts
 
 
-def calibrate_observations(obs: list[PoseObservation], info: dict, board, model: str = "pinhole",
+def _same_sizes(facts: SessionFacts | None, pose: PoseCapture, homography_window: int) -> SessionFacts:
+    """The session's facts, started by the first pose; ``ValueError`` when ``pose`` was taken by
+    another camera size or projected at another size than the first."""
+    cam_size = (pose.frames.shape[2], pose.frames.shape[1])
+    prj_size = (pose.patterns.width, pose.patterns.height)
+    if facts is None:
+        return SessionFacts(camera_size=cam_size, projector_size=prj_size,
+                            correspondences=correspondence_label(pose.patterns, homography_window))
+    first = facts.names[0]
+    if cam_size != facts.camera_size:
+        raise ValueError(f"pose {pose.name} has {cam_size[0]}x{cam_size[1]} images but pose {first} has "
+                         f"{facts.camera_size[0]}x{facts.camera_size[1]}; all poses must come from one camera")
+    if prj_size != facts.projector_size:
+        raise ValueError(f"pose {pose.name} was projected at {prj_size[0]}x{prj_size[1]} but pose "
+                         f"{first} at {facts.projector_size[0]}x{facts.projector_size[1]}")
+    return facts
+
+
+def _note_fringes(facts: SessionFacts, ps: PatternSet) -> None:
+    """Periods, angles and optimal angle of the first usable pose's fringe plans."""
+    facts.periods = {pl.direction: float(min(pl.periods)) if pl.periods else float("nan") for pl in ps.plans}
+    facts.angles = {pl.direction: float(pl.angle) for pl in ps.plans}
+    alpha = [pl.options.get("alpha_opt") for pl in ps.plans if "alpha_opt" in pl.options]
+    if alpha:
+        facts.alpha_opt = float(alpha[0])
+
+
+def calibrate_observations(obs: list[PoseObservation], info: SessionFacts, board, model: str = "pinhole",
                            camera_dist: str = "k1k2p", projector_dist: str = "none", min_poses: int = 3,
                            correct_circle_bias: bool = True,
-                           telecentric_refine: bool = True, drop_outliers: bool = True) -> tuple[Calibration, object]:
-    """Calibrate from observations; returns ``(Calibration, raw result)``.
+                           telecentric_refine: bool = True, drop_outliers: bool = True) -> SessionCalibration:
+    """Calibrate from observations (``info``: what :func:`observe_session` learnt of the poses).
+
+    Returns a :class:`.session_result.SessionCalibration`, which unpacks as
+    ``(Calibration, fit)``.
 
     ``model`` is ``"pinhole"`` (camera frame = world, ch. 2) or ``"telecentric"`` (projector
     frame = world, ch. 3). Too few usable poses is a ``ValueError`` naming the skipped ones.
@@ -330,7 +343,7 @@ def calibrate_observations(obs: list[PoseObservation], info: dict, board, model:
     dropped poses and the model choice; it is not enforced here
     (:func:`calibrate_to_files` refuses a calibration that fails a gate).
     """
-    skipped = info.get("skipped", [])
+    skipped = info.skipped
     if not obs and skipped:
         raise ValueError(f"the {describe_board(board)} was not found in any of the {len(skipped)} pose(s) "
                          f"({', '.join(skipped)}); check the board description (kind, cols/rows, spacing"
@@ -353,25 +366,25 @@ def calibrate_observations(obs: list[PoseObservation], info: dict, board, model:
     gates = calibration_gates(cal, res)
     cal.quality = {"passed": not failed(gates), "gates": [g.to_dict() for g in gates],
                    "dropped_poses": dropped, "outlier_rule": outlier_rule(), "model_choice": choice}
-    return cal, res
+    return SessionCalibration(cal, res)
 
 
-def _choose_projector_model(obs, info: dict, board) -> tuple[str, dict]:
+def _choose_projector_model(obs, info: SessionFacts, board) -> tuple[str, dict]:
     """A telecentric rig's ``"auto"`` projector model (:func:`.model_choice.choose_model`)
     from the poses with >= 6 valid projector points."""
     obj = board.object_points()
     keep = [np.all(np.isfinite(o.projector_uv), axis=1) & np.all(np.isfinite(o.camera_uv), axis=1) for o in obs]
     use = [i for i, k in enumerate(keep) if k.sum() >= 6]
     return choose_model([obj[keep[i]] for i in use], [obs[i].projector_uv[keep[i]] for i in use],
-                        info["projector_size"], "projector")
+                        info.projector_size, "projector")
 
 
-def _calibrate_once(obs, info, board, model, camera_dist, projector_dist, min_poses, correct_circle_bias,
+def _calibrate_once(obs, info: SessionFacts, board, model, camera_dist, projector_dist, min_poses, correct_circle_bias,
                     telecentric_refine) -> tuple[Calibration, object, dict]:
     """One calibration of ``obs`` (see :func:`calibrate_observations`); also returns the model
     choice (``{device: report}`` for the ``"auto"`` models)."""
     choice: dict = {}
-    cam_size, prj_size = info["camera_size"], info["projector_size"]
+    cam_size, prj_size = info.camera_size, info.projector_size
     if model == "pinhole":
         circles = isinstance(board, CircleBoard)
         res = calibrate_pinhole_rig(board, obs, cam_size, prj_size, camera_dist, projector_dist,
@@ -406,22 +419,62 @@ def _calibrate_once(obs, info, board, model, camera_dist, projector_dist, min_po
     prj_d = {"width": prj_size[0], "height": prj_size[1], "dist_model": res.projector.dist_model,
              "rms_px": res.projector.rms,
              "per_pose_rms_px": list(map(float, res.projector.per_pose_rms))}
-    if "alpha_opt" in info:
-        extra["alpha_opt"] = info["alpha_opt"]
-    extra["skipped_poses"] = list(info.get("skipped", []))
-    extra["phase_sampling"] = info.get("phase_sampling", "bilinear")
-    extra["correspondences"] = info.get("correspondences", "phase (Eq. 2.30-2.34)")
+    if info.alpha_opt is not None:
+        extra["alpha_opt"] = info.alpha_opt
+    extra["skipped_poses"] = list(info.skipped)
+    extra["phase_sampling"] = info.phase_sampling
+    extra["correspondences"] = info.correspondences
     cal = Calibration(model=model, rig=res.rig, camera=cam_d, projector=prj_d, board=board.to_dict(),
-                      periods=info.get("periods", {}), angles=info.get("angles", {}), poses=poses, rms=rms,
+                      periods=dict(info.periods), angles=dict(info.angles), poses=poses, rms=rms,
                       extra=extra)
     return cal, res, choice
 
 
 def calibrate_session(paths, board=None, model: str | None = None, progress: bool = True,
-                      layout: str | None = None, projector_size: tuple[int, int] | None = None,
-                      **kw) -> tuple[Calibration, object]:
-    """Folders in, :class:`Calibration` out (``board``/``model`` default to session.json);
-    ``layout``/``projector_size``: another tool's session (:func:`find_pose_folders`)."""
+                      layout: str | None = None, projector_size: tuple[int, int] | None = None, *,
+                      min_modulation_share: float = 0.1, phase_window=0.0,
+                      homography_window: int = DEFAULT_WINDOW, camera_dist: str = "k1k2p",
+                      projector_dist: str = "none", telecentric_refine: bool = True,
+                      min_modulation_fraction: float | None = None) -> SessionCalibration:
+    """Calibrate a rig from pose folders or a session folder.
+
+    Parameters
+    ----------
+    paths : path or list of paths
+        A session folder, or pose folders (:func:`find_pose_folders`).
+    board : board, optional
+        The board; default the session folder's ``session.json``.
+    model : str, optional
+        ``"pinhole"`` or ``"telecentric"``; default ``session.json``'s, else pinhole.
+    progress : bool
+        Show a progress bar over the poses.
+    layout : str, optional
+        Another tool's session layout (:func:`find_pose_folders`), e.g. ``"opencv-graycode"``.
+    projector_size : (int, int), optional
+        The projector's ``(width, height)`` for a ``layout``.
+    min_modulation_share : float
+        Board points whose modulation is below this share of the pose's 95th percentile are
+        left out of the projector's points (:func:`observe_pose`).
+    phase_window : float or str
+        How the phase is sampled at a board point (:func:`phase_window_px`).
+    homography_window : int
+        Gray-code sets: the local homographies' window, camera px.
+    camera_dist, projector_dist : str
+        Distortion models, or ``"auto"`` (:func:`calibrate_observations`).
+    telecentric_refine : bool
+        Telecentric rigs: the joint refinement after ch. 3's steps.
+    min_modulation_fraction : float, optional
+        Deprecated spelling of ``min_modulation_share``.
+
+    Returns
+    -------
+    SessionCalibration
+        The calibration and the fit (unpacks as ``(Calibration, fit)``).
+    """
+    if min_modulation_fraction is not None:
+        warnings.warn("the parameter min_modulation_fraction is deprecated; pass `min_modulation_share`",
+                      DeprecationWarning, stacklevel=2)
+        min_modulation_share = min_modulation_fraction
     folders, meta = find_pose_folders(paths, layout, projector_size)
     if board is None:
         if "board" not in meta:
@@ -429,10 +482,10 @@ def calibrate_session(paths, board=None, model: str | None = None, progress: boo
                              f"or put {{\"board\": {{...}}}} in the session folder's {SESSION_NAME}")
         board = board_from_dict(meta["board"])
     model = model or meta.get("model", "pinhole")
-    mmf = kw.pop("min_modulation_fraction", 0.1)
-    obs, info = observe_session(folders, board, mmf, progress, phase_window=kw.pop("phase_window", 0.0),
-                                homography_window=kw.pop("homography_window", DEFAULT_WINDOW))
-    return calibrate_observations(obs, info, board, model, **kw)
+    obs, facts = observe_session(folders, board, min_modulation_share, progress, phase_window=phase_window,
+                                 homography_window=homography_window)
+    return calibrate_observations(obs, facts, board, model, camera_dist=camera_dist, projector_dist=projector_dist,
+                                  telecentric_refine=telecentric_refine)
 
 
 def board_from_options(cols: int, rows: int, spacing: float | None, radius: float | None, asymmetric: bool,
@@ -455,7 +508,7 @@ def board_from_options(cols: int, rows: int, spacing: float | None, radius: floa
 
 
 def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist="auto", projector_dist="auto",
-                       plot: Path | None = None, yaml: Path | None = None, min_modulation: float = 0.1,
+                       plot: Path | None = None, yaml: Path | None = None, min_modulation_share: float = 0.1,
                        progress: bool = True, refine: bool = True, phase_window="bilinear",
                        layout: str | None = None, projector_size: tuple[int, int] | None = None,
                        homography_window: int = DEFAULT_WINDOW, accept_poor: bool = False) -> dict:
@@ -467,10 +520,11 @@ def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist
     (its ``summary`` is this function's summary with nothing written) - unless ``accept_poor``,
     which writes the files, records ``quality.accepted_poor`` and warns.
     """
-    cal, res = calibrate_session(inputs, board=board, model=model, progress=progress, camera_dist=camera_dist,
-                                 projector_dist=projector_dist, min_modulation_fraction=min_modulation,
-                                 telecentric_refine=refine, phase_window=phase_window, layout=layout,
-                                 projector_size=projector_size, homography_window=homography_window)
+    session = calibrate_session(inputs, board=board, model=model, progress=progress, camera_dist=camera_dist,
+                                projector_dist=projector_dist, min_modulation_share=min_modulation_share,
+                                telecentric_refine=refine, phase_window=phase_window, layout=layout,
+                                projector_size=projector_size, homography_window=homography_window)
+    cal = session.calibration
     gates = [Gate(**g) for g in cal.quality["gates"]]
     if failed(gates):
         if not accept_poor:
@@ -482,15 +536,10 @@ def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist
     cal.save(output)
     written = {"calibration": str(output)}
     if plot is not None:
-        if cal.model == "pinhole":
-            cam_r = res.camera.residuals
-            names = res.pose_names
-            prj_r = res.projector.residuals
-        else:
-            cam_r, prj_r, names = res.camera_residuals, res.projector.residuals, res.pose_names
         pinhole = cal.model == "pinhole"  # detected points over the image: the pinhole fit keeps them
-        residual_plot(plot, cam_r, prj_r, names, title=f"{output.name}: reprojection residuals",
-                      camera_points=getattr(res, "camera_points", None) if pinhole else None,
+        residual_plot(plot, session.camera_residuals, session.projector_residuals, session.pose_names,
+                      title=f"{output.name}: reprojection residuals",
+                      camera_points=getattr(session.fit, "camera_points", None) if pinhole else None,
                       image_size=(cal.rig.camera.width, cal.rig.camera.height) if pinhole else None)
         written["plot"] = str(plot)
     if yaml is not None:

@@ -11,7 +11,6 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import typer
 from rich.markup import escape
 
@@ -27,10 +26,8 @@ from fringe3d.devices.acquire import (
 )
 from fringe3d.devices.base import DeviceError
 from fringe3d.devices.session import capture_session
-from fringe3d.io.images import read_image
-from fringe3d.io.packed_patterns import read_packed
+from fringe3d.io.pattern_folder import read_pattern_folder
 from fringe3d.patterns.gamma import fit_gamma, save_gamma
-from fringe3d.patterns.manifest import PatternSet
 from fringe3d.sim.virtual_devices import open_virtual_rig
 from fringe3d.utils.console import (
     console,
@@ -93,27 +90,6 @@ def open_rig(projector: str, camera: str, patterns=None, features=None):
         proj.close()
         raise
     return proj, cam
-
-
-def load_pattern_folder(folder: Path):
-    """(PatternSet, unpacked images, packed (images, planes) or None) of a pattern folder."""
-
-
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise FileNotFoundError(f"pattern folder {folder} does not exist; write one with fringe3d patterns -o {folder}")
-    ps = PatternSet.load(folder)
-    images = []
-    for i in range(len(ps)):
-        p = folder / f"{i:05d}.png"
-        if not p.is_file():
-            raise FileNotFoundError(f"pattern folder {folder} lacks {p.name}: the manifest lists {len(ps)} frames")
-        img = read_image(p)
-        if img.dtype != np.uint8 or img.shape != (ps.height, ps.width):
-            raise ValueError(f"{p} is {img.shape[1]}x{img.shape[0]} {img.dtype}; the manifest says "
-                             f"{ps.width}x{ps.height} 8-bit")
-        images.append(img)
-    return ps, images, read_packed(folder)
 
 
 def register(app: typer.Typer) -> None:
@@ -258,7 +234,7 @@ def run_capture(dev: DeviceOptions, mode: ModeOptions, run: RunOptions) -> None:
     if not (latency or gamma):
         if patterns is None:
             raise ValueError("give the pattern folder to project (fringe3d patterns -o FOLDER writes one)")
-        ps, images, packed = load_pattern_folder(patterns)
+        ps, images, packed = read_pattern_folder(patterns)
         if session is None and output is None:
             raise ValueError("-o/--output CAPTURE is required")
     if gamma and output is None:

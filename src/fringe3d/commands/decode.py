@@ -5,7 +5,6 @@ import time
 import warnings
 from pathlib import Path
 
-import numpy as np
 import typer
 
 from fringe3d.commands import import_options as io
@@ -16,7 +15,7 @@ from fringe3d.commands.quality_options import edge_margin_option, edge_mask_opti
 from fringe3d.commands.checks import BIT_DEPTHS, check_choice, check_number
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.plan_errors import in_flag_words
-from fringe3d.decode import DecodeOptions, decode, with_method
+from fringe3d.decode import DecodeOptions, decode_capture, with_method
 from fringe3d.decode.compensation import COMPENSATIONS
 from fringe3d.decode.bracket import INDEX_NAME, fuse_bracket
 from fringe3d.decode.plan_checks import check_geometry
@@ -28,15 +27,12 @@ from fringe3d.patterns.layouts import with_threshold
 from fringe3d.patterns.method_registry import method_names
 from fringe3d.optics import Rig
 from fringe3d.phase.ftp import WINDOWS
-from fringe3d.decode.result import SUMMARY_NAME
-from fringe3d.utils.jsonfile import read_json
-from fringe3d.utils.output_folder import check_complete, open_output
+from fringe3d.utils.output_folder import check_complete
 from fringe3d.utils.console import (
     console,
     info,
     make_table,
     print_json,
-    progress_bar,
     set_quiet,
     warn,
 )
@@ -48,37 +44,16 @@ def _load_rig(path: Path | None):
     return Rig.load(path)
 
 
-def _decode_all(cap, n: int, patterns, rig, options: DecodeOptions, out: Path, capture: Path, results: list, *,
-                overwrite: bool, allow_empty: bool, inputs: list, fingerprint_options: dict, fusion=None) -> None:
-    """Decode the first ``n`` cycles into the guarded output ``out`` (a referenced camera file is
-    read one cycle at a time), appending each cycle's summary to ``results``."""
-    length = len(patterns)
-    frames = cap.source if cap.source is not None else cap.frames
-    with open_output(out, overwrite=overwrite, inputs=inputs, options=fingerprint_options, resumable=n > 1) as o, \
-            progress_bar("decoding", n, enabled=n > 1) as advance:
-        for c in range(n):
-            folder = o.path if n == 1 else o.path / f"cycle_{c:05d}"
-            if o.resumed and (folder / SUMMARY_NAME).is_file():  # written last by Decoded.save: this cycle is done
-                results.append({**read_json(folder / SUMMARY_NAME, "decode summary"), "cycle": c,
-                                "folder": str(o.final_paths(folder)), "resumed": True})
-                advance()
-                continue
-            dec = decode(np.asarray(frames[c * length:(c + 1) * length]), patterns, rig=rig, options=options)
-            why = dec.empty_reason()
-            if why and not allow_empty:
-                raise ValueError(f"{capture}" + (f" cycle {c}" if n > 1 else "") + f": {why}. Nothing "
-                                 "was written (pass --allow-empty to write it anyway)")
-            dec.save(folder)
-            s = dec.summary()
-            if fusion is not None:  # an exposure bracket: which exposure each pixel took
-                write_tiff(folder / INDEX_NAME, fusion.index, "exposure_index",
-                           "index into capture.json exposures (the exposure fused at the pixel)")
-                s["exposures"] = cap.meta["exposures"]
-                s["exposure_share"] = [round(float(x), 4) for x in fusion.share]
-                s["saturated_in_every_exposure"] = round(float(fusion.saturated.mean()), 4)
-            s["cycle"], s["folder"] = c, str(o.final_paths(folder))
-            results.append(s)
-            advance()
+def _exposure_fields(cap, fusion):
+    """``decode_capture``'s ``on_cycle`` for an exposure bracket: write which exposure each pixel
+    took (``exposure_index.tif``) and add the bracket's shares to the cycle's summary."""
+    def on_cycle(folder: Path, s: dict) -> None:
+        write_tiff(folder / INDEX_NAME, fusion.index, "exposure_index",
+                   "index into capture.json exposures (the exposure fused at the pixel)")
+        s["exposures"] = cap.meta["exposures"]
+        s["exposure_share"] = [round(float(x), 4) for x in fusion.share]
+        s["saturated_in_every_exposure"] = round(float(fusion.saturated.mean()), 4)
+    return on_cycle
 
 
 def register(app: typer.Typer) -> None:
@@ -221,7 +196,7 @@ def register(app: typer.Typer) -> None:
         if cap.source is not None:
             total = len(cap.source) // len(patterns)
             n = total if max_cycles is None else min(max(1, max_cycles), total)
-        results = []
+        results: list[dict] = []
         options = {k: v for k, v in opts.items()} | {"z_min": z_min, "method": method, "max_cycles": max_cycles}
         inputs = [Path(capture) if capture is not None else list_file, rig, response]
         if described:
@@ -235,9 +210,11 @@ def register(app: typer.Typer) -> None:
             warnings.simplefilter("always")
             try:
                 dopts = DecodeOptions(z_min=z_min, response=response_lut, **opts)
-                _decode_all(cap, n, patterns, rig_obj, dopts, out, capture, results,
-                            overwrite=overwrite, allow_empty=allow_empty, inputs=inputs,
-                            fingerprint_options=options, fusion=fusion)
+                results = decode_capture(cap.source if cap.source is not None else cap.frames, patterns, out,
+                                         rig=rig_obj, options=dopts, cycles=n, overwrite=overwrite,
+                                         allow_empty=allow_empty, inputs=inputs, fingerprint=options,
+                                         name=str(capture),
+                                         on_cycle=None if fusion is None else _exposure_fields(cap, fusion))
             finally:
                 for msg in dict.fromkeys(str(w.message) for w in caught):
                     warn(msg)

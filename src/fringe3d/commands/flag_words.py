@@ -12,6 +12,7 @@ import re
 #: backticked library word -> the flag (or command) a command-line user types instead
 FLAGS: dict[str, str] = {
     "accept_poor=True": "--accept-poor",
+    "allow_empty=True": "--allow-empty",
     "allow_relative=True": "--allow-relative",
     "anchors": "--anchors",
     "auto=True": "--auto",
@@ -43,6 +44,7 @@ FLAGS: dict[str, str] = {
     "manifest": "--manifest",
     "method": "--method",
     "min_modulation": "--min-modulation",
+    "min_modulation_share": "--min-modulation-share",
     "node": "--node",
     "overwrite=True": "--overwrite",
     "patterns": "the pattern folder (fringe3d patterns --set calibration)",

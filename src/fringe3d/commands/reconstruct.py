@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import json
 import time
-import warnings
 from pathlib import Path
 
 import typer
@@ -16,7 +15,6 @@ from fringe3d.commands.output_options import allow_empty_option, overwrite_optio
 from fringe3d.commands.plan_errors import in_flag_words
 from fringe3d.commands.compensate_options import compensate_option, resolve_compensation, response_option
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
-from fringe3d.decode import decode
 from fringe3d.decode.plan_checks import check_plans
 from fringe3d.gpu import BACKENDS, cuda_module
 from fringe3d.decode.bracket import fuse_bracket
@@ -34,6 +32,7 @@ from fringe3d.io.capture_frames import CaptureFolder
 from fringe3d.reconstruct.frame import reconstruction_plans
 from fringe3d.reconstruct.sequence import reconstruct_sequence
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
+from fringe3d.reconstruct.why_empty import why_no_points
 from fringe3d.utils.console import (
     console,
     info,
@@ -47,20 +46,6 @@ from fringe3d.utils.jsonfile import write_json
 #: Units of reconstruct.json's fields.
 RECONSTRUCT_UNITS = {"depth_min": "mm", "depth_max": "mm", "z_min": "mm", "valid_share": "1",
                      "shape": "px (rows, columns)", "seconds": "s", "points": "mm (camera frame)"}
-
-
-def empty_reason(cap, patterns, rig, min_modulation) -> str:
-    """Why no 3D point survived: the decoder's reason when no phase is valid, else the geometry."""
-    opts = DecodeOptions(bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation)
-    first = cap.frames[:len(patterns)]
-    try:
-        with warnings.catch_warnings():  # the reconstruction already gave the frames' warnings
-            warnings.simplefilter("ignore")
-            why = decode(first, patterns, rig=rig, options=opts).empty_reason()
-    except ValueError as e:  # the decoder could not even start (e.g. geometric without z_min)
-        return str(e)
-    return why or ("the phase is valid but no pixel triangulated inside the calibrated volume; check that the "
-                   "calibration belongs to this rig and the depth limits (--z-min)")
 
 
 #: ``--format`` words: point formats beside the PLY (``--ply``).
@@ -188,6 +173,7 @@ def register(app: typer.Typer) -> None:
         rig = Rig.load(calibration)
         compensate, response_lut = resolve_compensation(compensate, response, rig)
         cap = read_capture(capture, max_cycles=1)  # checks the folder; the rest is read on demand
+        why = lambda: why_no_points(cap.frames, ps, rig, DecodeOptions(z_min=z_min, **opts))  # noqa: E731
         check_sizes(rig, cap.frames, calibration, cap.patterns)
         referenced = open_frames(capture)  # a camera file (capture.json source), read on demand; else None
         n_files = len(referenced) if referenced is not None else len(list_frame_files(capture))
@@ -245,10 +231,11 @@ def register(app: typer.Typer) -> None:
                                               response=response_lut)
                     except EmptyMaskError:
                         raise ValueError(f"{capture}: no valid 3D point: "
-                                         f"{empty_reason(cap, ps, rig, min_modulation)}. Nothing was written") from None
+                                         f"{why()}."
+                                         " Nothing was written") from None
                     if not r.mask.any() and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point: "
-                                         f"{empty_reason(cap, ps, rig, min_modulation)}. "
+                                         f"{why()}. "
                                          "Nothing was written (pass --allow-empty to write it anyway)")
                     written = r.save(o.path, ply, mesh)
                     for fmt in dict.fromkeys(formats):
@@ -270,7 +257,7 @@ def register(app: typer.Typer) -> None:
                     summary.update(o.final_paths(seq))
                     if seq.get("empty_frames") == seq.get("frames_3d") and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point in any frame of the sequence: "
-                                         f"{empty_reason(cap, ps, rig, min_modulation)} (pass --allow-empty to "
+                                         f"{why()} (pass --allow-empty to "
                                          "keep it)")
                 summary["seconds"] = round(time.perf_counter() - t0, 3)
                 write_json(o.path / "reconstruct.json", summary, units=RECONSTRUCT_UNITS)

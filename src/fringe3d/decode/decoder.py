@@ -97,9 +97,26 @@ def decode(frames, patterns: PatternSet, rig: Rig | None = None, options: Decode
 
 def decode_sequence(frames, patterns: PatternSet, rig: Rig | None = None, options: DecodeOptions | None = None,
                     progress: bool = False) -> Iterator[Decoded]:
-    """Decode a sequence of ``n_cycles`` repetitions of the manifest (``F = n_cycles * len``),
-    yielding one :class:`Decoded` per cycle (frames may be a memory map; each cycle is read
-    once). ``rig`` and ``options`` as in :func:`decode`; ``progress=True`` shows a progress bar."""
+    """Decode a sequence of ``n_cycles`` repetitions of the manifest, one cycle at a time.
+
+    Parameters
+    ----------
+    frames : (F, H, W) array
+        ``F = n_cycles * len(patterns)`` frames; may be a memory map (each cycle is read once).
+    patterns : PatternSet
+        The manifest of one cycle.
+    rig : Rig, optional
+        As in :func:`decode`.
+    options : DecodeOptions, optional
+        As in :func:`decode`.
+    progress : bool
+        Show a progress bar.
+
+    Yields
+    ------
+    Decoded
+        One per cycle, in order.
+    """
     frames = as_frame_stack(frames) if not isinstance(frames, np.ndarray) else frames
     if frames.ndim != 3:
         raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")

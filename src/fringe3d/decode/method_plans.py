@@ -53,9 +53,27 @@ def plan_for_method(ps: PatternSet, direction: str, method: str) -> DirectionPla
 
 
 def with_method(ps: PatternSet, method: str | None) -> PatternSet:
-    """``ps`` with every fringe direction's plan replaced by ``method`` (None: unchanged), a key
-    of :data:`fringe3d.decode.METHODS` (``ValueError`` naming the known methods otherwise), e.g.
-    ``"spatial"`` for a single 3-step set. A direction without a plan gets one.
+    """``ps`` with every fringe direction's plan replaced by ``method``.
+
+    A direction without a plan gets one.
+
+    Parameters
+    ----------
+    ps : PatternSet
+        The manifest.
+    method : str or None
+        A key of :data:`fringe3d.decode.METHODS`, e.g. ``"spatial"`` for a single 3-step set;
+        None leaves ``ps`` unchanged.
+
+    Returns
+    -------
+    PatternSet
+        The manifest with the method in every direction's plan.
+
+    Raises
+    ------
+    ValueError
+        ``method`` is not a known method (the message names them).
 
     Examples
     --------

@@ -2,39 +2,25 @@
 (absolute phase, wrapped phase, modulation and mask per direction of one pattern cycle)."""
 from __future__ import annotations
 
-import json
 import zipfile
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
 from fringe3d.decode.edges import INVALID, ORDER
-from fringe3d.io.images import write_tiff
+from fringe3d.io.decoded_files import (MAP_UNITS, NPZ_NAME, SUMMARY_NAME, SUMMARY_UNITS,  # noqa: F401
+                                      read_decoded_npz, write_decoded_files)
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.quality import DARK_FRACTION, DARK_PERCENTILE
 
-from fringe3d.utils.atomic import atomic_path
-from fringe3d.utils.jsonfile import write_json
 from fringe3d.utils.output_folder import check_complete
 
-NPZ_NAME = "decoded.npz"
-SUMMARY_NAME = "decoded.json"
 _PER_DIRECTION = ("phase", "wrapped", "modulation", "mask")
 #: Per-direction maps that older decode outputs lack (read when present).
 _OPTIONAL = ("quality", "phase_sigma")
-#: Unit of each saved map (the TIFFs' descriptions). The texture is the scene under full projector
-#: illumination as a fraction of the camera's full scale (:mod:`fringe3d.decode.texture`).
-MAP_UNITS = {"phase": "rad", "wrapped": "rad", "modulation": "camera counts", "mask": "1 valid, 0 invalid",
-             "quality": "bit flags (fringe3d.decode.edges)", "phase_sigma": "rad", "average": "camera counts",
-             "texture": "fraction of full scale"}
-#: Units of decoded.json's fields.
-SUMMARY_UNITS = {"period": "projector px", "angle": "rad", "phase_min": "rad", "phase_max": "rad",
-                 "median_modulation": "camera counts", "valid_fraction": "1", "shape": "px (rows, columns)",
-                 "order_inconsistent": "1 (share of the method's valid pixels)",
-                 "edge_margin": "projector px", "blur": "projector px", "min_modulation": "camera counts"}
 
 
 def order_share(quality: np.ndarray) -> float:
@@ -87,6 +73,56 @@ class Unwrapped:
     order_inconsistent: np.ndarray | None = None
 
 
+@dataclass(frozen=True, eq=False)
+class DirectionMaps:
+    """One fringe direction of a :class:`Decoded`: its maps and plan facts, typed.
+
+    Attributes
+    ----------
+    direction : str
+        The direction's key (e.g. ``"v"``).
+    phase : (H, W) float32
+        Absolute phase (rad), NaN where invalid.
+    wrapped : (H, W) float32
+        Wrapped phase (rad) in (-pi, pi].
+    modulation : (H, W) float32
+        Fringe modulation (frames' units).
+    mask : (H, W) bool
+        Valid pixels.
+    period : float
+        Fringe period of ``phase`` (projector px).
+    angle : float
+        Fringe angle (rad).
+    method : str or None
+        The unwrapping method.
+    quality : (H, W) uint8 or None
+        Bit flags of why a pixel is masked (:mod:`fringe3d.decode.edges`); None in older outputs.
+    phase_sigma : (H, W) float32 or None
+        Predicted phase standard deviation (rad); None in older outputs.
+    """
+
+    direction: str
+    phase: np.ndarray
+    wrapped: np.ndarray
+    modulation: np.ndarray
+    mask: np.ndarray
+    period: float
+    angle: float
+    method: str | None = None
+    quality: np.ndarray | None = None
+    phase_sigma: np.ndarray | None = None
+
+    def projector_coordinate(self) -> np.ndarray:
+        """(H, W) float32 projector fringe coordinate ``w = Phi T / 2 pi`` (px), NaN invalid.
+
+        Returns
+        -------
+        (H, W) float32
+            The coordinate, as :meth:`Decoded.projector_coordinate`.
+        """
+        return phase_to_w(self.phase, float(self.period)).astype(np.float32)
+
+
 @dataclass
 class Decoded:
     """Decoded phase maps of one pattern cycle.
@@ -120,7 +156,32 @@ class Decoded:
 
     @property
     def directions(self) -> list[str]:
+        """The fringe directions, in decoding order."""
         return list(self.phase)
+
+    def __getitem__(self, direction: str) -> DirectionMaps:
+        """One direction's maps, typed: ``decoded["v"].phase`` is ``decoded.phase["v"]``."""
+        if direction not in self.phase:
+            raise KeyError(f"no fringe direction {direction!r}; this result has {self.directions}")
+        return DirectionMaps(direction=direction, phase=self.phase[direction], wrapped=self.wrapped[direction],
+                             modulation=self.modulation[direction], mask=self.mask[direction],
+                             period=float(self.period[direction]), angle=float(self.angle[direction]),
+                             method=self.method.get(direction), quality=self.quality.get(direction),
+                             phase_sigma=self.phase_sigma.get(direction))
+
+    def __iter__(self) -> Iterator[str]:
+        """The directions, as a mapping's keys (``for d in decoded``)."""
+        return iter(self.directions)
+
+    def by_direction(self) -> dict[str, DirectionMaps]:
+        """Every direction's :class:`DirectionMaps`, in decoding order.
+
+        Returns
+        -------
+        dict of str to DirectionMaps
+            ``{direction: decoded[direction]}``.
+        """
+        return {d: self[d] for d in self.directions}
 
     def projector_coordinate(self, direction: str) -> np.ndarray:
         """(H, W) float32 projector fringe coordinate ``w = Phi T / 2 pi`` (px), NaN invalid."""
@@ -174,8 +235,6 @@ class Decoded:
         ``wrapped_<d>.tif``, ``modulation_<d>.tif``, ``average.tif``, ``texture.tif``; uint8
         ``mask_<d>.tif`` (0/1) and ``quality_<d>.tif`` (bits). Returns the folder."""
 
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
         arrays = {}
         for d in self.directions:
             for name in _PER_DIRECTION:
@@ -188,26 +247,7 @@ class Decoded:
                 arrays[name] = getattr(self, name)
         meta = {"period": self.period, "angle": self.angle, "method": self.method,
                 "directions": self.directions}
-        with atomic_path(folder / NPZ_NAME) as tmp:
-            with open(tmp, "wb") as fh:
-                np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
-        for key, arr in arrays.items():
-            quantity = key.rsplit("_", 1)[0] if key not in MAP_UNITS else key
-            write_tiff(folder / f"{key}.tif", self._tiff_map(quantity, key, arr), key, MAP_UNITS[quantity])
-        write_json(folder / SUMMARY_NAME, self.summary(), units=SUMMARY_UNITS)
-        return folder
-
-    def _tiff_map(self, quantity: str, key: str, arr: np.ndarray) -> np.ndarray:
-        """A map as its TIFF holds it: ``quality`` and ``mask`` as uint8, ``phase`` and
-        ``phase_sigma`` float32 with NaN outside the direction's mask (no inf or huge
-        placeholder there), the others float32 as computed."""
-        if quantity in ("quality", "mask"):
-            return np.asarray(arr, np.uint8)
-        out = np.asarray(arr, np.float32)
-        if quantity in ("phase", "phase_sigma"):
-            valid = np.asarray(self.mask[key[len(quantity) + 1:]], bool) & np.isfinite(out)
-            out = np.where(valid, out, np.float32(np.nan))
-        return out
+        return write_decoded_files(Path(folder), arrays, meta, self.summary())
 
     @classmethod
     def load(cls, folder: str | os.PathLike) -> "Decoded":
@@ -227,16 +267,15 @@ class Decoded:
 
     @classmethod
     def _read(cls, path: Path) -> "Decoded":
-        with np.load(path, allow_pickle=False) as z:
-            meta = json.loads(str(z["meta"]))
-            out = cls(period={k: float(v) for k, v in meta["period"].items()},
-                      angle={k: float(v) for k, v in meta["angle"].items()}, method=dict(meta["method"]))
-            for d in meta["directions"]:
-                for name in _PER_DIRECTION:
+        meta, z = read_decoded_npz(path)
+        out = cls(period={k: float(v) for k, v in meta["period"].items()},
+                  angle={k: float(v) for k, v in meta["angle"].items()}, method=dict(meta["method"]))
+        for d in meta["directions"]:
+            for name in _PER_DIRECTION:
+                getattr(out, name)[d] = z[f"{name}_{d}"]
+            for name in _OPTIONAL:
+                if f"{name}_{d}" in z:
                     getattr(out, name)[d] = z[f"{name}_{d}"]
-                for name in _OPTIONAL:
-                    if f"{name}_{d}" in z:
-                        getattr(out, name)[d] = z[f"{name}_{d}"]
-            out.average = z["average"] if "average" in z else None
-            out.texture = z["texture"] if "texture" in z else None
+        out.average = z.get("average")
+        out.texture = z.get("texture")
         return out

@@ -36,7 +36,17 @@ CAMERA_BACKENDS = ("pylon", "genicam", "opencv", "virtual")
 
 
 def open_projector(spec) -> Projector:
-    """Open a hardware projector from a spec (``window:SCREEN[?latency=S]``).
+    """Open a hardware projector from a spec.
+
+    Parameters
+    ----------
+    spec : str or DeviceSpec
+        ``window:SCREEN[?latency=S]``.
+
+    Returns
+    -------
+    Projector
+        The open projector (close it, or use it as a context manager).
 
     ``virtual`` projectors are opened by :func:`fringe3d.sim.virtual_devices.open_virtual_rig`
     (the command layer routes them there; devices do not import the simulator).
@@ -55,8 +65,20 @@ def open_projector(spec) -> Projector:
 
 
 def open_camera(spec, features: list[tuple[str, str]] | None = None) -> Camera:
-    """Open a hardware camera from a spec: ``pylon:SERIAL``, ``genicam:PRODUCER.cti#SERIAL``,
-    ``opencv:INDEX``. ``features`` are GenICam ``(name, value)`` pairs set in order."""
+    """Open a hardware camera from a spec.
+
+    Parameters
+    ----------
+    spec : str or DeviceSpec
+        ``pylon:SERIAL``, ``genicam:PRODUCER.cti#SERIAL`` or ``opencv:INDEX``.
+    features : list of (str, str), optional
+        GenICam ``(name, value)`` pairs, set in order.
+
+    Returns
+    -------
+    Camera
+        The open camera (close it, or use it as a context manager).
+    """
     spec = spec if isinstance(spec, DeviceSpec) else DeviceSpec.parse(spec)
     if spec.backend == "pylon":
         check_unknown_options(spec, set())

@@ -3,7 +3,7 @@
 Sync modes (``sync``):
 
 * ``"software"``: per frame, ``projector.show(image)`` (returns after the vsync'd swap) ->
-  wait ``settle`` s (the measured display-to-light latency, ``--latency``) -> software trigger ->
+  wait ``settle`` s (the measured display-to-light latency, ``fringe3d capture --latency``) -> software trigger ->
   retrieve the frame (``timeout`` s). A frame that does not arrive is reported missing.
 * ``"hardware"``: the camera is armed on its trigger input (``Line1``) and the projector's
   trigger output (a DLP's trigger out, or a VSYNC tap) exposes it; per shown image the loop

@@ -6,7 +6,7 @@ first camera when empty), sets exposure (``ExposureTime`` / ``ExposureTimeAbs``,
 frame-start trigger (``TriggerMode``, ``TriggerSource`` ``Software`` or ``Line1`` rising
 edge for hardware sync). Frames carry pylon's ``BlockID`` as frame id and the exposure
 timestamp in seconds (``TimeStamp`` / tick frequency). Any other GenICam feature can be set by
-name with ``features`` (``--camera-feature NAME=VALUE``), in the order given.
+name with ``features`` (``fringe3d capture --camera-feature NAME=VALUE``), in the order given.
 
 Basler's camera emulation (``PYLON_CAMEMU=1`` in the environment before the first pylon call,
 device class ``BaslerCamEmu``, serial ``0815-0000``) is a real pylon device: its image-file

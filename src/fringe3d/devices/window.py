@@ -48,7 +48,7 @@ class WindowProjector:
     screen : int
         Screen index (``list_screens()``); 0 is the first screen.
     display_latency : float
-        Extra seconds from the buffer swap to light (measured with ``--latency``).
+        Extra seconds from the buffer swap to light (measured with ``fringe3d capture --latency``).
     vsync : bool
         Lock buffer swaps to the vertical blank (keep on for capture).
     """

@@ -9,7 +9,7 @@ Every experiment is a module here defining
   ``{"title": str, "columns": [...], "rows": [[...], ...]}`` and ``"dissertation"``: the
   dissertation's own figure(s) for comparison, and ``"goals"``: ``{name: bool}``.
 
-``fringe3d experiment NAME`` prints the tables; ``--json`` prints the dict.
+``fringe3d experiment NAME`` prints the tables; ``fringe3d experiment NAME --json`` prints the dict.
 """
 from __future__ import annotations
 

@@ -112,7 +112,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
                   "phases by the Eq. 2.32-2.34 rotation, least-squares triangulation (Eq. 2.37)",
                   "in this ideal rig the two pattern pairs are information-equivalent: with equal independent phase "
                   "noise per direction, (u_p, v_p) from any two orthogonal fringe angles has covariance "
-                  "sigma_w^2 I (tests/test_calib_phase_mapping.py), and the defocus OTF moves no phase at any "
+                  "sigma_w^2 I (tests/test_calibrate_phase_mapping.py), and the defocus OTF moves no phase at any "
                   "angle; so both calibrations and both sphere measurements agree within their noise. The "
                   "dissertation's 38% gain (3 board poses, a real DLP projector) needs an effect this model leaves "
                   "out; the experiment reproduces alpha_opt and the Eq. 2.32-2.34 pipeline, not that gain"]

@@ -22,7 +22,23 @@ _ADVICE = ("run with the cpu backend (`backend='cpu'`), or check the NVIDIA driv
 
 
 def check_backend(backend: str) -> str:
-    """``backend`` if it is one of :data:`BACKENDS`, else ``ValueError`` naming the choices."""
+    """Check that ``backend`` is one of :data:`BACKENDS`.
+
+    Parameters
+    ----------
+    backend : str
+        The backend name.
+
+    Returns
+    -------
+    str
+        ``backend`` itself.
+
+    Raises
+    ------
+    ValueError
+        An unknown backend (the message names the choices).
+    """
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; expected one of {', '.join(BACKENDS)}")
     return backend
@@ -30,6 +46,11 @@ def check_backend(backend: str) -> str:
 
 def cuda_module():
     """``numba.cuda``, once it is known to work here (a device, or the simulator).
+
+    Returns
+    -------
+    module
+        ``numba.cuda``.
 
     Raises
     ------

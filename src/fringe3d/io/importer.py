@@ -394,7 +394,7 @@ def camera_file_range(kind: str, path: str | os.PathLike, patterns: PatternSet, 
 def camera_file_kind(src: str | os.PathLike | None, list_file, channel: str | None,
                      convert_tiff: bool = False) -> str | None:
     """The camera-file kind of ``src`` (:func:`guess_kind`; None for image files, a list file,
-    or a TIFF stack to be converted page by page with ``convert_tiff``). ``--channel`` on a
+    or a TIFF stack to be converted page by page with ``convert_tiff``). ``channel`` on a
     camera file is an error: its frames are read as grey."""
     kind = guess_kind(src) if list_file is None and src is not None else None
     if kind == "tiff" and convert_tiff:
@@ -406,7 +406,7 @@ def camera_file_kind(src: str | os.PathLike | None, list_file, channel: str | No
 
 
 def check_no_range(src: str | os.PathLike | None, first_frame: int, frame_count: int | None) -> None:
-    """``--first-frame`` / ``--frame-count`` name frames of a camera file: an error for image files."""
+    """``first_frame`` / ``frame_count`` name frames of a camera file: an error for image files."""
     if (first_frame, frame_count) != (0, None):
         raise ValueError("`first_frame` / `frame_count` apply to a camera file (.cih/.cihx/.mraw, .cine, .tif, zarr); "
                          f"{src} is a folder or glob of images")
@@ -461,7 +461,7 @@ def parse_size(text: str | None) -> tuple[int, int] | None:
 
 def check_source(src: str | os.PathLike | None, list_file: str | os.PathLike | None) -> None:
     """Exactly one frame source: ``src`` (a folder, glob or camera file) or ``list_file``;
-    ``ValueError`` saying which flag to drop (a source beside ``--list`` would be ignored)."""
+    ``ValueError`` saying which to drop (a source beside ``list_file`` would be ignored)."""
     if src is not None and list_file is not None:
         raise ValueError(f"give the frames either as SRC ({src}) or as `list_file` {list_file}, not both: the list "
                          "names every frame, so SRC would be ignored")

@@ -6,8 +6,8 @@ code frames it needs, which periods a default plan picks, whether it needs the c
 ``z_min`` (the geometric constraint, Eq. 4.15-4.21) and whether it decodes a direction from its
 code frames alone. The manifest's plan validation (:class:`fringe3d.patterns.manifest.DirectionPlan`),
 the default plans (:func:`fringe3d.decode.with_method`), the decoder, the quality assessment, the
-relative-phase refusal of ``reconstruct``, ``--method``'s choices and the user guide's table all read
-it. The method's *function* lives one layer up, in :data:`fringe3d.decode.METHODS`:
+relative-phase refusal of ``reconstruct``, the choices of ``fringe3d decode --method`` and the user
+guide's table all read it. The method's *function* lives one layer up, in :data:`fringe3d.decode.METHODS`:
 :func:`fringe3d.decode.register_method` adds a new method to both in one call, so a method
 registered from outside the package can be named in a manifest like a built-in one.
 

@@ -158,6 +158,23 @@ def estimate_gamma(frames, mask=None, min_modulation: float = 0.0) -> HarmonicEs
 
 
 def harmonic_lut(frames, mask=None, bins: int = 256) -> tuple[PhaseErrorLUT, HarmonicEstimate]:
-    """The phase-error table of the gamma estimated from the capture itself (N >= 4)."""
+    """The phase-error table of the gamma estimated from the capture itself (N >= 4).
+
+    Parameters
+    ----------
+    frames : (N, H, W)
+        One equally shifted N-step set, N >= 4 (:func:`estimate_gamma`).
+    mask : (H, W) bool, optional
+        Pixels to use (default all).
+    bins : int
+        Table size (phases per period).
+
+    Returns
+    -------
+    lut : PhaseErrorLUT
+        The phase error of ``r = x ** gamma`` for this set (:func:`lut_from_response`).
+    estimate : HarmonicEstimate
+        The gamma estimate it was built from.
+    """
     est = estimate_gamma(frames, mask)
     return lut_from_response(power_law(est.gamma), steps=est.steps, bins=bins), est

@@ -94,6 +94,11 @@ def lut_from_response(response: ResponseLUT, shifts=None, steps: int | None = No
         Table size (phases per period).
     samples : int
         True phases simulated per period.
+
+    Returns
+    -------
+    PhaseErrorLUT
+        The N-step phase's error as a function of the measured phase.
     """
     if shifts is None:
         if steps is None:

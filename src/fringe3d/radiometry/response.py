@@ -69,7 +69,19 @@ def predistort(intensity, response: ResponseLUT) -> np.ndarray:
 
 
 def power_law(gamma: float, size: int = 256) -> ResponseLUT:
-    """The response table of ``r = x ** gamma`` on ``size`` equally spaced inputs."""
+    """The response table of ``r = x ** gamma`` on ``size`` equally spaced inputs.
+
+    Parameters
+    ----------
+    gamma : float
+        The exponent.
+    size : int
+        Number of table entries over [0, 1].
+
+    Returns
+    -------
+    ResponseLUT
+        The table."""
     if not gamma > 0:
         raise ValueError(f"gamma must be positive, got {gamma}")
     x = np.linspace(0.0, 1.0, size)
@@ -130,8 +142,22 @@ def load_response(path: str | os.PathLike) -> ResponseLUT:
     """The measured response table of a ``gamma.json`` (``fringe3d capture --gamma``).
 
     Its ``levels`` and ``response`` (mean normalised camera response per grey level) become a
-    :class:`ResponseLUT` as in :func:`fit_response`. ``ValueError`` naming the file and field
-    when it is not one or the table is unusable.
+    :class:`ResponseLUT` as in :func:`fit_response`.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The ``gamma.json`` file.
+
+    Returns
+    -------
+    ResponseLUT
+        The measured response.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and field, when it is not a gamma file or the table is unusable.
     """
     d = read_json(path, "projector gamma file")
     if d.get("format") != GAMMA_FORMAT:
@@ -218,10 +244,25 @@ def response_phase(frames, response: ResponseLUT, shifts=None, iterations: int =
 def linearise_frames(frames, response: ResponseLUT, shifts=None, iterations: int = 6) -> np.ndarray:
     """Map phase-shifted frames back to the pattern values the projector was asked for.
 
-    ``r^-1((I - a) / b)`` with the per-pixel ``a``, ``b`` of :func:`response_phase`; (N, H, W)
-    float32 in [0, 1]. Their N-step phase (Eq. 2.4) is free of the response's phase error, and
-    other frames of the same capture (code frames, texture) can be linearised with the same
-    ``a``, ``b``.
+    ``r^-1((I - a) / b)`` with the per-pixel ``a``, ``b`` of :func:`response_phase`. Their N-step
+    phase (Eq. 2.4) is free of the response's phase error, and other frames of the same capture
+    (code frames, texture) can be linearised with the same ``a``, ``b``.
+
+    Parameters
+    ----------
+    frames : (N, H, W)
+        One phase-shifted set.
+    response : ResponseLUT
+        The projector's measured response (:func:`fit_response`).
+    shifts : (N,) float, optional
+        ``delta_k`` in rad; default ``2 pi k / N``.
+    iterations : int
+        Gauss-Newton steps of :func:`response_phase`.
+
+    Returns
+    -------
+    (N, H, W) float32
+        The pattern values in [0, 1].
     """
     f, d = _check_set(frames, shifts)
     _, a, b = response_phase(f, response, d, iterations)

@@ -96,7 +96,18 @@ def is_demo_folder(folder: Path) -> bool:
 
 
 def build_report(folder: str | Path) -> str:
-    """Return the HTML text of the report for a results folder (or a calibration JSON)."""
+    """Return the HTML text of the report for a results folder (or a calibration JSON).
+
+    Parameters
+    ----------
+    folder : str or Path
+        A results folder (decode, reconstruct, evaluate, experiment) or a calibration JSON.
+
+    Returns
+    -------
+    str
+        A self-contained HTML page.
+    """
     import plotly.offline  # heavy (~1 s): only when a report is built
 
     folder = Path(folder)
@@ -167,8 +178,20 @@ def default_output(results: Path) -> Path:
 
 
 def write_report(folder: str | Path, out: str | Path | None = None) -> Path:
-    """Build the report for ``folder`` and write it atomically (default ``folder/report.html``,
-    ``NAME.html`` beside a calibration JSON)."""
+    """Build the report for ``folder`` and write it atomically.
+
+    Parameters
+    ----------
+    folder : str or Path
+        As in :func:`build_report`.
+    out : str or Path, optional
+        The HTML file; default ``folder/report.html``, or ``NAME.html`` beside a calibration JSON.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     folder = Path(folder)
     out = Path(out) if out else default_output(folder)
     atomic_write_text(out, build_report(folder))

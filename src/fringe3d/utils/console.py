@@ -1,4 +1,4 @@
-"""Console output shared by the sub-commands: rich tables, progress bars, JSON, --quiet.
+"""Console output shared by the sub-commands: rich tables, progress bars, JSON, quiet mode.
 
 Progress bars and ``info`` are off unless the command layer enabled them (``set_quiet(False)``),
 so a library call never draws on the terminal.
@@ -30,7 +30,7 @@ err_console = Console(stderr=True, soft_wrap=True)  # messages and paths stay on
 
 class _Settings:
     # Library functions are silent by default; the CLI turns output on (``fringe3d.cli.main``)
-    # and each sub-command's ``--quiet``/``--json`` turns it off again.
+    # and each sub-command's quiet and JSON options turn it off again.
     quiet: bool = True
     #: (description, done, total) of the innermost progress bar, kept even when quiet, so an
     #: interrupted command can say how far it got.
@@ -41,7 +41,7 @@ settings = _Settings()
 
 
 def set_quiet(quiet: bool) -> None:
-    """Silence progress bars and informational output (tables still print unless ``--json``)."""
+    """Silence progress bars and informational output (tables still print unless JSON output was asked for)."""
     settings.quiet = quiet
 
 
@@ -70,7 +70,7 @@ def progress_bar(description: str, total: int | None, enabled: bool = True) -> I
 
 
 def track(items: Iterable, description: str, total: int | None = None) -> Iterator:
-    """Iterate with a progress bar (on stderr, silenced by --quiet)."""
+    """Iterate with a progress bar (on stderr, silenced by :func:`set_quiet`)."""
     if total is None:
         items = list(items)
         total = len(items)
@@ -93,7 +93,7 @@ def warn(msg: str) -> None:
 
 
 def print_json(obj) -> None:
-    """Print one JSON object on stdout (machine output for ``--json``)."""
+    """Print one JSON object on stdout (a command's machine-readable output)."""
     print(json.dumps(to_jsonable(obj), indent=1))
 
 

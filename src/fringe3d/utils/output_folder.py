@@ -18,7 +18,7 @@ A command writes through :func:`open_output` (a folder) or :func:`open_output_fi
   same inputs and options (same fingerprint); another fingerprint is refused.
 - An advisory lock (``fcntl.flock`` on ``.fringe3d.lock``, whose text names the writer's pid,
   host, command and start) is taken before the folder is judged: a second writer is told
-  "another fringe3d (pid N, started T) is writing OUT" and never offered ``--overwrite``. A free
+  "another fringe3d (pid N, started T) is writing OUT" and never offered ``overwrite=True``. A free
   lock beside an unfinished marker is a dead run's: its ``.part`` files are removed with a
   warning and the set is resumed (resumable) or started over.
 - A run that fails or is interrupted keeps a resumable set (marked incomplete) or removes what it
@@ -162,7 +162,7 @@ class Output:
 
     def final_paths(self, obj):
         """``obj`` (a summary: dicts, lists, strings) with every path under :attr:`path` rewritten to
-        where it will be once the output is in place (they differ while ``--overwrite`` builds aside)."""
+        where it will be once the output is in place (they differ while ``overwrite=True`` builds aside)."""
         if self.path == self.final:
             return obj
         if isinstance(obj, dict):
@@ -180,7 +180,7 @@ class Output:
 
 
 def _refuse_symlink(out: str | os.PathLike) -> None:
-    """An output that is itself a symbolic link would write (or, with --overwrite, replace) its target."""
+    """An output that is itself a symbolic link would write (or, with ``overwrite=True``, replace) its target."""
     if Path(out).is_symlink():
         raise ValueError(f"output {out} is a symbolic link (to {os.readlink(Path(out))}); give the real path of a "
                          "folder or file to write")

@@ -46,8 +46,8 @@ def register_method(name: str, fn: Method, *, phase: str = ABSOLUTE, groups: int
                     replace: bool = False) -> None:
     """Register unwrapping method ``name``: its function ``fn(ctx) -> Unwrapped`` here and its
     facts (:class:`fringe3d.patterns.method_registry.MethodFacts`) in the method registry, so
-    that a manifest's plan, :func:`fringe3d.decode.with_method`, ``decode --method`` and
-    ``reconstruct --method`` accept it.
+    that a manifest's plan, :func:`fringe3d.decode.with_method`, ``fringe3d decode --method`` and
+    ``fringe3d reconstruct --method`` accept it.
 
     Parameters
     ----------

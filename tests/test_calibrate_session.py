@@ -69,7 +69,7 @@ def test_board_not_found_skips_pose_with_warning_then_errors_when_too_few(tiny_s
     poses[1].frames[0] = poses[1].frames[0].mean()  # white frame without a board
     with pytest.warns(CalibrationWarning, match="pose pose_01"):
         obs, info = observe_session(poses, tiny_session.board, progress=False)
-    assert info["skipped"] == ["pose_01"] and len(obs) == 4
+    assert info.skipped == ["pose_01"] and len(obs) == 4
     for p in poses[2:]:
         p.frames[0] = 0
     with pytest.warns(CalibrationWarning):
@@ -163,4 +163,24 @@ def test_pose_whose_grid_cannot_be_labelled_is_skipped_with_that_reason(tiny_ses
     monkeypatch.setattr(board_detection, "grid_is_consistent", lambda uv, board, tolerance=0.3: False)
     with pytest.warns(CalibrationWarning, match="pose pose_00.*could not be labelled consistently"):
         obs, info = observe_session(tiny_session.poses[:1], tiny_session.board, progress=False)
-    assert obs == [] and info["skipped"] == ["pose_00"]
+    assert obs == [] and info.skipped == ["pose_00"]
+
+
+def test_a_session_result_is_typed_and_its_residuals_read_alike_for_both_rig_models(tiny_session):
+    from fringe3d.calibrate.session_result import SessionCalibration, SessionFacts
+    obs, facts = observe_session(tiny_session.poses, tiny_session.board, progress=False)
+    assert isinstance(facts, SessionFacts) and facts.camera_size == tiny_session.poses[0].frames.shape[2:0:-1]
+    assert facts.names == [p.name for p in tiny_session.poses] and facts.skipped == []
+    session = calibrate_session([tiny_session.folder], progress=False, min_modulation_share=0.1)
+    assert isinstance(session, SessionCalibration)
+    cal, fit = session
+    assert session.pose_names == [p["name"] for p in cal.poses] and fit is session.fit
+    rms = np.sqrt(np.mean(np.concatenate([np.sum(r ** 2, axis=1) for r in session.camera_residuals])))
+    assert rms == pytest.approx(cal.rms["camera_px"], rel=1e-9)
+
+
+def test_the_fraction_min_modulation_fraction_is_a_deprecated_spelling_of_min_modulation_share(tiny_session):
+    with pytest.warns(DeprecationWarning, match="min_modulation_share"):
+        old, _ = calibrate_session([tiny_session.folder], progress=False, min_modulation_fraction=0.1)
+    new, _ = calibrate_session([tiny_session.folder], progress=False, min_modulation_share=0.1)
+    assert old.rms == new.rms

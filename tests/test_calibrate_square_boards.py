@@ -62,7 +62,7 @@ def test_noise_free_chessboard_gray_code_calibration_meets_truth_tolerances(ches
     ss = chess_gray_session
     assert len(ss.poses[0].patterns) == 2 * (10 + 10) + 2  # OpenCV's layout for 800x600
     obs, info = observe_session(ss.poses, ss.board, progress=False)
-    assert len(obs) == 10 and info["correspondences"].startswith("gray code, local homographies")
+    assert len(obs) == 10 and info.correspondences.startswith("gray code, local homographies")
     cal, _ = calibrate_observations(obs, info, ss.board, camera_dist="k1k2")
     err = compare_to_truth(cal.rig, ss.rig)
     assert err["camera_focal_rel_error"] < 1e-3 and err["projector_focal_rel_error"] < 1e-3

@@ -8,6 +8,7 @@ from fringe3d.calibrate.optimal_angle import epipolar_angle, optimal_angle, rota
 from fringe3d.calibrate.phase_mapping import FringeDirection, projector_points
 from fringe3d.phase.sampling import sample_bilinear
 from fringe3d.calibrate.session import calibrate_observations
+from fringe3d.calibrate.session_result import SessionFacts
 from fringe3d.calibrate.stereo import PoseObservation
 from fringe3d.calibrate.telecentric import calibrate_telecentric_rig, triangulate_telecentric
 from fringe3d.optics import PinholeDevice, Rig, TelecentricCamera, intrinsics
@@ -150,7 +151,7 @@ def test_point_triangulation_agrees_with_reconstruct_pixel_grid():
 
 def test_telecentric_calibration_passes_the_gates_and_auto_keeps_the_linear_projector():
     obs = observations(poses(10), noise=0.05)
-    info = {"camera_size": CAM.size, "projector_size": PRJ.size}
+    info = SessionFacts(camera_size=CAM.size, projector_size=PRJ.size)
     cal, _ = calibrate_observations(obs, info, BOARD, model="telecentric", projector_dist="auto")
     assert cal.projector["dist_model"] == "none"  # the true projector has no distortion
     assert cal.quality["passed"], [g for g in cal.quality["gates"] if not g["passed"]]

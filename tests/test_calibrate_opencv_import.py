@@ -2,6 +2,8 @@
 imports into a fringe3d Rig that reconstructs exactly what fringe3d's own calibration file does."""
 from __future__ import annotations
 
+import dataclasses
+
 import cv2
 import numpy as np
 import pytest
@@ -29,13 +31,13 @@ def calibrated(tmp_path_factory):
     O = [obj[k].reshape(-1, 1, 3) for k in keep]
     C = [o.camera_uv[k].astype(np.float32).reshape(-1, 1, 2) for o, k in zip(obs, keep)]
     P = [o.projector_uv[k].astype(np.float32).reshape(-1, 1, 2) for o, k in zip(obs, keep)]
-    _, K1, D1, _, _ = cv2.calibrateCamera(O, C, info["camera_size"], None, None, flags=cv2.CALIB_FIX_K3, criteria=CRIT)
-    _, K2, D2, _, _ = cv2.calibrateCamera(O, P, info["projector_size"], None, None,
+    _, K1, D1, _, _ = cv2.calibrateCamera(O, C, info.camera_size, None, None, flags=cv2.CALIB_FIX_K3, criteria=CRIT)
+    _, K2, D2, _, _ = cv2.calibrateCamera(O, P, info.projector_size, None, None,
                                           flags=cv2.CALIB_FIX_K3, criteria=CRIT)
-    out = cv2.stereoCalibrate(O, C, P, K1, D1, K2, D2, info["camera_size"], flags=cv2.CALIB_FIX_INTRINSIC,
+    out = cv2.stereoCalibrate(O, C, P, K1, D1, K2, D2, info.camera_size, flags=cv2.CALIB_FIX_INTRINSIC,
                               criteria=CRIT)
     cv = {"K1": K1, "D1": D1, "K2": K2, "D2": D2, "R": out[5], "T": out[6]}
-    info = {**info, "depth": float(np.median([np.ravel(t)[2] for _, t in ss.board_poses]))}
+    info = {**dataclasses.asdict(info), "depth": float(np.median([np.ravel(t)[2] for _, t in ss.board_poses]))}
     return cal, cv, info
 
 
