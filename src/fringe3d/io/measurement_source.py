@@ -91,7 +91,7 @@ def measurement_attributes(points: np.ndarray, sigma_z: np.ndarray | None) -> di
 def _read_store_frame(path: Path, frame: int | None) -> Measurement:
     st = PointMapStore.open_existing(path)
     if frame is None:
-        raise ValueError(f"{path} is a point store of {st.frames} frames; name one with --frame (0..{st.frames - 1})")
+        raise ValueError(f"{path} is a point store of {st.frames} frames; choose one frame (0..{st.frames - 1})")
     if not 0 <= frame < st.frames:
         raise ValueError(f"frame {frame} is outside the point store {path} (0..{st.frames - 1})")
     if not st.is_done(frame):

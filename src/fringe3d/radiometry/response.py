@@ -62,8 +62,19 @@ def predistort(intensity, response: ResponseLUT) -> np.ndarray:
     """8-bit projector levels that make a projector of ``response`` show ``intensity``.
 
     ``round(255 r^-1(P))`` for desired intensities ``P`` in [0, 1] (any shape): the table
-    generalisation of :func:`fringe3d.patterns.gamma.precompensate` (``P ** (1 / gamma)``);
-    uint8, same shape.
+    generalisation of :func:`fringe3d.patterns.gamma.precompensate` (``P ** (1 / gamma)``).
+
+    Parameters
+    ----------
+    intensity : array_like of float
+        Desired projected intensities, fractions of full scale in [0, 1], any shape.
+    response : ResponseLUT
+        The projector's measured response (projector level fraction -> light fraction).
+
+    Returns
+    -------
+    numpy.ndarray
+        uint8 projector levels, same shape as ``intensity``.
     """
     return np.rint(255.0 * response.invert(intensity)).astype(np.uint8)
 

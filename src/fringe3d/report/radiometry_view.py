@@ -36,7 +36,7 @@ def radiometry_parts(c: FolderContents, table) -> list[str]:
     parts = ["<h2>Projector nonlinearity</h2>"]
     if response:
         parts.append(f"<p class='muted'>the calibration keeps the projector's measured response "
-                     f"({len(response.get('inputs', []))} levels): --compensate response uses it</p>")
+                     f"({len(response.get('inputs', []))} levels): decoding with the response compensation uses it</p>")
     for d, rad in per_dir.items():
         if not isinstance(rad, dict):
             continue
