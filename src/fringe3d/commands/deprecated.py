@@ -17,8 +17,8 @@ DEPRECATED: dict[str, dict[str, str]] = {
     "simulate": {"--out": "--output"},
     "decode": {"--out": "--output", "--rig": "--calibration"},
     "calibrate": {"--min-modulation": "--min-modulation-share"},
-    "reconstruct": {"--out": "--output"},
-    "strain": {"--out": "--output"},
+    "reconstruct": {"--out": "--output", "--workers": "--processes"},
+    "strain": {"--out": "--output", "--workers": "--threads", "--dask-workers": "--processes"},
 }
 
 

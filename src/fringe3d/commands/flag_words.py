@@ -68,7 +68,7 @@ FLAGS: dict[str, str] = {
     "truth": "--truth",
     "white_black": "--white-black",
     "window": "--window",
-    "workers": "--workers",
+    "workers": "--threads",
     "z_min": "--z-min",
     "z_min_from": "--z-min-from",
 }
