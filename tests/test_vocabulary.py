@@ -75,3 +75,31 @@ def test_workers_is_a_deprecated_alias_of_each_commands_old_meaning(capsys):
     assert rewrite_deprecated("reconstruct", ["--workers", "2"]) == ["--processes", "2"]
     assert rewrite_deprecated("strain", ["--workers=3", "--dask-workers", "2"]) == ["--threads=3", "--processes", "2"]
     assert capsys.readouterr().err.count("deprecated") == 3
+
+
+SET_WORDS = {"--set", "--patterns", "--layout", "--pattern-set"}
+
+
+def test_every_pattern_set_option_is_one_set_option():
+    found = [(c, p) for c, p in options() if SET_WORDS & set(p.opts)]
+    assert {c for c, _ in found} >= {"patterns", "simulate", "import", "decode", "calibrate"}
+    for command, p in found:
+        assert p.opts == ["--set"] and p.metavar == "SET", f"{command} {p.opts}: one name for a pattern set"
+
+
+def test_one_set_name_means_one_set_in_patterns_and_simulate(capsys):
+    from fringe3d.patterns import sets
+    from fringe3d.sim.simulate import make_patterns
+    # `patterns --set calibration` and `simulate --set calibration`: the same 31 frames
+    assert len(make_patterns("calibration", 800, 600)) == len(sets.calibration(800, 600)) == 31
+    # simulate's old three-frequency (31 frames) is refused the name with a warning, not silently kept
+    assert vocabulary.set_word("simulate", "three-frequency") == "calibration"
+    assert "deprecated" in capsys.readouterr().err
+    assert vocabulary.set_word("patterns", "three-frequency") == "three-frequency"
+
+
+def test_old_set_option_spellings_are_deprecated_aliases():
+    assert rewrite_deprecated("simulate", ["--patterns", "ftp"]) == ["--set", "ftp"]
+    assert rewrite_deprecated("calibrate", ["--patterns=gray-code"]) == ["--set=gray-code"]
+    for command in ("import", "decode", "calibrate"):
+        assert rewrite_deprecated(command, ["--layout", "opencv-graycode"]) == ["--set", "opencv-graycode"]

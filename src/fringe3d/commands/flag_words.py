@@ -38,7 +38,7 @@ FLAGS: dict[str, str] = {
     "interleave=True": "--interleave",
     "inverse=False": "--no-inverse",
     "kind": "--kind",
-    "layout": "--set/--layout",
+    "layout": "--set",
     "list_file": "--list",
     "manifest": "--manifest",
     "method": "--method",

@@ -10,7 +10,11 @@ every command's options come from here.
 """
 from __future__ import annotations
 
+from typing import overload
+
 import typer
+
+from fringe3d.utils.console import warn
 
 from fringe3d.patterns.method_registry import method_names
 
@@ -61,3 +65,33 @@ def processes_option(help: str = PROCESSES_HELP):
 def threads_option(default: int = 1, help: str = THREADS_HELP):
     """``--threads N``: frames processed at once on threads of this process."""
     return typer.Option(default, "--threads", metavar="N", help=help)
+
+
+# ----------------------------------------------------------------------------- pattern sets
+#: Set names one command used for another set than ``fringe3d patterns --set`` means by them:
+#: command -> {old word: the word for that same set}. Accepted with a warning for one release.
+RENAMED_SETS: dict[str, dict[str, str]] = {
+    # simulate's three-frequency was the 31-frame two-direction set that `patterns` calls calibration
+    # (`patterns --set three-frequency` is 15 frames in one direction: simulate's three-frequency-v)
+    "simulate": {"three-frequency": "calibration"},
+    "calibrate": {"phase": "calibration"},
+}
+
+
+def set_option(default: str | None, help: str, *more_names: str):
+    """``--set NAME``: the one option that names a pattern set, in every command."""
+    return typer.Option(default, "--set", *more_names, metavar="SET", help=help)
+
+
+@overload
+def set_word(command: str, value: str) -> str: ...
+@overload
+def set_word(command: str, value: None) -> None: ...
+def set_word(command: str, value: str | None) -> str | None:
+    """``value`` of ``command``'s ``--set`` with a renamed word replaced (and a warning line)."""
+    new = RENAMED_SETS.get(command, {}).get(value or "")
+    if new is None:
+        return value
+    warn(f"`{command} --set {value}` is deprecated: that set is `{new}` (the name `fringe3d patterns --set` uses "
+         f"for it); use --set {new}")
+    return new
