@@ -84,7 +84,7 @@ def test_every_pattern_set_option_is_one_set_option():
     found = [(c, p) for c, p in options() if SET_WORDS & set(p.opts)]
     assert {c for c, _ in found} >= {"patterns", "simulate", "import", "decode", "calibrate"}
     for command, p in found:
-        assert p.opts == ["--set"] and p.metavar == "SET", f"{command} {p.opts}: one name for a pattern set"
+        assert p.opts == ["--set"] and p.metavar == "<set>", f"{command} {p.opts}: one name for a pattern set"
 
 
 def test_one_set_name_means_one_set_in_patterns_and_simulate(capsys):
@@ -103,3 +103,12 @@ def test_old_set_option_spellings_are_deprecated_aliases():
     assert rewrite_deprecated("calibrate", ["--patterns=gray-code"]) == ["--set=gray-code"]
     for command in ("import", "decode", "calibrate"):
         assert rewrite_deprecated(command, ["--layout", "opencv-graycode"]) == ["--set", "opencv-graycode"]
+
+
+@pytest.mark.parametrize("command", ["strain", "reconstruct", "decode"])
+def test_help_shows_no_bool_value_for_flags_and_keeps_extras_brackets(command, capsys, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "200")
+    assert main([command, "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "--overwrite" in out and "<bool>" not in out
+    assert "fringe3d[dask]" in out or command == "decode"

@@ -41,15 +41,17 @@ def canonical_method(value: str | None) -> str | None:
     Raises ValueError naming ``--method`` and the methods, as a readable list."""
     if value is None:
         return None
-    name = value.strip().replace("-", "_")
-    if name not in method_names():
+    known = method_names()
+    name = value.strip()
+    name = name if name in known else name.replace("-", "_")  # a registered name may hold a hyphen
+    if name not in known:
         raise ValueError(f"--method must be one of {readable_list(method_choices())}; got {value!r}")
     return name
 
 
 def method_option(help: str):
     """``--method``: a typer option default whose value arrives in the library's spelling."""
-    return typer.Option(None, "--method", "-m", callback=canonical_method, metavar="METHOD",
+    return typer.Option(None, "--method", "-m", callback=canonical_method, metavar="<method>",
                         help=f"{help} One of: {', '.join(method_choices())}.")
 
 
@@ -59,12 +61,12 @@ THREADS_HELP = "Frames processed at once on N threads in this process; the outpu
 
 def processes_option(help: str = PROCESSES_HELP):
     """``--processes N``: worker processes of a local Dask cluster (default: none, run here)."""
-    return typer.Option(None, "--processes", metavar="N", help=help)
+    return typer.Option(None, "--processes", help=help)
 
 
 def threads_option(default: int = 1, help: str = THREADS_HELP):
     """``--threads N``: frames processed at once on threads of this process."""
-    return typer.Option(default, "--threads", metavar="N", help=help)
+    return typer.Option(default, "--threads", help=help)
 
 
 # ----------------------------------------------------------------------------- pattern sets
@@ -80,7 +82,7 @@ RENAMED_SETS: dict[str, dict[str, str]] = {
 
 def set_option(default: str | None, help: str, *more_names: str):
     """``--set NAME``: the one option that names a pattern set, in every command."""
-    return typer.Option(default, "--set", *more_names, metavar="SET", help=help)
+    return typer.Option(default, "--set", *more_names, metavar="<set>", help=help)
 
 
 @overload
