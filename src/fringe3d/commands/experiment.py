@@ -22,7 +22,7 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, help="Random seed: the same seed gives the same figures."),
         json_: bool = typer.Option(False, "--json", help="Print one JSON object instead of tables."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
-        out: Path = typer.Option(None, "--out", "-o", help=(
+        out: Path = typer.Option(None, "-o", "--output", help=(
             "Also write the result into this folder: each table as CSV (table-N.csv), its figure "
             "as PNG and SVG beside the dissertation's figures (table-N.png/.svg), dissertation.csv "
             "and result.json.")),
