@@ -112,3 +112,20 @@ def test_help_shows_no_bool_value_for_flags_and_keeps_extras_brackets(command, c
     out = capsys.readouterr().out
     assert "--overwrite" in out and "<bool>" not in out
     assert "fringe3d[dask]" in out or command == "decode"
+
+
+def test_a_repeated_warning_is_shown_once_with_its_count(capsys, monkeypatch):
+    import warnings
+
+    from fringe3d import cli
+    from fringe3d.utils.warning_types import CalibrationWarning
+
+    def noisy(**_kwargs):
+        for _ in range(8):
+            warnings.warn_explicit("pose p: board not found", CalibrationWarning, "x.py", 1)
+        return 0
+    monkeypatch.setattr(cli, "app", noisy)
+    assert cli.main(["anything", "-q"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("pose p: board not found") == 2  # the warning, then its count
+    assert "raised 8 times" in err
