@@ -119,7 +119,7 @@ def test_other_tools_session_of_numbered_frames_calibrates_through_layout(tmp_pa
         for k, f in enumerate(pose.frames):
             write_image(tmp_path / "captures" / f"view{pose.name[-1]}" / f"img_{k + 1}.png", f)
     out = tmp_path / "out" / "calib.json"
-    rc = main(["calibrate", str(tmp_path / "captures"), "--layout", "opencv-graycode", "--projector-size", "256x200",
+    rc = main(["calibrate", str(tmp_path / "captures"), "--set", "opencv-graycode", "--projector-size", "256x200",
                "--board", "chessboard", "--cols", "6", "--rows", "5", "--spacing", "20", "-o", str(out), "--json"])
     assert rc == 0
     s = json.loads(capsys.readouterr().out)
@@ -135,7 +135,7 @@ def test_other_tools_session_of_numbered_frames_calibrates_through_layout(tmp_pa
     assert np.linalg.norm(rig.projector.t - ss.rig.projector.t) < 3.0
     # a pose folder with a frame missing is named, with the count the layout expects
     (tmp_path / "captures" / "view3" / "img_34.png").unlink()
-    rc = main(["calibrate", str(tmp_path / "captures"), "--layout", "opencv-graycode", "--projector-size", "256x200",
+    rc = main(["calibrate", str(tmp_path / "captures"), "--set", "opencv-graycode", "--projector-size", "256x200",
                "--board", "chessboard", "--cols", "6", "--rows", "5", "--spacing", "20", "-o",
                str(tmp_path / "out2" / "calib.json"), "-q"])
     err = capsys.readouterr().err.replace("\n", " ")
@@ -146,7 +146,7 @@ def test_other_tools_session_of_numbered_frames_calibrates_through_layout(tmp_pa
 def test_calibrate_simulate_renders_a_gray_code_chessboard_session_and_compares_with_truth(tmp_path, capsys):
     sim = tmp_path / "sim"
     rc = main(["calibrate", str(sim), "--simulate", "tiny", "--board", "chessboard", "--cols", "6", "--rows", "5",
-               "--spacing", "20", "--patterns", "gray-code", "--poses", "4", "--noise-free",
+               "--spacing", "20", "--set", "gray-code", "--poses", "4", "--noise-free",
                "-o", str(tmp_path / "calib.json"), "--json", "--accept-poor"])
     assert rc == 0
     s = json.loads(capsys.readouterr().out)

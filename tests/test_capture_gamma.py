@@ -53,7 +53,7 @@ def test_gamma_compensation_cuts_the_phase_error_tenfold_and_the_fit_is_within_t
         assert main(["capture", str(pats), "-o", str(pats) + "-cap", "--projector", PROJECTOR, "--camera", CAMERA,
                      "-q"]) == 0
     sim = tmp_path / "truth"
-    assert main(["simulate", "--preset", "tiny", "--scene", "plane", "--patterns", str(plain / "manifest.json"),
+    assert main(["simulate", "--preset", "tiny", "--scene", "plane", "--set", str(plain / "manifest.json"),
                  "-o", str(sim), "-q"]) == 0
     truth = Truth.load(sim)
     before, after = _phase_rms(str(plain) + "-cap", truth), _phase_rms(str(comp) + "-cap", truth)

@@ -27,7 +27,7 @@ def test_virtual_capture_frames_are_bit_identical_to_simulate(pats, tmp_path, sc
     code = main(["capture", str(pats), "-o", str(cap), "--projector", "virtual:tiny",
                  "--camera", f"virtual:tiny?scene={scene}&seed=7&noise=0.02", "-q"])
     assert code == 0
-    assert main(["simulate", "--preset", "tiny", "--scene", scene, "--patterns", str(pats / "manifest.json"),
+    assert main(["simulate", "--preset", "tiny", "--scene", scene, "--set", str(pats / "manifest.json"),
                  "--seed", "7", "--noise", "0.02", "-o", str(sim), "-q"]) == 0
     a, b = read_capture(cap).frames, read_capture(sim).frames
     assert a.shape == b.shape == (15, 128, 160)
@@ -43,7 +43,7 @@ def test_hardware_sync_capture_of_two_cycles_equals_simulate_of_two_cycles(pats,
     cap, sim = tmp_path / "cap", tmp_path / "sim"
     assert main(["capture", str(pats), "-o", str(cap), "--projector", "virtual:tiny", "--sync", "hardware",
                  "--cycles", "2", "--camera", "virtual:tiny?scene=plane&noise=0.01", "-q"]) == 0
-    assert main(["simulate", "--preset", "tiny", "--scene", "plane", "--patterns", str(pats / "manifest.json"),
+    assert main(["simulate", "--preset", "tiny", "--scene", "plane", "--set", str(pats / "manifest.json"),
                  "--frames", "30", "--noise", "0.01", "-o", str(sim), "-q"]) == 0
     assert np.array_equal(read_capture(cap).frames, read_capture(sim).frames)
     meta = _meta(cap)

@@ -14,7 +14,7 @@ from fringe3d.patterns import sets
 #: Commands that take a calibration or rig file.
 TAKES_CALIBRATION = {"decode", "reconstruct"}
 #: Commands without an output of their own (evaluate writes into the results folder it reads).
-NO_OUTPUT = {"evaluate", "experiment", "warmup"}  # warmup writes only a temporary folder
+NO_OUTPUT = {"evaluate", "warmup"}  # warmup writes only a temporary folder
 
 
 def _commands() -> dict:

@@ -24,7 +24,7 @@ def fed(tmp_path_factory):
     pats, sim = root / "pats", root / "sim"
     assert main(["patterns", "--set", "three-frequency", "--width", str(SCREEN[0]), "--height", str(SCREEN[1]),
                  "-o", str(pats), "-q"]) == 0
-    assert main(["simulate", "--preset", "tiny", "--scene", "sphere", "--patterns", str(pats / "manifest.json"),
+    assert main(["simulate", "--preset", "tiny", "--scene", "sphere", "--set", str(pats / "manifest.json"),
                  "--noise", "0.01", "-o", str(sim), "-q"]) == 0
     return pats, sim
 

@@ -131,7 +131,7 @@ def test_opencv_graycode_session_imports_and_decodes_to_projector_pixels(tmp_pat
     ps = opencv_graycode(64, 32)
     for i, f in enumerate(render_set(ps)):  # a camera seeing the projector 1:1, as BMP files
         cv2.imwrite(str(tmp_path / f"pattern_{i}.bmp"), f[:, 8:40] // 2 + 40)
-    assert cli("import", tmp_path / "pattern_*.bmp", "-o", tmp_path / "cap", "--layout", "opencv-graycode",
+    assert cli("import", tmp_path / "pattern_*.bmp", "-o", tmp_path / "cap", "--set", "opencv-graycode",
                "--projector-size", "64x32", "--quiet") == 0
     assert cli("decode", tmp_path / "cap", "-o", tmp_path / "dec", "--quiet") == 0
     cap = read_capture(tmp_path / "cap")
@@ -147,11 +147,11 @@ def test_bad_input_says_what_was_expected(tmp_path, capsys):
     src.mkdir()
     for i in range(41):
         cv2.imwrite(str(src / f"{i}.png"), np.zeros((4, 4), np.uint8))
-    assert cli("import", src, "-o", tmp_path / "a", "--layout", "opencv-graycode",
+    assert cli("import", src, "-o", tmp_path / "a", "--set", "opencv-graycode",
                "--projector-size", "1024x768") == 2
-    assert ("--layout opencv-graycode for a 1024x768 projector expects 2*(10+10)+2 = 42 frames, got 41"
+    assert ("--set opencv-graycode for a 1024x768 projector expects 2*(10+10)+2 = 42 frames, got 41"
             in " ".join(capsys.readouterr().err.split()))
-    assert cli("import", src, "-o", tmp_path / "b", "--layout", "opencv-graycode") == 2
+    assert cli("import", src, "-o", tmp_path / "b", "--set", "opencv-graycode") == 2
     assert "--projector-size" in capsys.readouterr().err
     (tmp_path / "full").mkdir()
     (tmp_path / "full" / "keep.txt").write_text("mine")
@@ -352,7 +352,7 @@ def test_threshold_applies_to_the_opencv_layout_and_to_a_manifest(tmp_path):
     for i, f in enumerate(render_set(ps)):
         cv2.imwrite(str(tmp_path / f"pattern_{i}.bmp"), f[:, 8:40] // 2 + 40)
     ps.save(tmp_path / "m.json")
-    for k, described in enumerate((["--layout", "opencv-graycode", "--projector-size", "64x32"],
+    for k, described in enumerate((["--set", "opencv-graycode", "--projector-size", "64x32"],
                                    ["--manifest", tmp_path / "m.json"])):
         out = tmp_path / f"cap{k}"
         assert cli("import", tmp_path / "pattern_*.bmp", "-o", out, *described, "--threshold", "white-black",

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import tifffile
 
+from fringe3d.commands.vocabulary import shown
 from fringe3d.cli import main
 from fringe3d.decode import METHODS, DecodeContext, Unwrapped, register_method, with_method
 from fringe3d.decode.context import combined_mask
@@ -79,7 +80,7 @@ def test_help_lists_a_method_registered_before_the_cli_runs(registered, command,
     monkeypatch.setenv("COLUMNS", "2000")  # one line per option: the method names are not wrapped
     code, out, err = run([command, "--help"], capsys)
     assert code == 0, err
-    assert f", {registered}." in out
+    assert f", {shown(registered)}." in out  # listed as the command line spells methods
 
 
 def test_decode_method_runs_the_registered_function(capture, registered, tmp_path, capsys):

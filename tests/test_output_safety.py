@@ -68,10 +68,10 @@ def test_the_write_guard_refuses_paths_that_resolve_outside_the_output(tmp_path)
 def test_simulate_refuses_a_folder_holding_a_capture_and_overwrite_replaces_it_whole(tmp_path, capture, capsys):
     before = snapshot(capture)
     assert main(["simulate", "-o", str(capture), "--preset", "tiny", "--scene", "plane",
-                 "--patterns", "phase-shift", "-q"]) == 2
+                 "--set", "phase-shift", "-q"]) == 2
     assert "not empty" in capsys.readouterr().err and snapshot(capture) == before
     assert main(["simulate", "-o", str(capture), "--preset", "tiny", "--scene", "plane",
-                 "--patterns", "phase-shift", "-q", "--overwrite"]) == 0
+                 "--set", "phase-shift", "-q", "--overwrite"]) == 0
     cap = read_capture(capture)
     assert (capture / "truth").is_dir() and cap.frames.shape[1:] != (16, 48), "the old frames are gone"
     assert len(cap.frames) == len(cap.patterns)
@@ -84,7 +84,7 @@ def test_simulate_overwrite_through_a_symlinked_frames_folder_leaves_its_target_
     os.symlink(outside, capture / "frames")
     before = snapshot(outside)
     assert main(["simulate", "-o", str(capture), "--preset", "tiny", "--scene", "plane",
-                 "--patterns", "phase-shift", "-q", "--overwrite"]) == 0
+                 "--set", "phase-shift", "-q", "--overwrite"]) == 0
     assert snapshot(outside) == before
     assert not (capture / "frames").is_symlink()
 

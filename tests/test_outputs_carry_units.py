@@ -87,6 +87,6 @@ def test_fused_three_step_path_gives_decode_s_texture_a_plus_b(tmp_path):
 
 
 def test_a_moving_scene_s_streamed_truth_carries_provenance_and_units(tmp_path):
-    assert main(["simulate", "-o", str(tmp_path / "cap"), "--scene", "falling-balls", "--patterns", "two-frequency",
+    assert main(["simulate", "-o", str(tmp_path / "cap"), "--scene", "falling-balls", "--set", "two-frequency",
                  "-q"]) == 0
     check_json_provenance(tmp_path / "cap" / "truth" / "truth.json")

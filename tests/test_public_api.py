@@ -2,10 +2,12 @@
 README's three lines (capture folder -> point cloud) reproduce the simulator's truth."""
 from __future__ import annotations
 
+import importlib
 import importlib.metadata
 import re
 import subprocess
 import sys
+import types
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +33,36 @@ def test_every_exported_name_resolves():
     assert set(fringe3d.__all__) <= set(dir(fringe3d))
     with pytest.raises(AttributeError, match="no attribute 'no_such_step'"):
         fringe3d.no_such_step  # noqa: B018
+
+
+def test_every_exported_name_is_documented_and_no_module():
+    for name in fringe3d.__all__:
+        value = getattr(fringe3d, name)
+        if name == "__version__":
+            continue
+        assert not isinstance(value, types.ModuleType), f"{name} is a module, not a step"
+        assert (value.__doc__ or "").strip(), f"{name} has no docstring"
+
+
+def test_one_top_level_function_per_command_step():
+    steps = {"decode_frames": "fringe3d.decode", "reconstruct_capture": "fringe3d.pipeline",
+             "evaluate_points": "fringe3d.analyze", "measure_strain": "fringe3d.analyze",
+             "write_report": "fringe3d.report"}
+    for name, package in steps.items():
+        step = getattr(fringe3d, name)
+        assert callable(step) and not isinstance(step, types.ModuleType)
+        assert step.__module__.startswith(package), name
+        assert name in fringe3d.__doc__, f"{name} is not in the package docstring"
+    importlib.import_module("fringe3d.decode")  # importing the sub-package rebinds fringe3d.decode ...
+    assert fringe3d.decode_frames is importlib.import_module("fringe3d.decode").decode  # ... not the step
+
+
+def test_dir_shows_no_helper_or_imported_name():
+    names = dir(fringe3d)
+    assert {"annotations", "importlib"}.isdisjoint(names)
+    leaked = [n for n in names if n.startswith("_") and not (n.startswith("__") and n.endswith("__"))]
+    assert leaked == []
+    assert set(fringe3d.__all__) <= set(names)
 
 
 def test_version_comes_from_the_package_metadata():

@@ -204,7 +204,7 @@ def test_bounded_three_step_group_masks_off_crest_clipping_against_a_stated_boun
 
 def test_simulate_gain_overexposes_the_capture(tmp_path):
     assert main(["simulate", "-o", str(tmp_path / "cap"), "--preset", "tiny", "--scene", "plane",
-                 "--patterns", "phase-shift", "--gain", "3", "-q"]) == 0
+                 "--set", "phase-shift", "--gain", "3", "-q"]) == 0
     frames = read_capture(tmp_path / "cap").frames
     assert (frames == 255).mean() > 0.2
     assert main(["simulate", "-o", str(tmp_path / "bad"), "--gain", "-1", "-q"]) == 2

@@ -20,7 +20,7 @@ def wrapped(frames):
 
 def test_simulate_cli_writes_a_capture_with_truth_and_rig(tmp_path, capsys):
     out = tmp_path / "cap"
-    code = main(["simulate", "--preset", "tiny", "--scene", "sphere", "--patterns", "three-frequency-v",
+    code = main(["simulate", "--preset", "tiny", "--scene", "sphere", "--set", "three-frequency-v",
                  "-o", str(out), "--bit-depth", "16", "--ideal", "--json"])
     assert code == 0
     summary = json.loads(capsys.readouterr().out)
@@ -62,8 +62,8 @@ def test_scene_file_round_trip(tmp_path):
     (["--frame-rate", "0"], "--frame-rate must be positive"),
     (["--frame-rate", "100", "--exposure", "0.5"], "longer than the frame period"),
     (["--scene", "teapot"], "unknown scene 'teapot'"),
-    (["--patterns", "zigzag"], "unknown pattern set 'zigzag'"),
-    (["--patterns", "phase-shift", "--frames", "10"], "multiple of the pattern set's 9 frames"),
+    (["--set", "zigzag"], "unknown pattern set 'zigzag'"),
+    (["--set", "phase-shift", "--frames", "10"], "multiple of the pattern set's 9 frames"),
 ])
 def test_bad_simulate_arguments_exit_2_with_a_clear_message(tmp_path, capsys, args, message):
     code = main(["simulate", "-o", str(tmp_path / "x"), "--quiet", *args])

@@ -97,9 +97,9 @@ def test_an_unreachable_scheduler_exits_2_naming_it_and_writes_nothing(sequence,
 
 
 @pytest.mark.parametrize("extra, text", [
-    (("--dask-workers", "2", "--scheduler", "tcp://127.0.0.1:9"), "either --dask-workers"),
-    (("--dask-workers", "2", "--workers", "2"), "--workers 2 runs threads"),
-    (("--dask-workers", "0"), "--dask-workers must be at least 1"),
+    (("--processes", "2", "--scheduler", "tcp://127.0.0.1:9"), "either --processes"),
+    (("--processes", "2", "--threads", "2"), "--threads 2 runs threads"),
+    (("--processes", "0"), "--processes must be at least 1"),
 ])
 def test_conflicting_or_bad_scheduler_options_exit_2_and_write_nothing(sequence, tmp_path, capsys, extra, text):
     assert strain(sequence, tmp_path / "out", *extra) == 2

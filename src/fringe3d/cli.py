@@ -79,12 +79,26 @@ def show_warning(message, category, filename, lineno, file=None, line=None) -> N
     """``warnings.showwarning`` of the CLI: fringe3d's warnings as ``warning: <message>`` lines
     on stderr, any other warning as Python shows it."""
     if issubclass(category, Fringe3DWarning):
-        warn(in_flag_words(str(message)))
+        text = in_flag_words(str(message))
+        _repeats[text] = _repeats.get(text, 0) + 1
+        if _repeats[text] == 1:  # a repeat is counted, and reported once at the end
+            warn(text)
     else:
         _python_showwarning(message, category, filename, lineno, file, line)
 
 
 _python_showwarning = warnings.showwarning
+#: fringe3d warning text -> times raised in this command (each shown once, repeats counted)
+_repeats: dict[str, int] = {}
+
+
+def _report_repeats() -> None:
+    """One ``warning: ... (N times in all)`` line for each warning raised more than once."""
+    for text, n in _repeats.items():
+        if n > 1:
+            short = text if len(text) <= 80 else text[:77] + "..."
+            warn(f"the warning \"{short}\" was raised {n} times in all (shown once)")
+    _repeats.clear()
 
 
 def _interrupted() -> int:
@@ -163,9 +177,13 @@ def _run(argv: list[str] | None) -> int:
     _Flags.debug = False
     set_command_line(list(sys.argv[1:] if argv is None else argv))
     try:
+        _repeats.clear()
         with warnings.catch_warnings():
             warnings.showwarning = show_warning
-            rc = app(args=argv, standalone_mode=False)
+            try:
+                rc = app(args=argv, standalone_mode=False)
+            finally:
+                _report_repeats()
         if rc == EXIT_INTERRUPTED:  # typer turns Ctrl-C into Exit(130) and returns the code
             return _interrupted()
         if isinstance(rc, int) and not isinstance(rc, bool) and rc != 0:

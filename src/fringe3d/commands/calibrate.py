@@ -15,10 +15,11 @@ from fringe3d.calibrate.code_mapping import DEFAULT_WINDOW
 from fringe3d.calibrate.session import board_from_options, calibrate_to_files
 from fringe3d.calibrate.square_boards import BOARD_KINDS, squares_from_inner_corners
 from fringe3d.io.importer import parse_size as parse_projector_size
-from fringe3d.sim.calibration_session import PATTERN_KINDS, simulate_session
+from fringe3d.sim.calibration_session import simulate_session
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import overwrite_option
+from fringe3d.commands.vocabulary import set_option, set_word
 from fringe3d.utils.output_folder import open_output, open_output_file
 
 
@@ -51,11 +52,6 @@ def register(app: typer.Typer) -> None:
         bright: bool = typer.Option(False, help="Bright circles on a dark board."),
         marker: float = typer.Option(None, help="ChArUco marker size (mm); default 0.7 x the square size."),
         dictionary: str = typer.Option("DICT_4X4_50", help="ChArUco ArUco dictionary (cv2.aruco.DICT_* name)."),
-        layout: str = typer.Option(None, "--layout", help="Poses of another tool: folders of numbered frames "
-                                                          "(no manifest) projected with this layout: "
-                                                          "opencv-graycode (OpenCV GrayCodePattern: column "
-                                                          "pairs, row pairs, white, black); needs "
-                                                          "--projector-size."),
         homography_window: int = typer.Option(DEFAULT_WINDOW, help="Gray-code poses: side (camera px) of the "
                                                                    "window of each corner's local homography."),
         model: str = typer.Option(None, help="'pinhole' (camera frame = world) or 'telecentric' (projector "
@@ -88,10 +84,12 @@ def register(app: typer.Typer) -> None:
         noise_free: bool = typer.Option(False, "--noise-free", help="--simulate: no sensor noise, 16-bit frames."),
         defocus: float = typer.Option(None, help="--simulate: projector defocus (projector px)."),
         camera_scale: float = typer.Option(1.0, help="--simulate: camera resolution factor (e.g. 0.5)."),
-        sim_patterns: str = typer.Option("phase", "--patterns", help="--simulate: phase (the calibration phase "
-                                                                     "set) or gray-code (Gray-code columns and "
-                                                                     "rows with inverses, white, black)."),
-        stripe: float = typer.Option(None, help="--simulate --patterns gray-code: narrowest stripe (projector "
+        set_name: str = set_option(None, "The pattern set. With --simulate: calibration (the calibration phase "
+                                         "set, default) or gray-code (Gray-code columns and rows with inverses, "
+                                         "white, black). Poses of another tool (folders of numbered frames, no "
+                                         "manifest): opencv-graycode (OpenCV GrayCodePattern: column pairs, row "
+                                         "pairs, white, black; needs --projector-size)."),
+        stripe: float = typer.Option(None, help="--simulate --set gray-code: narrowest stripe (projector "
                                                 "px); default from the defocus (1 px when sharp = OpenCV's "
                                                 "layout)."),
         partial: int = typer.Option(0, help="--simulate: this many poses show only part of the board to the "
@@ -109,7 +107,8 @@ def register(app: typer.Typer) -> None:
                                                             "proj_dist=none: no lens distortion."),
         camera_size: str = typer.Option(None, "--camera-size", help="--import-opencv: camera WxH when the file "
                                                                      "has no size node."),
-        projector_size: str = typer.Option(None, "--projector-size", help="--layout: the projector WxH (px); "
+        projector_size: str = typer.Option(None, "--projector-size", help="--set opencv-graycode: the projector "
+                                                                           "WxH (px); "
                                                                            "--import-opencv: projector WxH when "
                                                                            "the file has no size node."),
         unit: str = typer.Option("mm", "--unit", help="--import-opencv: unit of T in the file (mm or m)."),
@@ -125,7 +124,7 @@ def register(app: typer.Typer) -> None:
 
         Example (simulated): fringe3d calibrate sim-session/ --simulate macro --poses 12 --noise-free -o calib.json
 
-        Example (another tool's session): fringe3d calibrate poses/ --layout opencv-graycode
+        Example (another tool's session): fringe3d calibrate poses/ --set opencv-graycode
         --projector-size 1024x768 --board chessboard --cols 9 --rows 7 --spacing 20 -o calib.json
         """
         set_quiet(quiet or json_)
@@ -149,11 +148,7 @@ def register(app: typer.Typer) -> None:
         stated = {"board_kind": board_kind != "circles", "cols": cols, "rows": rows, "inner_corners": inner_corners,
                   "radius": radius, "asymmetric": asymmetric, "bright": bright, "marker": marker}
         cols, rows = board_counts(board_kind, cols, rows, inner_corners)
-        if sim_patterns not in PATTERN_KINDS:
-            raise ValueError(f"--patterns must be one of {', '.join(PATTERN_KINDS)}, got {sim_patterns!r}")
-        if layout is not None and layout != "opencv-graycode":  # the only layout of a calibration set
-            raise ValueError(f"--layout for a calibration session must be opencv-graycode (OpenCV's GrayCodePattern "
-                             f"frames in each pose folder), got {layout!r}")
+        sim_patterns, layout = pattern_words(set_word("calibrate", set_name), simulate)
         if not 5 <= homography_window <= 501:
             raise ValueError(f"--homography-window must be between 5 and 501 camera px, got {homography_window}")
         least = 2 if board_kind == "circles" else 3
@@ -173,15 +168,13 @@ def register(app: typer.Typer) -> None:
         board = board_from_options(cols, rows, spacing, radius, asymmetric, bright, board_kind, marker, dictionary)
         size = None
         if layout is not None:
-            if simulate:
-                raise ValueError("--layout reads another tool's session; --simulate writes fringe3d pose folders: "
-                                 "use one of them")
             size = parse_projector_size(projector_size)
             if size is None:
-                raise ValueError("--layout needs the projector size: --projector-size WIDTHxHEIGHT, e.g. 1024x768")
+                raise ValueError("--set opencv-graycode needs the projector size: --projector-size WIDTHxHEIGHT, "
+                                 "e.g. 1024x768")
             if board is None:
-                raise ValueError("--layout sessions carry no board description: give --board, --cols, --rows and "
-                                 "--spacing")
+                raise ValueError("--set opencv-graycode sessions carry no board description: give --board, --cols, "
+                                 "--rows and --spacing")
         truth = None
         if simulate:
             if len(inputs) != 1:
@@ -303,3 +296,18 @@ def _import(path: list[Path], output: Path, node, camera_size, projector_size, u
     elif not quiet:
         info(f"imported {s['imported']}: baseline {rig.baseline:.3f} mm")
         info(f"wrote rig: {output}")
+
+
+def pattern_words(set_name: str | None, simulate: str | None) -> tuple[str, str | None]:
+    """``--set`` as (the simulator's pattern word, the layout of another tool's poses or None).
+
+    With ``--simulate`` the set is simulated (calibration, the default, or gray-code); without, it
+    names what another tool projected (opencv-graycode, the only such layout of a calibration)."""
+    if simulate:
+        if set_name not in (None, "calibration", "gray-code"):
+            raise ValueError(f"--simulate --set must be calibration or gray-code, got {set_name!r}")
+        return {"calibration": "phase", None: "phase"}.get(set_name, set_name or "phase"), None
+    if set_name is not None and set_name != "opencv-graycode":
+        raise ValueError(f"--set for another tool's calibration session must be opencv-graycode (OpenCV's "
+                         f"GrayCodePattern frames in each pose folder), got {set_name!r}")
+    return "phase", set_name

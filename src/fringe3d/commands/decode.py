@@ -13,6 +13,7 @@ from fringe3d.commands.import_options import SRC_HELP
 from fringe3d.commands.compensate_options import compensate_option, resolve_compensation, response_option
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.commands.checks import BIT_DEPTHS, check_choice, check_number
+from fringe3d.commands.vocabulary import method_option
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.plan_errors import in_flag_words
 from fringe3d.decode import DecodeOptions, decode_capture, with_method
@@ -24,7 +25,6 @@ from fringe3d.io.images import write_tiff
 from fringe3d.io.importer import load_images, parse_size
 from fringe3d.patterns.manifest import MANIFEST_NAME
 from fringe3d.patterns.layouts import with_threshold
-from fringe3d.patterns.method_registry import method_names
 from fringe3d.optics import Rig
 from fringe3d.phase.ftp import WINDOWS
 from fringe3d.utils.output_folder import check_complete
@@ -95,10 +95,8 @@ def register(app: typer.Typer) -> None:
                                             "for modified FTP)."),
         ftp_flip: bool = typer.Option(False, "--ftp-flip",
                                       help="Flip the FTP phase sign (a mirrored view decoded without --calibration)."),
-        method: str = typer.Option(None, "--method",
-                                   help="Unwrapping method for every direction, overriding the manifest's plans "
-                                        "(e.g. spatial for a single 3-step set; gray_code_only for codes). "
-                                        f"One of: {', '.join(method_names())}."),
+        method: str = method_option("Unwrapping method for every direction, overriding the manifest's plans "
+                                    "(e.g. spatial for a single 3-step set; gray-code-only for codes)."),
         white_thr: float = typer.Option(None, "--white-thr",
                                         help="Code-only decoding: smallest code/inverse difference (counts; "
                                              "default OpenCV's 5 at 8 bits, scaled to the bit depth)."),

@@ -13,12 +13,12 @@ from fringe3d.utils.console import warn
 
 #: Sub-command -> {old spelling: new spelling}. Remove an entry one release after it was added.
 DEPRECATED: dict[str, dict[str, str]] = {
-    "import": {"--out": "--output"},
-    "simulate": {"--out": "--output"},
-    "decode": {"--out": "--output", "--rig": "--calibration"},
-    "calibrate": {"--min-modulation": "--min-modulation-share"},
-    "reconstruct": {"--out": "--output"},
-    "strain": {"--out": "--output"},
+    "import": {"--out": "--output", "--layout": "--set"},
+    "simulate": {"--out": "--output", "--patterns": "--set"},
+    "decode": {"--out": "--output", "--rig": "--calibration", "--layout": "--set"},
+    "calibrate": {"--min-modulation": "--min-modulation-share", "--patterns": "--set", "--layout": "--set"},
+    "reconstruct": {"--out": "--output", "--workers": "--processes"},
+    "strain": {"--out": "--output", "--workers": "--threads", "--dask-workers": "--processes"},
 }
 
 

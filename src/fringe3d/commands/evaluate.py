@@ -1,6 +1,7 @@
 """``fringe3d evaluate RESULT --sphere/--plane/--ball-bar [--truth DIR]``: accuracy figures."""
 from __future__ import annotations
 
+import re
 import warnings
 from pathlib import Path
 
@@ -120,6 +121,18 @@ def register(app: typer.Typer) -> None:
         for sect in ("truth", "sphere", "plane", "ball_bar"):
             for k, v in out.get(sect, {}).items():
                 if not isinstance(v, (dict, list, tuple)):
-                    rows.append([f"{sect}.{k}", v])
+                    rows.append([f"{sect}.{k}", "n/a" if v is None else v, figure_unit(k, v)])
         title = f"evaluation of {result}" + (" - RELATIVE PHASE, NOT A MEASUREMENT" if relative else "")
-        console.print(make_table(title, ["figure", "value (mm)"], rows))
+        console.print(make_table(title, ["figure", "value", "unit"], rows))
+
+
+#: Figures that are counts, ids or shares (no unit); every other figure of evaluate is a length in mm.
+_UNITLESS = re.compile(r"^n_|_count$|count|object_id|index|coverage|share|fraction|ratio|window")
+
+
+def figure_unit(key: str, value) -> str:
+    """The unit of evaluate's figure ``key``: ``"mm"`` for lengths, ``""`` for counts, ids, shares
+    and figures without a value (None)."""
+    if value is None or isinstance(value, (bool, int)) or _UNITLESS.search(key):
+        return ""
+    return "mm"

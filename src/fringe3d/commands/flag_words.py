@@ -39,7 +39,7 @@ FLAGS: dict[str, str] = {
     "interleave=True": "--interleave",
     "inverse=False": "--no-inverse",
     "kind": "--kind",
-    "layout": "--set/--layout",
+    "layout": "--set",
     "list_file": "--list",
     "manifest": "--manifest",
     "method": "--method",
@@ -70,7 +70,7 @@ FLAGS: dict[str, str] = {
     "truth": "--truth",
     "white_black": "--white-black",
     "window": "--window",
-    "workers": "--workers",
+    "workers": "--threads",
     "z_min": "--z-min",
     "z_min_from": "--z-min-from",
 }

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import typer
 
+from fringe3d.commands.vocabulary import set_option
+
 SRC_HELP = ("Folder or glob of frames (PNG, TIFF, BMP, JPEG), naturally sorted (img_2 before img_10); or a camera "
             "file: Photron .cih/.cihx/.mraw, Phantom .cine, a multi-page .tif, a zarr store.")
 
@@ -21,9 +23,8 @@ def manifest_option() -> Path:
 
 
 def layout_option() -> str:
-    return typer.Option(None, "--set", "--layout",
-                        help="What was projected instead of a manifest: phase-shift, gray-code, opencv-graycode "
-                             "(OpenCV GrayCodePattern: column pairs, row pairs, white, black).")
+    return set_option(None, "What was projected instead of a manifest: phase-shift, gray-code, opencv-graycode "
+                            "(OpenCV GrayCodePattern: column pairs, row pairs, white, black).")
 
 
 def projector_size_option() -> str:

@@ -69,7 +69,27 @@ def load_command(name: str) -> Any:
     module = importlib.import_module(f"fringe3d.commands.{entry.module}")
     single = typer.Typer()
     module.register(single)
-    return typer.main.get_command(single)
+    return readable_help(typer.main.get_command(single))
+
+
+def readable_help(command: Any) -> Any:
+    """``command`` with help that reads as typed: a flag shows no ``<bool>`` value column (it takes
+    no value), and extras such as ``fringe3d[dask]`` keep their brackets (not read as rich markup)."""
+    for param in getattr(command, "params", []):
+        if getattr(param, "is_flag", False) and not getattr(param, "count", False):
+            param.metavar = ""
+        if getattr(param, "help", None):
+            param.help = param.help.replace("fringe3d[", "fringe3d\\[")
+    made_help_option = command.get_help_option
+
+    def get_help_option(ctx: Any) -> Any:  # click makes --help per context; it is a flag too
+        option = made_help_option(ctx)
+        if option is not None:
+            option.metavar = ""
+        return option
+
+    command.get_help_option = get_help_option
+    return command
 
 
 class LazyCommands(TyperGroup):

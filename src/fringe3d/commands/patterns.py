@@ -16,6 +16,7 @@ from fringe3d.patterns.gamma import load_gamma
 from fringe3d.radiometry import load_response
 from fringe3d.utils.console import console, info, print_json, set_quiet
 from fringe3d.commands.output_options import overwrite_option
+from fringe3d.commands.vocabulary import set_option
 from fringe3d.utils.output_folder import open_output
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.patterns.manifest_schema import MAX_PIXELS
@@ -117,7 +118,7 @@ def register(app: typer.Typer) -> None:
     @app.command("patterns")
     def patterns(
         output: Path = typer.Option(..., "-o", "--output", help="Folder to write 00000.png ... and manifest.json."),
-        set_name: str = typer.Option("three-frequency", "--set", help="Pattern set: " + ", ".join(SETS) + "."),
+        set_name: str = set_option("three-frequency", "Pattern set: " + ", ".join(SETS) + "."),
         period: str = typer.Option(None, help="Fringe period(s) in projector pixels, comma-separated "
                                               "(three-frequency/calibration: 18,21,144 while the beat of 1008 px "
                                               "covers the projector, else 18,21,T3 with a longer beat; "

@@ -11,6 +11,7 @@ from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.decode import DecodeOptions
 from fringe3d.cluster.engine import close, connect, dask_executor, reconstruct_capture_on_dask
 from fringe3d.commands.checks import check_choice, check_number
+from fringe3d.commands.vocabulary import method_option, processes_option
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.plan_errors import in_flag_words
 from fringe3d.commands.compensate_options import compensate_option, resolve_compensation, response_option
@@ -24,7 +25,7 @@ from fringe3d.io.measurement_source import measurement_attributes
 from fringe3d.io.store import CODECS
 from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import MANIFEST_NAME
-from fringe3d.patterns.method_registry import method_names, relative_methods
+from fringe3d.patterns.method_registry import relative_methods
 from fringe3d.utils.output_folder import open_output
 from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
 from fringe3d.reconstruct.depth import EmptyMaskError
@@ -67,9 +68,7 @@ def register(app: typer.Typer) -> None:
         calibration: Path = typer.Option(..., "--calibration", "-c",
                                          help="Calibration JSON (with a 'rig' entry) or rig JSON."),
         out: Path = typer.Option(..., "-o", "--output", help="Output folder."),
-        method: str = typer.Option(None, "--method", "-m",
-                                   help=f"Unwrapping method for every direction (default: the manifest's plans). "
-                                        f"One of: {', '.join(method_names())}."),
+        method: str = method_option("Unwrapping method for every direction (default: the manifest's plans)."),
         z_min: float = typer.Option(None, "--z-min", help="Nearest depth of the scene (mm), for geometric methods."),
         z_min_from: Path = typer.Option(None, "--z-min-from",
                                         help="Propose z_min from a reference measurement (points.npy or a reconstruct "
@@ -99,9 +98,8 @@ def register(app: typer.Typer) -> None:
         min_modulation: float = typer.Option(None, "--min-modulation",
                                              help="Modulation threshold, camera counts (default 2% of full scale)."),
         max_cycles: int = typer.Option(None, "--max-cycles", help="Use only the first N pattern cycles."),
-        workers: int = typer.Option(None, "--workers",
-                                    help="Sequences: run on a local Dask cluster of N worker processes "
-                                         "(fringe3d[dask]); default: in this process."),
+        workers: int = processes_option("Sequences: run on a local Dask cluster of N worker processes "
+                                        "(fringe3d[dask]); default: in this process."),
         scheduler: str = typer.Option(None, "--scheduler",
                                       help="Sequences: run on an existing dask.distributed scheduler, e.g. "
                                            "tcp://HOST:8786 (its workers must read the capture at the same path)."),
@@ -141,8 +139,6 @@ def register(app: typer.Typer) -> None:
         """
         set_quiet(quiet or json_)
         t0 = time.perf_counter()
-        if method is not None and method not in method_names():
-            raise ValueError(f"unknown --method {method!r}; expected one of {', '.join(method_names())}")
         check_number(min_modulation, "--min-modulation", minimum=0)
         check_number(z_min, "--z-min")
         check_number(z_margin, "--z-margin", minimum=0)
@@ -150,7 +146,7 @@ def register(app: typer.Typer) -> None:
         if max_cycles is not None and max_cycles < 1:
             raise ValueError(f"--max-cycles must be at least 1, got {max_cycles}")
         if workers is not None and workers < 1:
-            raise ValueError(f"--workers must be at least 1, got {workers}")
+            raise ValueError(f"--processes must be at least 1, got {workers}")
         if chunk < 1:
             raise ValueError(f"--chunk must be at least 1 3D frame, got {chunk}")
         if window is not None and window < 1:

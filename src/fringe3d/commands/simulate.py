@@ -9,6 +9,7 @@ from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.checks import check_number, parse_exposures
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
+from fringe3d.commands.vocabulary import set_option, set_word
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.sim.scene_file import load_scene
 from fringe3d.sim.simulate import simulate_capture
@@ -29,8 +30,9 @@ def register(app: typer.Typer) -> None:
                                              "falling-balls, wing, textured-spheres, shiny-part, printed-part) "
                                              "or a JSON scene file; "
                                              "default: the preset's."),
-        patterns: str = typer.Option(None, help="Pattern set name (three-frequency, two-frequency, hybrid, ftp, "
-                                                "...) or a manifest.json; default: the preset's."),
+        patterns: str = set_option(None, "Pattern set: calibration (31 frames, both directions), three-frequency-v, "
+                                         "three-frequency-h, phase-shift, two-frequency, hybrid, ftp, modified-ftp, "
+                                         "gray-code, ... or a manifest.json; default: the preset's."),
         frames: int = typer.Option(None, help="Total frames (a multiple of the pattern count); default one cycle."),
         frame_rate: float = typer.Option(None, "--frame-rate", help="Frames per second (Hz)."),
         exposure: float = typer.Option(None, help="Exposure time (s), at most 1/frame-rate."),
@@ -60,10 +62,11 @@ def register(app: typer.Typer) -> None:
         does not grow with --frames; OUT stays marked incomplete (fringe3d.json) until the end.
         An interrupted run resumes when the same command is run again: the frames it wrote are kept.
 
-        Example: fringe3d simulate --preset macro --scene sphere --patterns three-frequency -o sphere-capture
+        Example: fringe3d simulate --preset macro --scene sphere --set calibration -o sphere-capture
         """
         set_quiet(quiet or json_)
         extra: dict = {"ideal": True} if ideal else {}
+        patterns = set_word("simulate", patterns)
         check_number(gain, "--gain", minimum=0)
         if gain is not None:
             extra["gain"] = gain

@@ -17,8 +17,8 @@ binary VTK XML grid per frame: the tracked points' triangles and their strain) w
 ``strain.gif`` (animation) and ``summary.json``.
 
 Frames are streamed: each one's rows, ``.vtu`` and array rows are written before the next few
-frames are read, so memory does not grow with the sequence. ``--workers N`` processes N frames
-at once on threads and writes the same files as one worker. ``--dask-workers N`` (a local
+frames are read, so memory does not grow with the sequence. ``--threads N`` processes N frames
+at once on threads and writes the same files as one worker. ``--processes N`` (a local
 cluster of N worker processes) or ``--scheduler tcp://HOST:8786`` (an existing cluster, whose
 workers read SEQUENCE at the same path) run each frame as a dask.distributed task
 (:mod:`fringe3d.cluster.strain_frames`); this process still writes every file, the same bytes.
@@ -36,6 +36,7 @@ from fringe3d.io.point_sequence import read_point_sequence
 from fringe3d.cluster.engine import close, connect
 from fringe3d.cluster.strain_frames import frames_on_dask
 from fringe3d.commands.deprecated import AliasCommand
+from fringe3d.commands.vocabulary import processes_option, threads_option
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
 from fringe3d.utils.console import console, make_table, print_json, set_quiet
@@ -59,11 +60,10 @@ def register(app: typer.Typer) -> None:
         frame_rate: float = typer.Option(None, "--frame-rate", help="Rate of the 3D frames (Hz): the PVD time "
                                                                     "steps in seconds (default: frame numbers)."),
         no_figures: bool = typer.Option(False, "--no-figures", help="Skip the PNG maps and the GIF."),
-        workers: int = typer.Option(1, "--workers", help="3D frames processed at once (threads); the output is "
-                                                         "the same for any number."),
-        dask_workers: int = typer.Option(None, "--dask-workers",
-                                         help="Run the frames on a local Dask cluster of N worker processes "
-                                              "(fringe3d[dask]); the output is the same."),
+        workers: int = threads_option(1, "3D frames processed at once on N threads; the output is the same "
+                                         "for any number."),
+        dask_workers: int = processes_option("Run the frames on a local Dask cluster of N worker processes "
+                                             "(fringe3d[dask]); the output is the same."),
         scheduler: str = typer.Option(None, "--scheduler",
                                       help="Run the frames on an existing dask.distributed scheduler, e.g. "
                                            "tcp://HOST:8786 (its workers must read SEQUENCE at the same path)."),
@@ -105,12 +105,12 @@ def register(app: typer.Typer) -> None:
 
 
 def check_schedulers(workers: int, dask_workers: int | None, scheduler: str | None) -> None:
-    """ValueError unless at most one frame scheduler is asked for: threads (``--workers`` > 1), a
-    local Dask cluster (``--dask-workers``) or an existing one (``--scheduler``)."""
+    """ValueError unless at most one frame scheduler is asked for: threads (``--threads`` > 1), a
+    local Dask cluster (``--processes``) or an existing one (``--scheduler``)."""
     if dask_workers is not None and dask_workers < 1:
-        raise ValueError(f"--dask-workers must be at least 1 worker process, got {dask_workers}")
+        raise ValueError(f"--processes must be at least 1 worker process, got {dask_workers}")
     if dask_workers is not None and scheduler is not None:
-        raise ValueError("give either --dask-workers (a local cluster) or --scheduler (an existing one), not both")
+        raise ValueError("give either --processes (a local cluster) or --scheduler (an existing one), not both")
     if workers != 1 and (dask_workers is not None or scheduler is not None):
-        raise ValueError(f"--workers {workers} runs threads in this process; with --dask-workers or --scheduler "
-                         "the Dask workers do the frames (drop --workers)")
+        raise ValueError(f"--threads {workers} runs threads in this process; with --processes or --scheduler "
+                         "the Dask workers do the frames (drop --threads)")

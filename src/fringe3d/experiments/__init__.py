@@ -9,7 +9,9 @@ Every experiment is a module here defining
   ``{"title": str, "columns": [...], "rows": [[...], ...]}`` and ``"dissertation"``: the
   dissertation's own figure(s) for comparison, and ``"goals"``: ``{name: bool}``.
 
-``fringe3d experiment NAME`` prints the tables; ``fringe3d experiment NAME --json`` prints the dict.
+``fringe3d experiment NAME`` prints the tables; ``fringe3d experiment NAME --json`` prints the dict;
+``fringe3d experiment NAME -o FOLDER`` also writes them as CSV with PNG/SVG figures
+(:mod:`fringe3d.experiments.figures`).
 """
 from __future__ import annotations
 

@@ -100,7 +100,8 @@ def print_json(obj) -> None:
 def make_table(title: str, columns: list[str], rows: list[list]) -> Table:
     t = Table(title=title, title_justify="left")
     for c in columns:
-        t.add_column(str(c), justify="right" if c not in columns[:1] else "left")
+        # fold, never truncate: a narrow terminal wraps a long cell instead of printing "direct…"
+        t.add_column(str(c), justify="right" if c not in columns[:1] else "left", overflow="fold")
     for r in rows:
         t.add_row(*[_fmt(v) for v in r])
     return t
