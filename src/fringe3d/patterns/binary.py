@@ -39,6 +39,18 @@ def squared_binary(theta: np.ndarray, parity: np.ndarray | None = None) -> np.nd
     stripe's centre moves by half a pixel). With ``parity`` (0/1 per pixel, e.g. a
     checkerboard) the tie pixels alternate, so each row keeps a 1/2 duty cycle and the
     pattern's fundamental keeps the sinusoid's phase on average.
+
+    Parameters
+    ----------
+    theta : ndarray
+        Fringe phase ``2 pi w / T + shift`` at each pixel (rad), any shape.
+    parity : ndarray, optional
+        0/1 per pixel (broadcast against ``theta``) deciding the tie pixels on stripe edges.
+
+    Returns
+    -------
+    ndarray
+        float32 of 0/1, the shape of ``theta``.
     """
     t = np.mod(_frac(theta) + 0.25, 1.0)
     on = t < 0.5
@@ -62,6 +74,18 @@ def pulse_width_modulated(theta: np.ndarray, pulses: int) -> np.ndarray:
 
     ``pulses`` (odd, >= 1) carrier periods per fringe period. The carrier is aligned so that
     its peaks sit at the sinusoid's peak, keeping the pattern symmetric about theta = 0.
+
+    Parameters
+    ----------
+    theta : ndarray
+        Fringe phase ``2 pi w / T + shift`` at each pixel (rad), any shape.
+    pulses : int
+        Triangular carrier periods per fringe period (odd, >= 1).
+
+    Returns
+    -------
+    ndarray
+        float32 of 0/1, the shape of ``theta``.
     """
     if pulses < 1:
         raise ValueError(f"PWM needs at least one pulse per period, got {pulses}")
@@ -93,6 +117,11 @@ def area_modulated(theta: np.ndarray, along: np.ndarray, cell: int = 4) -> np.nd
         Pixel index along the stripes (perpendicular to the fringe coordinate).
     cell : int
         Cell length in pixels; grey levels are quantised to ``cell + 1`` on-counts per cell.
+
+    Returns
+    -------
+    ndarray
+        float32 of 0/1, the shape of ``theta``.
     """
     if cell < 1:
         raise ValueError(f"area-modulation cell must be >= 1 pixel, got {cell}")

@@ -23,6 +23,16 @@ def bits_needed(stripes: int) -> int:
 def gray_encode(c: np.ndarray) -> np.ndarray:
     """Binary-reflected Gray code of non-negative integers ``c``.
 
+    Parameters
+    ----------
+    c : array_like of int
+        Non-negative integers (stripe indices).
+
+    Returns
+    -------
+    ndarray
+        int64 codewords ``c ^ (c >> 1)``, the shape of ``c``.
+
     Examples
     --------
     >>> import numpy as np
@@ -35,6 +45,16 @@ def gray_encode(c: np.ndarray) -> np.ndarray:
 
 def gray_decode(g: np.ndarray) -> np.ndarray:
     """Inverse of :func:`gray_encode` (prefix XOR), any integer array.
+
+    Parameters
+    ----------
+    g : array_like of int
+        Gray codewords.
+
+    Returns
+    -------
+    ndarray
+        int64 plain binary integers, the shape of ``g``.
 
     Examples
     --------
@@ -70,7 +90,20 @@ def code_bit(w: np.ndarray, period: float, w0: float, bit: int, bits: int, gray:
 
 
 def decode_bits(bit_images: np.ndarray, gray: bool) -> np.ndarray:
-    """Codeword (stripe index) from thresholded bit images ``(bits, H, W)`` of 0/1, MSB first."""
+    """Codeword (stripe index) from thresholded bit images ``(bits, H, W)`` of 0/1, MSB first.
+
+    Parameters
+    ----------
+    bit_images : (bits, H, W) array_like
+        Thresholded bit images of 0/1, most significant bit first.
+    gray : bool
+        ``True`` for a Gray code (the word is Gray-decoded), ``False`` for simple binary.
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` int64 stripe index.
+    """
     b = np.asarray(bit_images).astype(np.int64)
     word = np.zeros(b.shape[1:], dtype=np.int64)
     for plane in b:

@@ -64,6 +64,18 @@ def w_range(angle: float, width: int, height: int) -> tuple[float, float]:
     the corner pixel centres ``u in {0, width - 1}``, ``v in {0, height - 1}`` (Eq. 2.1).
     ``w_min < 0`` only for angles above pi/2.
 
+    Parameters
+    ----------
+    angle : float
+        Fringe angle alpha (rad).
+    width, height : int
+        Projector resolution (px).
+
+    Returns
+    -------
+    tuple of float
+        ``(w_min, w_max)`` in projector pixels.
+
     Examples
     --------
     >>> import math
@@ -94,6 +106,11 @@ def phase_to_w(phase, period: float, *, scale_first: bool = True):
         ``True``: ``Phi * (T / 2 pi)`` (one multiplication by the precomputed scale);
         ``False``: ``(Phi * T) / 2 pi``. The two differ in the last bit for some values.
 
+    Returns
+    -------
+    ndarray or scalar
+        ``w`` (projector pixels), the shape and dtype of ``phase``.
+
     Examples
     --------
     >>> import math
@@ -109,7 +126,19 @@ def w_to_phase(w, period: float, *, scale_first: bool = False):
     """Absolute phase of a fringe coordinate, ``Phi = 2 pi w / T`` (Eq. 2.2), inverse of
     :func:`phase_to_w`.
 
-    ``scale_first=False``: ``(2 pi * w) / T``; ``True``: ``w * (2 pi / T)``.
+    Parameters
+    ----------
+    w : array_like
+        Fringe coordinate (projector pixels).
+    period : float
+        Fringe period ``T`` (projector pixels).
+    scale_first : bool
+        ``False`` (default): ``(2 pi * w) / T``; ``True``: ``w * (2 pi / T)``.
+
+    Returns
+    -------
+    ndarray or scalar
+        Absolute phase ``Phi`` (rad), the shape and dtype of ``w``.
 
     Examples
     --------
@@ -164,6 +193,16 @@ def beat_period(t1: float, t2: float) -> float:
     """Equivalent (beat) period ``t1 t2 / |t2 - t1|`` of two phase maps (three-frequency heterodyne, ch. 2.2.4).
 
     Raises ``ValueError`` for equal periods.
+
+    Parameters
+    ----------
+    t1, t2 : float
+        The two fringe periods (projector px), distinct.
+
+    Returns
+    -------
+    float
+        The beat period (px).
 
     Examples
     --------

@@ -38,6 +38,18 @@ def bayer_dither(gray: np.ndarray, n: int = 8) -> np.ndarray:
     """Ordered dithering of ``gray`` (H, W) in [0, 1] -> (H, W) float32 of exactly 0/1.
 
     A pixel is on when its grey level exceeds the tiled threshold ``(M[i % n, j % n] + 0.5) / n**2``.
+
+    Parameters
+    ----------
+    gray : (H, W) ndarray
+        Grey levels in [0, 1].
+    n : int
+        Size of the Bayer threshold matrix (:func:`bayer_matrix`).
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` float32 of exactly 0/1.
     """
     gray = np.asarray(gray, dtype=np.float64)
     h, w = gray.shape
@@ -76,6 +88,18 @@ def floyd_steinberg(gray: np.ndarray, serpentine: bool = True) -> np.ndarray:
     Steinberg suggested: a plain raster scan drags the error rightwards and shifts vertical
     fringes by a constant phase (about 0.05 rad at T = 18-24 px); alternating rows cancel it.
     The output's mean follows the input's.
+
+    Parameters
+    ----------
+    gray : (H, W) ndarray
+        Grey levels in [0, 1].
+    serpentine : bool
+        Scan odd rows right to left (default ``True``).
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` float32 of exactly 0/1.
     """
     img = np.array(gray, dtype=np.float64, copy=True)
     if img.ndim != 2:

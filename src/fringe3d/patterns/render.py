@@ -44,6 +44,20 @@ def sinusoid_value(spec: FrameSpec, u, v, width: int | None = None, height: int 
     (Eq. 2.2) that the binary kinds approximate: the simulator's ideal, noise-free mode. Code
     frames give their exact 0/1 stripe value (``width``/``height`` of the projector are then
     needed to place the code's origin), white 1 and black 0.
+
+    Parameters
+    ----------
+    spec : FrameSpec
+        The frame (kind, angle, period, shift; bit, bits and inverse for code frames).
+    u, v : array_like
+        Projector column and row (px, pixel centres at integers), broadcast against each other.
+    width, height : int, optional
+        Projector resolution (px); required for code frames only.
+
+    Returns
+    -------
+    ndarray
+        float64 intensity in [0, 1], the broadcast shape of ``u`` and ``v``.
     """
     u = np.asarray(u, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
@@ -122,6 +136,19 @@ def render_set(ps: PatternSet, **options) -> np.ndarray:
     """All frames of ``ps`` as ``(F, H, W)`` uint8 (0..255; 1-bit sets give only 0 and 255).
 
     8-bit frames are rounded from ``255 * intensity``. ``options`` go to :func:`render_frame`.
+
+    Parameters
+    ----------
+    ps : PatternSet
+        The pattern set; its ``width``, ``height`` (projector px) and ``bit_depth`` are used.
+    **options
+        Keyword arguments of :func:`render_frame` (``dither_size``, ``area_cell``,
+        ``pwm_pulses``).
+
+    Returns
+    -------
+    ndarray
+        ``(F, height, width)`` uint8, one frame per entry of ``ps.frames``.
 
     Examples
     --------

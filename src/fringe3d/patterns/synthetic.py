@@ -37,7 +37,14 @@ def frames_from_coordinates(ps: PatternSet, u_p: np.ndarray, v_p: np.ndarray, a:
     noise_field : (F, H, W) array, optional
         Unit-variance noise to scale by ``noise`` instead of drawing it (so several noise
         levels share one realisation).
-    dtype : output dtype; ``np.uint8``/``np.uint16`` round and clip to the type's range.
+    dtype : dtype
+        Output dtype (default float32); ``np.uint8``/``np.uint16`` round and clip to the
+        type's range.
+
+    Returns
+    -------
+    ndarray
+        ``(F, H, W)`` frames in grey levels, one per entry of ``ps.frames``, of ``dtype``.
 
     Examples
     --------

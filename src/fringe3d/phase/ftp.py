@@ -69,6 +69,23 @@ def detect_carrier(image: np.ndarray, angle: float | None = None, dc_radius: flo
     returned (default: ``f_u > 0``, or ``f_v > 0`` for ``f_u = 0``, i.e. the manifest's angle
     range 0 <= angle < pi). Raises ``ValueError`` on a featureless image.
 
+    Parameters
+    ----------
+    image : (H, W) array_like
+        One fringe image.
+    angle : float, optional
+        Fringe angle (rad) choosing which conjugate peak is returned.
+    dc_radius : float, optional
+        Radius (cycles/pixel) of the disc around DC that is ignored; default ``3 / min(H, W)``.
+    spectrum : (H, W) ndarray, optional
+        A precomputed 2-D FFT of the image (its magnitude is searched) instead of the FFT of
+        the mean-subtracted image.
+
+    Returns
+    -------
+    tuple of float
+        The carrier ``(f_v, f_u)`` in cycles per pixel.
+
     Examples
     --------
     >>> import numpy as np
@@ -107,6 +124,22 @@ def bandpass_window(shape, carrier, window: str = "hanning", radius: float | Non
     ``"hanning"``: ``0.5 (1 + cos(pi d / R))`` for ``d < R``, default ``R = |carrier|`` (zero at
     DC). ``"circular"``: a smoothed circular window, 1 inside ``0.7 R`` and a raised-cosine
     edge to 0 at ``R``, default ``R = 0.5 |carrier|``. ``d`` is the distance to the carrier.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(H, W)`` of the image.
+    carrier : tuple of float
+        Carrier ``(f_v, f_u)`` (cycles/pixel).
+    window : {"hanning", "circular"}
+        Window shape.
+    radius : float, optional
+        Window radius ``R`` (cycles/pixel); defaults above.
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` float64 window in FFT layout, values in [0, 1].
     """
     if window not in WINDOWS:
         raise ValueError(f"unknown FTP window {window!r}; expected one of {WINDOWS}")
@@ -129,6 +162,25 @@ def ftp_analysis(image: np.ndarray, window: str = "hanning", carrier=None, angle
     ``carrier`` (f_v, f_u) cycles/pixel, default :func:`detect_carrier`; ``angle`` (rad)
     picks the lobe sign; ``radius`` the window size (cycles/pixel). The average is
     ``I - 2 Re(I_f)`` (the image without its carrier lobes).
+
+    Parameters
+    ----------
+    image : (H, W) array_like
+        One fringe image.
+    window : {"hanning", "circular"}
+        Band-pass window, see :func:`bandpass_window`.
+    carrier : tuple of float, optional
+        Carrier ``(f_v, f_u)`` (cycles/pixel); default :func:`detect_carrier`.
+    angle : float, optional
+        Fringe angle (rad) choosing the lobe sign when the carrier is detected.
+    radius : float, optional
+        Window radius (cycles/pixel); default that of :func:`bandpass_window`.
+
+    Returns
+    -------
+    FTPResult
+        Wrapped phase (rad, (-pi, pi]), modulation B and average A, each (H, W) float64, and
+        the carrier ``(f_v, f_u)``.
     """
     img = np.asarray(image, dtype=np.float64)
     if img.ndim != 2:
@@ -150,6 +202,26 @@ def ftp_phase(image: np.ndarray, window: str = "hanning", carrier=None, angle: f
     :func:`bandpass_window`. Accurate to < 1e-4 rad (noise-free) beyond :data:`BORDER_PX`
     from the edges, everywhere for an integer number of periods across the image.
 
+    Parameters
+    ----------
+    image : (H, W) array_like
+        One fringe image.
+    window : {"hanning", "circular"}
+        Band-pass window.
+    carrier : tuple of float, optional
+        Carrier ``(f_v, f_u)`` (cycles/pixel); default :func:`detect_carrier`.
+    angle : float, optional
+        Fringe angle (rad) choosing the lobe sign when the carrier is detected.
+    radius : float, optional
+        Window radius (cycles/pixel).
+
+    Returns
+    -------
+    phase : ndarray
+        ``(H, W)`` float64 wrapped phase (rad, (-pi, pi]).
+    modulation : ndarray
+        ``(H, W)`` float64 modulation B (the image's units).
+
     Examples
     --------
     >>> import numpy as np
@@ -169,6 +241,26 @@ def modified_ftp_phase(i1: np.ndarray, i2: np.ndarray, window: str = "circular",
     i1, i2 (H, W) with ``I1 = A + B cos(phi)``, ``I2 = A - B cos(phi)``. The DC lobe is gone,
     so the default window is the wider smoothed circle of radius 0.9 |carrier|. Returns the
     phase of I1 and the modulation B, (H, W) float64.
+
+    Parameters
+    ----------
+    i1, i2 : (H, W) array_like
+        The pi-shifted pair of fringe images.
+    window : {"circular", "hanning"}
+        Band-pass window (default ``"circular"``).
+    carrier : tuple of float, optional
+        Carrier ``(f_v, f_u)`` (cycles/pixel); default :func:`detect_carrier` on ``(I1 - I2)/2``.
+    angle : float, optional
+        Fringe angle (rad) choosing the lobe sign when the carrier is detected.
+    radius : float, optional
+        Window radius (cycles/pixel); default ``0.9 |carrier|`` (circular) or ``|carrier|``.
+
+    Returns
+    -------
+    phase : ndarray
+        ``(H, W)`` float64 wrapped phase of I1 (rad, (-pi, pi]).
+    modulation : ndarray
+        ``(H, W)`` float64 modulation B.
 
     Examples
     --------

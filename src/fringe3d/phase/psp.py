@@ -35,7 +35,18 @@ class PhaseResult(NamedTuple):
 
 
 def default_shifts(n: int) -> np.ndarray:
-    """Equal shifts ``2 pi k / n`` (Eq. 2.4), float64 (n,)."""
+    """Equal shifts ``2 pi k / n`` (Eq. 2.4), float64 (n,).
+
+    Parameters
+    ----------
+    n : int
+        Number of phase-shifted frames.
+
+    Returns
+    -------
+    ndarray
+        ``(n,)`` float64 shifts (rad).
+    """
     return 2.0 * np.pi * np.arange(n) / n
 
 
@@ -45,6 +56,16 @@ def lsq_coefficients(shifts: Sequence[float] | np.ndarray) -> np.ndarray:
     Raises ``ValueError`` when fewer than 3 shifts are given or the shifts cannot separate
     A, B and phi (e.g. two distinct shifts only). Results are cached per shift tuple (the
     pseudo-inverse costs ~0.1 ms, which matters for per-frame decoding); a fresh copy is returned.
+
+    Parameters
+    ----------
+    shifts : (N,) sequence of float
+        Phase shift of each frame (rad).
+
+    Returns
+    -------
+    ndarray
+        ``(3, N)`` float64 pseudo-inverse of the design matrix ``[1, cos d_k, sin d_k]``.
     """
     d = np.asarray(shifts, dtype=np.float64).ravel()
     return _lsq_coefficients(tuple(d.tolist())).copy()
@@ -79,6 +100,8 @@ def wrapped_phase(frames, shifts=None, index=None, saturation_level: float | Non
         of a whole capture without copying it.
     saturation_level : float, optional
         Flag pixels where any used frame is >= this value (returned when ``return_saturated``).
+    return_saturated : bool
+        Also return the (H, W) bool saturation map.
     backend : {"cpu", "cuda"}
         ``"cuda"`` runs :func:`fringe3d.gpu.ops.wrapped_phase` on a CUDA device (raises
         :class:`fringe3d.gpu.CudaUnavailableError` without one); it also takes many cycles at
@@ -146,6 +169,16 @@ def three_step(i1, i2, i3) -> np.ndarray:
     output (H, W) float64 rad in (-pi, pi]. A manifest whose 3-step set uses shifts
     0, 2pi/3, 4pi/3 is the same formula with the frames taken in the order (I3, I1, I2);
     :func:`wrapped_phase` with the manifest's shifts handles any order.
+
+    Parameters
+    ----------
+    i1, i2, i3 : (H, W) array_like
+        Frames at shifts -2pi/3, 0 and +2pi/3, any real dtype.
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` float64 wrapped phase (rad, (-pi, pi]).
 
     Examples
     --------

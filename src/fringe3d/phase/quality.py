@@ -69,10 +69,21 @@ def validity_mask(average: np.ndarray, modulation: np.ndarray, frames: np.ndarra
     frames : (F, H, W) array, optional
         Used for the saturation test (any frame of ``index``, default all, at the max code of
         ``bit_depth``) and for the default threshold.
-    saturated : (H, W) bool, optional
-        A precomputed saturation map (e.g. from :func:`fringe3d.phase.psp.wrapped_phase`).
+    bit_depth : int, optional
+        Sensor bit depth for the saturation level and the default threshold (default: the
+        dtype's, see :func:`full_scale`).
     min_modulation : float, optional
         Default :func:`default_min_modulation` (or 2 % of 1.0 without frames).
+    saturated : (H, W) bool, optional
+        A precomputed saturation map (e.g. from :func:`fringe3d.phase.psp.wrapped_phase`);
+        when given, ``frames`` is not searched for saturation.
+    index : (N,) int, optional
+        Which frames of ``frames`` the saturation test looks at (default all).
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` bool, True where the phase is valid.
 
     Examples
     --------
@@ -112,6 +123,24 @@ def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = 
     the maximum code, among the frames not in ``binary`` (code, white and black frames: a
     binary frame at full scale is decided by comparison, not biased). The decoder masks the
     pixels whose decision clipping breaks and leaves the rest; dark frames give no modulation.
+
+    Parameters
+    ----------
+    frames : (F, H, W) ndarray
+        Camera frames (integer counts or float).
+    bit_depth : int, optional
+        Sensor bit depth (default: the dtype's, see :func:`full_scale`).
+    where : str
+        Prefix naming the frames in the warning messages (e.g. a file name).
+    dark_by_design : sequence of int
+        Indices of frames that may be dark (black reference, code frames).
+    binary : sequence of int
+        Indices of binary frames, exempt from the saturation warning.
+
+    Returns
+    -------
+    dict
+        The report described above.
     """
     fs = full_scale(frames, bit_depth)
     level = saturation_level(frames, bit_depth)

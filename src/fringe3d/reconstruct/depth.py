@@ -30,7 +30,18 @@ class EmptyMaskError(ValueError):
 def depth_map(points: np.ndarray) -> np.ndarray:
     """Depth map ``(H, W)`` float32 (mm): the world z of an organized point map
     ``(H, W, 3)``; NaN where the point is invalid. For pinhole rigs world = camera frame, so this
-    is the depth along the camera axis."""
+    is the depth along the camera axis.
+
+    Parameters
+    ----------
+    points : (H, W, 3) array_like
+        Organized point map (mm), NaN where invalid.
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` float32 world z (mm), NaN where invalid.
+    """
     points = np.asarray(points)
     if points.ndim != 3 or points.shape[-1] != 3:
         raise ValueError(f"expected an organized point map of shape (H, W, 3), got {points.shape}")
@@ -51,6 +62,18 @@ def projector_coordinates(decoded: Decoded, directions=None) -> dict:
     "vp": map or None, "mask": (H, W) bool}``. ``up``/``vp`` are filled directly for
     directions at pi/2 / 0 and solved from two directions at other angles
     (``w_k = v_p cos(a_k) + u_p sin(a_k)``).
+
+    Parameters
+    ----------
+    decoded : fringe3d.decode.Decoded
+        Absolute phase (rad), period (px), angle (rad) and mask per fringe direction.
+    directions : sequence of str, optional
+        The directions to use (default every direction of ``decoded.phase``).
+
+    Returns
+    -------
+    dict
+        As above; the ``w``, ``up`` and ``vp`` maps are in projector pixels.
     """
     names = list(directions) if directions is not None else list(decoded.phase)
     if not names:
@@ -91,6 +114,22 @@ def points_from_decoded(decoded: Decoded, rig: Rig, method: str = "auto", direct
     ``method``: ``"fast"`` (closed form, one direction; the first of ``directions``),
     ``"lsq"`` (least squares over every available coordinate, Eq. 2.37), or ``"auto"``
     (fast for a single direction and a distortion-free projector, least squares otherwise).
+
+    Parameters
+    ----------
+    decoded : fringe3d.decode.Decoded
+        Absolute phase (rad), period (px), angle (rad) and mask per fringe direction.
+    rig : fringe3d.optics.Rig
+        The calibrated camera-projector rig; its camera size must match the phase maps.
+    method : {"auto", "fast", "lsq"}
+        Triangulation method, as above.
+    directions : sequence of str, optional
+        The directions to use (default every decoded direction).
+
+    Returns
+    -------
+    ndarray
+        ``(H, W, 3)`` float32 points in world coordinates (mm), NaN where invalid.
     """
     if method not in ("auto", "fast", "lsq"):
         raise ValueError(f"unknown triangulation method {method!r}; expected 'auto', 'fast' or 'lsq'")

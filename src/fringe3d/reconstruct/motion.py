@@ -42,6 +42,23 @@ def dissertation_sequence(width: int, height: int, high_period: float = HIGH_PER
 
     Built from :func:`fringe3d.patterns.sets.phase_shift`; the plan is
     ``"two_frequency_geometric"`` with periods ``(T, T_l)``. 1-bit patterns by default.
+
+    Parameters
+    ----------
+    width, height : int
+        Projector resolution (px).
+    high_period, low_period : float
+        Fringe periods ``T`` and ``T_l`` (projector px), default 18 and 228.
+    direction : str
+        Fringe direction (``"v"``: vertical stripes).
+    high_kind, low_kind : str
+        Pattern kinds of the high- and low-frequency frames (default squared binary and
+        Bayer-dithered), as in :func:`fringe3d.patterns.sets.phase_shift`.
+
+    Returns
+    -------
+    PatternSet
+        Six frames, one direction plan.
     """
     hi = phase_shift(high_period, 3, direction, kind=high_kind, width=width, height=height)
     lo = phase_shift(low_period, 3, direction, kind=low_kind, width=width, height=height)
@@ -55,7 +72,18 @@ def hybrid_view(ps: PatternSet) -> tuple[PatternSet, list[int]]:
     """The hybrid method's four frames of a six-frame cycle: the LAST high-frequency frame
     (a one-frame FTP group keeping its phase shift) and the three low-frequency frames.
 
-    Returns ``(pattern set, frame indices into the cycle)``.
+    Parameters
+    ----------
+    ps : PatternSet
+        A one-direction, two-period (high, low) six-frame cycle, e.g. from
+        :func:`dissertation_sequence`.
+
+    Returns
+    -------
+    view : PatternSet
+        The four frames with a ``"hybrid"`` plan.
+    indices : list of int
+        Their frame indices into the cycle.
     """
     if len(ps.plans) != 1 or len(ps.plans[0].periods) != 2:
         raise ValueError("hybrid_view needs a one-direction, two-period (high, low) pattern set, "
@@ -105,6 +133,12 @@ def measure(frames: np.ndarray, ps: PatternSet, rig: Rig, options: DecodeOptions
         ``z_min`` (nearest depth of the measurement volume, mm, for the geometric constraint)
         and the method's options (e.g. ``erode``, ``min_modulation``; the latter defaults to
         2 % of the frames' full scale).
+
+    Returns
+    -------
+    Measurement
+        Absolute phase (rad), mask, points (mm) and period (px); labels and object orders for
+        object-wise methods.
     """
     frames = np.asarray(frames)
     if frames.ndim != 3 or frames.shape[0] != len(ps):

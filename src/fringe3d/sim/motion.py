@@ -82,5 +82,22 @@ STATIC = RigidMotion()
 def falling(velocity=(0.0, 0.0, 0.0), spin=(0.0, 0.0, 0.0), gravity=(0.0, GRAVITY_MM_S2, 0.0),
             t0: float = 0.0) -> RigidMotion:
     """Free fall: constant gravity (default +y, i.e. image-down in a camera frame, mm/s²),
-    initial ``velocity`` (mm/s) and ``spin`` (rad/s)."""
+    initial ``velocity`` (mm/s) and ``spin`` (rad/s).
+
+    Parameters
+    ----------
+    velocity : (3,) array_like
+        Initial velocity at ``t0`` (mm/s).
+    spin : (3,) array_like
+        Angular velocity, axis times rate, world coordinates (rad/s).
+    gravity : (3,) array_like
+        Constant acceleration (mm/s²), default 9806.65 mm/s² along +y.
+    t0 : float
+        Time (s) at which the object is at its nominal pose.
+
+    Returns
+    -------
+    RigidMotion
+        The ballistic motion.
+    """
     return RigidMotion(velocity=velocity, acceleration=gravity, angular_velocity=spin, t0=t0)

@@ -240,14 +240,38 @@ def scene_from_dict(d, where: str = "scene", base: Path | None = None) -> Scene:
 
 def save_scene(scene: Scene, path) -> Path:
     """Write ``scene`` as a JSON scene file (atomic). Every object must support ``to_dict()``;
-    meshes must come from a file (their path is stored as given)."""
+    meshes must come from a file (their path is stored as given).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene to write.
+    path : str or os.PathLike
+        The JSON file to write.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     path = Path(path)
     write_json(path, scene.to_dict())
     return path
 
 
 def load_scene(path) -> Scene:
-    """Read a JSON scene file; relative mesh paths are resolved next to it (errors name the field)."""
+    """Read a JSON scene file; relative mesh paths are resolved next to it (errors name the field).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The JSON scene file.
+
+    Returns
+    -------
+    Scene
+        The scene it describes.
+    """
     path = Path(path)
     d = read_json(path, "scene file", require_object=False)
     return scene_from_dict(d, where=f"{path.name}", base=path.parent)

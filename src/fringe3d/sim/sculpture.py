@@ -235,7 +235,34 @@ class HeightField(PosedObject):
 def sculpture(center=(0.0, 0.0, 450.0), size=(120.0, 100.0), relief=25.0, seed: int = 0, R=None,
               texture="blotches", albedo=0.85, motion: RigidMotion = STATIC) -> HeightField:
     """A seeded freeform relief (a "head" bump, cheeks, brow ridge, ripples) ``relief`` mm deep,
-    textured by default with a smooth printed pattern (material coordinates = body x, y mm)."""
+    textured by default with a smooth printed pattern (material coordinates = body x, y mm).
+
+    Parameters
+    ----------
+    center : (3,) array_like
+        Position of the body origin (mm, world frame).
+    size : (2,) array_like
+        ``(width, height)`` of the relief's rectangle (mm).
+    relief : float
+        Height of the main bump (mm); the other bumps and the ripples scale with it.
+    seed : int
+        Seed of the random bumps, ripples and texture.
+    R : (3, 3) array_like, optional
+        Rotation of the body frame (default faces the relief towards a camera at the origin
+        looking along +z).
+    texture : str or texture
+        ``"blotches"``: a seeded :class:`Blotches` print; anything else is passed to the height
+        field as its texture.
+    albedo : float
+        Surface albedo.
+    motion : RigidMotion
+        Motion of the body (default static).
+
+    Returns
+    -------
+    HeightField
+        The relief.
+    """
     rng = np.random.default_rng(seed)
     w, h = 0.5 * np.asarray(size, float)
     bumps = [(relief, 0.0, 0.0, 0.35 * min(w, h))]

@@ -72,6 +72,18 @@ def make_patterns(spec, width: int, height: int) -> PatternSet:
 
     ``three-frequency`` is the dissertation's 18/21/144 heterodyne set in both directions (plus
     a white frame); ``*-binary`` use squared binary frames (binary defocusing).
+
+    Parameters
+    ----------
+    spec : PatternSet or str or os.PathLike
+        A pattern set (returned as is), a manifest (``*.json`` or a folder) or a name.
+    width, height : int
+        Projector resolution (px) for a named set.
+
+    Returns
+    -------
+    PatternSet
+        The pattern set.
     """
     if isinstance(spec, PatternSet):
         return spec
@@ -95,6 +107,18 @@ def make_scene(spec, preset: Preset) -> Scene:
     name in :data:`SCENE_NAMES`.
 
     Named scenes are placed in the preset's working volume (see :func:`named_scene`).
+
+    Parameters
+    ----------
+    spec : Scene or SceneObject or str or os.PathLike or None
+        The scene, one object, a scene file or a name; ``None`` = the preset's default scene.
+    preset : Preset
+        The rig preset whose working volume (mm) places a named scene.
+
+    Returns
+    -------
+    Scene
+        The scene.
     """
     if spec is None:
         spec = preset.scene
@@ -119,6 +143,18 @@ def named_scene(name: str, preset: Preset) -> Scene:
     * ``board``: a 9x9 circle-grid calibration board facing the camera.
     * ``sculpture``, ``mesh`` (~100k triangles, Embree), ``falling-balls``, ``wing``,
       ``textured-spheres``: from :mod:`fringe3d.sim.catalog`.
+
+    Parameters
+    ----------
+    name : str
+        A name in :data:`SCENE_NAMES`.
+    preset : Preset
+        The rig preset whose working volume (mm, world frame) places the scene.
+
+    Returns
+    -------
+    Scene
+        The scene.
     """
     c = preset.center
     size = preset.size
@@ -242,6 +278,8 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
         cycle per exposure, written exposure-major (frame ``e * len + k`` is pattern frame ``k`` at
         ``exposures[e]``, :func:`fringe3d.sim.bracket.render_bracket`'s seeds), ``capture.json``
         field ``exposures``; ``fringe3d decode`` fuses them per pixel. Static scenes, one cycle.
+    progress : bool
+        Show a progress bar while rendering (default ``True``).
     **overrides
         Any other :class:`RenderSettings` field.
 

@@ -83,6 +83,11 @@ def minimum_phase(rig: Rig, z_min: float, period: float, angle: float = math.pi 
     ValueError
         When ``z_min`` lies behind (or at) a pinhole camera, so no ray reaches it, or the
         period is not positive.
+
+    Returns
+    -------
+    MinimumPhase
+        ``Phi_min`` (H, W) float32 rad and the per-pixel sign, with ``z_min``, period and angle.
     """
     if not period > 0:
         raise ValueError(f"fringe period must be positive (projector pixels), got {period}")
@@ -108,7 +113,20 @@ def minimum_phase(rig: Rig, z_min: float, period: float, angle: float = math.pi 
 
 def fringe_order(wrapped: np.ndarray, mp: MinimumPhase) -> np.ndarray:
     """Fringe order ``k`` (H, W) float32 (NaN where undefined), Eq. (4.20)-(4.21):
-    ``k = ceil((Phi_min - phi)/2pi)`` where the phase grows with depth, ``floor`` where it falls."""
+    ``k = ceil((Phi_min - phi)/2pi)`` where the phase grows with depth, ``floor`` where it falls.
+
+    Parameters
+    ----------
+    wrapped : (H, W) array_like
+        Wrapped phase ``phi`` (rad) of fringes with ``mp.period`` and ``mp.angle``.
+    mp : MinimumPhase
+        From :func:`minimum_phase`.
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` float32 fringe order ``k``, NaN where undefined (``mp.sign`` 0 or NaN input).
+    """
     wrapped = check_map(wrapped, mp.shape, "wrapped phase")
     x = (mp.phi_min.astype(np.float64) - wrapped) / TWO_PI
     k = np.where(mp.sign > 0, np.ceil(x), np.floor(x))
@@ -164,7 +182,20 @@ def depth_limit(rig, mp: MinimumPhase) -> np.ndarray:
     """Largest depth (H, W) float32 (mm, world z) each pixel can measure with ``mp``: where
     ``|Phi - Phi_min|`` reaches 2*pi, one fringe period beyond ``z_min`` (ch. 4.4).
     Computed with the linear projector model; +inf where a whole period lies beyond the ray's
-    vanishing point (unlimited range), NaN where undefined."""
+    vanishing point (unlimited range), NaN where undefined.
+
+    Parameters
+    ----------
+    rig : fringe3d.optics.Rig
+        The rig ``mp`` was computed for.
+    mp : MinimumPhase
+        From :func:`minimum_phase`.
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` largest depth (mm, world z); +inf unlimited, NaN undefined.
+    """
     tri = RayGeometry(rig, mp.angle)
     w_lim = (mp.phi_min.astype(np.float64) / TWO_PI + mp.sign) * mp.period
     w_lim[mp.sign == 0] = np.nan
@@ -177,7 +208,25 @@ def depth_limit(rig, mp: MinimumPhase) -> np.ndarray:
 
 def check_depth_range(rig, mp: MinimumPhase, z_max: float | np.ndarray, mask=None) -> dict:
     """Warn when depths up to ``z_max`` (scalar or (H, W) map, mm) exceed the geometric
-    constraint's valid range; returns ``{"ok", "share_beyond", "limit_min", "limit_median"}``."""
+    constraint's valid range; returns ``{"ok", "share_beyond", "limit_min", "limit_median"}``.
+
+    Parameters
+    ----------
+    rig : fringe3d.optics.Rig
+        The rig ``mp`` was computed for.
+    mp : MinimumPhase
+        From :func:`minimum_phase`.
+    z_max : float or (H, W) ndarray
+        Largest depth the scene reaches (mm, world z), per pixel or for all.
+    mask : (H, W) bool, optional
+        Pixels to check (default all with a defined limit).
+
+    Returns
+    -------
+    dict
+        ``ok`` (bool), ``share_beyond`` (fraction of checked pixels at or beyond the limit),
+        ``limit_min`` and ``limit_median`` (mm) of :func:`depth_limit` over the checked pixels.
+    """
     lim = depth_limit(rig, mp)
     z = np.broadcast_to(np.asarray(z_max, float), lim.shape)
     sel = ~np.isnan(lim) & np.isfinite(z)
@@ -205,6 +254,22 @@ def check_wrap_around(Phi: np.ndarray, mp: MinimumPhase, mask=None, min_pairs: i
     pairs whose ``r`` differs by more than 1.5*pi (a heuristic: a genuine depth step of nearly a
     full period also triggers it, and such steps are equally out of range, ch. 4.4). Warns when
     at least ``min_pairs`` pairs are found; returns the count.
+
+    Parameters
+    ----------
+    Phi : (H, W) array_like
+        Unwrapped phase (rad).
+    mp : MinimumPhase
+        The minimum phase it was unwrapped with.
+    mask : (H, W) bool, optional
+        Valid pixels (default all).
+    min_pairs : int
+        Number of jumping pairs at which to warn.
+
+    Returns
+    -------
+    int
+        The number of neighbouring pixel pairs whose ``r`` jumps by more than 1.5*pi.
     """
     r = mp.sign * (np.asarray(Phi, np.float64) - mp.phi_min)
     if mask is not None:
@@ -231,6 +296,11 @@ def propose_z_min(reference, margin: float = 5.0, percentile: float = 0.0) -> fl
         Subtracted from the nearest depth (mm), leaving room for noise and closer objects.
     percentile : float
         Use this percentile of the depths instead of the minimum (robust to outliers).
+
+    Returns
+    -------
+    float
+        Proposed ``z_min`` (mm, world z): the nearest (or percentile) depth minus ``margin``.
     """
     ref = np.asarray(reference, float)
     z = ref[..., 2] if (ref.ndim == 3 and ref.shape[-1] == 3) else ref
@@ -249,7 +319,24 @@ _MP_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # rig -> {(z
 
 def cached_minimum_phase(rig, z_min: float, period: float, angle: float) -> MinimumPhase:
     """:func:`minimum_phase`, computed once per rig object / z_min / period / angle (sequences
-    decode thousands of cycles with the same rig)."""
+    decode thousands of cycles with the same rig).
+
+    Parameters
+    ----------
+    rig : fringe3d.optics.Rig
+        The rig (cached per object, weakly referenced).
+    z_min : float
+        Depth (mm, world frame) of the nearest plane of the measurement volume.
+    period : float
+        Fringe period T (projector pixels).
+    angle : float
+        Fringe angle (rad).
+
+    Returns
+    -------
+    MinimumPhase
+        As :func:`minimum_phase`; the same object for repeated calls.
+    """
     per_rig = _MP_CACHE.setdefault(rig, {})
     key = (float(z_min), float(period), float(angle))
     if key not in per_rig:

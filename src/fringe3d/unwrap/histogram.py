@@ -45,6 +45,20 @@ def fringe_order_difference(phi_r: np.ndarray, phi_ref: np.ndarray, scale: float
 
     ``scale = T_ref/T`` converts the reference phase (period ``T_ref``) into the period ``T`` of
     ``Φ_r``. Returns (H, W) float64 with NaN where either input is NaN.
+
+    Parameters
+    ----------
+    phi_r : (H, W) array_like
+        Relative (spatially unwrapped) phase, period ``T`` (rad).
+    phi_ref : (H, W) array_like
+        Coarse absolute phase, period ``T_ref`` (rad), NaN invalid.
+    scale : float
+        ``T_ref / T`` (positive).
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` float64 integer-valued ``k_e``, NaN where either input is NaN.
     """
     phi_r = np.asarray(phi_r, np.float64)
     phi_ref = np.asarray(phi_ref, np.float64)
@@ -102,7 +116,19 @@ def mode_of_orders(k_e: np.ndarray, labels: np.ndarray, min_votes: int = 1) -> d
 def apply_order_shift(phi_r: np.ndarray, labels: np.ndarray, votes: dict[int, OrderVote]) -> np.ndarray:
     """``Φ_a = Φ_r + 2π·k_s`` per object (Eq. 5.15); objects without a vote become NaN.
 
-    Returns (H, W) float32.
+    Parameters
+    ----------
+    phi_r : (H, W) array_like
+        Relative phase (rad).
+    labels : (H, W) int
+        Objects of ``phi_r`` (0 = background, NaN in the output).
+    votes : dict
+        Label -> :class:`OrderVote`, e.g. from :func:`mode_of_orders`.
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` float32 absolute phase ``Φ_a`` (rad).
     """
     phi_r = np.asarray(phi_r, np.float64)
     labels = np.asarray(labels)
@@ -129,6 +155,8 @@ def histogram_unwrap(phi_r: np.ndarray, labels: np.ndarray, phi_ref: np.ndarray,
         ``phi_r`` (no motion between them; see :mod:`fringe3d.unwrap.hybrid` otherwise).
     scale : float
         ``T_ref / T``.
+    min_votes : int
+        Objects with fewer voting pixels get no vote (NaN).
 
     Returns
     -------
@@ -150,7 +178,23 @@ def minimum_phase_orders(phi_r: np.ndarray, labels: np.ndarray, mp: MinimumPhase
     pixel-wise Eq. (4.21) this tolerates the parts of an object beyond the depth range as long
     as most of it lies within one period of ``z_min``.
 
-    Returns ``(phi_a (H, W) float32, votes)``.
+    Parameters
+    ----------
+    phi_r : (H, W) array_like
+        Relative phase (rad), period ``mp.period``.
+    labels : (H, W) int
+        Objects of ``phi_r`` (0 = background).
+    mp : MinimumPhase
+        ``Φ_min`` for the period of ``phi_r`` (Eq. 4.19).
+    min_votes : int
+        Objects with fewer voting pixels get no vote (NaN).
+
+    Returns
+    -------
+    phi_a : ndarray
+        ``(H, W)`` float32 absolute phase (rad), NaN outside voted objects.
+    votes : dict
+        Label -> :class:`OrderVote`.
     """
     k_e = fringe_order(np.asarray(phi_r, np.float64), mp).astype(np.float64)
     votes = mode_of_orders(k_e, labels, min_votes=min_votes)

@@ -153,6 +153,18 @@ def carrier_from_minimum_phase(phi_min: np.ndarray, scale: float = 1.0) -> tuple
     dark background the spectral peak search can lock onto the objects' own spectrum. The
     calibrated rig knows both the carrier's frequency and which way the phase runs: centring the
     band-pass window there makes the FTP phase grow like the absolute phase.
+
+    Parameters
+    ----------
+    phi_min : (H, W) array_like
+        Minimum phase map (rad), NaN where undefined.
+    scale : float
+        Period of ``phi_min`` divided by the FTP period.
+
+    Returns
+    -------
+    tuple of float
+        Carrier ``(f_v, f_u)`` (cycles/pixel).
     """
     phi_min = np.asarray(phi_min, np.float64)
     gv, gu = np.gradient(phi_min)
@@ -173,6 +185,11 @@ def ftp_group_phase(images: np.ndarray, shifts, carrier: tuple[float, float],
     shifts : sequence of the frames' phase shifts (rad)
     carrier : (f_v, f_u) cycles/pixel, e.g. :func:`carrier_from_minimum_phase`
     window : ``"hanning"`` or ``"circular"`` (smoothed circular), see ``fringe3d.phase.ftp``
+
+    Returns
+    -------
+    PhaseResult
+        Wrapped phase (rad, (-pi, pi]), average and modulation, each (H, W) float32.
     """
     imgs = np.asarray(images, np.float64)
     if imgs.ndim != 3 or imgs.shape[0] not in (1, 2):
@@ -216,6 +233,8 @@ def hybrid_unwrap(high: PhaseResult, low: PhaseResult, mp_low: MinimumPhase, per
     cross_motion : bool
         Also remove the phase change of motion across the fringes (``phi_min`` of
         :func:`hybrid_phase`); off = the dissertation's Eq. (5.13).
+    seed : int or None
+        Seed of the spatial unwrapping (:func:`fringe3d.unwrap.spatial.unwrap_objects`).
     valid_high, valid_low : (H, W) bool, optional
         Extra validity (e.g. not saturated) of the high / low frames.
 

@@ -234,6 +234,20 @@ def shift_image(image: np.ndarray, du: float, dv: float, fill=np.nan) -> np.ndar
     Pixels whose source falls outside the image get ``fill``. Whole-pixel shifts keep phase
     values intact (no blending across 2π jumps or object edges), as the bounding-box motion
     estimate of Eq. (5.13) is itself only pixel-accurate.
+
+    Parameters
+    ----------
+    image : (H, W, ...) array_like
+        The image.
+    du, dv : float
+        Shift along columns and rows (px), rounded to whole pixels.
+    fill : scalar
+        Value of pixels whose source is outside the image (default NaN).
+
+    Returns
+    -------
+    ndarray
+        The shifted image, shape of ``image``, dtype that holds both ``image`` and ``fill``.
     """
     image = np.asarray(image)
     su, sv = int(round(du)), int(round(dv))

@@ -46,6 +46,18 @@ def coarse_window(period: float, w_range: tuple[float, float] | None) -> float:
     ``w_range=None``: 0 (window [0, 2 pi)). Otherwise the range is centred in the period; if
     the range is wider than ``period`` a :class:`UnwrapRangeWarning` is issued and the window
     starts at ``w_min`` (coordinates beyond ``w_min + period`` alias).
+
+    Parameters
+    ----------
+    period : float
+        Period of the coarsest (or final beat) phase (projector px).
+    w_range : tuple of float or None
+        ``(w_min, w_max)`` projector fringe coordinates covered (px).
+
+    Returns
+    -------
+    float
+        The window's start ``lower`` (rad).
     """
     if w_range is None:
         return 0.0
@@ -88,17 +100,25 @@ def hierarchical(phases: Sequence[np.ndarray], periods: Sequence[float],
     """Hierarchical multi-frequency unwrapping: each coarser absolute phase unwraps the next
     finer one, ``k = round(((T_low/T_high) Phi_low - phi_high) / 2 pi)`` (Eq. 1.5).
 
+    Exact while each level's error ``|(T_low/T_high) dPhi_low - dphi_high| < pi``; an
+    exact-zero wrapped phase is no tie here (the rounding is against the coarser estimate, not
+    against a stripe centre).
+
     Parameters
     ----------
-    phases : M wrapped phases (H, W), narrowest period first; the last (coarsest) must cover
-        the projector (period >= coordinate range) to be absolute.
-    periods : M periods in projector pixels, same order.
-    w_range : (w_min, w_max) projector fringe coordinates covered, see :func:`coarse_window`.
+    phases : sequence of (H, W) ndarray
+        M wrapped phases (rad), narrowest period first; the last (coarsest) must cover the
+        projector (period >= coordinate range) to be absolute.
+    periods : sequence of float
+        M periods in projector pixels, same order.
+    w_range : tuple of float, optional
+        ``(w_min, w_max)`` projector fringe coordinates covered, see :func:`coarse_window`.
 
-    Returns :class:`OrderedPhase` for the narrowest period, with the largest rounding residual
-    over the levels (periods of the finer phase; ties at exactly 1/2 go up). Exact while each
-    level's error ``|(T_low/T_high) dPhi_low - dphi_high| < pi``; an exact-zero wrapped phase is
-    no tie here (the rounding is against the coarser estimate, not against a stripe centre).
+    Returns
+    -------
+    OrderedPhase
+        For the narrowest period, with the largest rounding residual over the levels (periods
+        of the finer phase; ties at exactly 1/2 go up).
     """
     st = stack_phases(phases)
     p = check_periods(periods, st.shape[0], 1)
@@ -117,6 +137,18 @@ def beat_chain(periods: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.nd
     ``beat(Ta, Tb) = Ta Tb / |Tb - Ta|``; the chain beats the first two periods, then that
     beat with the third, and so on: (18, 21, 144) -> (126, 1008). Returns (beat_periods (M-1,),
     signs (M-1,)) with sign +1 when the left period is the shorter one.
+
+    Parameters
+    ----------
+    periods : (M,) sequence of float
+        Fringe periods (projector px), narrowest first, consecutive ones distinct.
+
+    Returns
+    -------
+    beat_periods : ndarray
+        ``(M-1,)`` float64 equivalent periods (px).
+    signs : ndarray
+        ``(M-1,)`` float64, +1 or -1.
     """
     p = [float(x) for x in periods]
     beats, signs = [], []
@@ -138,6 +170,20 @@ def heterodyne(phases: Sequence[np.ndarray], periods: Sequence[float],
     (18 & 21 -> 126, 126 & 144 -> 1008); the last beat, absolute when its period covers the
     projector, unwraps the previous beat, which unwraps the narrowest phase. Returns
     :class:`OrderedPhase` for ``periods[0]``.
+
+    Parameters
+    ----------
+    phases : sequence of (H, W) ndarray
+        M >= 2 wrapped phases (rad), narrowest period first.
+    periods : sequence of float
+        M periods (projector px), same order.
+    w_range : tuple of float, optional
+        ``(w_min, w_max)`` projector fringe coordinates covered, see :func:`coarse_window`.
+
+    Returns
+    -------
+    OrderedPhase
+        Absolute phase and fringe order of ``periods[0]``, with the rounding residual.
     """
     st = stack_phases(phases)
     p = check_periods(periods, st.shape[0], 2)
@@ -200,6 +246,18 @@ def code_centers(code_images: np.ndarray, w: np.ndarray) -> np.ndarray:
     values 0/1 or 0/255); w (...) the fringe coordinate of each projector pixel. Returns
     (2**B,) float64 centres (px) ``(min w + max w) / 2`` per codeword, NaN for codewords no
     projector pixel carries. Works for Gray and simple binary codes alike.
+
+    Parameters
+    ----------
+    code_images : (B, ...) array_like
+        Projector images of the code bits, most significant first, 0/1 or 0/255.
+    w : (...) array_like
+        Fringe coordinate of each projector pixel (px).
+
+    Returns
+    -------
+    ndarray
+        ``(2**B,)`` float64 stripe centres (px), NaN for unused codewords.
     """
     return code_stripes(code_images, w).centre
 
@@ -211,6 +269,18 @@ def code_stripes(code_images: np.ndarray, w: np.ndarray) -> CodeStripes:
     its smallest to its largest sample ``w``, widened by half the sampling step on each side
     (so neighbouring stripes share their edge); centre ``(min w + max w) / 2``. Two codewords are
     neighbours when their stripes meet; the bits that differ between them change at that edge.
+
+    Parameters
+    ----------
+    code_images : (B, ...) array_like
+        Projector images of the code bits, most significant first, 0/1 or 0/255.
+    w : (...) array_like
+        Fringe coordinate of each projector pixel (px).
+
+    Returns
+    -------
+    CodeStripes
+        Per raw codeword: centre, lower and upper edge (px) and the bits changing at each edge.
     """
     code = _codewords(code_images).ravel()
     nb = np.asarray(code_images).shape[0]
@@ -303,6 +373,32 @@ def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.n
     :data:`MAX_CODE_RESIDUAL`.
 
     frames (F, H, W) any real dtype; wrapped (H, W) rad. Returns :class:`CodeUnwrapped`.
+
+    Parameters
+    ----------
+    frames : (F, H, W) ndarray
+        Camera frames, any real dtype.
+    code_index : sequence of int
+        Index into ``frames`` of each code bit's frame, most significant bit first.
+    wrapped : (H, W) array_like
+        Wrapped phase (rad) of period ``period``.
+    period : float
+        Fringe period ``T`` (projector px).
+    stripes : CodeStripes
+        The code's stripe table (:func:`code_stripes`), ``2**B`` entries.
+    inverse_index : sequence of int, optional
+        Index of each bit's inverse frame (one per bit).
+    threshold : (H, W) array_like, optional
+        Bit threshold (counts) where there are no inverse frames.
+    coordinate : (H, W) array_like, optional
+        Sub-stripe estimate of ``w`` (px, NaN unknown) that replaces ``w_c``.
+    contrast : (H, W) array_like, optional
+        A clear bit's ``|D|`` (counts).
+
+    Returns
+    -------
+    CodeUnwrapped
+        Absolute phase (rad), fringe order, validity and residual (fringe periods), each (H, W).
     """
     frames = np.asarray(frames)
     ci, ii, thr = _code_bits(frames, code_index, inverse_index, threshold)
@@ -369,6 +465,34 @@ def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]],
     :class:`fringe3d.gpu.CudaUnavailableError` without one); it also takes ``(C, F, H, W)``
     cycles (host or device array) and returns (C, H, W) maps, left on the device with
     ``device_output``.
+
+    Parameters
+    ----------
+    frames : (F, H, W) ndarray
+        Camera frames, uint8/uint16/float (``(C, F, H, W)`` with ``backend="cuda"``).
+    indices : sequence of 3 sequences of int
+        Frame indices of each group, narrowest period first.
+    shifts : sequence of 3 sequences of float
+        Phase shifts (rad) of each group's frames.
+    periods : sequence of 3 float
+        Fringe periods (projector px), narrowest first.
+    w_range : tuple of float, optional
+        ``(w_min, w_max)`` projector fringe coordinates covered, see :func:`coarse_window`.
+    min_modulation : float
+        Smallest modulation of every group for a valid pixel (frames' units).
+    saturation_level : float
+        A pixel with any frame at or above this value is invalid (default: no check).
+    max_residual : float
+        Largest accepted distance (rad) of each unwrapping step from a multiple of 2π.
+    backend : {"cpu", "cuda"}
+        Where to decode.
+    device_output : bool
+        ``backend="cuda"`` only: leave the outputs on the device.
+
+    Returns
+    -------
+    FusedResult
+        Absolute phase (rad), wrapped phase, modulation, average, mask and texture, each (H, W).
     """
     cuda = check_backend(backend) == "cuda"
     if not cuda:
