@@ -242,6 +242,8 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
         cycle per exposure, written exposure-major (frame ``e * len + k`` is pattern frame ``k`` at
         ``exposures[e]``, :func:`fringe3d.sim.bracket.render_bracket`'s seeds), ``capture.json``
         field ``exposures``; ``fringe3d decode`` fuses them per pixel. Static scenes, one cycle.
+    progress : bool
+        Show a progress bar while rendering (default ``True``).
     **overrides
         Any other :class:`RenderSettings` field.
 
