@@ -58,6 +58,24 @@ def find_anchor_dots(texture: np.ndarray, count: int = 2, min_area: float = 4.0,
     """Centroids (count, 2) (u, v) of the ``count`` largest dark dots (:func:`dark_dots`).
 
     Raises ``ValueError`` if fewer than ``count`` dots are found. Rows are ordered by u, then v.
+
+    Parameters
+    ----------
+    texture : (H, W) array
+        Intensity image (any dtype).
+    count : int
+        Number of dots wanted (the largest by area).
+    min_area, max_area : float
+        Accepted dot area, pixels.
+    darkness : float
+        A dot pixel is darker than ``darkness`` x the median surface brightness.
+    surface : (H, W) bool array, optional
+        Surface pixels; default pixels brighter than 25 % of the 99th percentile (holes filled).
+
+    Returns
+    -------
+    (count, 2) ndarray (float64)
+        Dot centroids (u column, v row), pixels, sub-pixel.
     """
     blobs = dark_dots(texture, min_area, max_area, darkness, surface)
     if len(blobs) < count:
@@ -70,8 +88,19 @@ def find_anchor_dots(texture: np.ndarray, count: int = 2, min_area: float = 4.0,
 def pair_anchors(anchors: np.ndarray, points: np.ndarray) -> list[np.ndarray]:
     """Group anchor dots into pairs lying on the same connected surface region (one per wing).
 
-    anchors (2k, 2) (u, v); points (H, W, 3). Returns a list of (2, 2) arrays. Raises
-    ``ValueError`` if a region does not hold exactly two anchors.
+    Raises ``ValueError`` if a region does not hold exactly two anchors.
+
+    Parameters
+    ----------
+    anchors : (2k, 2) array
+        Anchor dots (u column, v row), pixels.
+    points : (H, W, 3) float array
+        Organized point map, mm, NaN where invalid.
+
+    Returns
+    -------
+    list of (2, 2) ndarray
+        One pair of anchors (u, v) per surface region, regions ordered by their smallest u.
     """
     valid = np.isfinite(check_point_map(points)).all(axis=2)
     lab = measure.label(ndimage.binary_closing(valid, iterations=3), connectivity=1)
@@ -91,7 +120,18 @@ def pair_anchors(anchors: np.ndarray, points: np.ndarray) -> list[np.ndarray]:
 
 
 def check_anchor(points: np.ndarray, uv, radius: int = 1) -> None:
-    """Raise ``ValueError`` unless the pixel cell around ``uv`` lies on valid points."""
+    """Raise ``ValueError`` unless the pixel cell around ``uv`` lies on valid points.
+
+    Parameters
+    ----------
+    points : (H, W, 3) float array
+        Organized point map, mm, NaN where invalid.
+    uv : (u, v)
+        Anchor position (column, row), pixels, sub-pixel allowed; must lie inside the frame.
+    radius : int
+        Half-size of the pixel block checked: rows ``floor(v) - radius + 1 .. floor(v) + radius``
+        (and likewise columns); 1 checks the 2x2 cell around ``uv``.
+    """
     pts = check_point_map(points)
     h, w, _ = pts.shape
     u, v = float(uv[0]), float(uv[1])
@@ -116,7 +156,28 @@ def distance_maps(points: np.ndarray, anchors_uv: np.ndarray, method: str = "bez
     after the other).
     stop_distance : None (whole map), a distance (mm) or one per anchor (2,): each search stops
     beyond it (:func:`fringe3d.analyze.geodesic.bezier_geodesic`), nodes farther are ``inf``;
-    ignored by "grid"."""
+    ignored by "grid".
+
+    Parameters
+    ----------
+    points : (H, W, 3) float array
+        Organized point map, mm, NaN where invalid.
+    anchors_uv : (2, 2) array
+        The two anchors (u column, v row), pixels; each must lie on valid points
+        (:func:`check_anchor`).
+    method : ``"bezier"`` | ``"bezier-edges"`` | ``"grid"``
+        Geodesic scheme (above).
+    radius : int
+        Half-size of the Bézier marching window, pixels; ignored by "grid".
+    stop_distance : float or (2,) array_like, optional
+        Search limit, mm (above); None searches the whole map.
+
+    Returns
+    -------
+    D1, D2 : (H, W) ndarray (float64)
+        Geodesic distance from the first and the second anchor, mm; ``inf`` where invalid,
+        unreachable or beyond ``stop_distance``.
+    """
     if method not in ("bezier", "bezier-edges", "grid"):
         raise ValueError(f"unknown geodesic method {method!r}; expected 'bezier', 'bezier-edges' or 'grid'")
     for a in anchors_uv:
@@ -138,6 +199,22 @@ def fill_dot_holes(points: np.ndarray, anchors_uv: np.ndarray, max_radius: int =
     ``max_radius + ring`` px (the smooth membrane around the dot). Pixels already valid are not
     touched. Raises ``ValueError`` if an anchor is outside the frame or the surrounding ring has
     too few valid pixels (the anchor is not on the measured surface). Returns a float64 copy.
+
+    Parameters
+    ----------
+    points : (H, W, 3) float array
+        Organized point map, mm, NaN where invalid.
+    anchors_uv : (K, 2) or (2,) array
+        Anchor positions (u column, v row), pixels.
+    max_radius : int
+        Radius around each anchor within which invalid pixels are filled, pixels.
+    ring : int
+        Width of the ring of valid pixels beyond ``max_radius`` used for the fit, pixels.
+
+    Returns
+    -------
+    (H, W, 3) ndarray (float64)
+        A copy of ``points`` with the dot holes filled, mm.
     """
     pts = check_point_map(points).copy()
     h, w, _ = pts.shape
@@ -188,7 +265,24 @@ def follow_anchors(texture, n_frames: int, start: list[np.ndarray], search: floa
     ``texture``: callable ``i -> (H, W)`` image, or None. With textures, each frame's anchor is
     the dark dot nearest its constant-velocity prediction (within ``search`` px, else the
     prediction); without, the given positions hold for every frame (anchors near the wing root
-    barely move)."""
+    barely move).
+
+    Parameters
+    ----------
+    texture : callable or None
+        ``i -> (H, W)`` texture image of frame ``i``; None keeps the ``start`` positions.
+    n_frames : int
+        Number of frames ``F``.
+    start : list of (2, 2) ndarray
+        Reference anchor pair (u, v) per wing, pixels (frame 0).
+    search : float
+        Largest distance from the prediction to an accepted dot, pixels.
+
+    Returns
+    -------
+    (F, wings, 2, 2) ndarray
+        Anchor positions (u, v) per frame, wing and anchor, pixels.
+    """
     out = np.repeat(np.stack(start)[None], n_frames, axis=0)
     if texture is None:
         return out

@@ -32,7 +32,24 @@ from .vdi import SpacingFigures, flatness, probing_errors
 # ----------------------------------------------------------------------------- inputs
 def load_points(result: Path, frame: int = 0) -> tuple[np.ndarray, dict]:
     """Point map from a reconstruct output folder (points.npy or points.zarr), a .npy map, or a
-    .ply cloud (unorganized, ``(N, 3)``). Returns ``(points, info)``."""
+    .ply cloud (unorganized, ``(N, 3)``).
+
+    Parameters
+    ----------
+    result : Path
+        A reconstruct output folder (``points.npy`` or ``points.zarr``), a ``.npy`` point map or
+        a ``.ply`` file.
+    frame : int
+        3D frame to read from a ``points.zarr`` store (ignored otherwise).
+
+    Returns
+    -------
+    points : (H, W, 3) or (N, 3) ndarray
+        Points, mm (NaN = invalid); an infinite coordinate raises ValueError.
+    info : dict
+        The folder's ``reconstruct.json`` summary (empty without one), with ``"frame"`` for a
+        store.
+    """
     result = Path(result)
     if not result.exists():
         raise FileNotFoundError(f"no reconstruction at {result} (expected a reconstruct output folder, .npy or .ply)")
@@ -125,7 +142,21 @@ def measured_objects(points: np.ndarray, kind: str) -> list[np.ndarray]:
 
 # ----------------------------------------------------------------------------- figures
 def truth_errors(points: np.ndarray, truth) -> dict:
-    """3D error against the simulator's truth over pixels valid in both (mm)."""
+    """3D error against the simulator's truth over pixels valid in both (mm).
+
+    Parameters
+    ----------
+    points : (H, W, 3) ndarray
+        Organized point map, mm (NaN = invalid).
+    truth : Truth-like
+        Ground truth with ``xyz (H, W, 3)`` mm and ``mask (H, W)``.
+
+    Returns
+    -------
+    dict
+        ``rms_mm``, ``mean_mm``, ``median_mm``, ``max_mm`` of the point-to-truth distance, the
+        ``coverage`` (share of the truth's pixels measured), ``share_over_1mm`` and ``points``.
+    """
     ok = np.isfinite(points[..., 0]) & truth.mask
     if not ok.any():
         raise ValueError("no pixel is valid in both the reconstruction and the truth; is this the right truth?")

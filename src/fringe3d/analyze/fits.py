@@ -97,6 +97,21 @@ class PlaneFit:
 def fit_plane(points, mask=None) -> PlaneFit:
     """Total-least-squares plane through the valid points (SVD of the centred cloud).
 
+    Parameters
+    ----------
+    points : (H, W, 3) or (N, 3) array_like
+        Organized point map or point list, mm; points with a NaN coordinate are ignored.
+    mask : (H, W) or (N,) bool array, optional
+        Points to use (one value per point); default every finite point.
+
+    Returns
+    -------
+    PlaneFit
+        Unit normal (towards -z), offset, centroid, RMS and signed residuals (mm); a residual
+        map for organized input. Raises ValueError for fewer than 3 valid or collinear points.
+
+    Examples
+    --------
     >>> v, u = np.mgrid[0:4, 0:5].astype(float)
     >>> fit = fit_plane(np.dstack([u, v, 300.0 + 0.5 * u]))
     >>> round(fit.rms, 9), fit.n_points
@@ -184,6 +199,12 @@ def fit_sphere(points, mask=None, radius: float | None = None) -> SphereFit:
         Fix the radius (mm) and fit only the centre (e.g. VDI/VDE sphere spacing with a
         calibrated sphere).
 
+    Returns
+    -------
+    SphereFit
+        Centre and radius (mm), RMS and radial residuals ``|p - c| - r`` (mm), a residual map
+        for organized input and the algebraic initial estimate. Needs at least 4 valid points.
+
     Examples
     --------
     >>> rng = np.random.default_rng(0)
@@ -261,7 +282,24 @@ def circle_2d(xy: np.ndarray) -> tuple[np.ndarray, float]:
 def fit_circle(points, mask=None, normal=None) -> CircleFit:
     """3D circle: best plane (or the given plane ``normal``), then a geometric circle fit of the
     points projected into it. Use for cross sections of a sphere (a row or column of an
-    organized map lies in a plane through the camera centre)."""
+    organized map lies in a plane through the camera centre).
+
+    Parameters
+    ----------
+    points : (H, W, 3) or (N, 3) array_like
+        Organized point map or point list, mm; points with a NaN coordinate are ignored.
+    mask : (H, W) or (N,) bool array, optional
+        Points to use (one value per point); default every finite point.
+    normal : (3,) array_like, optional
+        Normal of the circle's plane (normalised here); default the normal of :func:`fit_plane`.
+
+    Returns
+    -------
+    CircleFit
+        Centre (3,) and radius (mm), the plane normal, RMS and in-plane radial residuals (mm),
+        the out-of-plane RMS ``plane_rms`` (mm, about the points' centroid), a residual map for
+        organized input and the in-plane axes. Needs at least 3 valid points.
+    """
     fp = collect_points(points, mask, 3, "circle fit")
     xyz = fp.xyz
     c = xyz.mean(axis=0)
@@ -287,6 +325,20 @@ def fit_circle(points, mask=None, normal=None) -> CircleFit:
 def inner_mask(mask: np.ndarray, border: int = 2) -> np.ndarray:
     """``mask`` eroded by ``border`` pixels (drops silhouette pixels that mix object and background).
 
+    Parameters
+    ----------
+    mask : (H, W) array_like of bool
+        Pixels of an object.
+    border : int
+        Erosion iterations (3x3 cross structuring element), pixels; 0 or less returns the mask.
+
+    Returns
+    -------
+    (H, W) ndarray of bool
+        The eroded mask.
+
+    Examples
+    --------
     >>> inner_mask(np.ones((5, 5), bool), border=1).sum()
     np.int64(9)
     """

@@ -245,7 +245,21 @@ def bezier_geodesic(points: np.ndarray, source, radius: int = 3, wavefront: bool
 
 def grid_geodesic(points: np.ndarray, source) -> np.ndarray:
     """Plain 8-neighbour Dijkstra with Euclidean step lengths (baseline). Same I/O as
-    :func:`bezier_geodesic`."""
+    :func:`bezier_geodesic`.
+
+    Parameters
+    ----------
+    points : (H, W, 3) float array
+        Organized point map, mm, NaN where invalid.
+    source : (u, v)
+        Source pixel coordinates (column, row), sub-pixel allowed; must be on valid pixels
+        (seeded by :func:`seeds_from_pixel` with radius 1 px).
+
+    Returns
+    -------
+    (H, W) ndarray (float64)
+        Geodesic distance, mm; ``inf`` at invalid or unreachable pixels.
+    """
     return _run(points, source, _EIGHT_OFFSETS, False)
 
 
@@ -295,7 +309,25 @@ def heat_geodesic(points: np.ndarray, source, mesh: GridMesh | None = None, t_co
     """Heat-method geodesic distance (Crane et al. 2013) on the triangulated grid via
     ``potpourri3d.MeshHeatMethodDistanceSolver``; source snapped to the nearest valid pixel.
     ``t_coef``: time step factor (``t = t_coef · h²``), default :func:`heat_time_coefficient`.
-    Same output layout as :func:`bezier_geodesic`."""
+    Same output layout as :func:`bezier_geodesic`.
+
+    Parameters
+    ----------
+    points : (H, W, 3) float array
+        Organized point map, mm, NaN where invalid.
+    source : (u, v)
+        Source pixel (column, row), rounded to the nearest pixel; ValueError when that pixel
+        is outside the map or not a mesh vertex.
+    mesh : GridMesh, optional
+        :func:`grid_mesh` of ``points`` when already built; default built here.
+    t_coef : float, optional
+        Heat-method time step factor; default :func:`heat_time_coefficient` of ``points``.
+
+    Returns
+    -------
+    (H, W) ndarray (float64)
+        Geodesic distance, mm; ``inf`` at pixels that are not mesh vertices.
+    """
     import potpourri3d as pp3d  # heavy compiled extension: only the heat-method geodesic needs it
 
     pts = check_point_map(points)

@@ -53,8 +53,23 @@ def centre_pixel(points: np.ndarray, sphere: SphereFit, mask=None) -> tuple[int,
 def sphere_sections(points, mask=None, sphere: SphereFit | None = None, min_points: int = 10) -> dict:
     """Circle fits of the row and the column through the sphere centre.
 
-    Returns ``{"sphere": SphereFit, "row": Section, "column": Section, "centre_pixel": (i, j)}``.
     Raises ValueError when a section has fewer than ``min_points`` valid points.
+
+    Parameters
+    ----------
+    points : (H, W, 3) array_like
+        Organized point map, mm (NaN = invalid), camera at the origin.
+    mask : (H, W) bool array, optional
+        The sphere's pixels; default every finite point.
+    sphere : SphereFit, optional
+        A sphere already fitted; default :func:`fit_sphere` of ``points`` under ``mask``.
+    min_points : int
+        Fewest valid points a section may have.
+
+    Returns
+    -------
+    dict
+        ``{"sphere": SphereFit, "row": Section, "column": Section, "centre_pixel": (i, j)}``.
     """
     P = np.asarray(points, float)
     if P.ndim != 3 or P.shape[-1] != 3:
@@ -79,8 +94,23 @@ def segments(points, max_jump: float | None = None, min_size: int = 50) -> np.nd
 
     Neighbouring valid pixels (4-connectivity) belong to the same piece when their 3D distance
     is below ``max_jump`` (mm; default 8x the median neighbour spacing), so a sphere in front
-    of a wall separates from it at its silhouette. Returns ``(H, W)`` int32 labels (0..n-1,
-    largest first; -1 for invalid pixels and pieces smaller than ``min_size``).
+    of a wall separates from it at its silhouette.
+
+    Parameters
+    ----------
+    points : (H, W, 3) array_like
+        Organized point map, mm (NaN = invalid).
+    max_jump : float, optional
+        Largest 3D distance between neighbours of one piece, mm; default 8x the median
+        neighbour spacing.
+    min_size : int
+        Smallest piece kept, pixels.
+
+    Returns
+    -------
+    (H, W) ndarray (int32)
+        Labels 0..n-1, largest piece first; -1 for invalid pixels and pieces smaller than
+        ``min_size``.
     """
     P = np.asarray(points, float)
     if P.ndim != 3 or P.shape[-1] != 3:

@@ -217,6 +217,12 @@ def local_shape(points: np.ndarray, uv: np.ndarray, window: int = 11, toward: np
         points to (projected on the tangent plane). Without it e1 is the world x axis projected
         on the tangent plane.
     min_fraction : fraction of the window that must be valid for a result.
+
+    Returns
+    -------
+    LocalShape
+        Point, normal, tangent basis (e1, e2), second fundamental form (1/mm), fit RMS (mm),
+        point count and ``ok`` flag per position; NaN where too few window pixels are valid.
     """
     if window < 3 or window % 2 == 0:
         raise ValueError(f"window must be an odd integer ≥ 3 (pixels); got {window}")
@@ -240,8 +246,23 @@ def local_shape(points: np.ndarray, uv: np.ndarray, window: int = 11, toward: np
 def principal_strains(E: np.ndarray, e1: np.ndarray | None = None, e2: np.ndarray | None = None):
     """Principal values (N,2) ascending, and directions of a symmetric 2×2 tensor field E (N,2,2).
 
-    Returns ``(values, directions2d (N,2,2) columns = eigenvectors in the (e1, e2) basis,
-    dominant (N,) = the eigenvalue of largest magnitude, directions3d (N,2,3) or None)``.
+    Parameters
+    ----------
+    E : (N, 2, 2) array_like
+        Symmetric tensors in the (e1, e2) basis; rows with a non-finite entry give NaN.
+    e1, e2 : (N, 3) ndarray, optional
+        The basis vectors in 3D; with both, the principal directions are also returned in 3D.
+
+    Returns
+    -------
+    values : (N, 2) ndarray
+        Eigenvalues, ascending.
+    directions2d : (N, 2, 2) ndarray
+        Columns = eigenvectors in the (e1, e2) basis.
+    dominant : (N,) ndarray
+        The eigenvalue of largest magnitude.
+    directions3d : (N, 2, 3) ndarray or None
+        The eigenvectors in 3D (``[:, k]`` for eigenvalue ``k``); None without ``e1`` and ``e2``.
     """
     E = np.asarray(E, dtype=np.float64)
     good = np.isfinite(E).all(axis=(1, 2))
@@ -276,7 +297,23 @@ class StrainResult:
 
 def bending_strain(reference: LocalShape, current: LocalShape, thickness: float) -> StrainResult:
     """``E = (h/2)(b − B)`` (Eq. 6.11–6.12) from the reference (B) and current (b) local shapes
-    of the same material points. ``thickness`` h in mm (> 0)."""
+    of the same material points. ``thickness`` h in mm (> 0).
+
+    Parameters
+    ----------
+    reference : LocalShape
+        Local shapes of the N points on the reference frame (B).
+    current : LocalShape
+        Local shapes of the same N points on the current frame (b).
+    thickness : float
+        Wing (membrane) thickness h, mm (> 0).
+
+    Returns
+    -------
+    StrainResult
+        Strain ``E`` (N, 2, 2), curvature change ``kappa`` (1/mm), principal strains, dominant
+        strain, principal directions in the current frame and ``ok`` (both shapes valid).
+    """
     if not (thickness > 0):
         raise ValueError(f"thickness must be a positive number in mm; got {thickness}")
     if reference.second_form.shape != current.second_form.shape:
@@ -313,21 +350,46 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
                   progress=None, stop_margin: float | None = 0.1) -> WingSequence:
     """Track ``query_uv`` (N,2) of the reference frame through ``frames`` and compute strain.
 
-    frames : sequence of F point maps (H, W, 3) mm (or a callable i -> map, with ``len``).
-    anchors : (F, 2, 2) anchor pixel positions (u, v) of this wing on every frame.
-    fill_dots : if > 0, holes within this many pixels of each anchor (dark dots do not
-        reconstruct) are filled first (:func:`fringe3d.analyze.anchors.fill_dot_holes`).
-    method/radius: geodesic method ("bezier" with wavefront update, "bezier-edges", "grid"; see
-    :func:`fringe3d.analyze.anchors.distance_maps`).
     Tracking: Eq. 6.9 (:func:`fringe3d.analyze.tracking.track_points`); strain: Eq. 6.11–6.21
     with the direction towards the farther anchor as the material direction.
-    ``progress``: optional callable advanced once per frame.
-    stop_margin : on the deformed frames each anchor's geodesic search stops at
+    Frames are read one at a time (``frames[i]``), so memory does not grow with F beyond the
+    (F, N) result arrays.
+
+    Parameters
+    ----------
+    frames : sequence of F point maps (H, W, 3) mm
+        (or an indexable ``i -> map`` with ``len``).
+    anchors : (F, 2, 2)
+        Anchor pixel positions (u, v) of this wing on every frame.
+    query_uv : (N, 2)
+        Pixel positions (u column, v row) of the material points on the reference frame.
+    thickness : float
+        Wing thickness h, mm (> 0; :func:`bending_strain`).
+    window : int
+        Odd side of the local-shape fit window, pixels (:func:`local_shape`).
+    reference : int
+        Index of the reference frame.
+    method : str
+        Geodesic method ("bezier" with wavefront update, "bezier-edges", "grid"; see
+        :func:`fringe3d.analyze.anchors.distance_maps`).
+    radius : int
+        Half-size of the Bézier marching window, pixels.
+    fill_dots : int
+        If > 0, holes within this many pixels of each anchor (dark dots do not
+        reconstruct) are filled first (:func:`fringe3d.analyze.anchors.fill_dot_holes`).
+    progress : callable, optional
+        Called with no argument once per frame.
+    stop_margin : float or None
+        On the deformed frames each anchor's geodesic search stops at
         ``(1 + stop_margin) · max_k d_k`` (mm), the farthest query point's reference distance
         plus a relative margin (an inextensible wing keeps its geodesic distances; the margin
         covers noise and the tracker's sub-pixel neighbourhood); None searches the whole map.
-    Frames are read one at a time (``frames[i]``), so memory does not grow with F beyond the
-    (F, N) result arrays.
+
+    Returns
+    -------
+    WingSequence
+        Reference positions and distances, and per frame the tracked ``uv`` (px), ``xyz`` (mm),
+        strain ``E``, principal and dominant strains, tracking residual (mm) and ``ok`` flags.
     """
     anchors = np.asarray(anchors, dtype=np.float64)
     nf = len(frames)

@@ -62,14 +62,26 @@ def track_points(d1: np.ndarray, d2: np.ndarray, D1: np.ndarray, D2: np.ndarray,
 
     Parameters
     ----------
-    d1, d2 : (N,) float, mm — distances of the material points to anchors 1 and 2 on the
-        reference frame.
-    D1, D2 : (H, W) float, mm — geodesic distance maps of the current frame (``inf`` invalid).
-    side : (N,) ±1 — side of the anchor line each point had on the reference frame
-        (:func:`side_of_line`).
-    anchors_uv : (2, 2) current anchor pixel positions (u, v).
-    tolerance : mm, largest residual accepted as tracked; min_crossing : smallest accepted
-        sine of the crossing angle of the two iso-curves.
+    d1, d2 : (N,) float, mm
+        Distances of the material points to anchors 1 and 2 on the reference frame.
+    D1, D2 : (H, W) float, mm
+        Geodesic distance maps of the current frame (``inf`` invalid).
+    side : (N,) ±1
+        Side of the anchor line each point had on the reference frame (:func:`side_of_line`).
+    anchors_uv : (2, 2)
+        Current anchor pixel positions (u, v).
+    iterations : int
+        Gauss–Newton steps (each step at most 1 px long).
+    tolerance : float, mm
+        Largest residual accepted as tracked.
+    min_crossing : float
+        Smallest accepted sine of the crossing angle of the two iso-curves.
+
+    Returns
+    -------
+    TrackResult
+        Sub-pixel positions ``uv (N, 2)`` (u, v), residuals (mm; ``inf`` off the surface),
+        crossing sines and the ``ok`` flag per point.
     """
     d1 = np.asarray(d1, float).ravel()
     d2 = np.asarray(d2, float).ravel()

@@ -72,7 +72,29 @@ class SphereFigures:
 
 def probing_errors(points, mask=None, true_diameter: float | None = None, exclude: float = 0.0,
                    fit: SphereFit | None = None) -> SphereFigures:
-    """Probing error form ``P_F`` and size ``P_S`` of a measured sphere (mm)."""
+    """Probing error form ``P_F`` and size ``P_S`` of a measured sphere (mm).
+
+    Parameters
+    ----------
+    points : (H, W, 3) or (N, 3) array_like
+        Measured points, mm (NaN = invalid).
+    mask : bool array, optional
+        The sphere's points (one value per point); default every finite point.
+    true_diameter : float, optional
+        Calibrated diameter, mm; without it ``P_S`` (``size``) is None.
+    exclude : float
+        Share (0 to 0.003, VDI/VDE 2634-2) of the points with the largest absolute residuals of a
+        first fit dropped before fitting again.
+    fit : SphereFit, optional
+        A sphere already fitted to these points; when given, ``points``, ``mask`` and
+        ``exclude`` are not used.
+
+    Returns
+    -------
+    SphereFigures
+        ``form`` (range of the radial residuals), ``size`` (fitted minus true diameter),
+        fitted diameter, RMS, point count and centre, mm.
+    """
     fit = fit or _refit(fit_sphere, points, mask, exclude)
     size = None if true_diameter is None else float(fit.diameter - float(true_diameter))
     return SphereFigures(residual_range(fit.residuals), size, fit.diameter, fit.rms, fit.n_points,
@@ -94,7 +116,28 @@ class SpacingFigures:
 
 def sphere_spacing(points, mask_a, mask_b, true_distance: float | None = None,
                    true_diameter: float | None = None, exclude: float = 0.0) -> SpacingFigures:
-    """Sphere-spacing error of a ball bar: fit both spheres (free radius), distance of centres."""
+    """Sphere-spacing error of a ball bar: fit both spheres (free radius), distance of centres.
+
+    Parameters
+    ----------
+    points : (H, W, 3) or (N, 3) array_like
+        Measured points, mm (NaN = invalid).
+    mask_a, mask_b : bool array
+        Points of the first and of the second sphere (one value per point).
+    true_distance : float, optional
+        Calibrated distance between the sphere centres, mm; without it ``error`` is None.
+    true_diameter : float, optional
+        Calibrated sphere diameter, mm, for each sphere's ``P_S``.
+    exclude : float
+        Share (0 to 0.003, VDI/VDE 2634-2) of the points with the largest absolute residuals of a
+        first fit dropped before fitting again.
+
+    Returns
+    -------
+    SpacingFigures
+        ``error`` (SD = measured - true distance), the measured distance and both spheres'
+        :class:`SphereFigures`, mm.
+    """
     figs, centres = [], []
     for name, m in (("first", mask_a), ("second", mask_b)):
         try:
@@ -122,7 +165,26 @@ class FlatnessFigures:
 
 
 def flatness(points, mask=None, exclude: float = 0.0, fit: PlaneFit | None = None) -> FlatnessFigures:
-    """Flatness measurement error ``F`` on a plane artefact (mm)."""
+    """Flatness measurement error ``F`` on a plane artefact (mm).
+
+    Parameters
+    ----------
+    points : (H, W, 3) or (N, 3) array_like
+        Measured points, mm (NaN = invalid).
+    mask : bool array, optional
+        The plane's points (one value per point); default every finite point.
+    exclude : float
+        Share (0 to 0.003, VDI/VDE 2634-2) of the points with the largest absolute residuals of a
+        first fit dropped before fitting again.
+    fit : PlaneFit, optional
+        A plane already fitted to these points; when given, ``points``, ``mask`` and
+        ``exclude`` are not used.
+
+    Returns
+    -------
+    FlatnessFigures
+        ``flatness`` (range of the signed residuals), RMS (mm), point count and unit normal.
+    """
     fit = fit or _refit(fit_plane, points, mask, exclude)
     return FlatnessFigures(residual_range(fit.residuals), fit.rms, fit.n_points,
                            tuple(float(v) for v in fit.normal))

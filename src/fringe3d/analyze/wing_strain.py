@@ -151,12 +151,51 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
     ``fringe3d strain`` does; returns the JSON summary. Validates all inputs before any file
     is written (``strain.csv``, ``vtk/frame_*.vtu`` + ``strain.pvd``, ``arrays/wing_K/*.npy`` (F, N, ...)
     per-point results, ``maps/strain_*.png``, ``strain.gif``, ``summary.json`` in ``out``, each
-    atomically). ``workers``: frames processed at once on threads (the same output for any number).
-    ``frames``: another frame scheduler (e.g. :func:`fringe3d.cluster.strain_frames.frames_on_dask`'s),
-    given the :class:`~fringe3d.analyze.frame_task.StrainFrameTask` and the frame count; then
-    ``workers`` must be 1. Every file is written here, in frame order, whatever the scheduler.
-    ``frame_rate``: rate of the 3D frames (Hz); the PVD time steps and figure titles are then in
-    seconds (else frame numbers)."""
+    atomically). Every file is written here, in frame order, whatever the scheduler.
+
+    Parameters
+    ----------
+    sequence : str or Path
+        Point-map sequence (:func:`fringe3d.io.point_sequence.read_point_sequence`: a folder of
+        ``points_*.npy``, a .npy/.npz with ``points`` (F, H, W, 3) mm, or a zarr store).
+    anchors : str
+        ``"auto"`` (dark dots found in the reference texture) or ``"u1,v1,u2,v2[;...]"``, pixels,
+        one group per wing (:func:`fringe3d.analyze.anchors.parse_anchors`).
+    out : Path
+        Output folder.
+    thickness : float
+        Wing thickness, mm (> 0).
+    window : int
+        Odd side (>= 3) of the local-shape fit window, pixels.
+    step : int
+        Spacing of the tracked grid of reference pixels, pixels (>= 1).
+    wings : int
+        Number of wings, for ``anchors="auto"``.
+    radius : int
+        Half-size of the Bézier geodesic marching window, pixels.
+    reference : int
+        Index of the reference frame.
+    figures : bool
+        Write the strain maps (PNG) and the GIF animation.
+    fill_dots : int
+        Fill reconstruction holes within this many pixels of each anchor; 0 fills none.
+    workers : int
+        Frames processed at once on threads (the same output for any number).
+    frames : FrameScheduler, optional
+        Another frame scheduler (e.g. :func:`fringe3d.cluster.strain_frames.frames_on_dask`'s),
+        given the :class:`~fringe3d.analyze.frame_task.StrainFrameTask` and the frame count; then
+        ``workers`` must be 1.
+    frame_rate : float, optional
+        Rate of the 3D frames (Hz); the PVD time steps and figure titles are then in
+        seconds (else frame numbers).
+
+    Returns
+    -------
+    dict
+        The summary also written to ``summary.json``: frame, wing and point counts, tracked
+        fraction, median tracking residual (mm), 99th percentile of the dominant strain, the
+        settings and the run time (s).
+    """
     t0 = time.perf_counter()
     if not (thickness > 0):
         raise ValueError(f"`thickness` must be > 0 mm; got {thickness}")

@@ -53,7 +53,24 @@ def blob_detector(board: CircleBoard, expected_radius_px: tuple[float, float]) -
 
 def detect_board(image: np.ndarray, board: CircleBoard, radius_px: tuple[float, float] | None = None,
                  refine: bool = True) -> np.ndarray | None:
-    """The board's circle centres, or None; see :func:`find_board` (which also says why not)."""
+    """The board's circle centres, or None; see :func:`find_board` (which also says why not).
+
+    Parameters
+    ----------
+    image : (H, W) array, any dtype
+        Board image (the "white" frame of a calibration pose).
+    board : CircleBoard
+        The circle grid to find.
+    radius_px : (min, max) or None
+        Expected circle radius range in pixels; None derives it from the image size.
+    refine : bool
+        Refine each centre by an intensity-weighted centroid (sub-pixel).
+
+    Returns
+    -------
+    (rows*cols, 2) ndarray (float64) or None
+        Pixel centres ``(u, v)`` in OpenCV order, or None when the board was not found.
+    """
     return find_board(image, board, radius_px, refine)[0]
 
 
@@ -147,7 +164,22 @@ def refine_centres(image: np.ndarray, uv: np.ndarray, board: CircleBoard) -> np.
     models the local illumination; the weight of a pixel is its relative darkness
     ``1 - I / plane`` (or brightness ``I / plane - 1`` for bright circles) minus 3 % of the
     circle's contrast, clipped at zero. Normalising by the fitted background keeps shading
-    gradients across the board from pulling the centroid. Returns ``(N, 2)`` float64.
+    gradients across the board from pulling the centroid.
+
+    Parameters
+    ----------
+    image : (H, W) float array
+        Board image.
+    uv : (N, 2) float64 array
+        Initial centres ``(u, v)``, pixels (N >= 2: the window size comes from neighbours).
+    board : CircleBoard
+        Only ``board.dark_circles`` is read (dark circles on a bright background, or the reverse).
+
+    Returns
+    -------
+    (N, 2) ndarray (float64)
+        Refined centres, pixels; a centre keeps its initial value where its window has too few
+        pixels, a non-positive background plane or no contrast.
     """
     h, w = image.shape
     d = np.linalg.norm(uv[:, None] - uv[None], axis=-1)

@@ -155,7 +155,18 @@ def validate(d: dict, where: str = "calibration file") -> None:
 
 
 def load_calibration(path) -> Calibration:
-    """Read and validate a calibration JSON (errors name the missing/invalid field)."""
+    """Read and validate a calibration JSON (errors name the missing/invalid field).
+
+    Parameters
+    ----------
+    path : str or Path
+        The calibration JSON written by ``fringe3d calibrate`` (``calibration.json``).
+
+    Returns
+    -------
+    Calibration
+        The calibrated rig (mm, px) with its provenance and residual figures.
+    """
     path = Path(path)
     d = read_json(path, "calibration file", require_object=False)
     return Calibration.from_dict(d, where=str(path))
@@ -167,6 +178,18 @@ def export_opencv_yaml(cal: Calibration, path) -> Path:
     Nodes: ``model``, ``camera_K`` / ``camera_dist`` (pinhole) or ``camera_M`` (telecentric),
     ``camera_size``, ``projector_K``, ``projector_dist``, ``projector_size``, ``R``, ``T``
     (world -> projector), ``camera_rms``, ``projector_rms`` and ``period_<direction>``.
+
+    Parameters
+    ----------
+    cal : Calibration
+        The calibration to export.
+    path : str or Path
+        The YAML file to write.
+
+    Returns
+    -------
+    Path
+        ``path``.
     """
     return export_rig_opencv_yaml(cal.rig, path, _figures(cal))
 

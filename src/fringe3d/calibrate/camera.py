@@ -107,6 +107,18 @@ def calibrate_device(object_points: list[np.ndarray], image_points: list[np.ndar
     image_points : list of (N_i, 2) observed pixels per pose
     size : (width, height) of the device in pixels
     dist_model : one of :data:`DIST_MODELS` ("none" = linear model)
+    min_poses : int
+        Fewest poses accepted (each needs at least 6 points); fewer raise ValueError.
+    what : str
+        The device's name in error messages ("camera", "projector").
+    K_guess : (3, 3) array, optional
+        Initial intrinsics (pixels) for ``cv2.CALIB_USE_INTRINSIC_GUESS``; default OpenCV's own.
+
+    Returns
+    -------
+    DeviceCalibration
+        ``K`` (px), ``dist`` (5,), size, board poses (Rodrigues vectors, translations in mm),
+        reprojection residuals and RMS (px).
     """
     check_views(object_points, image_points, min_poses, what)
     w, h = int(size[0]), int(size[1])

@@ -83,6 +83,24 @@ def code_projector_points(directions: list[FringeDirection], uv: np.ndarray, win
                           **kw) -> np.ndarray:
     """Projector pixels of camera points ``uv (N, 2)`` from decoded Gray-code directions (any two
     non-parallel fringe angles, :func:`fringe3d.calibrate.phase_mapping.projector_maps`) by
-    :func:`corner_homography_points`. Returns ``(N, 2)`` float64, NaN rows where not found."""
+    :func:`corner_homography_points`. Returns ``(N, 2)`` float64, NaN rows where not found.
+
+    Parameters
+    ----------
+    directions : list of FringeDirection
+        Two or more decoded fringe directions of non-parallel angles (absolute phase, rad;
+        angle, rad; period, projector px).
+    uv : (N, 2) float
+        Camera points ``(u, v)``, pixels.
+    window : int
+        Side of the square homography window, camera px (>= 5).
+    **kw
+        ``min_share`` and ``ransac_px`` of :func:`corner_homography_points`.
+
+    Returns
+    -------
+    (N, 2) ndarray (float64)
+        Projector ``(u_p, v_p)``, pixels; NaN rows where not found.
+    """
     up, vp = projector_maps(directions)
     return corner_homography_points(up, vp, uv, window, **kw)

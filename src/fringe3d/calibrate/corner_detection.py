@@ -146,7 +146,22 @@ def find_charuco(image: np.ndarray, board: CharucoBoard,
 
 def locate_board(image: np.ndarray, board) -> tuple[np.ndarray | None, str]:
     """The board's points in ``image`` (any kind; see the module doc): ``(N, 2)`` float64 in
-    ``board.object_points()`` order (NaN rows: not seen) and ``""``, or None and why."""
+    ``board.object_points()`` order (NaN rows: not seen) and ``""``, or None and why.
+
+    Parameters
+    ----------
+    image : (H, W) array, any dtype
+        Grey board image.
+    board : CircleBoard or ChessBoard or CharucoBoard
+        The board to find.
+
+    Returns
+    -------
+    uv : (N, 2) ndarray (float64) or None
+        Board points ``(u, v)``, pixels, or None when not found.
+    reason : str
+        ``""`` when found, else why not (e.g. "the image is flat").
+    """
     if np.ndim(image) != 2:
         raise ValueError(f"board image must be a 2-D grey image, got shape {np.shape(image)}")
     if not np.ptp(np.asarray(image)) > 0:

@@ -23,7 +23,20 @@ def measure_points(rig: Rig, directions: list[FringeDirection]) -> np.ndarray:
     """(H, W, 3) float64 points (mm) from a calibrated rig and decoded directions: the two
     projector coordinates (any two fringe angles, Eq. 2.30-2.34) and least-squares
     triangulation (``reconstruct.triangulate``: Eq. 2.37, and Eq. 3.3-3.4 for telecentric rigs;
-    ``calibrate.telecentric.triangulate_telecentric`` is the sub-pixel point version)."""
+    ``calibrate.telecentric.triangulate_telecentric`` is the sub-pixel point version).
+
+    Parameters
+    ----------
+    rig : Rig
+        The calibrated rig (mm, px).
+    directions : list of FringeDirection
+        Two or more decoded fringe directions of non-parallel angles (:func:`projector_maps`).
+
+    Returns
+    -------
+    (H, W, 3) ndarray (float64)
+        Points, mm; NaN where the pixel was not triangulated.
+    """
     up, vp = (np.ascontiguousarray(a) for a in projector_maps(directions))
     return np.asarray(triangulate(rig, up=up, vp=vp), np.float64)
 
@@ -40,7 +53,22 @@ def rotation_angle_deg(Ra: np.ndarray, Rb: np.ndarray) -> float:
 
 def compare_to_truth(est: Rig, true: Rig) -> dict:
     """Calibrated vs true pinhole rig: relative focal-length errors, principal-point errors (px),
-    projector translation error (mm, max abs component and norm) and rotation error (deg)."""
+    projector translation error (mm, max abs component and norm) and rotation error (deg).
+
+    Parameters
+    ----------
+    est : Rig
+        The calibrated rig.
+    true : Rig
+        The true rig (e.g. the simulator's ``rig.json``).
+
+    Returns
+    -------
+    dict
+        ``<device>_focal_rel_error`` and ``<device>_principal_point_error_px`` for each pinhole
+        device; for a pinhole rig also ``translation_error_mm``, ``translation_error_norm_mm``
+        and ``rotation_error_deg``.
+    """
     out = {}
     for name in ("camera", "projector"):
         e, t = getattr(est, name), getattr(true, name)

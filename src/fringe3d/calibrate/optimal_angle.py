@@ -85,7 +85,22 @@ def optimal_angle(phi_h_obj, phi_h_ref, phi_v_obj, phi_v_ref, period_h: float = 
 def epipolar_angle(rig, point, depth_step: float = 1.0) -> float:
     """The true optimal fringe angle of a pinhole rig at a world point (radians, [0, pi)):
     the direction in which the projector correspondence of the camera pixel seeing ``point``
-    moves when depth changes along that pixel's ray."""
+    moves when depth changes along that pixel's ray.
+
+    Parameters
+    ----------
+    rig : Rig
+        A pinhole rig (world frame, mm).
+    point : (3,) array_like
+        World point, mm.
+    depth_step : float
+        Step along the camera ray used for the finite difference, mm.
+
+    Returns
+    -------
+    float
+        The fringe angle, radians in [0, pi).
+    """
     X = np.asarray(point, float)
     ray = X - rig.camera.center
     ray = ray / np.linalg.norm(ray)

@@ -170,8 +170,26 @@ def projector_points(directions: list[FringeDirection], uv: np.ndarray, min_modu
     Eq. (2.30)-(2.31) for vertical (alpha = pi/2) and horizontal (alpha = 0) fringes, and the
     rotation of Eq. (2.32)-(2.34) for any two non-parallel angles (e.g. alpha_opt -/+ pi/4):
     each direction gives ``w_k = v_p cos(alpha_k) + u_p sin(alpha_k)``; the 2x2 (or least
-    squares, for more directions) system is solved per point. Returns ``(N, 2)`` float64 with
-    NaN rows where any direction is invalid. ``window``: see :func:`fringe_coordinates`.
+    squares, for more directions) system is solved per point.
+
+    Parameters
+    ----------
+    directions : list of FringeDirection
+        Two or more decoded fringe directions of non-parallel angles (absolute phase, rad;
+        angle, rad; period, projector px).
+    uv : (N, 2) float
+        Camera points ``(u, v)``, pixels.
+    min_modulation : float
+        Points where a direction's sampled modulation is below this (the map's units) are NaN;
+        0 keeps every point.
+    window : float
+        Radius, pixels, of the modulation-weighted quadratic phase fit; 0 samples bilinearly
+        (see :func:`fringe_coordinates`).
+
+    Returns
+    -------
+    (N, 2) ndarray (float64)
+        Projector ``(u_p, v_p)``, pixels; NaN rows where any direction is invalid.
     """
     if len(directions) < 2:
         raise ValueError(f"projector mapping needs two fringe directions, got {len(directions)}")
@@ -190,7 +208,20 @@ def projector_points(directions: list[FringeDirection], uv: np.ndarray, min_modu
 
 def projector_maps(directions: list[FringeDirection]) -> tuple[np.ndarray, np.ndarray]:
     """Per-pixel projector coordinates ``(u_p, v_p)`` (each (H, W) float64, NaN invalid) from
-    two or more fringe directions: the per-pixel form of :func:`projector_points` (Eq. 2.30-2.34)."""
+    two or more fringe directions: the per-pixel form of :func:`projector_points` (Eq. 2.30-2.34).
+
+    Parameters
+    ----------
+    directions : list of FringeDirection
+        Two or more decoded fringe directions of non-parallel angles (absolute phase, rad;
+        angle, rad; period, projector px).
+
+    Returns
+    -------
+    u_p, v_p : (H, W) ndarray (float64)
+        Projector column and row per camera pixel, pixels; NaN where a direction's phase is NaN
+        or masked.
+    """
     if len(directions) < 2:
         raise ValueError(f"projector maps need two fringe directions, got {len(directions)}")
     ws = []

@@ -84,6 +84,23 @@ def find_pose_folders(paths, layout: str | None = None,
     whose sub-folders hold image files is a session of :class:`FramesFolder` poses, and a
     folder of image files is one such pose. Raises ``FileNotFoundError`` for missing paths
     and ``ValueError`` when a folder holds no poses.
+
+    Parameters
+    ----------
+    paths : iterable of str or Path
+        Pose folders and/or session folders.
+    layout : str, optional
+        Another tool's frame layout (:data:`fringe3d.io.importer.LAYOUTS`); None reads
+        fringe3d capture folders.
+    projector_size : (width, height), optional
+        Projector size in pixels, needed by ``layout``.
+
+    Returns
+    -------
+    poses : list
+        Pose folders (:class:`~pathlib.Path`) or, with ``layout``, :class:`FramesFolder` poses.
+    meta : dict
+        The merged ``session.json`` contents, or {}.
     """
     if layout is not None:
         return _frame_folders(paths, layout_patterns(layout, projector_size))
@@ -236,6 +253,29 @@ def observe_pose(pose: PoseCapture, board, min_modulation_share: float = 0.1,
     ``homography_window`` camera px (:mod:`.code_mapping`). Returns None (after a warning
     naming the pose) when the board is not found; ``ValueError`` naming the pose when the
     white frame holds a larger board than ``board`` (a sub-grid would get wrong board points).
+
+    Parameters
+    ----------
+    pose : PoseCapture
+        The pose's frames and pattern set.
+    board : CircleBoard or ChessBoard or CharucoBoard
+        The calibration board (spacing in mm).
+    min_modulation_share : float
+        Share of the 95th percentile of the valid modulation below which a point's projector
+        coordinates are NaN (phase sets).
+    directions : list of FringeDirection, optional
+        The pose's decoded fringe directions; default decoded here (:func:`decode_directions`).
+    phase_window : float or str
+        ``0``/``"bilinear"`` (bilinear phase sampling), a radius in pixels, or ``"auto"``
+        (:func:`phase_window_px`).
+    homography_window : int
+        Side of the local homography window, camera px (Gray-code sets).
+
+    Returns
+    -------
+    PoseObservation or None
+        Board points ``(N, 2)`` in the camera and in the projector, pixels; None when the
+        board is not found.
     """
     iw = check_calibration_set(pose.patterns, pose.name)
     try:
@@ -269,6 +309,30 @@ def observe_session(poses, board, min_modulation_share: float = 0.1,
 
     Checks that all poses have the same camera size and projector size. Returns the usable
     observations and the :class:`.session_result.SessionFacts` of the session.
+
+    Parameters
+    ----------
+    poses : iterable
+        :class:`PoseCapture`, :class:`FramesFolder` or pose folders (read by :func:`read_pose`).
+    board : CircleBoard or ChessBoard or CharucoBoard
+        The calibration board (spacing in mm).
+    min_modulation_share : float
+        Share of the 95th percentile of the valid modulation below which a point's projector
+        coordinates are NaN (phase sets).
+    progress : bool
+        Show a progress bar.
+    phase_window : float or str
+        ``0``/``"bilinear"`` (bilinear phase sampling), a radius in pixels, or ``"auto"``
+        (:func:`phase_window_px`).
+    homography_window : int
+        Side of the local homography window, camera px (Gray-code sets).
+
+    Returns
+    -------
+    observations : list of PoseObservation
+        One per pose whose board was found.
+    facts : SessionFacts
+        Sizes, pose names, skipped poses, fringe periods/angles and the phase sampling.
     """
     sampling = phase_sampling_label(phase_window)  # a bad value fails before any work
     poses = list(poses)
@@ -342,6 +406,33 @@ def calibrate_observations(obs: list[PoseObservation], info: SessionFacts, board
     result's ``quality`` holds the quality gates (:func:`.gates.calibration_gates`), the
     dropped poses and the model choice; it is not enforced here
     (:func:`calibrate_to_files` refuses a calibration that fails a gate).
+
+    Parameters
+    ----------
+    obs : list of PoseObservation
+        The usable poses' observations (:func:`observe_session`).
+    info : SessionFacts
+        What :func:`observe_session` learnt of the poses (sizes, skipped poses).
+    board : CircleBoard or ChessBoard or CharucoBoard
+        The calibration board (spacing in mm).
+    model : ``"pinhole"`` | ``"telecentric"``
+        Rig model.
+    camera_dist, projector_dist : str
+        Distortion model of :data:`.camera.DIST_MODELS` or ``"auto"``.
+    min_poses : int
+        Fewest usable poses.
+    correct_circle_bias : bool
+        Remove the perspective bias of circle centres (circle grids, pinhole model).
+    telecentric_refine : bool
+        Joint LM refinement after ch. 3's sequential steps (telecentric model).
+    drop_outliers : bool
+        Drop the outlier poses and calibrate once more.
+
+    Returns
+    -------
+    SessionCalibration
+        ``(Calibration, fit)``; ``Calibration.quality`` holds the gates, dropped poses and
+        model choice.
     """
     skipped = info.skipped
     if not obs and skipped:

@@ -195,7 +195,19 @@ def squares_from_inner_corners(text: str, option: str = "`inner_corners`") -> tu
 def board_from_dict(d: dict):
     """A :class:`~fringe3d.calibrate.boards.CircleBoard`, :class:`ChessBoard` or
     :class:`CharucoBoard` from its ``to_dict()`` form (no ``"kind"``: a circle grid).
-    ``ValueError`` naming unknown kinds and fields."""
+    ``ValueError`` naming unknown kinds and fields.
+
+    Parameters
+    ----------
+    d : dict
+        The board's fields (``kind``, ``cols``, ``rows``, ``spacing`` in mm, and the kind's own
+        fields), e.g. from a calibration file.
+
+    Returns
+    -------
+    CircleBoard or ChessBoard or CharucoBoard
+        The board.
+    """
     if not isinstance(d, dict):
         raise ValueError(f"board: expected an object with the board's fields, got {d!r}")
     check_board_fields(d)

@@ -113,6 +113,12 @@ def calibrate_pinhole_rig(board: CircleBoard, poses: list[PoseObservation], came
     min_poses : fewer usable poses is a ``ValueError``
     min_points : a pose with fewer valid projector points is left out of the projector and
         stereo steps
+
+    Returns
+    -------
+    RigCalibration
+        The :class:`~fringe3d.optics.rig.Rig` (camera = world frame, projector ``[R|t]`` in mm),
+        both devices' calibrations, the stereo RMS (px), the poses used and the model choice.
     """
     if len(poses) < min_poses:
         raise ValueError(f"only {len(poses)} usable board pose(s); need at least {min_poses} "

@@ -32,6 +32,28 @@ from .stereo import PoseObservation
 
 @dataclass
 class TelecentricCalibration:
+    """A calibrated telecentric camera + pinhole projector rig plus its residuals (ch. 3.3).
+
+    Attributes
+    ----------
+    rig : Rig
+        Affine camera ``M`` (2, 4) and projector; world = projector frame, mm.
+    projector : DeviceCalibration
+        The projector's intrinsics, distortion, poses and reprojection residuals (px).
+    camera_residuals : list of (N_i, 2) ndarray
+        Camera reprojection residuals per pose, pixels.
+    camera_per_pose_rms : (P,) ndarray
+        Camera reprojection RMS per pose, pixels.
+    camera_rms : float
+        Camera reprojection RMS over all poses, pixels.
+    board_to_world : list of (R (3, 3), t (3,))
+        Board pose per pose in the world (projector) frame, t in mm.
+    pose_names : list of str
+        The poses used.
+    used_points : list of (N,) bool ndarray
+        Per pose, the board points with valid projector coordinates.
+    """
+
     rig: Rig
     projector: DeviceCalibration
     camera_residuals: list[np.ndarray]          # per pose (N_i, 2) pixels
@@ -124,6 +146,29 @@ def calibrate_telecentric_rig(board: CircleBoard, poses: list[PoseObservation], 
 
     ``poses`` carry the camera circle centres and the phase-mapped projector centres
     (NaN rows = invalid phase). Returns the rig (world = projector frame) and residuals.
+
+    Parameters
+    ----------
+    board : CircleBoard
+        The calibration board (spacing in mm).
+    poses : list of PoseObservation
+        Camera and projector board points per pose, pixels (the whole board in every pose).
+    camera_size, projector_size : (width, height)
+        Device sizes, pixels.
+    projector_dist : str
+        Projector distortion model (:data:`.camera.DIST_MODELS`).
+    min_poses : int
+        Fewest poses with at least ``min_points`` valid projector points.
+    min_points : int
+        A pose with fewer valid projector points is left out.
+    refine : bool
+        Joint Levenberg-Marquardt refinement of the projector ``K``, the affine camera and the
+        board poses after the sequential steps (linear projector model only).
+
+    Returns
+    -------
+    TelecentricCalibration
+        The rig and its camera and projector residuals.
     """
     if len(poses) < min_poses:
         raise ValueError(f"only {len(poses)} usable board pose(s); need at least {min_poses}")
@@ -180,8 +225,21 @@ def triangulate_telecentric(camera: TelecentricCamera, projector: PinholeDevice,
     least squares. Projector distortion is removed from ``(u_p, v_p)`` first when ``vp`` is
     given (it needs both coordinates); with ``u_p`` alone the projector must be distortion-free.
 
-    uv : (..., 2) camera pixels; up, vp : (...) projector coordinates. Returns (..., 3) mm,
-    NaN where the inputs are NaN.
+    Parameters
+    ----------
+    camera : TelecentricCamera
+        The affine camera ``M`` (2, 4), px per mm.
+    projector : PinholeDevice
+        The projector (world frame, mm).
+    uv : (..., 2)
+        Camera pixels.
+    up, vp : (...)
+        Projector coordinates (column, row), pixels; ``vp`` optional.
+
+    Returns
+    -------
+    (..., 3) ndarray (float)
+        Points, mm, NaN where the inputs are NaN.
     """
     uv = np.asarray(uv, float)
     up = np.asarray(up, float)

@@ -274,11 +274,21 @@ def write_capture(folder: str | os.PathLike, frames: np.ndarray, patterns: Patte
 
     Parameters
     ----------
+    folder : str or os.PathLike
+        The capture folder (created; an older capture's frames and metadata there are replaced).
     frames : (F, H, W) uint8 or uint16 (PNG) or any dtype (``fmt="tif"``)
         F must be a multiple of ``len(patterns)``.
+    patterns : PatternSet
+        The projected patterns, in frame order; its manifest is copied into the folder.
     meta : dict, optional
         Extra metadata; ``camera`` and ``bit_depth`` are filled in when missing.
     fmt : ``"png"`` or ``"tif"``
+        Frame file format.
+
+    Returns
+    -------
+    Path
+        The capture folder.
     """
     frames = as_frame_stack(frames)
     if fmt == "png" and frames.dtype not in (np.uint8, np.uint16):   # refused before any file is touched

@@ -33,6 +33,11 @@ def gaussian_otf(f, sigma: float) -> np.ndarray:
         Spatial frequency magnitude, cycles per pixel.
     sigma : float
         PSF standard deviation, pixels (>= 0).
+
+    Returns
+    -------
+    ndarray (float)
+        OTF values, shape of ``f``; 1 at ``f = 0``.
     """
     if sigma < 0:
         raise ValueError(f"Gaussian defocus sigma must be >= 0 pixels, got {sigma}")
@@ -70,7 +75,22 @@ def hopkins_otf(s, omega: float, wavelength: float = 1.0) -> np.ndarray:
 
 def otf(f, model: str, size: float) -> np.ndarray:
     """OTF of ``model`` (``"none"``, ``"gaussian"`` with sigma = ``size``, ``"hopkins"`` with
-    omega/lambda = ``size`` pixels) at frequency magnitudes ``f`` (cycles/pixel)."""
+    omega/lambda = ``size`` pixels) at frequency magnitudes ``f`` (cycles/pixel).
+
+    Parameters
+    ----------
+    f : array_like
+        Spatial frequency magnitude, cycles per pixel.
+    model : ``"none"`` | ``"gaussian"`` | ``"hopkins"``
+        Defocus model (:data:`MODELS`); anything else raises ``ValueError``.
+    size : float
+        Gaussian sigma (pixels) or Hopkins omega/lambda (pixels); 0 means no blur.
+
+    Returns
+    -------
+    ndarray (float)
+        OTF values, shape of ``f`` (:func:`gaussian_otf`, :func:`hopkins_otf`, or ones).
+    """
     check_model(model)
     if model == "none" or size == 0:
         return np.ones_like(np.asarray(f, dtype=float))
@@ -91,6 +111,23 @@ def psf_kernel(model: str, size: float, radius: int | None = None, oversample: i
     ``"hopkins"``: uniform disc of radius ``2*size`` pixels (``size`` = omega/lambda), the
     geometric-optics PSF whose transform is Eq. (2.26); pixel coverage is anti-aliased by
     ``oversample`` x ``oversample`` sub-samples. ``"none"``: the 1x1 identity kernel.
+
+    Parameters
+    ----------
+    model : ``"none"`` | ``"gaussian"`` | ``"hopkins"``
+        Defocus model (:data:`MODELS`).
+    size : float
+        Gaussian sigma or Hopkins omega/lambda, pixels (>= 0); 0 gives the 1x1 kernel.
+    radius : int, optional
+        Kernel half-width ``r``, pixels; default ``ceil(4*size)`` (Gaussian) or
+        ``ceil(2*size) + 1`` (Hopkins).
+    oversample : int
+        Sub-samples per pixel along each axis used to integrate the PSF over a pixel.
+
+    Returns
+    -------
+    (2r+1, 2r+1) ndarray (float)
+        The kernel, normalised to sum 1.
     """
     check_model(model)
     if size < 0:
@@ -156,6 +193,22 @@ def defocus_size_at(distance, size: float, focus_distance: float | None, growth:
     ``size(d) = size + growth * |d - focus_distance|`` (pixels; ``growth`` in pixels per mm,
     ``distance`` in mm along the projector axis). With ``focus_distance=None`` the size is
     constant. A thin-lens blur circle grows linearly with defocus distance near focus.
+
+    Parameters
+    ----------
+    distance : array_like
+        Distance along the projector axis, mm.
+    size : float
+        Defocus size at the focal plane (Gaussian sigma or Hopkins omega/lambda), pixels.
+    focus_distance : float or None
+        Distance of the focal plane, mm; ``None`` keeps the size constant.
+    growth : float
+        Growth of the size per mm away from focus, pixels/mm; 0 keeps it constant.
+
+    Returns
+    -------
+    ndarray (float)
+        Defocus size in pixels, shape of ``distance``.
     """
     d = np.asarray(distance, dtype=float)
     if focus_distance is None or growth == 0:

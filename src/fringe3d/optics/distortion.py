@@ -96,6 +96,19 @@ def distort(xy: np.ndarray, dist) -> np.ndarray:
 
     ``x_d = x(1 + k1 r^2 + k2 r^4 + k3 r^6) + 2 p1 x y + p2 (r^2 + 2 x^2)`` and likewise for y;
     with OpenCV's rational, thin-prism and tilt terms when ``dist`` has them (module docstring).
+
+    Parameters
+    ----------
+    xy : (..., 2) ndarray
+        Undistorted normalised image coordinates ``(X/Z, Y/Z)`` (unitless).
+    dist : array_like or None
+        Up to 14 distortion coefficients in OpenCV's order (``k1 k2 p1 p2 k3 ...``; tilt angles
+        in rad); missing ones are zero, ``None`` means no distortion.
+
+    Returns
+    -------
+    (..., 2) ndarray (float)
+        Distorted normalised coordinates ``(x_d, y_d)``.
     """
     d = as_coeffs(dist)
     if d.size > 5:
@@ -115,6 +128,23 @@ def undistort(xy_d: np.ndarray, dist, iterations: int = 30, tol: float = 1e-14) 
 
     Converges to ~1e-15 in a handful of steps for realistic lenses (|k1| < 1); returns the
     undistorted normalised points with the same shape as ``xy_d``.
+
+    Parameters
+    ----------
+    xy_d : (..., 2) array_like
+        Distorted normalised image coordinates (unitless).
+    dist : array_like or None
+        Up to 14 distortion coefficients in OpenCV's order, as in :func:`distort`.
+    iterations : int
+        Maximum number of Newton steps.
+    tol : float
+        Stop once the largest step ``|dx| + |dy|`` (normalised units) falls below ``tol``.
+
+    Returns
+    -------
+    (..., 2) ndarray (float)
+        Normalised points ``xy`` with ``distort(xy, dist) ~= xy_d``; a copy of ``xy_d`` when
+        every coefficient is zero.
 
     Examples
     --------

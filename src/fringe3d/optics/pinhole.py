@@ -142,5 +142,20 @@ class PinholeDevice:
 
 
 def intrinsics(fx: float, fy: float, cx: float, cy: float, skew: float = 0.0) -> np.ndarray:
-    """The (3, 3) intrinsic matrix A of Eq. (2.9)."""
+    """The (3, 3) intrinsic matrix A of Eq. (2.9).
+
+    Parameters
+    ----------
+    fx, fy : float
+        Focal lengths along x and y, pixels.
+    cx, cy : float
+        Principal point, pixels.
+    skew : float
+        Skew term ``A[0, 1]``, pixels (0 for square pixel axes).
+
+    Returns
+    -------
+    (3, 3) ndarray (float)
+        ``[[fx, skew, cx], [0, fy, cy], [0, 0, 1]]``.
+    """
     return np.array([[fx, skew, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])

@@ -292,6 +292,7 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
     folder : if given, write ``folder/pose_XX`` capture folders and ``folder/session.json``
     dark_albedo : albedo of the board's circles (the board is 0.9); a grey circle keeps
         enough fringe modulation at the circle centres for phase mapping
+    progress : show a progress bar while the poses are rendered
     edge_pixels : width of the circles' or squares' anti-aliasing albedo ramp, in camera
         pixels at the board (the renderer casts one ray per pixel); default 4 for chessboards (a lens
         blurs a printed edge over a few pixels; a narrower ramp aliases: the rendered corners'
@@ -304,6 +305,13 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
         near-parallel poses (the calibration's orientation gate, :mod:`fringe3d.calibrate.gates`)
     projector_dist : Brown coefficients ``(k1, k2, p1, p2, k3)`` of the true projector lens
         (the presets' projectors have none); the renderer maps through them (Eq. 2.14-2.16)
+
+    Returns
+    -------
+    SimulatedSession
+        The rendered poses (:class:`~fringe3d.calibrate.session.PoseCapture`), the board, the
+        true rig and board poses (board -> world, mm), the rig model, the folder written (or
+        None) and the render settings used.
     """
     p = presets.get(preset)
     rig = scaled_camera(p.rig, camera_scale)
