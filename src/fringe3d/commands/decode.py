@@ -10,7 +10,8 @@ import typer
 from fringe3d.commands import import_options as io
 from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.import_options import SRC_HELP
-from fringe3d.commands.compensate_options import compensate_option, resolve_compensation, response_option
+from fringe3d.commands.compensate_options import (check_plans_for, compensate_option, resolve_compensation,
+                                                      response_option)
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.commands.checks import BIT_DEPTHS, check_choice, check_number
 from fringe3d.commands.vocabulary import method_option
@@ -190,6 +191,7 @@ def register(app: typer.Typer) -> None:
                              "and patterns disagree (expected the calibration of the projector that showed them)")
         with in_flag_words():  # a geometric method without --calibration / --z-min: before anything is written
             check_geometry(patterns, rig_obj, z_min)
+        check_plans_for(patterns, compensate)  # --compensate disagreement without two equal-step frequencies
         n = cap.cycles
         if cap.source is not None:
             total = len(cap.source) // len(patterns)

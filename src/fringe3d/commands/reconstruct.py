@@ -14,7 +14,8 @@ from fringe3d.commands.checks import check_choice, check_number
 from fringe3d.commands.vocabulary import method_option, processes_option
 from fringe3d.commands.output_options import allow_empty_option, overwrite_option
 from fringe3d.commands.plan_errors import in_flag_words
-from fringe3d.commands.compensate_options import compensate_option, resolve_compensation, response_option
+from fringe3d.commands.compensate_options import (check_plans_for, compensate_option, resolve_compensation,
+                                                      response_option)
 from fringe3d.commands.quality_options import edge_margin_option, edge_mask_option
 from fringe3d.decode.plan_checks import check_plans
 from fringe3d.gpu import BACKENDS, cuda_module
@@ -185,6 +186,7 @@ def register(app: typer.Typer) -> None:
         with in_flag_words(z_min_from=True):  # relative phase, geometric method without z_min: before writing
             relative = check_plans(ps, rig, z_min, original=cap.patterns, source=str(capture / MANIFEST_NAME),
                                    allow_relative=allow_relative)
+        check_plans_for(ps, compensate)  # --compensate disagreement without two equal-step frequencies
         opts = {"bit_depth": cap.meta.get("bit_depth"), "min_modulation": min_modulation, "edge_mask": edge_mask,
                 "edge_margin": edge_margin, "compensate": compensate, "response": response_lut}
         methods = {p.direction: p.method for p in ps.plans}

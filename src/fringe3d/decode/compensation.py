@@ -8,6 +8,10 @@
 * ``"harmonic"``: the self-calibrating harmonic model (:mod:`fringe3d.radiometry.harmonics`)
   estimated from the group's own frames; groups of N >= 4 equal steps only (others are left as
   they are and say so in ``Decoded.info["radiometry"]``).
+* ``"disagreement"``: the ripple estimated from the disagreement between two frequencies of the
+  same N >= 3 equal steps (after Xing & Guo 2018), applied to every such group's wrapped phase
+  between two unwrapping passes (:mod:`fringe3d.decode.self_calibration`); 3-step
+  multi-frequency captures.
 
 :func:`diagnose_group` runs :func:`fringe3d.radiometry.diagnose` on a subsample of a group of
 N >= 4 equal steps, for ``Decoded.info["radiometry"]`` whether or not a compensation is chosen
@@ -53,7 +57,7 @@ class DecodeContext(Protocol):
     def group_phase(self, group: Any) -> PhaseResult: ...
     def groups_for_plan(self) -> list[Any]: ...
 
-COMPENSATIONS = ("response", "harmonic")
+COMPENSATIONS = ("response", "harmonic", "disagreement")
 #: Pixels used by the harmonic estimate and the diagnostic (a regular subsample beyond this).
 SAMPLE_PIXELS = 16384
 
@@ -110,7 +114,8 @@ def compensate_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> 
     return PhaseResult(lut.correct(pr.phase), pr.average, pr.modulation), info
 
 
-def _steps_equal(shifts) -> bool:
+def steps_equal(shifts) -> bool:
+    """The shifts are N >= 3 steps ``shift_0 + 2 pi k / N`` in step order (what the disagreement needs)."""
     d = np.asarray(shifts, float)
     return d.size >= 3 and bool(np.allclose(wrap(d - d[0] - default_shifts(d.size)), 0.0, atol=1e-6))
 
@@ -123,8 +128,8 @@ def disagreement_group(ctx: DecodeContext, group: PhaseGroup, phase: np.ndarray,
     None without such a group or usable pixels. For 3-step multi-frequency captures, where the
     harmonic diagnostic cannot apply."""
     others = [h for h in ctx.groups_for_plan() if h.name != group.name and len(h.indices) == len(group.indices)
-              and not np.isclose(h.period, group.period) and _steps_equal(h.shifts)]
-    if not others or not _steps_equal(group.shifts):
+              and not np.isclose(h.period, group.period) and steps_equal(h.shifts)]
+    if not others or not steps_equal(group.shifts):
         return None
     other = others[0]
     h, w = phase.shape

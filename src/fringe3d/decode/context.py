@@ -167,7 +167,7 @@ def group_phase_and_saturation(ctx: DecodeContext, group: PhaseGroup) -> tuple[P
     if n >= 3:
         pr, sat = wrapped_phase(ctx.frames, shifts=group.shifts, index=group.indices, saturation_level=level,
                                 return_saturated=True)
-        if ctx.options.compensate is not None:
+        if ctx.options.compensate not in (None, "disagreement"):  # that one between two passes
             pr, done = compensation.compensate_group(ctx, group, pr)
             ctx.cache.setdefault("radiometry", {}).setdefault("compensation", []).append(done)
         return pr, sat

@@ -15,7 +15,7 @@ from typing import Any, Iterator
 
 import numpy as np
 
-from fringe3d.decode import compensation, edges
+from fringe3d.decode import compensation, edges, self_calibration
 from fringe3d.decode.assess import assess
 from fringe3d.decode.context import DecodeContext, phase_groups
 from fringe3d.decode.method_plans import plans_to_decode as _plans
@@ -141,6 +141,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         warnings.warn(w.message, w.category, stacklevel=3)
     plans = _plans(ps)
     groups_of = {plan.direction: phase_groups(ps, plan.direction) for plan in plans}  # validate before any work
+    if opts.compensate == "disagreement":
+        self_calibration.check_plans(ps, plans)
     out = Decoded(info={"frame_checks": checks, "warnings": [str(w.message) for w in caught],
                         "min_modulation": min_mod})
     first: tuple[DecodeContext, Any, Unwrapped] | None = None
@@ -152,10 +154,13 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
                              "in the manifest; the decoder needs phase-shifted or FTP frames, or code frames with "
                              f"one of the code methods {list(code_only_methods())}")
         result = method_for(plan.method)(ctx)
-        phi, mask = result.phase, result.mask
         # narrowest group of the plan (= ctx.groups_for_plan()[0] without re-reading the manifest thrice)
         g = (None if not groups_of[plan.direction] else
              ctx.group_for_period(plan.periods[0]) if plan.periods else groups_of[plan.direction][0])
+        if opts.compensate == "disagreement":  # correct every group's wrapped phase, unwrap again
+            result = self_calibration.self_calibrate(ctx, result, method_for(plan.method), float(
+                result.period if result.period is not None else g.period))  # type: ignore[union-attr]
+        phi, mask = result.phase, result.mask
         if result.wrapped is not None and result.modulation is not None:
             wrapped, modulation = result.wrapped, result.modulation
         else:

@@ -90,11 +90,14 @@ class DecodeOptions:
         and unlit rims, mixed by the pixel footprint and blur; default 1, 0 turns it off).
     extra : mapping
         Further options for user-added methods (read as ``ctx.options.extra``).
-    compensate : {"response", "harmonic"}, optional
+    compensate : {"response", "harmonic", "disagreement"}, optional
         Correct the projector-nonlinearity phase error of every phase-shifted group
         (:mod:`fringe3d.decode.compensation`): ``"response"`` by the phase-error table of
         ``response`` (Zhang & Yau 2007), ``"harmonic"`` by the harmonic model estimated from the
-        capture itself (groups of N >= 4 equal steps). Turns the fused kernel off.
+        capture itself (groups of N >= 4 equal steps), ``"disagreement"`` by the ripple estimated
+        from two frequencies of the same N >= 3 equal steps, between two unwrapping passes
+        (:mod:`fringe3d.decode.self_calibration`; every plan needs such a pair). Turns the fused
+        kernel off.
     response : fringe3d.radiometry.ResponseLUT, optional
         The projector's measured response, for ``compensate="response"``.
     backend : {"cpu", "cuda"}
@@ -139,7 +142,7 @@ class DecodeOptions:
     response: Any = None
 
     def __post_init__(self) -> None:
-        if self.compensate not in (None, "response", "harmonic"):
-            raise ValueError(f"compensate must be 'response' or 'harmonic', got {self.compensate!r}")
+        if self.compensate not in (None, "response", "harmonic", "disagreement"):
+            raise ValueError(f"compensate must be 'response', 'harmonic' or 'disagreement', got {self.compensate!r}")
         if self.compensate == "response" and self.response is None:
             raise ValueError("compensate='response' needs the projector's response (DecodeOptions.response)")
