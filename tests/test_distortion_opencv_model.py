@@ -10,6 +10,7 @@ import pytest
 from fringe3d.calibrate.opencv_file import load_opencv_calibration
 from fringe3d.optics import Rig
 from fringe3d.optics.distortion import as_coeffs, distort, undistort
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.reconstruct.depth import triangulator_for
 from fringe3d.reconstruct.triangulate import triangulate
 
@@ -93,7 +94,7 @@ def test_rig_with_full_opencv_distortion_reconstructs_a_plane_computed_with_cv2(
     ideal = Rig(rig.camera, rig.projector.__class__(K=rig.projector.K, dist=None, width=200, height=150,
                                                     R=rig.projector.R, t=rig.projector.t))
     up = cv2.projectPoints(X.reshape(-1, 3), cv2.Rodrigues(R)[0], T, K2, None)[0].reshape(120, 160, 2)[..., 0]
-    fast = triangulator_for(ideal, np.pi / 2).points(up, np.ones(up.shape, bool))  # w = u (Eq. 2.1)
+    fast = triangulator_for(RigGeometry(ideal), np.pi / 2).points(up, np.ones(up.shape, bool))  # w = u (Eq. 2.1)
     np.testing.assert_allclose(fast, X, atol=2e-3)
 
 

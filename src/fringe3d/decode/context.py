@@ -17,6 +17,7 @@ from fringe3d.decode import compensation
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.optics.rays import camera_shape, pixel_rays
 from fringe3d.optics.rig import Rig
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.conventions import fringe_coordinate, w_range
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import clipping, ftp, noise, quality
@@ -45,7 +46,9 @@ class DecodeContext:
     Attributes: ``frames`` (F, H, W) camera frames of one cycle (any real dtype),
     ``patterns`` the :class:`PatternSet`, ``direction``, ``plan`` (:class:`DirectionPlan`),
     ``rig`` (:class:`fringe3d.optics.Rig` or None), ``options`` (:class:`DecodeOptions`),
-    ``min_modulation`` (frames' units, resolved). ``z_min`` and ``bit_depth`` read the
+    ``min_modulation`` (frames' units, resolved), ``geometry`` the rig's precomputed
+    :class:`~fringe3d.optics.rig_geometry.RigGeometry` (given by the decoder's caller, else built
+    here from ``rig``; it must belong to ``rig``). ``z_min`` and ``bit_depth`` read the
     options. Wrapped phases are computed once per group and cached (``cache``, also for
     methods' own per-direction tables).
     """
@@ -58,6 +61,13 @@ class DecodeContext:
     options: DecodeOptions = field(default_factory=DecodeOptions)
     min_modulation: float = 0.0
     cache: dict[Any, Any] = field(default_factory=dict, repr=False)
+    geometry: RigGeometry | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.rig is not None:
+            self.geometry = RigGeometry.of(self.rig, self.geometry)
+        elif self.geometry is not None:
+            self.rig = self.geometry.rig
 
     @property
     def z_min(self) -> float | None:
@@ -250,10 +260,10 @@ def camera_fringe_direction(rig: Rig, angle: float, shape: tuple[int, int], z_mi
     return float(np.arctan2(gu, gv))
 
 
-def require_geometry(ctx: DecodeContext, method: str) -> tuple[Rig, float]:
-    """(rig, z_min) for a method that needs the geometric constraint, with clear errors when
+def require_geometry(ctx: DecodeContext, method: str) -> tuple[RigGeometry, float]:
+    """(the rig's :class:`RigGeometry`, z_min) for a method that needs the geometric constraint, with clear errors when
     the decoder lacks them; ``z_min`` from the options or the plan's ``options["z_min"]``."""
-    if ctx.rig is None:
+    if ctx.rig is None or ctx.geometry is None:
         raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs the calibrated rig "
                          "(pass `rig`)")
     z_min = ctx.z_min if ctx.z_min is not None else ctx.plan.options.get("z_min")
@@ -261,7 +271,7 @@ def require_geometry(ctx: DecodeContext, method: str) -> tuple[Rig, float]:
         raise ValueError(f"direction {ctx.direction!r}: method {method!r} needs z_min, the nearest depth of the "
                          "measurement volume in mm (pass `z_min`, or set it in the plan's options)")
     check_camera_size(ctx.frames.shape[1:], camera_shape(ctx.rig))
-    return ctx.rig, float(z_min)
+    return ctx.geometry, float(z_min)
 
 
 def intensity_noise(ctx: DecodeContext) -> float:

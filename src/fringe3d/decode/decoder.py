@@ -25,6 +25,7 @@ from fringe3d.decode.options import DecodeOptions
 from fringe3d.decode.result import Decoded, Unwrapped
 from fringe3d.decode.texture import as_fraction
 from fringe3d.optics.rig import Rig
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.conventions import w_range
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.patterns.method_registry import code_only_methods, is_relative, method_facts
@@ -49,7 +50,8 @@ def _check_count(n_frames: int, ps: PatternSet, sequence: bool) -> int:
     return 1
 
 
-def decode(frames, patterns: PatternSet, rig: Rig | None = None, options: DecodeOptions | None = None) -> Decoded:
+def decode(frames, patterns: PatternSet, rig: Rig | None = None, options: DecodeOptions | None = None,
+           geometry: RigGeometry | None = None) -> Decoded:
     """Decode one pattern cycle to absolute phase per fringe direction.
 
     Parameters
@@ -65,6 +67,10 @@ def decode(frames, patterns: PatternSet, rig: Rig | None = None, options: Decode
     options : DecodeOptions, optional
         ``z_min``, ``bit_depth``, ``min_modulation``, ``fused``, ``max_residual``, FTP and
         method options (see :class:`DecodeOptions`); default ``DecodeOptions()``.
+    geometry : fringe3d.optics.rig_geometry.RigGeometry, optional
+        The rig's precomputed geometry (minimum phase maps, Eq. 4.14-4.19), owned by the
+        caller that decodes many cycles with one rig (the reconstruction engine); built for
+        this call when omitted. Must belong to ``rig``.
 
     Returns
     -------
@@ -92,11 +98,11 @@ def decode(frames, patterns: PatternSet, rig: Rig | None = None, options: Decode
     """
     frames = as_frame_stack(frames)
     _check_count(frames.shape[0], patterns, sequence=False)
-    return _decode_cycle(frames, patterns, rig, options or DecodeOptions())
+    return _decode_cycle(frames, patterns, rig, options or DecodeOptions(), _geometry(rig, geometry))
 
 
 def decode_sequence(frames, patterns: PatternSet, rig: Rig | None = None, options: DecodeOptions | None = None,
-                    progress: bool = False) -> Iterator[Decoded]:
+                    progress: bool = False, geometry: RigGeometry | None = None) -> Iterator[Decoded]:
     """Decode a sequence of ``n_cycles`` repetitions of the manifest, one cycle at a time.
 
     Parameters
@@ -111,6 +117,8 @@ def decode_sequence(frames, patterns: PatternSet, rig: Rig | None = None, option
         As in :func:`decode`.
     progress : bool
         Show a progress bar.
+    geometry : RigGeometry, optional
+        As in :func:`decode`; built once for the whole sequence when omitted.
 
     Yields
     ------
@@ -123,13 +131,25 @@ def decode_sequence(frames, patterns: PatternSet, rig: Rig | None = None, option
     cycles = _check_count(frames.shape[0], patterns, sequence=True)
     n = len(patterns)
     opts = options or DecodeOptions()
+    geo = _geometry(rig, geometry)
     with progress_bar("decoding", cycles, enabled=progress) as advance:
         for c in range(cycles):
-            yield _decode_cycle(np.ascontiguousarray(frames[c * n:(c + 1) * n]), patterns, rig, opts)
+            yield _decode_cycle(np.ascontiguousarray(frames[c * n:(c + 1) * n]), patterns, rig, opts, geo)
             advance()
 
 
-def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: DecodeOptions) -> Decoded:
+def _geometry(rig: Rig | None, geometry: RigGeometry | None) -> RigGeometry | None:
+    """The caller's ``geometry`` (checked against ``rig``), a fresh one of ``rig``, or None
+    without a rig."""
+    if rig is None:
+        if geometry is not None:
+            raise ValueError("geometry was given without its rig (pass rig as well)")
+        return None
+    return RigGeometry.of(rig, geometry)
+
+
+def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: DecodeOptions,
+                  geometry: RigGeometry | None) -> Decoded:
     bit_depth = opts.bit_depth
     min_mod = opts.min_modulation
     min_mod = quality.default_min_modulation(frames, bit_depth) if min_mod is None else float(min_mod)
@@ -148,7 +168,7 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     first: tuple[DecodeContext, Any, Unwrapped] | None = None
     for plan in plans:
         ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig,
-                            options=opts, min_modulation=min_mod)
+                            options=opts, min_modulation=min_mod, geometry=geometry)
         if not groups_of[plan.direction] and not method_facts(plan.method).code_only:
             raise ValueError(f"direction {plan.direction!r} has an unwrapping plan ({plan.method}) but no phase frames "
                              "in the manifest; the decoder needs phase-shifted or FTP frames, or code frames with "

@@ -22,6 +22,7 @@ import numpy as np
 
 from fringe3d.decode.method_plans import plan_for_method, plans_to_decode
 from fringe3d.optics.rig import Rig
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.patterns.method_registry import WRAPPED, is_relative
 from fringe3d.patterns.method_registry import method_facts as method_kind
@@ -103,13 +104,14 @@ def _explain_one(d: RelativeDirection, source: str, z_min: float | None,
     return f"{head} Unwrap it absolutely: {shown}{note}."
 
 
-def _reach(rig: Rig | None, z_min: float | None, plan: DirectionPlan) -> tuple[bool, float | None]:
+def _reach(rig: Rig | None, z_min: float | None, plan: DirectionPlan,
+           geometry: RigGeometry | None = None) -> tuple[bool, float | None]:
     """Whether the geometric constraint can unwrap ``plan`` on ``rig`` (its fringes change with
     depth at most pixels; True when unknown) and the median depth it reaches from ``z_min``."""
     if rig is None or z_min is None or not plan.periods:
         return True, None
     try:
-        mp = cached_minimum_phase(rig, z_min, plan.periods[-1], plan.angle)
+        mp = cached_minimum_phase(RigGeometry.of(rig, geometry), z_min, plan.periods[-1], plan.angle)
     except ValueError:  # z_min behind the camera: said by check_geometry / the method itself
         return True, None
     if np.mean(mp.sign != 0) < 0.5:
@@ -120,9 +122,9 @@ def _reach(rig: Rig | None, z_min: float | None, plan: DirectionPlan) -> tuple[b
 
 
 def relative_direction(ps: PatternSet, plan: DirectionPlan, original: PatternSet | None, rig: Rig | None,
-                       z_min: float | None) -> RelativeDirection:
+                       z_min: float | None, geometry: RigGeometry | None = None) -> RelativeDirection:
     """The :class:`RelativeDirection` of a relative ``plan`` of ``ps`` (``original``: the manifest
-    before a method override)."""
+    before a method override; ``geometry``: the rig's :class:`RigGeometry`, else one is built)."""
     own = next((p for p in (original or ps).plans if p.direction == plan.direction), None)
     if own is not None and own.method != plan.method and not is_relative(own.method):
         return RelativeDirection(plan.direction, plan.method, manifest_method=own.method)
@@ -133,7 +135,7 @@ def relative_direction(ps: PatternSet, plan: DirectionPlan, original: PatternSet
         except ValueError:  # the manifest cannot feed it
             continue
         if method_kind(m).geometry:
-            allowed, r = _reach(rig, z_min, candidate)
+            allowed, r = _reach(rig, z_min, candidate, geometry)
             if not allowed:
                 continue
             reach = r if reach is None else reach
@@ -141,10 +143,11 @@ def relative_direction(ps: PatternSet, plan: DirectionPlan, original: PatternSet
     return RelativeDirection(plan.direction, plan.method, fixes=tuple(fixes), reach=reach)
 
 
-def check_geometry(ps: PatternSet, rig: Rig | None, z_min: float | None) -> None:
+def check_geometry(ps: PatternSet, rig: Rig | None, z_min: float | None, geometry: RigGeometry | None = None) -> None:
     """:class:`MissingGeometryError` when a plan of a geometric method lacks the rig or ``z_min``
     (the argument, else the plan's ``options["z_min"]``); the ValueError of
-    :func:`fringe3d.unwrap.geometric.minimum_phase` for a ``z_min`` no camera ray reaches."""
+    :func:`fringe3d.unwrap.geometric.minimum_phase` for a ``z_min`` no camera ray reaches. The
+    maps are kept in ``geometry`` (the rig's :class:`RigGeometry`) when given."""
     for p in plans_to_decode(ps):
         if not method_kind(p.method).geometry:
             continue
@@ -154,21 +157,24 @@ def check_geometry(ps: PatternSet, rig: Rig | None, z_min: float | None) -> None
         if z is None:
             raise MissingGeometryError(p.direction, p.method, "z_min")
         if p.periods:  # the coarsest period's map: the one every geometric method uses, cached for it
-            cached_minimum_phase(rig, float(z), float(p.periods[-1]), p.angle)
+            cached_minimum_phase(RigGeometry.of(rig, geometry), float(z), float(p.periods[-1]), p.angle)
 
 
 def check_plans(ps: PatternSet, rig: Rig | None, z_min: float | None, *, original: PatternSet | None = None,
-                source: str = "the manifest", allow_relative: bool = False) -> tuple[str, ...]:
+                source: str = "the manifest", allow_relative: bool = False,
+                geometry: RigGeometry | None = None) -> tuple[str, ...]:
     """Check that ``ps`` can give absolute 3D: :func:`check_geometry`, then
     :class:`RelativePhaseError` for the directions whose plan is relative (unless
     ``allow_relative``). Returns those directions (empty when every phase is absolute).
 
     ``original`` is the manifest before a method override (to point back to its own plan);
-    ``source`` names the manifest in messages (e.g. ``CAPTURE/manifest.json``).
+    ``source`` names the manifest in messages (e.g. ``CAPTURE/manifest.json``); ``geometry`` is
+    the rig's :class:`RigGeometry` that keeps the minimum phase maps (else one is built).
     """
-    check_geometry(ps, rig, z_min)
+    geometry = None if rig is None else RigGeometry.of(rig, geometry)
+    check_geometry(ps, rig, z_min, geometry)
     relative = [p for p in plans_to_decode(ps) if is_relative(p.method)]
     if relative and not allow_relative:
-        raise RelativePhaseError(source, tuple(relative_direction(ps, p, original, rig, z_min) for p in relative),
-                                 z_min)
+        found = tuple(relative_direction(ps, p, original, rig, z_min, geometry) for p in relative)
+        raise RelativePhaseError(source, found, z_min)
     return tuple(p.direction for p in relative)

@@ -11,13 +11,13 @@
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 
 import numpy as np
 
 from fringe3d.decode.result import Decoded
 from fringe3d.optics.rays import camera_shape
 from fringe3d.optics.rig import Rig
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.reconstruct.triangulate import Triangulator, triangulate
 from fringe3d.utils.camera_size import check_camera_size
@@ -100,15 +100,15 @@ def projector_coordinates(decoded: Decoded, directions=None) -> dict:
     return {"w": w, "angle": ang, "up": up, "vp": vp, "mask": mask}
 
 
-@lru_cache(maxsize=4)
-def triangulator_for(rig: Rig, angle: float) -> Triangulator:
-    """The closed-form :class:`Triangulator` of ``rig`` at fringe ``angle`` (rad), built once per
-    rig object and angle: a sequence reuses the per-pixel ray coefficients (Eq. 2.37) instead of
-    recomputing them every 3D frame (~28 ms at 1280x1024)."""
-    return Triangulator(rig, angle=angle)
+def triangulator_for(geometry: RigGeometry, angle: float) -> Triangulator:
+    """The closed-form :class:`Triangulator` of ``geometry.rig`` at fringe ``angle`` (rad), built
+    once per :class:`RigGeometry` and angle: a sequence reuses the per-pixel ray coefficients
+    (Eq. 2.37) instead of recomputing them every 3D frame (~28 ms at 1280x1024)."""
+    return geometry.memo(("triangulator", float(angle)), lambda: Triangulator(geometry.rig, angle=angle))
 
 
-def points_from_decoded(decoded: Decoded, rig: Rig, method: str = "auto", directions=None) -> np.ndarray:
+def points_from_decoded(decoded: Decoded, rig: Rig, method: str = "auto", directions=None,
+                        geometry: RigGeometry | None = None) -> np.ndarray:
     """Organized point map ``(H, W, 3)`` float32 (mm, NaN invalid) from decoded absolute phase.
 
     ``method``: ``"fast"`` (closed form, one direction; the first of ``directions``),
@@ -126,6 +126,9 @@ def points_from_decoded(decoded: Decoded, rig: Rig, method: str = "auto", direct
     directions : sequence of str, optional
         The directions to use (default every decoded direction).
 
+    geometry : fringe3d.optics.RigGeometry, optional
+        The rig's geometry that keeps the closed form's coefficients (the engine's); built for
+        this call when omitted.
     Returns
     -------
     ndarray
@@ -143,7 +146,7 @@ def points_from_decoded(decoded: Decoded, rig: Rig, method: str = "auto", direct
         method = "fast" if (len(names) == 1 and not rig.projector.dist.any()) else "lsq"
     if method == "fast":
         d = names[0]
-        return triangulator_for(rig, float(pc["angle"][d])).points(pc["w"][d], pc["mask"])
+        return triangulator_for(RigGeometry.of(rig, geometry), float(pc["angle"][d])).points(pc["w"][d], pc["mask"])
     if pc["up"] is None and pc["vp"] is None:  # one direction at a general angle
         d = names[0]
         a = pc["angle"][d]

@@ -27,6 +27,7 @@ from fringe3d.gpu.runtime import check_backend
 from fringe3d.io.store import LAYOUTS
 from fringe3d.optics.rays import projector_fringe_coordinate
 from fringe3d.optics.rig import Rig
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.conventions import w_range, w_to_phase
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.patterns.method_registry import method_facts
@@ -77,7 +78,10 @@ class FrameReconstructor:
     """Turns one cycle of frames (manifest order) into an ``(H, W, 3)`` float32 point map.
 
     Built once per rig and manifest: the minimum phase map and ray coefficients are computed
-    once. ``fast=True`` takes the fused :class:`FastThreeStep` kernel when the manifest is one
+    once and kept in :attr:`geometry`, the rig's
+    :class:`~fringe3d.optics.rig_geometry.RigGeometry` that this engine owns (or shares, when a
+    ``geometry`` of the same rig is passed: engines for one rig then compute each map once);
+    nothing else holds the rig. ``fast=True`` takes the fused :class:`FastThreeStep` kernel when the manifest is one
     3-step direction unwrapped by ``"geometric"`` and the projector has no distortion (it masks by
     modulation, then the edge and mixed-pixel tests of :mod:`fringe3d.reconstruct.fast_quality`;
     saturation is not checked on that path).
@@ -96,12 +100,14 @@ class FrameReconstructor:
 
     def __init__(self, patterns: PatternSet, rig: Rig, options: DecodeOptions | None = None,
                  triangulation: str = "auto", fast: bool = True, backend: str = "cpu",
-                 allow_relative: bool = False):
+                 allow_relative: bool = False, geometry: RigGeometry | None = None):
         self.patterns = patterns
         self.rig = rig
+        self.geometry = RigGeometry.of(rig, geometry)
         self.backend = check_backend(backend)
         self.options = dataclasses.replace(options or DecodeOptions(), backend=self.backend)
-        self.relative = check_plans(patterns, rig, self.options.z_min, allow_relative=allow_relative)
+        self.relative = check_plans(patterns, rig, self.options.z_min, allow_relative=allow_relative,
+                                    geometry=self.geometry)
         if self.relative:
             warnings.warn(f"triangulating the wrapped or relative phase of direction(s) {list(self.relative)} "
                           "(allow_relative): the 3D is off by an unknown number of fringe periods in depth",
@@ -111,7 +117,7 @@ class FrameReconstructor:
         self.z_min = self.options.z_min
         self.triangulation = triangulation
         self._range_checked = False
-        self.fused = fused_path(patterns, rig, self.options, self.backend) if fast else None
+        self.fused = fused_path(patterns, self.geometry, self.options, self.backend) if fast else None
         self.fast = self.fused.kernel if self.fused is not None else None
 
     @property
@@ -163,14 +169,15 @@ class FrameReconstructor:
         parameters for these frames, already computed (:meth:`depths`)."""
         if self.fast is not None:
             return self._reconstruct_fused(frames, uncertainty, points, texture, depth)
-        dec = decode(frames, self.patterns, rig=self.rig, options=self.options)
-        pts = points_from_decoded(dec, self.rig, method=self.triangulation)
+        dec = decode(frames, self.patterns, rig=self.rig, options=self.options, geometry=self.geometry)
+        pts = points_from_decoded(dec, self.rig, method=self.triangulation, geometry=self.geometry)
         tex = np.asarray(dec.texture, np.float32)  # a fraction of full scale already (fringe3d.decode.texture)
         quality = np.zeros(pts.shape[:2], np.uint8)
         for q in dec.quality.values():
             quality |= q
         quality[~np.isfinite(pts[..., 0]) & (quality == 0)] |= INVALID  # e.g. behind the camera
-        sigma = point_sigma(dec, self.rig, method=self.triangulation) if uncertainty else None
+        sigma = (point_sigma(dec, self.rig, method=self.triangulation, geometry=self.geometry) if uncertainty
+                 else None)
         return Cycle(pts, tex, quality, sigma, sigma_z=None if sigma is None else np.ascontiguousarray(sigma[..., 2]))
 
     def _reconstruct_fused(self, frames: np.ndarray, uncertainty: bool | str, points: bool, texture: bool,
@@ -267,11 +274,11 @@ class FusedPath:
     min_modulation: float | None
 
 
-def fused_path(patterns: PatternSet, rig: Rig, options: DecodeOptions, backend: str) -> FusedPath | None:
-    """The fused path for ``patterns`` on ``rig``, or None where it does not apply: it needs one
-    3-step direction unwrapped by ``"geometric"`` with ``options.z_min``, a pinhole camera and a
-    projector without distortion."""
-    plans = patterns.plans
+def fused_path(patterns: PatternSet, geometry: RigGeometry, options: DecodeOptions, backend: str) -> FusedPath | None:
+    """The fused path for ``patterns`` on ``geometry.rig`` (its :class:`RigGeometry`), or None
+    where it does not apply: it needs one 3-step direction unwrapped by ``"geometric"`` with
+    ``options.z_min``, a pinhole camera and a projector without distortion."""
+    plans, rig = patterns.plans, geometry.rig
     if len(plans) != 1 or plans[0].method != "geometric" or options.z_min is None or rig.telecentric:
         return None
     if rig.projector.dist.any():
@@ -280,7 +287,7 @@ def fused_path(patterns: PatternSet, rig: Rig, options: DecodeOptions, backend: 
     if len(groups) != 1 or len(groups[0].indices) != 3 or len(patterns) != 3:
         return None
     g = groups[0]
-    mp = cached_minimum_phase(rig, options.z_min, g.period, g.angle)
+    mp = cached_minimum_phase(geometry, options.z_min, g.period, g.angle)
     wr = plans[0].options.get("w_range")
     lo, hi = (float(wr[0]), float(wr[1])) if wr is not None else w_range(g.angle, patterns.width, patterns.height)
     kernel = FastThreeStep(Triangulator(rig, g.angle, warn_distortion=False), mp, g.shifts,

@@ -17,6 +17,7 @@ from typing import Callable
 import numpy as np
 
 from fringe3d.decode.result import Decoded
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.reconstruct.depth import points_from_decoded
 from fringe3d.reconstruct.triangulate import Triangulator
 
@@ -40,9 +41,12 @@ def central_difference(points_at: Callable[[float], np.ndarray], step: float = S
     return (hi - lo) / (2.0 * step)
 
 
-def point_sigma(decoded: Decoded, rig, method: str = "auto", directions=None, step: float = STEP) -> np.ndarray:
+def point_sigma(decoded: Decoded, rig, method: str = "auto", directions=None, step: float = STEP,
+                geometry: RigGeometry | None = None) -> np.ndarray:
     """(H, W, 3) float32 ``sigma_xyz`` (mm) of the points :func:`points_from_decoded` gives for
-    ``decoded`` (same ``method`` / ``directions``); NaN where a point or its phase sigma is invalid."""
+    ``decoded`` (same ``method`` / ``directions``; ``geometry`` the rig's :class:`RigGeometry`, else
+    one is built for this call); NaN where a point or its phase sigma is invalid."""
+    geometry = RigGeometry.of(rig, geometry)
     names = list(directions) if directions is not None else list(decoded.phase)
     jac, sig = [], []
     for d in names:
@@ -54,7 +58,7 @@ def point_sigma(decoded: Decoded, rig, method: str = "auto", directions=None, st
             shifted = dict(decoded.phase)
             shifted[d] = (decoded.phase[d] + np.float32(h)).astype(np.float32)
             return points_from_decoded(dataclasses.replace(decoded, phase=shifted), rig, method=method,
-                                       directions=directions)
+                                       directions=directions, geometry=geometry)
         jac.append(central_difference(at, step))
         sig.append(s)
     return sigma_from_jacobian(jac, sig)

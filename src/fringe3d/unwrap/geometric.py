@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 import warnings
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +28,7 @@ import numpy as np
 from fringe3d.gpu.runtime import check_backend
 from fringe3d.optics.rays import RayGeometry, check_map, projector_fringe_coordinate
 from fringe3d.optics.rig import Rig
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.conventions import TWO_PI, w_to_phase
 from fringe3d.utils.warning_types import DepthRangeWarning
 
@@ -314,17 +314,16 @@ def propose_z_min(reference, margin: float = 5.0, percentile: float = 0.0) -> fl
     return zmin - float(margin)
 
 
-_MP_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # rig -> {(z_min, T, angle): MinimumPhase}
+def cached_minimum_phase(geometry: RigGeometry, z_min: float, period: float, angle: float) -> MinimumPhase:
+    """:func:`minimum_phase` of ``geometry.rig``, computed once per :class:`RigGeometry`.
 
-
-def cached_minimum_phase(rig, z_min: float, period: float, angle: float) -> MinimumPhase:
-    """:func:`minimum_phase`, computed once per rig object / z_min / period / angle (sequences
-    decode thousands of cycles with the same rig).
+    Sequences decode thousands of cycles with the same rig; the engine owns the geometry, so the
+    map lives as long as the engine.
 
     Parameters
     ----------
-    rig : fringe3d.optics.Rig
-        The rig (cached per object, weakly referenced).
+    geometry : fringe3d.optics.RigGeometry
+        The rig's precomputed geometry (keeps the map).
     z_min : float
         Depth (mm, world frame) of the nearest plane of the measurement volume.
     period : float
@@ -335,10 +334,7 @@ def cached_minimum_phase(rig, z_min: float, period: float, angle: float) -> Mini
     Returns
     -------
     MinimumPhase
-        As :func:`minimum_phase`; the same object for repeated calls.
+        As :func:`minimum_phase`; the same object for repeated calls with one geometry.
     """
-    per_rig = _MP_CACHE.setdefault(rig, {})
-    key = (float(z_min), float(period), float(angle))
-    if key not in per_rig:
-        per_rig[key] = minimum_phase(rig, z_min, period, angle)
-    return per_rig[key]
+    key = ("minimum_phase", float(z_min), float(period), float(angle))
+    return geometry.memo(key, lambda: minimum_phase(geometry.rig, z_min, period, angle))

@@ -21,15 +21,15 @@ def warn_depth_range(ctx: DecodeContext, rig: Rig, mp: MinimumPhase, mask: np.nd
 
 def unwrap_geometric(ctx: DecodeContext) -> Unwrapped:
     """Plan ``method="geometric"``: the plan's (single) period unwrapped by Eq. (4.21)."""
-    rig, z_min = require_geometry(ctx, "geometric")
+    geo, z_min = require_geometry(ctx, "geometric")
     groups = ctx.groups_for_plan()
     if len(groups) != 1:
         raise ValueError(f"direction {ctx.direction!r}: method 'geometric' unwraps one phase group, the plan "
                          f"names periods {[g.period for g in groups]}")
     g = groups[0]
-    mp = cached_minimum_phase(rig, z_min, g.period, g.angle)
+    mp = cached_minimum_phase(geo, z_min, g.period, g.angle)
     Phi, mask = geometric_unwrap(ctx.group_phase(g).phase, mp, ctx.group_mask(g))
-    warn_depth_range(ctx, rig, mp, mask)
+    warn_depth_range(ctx, geo.rig, mp, mask)
     return Unwrapped(Phi, mask)
 
 
@@ -37,15 +37,15 @@ def unwrap_two_frequency_geometric(ctx: DecodeContext) -> Unwrapped:
     """Plan ``method="two_frequency_geometric"``, periods ``(T_high, T_low)`` (ch. 5.3): the
     low-frequency phase is unwrapped by the geometric constraint, then unwraps the high one
     hierarchically, ``k = round((T_l/T_h * Phi_l - phi_h)/2pi)`` (Eq. 1.5)."""
-    rig, z_min = require_geometry(ctx, "two_frequency_geometric")
+    geo, z_min = require_geometry(ctx, "two_frequency_geometric")
     groups = ctx.groups_for_plan()
     if len(groups) != 2:
         raise ValueError(f"direction {ctx.direction!r}: method 'two_frequency_geometric' needs two phase groups "
                          f"(high, low frequency), the plan names periods {[g.period for g in groups]}")
     hi, lo = sorted(groups, key=lambda g: g.period)
-    mp = cached_minimum_phase(rig, z_min, lo.period, lo.angle)
+    mp = cached_minimum_phase(geo, z_min, lo.period, lo.angle)
     Phi_l, mask_l = geometric_unwrap(ctx.group_phase(lo).phase, mp, ctx.group_mask(lo))
-    warn_depth_range(ctx, rig, mp, mask_l)
+    warn_depth_range(ctx, geo.rig, mp, mask_l)
     phi_h = ctx.group_phase(hi).phase.astype(np.float64)
     k = coarse_to_fine_order(Phi_l, phi_h, lo.period / hi.period)
     Phi = (phi_h + TWO_PI * k).astype(np.float32)

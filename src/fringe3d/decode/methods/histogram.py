@@ -18,17 +18,17 @@ def unwrap_histogram(ctx: DecodeContext) -> Unwrapped:
     object is shifted by the mode of its fringe-order difference to ``Φ_ref`` (the
     ``T_ref`` group unwrapped by the geometric constraint) or, with one group, to ``Φ_min``.
     Needs the rig and ``z_min``. Options: ``erode``, ``min_size``, ``min_ratio``."""
-    rig, z_min = require_geometry(ctx, "histogram")
+    geo, z_min = require_geometry(ctx, "histogram")
     groups = sorted(ctx.groups_for_plan(), key=lambda g: g.period)
     if len(groups) not in (1, 2):
         raise ValueError(f"direction {ctx.direction!r}: method 'histogram' takes one or two phase groups, "
                          f"the plan names periods {[g.period for g in groups]}")
     hi = groups[0]
-    mp_hi = cached_minimum_phase(rig, z_min, hi.period, hi.angle)
+    mp_hi = cached_minimum_phase(geo, z_min, hi.period, hi.angle)
     phi_r, labels, pr = unwrap_group_per_object(ctx, hi, mp_hi.phi_min, min_size=200, erode=2)
     if len(groups) == 2:
         lo = groups[1]
-        mp_lo = cached_minimum_phase(rig, z_min, lo.period, lo.angle)
+        mp_lo = cached_minimum_phase(geo, z_min, lo.period, lo.angle)
         prl = ctx.group_phase(lo)
         fg_l = foreground_mask(prl.average, prl.modulation, float(ctx.method_option("min_ratio", 0.15)))
         phi_ref, _ = geometric_unwrap(prl.phase, mp_lo, fg_l & ctx.group_mask(lo), check=False)

@@ -16,7 +16,7 @@ def unwrap_hybrid(ctx: DecodeContext) -> Unwrapped:
     ``erode``, ``min_size``, ``min_ratio``, ``max_shift``, ``cross_motion``. Returns ``Φ_a``
     with the FTP wrapped phase and modulation, the period ``T``, the object labels and each
     object's ``k_s``."""
-    rig, z_min = require_geometry(ctx, "hybrid")
+    geo, z_min = require_geometry(ctx, "hybrid")
     groups = ctx.groups_for_plan()
     if len(groups) != 2:
         raise ValueError(f"direction {ctx.direction!r}: method 'hybrid' needs two phase groups (one FTP frame "
@@ -26,7 +26,7 @@ def unwrap_hybrid(ctx: DecodeContext) -> Unwrapped:
     if len(hi.indices) != 1 or len(lo.indices) < 3:
         raise ValueError(f"direction {ctx.direction!r}: method 'hybrid' needs 1 high-frequency frame and >= 3 "
                          f"low-frequency frames, the manifest has {len(hi.indices)} and {len(lo.indices)}")
-    mp = cached_minimum_phase(rig, z_min, lo.period, lo.angle)
+    mp = cached_minimum_phase(geo, z_min, lo.period, lo.angle)
     carrier = carrier_from_minimum_phase(mp.phi_min, lo.period / hi.period)
     high = ftp_group_phase(ctx.frames[list(hi.indices)], hi.shifts, carrier,
                            window=str(ctx.method_option("ftp_window", "hanning")))

@@ -64,7 +64,7 @@ def unwrap_spatial(ctx: DecodeContext) -> Unwrapped:
     z_min = ctx.z_min if ctx.z_min is not None else ctx.plan.options.get("z_min")
     phi_min = None
     if len(g.indices) < 3 and ctx.rig is not None and z_min is not None:
-        rig, z_min = require_geometry(ctx, "spatial")
-        phi_min = cached_minimum_phase(rig, z_min, g.period, g.angle).phi_min
+        geo, z_min = require_geometry(ctx, "spatial")
+        phi_min = cached_minimum_phase(geo, z_min, g.period, g.angle).phi_min
     phi_r, labels, _ = unwrap_group_per_object(ctx, g, phi_min, min_size=64, erode=0, by_modulation=True)
     return Unwrapped(phi_r, np.isfinite(phi_r), labels=labels)
