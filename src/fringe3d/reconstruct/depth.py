@@ -125,10 +125,10 @@ def points_from_decoded(decoded: Decoded, rig: Rig, method: str = "auto", direct
         Triangulation method, as above.
     directions : sequence of str, optional
         The directions to use (default every decoded direction).
-
     geometry : fringe3d.optics.RigGeometry, optional
         The rig's geometry that keeps the closed form's coefficients (the engine's); built for
         this call when omitted.
+
     Returns
     -------
     ndarray
