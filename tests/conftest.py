@@ -2,9 +2,13 @@
 several test files use."""
 from __future__ import annotations
 
+import fcntl
+import os
+import pickle
 from dataclasses import dataclass
 
 import numpy as np
+import pytest
 
 from fringe3d.optics import PinholeDevice, intrinsics
 
@@ -165,3 +169,38 @@ def write_wing_sequence(folder, times, wing: AnalyticWing | None = None):
 # One Xvfb X server for the whole test session (pyglet binds to the first display it opens, so
 # every device test must share it): defined once here, started on first use.
 from devices_xvfb import xvfb  # noqa: E402,F401  (session fixture)
+
+
+# ----------------------------------------------------------------------------- shared experiment runs
+@pytest.fixture(scope="session")
+def quick_experiment(tmp_path_factory):
+    """``quick_experiment(name, seed=0)``: ``experiments.get(name).run(quick=True, seed=seed)``,
+    computed once per test session and shared by every xdist worker (a pickle under the session's
+    shared temporary folder, written under an exclusive ``flock``), returned as a fresh deep copy.
+
+    Each experiment's own test file checks the result against truth and the ``experiment -o`` test
+    writes it through the command line, so the run is not repeated for both (issue 24: the suite's
+    time)."""
+    from fringe3d import experiments
+
+    base = tmp_path_factory.getbasetemp()
+    shared = (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "quick-experiments"
+    shared.mkdir(parents=True, exist_ok=True)
+    memo: dict = {}
+    runs = {n: m.run for n, m in experiments.available().items()}  # before any test replaces one
+
+    def get(name: str, seed: int = 0) -> dict:
+        key = f"{name}-seed{seed}"
+        if key not in memo:
+            with open(shared / f"{key}.lock", "w") as lock:
+                fcntl.flock(lock, fcntl.LOCK_EX)
+                done = shared / f"{key}.pickle"
+                if not done.is_file():
+                    result = runs[name](quick=True, seed=seed)
+                    part = done.with_suffix(".part")
+                    part.write_bytes(pickle.dumps(result))
+                    part.replace(done)
+                memo[key] = done.read_bytes()
+        return pickle.loads(memo[key])
+
+    return get

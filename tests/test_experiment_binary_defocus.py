@@ -4,12 +4,11 @@ import math
 import numpy as np
 import pytest
 
-from fringe3d.experiments import binary_defocus
 
 
 @pytest.fixture(scope="module")
-def result():
-    return binary_defocus.run(quick=True)
+def result(quick_experiment):
+    return quick_experiment("binary-defocus")
 
 
 def _rms(result, kind, T, sigma):

@@ -2,12 +2,11 @@
 depend on projector defocus (Eq. 2.26-2.29)."""
 import pytest
 
-from fringe3d.experiments import defocus_calibration as exp
 
 
 @pytest.mark.slow
-def test_quick_defocus_calibration_is_defocus_independent():
-    r = exp.run(quick=True, seed=0)
+def test_quick_defocus_calibration_is_defocus_independent(quick_experiment):
+    r = quick_experiment("defocus-calibration")
     rows = r["tables"][0]["rows"]
     assert [row[0] for row in rows] == ["in focus", "slightly defocused", "strongly defocused"]
     for row in rows:

@@ -1,12 +1,11 @@
 """`fringe3d experiment falling-balls --quick`: hybrid FTP+PSP vs two-frequency PSP on falling balls."""
 import pytest
 
-from fringe3d import experiments
 
 
 @pytest.fixture(scope="module")
-def result():
-    return experiments.get("falling-balls").run(quick=True, seed=0)
+def result(quick_experiment):
+    return quick_experiment("falling-balls")
 
 
 def test_falling_balls_quick_meets_its_goals(result):

@@ -6,8 +6,8 @@ from fringe3d.experiments import flapping_wing
 
 
 @pytest.fixture(scope="module")
-def result():
-    return flapping_wing.run(quick=True, seed=0)
+def result(quick_experiment):
+    return quick_experiment("flapping-wing")
 
 
 def _table(result, start):

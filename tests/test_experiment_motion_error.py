@@ -2,8 +2,8 @@
 from fringe3d.experiments import get
 
 
-def test_moving_sphere_error_is_periodic_and_many_times_the_static_error():
-    res = get("motion-error").run(quick=True, seed=0)
+def test_moving_sphere_error_is_periodic_and_many_times_the_static_error(quick_experiment):
+    res = quick_experiment("motion-error")
     fig = res["figures"]
     static, moving = res["tables"][0]["rows"]
     assert static[0] == "static sphere" and moving[0].startswith("moving")

@@ -2,12 +2,11 @@
 matches the rig's true epipolar direction, and both calibrations measure a sphere."""
 import pytest
 
-from fringe3d.experiments import optimal_angle as exp
 
 
 @pytest.mark.slow
-def test_quick_optimal_angle_recovers_epipolar_direction_and_calibrates():
-    r = exp.run(quick=True, seed=0)
+def test_quick_optimal_angle_recovers_epipolar_direction_and_calibrates(quick_experiment):
+    r = quick_experiment("optimal-angle")
     f = r["figures"]
     assert f["alpha_error_deg"] < 2.0 and r["goals"]["alpha_opt within 2 deg of truth"]
     assert 80 < f["alpha_true_deg"] < 100  # well-designed rig: nearly vertical fringes are optimal

@@ -3,12 +3,11 @@ import math
 
 import pytest
 
-from fringe3d import experiments
 
 
 @pytest.fixture(scope="module")
-def result():
-    return experiments.get("single-shot").run(quick=True, seed=0)
+def result(quick_experiment):
+    return quick_experiment("single-shot")
 
 
 def test_single_shot_quick_meets_its_goals(result):

@@ -1,12 +1,11 @@
 """Quick variant of the telecentric experiment (ch. 3): diagonals, 50 um steps, plane flatness."""
 import pytest
 
-from fringe3d.experiments import telecentric as exp
 
 
 @pytest.mark.slow
-def test_quick_telecentric_measures_diagonals_steps_and_plane():
-    r = exp.run(quick=True, seed=0)
+def test_quick_telecentric_measures_diagonals_steps_and_plane(quick_experiment):
+    r = quick_experiment("telecentric")
     seq, ref = r["figures"]["sequential, bilinear"], r["figures"]["joint LM, bilinear"]
     loc = r["figures"]["sequential, local fit"]
     # quick variant: 320x256 camera, 5 poses, preset noise; true diagonal 8*sqrt(2)*spacing

@@ -8,8 +8,8 @@ from fringe3d.experiments import unwrap_noise
 
 
 @pytest.fixture(scope="module")
-def result():
-    return unwrap_noise.run(quick=True, seed=0)
+def result(quick_experiment):
+    return quick_experiment("unwrap-noise")
 
 
 def test_no_order_errors_without_noise_for_the_robust_methods(result):
