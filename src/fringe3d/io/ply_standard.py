@@ -154,23 +154,48 @@ def _body(vert: np.ndarray, F: np.ndarray | None, binary: bool) -> bytes:
     return ("\n".join(rows) + "\n").encode("ascii")
 
 
-#: The measurement PLY's scalar: ``scalar_roughness_mm``.
+#: The measurement PLY's scalars: ``scalar_sigma_z_mm`` (when known) and ``scalar_roughness_mm``.
 ROUGHNESS_FIELD = "roughness_mm"
 ROUGHNESS_NAME = ("local roughness (mm): RMS distance of the 3x3 neighbourhood to its best plane "
                   "(NaN with fewer than 5 neighbours)")
+SIGMA_Z_FIELD = "sigma_z_mm"
+SIGMA_Z_NAME = "predicted depth standard deviation (mm), NaN unknown"
 CAMERA_FRAME = "frame: camera coordinates (camera centre at the origin, z along its axis)"
 
 
+def measurement_scalars(points, sigma_z=None) -> dict[str, tuple[np.ndarray, str]]:
+    """The scalar fields of a measurement's point files (PLY, VTP, LAS, ...).
+
+    Parameters
+    ----------
+    points : (H, W, 3) organized map, float, mm, NaN = no point
+    sigma_z : (H, W) predicted depth standard deviation (mm), optional
+
+    Returns
+    -------
+    dict
+        ``sigma_z_mm`` (when ``sigma_z`` is given) and ``roughness_mm``
+        (:func:`fringe3d.io.grid_mesh.local_roughness`), each ``name -> (values (H, W), description)``.
+    """
+    P = np.asarray(points, np.float32)
+    out: dict[str, tuple[np.ndarray, str]] = {}
+    if sigma_z is not None:
+        out[SIGMA_Z_FIELD] = (np.asarray(sigma_z, np.float32), SIGMA_Z_NAME)
+    rough = local_roughness(P) if P.ndim == 3 else np.full(P.shape[:-1], np.nan, np.float32)
+    out[ROUGHNESS_FIELD] = (rough, ROUGHNESS_NAME)
+    return out
+
+
 def write_measurement_ply(path: str | os.PathLike, points, texture=None, faces: bool = False, mask=None,
-                          binary: bool = True) -> Path:
+                          binary: bool = True, sigma_z=None) -> Path:
     """A reconstructed point map ``(H, W, 3)`` (mm, NaN invalid) as the standard PLY every path
-    writes: normals, texture colour, ``scalar_roughness_mm`` (:func:`fringe3d.io.grid_mesh.local_roughness`),
-    the version and command in the header and, with ``faces``, the grid's triangles."""
+    writes: normals, texture colour, ``scalar_sigma_z_mm`` (when ``sigma_z`` (H, W) mm is given),
+    ``scalar_roughness_mm`` (:func:`fringe3d.io.grid_mesh.local_roughness`), the version and
+    command in the header and, with ``faces``, the grid's triangles."""
     P = np.asarray(points, np.float32)
     if mask is not None and P.ndim == 3 and np.shape(mask) == P.shape[:2]:
         P = np.where(np.asarray(mask, bool)[..., None], P, np.nan)
-    rough = local_roughness(P) if P.ndim == 3 else np.full(P.shape[:-1], np.nan, np.float32)
-    return write_standard_ply(path, P, texture, scalars={ROUGHNESS_FIELD: (rough, ROUGHNESS_NAME)}, mask=mask,
+    return write_standard_ply(path, P, texture, scalars=measurement_scalars(P, sigma_z), mask=mask,
                               faces=faces, comments=[CAMERA_FRAME], binary=binary)
 
 
