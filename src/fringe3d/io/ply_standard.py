@@ -14,7 +14,7 @@ Layout (binary little-endian, or ASCII)::
     property float x / y / z          # mm
     property float nx / ny / nz       # unit normal towards the camera (organized maps)
     property uchar red / green / blue # texture (when given)
-    property float scalar_<name>      # per-point scalars; a comment says what each is (units)
+    property float scalar_<name>      # per-point scalars (sigma_z_mm, roughness_mm); a comment says what each is
     element face F                    # only with faces
     property list uchar int vertex_indices
     end_header
@@ -22,9 +22,13 @@ Layout (binary little-endian, or ASCII)::
 Normals are finite at every point written (:func:`fringe3d.io.point_attributes.grid_normals`:
 one-sided differences at borders and holes, the line of sight for a lone point), so a point map
 and its PLY hold the same points and no reader turns a NaN normal into a made-up one. Scalar
-fields are named ``scalar_<name>`` (CloudCompare's convention; Open3D's tensor reader, MeshLab,
-meshio and trimesh keep any name). VTK's PLY reader (ParaView, PyVista) keeps only points,
-normals and colours: use the VTK exports for scalars there. A scalar is NaN where it is unknown.
+fields are named ``scalar_<name>`` (CloudCompare's convention, shown as ``<name>``; Open3D's
+tensor reader, meshio and trimesh keep any name). Two importers drop them whatever their name or
+type: VTK's PLY reader (ParaView, PyVista) keeps only points, normals, colours and texture
+coordinates (read the ``.vtp`` of :mod:`fringe3d.io.vtk_points` there), and MeshLab's (pymeshlab)
+keeps one vertex scalar only, a property named ``quality`` (a word fringe3d reserves for its mask
+reason bits), and no custom attribute (hand them over with :func:`fringe3d.io.pointcloud.read_ply`).
+``docs/file-formats.md`` has the reader-by-reader table. A scalar is NaN where it is unknown.
 """
 from __future__ import annotations
 
