@@ -75,7 +75,8 @@ def register(app: typer.Typer) -> None:
                                         help="Propose z_min from a reference measurement (points.npy or a reconstruct "
                                              "output folder): its nearest depth minus --z-margin."),
         z_margin: float = typer.Option(5.0, "--z-margin", help="Margin (mm) below the reference's nearest depth."),
-        ply: bool = typer.Option(False, "--ply", help="Also write PLY point clouds (coloured by the texture; one cycle: points.vtp beside)."),
+        ply: bool = typer.Option(False, "--ply", help="Also write PLY point clouds (coloured by the texture; "
+                                 "one cycle: points.vtp beside, for ParaView)."),
         mesh: bool = typer.Option(False, "--mesh", help="One cycle: points.ply also holds the pixel grid's triangles "
                                   "(implies --ply)."),
         formats: list[str] = typer.Option([], "--format",

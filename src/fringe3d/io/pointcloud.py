@@ -83,6 +83,8 @@ def read_ply(path: str | os.PathLike) -> PointCloudData:
     if {"red", "green", "blue"} <= set(names):
         colors = np.stack([np.ravel(raw[k]) for k in ("red", "green", "blue")], axis=-1).astype(np.uint8)
     fixed = {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue", "alpha"}
-    scalars = {k.removeprefix("scalar_"): np.ravel(raw[k]).astype(np.float32) for k in names
-               if k not in fixed and np.asarray(raw[k]).dtype.kind == "f"}
+    scalars: dict[str, np.ndarray] = {}
+    for k in map(str, names):
+        if k not in fixed and np.asarray(raw[k]).dtype.kind == "f":
+            scalars[k.removeprefix("scalar_")] = np.ravel(raw[k]).astype(np.float32)
     return PointCloudData(pts, colors, normals, scalars)
