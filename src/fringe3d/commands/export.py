@@ -37,8 +37,9 @@ def register(app: typer.Typer) -> None:
 
         Points keep their colours and scalar fields (sigma_z_mm, roughness_mm) where the format
         can hold them (VTP: for ParaView and PyVista, whose PLY reader drops scalar fields); units
-        are mm except E57 and GLB, whose formats fix the metre (see docs/file-formats.md). STL, OBJ and GLB are meshes: the pixel grid's triangles of a
-        reconstruct folder, or the faces of a PLY mesh.
+        are mm except E57 and GLB, whose formats fix the metre (see docs/file-formats.md). STL,
+        OBJ and GLB are meshes: the pixel grid's triangles of a reconstruct folder, or the faces
+        of a PLY mesh.
 
         Example: fringe3d export out -o out/points.e57
         """
