@@ -1,4 +1,4 @@
-"""Calibration that knows when it failed: quality gates on degenerate simulated sessions (few
+"""Calibration that knows when it failed: acceptance gates on degenerate simulated sessions (few
 poses, near-parallel poses), outlier poses dropped, distortion models chosen by held-out error."""
 import json
 
@@ -21,7 +21,7 @@ def _calibrate_cli(folder, out, *extra, capsys=None):
 
 
 def _failed_names(summary):
-    return {g["name"] for g in summary["quality"]["gates"] if not g["passed"]}
+    return {g["name"] for g in summary["acceptance"]["gates"] if not g["passed"]}
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +43,7 @@ def test_accept_poor_writes_the_file_and_records_the_failed_gates(few_poses, tmp
     out = tmp_path / "calib.json"
     rc, summary, err = _calibrate_cli(few_poses, out, "--accept-poor", capsys=capsys)
     assert rc == 0 and out.exists() and "written anyway" in err
-    q = load_calibration(out).quality
+    q = load_calibration(out).acceptance
     assert q["passed"] is False and q["accepted_poor"] is True
     assert [g["name"] for g in q["gates"] if not g["passed"]] == ["poses"]
 
@@ -63,8 +63,8 @@ def test_good_simulated_session_passes_every_gate(tmp_path, capsys):
     # the session of the determinism test and of `fringe3d calibrate --simulate tiny --poses 6`
     ss = simulate_session("tiny", n_poses=6, seed=0, folder=tmp_path / "good", progress=False)
     rc, summary, _ = _calibrate_cli(ss.folder, tmp_path / "calib.json", capsys=capsys)
-    assert rc == 0 and summary["quality"]["passed"]
-    assert not _failed_names(summary) and summary["quality"]["dropped_poses"] == []
+    assert rc == 0 and summary["acceptance"]["passed"]
+    assert not _failed_names(summary) and summary["acceptance"]["dropped_poses"] == []
 
 
 @pytest.mark.parametrize("k1", [0.0, 0.08])
@@ -74,7 +74,7 @@ def test_auto_models_projector_distortion_only_when_the_lens_has_it(k1):
         obs, info = observe_session(ss.poses, ss.board, progress=False)
     cal, _ = calibrate_observations(obs, info, ss.board, camera_dist="auto", projector_dist="auto")
     chosen = cal.projector["dist_model"]
-    report = cal.quality["model_choice"]["projector"]
+    report = cal.acceptance["model_choice"]["projector"]
     assert report["chosen"] == chosen
     if k1 == 0:
         assert chosen == "none"
@@ -82,7 +82,7 @@ def test_auto_models_projector_distortion_only_when_the_lens_has_it(k1):
         assert chosen != "none"
         assert report["held_out_rms_px"]["none"] > 2 * report["held_out_rms_px"][chosen]
         assert abs(cal.rig.projector.dist[0] - k1) < 0.01
-    assert cal.quality["passed"]
+    assert cal.acceptance["passed"]
 
 
 def test_outlier_pose_is_dropped_named_and_the_rest_recalibrated():
@@ -91,9 +91,9 @@ def test_outlier_pose_is_dropped_named_and_the_rest_recalibrated():
     rng = np.random.default_rng(5)
     obs[2].projector_uv = obs[2].projector_uv + rng.normal(0, 3.0, obs[2].projector_uv.shape)
     cal, _ = calibrate_observations(obs, info, ss.board)
-    assert [d["name"] for d in cal.quality["dropped_poses"]] == [obs[2].name]
+    assert [d["name"] for d in cal.acceptance["dropped_poses"]] == [obs[2].name]
     assert obs[2].name not in [p["name"] for p in cal.poses]
-    assert cal.rms["projector_px"] < 0.05 and cal.quality["passed"]
+    assert cal.rms["projector_px"] < 0.05 and cal.acceptance["passed"]
 
 
 def test_distortion_share_is_k1_r_squared_and_a_folding_model_fails():

@@ -33,7 +33,7 @@ def test_noise_free_macro_session_meets_truth_tolerances():
     assert np.abs(est.projector.t - true.projector.t).max() < 0.05  # mm
     assert rotation_angle_deg(est.projector.R, true.projector.R) < 0.01
     assert cal.rms["camera_px"] < 0.01 and cal.rms["projector_px"] < 0.01
-    assert cal.quality["passed"], [g for g in cal.quality["gates"] if not g["passed"]]
+    assert cal.acceptance["passed"], [g for g in cal.acceptance["gates"] if not g["passed"]]
 
 
 def test_calibrate_command_writes_json_yaml_plot_and_rig_loads(tiny_session, tmp_path, capsys):

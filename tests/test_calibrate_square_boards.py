@@ -151,7 +151,7 @@ def test_calibrate_simulate_renders_a_gray_code_chessboard_session_and_compares_
     assert rc == 0
     s = json.loads(capsys.readouterr().out)
     # 4 poses fail the pose-count gate: written with --accept-poor, the failure recorded
-    assert [g["name"] for g in s["quality"]["gates"] if not g["passed"]] == ["poses"]
+    assert [g["name"] for g in s["acceptance"]["gates"] if not g["passed"]] == ["poses"]
     session = json.loads((sim / "session.json").read_text())
     assert session["board"] == {"kind": "chessboard", "cols": 6, "rows": 5, "spacing": 20.0}
     assert json.loads((sim / "pose_00" / "manifest.json").read_text())["name"].startswith("opencv-graycode")

@@ -154,5 +154,5 @@ def test_telecentric_calibration_passes_the_gates_and_auto_keeps_the_linear_proj
     info = SessionFacts(camera_size=CAM.size, projector_size=PRJ.size)
     cal, _ = calibrate_observations(obs, info, BOARD, model="telecentric", projector_dist="auto")
     assert cal.projector["dist_model"] == "none"  # the true projector has no distortion
-    assert cal.quality["passed"], [g for g in cal.quality["gates"] if not g["passed"]]
-    assert {g["name"] for g in cal.quality["gates"]} >= {"orientations", "projector_focal", "camera_rms"}
+    assert cal.acceptance["passed"], [g for g in cal.acceptance["gates"] if not g["passed"]]
+    assert {g["name"] for g in cal.acceptance["gates"]} >= {"orientations", "projector_focal", "camera_rms"}

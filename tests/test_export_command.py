@@ -1,6 +1,8 @@
 """``fringe3d export``: a reconstruct folder (or a PLY) in every exchange format, read back by an
-independent reader; and the reconstruct PLY opened whole by Open3D, PyVista, MeshLab (pymeshlab)
-and CloudCompare's command line."""
+independent reader; and the reconstruct PLY opened by Open3D, PyVista, MeshLab (pymeshlab) and
+CloudCompare's command line, each scalar field compared with the folder's own maps: Open3D and
+CloudCompare keep every field, VTK's PLY reader and MeshLab's drop them (the ``.vtp`` beside the
+PLY and :func:`fringe3d.io.pointcloud.read_ply` are their routes)."""
 from __future__ import annotations
 
 import os
@@ -79,33 +81,60 @@ def test_export_refuses_an_existing_file_an_unknown_suffix_and_a_mesh_from_a_poi
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.las"]
 
 
-def test_reconstruct_ply_in_open3d_keeps_every_scalar_and_finite_normals(out):
+def fields(out):
+    """What fringe3d wrote as the PLY's scalar fields, from the folder's own maps (not the PLY)."""
+    P, ok = truth(out)
+    return {"sigma_z_mm": read_image(out / "sigma_z.tif", grey=False)[ok], "roughness_mm": local_roughness(P)[ok]}
+
+
+def test_reconstruct_ply_in_open3d_keeps_every_scalar_field_and_finite_normals(out):
     o3d = pytest.importorskip("open3d")
     P, ok = truth(out)
     t = o3d.t.io.read_point_cloud(str(out / "points.ply"))
     np.testing.assert_allclose(t.point.positions.numpy(), P[ok], atol=1e-4)
-    np.testing.assert_allclose(t.point.scalar_roughness_mm.numpy()[:, 0], local_roughness(P)[ok], atol=1e-6,
-                               equal_nan=True)
+    kept = {k.removeprefix("scalar_") for k in dict(t.point.items()) if k.startswith("scalar_")}
+    assert kept == set(fields(out))
+    for name, values in fields(out).items():
+        np.testing.assert_array_equal(t.point[f"scalar_{name}"].numpy()[:, 0], values)
     assert np.isfinite(t.point.normals.numpy()).all() and t.point.colors.numpy().shape == (ok.sum(), 3)
 
 
-def test_reconstruct_ply_in_pyvista_keeps_points_colours_and_finite_normals(out):
+def test_vtk_ply_reader_keeps_only_points_normals_and_colours_so_pyvista_reads_the_vtp_beside_it(out):
     pv = pytest.importorskip("pyvista")
     P, ok = truth(out)
-    cloud = pv.read(out / "points.ply")  # VTK's PLY reader: points, normals, RGB (no other scalars)
+    cloud = pv.read(out / "points.ply")  # vtkPLYReader: a fixed set of properties
+    assert set(cloud.point_data.keys()) == {"Normals", "RGB"}
     np.testing.assert_allclose(cloud.points, P[ok], atol=1e-4)
-    assert np.isfinite(cloud.point_data["Normals"]).all() and cloud.point_data["RGB"].shape == (ok.sum(), 3)
+    assert np.isfinite(cloud.point_data["Normals"]).all()
+    vtp = pv.read(out / "points.vtp")  # VTK's own format: every field
+    assert set(vtp.point_data.keys()) == {"Normals", "RGB", *fields(out)}
+    np.testing.assert_array_equal(vtp.points, cloud.points)
+    np.testing.assert_array_equal(vtp.point_data["Normals"], cloud.point_data["Normals"])
+    np.testing.assert_array_equal(vtp.point_data["RGB"], cloud.point_data["RGB"])
+    for name, values in fields(out).items():
+        np.testing.assert_array_equal(vtp.point_data[name], values)
+    assert np.isfinite(vtp.point_data.active_normals).all() and vtp.n_cells == ok.sum()
 
 
-def test_reconstruct_ply_in_meshlab_keeps_points_colours_and_finite_normals(out):
+def test_meshlab_ply_importer_drops_scalar_fields_and_read_ply_hands_them_over_exactly(out):
     pymeshlab = pytest.importorskip("pymeshlab")
+    from fringe3d.io.pointcloud import read_ply
+
     P, ok = truth(out)
     ms = pymeshlab.MeshSet()
     ms.load_new_mesh(str(out / "points.ply"))
     m = ms.current_mesh()
     np.testing.assert_allclose(m.vertex_matrix(), P[ok], atol=1e-4)
     np.testing.assert_allclose(m.vertex_normal_matrix(), grid_normals(P)[ok], atol=1e-5)
-    assert m.has_vertex_color()
+    assert m.has_vertex_color() and not m.has_vertex_scalar()  # MeshLab keeps only a property named `quality`
+    for name in fields(out):
+        for stored in (name, f"scalar_{name}"):
+            with pytest.raises(pymeshlab.PyMeshLabException):
+                m.vertex_custom_scalar_attribute_array(stored)
+    for name, values in read_ply(out / "points.ply").scalars.items():  # the documented hand-over
+        m.add_vertex_custom_scalar_attribute(values.astype(np.float64), name)
+    for name, values in fields(out).items():
+        np.testing.assert_array_equal(m.vertex_custom_scalar_attribute_array(name), values.astype(np.float64))
 
 
 @pytest.mark.skipif(shutil.which("CloudCompare") is None,
@@ -115,17 +144,28 @@ def test_reconstruct_ply_in_cloudcompare_keeps_every_scalar_field_and_finite_nor
     shutil.copy(out / "points.ply", tmp_path / "points.ply")
     env = {**os.environ, "QT_QPA_PLATFORM": "offscreen"}
     subprocess.run(["CloudCompare", "-SILENT", "-O", str(tmp_path / "points.ply"), "-C_EXPORT_FMT", "ASC",
-                    "-ADD_HEADER", "-SAVE_CLOUDS"], check=True, env=env, timeout=120, capture_output=True)
+                    "-PREC", "9", "-ADD_HEADER", "-SAVE_CLOUDS"], check=True, env=env, timeout=120,
+                   capture_output=True)
     (asc,) = tmp_path.glob("points_*.asc")
     header = asc.read_text().splitlines()[0].lstrip("/").split()
-    assert header == ["X", "Y", "Z", "R", "G", "B", "roughness_mm", "Nx", "Ny", "Nz"]
+    assert header == ["X", "Y", "Z", "R", "G", "B", *fields(out), "Nx", "Ny", "Nz"]
     table = np.loadtxt(asc, comments="//")
     col = {name: table[:, i] for i, name in enumerate(header)}
     np.testing.assert_allclose(table[:, :3], P[ok], atol=1e-4)
-    np.testing.assert_allclose(col["roughness_mm"], local_roughness(P)[ok], atol=1e-6, equal_nan=True)
-    normals = table[:, 7:10]
+    for name, values in fields(out).items():
+        np.testing.assert_allclose(col[name], values, rtol=1e-6, atol=1e-9, equal_nan=True)
+    normals = table[:, header.index("Nx"):header.index("Nx") + 3]
     assert np.isfinite(normals).all()
     np.testing.assert_allclose(normals, grid_normals(P)[ok], atol=5e-3)  # CloudCompare quantizes normals
+
+
+def test_export_vtp_holds_every_field_of_the_folder(out, tmp_path):
+    pv = pytest.importorskip("pyvista")
+    assert main(["export", str(out), "-o", str(tmp_path / "p.vtp"), "-q"]) == 0
+    vtp = pv.read(tmp_path / "p.vtp")
+    for name, values in fields(out).items():
+        np.testing.assert_array_equal(vtp.point_data[name], values)
+    assert "units: mm" in list(vtp.field_data["fringe3d"])
 
 
 def test_reconstruct_format_writes_points_laz_and_mat_beside_points_npy(out, tmp_path):

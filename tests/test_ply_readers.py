@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import fringe3d
-from fringe3d.io.ply_standard import write_measurement_ply
+from fringe3d.io.ply_standard import write_measurement_ply, write_standard_ply
 from fringe3d.io.point_attributes import grid_normals
 from fringe3d.io.pointcloud import write_ply
 from fringe3d.utils.provenance import use_command_line
@@ -92,3 +92,49 @@ def test_reconstruction_save_ply_is_the_measurement_ply(tmp_path):
     np.testing.assert_allclose(t.point.positions.numpy(), r.points[r.mask], atol=1e-4)
     assert np.isfinite(t.point.normals.numpy()).all()
     assert "scalar_roughness_mm" in t.point and "colors" in t.point
+    np.testing.assert_array_equal(t.point.scalar_sigma_z_mm.numpy()[:, 0], r.sigma_z[r.mask])
+
+
+def test_vtp_holds_the_ply_points_normals_colours_and_every_scalar_with_nan_kept(tmp_path):
+    pv = pytest.importorskip("pyvista")
+    from fringe3d.io.point_set import point_set
+    from fringe3d.io.pointcloud import read_ply
+    from fringe3d.io.vtk_points import write_vtp
+
+    P = holey_plane()
+    ok = np.isfinite(P[..., 0])
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=P.shape[:2]).astype(np.float32)
+    a[ok.nonzero()[0][0], ok.nonzero()[1][0]] = np.nan  # unknown at the first point
+    b = rng.uniform(size=P.shape[:2]).astype(np.float32)
+    scalars = {"a_mm": (a, "a (mm)"), "b": (b, "b <unitless> & more")}
+    tex = np.linspace(0, 1, a.size).reshape(a.shape)
+    ply = read_ply(write_standard_ply(tmp_path / "p.ply", P, tex, scalars=scalars))
+    use_command_line("fringe3d export out -o p.vtp --overwrite")
+    try:
+        vtp = pv.read(write_vtp(tmp_path / "p.vtp", point_set("p.vtp", P, scalars, colors=tex)))
+    finally:
+        use_command_line("")
+    np.testing.assert_array_equal(vtp.points, ply.points)
+    np.testing.assert_array_equal(vtp.point_data["Normals"], ply.normals)
+    np.testing.assert_array_equal(vtp.point_data["RGB"], ply.colors)
+    assert set(ply.scalars) == {"a_mm", "b"}
+    for name, (values, _) in scalars.items():
+        np.testing.assert_array_equal(vtp.point_data[name], values[ok])
+        np.testing.assert_array_equal(ply.scalars[name], values[ok])
+    assert list(vtp.field_data["fringe3d"])[2:] == ["command: fringe3d export out -o p.vtp --overwrite",
+                                                    "a_mm: a (mm)", "b: b <unitless> & more"]
+
+
+def test_vtp_of_a_point_list_has_one_vertex_per_point_and_refuses_a_name_vtk_cannot_hold(tmp_path):
+    pv = pytest.importorskip("pyvista")
+    from fringe3d.io.point_set import point_set
+    from fringe3d.io.vtk_points import write_vtp
+
+    pts = np.array([[0, 0, 400], [1, 0, 401], [np.nan, 0, 0]], np.float32)
+    vtp = pv.read(write_vtp(tmp_path / "l.vtp", point_set("l.vtp", pts)))
+    np.testing.assert_array_equal(vtp.points, pts[:2])
+    assert vtp.n_cells == 2 and set(vtp.point_data.keys()) == set()
+    with pytest.raises(ValueError, match=r"'a<b' to .*bad\.vtp"):
+        write_vtp(tmp_path / "bad.vtp", point_set("bad.vtp", pts, {"a<b": (np.zeros(3), "x")}))
+    assert not (tmp_path / "bad.vtp").exists()

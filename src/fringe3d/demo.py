@@ -144,8 +144,8 @@ def run_demo(out: str | Path, profile: str = "default", seed: int = 0,
     with st.time("calibrate"):
         obs, inf = observe_session(sess.poses, sess.board, progress=True)
         cal, res = calibrate_observations(obs, inf, sess.board)
-        if not cal.quality["passed"]:
-            warnings.warn(failure_message([Gate(**g) for g in cal.quality["gates"]]), CalibrationWarning,
+        if not cal.acceptance["passed"]:
+            warnings.warn(failure_message([Gate(**g) for g in cal.acceptance["gates"]]), CalibrationWarning,
                           stacklevel=2)
         cal.save(out / "calibration.json")
         residual_plot(out / "calibration_residuals.png", res.camera.residuals, res.projector.residuals,

@@ -24,6 +24,7 @@ from fringe3d.io.capture import Capture, read_capture
 from fringe3d.io.images import write_image
 from fringe3d.io.colour_texture import capture_chroma, rgb_texture
 from fringe3d.io.ply_standard import write_measurement_ply
+from fringe3d.io.vtk_points import write_measurement_vtp
 from fringe3d.io.point_attributes import grid_normals
 from fringe3d.io.pointcloud import _colors
 from fringe3d.optics import Rig
@@ -82,8 +83,8 @@ class Reconstruction:
     def save_ply(self, path: str | os.PathLike) -> Path:
         """Write the valid points as the measurement PLY every path writes
         (:func:`fringe3d.io.ply_standard.write_measurement_ply`: normals, texture colour,
-        ``scalar_roughness_mm``, units and provenance); returns the path."""
-        return write_measurement_ply(Path(path), self.points, self.colour, mask=self.mask)
+        ``scalar_sigma_z_mm`` (when known), ``scalar_roughness_mm``, units and provenance); returns the path."""
+        return write_measurement_ply(Path(path), self.points, self.colour, mask=self.mask, sigma_z=self.sigma_z)
 
     @property
     def colour(self) -> np.ndarray | None:
@@ -157,9 +158,10 @@ class Reconstruction:
 
     def save(self, out: str | os.PathLike, ply: bool = False, mesh: bool = False) -> dict:
         """Write ``points.npy``, ``depth.tif``, ``texture.tif``, ``quality.tif`` (uint8 bits),
-        ``sigma_z.tif`` (float32 mm) (+ ``points.ply``, with faces when ``mesh``) into ``out``;
-        see :func:`write_point_maps`."""
-        files = write_point_maps(Path(out), self.points, self.texture, ply, mesh, colour=self.texture_rgb)
+        ``sigma_z.tif`` (float32 mm) (+ ``points.ply``, with faces when ``mesh``, and
+        ``points.vtp``) into ``out``; see :func:`write_point_maps`."""
+        files = write_point_maps(Path(out), self.points, self.texture, ply, mesh, colour=self.texture_rgb,
+                                 sigma_z=self.sigma_z)
         if self.quality is not None:
             files["quality"] = str(write_image(Path(out) / "quality.tif", self.quality.astype(np.uint8),
                                                        "quality", "bit flags (fringe3d.decode.edges)"))
@@ -286,14 +288,18 @@ def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLik
 
 
 def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool,
-                     mesh: bool = False, colour: np.ndarray | None = None) -> dict:
-    """points.npy, depth.tif (float32 mm, NaN invalid), texture.tif and optionally points.ply,
-    all written atomically; returns ``{kind: path}``.
+                     mesh: bool = False, colour: np.ndarray | None = None,
+                     sigma_z: np.ndarray | None = None) -> dict:
+    """points.npy, depth.tif (float32 mm, NaN invalid), texture.tif and optionally points.ply
+    and points.vtp, all written atomically; returns ``{kind: path}``.
 
     The PLY (:func:`fringe3d.io.ply_standard.write_measurement_ply`) carries normals from the
-    grid, the texture as colour, a ``scalar_roughness_mm`` field (local roughness), units and provenance
-    in its header and, with ``mesh``, the grid's triangles; ``colour`` (H, W, 3), a colour camera's
-    texture, replaces the grey texture as the PLY's colours."""
+    grid, the texture as colour, the fields ``scalar_sigma_z_mm`` (``sigma_z``, when given) and
+    ``scalar_roughness_mm`` (local roughness), units and provenance in its header and, with
+    ``mesh``, the grid's triangles; ``colour`` (H, W, 3), a colour camera's texture, replaces the
+    grey texture as the PLY's colours. ``points.vtp`` (:func:`fringe3d.io.vtk_points.
+    write_measurement_vtp`) holds the same points and fields for ParaView and PyVista, whose PLY
+    reader drops scalar fields."""
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "points.npy") as tmp:
         with open(tmp, "wb") as f:
@@ -304,8 +310,9 @@ def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, 
         files["texture"] = str(write_image(out / "texture.tif", texture.astype(np.float32), "texture",
                                                    TEXTURE_UNIT))
     if ply or mesh:
-        files["ply"] = str(write_measurement_ply(out / "points.ply", points, colour if colour is not None else texture,
-                                                 faces=mesh))
+        colours = colour if colour is not None else texture
+        files["ply"] = str(write_measurement_ply(out / "points.ply", points, colours, faces=mesh, sigma_z=sigma_z))
+        files["vtp"] = str(write_measurement_vtp(out / "points.vtp", points, colours, sigma_z=sigma_z))
     return files
 
 

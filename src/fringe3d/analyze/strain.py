@@ -332,7 +332,7 @@ class WingSequence:
 
     ref_uv (N,2) reference pixel positions; d (N,2) reference geodesic distances to the anchors
     (mm); uv (F,N,2); xyz (F,N,3) mm; E (F,N,2,2); principal (F,N,2); dominant (F,N);
-    residual (F,N) mm (tracking residual); ok (F,N) bool quality flag (tracked and fitted).
+    residual (F,N) mm (tracking residual); ok (F,N) bool: tracked and fitted.
     """
     ref_uv: np.ndarray
     d: np.ndarray

@@ -39,7 +39,7 @@ class TrackResult:
 
     uv (N,2) sub-pixel image position (NaN if lost); residual (N,) mm, sqrt((D1−d1)²+(D2−d2)²);
     crossing (N,) sine of the angle between the iso-distance curves (small = ill-conditioned,
-    near the anchor line); ok (N,) bool quality flag.
+    near the anchor line); ok (N,) bool: tracked, residual within tolerance and crossing not too small.
     """
     uv: np.ndarray
     residual: np.ndarray

@@ -15,7 +15,7 @@
 * :mod:`.telecentric` - telecentric camera + pinhole projector (ch. 3).
 * :mod:`.calibration_file` - the versioned calibration JSON (embeds a ``Rig``).
 * :mod:`.session` - from capture folders (or poses in memory) to a calibration.
-* :mod:`.gates` - quality gates: whether a calibration is plausible enough to be used.
+* :mod:`.gates` - acceptance gates: whether a calibration is plausible enough to be used.
 * :mod:`.outliers` - the rule that drops outlier board poses.
 * :mod:`.model_choice` - distortion models chosen by held-out reprojection error (``auto``).
 * :mod:`.evaluation` - judging a calibration by what it measures.

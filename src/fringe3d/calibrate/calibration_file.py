@@ -11,12 +11,15 @@ Layout (``format = "fringe3d-calibration"``, ``version = 1``)::
      "angles":    {direction: fringe angle (rad)},
      "poses":     [{"name", "camera_rms_px", "projector_rms_px", "points"}],
      "rms":       {"camera_px", "projector_px", ...},
-     "quality":   {"passed", "gates": [{"name", "passed", "value", "limit", "advice"}],
-                   "dropped_poses", "outlier_rule", "model_choice", "accepted_poor"},
+     "acceptance": {"passed", "gates": [{"name", "passed", "value", "limit", "advice"}],
+                    "dropped_poses", "outlier_rule", "model_choice", "accepted_poor"},
      "extra":     {...}}                      # free-form (e.g. alpha_opt, stereo rms)
 
-``quality`` is what :mod:`.gates` found (absent in files written before the gates existed);
-a file whose ``quality.passed`` is false was written with ``fringe3d calibrate --accept-poor``.
+``acceptance`` is what the acceptance gates of :mod:`.gates` found (absent in files written
+before the gates existed); a file whose ``acceptance.passed`` is false was written with
+``fringe3d calibrate --accept-poor``. Files written before the field was renamed hold it as
+``quality``: read as ``acceptance`` with a :class:`~fringe3d.utils.warning_types.RenamedFieldWarning`
+(fringe3d keeps "quality" for the per-pixel mask reason bits, ``docs/file-formats.md``).
 
 :func:`load_calibration` validates it and names any missing or invalid field;
 :func:`export_opencv_yaml` writes the same numbers as an OpenCV ``FileStorage`` YAML. All
@@ -25,6 +28,7 @@ writes are atomic.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,6 +39,7 @@ from fringe3d.optics import Rig, TelecentricCamera
 from fringe3d.utils.atomic import atomic_path
 from fringe3d.utils.console import to_jsonable
 from fringe3d.utils.jsonfile import read_json, write_json
+from fringe3d.utils.warning_types import RenamedFieldWarning
 
 FORMAT = "fringe3d-calibration"
 VERSION = 1
@@ -57,13 +62,20 @@ class Calibration:
     poses: list
     rms: dict
     extra: dict = field(default_factory=dict)
-    quality: dict = field(default_factory=dict)
+    acceptance: dict = field(default_factory=dict)
+
+    @property
+    def quality(self) -> dict:
+        """Deprecated name of :attr:`acceptance` (warns)."""
+        warnings.warn("Calibration.quality is renamed Calibration.acceptance (the acceptance gates); "
+                      "'quality' means the mask reason bits in fringe3d", RenamedFieldWarning, stacklevel=2)
+        return self.acceptance
 
     def to_dict(self) -> dict:
         return to_jsonable({"format": FORMAT, "version": VERSION, "model": self.model, "rig": self.rig.to_dict(),
                             "camera_stats": self.camera, "projector_stats": self.projector, "board": self.board,
                             "periods": self.periods, "angles": self.angles, "poses": self.poses,
-                            "rms": self.rms, "quality": self.quality, "extra": self.extra})
+                            "rms": self.rms, ACCEPTANCE: self.acceptance, "extra": self.extra})
 
     def save(self, path) -> Path:
         """Write the JSON atomically; returns the path."""
@@ -73,12 +85,13 @@ class Calibration:
 
     @classmethod
     def from_dict(cls, d: dict, where: str = "calibration file") -> "Calibration":
+        d = renamed_fields(d, where)
         validate(d, where)
         rig = Rig.from_dict(d["rig"], f"{where}: field rig")
         return cls(model=d["model"], rig=rig, camera=d["camera_stats"],
                    projector=d["projector_stats"], board=d["board"],
                    periods=d["periods"], angles=d["angles"], poses=d["poses"], rms=d["rms"],
-                   extra=d.get("extra", {}), quality=d.get("quality", {}))
+                   extra=d.get("extra", {}), acceptance=d.get(ACCEPTANCE, {}))
 
     def export_opencv_yaml(self, path) -> Path:
         return export_opencv_yaml(self, path)
@@ -87,6 +100,38 @@ class Calibration:
 #: Units of a calibration file's fields (its ``provenance``); the rig's as in a rig file.
 CALIBRATION_UNITS = {"length": "mm", "rig": "as a rig file (K px, t mm)", "rms": "px (reprojection)",
                      "periods": "projector px", "angles": "rad", "spacing": "mm"}
+
+
+#: The calibration file's field of the acceptance gates, and its name in files written before.
+ACCEPTANCE = "acceptance"
+OLD_ACCEPTANCE = "quality"
+
+
+def renamed_fields(d: dict, where: str = "calibration file") -> dict:
+    """``d`` with the acceptance gates under :data:`ACCEPTANCE`: a file written before the
+    rename holds them as ``quality``, read with a
+    :class:`~fringe3d.utils.warning_types.RenamedFieldWarning` naming ``where``.
+
+    Parameters
+    ----------
+    d : dict
+        A calibration dict as read from JSON.
+    where : str
+        What to name in the warning (the file).
+
+    Returns
+    -------
+    dict
+        ``d`` itself, or a copy with the old field renamed.
+    """
+    if not isinstance(d, dict) or OLD_ACCEPTANCE not in d or ACCEPTANCE in d:
+        return d
+    warnings.warn(f"{where}: field {OLD_ACCEPTANCE!r} is the old name of {ACCEPTANCE!r} (the calibration's "
+                  f"acceptance gates); read as {ACCEPTANCE!r}. Write the file again to update it",
+                  RenamedFieldWarning, stacklevel=3)
+    out = {k: v for k, v in d.items() if k != OLD_ACCEPTANCE}
+    out[ACCEPTANCE] = d[OLD_ACCEPTANCE]
+    return out
 
 
 def _need(d: dict, key: str, typ, where: str):
@@ -148,10 +193,11 @@ def validate(d: dict, where: str = "calibration file") -> None:
     rms = _need(d, "rms", dict, where)
     for k in ("camera_px", "projector_px"):
         _need(rms, k, float, f"{where}: rms")
-    if "quality" in d and d["quality"]:
-        _need(d, "quality", dict, where)
-        _need(d["quality"], "passed", bool, f"{where}: quality")
-        _need(d["quality"], "gates", list, f"{where}: quality")
+    d = renamed_fields(d, where)
+    if ACCEPTANCE in d and d[ACCEPTANCE]:
+        _need(d, ACCEPTANCE, dict, where)
+        _need(d[ACCEPTANCE], "passed", bool, f"{where}: {ACCEPTANCE}")
+        _need(d[ACCEPTANCE], "gates", list, f"{where}: {ACCEPTANCE}")
 
 
 def load_calibration(path) -> Calibration:

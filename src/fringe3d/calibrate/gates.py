@@ -1,4 +1,4 @@
-"""Quality gates: whether a calibration is plausible enough to be used.
+"""Acceptance gates: whether a calibration is plausible enough to be used.
 
 A calibration that converged is not necessarily a good one: too few or near-parallel board
 poses leave the intrinsics undetermined (Zhang's method needs at least three board
@@ -28,12 +28,14 @@ Limits (module constants):
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
 from fringe3d.optics.distortion import distort
+from fringe3d.utils.warning_types import RenamedFieldWarning
 
 MIN_POSES = 5
 MIN_ORIENTATIONS = 3
@@ -46,8 +48,8 @@ PROJECTOR_PP_MARGIN = 0.5
 MAX_DISTORTION_SHARE = 0.2
 
 
-class QualityGateError(ValueError):
-    """A calibration failed a quality gate; ``summary`` is what the calibration gave (the
+class AcceptanceGateError(ValueError):
+    """A calibration failed an acceptance gate; ``summary`` is what the calibration gave (the
     command prints it before the error)."""
 
     def __init__(self, message: str, summary: dict | None = None):
@@ -57,7 +59,7 @@ class QualityGateError(ValueError):
 
 @dataclass(frozen=True)
 class Gate:
-    """One quality check: ``name``, ``passed``, the measured ``value`` and the ``limit`` it
+    """One acceptance check: ``name``, ``passed``, the measured ``value`` and the ``limit`` it
     was held to (both as text with units), and ``advice`` (what to do when it fails)."""
 
     name: str
@@ -214,4 +216,13 @@ def failed(gates: list[Gate]) -> list[Gate]:
 def failure_message(gates: list[Gate]) -> str:
     """One paragraph naming each failed gate, its value, its limit and what to do."""
     lines = [f"{g.name}: {g.value}, needs {g.limit} - {g.advice}" for g in failed(gates)]
-    return "calibration failed its quality gates:\n  " + "\n  ".join(lines)
+    return "calibration failed its acceptance gates:\n  " + "\n  ".join(lines)
+
+
+def __getattr__(name: str):
+    """``QualityGateError``: the old name of :class:`AcceptanceGateError` (warns)."""
+    if name == "QualityGateError":
+        warnings.warn("fringe3d.calibrate.gates.QualityGateError is renamed AcceptanceGateError ('quality' "
+                      "means the mask reason bits in fringe3d)", RenamedFieldWarning, stacklevel=2)
+        return AcceptanceGateError
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

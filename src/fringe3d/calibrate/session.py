@@ -41,7 +41,7 @@ from .boards import CircleBoard
 from .calibration_file import Calibration
 from .code_mapping import DEFAULT_WINDOW, code_projector_points
 from .corner_detection import locate_board
-from .gates import Gate, QualityGateError, calibration_gates, failed, failure_message
+from .gates import AcceptanceGateError, Gate, calibration_gates, failed, failure_message
 from .model_choice import AUTO, check_dist_option, choose_model
 from .outliers import outlier_poses, rule_text as outlier_rule
 from .phase_mapping import FringeDirection, projector_points
@@ -403,7 +403,7 @@ def calibrate_observations(obs: list[PoseObservation], info: SessionFacts, board
     ``correct_circle_bias`` applies to circle grids only. A board found in no pose is a
     ``ValueError`` naming the board and the poses. With ``drop_outliers`` the poses that
     :func:`.outliers.outlier_poses` flags are dropped and the rig calibrated once more. The
-    result's ``quality`` holds the quality gates (:func:`.gates.calibration_gates`), the
+    result's ``acceptance`` holds the acceptance gates (:func:`.gates.calibration_gates`), the
     dropped poses and the model choice; it is not enforced here
     (:func:`calibrate_to_files` refuses a calibration that fails a gate).
 
@@ -431,7 +431,7 @@ def calibrate_observations(obs: list[PoseObservation], info: SessionFacts, board
     Returns
     -------
     SessionCalibration
-        ``(Calibration, fit)``; ``Calibration.quality`` holds the gates, dropped poses and
+        ``(Calibration, fit)``; ``Calibration.acceptance`` holds the gates, dropped poses and
         model choice.
     """
     skipped = info.skipped
@@ -455,8 +455,8 @@ def calibrate_observations(obs: list[PoseObservation], info: SessionFacts, board
     else:
         dropped = []
     gates = calibration_gates(cal, res)
-    cal.quality = {"passed": not failed(gates), "gates": [g.to_dict() for g in gates],
-                   "dropped_poses": dropped, "outlier_rule": outlier_rule(), "model_choice": choice}
+    cal.acceptance = {"passed": not failed(gates), "gates": [g.to_dict() for g in gates],
+                      "dropped_poses": dropped, "outlier_rule": outlier_rule(), "model_choice": choice}
     return SessionCalibration(cal, res)
 
 
@@ -607,21 +607,21 @@ def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist
     (+ optional residual PNG plot / OpenCV YAML).
 
     Returns a JSON-friendly summary. Nothing is written unless the calibration succeeds and
-    passes its quality gates (:mod:`.gates`): a failed gate raises :class:`.gates.QualityGateError`
+    passes its acceptance gates (:mod:`.gates`): a failed gate raises :class:`.gates.AcceptanceGateError`
     (its ``summary`` is this function's summary with nothing written) - unless ``accept_poor``,
-    which writes the files, records ``quality.accepted_poor`` and warns.
+    which writes the files, records ``acceptance.accepted_poor`` and warns.
     """
     session = calibrate_session(inputs, board=board, model=model, progress=progress, camera_dist=camera_dist,
                                 projector_dist=projector_dist, min_modulation_share=min_modulation_share,
                                 telecentric_refine=refine, phase_window=phase_window, layout=layout,
                                 projector_size=projector_size, homography_window=homography_window)
     cal = session.calibration
-    gates = [Gate(**g) for g in cal.quality["gates"]]
+    gates = [Gate(**g) for g in cal.acceptance["gates"]]
     if failed(gates):
         if not accept_poor:
-            raise QualityGateError(failure_message(gates) + "\nnothing was written; `accept_poor=True` writes the "
-                                   "calibration anyway and records the failed gates in it", _summary(cal, {}))
-        cal.quality["accepted_poor"] = True
+            raise AcceptanceGateError(failure_message(gates) + "\nnothing was written; `accept_poor=True` writes "
+                                      "the calibration anyway and records the failed gates in it", _summary(cal, {}))
+        cal.acceptance["accepted_poor"] = True
         warnings.warn(failure_message(gates) + "\nwritten anyway (`accept_poor=True`); the file records the failed "
                       "gates", CalibrationWarning, stacklevel=2)
     cal.save(output)
@@ -647,4 +647,4 @@ def _summary(cal: Calibration, written: dict) -> dict:
             "phase_sampling": cal.extra.get("phase_sampling", "bilinear"),
             "correspondences": cal.extra.get("correspondences"), "board": cal.board,
             "dist_models": {"camera": cal.camera["dist_model"], "projector": cal.projector["dist_model"]},
-            "quality": cal.quality, "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}
+            "acceptance": cal.acceptance, "camera": rig.camera.to_dict(), "projector": rig.projector.to_dict()}

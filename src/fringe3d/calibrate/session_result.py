@@ -56,7 +56,7 @@ class SessionCalibration(NamedTuple):
     Attributes
     ----------
     calibration : Calibration
-        The calibrated rig, its figures and quality gates.
+        The calibrated rig, its figures and acceptance gates.
     fit : RigCalibration or TelecentricCalibration
         The raw fit of the rig model (``calibration.model``).
     """

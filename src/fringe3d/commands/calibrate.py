@@ -8,7 +8,7 @@ import typer
 from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.calibrate.calibration_file import export_rig_opencv_yaml, load_calibration, rig_for_export
 from fringe3d.calibrate.evaluation import compare_to_truth
-from fringe3d.calibrate.gates import QualityGateError
+from fringe3d.calibrate.gates import AcceptanceGateError
 from fringe3d.calibrate.model_choice import check_dist_option
 from fringe3d.calibrate.opencv_file import load_opencv_calibration, parse_node_map, parse_size
 from fringe3d.calibrate.code_mapping import DEFAULT_WINDOW
@@ -61,7 +61,7 @@ def register(app: typer.Typer) -> None:
         projector_dist: str = typer.Option("auto", help="Projector distortion: auto (as --camera-dist), none "
                                                         "(linear model), k1, k1k2, k1k2p, full."),
         accept_poor: bool = typer.Option(False, "--accept-poor", help="Write the calibration even when it fails "
-                                                                      "a quality gate (the file records the "
+                                                                      "an acceptance gate (the file records the "
                                                                       "failed gates)."),
         min_modulation: float = typer.Option(0.1, "--min-modulation-share",
                                              help="Reject centres whose modulation is below this share (a "
@@ -198,7 +198,7 @@ def register(app: typer.Typer) -> None:
                                        min_modulation, progress=not (quiet or json_), refine=not no_refine,
                                        phase_window=phase_window, layout=layout, projector_size=size,
                                        homography_window=homography_window, accept_poor=accept_poor)
-        except QualityGateError as e:  # show the figures, then the error (exit 2, nothing written)
+        except AcceptanceGateError as e:  # show the figures, then the error (exit 2, nothing written)
             _show(e.summary, json_, quiet)
             raise
         if truth is not None:
@@ -207,7 +207,7 @@ def register(app: typer.Typer) -> None:
 
 
 def _show(s: dict, json_: bool, quiet: bool) -> None:
-    """Print a calibration summary: JSON, or tables of residuals, model choice and quality gates."""
+    """Print a calibration summary: JSON, or tables of residuals, model choice and acceptance gates."""
     if json_:
         print_json(s)
         return
@@ -219,7 +219,7 @@ def _show(s: dict, json_: bool, quiet: bool) -> None:
     if "truth_comparison" in s:
         console.print(make_table("calibrated vs true rig", ["figure", "error"],
                                  [[k, v] for k, v in s["truth_comparison"].items()]))
-    q = s.get("quality", {})
+    q = s.get("acceptance", {})
     for dev, c in q.get("model_choice", {}).items():
         errs = ", ".join(f"{m} {v:.4g}" if v is not None and v < float("inf") else f"{m} failed"
                          for m, v in c.get("held_out_rms_px", {}).items())
@@ -229,7 +229,7 @@ def _show(s: dict, json_: bool, quiet: bool) -> None:
                       f"{d['projector_rms_px']:.3g} px ({q.get('outlier_rule')})")
     gates = q.get("gates", [])
     if gates:
-        console.print(make_table("quality gates", ["gate", "result", "value", "limit"],
+        console.print(make_table("acceptance gates", ["gate", "result", "value", "limit"],
                                  [[g["name"], "pass" if g["passed"] else "FAIL", g["value"], g["limit"]]
                                   for g in gates]))
     for name in s["skipped_poses"]:

@@ -33,12 +33,13 @@ def register(app: typer.Typer) -> None:
         json_: bool = typer.Option(False, "--json", help="Print the written path and counts as JSON."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="Print nothing but errors (and --json output)."),
     ) -> None:
-        """Write a measurement in the file format other tools read (PLY, E57, LAS/LAZ, MAT, STL, OBJ, GLB).
+        """Write a measurement in the file format other tools read (PLY, VTP, E57, LAS/LAZ, MAT, STL, OBJ, GLB).
 
         Points keep their colours and scalar fields (sigma_z_mm, roughness_mm) where the format
-        can hold them; units are mm except E57 and GLB, whose formats fix the metre (see
-        docs/file-formats.md). STL, OBJ and GLB are meshes: the pixel grid's triangles of a
-        reconstruct folder, or the faces of a PLY mesh.
+        can hold them (VTP: for ParaView and PyVista, whose PLY reader drops scalar fields); units
+        are mm except E57 and GLB, whose formats fix the metre (see docs/file-formats.md). STL,
+        OBJ and GLB are meshes: the pixel grid's triangles of a reconstruct folder, or the faces
+        of a PLY mesh.
 
         Example: fringe3d export out -o out/points.e57
         """

@@ -75,7 +75,8 @@ def register(app: typer.Typer) -> None:
                                         help="Propose z_min from a reference measurement (points.npy or a reconstruct "
                                              "output folder): its nearest depth minus --z-margin."),
         z_margin: float = typer.Option(5.0, "--z-margin", help="Margin (mm) below the reference's nearest depth."),
-        ply: bool = typer.Option(False, "--ply", help="Also write PLY point clouds (coloured by the texture)."),
+        ply: bool = typer.Option(False, "--ply", help="Also write PLY point clouds (coloured by the texture; "
+                                 "one cycle: points.vtp beside, for ParaView)."),
         mesh: bool = typer.Option(False, "--mesh", help="One cycle: points.ply also holds the pixel grid's triangles "
                                   "(implies --ply)."),
         formats: list[str] = typer.Option([], "--format",
@@ -127,8 +128,9 @@ def register(app: typer.Typer) -> None:
         """Reconstruct absolute 3D point maps from a capture and a calibration.
 
         One pattern cycle: OUT/points.npy ((H, W, 3) float32 mm, NaN invalid), OUT/depth.tif,
-        OUT/texture.tif (+ OUT/points.ply with --ply: normals, colour, a quality scalar,
-        units and provenance in the header; --mesh adds the grid's triangles) and OUT/reconstruct.json. A sequence:
+        OUT/texture.tif (+ OUT/points.ply with --ply: normals, colour, the scalar fields sigma_z_mm and
+        roughness_mm, units and provenance in the header; --mesh adds the grid's triangles; and
+        OUT/points.vtp, the same points and fields for ParaView and PyVista) and OUT/reconstruct.json. A sequence:
         OUT/points.zarr (one point map per cycle or window, with its quality map and sigma_z; resumable) and/or
         OUT/ply/.
 

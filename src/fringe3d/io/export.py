@@ -1,6 +1,6 @@
 """Write point clouds and meshes in the format their file name asks for.
 
-:func:`write_points` (``.ply``, ``.e57``, ``.las``, ``.laz``, ``.mat``) and :func:`write_mesh`
+:func:`write_points` (``.ply``, ``.vtp``, ``.e57``, ``.las``, ``.laz``, ``.mat``) and :func:`write_mesh`
 (``.stl``, ``.obj``, ``.glb``, ``.ply``) choose the writer by suffix (case-insensitive); an
 unknown suffix is a ValueError naming the file and the suffixes supported. Units and what each
 format keeps: ``docs/file-formats.md`` and each writer's module.
@@ -19,11 +19,12 @@ from .mat_points import write_mat
 from .mesh_formats import write_glb, write_obj, write_ply_mesh, write_stl
 from .ply_standard import Scalars, write_standard_ply
 from .point_set import PointSet, point_set
+from .vtk_points import write_vtp
 
 
 #: suffix -> writer of a point set.
 POINT_WRITERS: dict[str, Callable[[str | os.PathLike, PointSet], Path]] = {
-    ".e57": write_e57, ".las": write_las, ".laz": write_las, ".mat": write_mat}
+    ".vtp": write_vtp, ".e57": write_e57, ".las": write_las, ".laz": write_las, ".mat": write_mat}
 POINT_SUFFIXES = (".ply", *POINT_WRITERS)
 MESH_SUFFIXES = (".stl", ".obj", ".glb", ".ply")
 
@@ -43,7 +44,7 @@ def write_points(path: str | os.PathLike, points, attributes: Scalars | None = N
 
     Parameters
     ----------
-    path : output file, ``.ply``, ``.e57``, ``.las``, ``.laz`` or ``.mat``
+    path : output file, ``.ply``, ``.vtp``, ``.e57``, ``.las``, ``.laz`` or ``.mat``
     points : (H, W, 3) organized map or (N, 3) list, float, mm, NaN = no point
     attributes : ``name -> (values of the points' leading shape, description with units)``, optional
     colors : grey or RGB texture of the points' leading shape, float [0, 1] or uint8, optional

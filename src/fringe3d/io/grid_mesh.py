@@ -1,5 +1,5 @@
 """Quantities of an organized point map that come from its pixel grid: triangle faces between
-neighbouring valid pixels and a per-point quality (local roughness).
+neighbouring valid pixels and a per-point local roughness (mm).
 
 Faces: each 2 x 2 pixel cell ``(i, j), (i, j+1), (i+1, j), (i+1, j+1)`` gives up to two
 triangles ``(a, c, b)`` and ``(b, c, d)`` (a = top-left, b = top-right, c = bottom-left,

@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 
 from .arrays import load_array
-from .grid_mesh import grid_faces, local_roughness
+from .grid_mesh import grid_faces
 from .images import read_image
-from .ply_standard import ROUGHNESS_FIELD, ROUGHNESS_NAME
+from .ply_standard import measurement_scalars
 from .store import PointMapStore
 
 
@@ -80,12 +80,9 @@ def _read_folder(folder: Path) -> Measurement:
 
 def measurement_attributes(points: np.ndarray, sigma_z: np.ndarray | None) -> dict[str, tuple[np.ndarray, str]]:
     """The exported attributes of an organized point map (H, W, 3) mm: ``sigma_z_mm`` (when
-    given, mm, NaN unknown) and ``roughness_mm`` (:func:`fringe3d.io.grid_mesh.local_roughness`)."""
-    out: dict[str, tuple[np.ndarray, str]] = {}
-    if sigma_z is not None:
-        out["sigma_z_mm"] = (np.asarray(sigma_z, np.float32), "predicted depth standard deviation (mm), NaN unknown")
-    out[ROUGHNESS_FIELD] = (local_roughness(np.asarray(points, np.float32)), ROUGHNESS_NAME)
-    return out
+    given, mm, NaN unknown) and ``roughness_mm``; the same as the PLY's
+    (:func:`fringe3d.io.ply_standard.measurement_scalars`)."""
+    return measurement_scalars(points, sigma_z)
 
 
 def _read_store_frame(path: Path, frame: int | None) -> Measurement:

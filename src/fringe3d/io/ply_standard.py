@@ -14,7 +14,7 @@ Layout (binary little-endian, or ASCII)::
     property float x / y / z          # mm
     property float nx / ny / nz       # unit normal towards the camera (organized maps)
     property uchar red / green / blue # texture (when given)
-    property float scalar_<name>      # per-point scalars; a comment says what each is (units)
+    property float scalar_<name>      # per-point scalars (sigma_z_mm, roughness_mm); a comment says what each is
     element face F                    # only with faces
     property list uchar int vertex_indices
     end_header
@@ -22,9 +22,13 @@ Layout (binary little-endian, or ASCII)::
 Normals are finite at every point written (:func:`fringe3d.io.point_attributes.grid_normals`:
 one-sided differences at borders and holes, the line of sight for a lone point), so a point map
 and its PLY hold the same points and no reader turns a NaN normal into a made-up one. Scalar
-fields are named ``scalar_<name>`` (CloudCompare's convention; Open3D's tensor reader, MeshLab,
-meshio and trimesh keep any name). VTK's PLY reader (ParaView, PyVista) keeps only points,
-normals and colours: use the VTK exports for scalars there. A scalar is NaN where it is unknown.
+fields are named ``scalar_<name>`` (CloudCompare's convention, shown as ``<name>``; Open3D's
+tensor reader, meshio and trimesh keep any name). Two importers drop them whatever their name or
+type: VTK's PLY reader (ParaView, PyVista) keeps only points, normals, colours and texture
+coordinates (read the ``.vtp`` of :mod:`fringe3d.io.vtk_points` there), and MeshLab's (pymeshlab)
+keeps one vertex scalar only, a property named ``quality`` (a word fringe3d reserves for its mask
+reason bits), and no custom attribute (hand them over with :func:`fringe3d.io.pointcloud.read_ply`).
+``docs/file-formats.md`` has the reader-by-reader table. A scalar is NaN where it is unknown.
 """
 from __future__ import annotations
 
@@ -154,23 +158,48 @@ def _body(vert: np.ndarray, F: np.ndarray | None, binary: bool) -> bytes:
     return ("\n".join(rows) + "\n").encode("ascii")
 
 
-#: The measurement PLY's scalar: ``scalar_roughness_mm``.
+#: The measurement PLY's scalars: ``scalar_sigma_z_mm`` (when known) and ``scalar_roughness_mm``.
 ROUGHNESS_FIELD = "roughness_mm"
 ROUGHNESS_NAME = ("local roughness (mm): RMS distance of the 3x3 neighbourhood to its best plane "
                   "(NaN with fewer than 5 neighbours)")
+SIGMA_Z_FIELD = "sigma_z_mm"
+SIGMA_Z_NAME = "predicted depth standard deviation (mm), NaN unknown"
 CAMERA_FRAME = "frame: camera coordinates (camera centre at the origin, z along its axis)"
 
 
+def measurement_scalars(points, sigma_z=None) -> dict[str, tuple[np.ndarray, str]]:
+    """The scalar fields of a measurement's point files (PLY, VTP, LAS, ...).
+
+    Parameters
+    ----------
+    points : (H, W, 3) organized map, float, mm, NaN = no point
+    sigma_z : (H, W) predicted depth standard deviation (mm), optional
+
+    Returns
+    -------
+    dict
+        ``sigma_z_mm`` (when ``sigma_z`` is given) and ``roughness_mm``
+        (:func:`fringe3d.io.grid_mesh.local_roughness`), each ``name -> (values (H, W), description)``.
+    """
+    P = np.asarray(points, np.float32)
+    out: dict[str, tuple[np.ndarray, str]] = {}
+    if sigma_z is not None:
+        out[SIGMA_Z_FIELD] = (np.asarray(sigma_z, np.float32), SIGMA_Z_NAME)
+    rough = local_roughness(P) if P.ndim == 3 else np.full(P.shape[:-1], np.nan, np.float32)
+    out[ROUGHNESS_FIELD] = (rough, ROUGHNESS_NAME)
+    return out
+
+
 def write_measurement_ply(path: str | os.PathLike, points, texture=None, faces: bool = False, mask=None,
-                          binary: bool = True) -> Path:
+                          binary: bool = True, sigma_z=None) -> Path:
     """A reconstructed point map ``(H, W, 3)`` (mm, NaN invalid) as the standard PLY every path
-    writes: normals, texture colour, ``scalar_roughness_mm`` (:func:`fringe3d.io.grid_mesh.local_roughness`),
-    the version and command in the header and, with ``faces``, the grid's triangles."""
+    writes: normals, texture colour, ``scalar_sigma_z_mm`` (when ``sigma_z`` (H, W) mm is given),
+    ``scalar_roughness_mm`` (:func:`fringe3d.io.grid_mesh.local_roughness`), the version and
+    command in the header and, with ``faces``, the grid's triangles."""
     P = np.asarray(points, np.float32)
     if mask is not None and P.ndim == 3 and np.shape(mask) == P.shape[:2]:
         P = np.where(np.asarray(mask, bool)[..., None], P, np.nan)
-    rough = local_roughness(P) if P.ndim == 3 else np.full(P.shape[:-1], np.nan, np.float32)
-    return write_standard_ply(path, P, texture, scalars={ROUGHNESS_FIELD: (rough, ROUGHNESS_NAME)}, mask=mask,
+    return write_standard_ply(path, P, texture, scalars=measurement_scalars(P, sigma_z), mask=mask,
                               faces=faces, comments=[CAMERA_FRAME], binary=binary)
 
 

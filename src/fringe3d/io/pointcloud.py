@@ -9,7 +9,7 @@ leaves no file behind (:func:`fringe3d.utils.atomic.atomic_path`).
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -25,11 +25,13 @@ __all__ = ["PointCloudData", "write_ply", "read_ply", "organized_normals", "_col
 @dataclass
 class PointCloudData:
     """A point cloud read back: ``points (N, 3)`` float32 mm, ``colors (N, 3)`` uint8 or None,
-    ``normals (N, 3)`` float32 or None."""
+    ``normals (N, 3)`` float32 or None, ``scalars`` every other float vertex property
+    (``name -> (N,)`` float32; ``scalar_<name>`` read as ``<name>``)."""
 
     points: np.ndarray
     colors: np.ndarray | None = None
     normals: np.ndarray | None = None
+    scalars: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def write_ply(path: str | os.PathLike, points, colors=None, normals: bool = False, mask=None,
@@ -54,7 +56,9 @@ def write_ply(path: str | os.PathLike, points, colors=None, normals: bool = Fals
 
 
 def read_ply(path: str | os.PathLike) -> PointCloudData:
-    """Read a PLY point cloud (points, and colours / normals when present)."""
+    """Read a PLY point cloud: points, colours and normals when present, and every other float
+    vertex property as a scalar field (:class:`PointCloudData`; also a way to hand fringe3d's
+    fields to a reader whose PLY importer drops them, e.g. pymeshlab's custom attributes)."""
     import trimesh  # optional heavy dependency: loaded only when a PLY file is read
 
     path = Path(path)
@@ -78,4 +82,9 @@ def read_ply(path: str | os.PathLike) -> PointCloudData:
     colors = None
     if {"red", "green", "blue"} <= set(names):
         colors = np.stack([np.ravel(raw[k]) for k in ("red", "green", "blue")], axis=-1).astype(np.uint8)
-    return PointCloudData(pts, colors, normals)
+    fixed = {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue", "alpha"}
+    scalars: dict[str, np.ndarray] = {}
+    for k in map(str, names):
+        if k not in fixed and np.asarray(raw[k]).dtype.kind == "f":
+            scalars[k.removeprefix("scalar_")] = np.ravel(raw[k]).astype(np.float32)
+    return PointCloudData(pts, colors, normals, scalars)

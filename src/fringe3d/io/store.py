@@ -77,8 +77,8 @@ ORIGIN_ATTRS: dict[str, Any] = {"units": "mm", "long_name": "camera centre O of 
 DIRECTION_ATTRS: dict[str, Any] = {"units": "1", "long_name": "ray direction D per pixel, device depth 1",
                                    "axis_labels": ["x", "y", "z"]}
 QUALITY_ATTRS: dict[str, Any] = {"long_name": "quality bits (fringe3d.decode.edges; 0: the point is kept)",
-                                 "flag_masks": [1, 2, 4, 8, 16, 32],
-                                 "flag_meanings": "invalid edge inconsistent gradient mod_drop rim"}
+                                 "flag_masks": [1, 2, 4, 8, 16, 32, 64, 128],
+                                 "flag_meanings": "invalid edge inconsistent gradient mod_drop rim order saturated"}
 SIGMA_ATTRS: dict[str, Any] = {"units": "mm", "long_name": "predicted standard deviation of z (NaN: none)"}
 DONE_ATTRS: dict[str, Any] = {"long_name": "1 once the frame is completely written", "flag_values": [0, 1]}
 

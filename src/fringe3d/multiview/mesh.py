@@ -1,4 +1,5 @@
-"""Meshing a fused cloud: screened Poisson (Open3D) with density trimming, and its quality figures."""
+"""Meshing a fused cloud: screened Poisson (Open3D) with density trimming, and its figures
+(triangle and vertex counts, watertightness, area)."""
 from __future__ import annotations
 
 import numpy as np

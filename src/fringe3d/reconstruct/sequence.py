@@ -46,9 +46,10 @@ PLY_DIR = "ply"
 
 def write_ply_frame(ply_dir: Path, k: int, cycle: Cycle) -> None:
     """3D frame ``k``'s points and texture as ``ply_dir/frame_NNNNN.ply`` (the measurement PLY,
-    :func:`fringe3d.io.ply_standard.write_measurement_ply`); nothing for a frame with no point."""
+    :func:`fringe3d.io.ply_standard.write_measurement_ply`, with ``scalar_sigma_z_mm`` when the
+    cycle has it); nothing for a frame with no point."""
     if cycle.points is not None and np.isfinite(cycle.points[..., 0]).any():
-        write_measurement_ply(Path(ply_dir) / ply_name(k), cycle.points, cycle.texture)
+        write_measurement_ply(Path(ply_dir) / ply_name(k), cycle.points, cycle.texture, sigma_z=cycle.sigma_z)
 
 
 def store_arrays(cycle: Cycle, st: PointMapStore) -> dict:

@@ -43,5 +43,10 @@ class DeviceWarning(Fringe3DWarning):
     """A projector or camera setting was adjusted, is unknown, or was not reported by the device."""
 
 
+class RenamedFieldWarning(Fringe3DWarning, FutureWarning):
+    """A file was read through a field's old name (read as the new one; write the file again to
+    update it). A :class:`FutureWarning`, so shown by default: the old name goes in a later release."""
+
+
 class OutputWarning(Fringe3DWarning):
     """An output folder's state was repaired: a dead run's temporaries removed, an unfinished set restarted."""

@@ -22,7 +22,7 @@ def unwrap_group_per_object(ctx: DecodeContext, group: PhaseGroup, phi_min: np.n
     ``phi_min`` is given; phase-shifted groups by least squares. Objects are, with
     ``by_modulation`` (method ``spatial``), the valid pixels whose modulation reaches the plan
     option ``min_modulation_fraction`` (default 0.05) of the robust modulation level
-    (:func:`fringe3d.unwrap.segmentation.modulation_mask`: phase quality, never average
+    (:func:`fringe3d.unwrap.segmentation.modulation_mask`: fringe modulation, never average
     brightness, so dark but well-modulated surfaces stay); otherwise (``histogram``) the
     foreground of :func:`~fringe3d.unwrap.segmentation.foreground_mask` (option ``min_ratio``);
     split into connected regions of at least option
