@@ -101,14 +101,20 @@ def all_blocks() -> list[Block]:
                                                      (ROOT / "docs/user-guide.md").read_text(encoding="utf-8"))
 
 
-BLOCKS = all_blocks()
 MARKER = re.compile(r"^(?:setup (?P<setup>[\w-]+)|uses (?P<uses>[\w-]+(?:, *[\w-]+)*)|skip \((?P<reason>.+)\))$")
-SETUPS = {MARKER.match(b.marker)["setup"]: b for b in BLOCKS if b.marker and MARKER.match(b.marker)
-          and MARKER.match(b.marker)["setup"]}
+
+
+def marker(block: Block, part: str) -> str | None:
+    """The ``setup``/``uses``/``reason`` part of the block's marker, if it has that marker."""
+    m = MARKER.match(block.marker or "")
+    return m[part] if m else None
+
+
+BLOCKS = all_blocks()
+SETUPS = {marker(b, "setup"): b for b in BLOCKS if marker(b, "setup")}
 RUN = [b for b in BLOCKS if b.lang in SHELL and not (b.marker and b.marker.startswith(("setup ", "skip ")))]
 for _b in RUN:
-    if _b.marker and MARKER.match(_b.marker) and MARKER.match(_b.marker)["uses"]:
-        _b.uses = [n.strip() for n in MARKER.match(_b.marker)["uses"].split(",")]
+    _b.uses = [n.strip() for n in (marker(_b, "uses") or "").split(",") if n.strip()]
 
 
 def command_lines(block: Block) -> list[str]:
@@ -189,6 +195,9 @@ def test_every_marker_is_known_and_every_skip_names_its_reason():
             m = MARKER.match(b.marker)
             assert m, f"{b.id}: unknown marker <!-- tour: {b.marker} -->; expected setup NAME, uses NAMES or skip (WHY)"
             assert not m["reason"] or len(m["reason"].split()) >= 3, f"{b.id}: a skip must say why: {b.marker!r}"
+    texts = tour_text() + (ROOT / "docs/user-guide.md").read_text(encoding="utf-8")
+    assert texts.count("<!-- tour:") == sum(b.marker is not None for b in BLOCKS), \
+        "a <!-- tour: ... --> marker is not on the line right before a fenced block"
     skips = [b for b in BLOCKS if b.marker and b.marker.startswith("skip ")]
     assert len(skips) <= 2, f"skips are few: {[b.id for b in skips]}"
 
