@@ -177,3 +177,54 @@ def test_sphere_spacing_across_views_matches_the_simulated_bar():
     assert abs(sp.error) < 0.05  # mm, with noise 0.05 mm and ~2 mm pixels
     one = multiview_sphere_spacing(place(vs[0], bar.true_poses[0]), centres, r, true)
     assert np.isfinite(one.error)
+
+
+# --------------------------------------------------------------------------- simulated multi-view captures
+@pytest.fixture(scope="module")
+def bar_captures(tmp_path_factory):
+    """``fringe3d simulate --views 2`` of the sphere bar (tiny rig, 9-frame phase-shift set)."""
+    out = tmp_path_factory.mktemp("sim") / "bar"
+    assert main(["simulate", "--scene", "sphere-bar", "--set", "phase-shift", "--views", "2",
+                 "--turntable-step", "30", "--stage-sigma", "2,0.2", "-o", str(out), "-q"]) == 0
+    return out
+
+
+def test_simulated_views_put_the_true_surface_on_the_true_spheres_in_the_model_frame(bar_captures):
+    from fringe3d.multiview.poses import read_stage_sigma, read_true_poses
+    from fringe3d.sim.truth import Truth
+    true = read_true_poses(bar_captures / "poses.json")
+    spheres = json.loads((bar_captures / "spheres.json").read_text())["spheres"]
+    table = default_turntable(presets.get("tiny"))
+    expected = rotation_about(table.axis, -np.deg2rad(30.0), table.point)  # view 1 -> model: the turn undone
+    assert np.allclose(true["view-01"], expected, atol=1e-9)
+    assert np.allclose(true["view-00"], np.eye(4))
+    assert read_stage_sigma(bar_captures / "poses.json") == (2.0, 0.2)
+    for name in ("view-00", "view-01"):
+        t = Truth.load(bar_captures / name / "truth")
+        for k, s in enumerate(spheres):
+            X = t.xyz[(t.object_id == k) & t.mask]
+            assert len(X) > 50
+            Xm = X @ true[name][:3, :3].T + true[name][:3, 3]
+            assert np.abs(np.linalg.norm(Xm - s["centre_mm"], axis=1) - s["radius_mm"]).max() < 1e-6
+
+
+def test_simulated_stage_poses_are_off_by_the_stated_stage_uncertainty(bar_captures):
+    true = read_poses(bar_captures / "poses.json")  # what the stage reports
+    from fringe3d.multiview.poses import read_true_poses
+    truth = read_true_poses(bar_captures / "poses.json")
+    rot, tra = pose_errors(np.stack([true["view-00"], true["view-01"]]),
+                           np.stack([truth["view-00"], truth["view-01"]]), default_turntable(presets.get("tiny")).point)
+    assert rot[0] == 0 and 0 < rot[1] < 5 * np.sqrt(3) * 2.0  # mrad: 2 mrad per axis
+    assert 0 < tra[1] < 5 * np.sqrt(3) * 200.0  # um: 0.2 mm per axis
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["--turntable-step", "10"], "--turntable-step needs --views N"),
+    (["--views", "1"], "--views must be between 2 and 360"),
+    (["--views", "2", "--stage-sigma", "2"], "--stage-sigma: expected ROT_MRAD,TRANS_MM"),
+])
+def test_simulate_refuses_bad_multiview_flags_before_writing(tmp_path, capsys, args, expected):
+    out = tmp_path / "x"
+    assert main(["simulate", "--set", "phase-shift", *args, "-o", str(out), "-q"]) == 2
+    assert expected in " ".join(capsys.readouterr().err.split())
+    assert not out.exists()
