@@ -228,3 +228,91 @@ def test_simulate_refuses_bad_multiview_flags_before_writing(tmp_path, capsys, a
     assert main(["simulate", "--set", "phase-shift", *args, "-o", str(out), "-q"]) == 2
     assert expected in " ".join(capsys.readouterr().err.split())
     assert not out.exists()
+
+
+# --------------------------------------------------------------------------- stage prior
+STAGE_SIGMA = (2.0, 0.2)  # mrad, mm (1 sigma per axis)
+
+
+@pytest.fixture(scope="module")
+def dumbbell():
+    """Two bare spheres on the turntable (no bar): their roll about the line of centres is
+    invisible to every view. Returns the scan, its views, the stage's poses (true poses off by
+    STAGE_SIGMA) and the bar's unit axis (model frame)."""
+    from fringe3d.sim.turntable import sphere_bar_scene, stage_errors
+    p = presets.get("tiny")
+    scene, centres, _ = sphere_bar_scene(p, bar="none")
+    scan = turntable_views(scene, p, np.arange(-60.0, 61.0, 30.0), sigma=0.05, seed=0)
+    vs = [view_from_map(f"view-{i:02d}", P, s) for i, (P, s) in enumerate(zip(scan.points, scan.sigma))]
+    c = centres.mean(0)
+    cents = [np.linalg.inv(T)[:3, :3] @ c + np.linalg.inv(T)[:3, 3] for T in scan.true_poses]
+    axis = (centres[1] - centres[0]) / np.linalg.norm(centres[1] - centres[0])
+    return scan, vs, stage_errors(scan.true_poses, cents, *STAGE_SIGMA, seed=1), axis, c
+
+
+def _roll_and_rest_mrad(poses, true, axis):
+    """Per view: the rotation error about the bar axis and the rest of it (mrad)."""
+    from scipy.spatial.transform import Rotation
+    roll, rest = [], []
+    for T, S in zip(true, poses):
+        rv = Rotation.from_matrix((S @ np.linalg.inv(T))[:3, :3]).as_rotvec()  # model frame
+        roll.append(1e3 * rv @ axis)
+        rest.append(1e3 * np.linalg.norm(rv - (rv @ axis) * axis))
+    return np.array(roll), np.array(rest)
+
+
+def test_stage_prior_holds_an_unobservable_roll_at_the_stage_pose_and_reports_the_stage_sigma(dumbbell):
+    from fringe3d.multiview.register import register_views
+    scan, vs, stage, axis, c = dumbbell
+    r = register_views(vs, stage, voxel=2.0, stage_sigma=STAGE_SIGMA)
+    roll, rest = _roll_and_rest_mrad(r.poses, scan.true_poses, axis)
+    stage_roll, stage_rest = _roll_and_rest_mrad(stage, scan.true_poses, axis)
+    assert np.abs(roll - stage_roll).max() < 0.5 * STAGE_SIGMA[0]  # the roll stays where the stage put it
+    assert stage_rest[1:].mean() > 1.5 and rest[1:].mean() < 0.7 * stage_rest[1:].mean()  # the others improve
+    _, tra = pose_errors(r.poses, scan.true_poses, c)
+    assert tra.max() < 100.0  # um at the bar centre
+    # the roll is known to the stage's sigma, no better: the reported 1-sigma says so
+    assert np.all((r.rotation_sigma_mrad[1:] > 0.7 * STAGE_SIGMA[0]) & (r.rotation_sigma_mrad[1:] <= STAGE_SIGMA[0]))
+
+
+def test_without_the_stage_prior_an_unobservable_roll_is_not_reported_as_known(dumbbell):
+    from fringe3d.multiview.register import register_views
+    scan, vs, stage, axis, _ = dumbbell
+    r = register_views(vs, stage, voxel=2.0)
+    sig = r.rotation_sigma_mrad[1:]
+    assert np.all(np.isnan(sig) | (sig > STAGE_SIGMA[0]))
+
+
+def test_stage_prior_leaves_a_well_constrained_sculpture_to_the_data(scan, views):
+    from fringe3d.sim.turntable import stage_errors
+    c = scan.truth_points.mean(0)
+    cents = [np.linalg.inv(T)[:3, :3] @ c + np.linalg.inv(T)[:3, 3] for T in scan.true_poses]
+    stage = stage_errors(scan.true_poses, cents, 5.0, 0.5, seed=1)
+    m = merge_views(views, stage, voxel=4.0, mesh="none", stage_sigma=(5.0, 0.5))
+    rot, tra = pose_errors(m.registration.poses, scan.true_poses, c)
+    start_rot, start_tra = pose_errors(stage, scan.true_poses, c)
+    assert start_rot[1:].min() > 4.0 and start_tra[1:].min() > 250.0
+    assert rot.max() < 2.5 and tra.max() < 60.0  # mrad, um: the data win over a 5 mrad stage
+    assert np.all(m.registration.rotation_sigma_mrad[1:] < 5.0)
+    assert m.summary()["stage_prior"] == {"rotation_mrad": 5.0, "translation_mm": 0.5}
+
+
+def test_merge_cli_takes_the_stage_sigma_from_the_poses_file_or_the_flag(scan_folder, tmp_path, capsys):
+    from fringe3d.multiview.poses import stage_entry
+    folder, views = scan_folder
+    names = [v.name for v in views]
+    poses = tmp_path / "poses.json"
+    write_poses(poses, names, [read_poses(folder / "poses.json")[n] for n in names],
+                stage=stage_entry({"kind": "test"}, 3.0, 0.3))
+    base = ["merge", *map(str, views), "--poses", str(poses), "--voxel", "4", "--mesh", "none", "--json"]
+    assert main([*base, "-o", str(tmp_path / "a")]) == 0
+    assert json.loads((tmp_path / "a" / "merge.json").read_text())["stage_prior"] == {
+        "rotation_mrad": 3.0, "translation_mm": 0.3}
+    assert main([*base, "--stage-sigma", "1,0.1", "-o", str(tmp_path / "b")]) == 0
+    assert json.loads((tmp_path / "b" / "merge.json").read_text())["stage_prior"]["rotation_mrad"] == 1.0
+    assert main([*base, "--stage-sigma", "none", "-o", str(tmp_path / "c")]) == 0
+    assert json.loads((tmp_path / "c" / "merge.json").read_text())["stage_prior"] is None
+    capsys.readouterr()
+    assert main([*base, "--stage-sigma", "0,0.1", "-o", str(tmp_path / "d")]) == 2
+    assert "both sigmas must be > 0" in " ".join(capsys.readouterr().err.split())
+    assert not (tmp_path / "d").exists()
