@@ -19,6 +19,7 @@ from fringe3d.multiview.accuracy import coverage, hausdorff, pose_errors, rms, s
 from fringe3d.multiview.fuse import place
 from fringe3d.multiview.merge import merge_views
 from fringe3d.multiview.mesh import mesh_figures
+from fringe3d.multiview.register import AmbiguousRegistration
 from fringe3d.multiview.views import view_from_map
 from fringe3d.sim import presets
 from fringe3d.sim.turntable import sculpture_turntable, sphere_bar_scene, turntable_views
@@ -51,7 +52,11 @@ def run(name, scene, preset, angles, seed, centres=None, radius=None):
     for mode, start in (("stage poses (5 mrad, 0.5 mm rough)", _rough(scan.true_poses, c, rng)),
                         ("free-hand (FPFH + RANSAC start)", None)):
         t0 = time.perf_counter()
-        m = merge_views(views, start, voxel=VOXEL, mesh="poisson", seed=seed)
+        try:
+            m = merge_views(views, start, voxel=VOXEL, mesh="poisson", seed=seed)
+        except AmbiguousRegistration as e:
+            print(f"-- {mode}: refused ({time.perf_counter() - t0:.1f} s): {e}")
+            continue
         dt = time.perf_counter() - t0
         rot, tra = pose_errors(m.registration.poses, scan.true_poses, c)
         fused = rms(surface_distances(m.fused.points, scan.truth_points, scan.truth_normals))

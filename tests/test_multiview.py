@@ -54,7 +54,7 @@ def test_registration_from_rough_stage_poses_recovers_true_poses(scan, views):
     assert np.all(np.isfinite(m.registration.rotation_sigma_mrad))
 
 
-def test_free_hand_converges_from_the_global_step_alone(scan, views):
+def test_free_hand_converges_from_the_global_step_alone_on_the_sculpture(scan, views):
     c = scan.truth_points.mean(0)
     m = merge_views(views, None, voxel=4.0, mesh="none", seed=0)
     rot, tra = pose_errors(m.registration.poses, scan.true_poses, c)
@@ -316,3 +316,46 @@ def test_merge_cli_takes_the_stage_sigma_from_the_poses_file_or_the_flag(scan_fo
     assert main([*base, "--stage-sigma", "0,0.1", "-o", str(tmp_path / "d")]) == 2
     assert "both sigmas must be > 0" in " ".join(capsys.readouterr().err.split())
     assert not (tmp_path / "d").exists()
+
+
+# --------------------------------------------------------------------------- free-hand: right or refused
+@pytest.fixture(scope="module")
+def bar_folder(tmp_path_factory):
+    """A real ball bar (two equal spheres on a square bar, no knob) at table angles 0 and 30 deg,
+    written as view folders."""
+    from fringe3d.sim.turntable import sphere_bar_scene
+    p = presets.get("tiny")
+    bar = turntable_views(sphere_bar_scene(p)[0], p, [0.0, 30.0], sigma=0.05, seed=0)
+    folder = tmp_path_factory.mktemp("bar")
+    return folder, write_turntable(folder, bar)
+
+
+def test_free_hand_refuses_a_symmetric_ball_bar_naming_the_pair_and_the_remedy(bar_folder):
+    from fringe3d.multiview.register import AmbiguousRegistration, register_views
+    from fringe3d.multiview.views import read_view
+    _, folders = bar_folder
+    with pytest.raises(AmbiguousRegistration, match="ambiguous: two poses 180 degrees apart") as e:
+        register_views([read_view(f) for f in folders], None, voxel=4.0)
+    assert e.value.pair == (1, 0)
+    assert "give the views' poses" in str(e.value)
+    assert len(e.value.candidates) > 1
+
+
+def test_free_hand_merge_cli_refuses_the_ball_bar_with_exit_2_and_writes_nothing(bar_folder, tmp_path, capsys):
+    _, folders = bar_folder
+    out = tmp_path / "merged"
+    assert main(["merge", *map(str, folders), "--free-hand", "--voxel", "4", "-o", str(out)]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "ambiguous" in err and "instead of free-hand registration" in err
+    assert not out.exists()
+
+
+def test_free_hand_refuses_views_that_do_not_overlap(views):
+    from fringe3d.multiview.register import AmbiguousRegistration, register_views
+    from fringe3d.multiview.views import View
+    v = views[0]
+    left = v.points[:, 0] < np.quantile(v.points[:, 0], 0.3)
+    right = v.points[:, 0] > np.quantile(v.points[:, 0], 0.75)
+    with pytest.raises(AmbiguousRegistration, match="slid onto each other where they do not overlap"):
+        register_views([View("a", v.points[left], v.sigma[left]), View("b", v.points[right], v.sigma[right])],
+                       None, voxel=4.0)

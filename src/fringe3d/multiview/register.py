@@ -1,7 +1,9 @@
 """Registration of views on Open3D: coarse, fine and global.
 
 - coarse: the stage poses when given, else FPFH features + RANSAC between consecutive views
-  (``registration_ransac_based_on_feature_matching``), chained;
+  (``registration_ransac_based_on_feature_matching``, several runs each refined by ICP), chained;
+  refused (:class:`AmbiguousRegistration`) when the answer is not unique or fits too little,
+  never silently wrong;
 - fine: point-to-plane ICP with a Tukey robust kernel at three shrinking correspondence
   distances, on every pair of views at most ``reach`` apart (cyclically);
 - global: pose-graph optimisation (Levenberg–Marquardt, ``global_optimization``) over all views
@@ -17,9 +19,10 @@ mrad per axis, translation mm per axis at the view's object centre). Then (a) ea
 registered by :func:`icp_prior_pair`, point-to-plane ICP whose Gauss–Newton steps carry the
 stage's information on the pair's relative pose, so a direction the data cannot constrain (a
 dumbbell's roll about its bar) stays where the stage put it instead of random-walking (plain
-ICP drifts there by ~0.1 rad on such an artefact); (b) the pose graph gets one certain edge per view to the fixed view 0 carrying the
-stage pose with the stage's information, i.e. the prior ``‖log(P_stage⁻¹ P)‖²_Λ``.
-Edge information is point-to-plane (:func:`plane_information`), scaled by ``1/s²`` (``s`` the pair's point-to-plane residual RMS,
+ICP drifts there by ~0.1 rad on such an artefact); (b) the pose graph gets one certain edge
+per view to the fixed view 0 carrying the stage pose with the stage's information, i.e. the
+prior ``‖log(P_stage⁻¹ P)‖²_Λ``. Edge information is point-to-plane
+(:func:`plane_information`), scaled by ``1/s²`` (``s`` the pair's point-to-plane residual RMS,
 mm) so they and the prior share units, and moved into the source view's frame, where Open3D's
 pose graph measures an edge's error. The per-view pose 1σ comes from the inverse of the pose
 graph's Gauss–Newton information at the solution (view 0 fixed): with the prior it is at most the
@@ -33,6 +36,8 @@ import numpy as np
 import open3d as o3d
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
+
+from fringe3d.devices.stage import rotation_about
 
 from .views import View
 
@@ -68,18 +73,136 @@ def cloud(view: View, voxel: float) -> o3d.geometry.PointCloud:
     return pc
 
 
-def global_pair(src, tgt, voxel: float, seed: int = 0) -> np.ndarray:
-    """FPFH + RANSAC transform mapping ``src`` onto ``tgt`` (no initial guess needed)."""
+#: Free-hand global step: RANSAC runs per pair, the least ICP fitness of its answer, how close
+#: (share of the best fitness) another answer may come before the pair is ambiguous, and how far
+#: apart (rotation rad; centroid shift in voxels) two answers must be to count as different.
+GLOBAL_TRIES = 6
+GLOBAL_MIN_FITNESS = 0.25
+GLOBAL_RIVAL_SHARE = 0.9
+GLOBAL_DISTINCT = (np.deg2rad(3.0), 3.0)
+#: Most point-to-plane RMS of the best global answer, as a multiple of the target's own
+#: neighbour residual (:func:`neighbour_rms`): a correct match pairs points closer than the
+#: sampling and stays below it; a surface slid onto another part of the object does not.
+GLOBAL_MAX_RESIDUAL = 1.0
+
+
+class AmbiguousRegistration(ValueError):
+    """Free-hand registration (no poses) cannot tell the right relative pose of two views: several
+    clearly different poses fit the data about equally well (a symmetric object: a ball bar's
+    equal spheres and square bar), or the best fits too little of the data (too little overlap).
+    Its message says which pair and why; the remedy is to give the poses (a stage, a robot, a
+    calibrated turntable). ``pair`` is ``(source, target)`` view indices, ``candidates`` the
+    refined answers ``(T (4, 4), fitness, plane RMS mm)``, best first."""
+
+    def __init__(self, message: str, pair: tuple[int, int], candidates: list):
+        super().__init__(message)
+        self.pair = pair
+        self.candidates = candidates
+
+
+def _ransac(src, tgt, fs, ft, voxel: float, seed: int) -> np.ndarray:
     o3d.utility.random.seed(seed)
-    param = o3d.geometry.KDTreeSearchParamHybrid(radius=5 * voxel, max_nn=100)
-    fs = reg.compute_fpfh_feature(src, param)  # type: ignore[call-arg]  # open3d's stub: indices is optional
-    ft = reg.compute_fpfh_feature(tgt, param)  # type: ignore[call-arg]
     d = 1.5 * voxel
     r = reg.registration_ransac_based_on_feature_matching(
         src, tgt, fs, ft, True, d, reg.TransformationEstimationPointToPoint(False), 3,
         [reg.CorrespondenceCheckerBasedOnEdgeLength(0.9), reg.CorrespondenceCheckerBasedOnDistance(d)],
         reg.RANSACConvergenceCriteria(100000, 0.999))
     return np.asarray(r.transformation)
+
+
+def global_candidates(src, tgt, voxel: float, seed: int = 0, tries: int = GLOBAL_TRIES) -> list:
+    """``tries`` FPFH + RANSAC answers mapping ``src`` onto ``tgt`` (no initial guess), each refined
+    by point-to-plane ICP: ``[(T (4, 4), fitness, plane RMS mm), ...]``, best fitness first."""
+    param = o3d.geometry.KDTreeSearchParamHybrid(radius=5 * voxel, max_nn=100)
+    fs = reg.compute_fpfh_feature(src, param)  # type: ignore[call-arg]  # open3d's stub: indices is optional
+    ft = reg.compute_fpfh_feature(tgt, param)  # type: ignore[call-arg]
+    out: list = []
+    starts: list = []
+    centre = np.asarray(src.points).mean(0)
+    for k in range(tries):
+        T0 = _ransac(src, tgt, fs, ft, voxel, seed + 7919 * k)
+        same = [c for s0, c in zip(starts, out) if not _distinct(T0, s0, centre, 0.5 * voxel)]
+        if same:  # the answer of an earlier run: its refinement stands
+            out.append(same[0])
+        else:
+            T, _, fit, _ = icp_pair(src, tgt, T0, voxel)
+            out.append((T, fit, plane_rms(src, tgt, T, 0.75 * voxel)))
+        starts.append(T0)
+    return sorted(out, key=lambda c: -c[1])
+
+
+def _distinct(A, B, centre, voxel: float) -> bool:
+    """Whether rigid ``A`` and ``B`` differ by more than :data:`GLOBAL_DISTINCT` (rotation, or the
+    shift of ``centre`` in voxels)."""
+    E = np.linalg.inv(B) @ A
+    ang = float(np.linalg.norm(Rotation.from_matrix(E[:3, :3]).as_rotvec()))
+    shift = float(np.linalg.norm(E[:3, :3] @ centre + E[:3, 3] - centre))
+    return ang > GLOBAL_DISTINCT[0] or shift > GLOBAL_DISTINCT[1] * voxel
+
+
+def neighbour_rms(pc) -> float:
+    """RMS (mm) of each point's distance to the tangent plane of its nearest other point in the
+    same cloud: how well the surface predicts a point one sample away."""
+    P, N = np.asarray(pc.points), np.asarray(pc.normals)
+    if len(P) < 2:
+        return float("nan")
+    _, idx = cKDTree(P).query(P, k=2)
+    j = idx[:, 1]
+    return float(np.sqrt(np.mean(np.einsum("ij,ij->i", P - P[j], N[j]) ** 2)))
+
+
+def symmetry_probes(src, tgt, T, voxel: float) -> list:
+    """ICP answers from ``T`` turned by 90°, 180° and 270° about each principal axis of ``src``
+    (through its centroid): an object symmetric under such a turn (a ball bar, a cylinder, a
+    box) fits there as well as at ``T``, whichever answer RANSAC happened to find first.
+    Returns ``[(T (4, 4), fitness, plane RMS mm), ...]``."""
+    P = np.asarray(src.points)
+    c = P.mean(0)
+    _, axes = np.linalg.eigh(np.cov((P - c).T))
+    out = []
+    for a in axes.T:
+        for ang in (0.5 * np.pi, np.pi, 1.5 * np.pi):
+            Tk, _, fk, _ = icp_pair(src, tgt, T @ rotation_about(a, ang, c), voxel)
+            out.append((Tk, fk, plane_rms(src, tgt, Tk, 0.75 * voxel)))
+    return out
+
+
+def global_pair(src, tgt, voxel: float, seed: int = 0, pair: tuple[int, int] = (1, 0)) -> np.ndarray:
+    """The transform mapping ``src`` onto ``tgt`` from the global step alone (FPFH + RANSAC,
+    :data:`GLOBAL_TRIES` runs, each ICP-refined), or :class:`AmbiguousRegistration` when the best
+    answer's ICP fitness is below :data:`GLOBAL_MIN_FITNESS` or its residual above
+    :data:`GLOBAL_MAX_RESIDUAL` × the target's :func:`neighbour_rms`, or when a clearly different answer
+    (of the other RANSAC runs, or of :func:`symmetry_probes`)
+    (:data:`GLOBAL_DISTINCT`) reaches :data:`GLOBAL_RIVAL_SHARE` of the best fitness with a
+    comparable residual (at most 1.5× the best's): the data cannot say which is right.
+    ``pair`` names the views in the message."""
+    cands = global_candidates(src, tgt, voxel, seed)
+    T, fit, rms_ = cands[0]
+    cands = [cands[0], *symmetry_probes(src, tgt, T, voxel), *cands[1:]]
+    where = f"views {pair[0]} and {pair[1]}"
+    remedy = "give the views' poses (a stage, robot or calibrated turntable) instead of free-hand registration"
+    if fit < GLOBAL_MIN_FITNESS:
+        raise AmbiguousRegistration(
+            f"free-hand registration of {where}: the best global match explains only {100 * fit:.0f} % of the "
+            f"points (need >= {100 * GLOBAL_MIN_FITNESS:.0f} %): too little overlap or too little shape to "
+            f"trust it; {remedy}, or take views closer together", pair, cands)
+    own = neighbour_rms(tgt)
+    if not rms_ <= GLOBAL_MAX_RESIDUAL * own:
+        raise AmbiguousRegistration(
+            f"free-hand registration of {where}: the best global match leaves a point-to-plane residual of "
+            f"{rms_:.3f} mm, more than the {own:.3f} mm between the target's own neighbouring samples: the "
+            f"surfaces were slid onto each other where they do not overlap; {remedy}, or take views closer "
+            "together", pair, cands)
+    centre = np.asarray(src.points).mean(0)
+    for Tk, fk, rk in cands[1:]:
+        if fk >= GLOBAL_RIVAL_SHARE * fit and rk <= 1.5 * rms_ and _distinct(Tk, T, centre, voxel):
+            E = np.linalg.inv(T) @ Tk
+            ang = np.rad2deg(np.linalg.norm(Rotation.from_matrix(E[:3, :3]).as_rotvec()))
+            raise AmbiguousRegistration(
+                f"free-hand registration of {where} is ambiguous: two poses {ang:.0f} degrees apart fit "
+                f"equally well (fitness {fit:.2f} and {fk:.2f}, residual {rms_:.3f} and {rk:.3f} mm), as on a "
+                f"symmetric object (a ball bar's equal spheres and square bar); {remedy}", pair, cands)
+    return T
 
 
 def icp_pair(src, tgt, init, voxel: float, sigma: float = 0.0):
@@ -200,10 +323,11 @@ def icp_prior_pair(src, tgt, init, voxel: float, sigma: float, prior_cov) -> tup
 
 
 def coarse_poses(clouds, voxel: float, seed: int = 0) -> list[np.ndarray]:
-    """Free-hand start: chained global registrations of view ``i`` onto view ``i − 1``."""
+    """Free-hand start: chained global registrations of view ``i`` onto view ``i − 1``
+    (:func:`global_pair`; :class:`AmbiguousRegistration` when one is not unique)."""
     P = [np.eye(4)]
     for i in range(1, len(clouds)):
-        P.append(P[-1] @ global_pair(clouds[i], clouds[i - 1], voxel, seed + i))
+        P.append(P[-1] @ global_pair(clouds[i], clouds[i - 1], voxel, seed + i, pair=(i, i - 1)))
     return P
 
 
