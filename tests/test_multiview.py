@@ -359,3 +359,47 @@ def test_free_hand_refuses_views_that_do_not_overlap(views):
     with pytest.raises(AmbiguousRegistration, match="slid onto each other where they do not overlap"):
         register_views([View("a", v.points[left], v.sigma[left]), View("b", v.points[right], v.sigma[right])],
                        None, voxel=4.0)
+
+
+# --------------------------------------------------------------------------- VDI/VDE 2634-3 on a merged cloud
+@pytest.fixture(scope="module")
+def fused_bar(tmp_path_factory):
+    """The ball bar seen at 0, 30 and 330 deg, fused at the true poses into fused.ply, with the
+    simulator's spheres.json beside it; returns (folder, true length mm, radius mm)."""
+    from fringe3d.io.ply_standard import write_standard_ply
+    from fringe3d.multiview.fuse import fuse_views
+    from fringe3d.sim.turntable import sphere_bar_scene, write_spheres
+    p = presets.get("tiny")
+    scene, centres, r = sphere_bar_scene(p)
+    bar = turntable_views(scene, p, [0.0, 30.0, 330.0], sigma=0.05, seed=2)
+    vs = [view_from_map(str(i), P, s) for i, (P, s) in enumerate(zip(bar.points, bar.sigma))]
+    folder = tmp_path_factory.mktemp("fusedbar")
+    fused = fuse_views(vs, bar.true_poses, 1.0)
+    write_standard_ply(folder / "fused.ply", fused.points, normals=False)
+    write_spheres(folder, scene)
+    return folder, float(np.linalg.norm(centres[1] - centres[0])), r
+
+
+def test_evaluate_ball_bar_on_a_merged_cloud_reports_the_spacing_error_against_the_simulated_length(fused_bar,
+                                                                                                     capsys):
+    folder, L, r = fused_bar
+    assert main(["evaluate", str(folder / "fused.ply"), "--ball-bar", "--truth", str(folder), "--json"]) == 0
+    bb = json.loads(capsys.readouterr().out)["ball_bar"]
+    assert bb["true_distance"] == pytest.approx(L, abs=1e-9)
+    assert abs(bb["error_um"]) < 50.0 and bb["error_um"] == pytest.approx(1e3 * bb["error"])
+    assert bb["distance"] == pytest.approx(L, abs=0.05)
+    for s in bb["spheres"]:
+        assert s["diameter"] == pytest.approx(2 * r, abs=0.1)
+        assert 0 < s["form"] < 1.0  # mm: P_F of 0.05 mm noise, ~2 mm pixels
+
+
+def test_evaluate_ball_bar_finds_the_spheres_of_a_calibrated_bar_without_the_truth(fused_bar, capsys):
+    folder, L, r = fused_bar
+    assert main(["evaluate", str(folder / "fused.ply"), "--ball-bar", "--truth", str(folder), "--json"]) == 0
+    with_truth = json.loads(capsys.readouterr().out)["ball_bar"]
+    assert main(["evaluate", str(folder / "fused.ply"), "--ball-bar", "--diameter", str(2 * r),
+                 "--distance", str(L), "--json"]) == 0
+    found = json.loads(capsys.readouterr().out)["ball_bar"]
+    assert found["error_um"] == pytest.approx(with_truth["error_um"], abs=5.0)
+    assert main(["evaluate", str(folder / "fused.ply"), "--ball-bar"]) == 2
+    assert "--truth SIMFOLDER" in " ".join(capsys.readouterr().err.split())

@@ -187,6 +187,21 @@ def write_turntable(folder, scan: TurntableScan) -> list[Path]:
     return out
 
 
+def write_spheres(folder, scene: Scene) -> Path | None:
+    """Write ``folder/spheres.json``: the static spheres of ``scene`` (at its home pose, the model
+    frame) as ``centre_mm`` and ``radius_mm``, the truth of a multi-view ball-bar test
+    (:func:`fringe3d.analyze.ball_bar.read_spheres`); None (nothing written) without spheres."""
+    spheres = [{"centre_mm": ob.center.tolist(), "radius_mm": ob.radius} for ob in scene.objects
+               if isinstance(ob, Sphere) and ob.motion.is_static]
+    if not spheres:
+        return None
+    path = Path(folder) / "spheres.json"
+    atomic_write_text(path, json.dumps({"format": "fringe3d-spheres", "version": 1, "unit": "mm",
+                                        "frame": "model (view 0 camera frame)", "scene": scene.name,
+                                        "spheres": spheres}, indent=1))
+    return path
+
+
 class TurnedObject:
     """``inner`` (a scene object) moved rigidly by ``T`` (4, 4) world → world, mm: what a
     turntable or stage does to the object on it. Rays are cast at the object in its home pose
@@ -329,12 +344,7 @@ def simulate_turntable(folder, preset="tiny", scene=None, patterns=None, *, view
         summaries.append(simulate_capture(folder / name, p, turned_scene(sc, T), patterns, seed=seed + k,
                                           progress=progress, **capture))
     stage = stage_errors(np.stack(true), centres, stage_sigma[0], stage_sigma[1], seed)
-    spheres = [{"centre_mm": ob.center.tolist(), "radius_mm": ob.radius} for ob in sc.objects
-               if isinstance(ob, Sphere) and ob.motion.is_static]
-    if spheres:
-        atomic_write_text(folder / "spheres.json", json.dumps(
-            {"format": "fringe3d-spheres", "version": 1, "unit": "mm", "frame": "model (view 0 camera frame)",
-             "scene": sc.name, "spheres": spheres}, indent=1))
+    write_spheres(folder, sc)
     desc = {**table.describe(), "step_deg": float(step_deg), "angles_deg": angles.tolist()}
     poses = write_poses(folder / "poses.json", names, stage,
                         extra=[{"true_matrix": t.tolist(), "angle_deg": float(a)} for t, a in zip(true, angles)],
