@@ -27,8 +27,8 @@ def read_spheres(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     path = Path(path)
     f = path / "spheres.json" if path.is_dir() else path
     if not f.is_file():
-        raise ValueError(f"no spheres.json at {path} (expected the folder of `fringe3d simulate --views` "
-                         "with a scene of spheres, or its spheres.json)")
+        raise ValueError(f"no spheres.json at {path} (expected the folder of a simulated multi-view "
+                         "sequence of a scene with spheres, or its spheres.json)")
     try:
         doc = json.loads(f.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as e:

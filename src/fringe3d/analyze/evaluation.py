@@ -267,7 +267,7 @@ def cloud_ball_bar(points, centres, radius: float, true_distance: float | None =
 
     C = np.asarray(centres, float)
     if C.shape != (2, 3):
-        raise ValueError(f"`centres` must be two 3D points (2, 3), got shape {C.shape}")
+        raise ValueError(f"the nominal centres must be two 3D points (2, 3), got shape {C.shape}")
     m = 0.05 * radius if margin is None else float(margin)
     P = np.asarray(points, float).reshape(-1, 3)
     ma, mb = shell_masks(P, C, radius, m)
