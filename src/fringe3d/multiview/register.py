@@ -154,15 +154,22 @@ def neighbour_rms(pc) -> float:
 def symmetry_probes(src, tgt, T, voxel: float) -> list:
     """ICP answers from ``T`` turned by 90°, 180° and 270° about each principal axis of ``src``
     (through its centroid): an object symmetric under such a turn (a ball bar, a cylinder, a
-    box) fits there as well as at ``T``, whichever answer RANSAC happened to find first.
-    Returns ``[(T (4, 4), fitness, plane RMS mm), ...]``."""
+    box) fits there as well as at ``T``, whichever answer RANSAC happened to find first. A turned
+    start is refined only when it already fits, within 5 % of the cloud's extent (at least 3
+    ``voxel``), at least half as many points as ``T`` does (an asymmetric object's turns do not,
+    and cost nothing). Returns ``[(T (4, 4), fitness, plane RMS mm), ...]``."""
     P = np.asarray(src.points)
     c = P.mean(0)
     _, axes = np.linalg.eigh(np.cov((P - c).T))
+    reach = max(3 * voxel, 0.05 * float(np.ptp(P, axis=0).max()))
+    base = reg.evaluate_registration(src, tgt, reach, T).fitness
     out = []
     for a in axes.T:
         for ang in (0.5 * np.pi, np.pi, 1.5 * np.pi):
-            Tk, _, fk, _ = icp_pair(src, tgt, T @ rotation_about(a, ang, c), voxel)
+            start = T @ rotation_about(a, ang, c)
+            if reg.evaluate_registration(src, tgt, reach, start).fitness < 0.5 * base:
+                continue
+            Tk, _, fk, _ = icp_pair(src, tgt, start, voxel)
             out.append((Tk, fk, plane_rms(src, tgt, Tk, 0.75 * voxel)))
     return out
 
