@@ -124,7 +124,7 @@ def register(app: typer.Typer) -> None:
                     o.path, preset, scene, patterns, views=multi["views"], step_deg=multi["turntable_step"],
                     stage_sigma=multi["stage_sigma"], progress=not (quiet or json_), frames=frames,
                     frame_rate=frame_rate, exposure=exposure, noise=noise, defocus=defocus, bit_depth=bit_depth,
-                    seed=seed, **extra))
+                    seed=seed, resume=o.resumed, **extra))
                 summary.pop("captures")
             else:
                 summary = o.final_paths(simulate_capture(o.path, preset, scene, patterns, frames=frames,
