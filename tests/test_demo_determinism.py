@@ -8,6 +8,8 @@ from fringe3d.cli import main
 
 COMMAND = re.compile(rb"comment command: [^\n]*\n")
 TIMES = re.compile(r"<h2>Time per stage</h2>.*?</table>", re.S)
+# the provenance table's rows that name the run: its command line (another -o folder) and start time
+RUN_ROWS = re.compile(r"<tr><td>(command|started)</td><td>[^<]*</td></tr>")
 
 
 def _without_times(name: str, data: bytes) -> bytes:
@@ -28,7 +30,7 @@ def _without_times(name: str, data: bytes) -> bytes:
             stage.pop("seconds", None)
         return json.dumps(d, sort_keys=True).encode()
     if name == "report.html":
-        return TIMES.sub("", data.decode()).encode()
+        return RUN_ROWS.sub("", TIMES.sub("", data.decode())).encode()
     return data
 
 

@@ -157,7 +157,7 @@ CASES = {
     "rig with a sheared R": (_rig(_set(("projector", "R"), [[1, 0.3, 0], [0, 1, 0], [0, 0, 1]])), RECONSTRUCT,
                              "expected a rotation"),
     "rig of another format": (_rig(_set(("format",), "other-rig")), RECONSTRUCT, "field format"),
-    "rig of a newer version": (_rig(_set(("version",), 2)), RECONSTRUCT, "field version"),
+    "rig of a newer version": (_rig(_set(("version",), 3)), RECONSTRUCT, "field version"),
     "rig with an unknown field": (_rig(_set(("lens",), "x")), RECONSTRUCT, "field lens: unknown field"),
     "manifest without plans": (_manifest(_set(("plans",), [])), RECONSTRUCT, "no unwrapping plan"),
     "manifest with steps 1e9": (_manifest(_set(("frames", 0, "steps"), 1e9)), DECODE, r"field frames\[0\].steps"),

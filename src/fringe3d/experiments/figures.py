@@ -1,15 +1,15 @@
 """An experiment's result as files: its tables as CSV, its figures as PNG and SVG.
 
-``fringe3d experiment NAME -o FOLDER`` writes, for the result dict of an experiment's ``run``
+:func:`write_result` writes into a folder, for the result dict of an experiment's ``run``
 (see :mod:`fringe3d.experiments`):
 
 * ``table-N.csv``: table N, a header row of its columns then its rows, values exactly as in
-  ``--json`` (floats written with ``repr``, so they read back bit-exactly);
+  the JSON result (floats written with ``repr``, so they read back bit-exactly);
 * ``table-N.png`` / ``table-N.svg``: table N's numeric columns plotted against its first column
   (lines when the first column is numeric, grouped bars when it names cases); when the
   dissertation gives figures, they are drawn beside ours in a second panel;
 * ``dissertation.csv``: the dissertation's own figures (``quantity,value``), when it gives any;
-* ``result.json``: the whole result, as ``--json`` prints it.
+* ``result.json``: the whole result, as the JSON summary holds it.
 """
 from __future__ import annotations
 
