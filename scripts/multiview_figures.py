@@ -19,6 +19,7 @@ from fringe3d.multiview.accuracy import coverage, hausdorff, pose_errors, rms, s
 from fringe3d.multiview.fuse import place
 from fringe3d.multiview.merge import merge_views
 from fringe3d.multiview.mesh import mesh_figures
+from fringe3d.multiview.register import AmbiguousRegistration
 from fringe3d.multiview.views import view_from_map
 from fringe3d.sim import presets
 from fringe3d.sim.turntable import sculpture_turntable, sphere_bar_scene, turntable_views
@@ -48,10 +49,16 @@ def run(name, scene, preset, angles, seed, centres=None, radius=None):
           f"{np.mean([len(v.points) for v in views]):.0f} points/view, simulation {t_sim:.1f} s")
     print(f"single-view RMS vs truth: mean {np.mean(single):.4f} mm (max {np.max(single):.4f})")
     rng = np.random.default_rng(seed)
-    for mode, start in (("stage poses (5 mrad, 0.5 mm rough)", _rough(scan.true_poses, c, rng)),
-                        ("free-hand (FPFH + RANSAC start)", None)):
+    rough = _rough(scan.true_poses, c, rng)
+    for mode, start, prior in (("stage poses (5 mrad, 0.5 mm rough), no prior", rough, None),
+                               ("stage poses (5 mrad, 0.5 mm rough), stage prior 5 mrad / 0.5 mm", rough, (5.0, 0.5)),
+                               ("free-hand (FPFH + RANSAC start)", None, None)):
         t0 = time.perf_counter()
-        m = merge_views(views, start, voxel=VOXEL, mesh="poisson", seed=seed)
+        try:
+            m = merge_views(views, start, voxel=VOXEL, mesh="poisson", seed=seed, stage_sigma=prior)
+        except AmbiguousRegistration as e:
+            print(f"-- {mode}: refused ({time.perf_counter() - t0:.1f} s): {e}")
+            continue
         dt = time.perf_counter() - t0
         rot, tra = pose_errors(m.registration.poses, scan.true_poses, c)
         fused = rms(surface_distances(m.fused.points, scan.truth_points, scan.truth_normals))
@@ -62,6 +69,7 @@ def run(name, scene, preset, angles, seed, centres=None, radius=None):
               f"translation at object centre max {tra.max():.1f} um (mean {tra[1:].mean():.1f})")
         print(f"   per-view residual RMS {np.round(m.registration.residual_rms_mm, 4).tolist()} mm")
         print(f"   pose 1-sigma rotation {np.round(m.registration.rotation_sigma_mrad, 4).tolist()} mrad")
+        print(f"   pose error per view {np.round(rot, 3).tolist()} mrad")
         print(f"   fused RMS {fused:.4f} mm = {fused / np.mean(single):.2f} x single-view; "
               f"coverage {100 * coverage(m.fused.points, scan.truth_points, VOXEL):.2f} % "
               f"of the visible surface (within {VOXEL} mm); {len(m.fused.points)} fused points")

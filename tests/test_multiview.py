@@ -54,7 +54,7 @@ def test_registration_from_rough_stage_poses_recovers_true_poses(scan, views):
     assert np.all(np.isfinite(m.registration.rotation_sigma_mrad))
 
 
-def test_free_hand_converges_from_the_global_step_alone(scan, views):
+def test_free_hand_converges_from_the_global_step_alone_on_the_sculpture(scan, views):
     c = scan.truth_points.mean(0)
     m = merge_views(views, None, voxel=4.0, mesh="none", seed=0)
     rot, tra = pose_errors(m.registration.poses, scan.true_poses, c)
@@ -177,3 +177,229 @@ def test_sphere_spacing_across_views_matches_the_simulated_bar():
     assert abs(sp.error) < 0.05  # mm, with noise 0.05 mm and ~2 mm pixels
     one = multiview_sphere_spacing(place(vs[0], bar.true_poses[0]), centres, r, true)
     assert np.isfinite(one.error)
+
+
+# --------------------------------------------------------------------------- simulated multi-view captures
+@pytest.fixture(scope="module")
+def bar_captures(tmp_path_factory):
+    """``fringe3d simulate --views 2`` of the sphere bar (tiny rig, 9-frame phase-shift set)."""
+    out = tmp_path_factory.mktemp("sim") / "bar"
+    assert main(["simulate", "--scene", "sphere-bar", "--set", "phase-shift", "--views", "2",
+                 "--turntable-step", "30", "--stage-sigma", "2,0.2", "-o", str(out), "-q"]) == 0
+    return out
+
+
+def test_simulated_views_put_the_true_surface_on_the_true_spheres_in_the_model_frame(bar_captures):
+    from fringe3d.multiview.poses import read_stage_sigma, read_true_poses
+    from fringe3d.sim.truth import Truth
+    true = read_true_poses(bar_captures / "poses.json")
+    spheres = json.loads((bar_captures / "spheres.json").read_text())["spheres"]
+    table = default_turntable(presets.get("tiny"))
+    expected = rotation_about(table.axis, -np.deg2rad(30.0), table.point)  # view 1 -> model: the turn undone
+    assert np.allclose(true["view-01"], expected, atol=1e-9)
+    assert np.allclose(true["view-00"], np.eye(4))
+    assert read_stage_sigma(bar_captures / "poses.json") == (2.0, 0.2)
+    for name in ("view-00", "view-01"):
+        t = Truth.load(bar_captures / name / "truth")
+        for k, s in enumerate(spheres):
+            X = t.xyz[(t.object_id == k) & t.mask]
+            assert len(X) > 50
+            Xm = X @ true[name][:3, :3].T + true[name][:3, 3]
+            assert np.abs(np.linalg.norm(Xm - s["centre_mm"], axis=1) - s["radius_mm"]).max() < 1e-6
+
+
+def test_simulated_stage_poses_are_off_by_the_stated_stage_uncertainty(bar_captures):
+    true = read_poses(bar_captures / "poses.json")  # what the stage reports
+    from fringe3d.multiview.poses import read_true_poses
+    truth = read_true_poses(bar_captures / "poses.json")
+    rot, tra = pose_errors(np.stack([true["view-00"], true["view-01"]]),
+                           np.stack([truth["view-00"], truth["view-01"]]), default_turntable(presets.get("tiny")).point)
+    assert rot[0] == 0 and 0 < rot[1] < 5 * np.sqrt(3) * 2.0  # mrad: 2 mrad per axis
+    assert 0 < tra[1] < 5 * np.sqrt(3) * 200.0  # um: 0.2 mm per axis
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["--turntable-step", "10"], "--turntable-step needs --views N"),
+    (["--views", "1"], "--views must be between 2 and 360"),
+    (["--views", "2", "--stage-sigma", "2"], "--stage-sigma: expected ROT_MRAD,TRANS_MM"),
+])
+def test_simulate_refuses_bad_multiview_flags_before_writing(tmp_path, capsys, args, expected):
+    out = tmp_path / "x"
+    assert main(["simulate", "--set", "phase-shift", *args, "-o", str(out), "-q"]) == 2
+    assert expected in " ".join(capsys.readouterr().err.split())
+    assert not out.exists()
+
+
+# --------------------------------------------------------------------------- stage prior
+STAGE_SIGMA = (2.0, 0.2)  # mrad, mm (1 sigma per axis)
+
+
+@pytest.fixture(scope="module")
+def dumbbell():
+    """Two bare spheres on the turntable (no bar): their roll about the line of centres is
+    invisible to every view. Returns the scan, its views, the stage's poses (true poses off by
+    STAGE_SIGMA) and the bar's unit axis (model frame)."""
+    from fringe3d.sim.turntable import sphere_bar_scene, stage_errors
+    p = presets.get("tiny")
+    scene, centres, _ = sphere_bar_scene(p, bar="none")
+    scan = turntable_views(scene, p, np.arange(-60.0, 61.0, 30.0), sigma=0.05, seed=0)
+    vs = [view_from_map(f"view-{i:02d}", P, s) for i, (P, s) in enumerate(zip(scan.points, scan.sigma))]
+    c = centres.mean(0)
+    cents = [np.linalg.inv(T)[:3, :3] @ c + np.linalg.inv(T)[:3, 3] for T in scan.true_poses]
+    axis = (centres[1] - centres[0]) / np.linalg.norm(centres[1] - centres[0])
+    return scan, vs, stage_errors(scan.true_poses, cents, *STAGE_SIGMA, seed=1), axis, c
+
+
+def _roll_and_rest_mrad(poses, true, axis):
+    """Per view: the rotation error about the bar axis and the rest of it (mrad)."""
+    from scipy.spatial.transform import Rotation
+    roll, rest = [], []
+    for T, S in zip(true, poses):
+        rv = Rotation.from_matrix((S @ np.linalg.inv(T))[:3, :3]).as_rotvec()  # model frame
+        roll.append(1e3 * rv @ axis)
+        rest.append(1e3 * np.linalg.norm(rv - (rv @ axis) * axis))
+    return np.array(roll), np.array(rest)
+
+
+def test_stage_prior_holds_an_unobservable_roll_at_the_stage_pose_and_reports_the_stage_sigma(dumbbell):
+    from fringe3d.multiview.register import register_views
+    scan, vs, stage, axis, c = dumbbell
+    r = register_views(vs, stage, voxel=2.0, stage_sigma=STAGE_SIGMA)
+    roll, rest = _roll_and_rest_mrad(r.poses, scan.true_poses, axis)
+    stage_roll, stage_rest = _roll_and_rest_mrad(stage, scan.true_poses, axis)
+    assert np.abs(roll - stage_roll).max() < 0.5 * STAGE_SIGMA[0]  # the roll stays where the stage put it
+    assert stage_rest[1:].mean() > 1.5 and rest[1:].mean() < 0.7 * stage_rest[1:].mean()  # the others improve
+    _, tra = pose_errors(r.poses, scan.true_poses, c)
+    assert tra.max() < 100.0  # um at the bar centre
+    # the roll is known to the stage's sigma, no better: the reported 1-sigma says so
+    assert np.all((r.rotation_sigma_mrad[1:] > 0.7 * STAGE_SIGMA[0]) & (r.rotation_sigma_mrad[1:] <= STAGE_SIGMA[0]))
+
+
+def test_without_the_stage_prior_an_unobservable_roll_is_not_reported_as_known(dumbbell):
+    from fringe3d.multiview.register import register_views
+    scan, vs, stage, axis, _ = dumbbell
+    r = register_views(vs, stage, voxel=2.0)
+    sig = r.rotation_sigma_mrad[1:]
+    assert np.all(np.isnan(sig) | (sig > STAGE_SIGMA[0]))
+
+
+def test_stage_prior_leaves_a_well_constrained_sculpture_to_the_data(scan, views):
+    from fringe3d.sim.turntable import stage_errors
+    c = scan.truth_points.mean(0)
+    cents = [np.linalg.inv(T)[:3, :3] @ c + np.linalg.inv(T)[:3, 3] for T in scan.true_poses]
+    stage = stage_errors(scan.true_poses, cents, 5.0, 0.5, seed=1)
+    m = merge_views(views, stage, voxel=4.0, mesh="none", stage_sigma=(5.0, 0.5))
+    rot, tra = pose_errors(m.registration.poses, scan.true_poses, c)
+    start_rot, start_tra = pose_errors(stage, scan.true_poses, c)
+    assert start_rot[1:].min() > 4.0 and start_tra[1:].min() > 250.0
+    assert rot.max() < 2.5 and tra.max() < 60.0  # mrad, um: the data win over a 5 mrad stage
+    assert np.all(m.registration.rotation_sigma_mrad[1:] < 5.0)
+    assert m.summary()["stage_prior"] == {"rotation_mrad": 5.0, "translation_mm": 0.5}
+
+
+def test_merge_cli_takes_the_stage_sigma_from_the_poses_file_or_the_flag(scan_folder, tmp_path, capsys):
+    from fringe3d.multiview.poses import stage_entry
+    folder, views = scan_folder
+    names = [v.name for v in views]
+    poses = tmp_path / "poses.json"
+    write_poses(poses, names, [read_poses(folder / "poses.json")[n] for n in names],
+                stage=stage_entry({"kind": "test"}, 3.0, 0.3))
+    base = ["merge", *map(str, views), "--poses", str(poses), "--voxel", "4", "--mesh", "none", "--json"]
+    assert main([*base, "-o", str(tmp_path / "a")]) == 0
+    assert json.loads((tmp_path / "a" / "merge.json").read_text())["stage_prior"] == {
+        "rotation_mrad": 3.0, "translation_mm": 0.3}
+    assert main([*base, "--stage-sigma", "1,0.1", "-o", str(tmp_path / "b")]) == 0
+    assert json.loads((tmp_path / "b" / "merge.json").read_text())["stage_prior"]["rotation_mrad"] == 1.0
+    assert main([*base, "--stage-sigma", "none", "-o", str(tmp_path / "c")]) == 0
+    assert json.loads((tmp_path / "c" / "merge.json").read_text())["stage_prior"] is None
+    capsys.readouterr()
+    assert main([*base, "--stage-sigma", "0,0.1", "-o", str(tmp_path / "d")]) == 2
+    assert "both sigmas must be > 0" in " ".join(capsys.readouterr().err.split())
+    assert not (tmp_path / "d").exists()
+
+
+# --------------------------------------------------------------------------- free-hand: right or refused
+@pytest.fixture(scope="module")
+def bar_folder(tmp_path_factory):
+    """A real ball bar (two equal spheres on a square bar, no knob) at table angles 0 and 30 deg,
+    written as view folders."""
+    from fringe3d.sim.turntable import sphere_bar_scene
+    p = presets.get("tiny")
+    bar = turntable_views(sphere_bar_scene(p)[0], p, [0.0, 30.0], sigma=0.05, seed=0)
+    folder = tmp_path_factory.mktemp("bar")
+    return folder, write_turntable(folder, bar)
+
+
+def test_free_hand_refuses_a_symmetric_ball_bar_naming_the_pair_and_the_remedy(bar_folder):
+    from fringe3d.multiview.register import AmbiguousRegistration, register_views
+    from fringe3d.multiview.views import read_view
+    _, folders = bar_folder
+    with pytest.raises(AmbiguousRegistration, match="ambiguous: two poses 180 degrees apart") as e:
+        register_views([read_view(f) for f in folders], None, voxel=4.0)
+    assert e.value.pair == (1, 0)
+    assert "give the views' poses" in str(e.value)
+    assert len(e.value.candidates) > 1
+
+
+def test_free_hand_merge_cli_refuses_the_ball_bar_with_exit_2_and_writes_nothing(bar_folder, tmp_path, capsys):
+    _, folders = bar_folder
+    out = tmp_path / "merged"
+    assert main(["merge", *map(str, folders), "--free-hand", "--voxel", "4", "-o", str(out)]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "ambiguous" in err and "instead of free-hand registration" in err
+    assert not out.exists()
+
+
+def test_free_hand_refuses_views_that_do_not_overlap(views):
+    from fringe3d.multiview.register import AmbiguousRegistration, register_views
+    from fringe3d.multiview.views import View
+    v = views[0]
+    left = v.points[:, 0] < np.quantile(v.points[:, 0], 0.3)
+    right = v.points[:, 0] > np.quantile(v.points[:, 0], 0.75)
+    with pytest.raises(AmbiguousRegistration, match="slid onto each other where they do not overlap"):
+        register_views([View("a", v.points[left], v.sigma[left]), View("b", v.points[right], v.sigma[right])],
+                       None, voxel=4.0)
+
+
+# --------------------------------------------------------------------------- VDI/VDE 2634-3 on a merged cloud
+@pytest.fixture(scope="module")
+def fused_bar(tmp_path_factory):
+    """The ball bar seen at 0, 30 and 330 deg, fused at the true poses into fused.ply, with the
+    simulator's spheres.json beside it; returns (folder, true length mm, radius mm)."""
+    from fringe3d.io.ply_standard import write_standard_ply
+    from fringe3d.multiview.fuse import fuse_views
+    from fringe3d.sim.turntable import sphere_bar_scene, write_spheres
+    p = presets.get("tiny")
+    scene, centres, r = sphere_bar_scene(p)
+    bar = turntable_views(scene, p, [0.0, 30.0, 330.0], sigma=0.05, seed=2)
+    vs = [view_from_map(str(i), P, s) for i, (P, s) in enumerate(zip(bar.points, bar.sigma))]
+    folder = tmp_path_factory.mktemp("fusedbar")
+    fused = fuse_views(vs, bar.true_poses, 1.0)
+    write_standard_ply(folder / "fused.ply", fused.points, normals=False)
+    write_spheres(folder, scene)
+    return folder, float(np.linalg.norm(centres[1] - centres[0])), r
+
+
+def test_evaluate_ball_bar_on_a_merged_cloud_reports_the_spacing_error_against_the_simulated_length(fused_bar,
+                                                                                                     capsys):
+    folder, L, r = fused_bar
+    assert main(["evaluate", str(folder / "fused.ply"), "--ball-bar", "--truth", str(folder), "--json"]) == 0
+    bb = json.loads(capsys.readouterr().out)["ball_bar"]
+    assert bb["true_distance"] == pytest.approx(L, abs=1e-9)
+    assert abs(bb["error_um"]) < 50.0 and bb["error_um"] == pytest.approx(1e3 * bb["error"])
+    assert bb["distance"] == pytest.approx(L, abs=0.05)
+    for s in bb["spheres"]:
+        assert s["diameter"] == pytest.approx(2 * r, abs=0.1)
+        assert 0 < s["form"] < 1.0  # mm: P_F of 0.05 mm noise, ~2 mm pixels
+
+
+def test_evaluate_ball_bar_finds_the_spheres_of_a_calibrated_bar_without_the_truth(fused_bar, capsys):
+    folder, L, r = fused_bar
+    assert main(["evaluate", str(folder / "fused.ply"), "--ball-bar", "--truth", str(folder), "--json"]) == 0
+    with_truth = json.loads(capsys.readouterr().out)["ball_bar"]
+    assert main(["evaluate", str(folder / "fused.ply"), "--ball-bar", "--diameter", str(2 * r),
+                 "--distance", str(L), "--json"]) == 0
+    found = json.loads(capsys.readouterr().out)["ball_bar"]
+    assert found["error_um"] == pytest.approx(with_truth["error_um"], abs=5.0)
+    assert main(["evaluate", str(folder / "fused.ply"), "--ball-bar"]) == 2
+    assert "--truth SIMFOLDER" in " ".join(capsys.readouterr().err.split())

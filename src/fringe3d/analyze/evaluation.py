@@ -236,6 +236,47 @@ def spacing_figures(points, mask_a, mask_b, true_distance, true_diameter, exclud
     return out
 
 
+def cloud_ball_bar(points, centres, radius: float, true_distance: float | None = None,
+                   true_diameter: float | None = None, exclude: float | None = None,
+                   margin: float | None = None) -> dict:
+    """VDI/VDE 2634-3 sphere spacing of a ball bar in an unorganised (merged multi-view) cloud.
+
+    Parameters
+    ----------
+    points : (N, 3) float
+        The cloud, mm.
+    centres : (2, 3) float
+        Nominal sphere centres, mm (true ones, or :func:`fringe3d.analyze.ball_bar.find_spheres`).
+    radius : float
+        Nominal sphere radius, mm.
+    true_distance, true_diameter : float, optional
+        Calibrated centre distance and sphere diameter, mm.
+    exclude : float or None
+        The outlier rule (:func:`spacing_figures`).
+    margin : float, optional
+        Half-width (mm) of the shell about each nominal sphere whose points are fitted; default
+        5 % of the radius (the bar where it joins a sphere stays outside).
+
+    Returns
+    -------
+    dict
+        :func:`spacing_figures` (``error`` = SD, mm; both spheres' form ``P_F``) plus
+        ``error_um``, ``nominal_centres``, ``shell_margin`` and ``true_distance``.
+    """
+    from .ball_bar import shell_masks
+
+    C = np.asarray(centres, float)
+    if C.shape != (2, 3):
+        raise ValueError(f"the nominal centres must be two 3D points (2, 3), got shape {C.shape}")
+    m = 0.05 * radius if margin is None else float(margin)
+    P = np.asarray(points, float).reshape(-1, 3)
+    ma, mb = shell_masks(P, C, radius, m)
+    figs = spacing_figures(P, ma, mb, true_distance, true_diameter, exclude)
+    err = figs.get("error")
+    return {"method": "merged cloud, VDI/VDE 2634-3", "true_distance": true_distance, **figs,
+            "error_um": None if err is None else 1e3 * err, "nominal_centres": C.tolist(), "shell_margin": m}
+
+
 def evaluate_points(points: np.ndarray, truth=None, *, sphere: bool = False, plane: bool = False,
                     ball_bar: bool = False, diameter: float | None = None, distance: float | None = None,
                     exclude: float | None = None, result: Path | None = None) -> dict:

@@ -29,6 +29,18 @@ def check_choice(value, option: str, choices) -> None:
         raise ValueError(f"{option} must be one of {', '.join(map(str, choices))}, got {value!r}")
 
 
+def parse_stage_sigma(text: str, option: str) -> tuple[float, float]:
+    """``"2,0.2"`` as a stage's 1-sigma ``(rotation mrad, translation mm)``, both finite and >= 0;
+    ``ValueError`` naming ``option`` otherwise."""
+    try:
+        values = [float(x) for x in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 2 or not all(math.isfinite(v) and v >= 0 for v in values):
+        raise ValueError(f"{option}: expected ROT_MRAD,TRANS_MM (two numbers >= 0, e.g. 2,0.2), got {text!r}")
+    return values[0], values[1]
+
+
 def parse_exposures(text: str | None, option: str) -> list[float] | None:
     """``"0.001,0.004"`` as exposure times (s), each a finite number > 0, no repeats; ``None`` stays
     ``None``. ``ValueError`` naming ``option`` otherwise."""

@@ -7,7 +7,10 @@ from pathlib import Path
 
 import typer
 
-from fringe3d.analyze.evaluation import evaluate_points, load_points, truth_frame_index
+import numpy as np
+
+from fringe3d.analyze.ball_bar import bar_spheres, find_spheres, read_spheres
+from fringe3d.analyze.evaluation import cloud_ball_bar, evaluate_points, load_points, truth_frame_index
 from fringe3d.analyze.truth_points import TruthPoints, load_truth_points
 from fringe3d.patterns.method_registry import is_known, is_relative
 from fringe3d.sim.truth import Truth
@@ -53,7 +56,8 @@ def register(app: typer.Typer) -> None:
         plane: bool = typer.Option(False, "--plane", help="Flatness error and plane RMS."),
         ball_bar: bool = typer.Option(False, "--ball-bar", help="Sphere-spacing error of two spheres."),
         truth: Path = typer.Option(None, "--truth", help="Simulated capture (or its truth/ folder), or true surface "
-                                   "points: .npy (N, 3) mm or .ply."),
+                                   "points: .npy (N, 3) mm or .ply; for --ball-bar on a merged cloud the folder of "
+                                   "`fringe3d simulate --views` (its spheres.json) or that file."),
         diameter: float = typer.Option(None, "--diameter", help="Calibrated sphere diameter (mm); default from truth."),
         distance: float = typer.Option(None, "--distance", help="Calibrated ball-bar length (mm); default from truth."),
         frame: int = typer.Option(0, "--frame", help="3D frame of a sequence store."),
@@ -74,7 +78,14 @@ def register(app: typer.Typer) -> None:
         --exclude SHARE applies the VDI/VDE 2634-2 rule instead. A warning flags a form error far
         above the fit RMS.
 
+        A merged multi-view cloud (fringe3d merge's fused.ply) with --ball-bar gets the VDI/VDE
+        2634-3 sphere-spacing test: the spheres are taken at their true centres (--truth: the
+        simulated sequence's folder or spheres.json) or found by their calibrated --diameter
+        (with --distance, the calibrated length); SD (mm and um) and each sphere's form error.
+
         Example: fringe3d evaluate sphere-3d --sphere --truth sphere-capture --json
+
+        Example: fringe3d evaluate merged/fused.ply --ball-bar --truth bar-views
         """
         set_quiet(quiet or json_)
         for value, option in ((diameter, "--diameter"), (distance, "--distance")):
@@ -95,6 +106,9 @@ def register(app: typer.Typer) -> None:
             warn(f"{result} was triangulated from wrapped or relative phase ({relative}): its points are off by an "
                  "unknown number of fringe periods in depth, so these figures measure that offset, not the "
                  "measurement. Reconstruct it with an absolute method (fringe3d reconstruct names them).")
+        if ball_bar and points.ndim == 2 and (truth is None or truth.is_dir() or truth.suffix == ".json"):
+            out["ball_bar"] = merged_ball_bar(points, truth, diameter, distance, exclude)
+            return _report(out, result, overwrite, json_, quiet, relative)
         t = None
         if truth is not None and (truth.is_file() or truth.suffix in (".npy", ".ply")):
             t = load_truth(truth, info, frame, points.shape[:2])
@@ -106,24 +120,49 @@ def register(app: typer.Typer) -> None:
             warnings.simplefilter("ignore")  # the figures carry their warnings; printed below
             out.update(evaluate_points(points, t, sphere=sphere, plane=plane, ball_bar=ball_bar, diameter=diameter,
                                        distance=distance, exclude=exclude, result=result))
-        for sect in ("sphere", "plane", "ball_bar"):
-            for msg in out.get(sect, {}).get("warnings", []):
-                warn(msg)
-        if result.is_dir():
-            with open_output_file(result / "evaluate.json", overwrite=overwrite):
-                write_json(result / "evaluate.json", out, units=EVALUATE_UNITS)
-        if json_:
-            print_json(out)
-            return
-        if quiet:
-            return
-        rows = []
-        for sect in ("truth", "sphere", "plane", "ball_bar"):
-            for k, v in out.get(sect, {}).items():
-                if not isinstance(v, (dict, list, tuple)):
-                    rows.append([f"{sect}.{k}", "n/a" if v is None else v, figure_unit(k, v)])
-        title = f"evaluation of {result}" + (" - RELATIVE PHASE, NOT A MEASUREMENT" if relative else "")
-        console.print(make_table(title, ["figure", "value", "unit"], rows))
+        _report(out, result, overwrite, json_, quiet, relative)
+
+
+def merged_ball_bar(points, truth: Path | None, diameter: float | None, distance: float | None,
+                    exclude: float | None) -> dict:
+    """Ball-bar figures of a merged cloud: spheres at the true centres of ``truth`` (a simulated
+    sequence's spheres.json), or found by the calibrated ``diameter``."""
+    if truth is not None:
+        centres, radius = bar_spheres(*read_spheres(truth))
+        L = distance if distance is not None else float(np.linalg.norm(centres[1] - centres[0]))
+        d = diameter if diameter is not None else 2 * radius
+    else:
+        if diameter is None or distance is None:
+            raise ValueError("--ball-bar on a merged cloud needs the spheres: --truth SIMFOLDER (its spheres.json) "
+                             "or the bar's calibrated --diameter and --distance")
+        radius, d, L = 0.5 * diameter, diameter, distance
+        centres = find_spheres(points, radius)
+    return cloud_ball_bar(points, centres, radius, L, d, exclude)
+
+
+def _report(out: dict, result: Path, overwrite: bool, json_: bool, quiet: bool, relative) -> None:
+    for sect in ("sphere", "plane", "ball_bar"):
+        for msg in out.get(sect, {}).get("warnings", []):
+            warn(msg)
+    if result.is_dir():
+        with open_output_file(result / "evaluate.json", overwrite=overwrite):
+            write_json(result / "evaluate.json", out, units=EVALUATE_UNITS)
+    if json_:
+        print_json(out)
+        return
+    if quiet:
+        return
+    rows = []
+    for sect in ("truth", "sphere", "plane", "ball_bar"):
+        for k, v in out.get(sect, {}).items():
+            if not isinstance(v, (dict, list, tuple)):
+                rows.append([f"{sect}.{k}", "n/a" if v is None else v, figure_unit(k, v)])
+    for k, sph in enumerate(out.get("ball_bar", {}).get("spheres", [])):
+        for key in ("form", "size", "diameter", "rms"):
+            if sph.get(key) is not None:
+                rows.append([f"ball_bar.sphere_{k}.{key}", sph[key], "mm"])
+    title = f"evaluation of {result}" + (" - RELATIVE PHASE, NOT A MEASUREMENT" if relative else "")
+    console.print(make_table(title, ["figure", "value", "unit"], rows))
 
 
 #: Figures that are counts, ids or shares (no unit); every other figure of evaluate is a length in mm.
@@ -135,4 +174,6 @@ def figure_unit(key: str, value) -> str:
     and figures without a value (None)."""
     if value is None or isinstance(value, (bool, int)) or _UNITLESS.search(key):
         return ""
+    if key.endswith("_um"):
+        return "um"
     return "mm"

@@ -29,6 +29,19 @@ def place(view: View, pose) -> np.ndarray:
     return view.points @ T[:3, :3].T + T[:3, 3]
 
 
+def voxel_index(points, voxel: float) -> np.ndarray:
+    """Index (N,) of each point's occupied voxel (cubes of ``voxel`` mm), numbered in sorted
+    order of the voxels' integer coordinates. The three coordinates are packed into one int64
+    (21 bits each) when they span less than 2²¹ voxels, which sorts ~10× faster than rows."""
+    key = np.floor(np.asarray(points, float) / voxel).astype(np.int64)
+    key -= key.min(0)
+    if len(key) and key.max() < 2 ** 21:
+        _, inv = np.unique((key[:, 0] << 42) | (key[:, 1] << 21) | key[:, 2], return_inverse=True)
+    else:
+        _, inv = np.unique(key, axis=0, return_inverse=True)
+    return inv.ravel()
+
+
 def fuse_views(views: list[View], poses, voxel: float) -> Fused:
     """Fuse ``views`` placed by ``poses`` (V, 4, 4) into voxels of ``voxel`` mm."""
     if voxel <= 0:
@@ -39,11 +52,9 @@ def fuse_views(views: list[View], poses, voxel: float) -> Fused:
     if not np.isfinite(sig).all():
         sig = np.where(np.isfinite(sig), sig, np.nanmedian(sig) if np.isfinite(sig).any() else 1.0)
     w = 1.0 / np.maximum(sig, 1e-9) ** 2
-    key = np.floor(pts / voxel).astype(np.int64)
-    _, inv = np.unique(key, axis=0, return_inverse=True)
-    inv = inv.ravel()
+    inv = voxel_index(pts, voxel)
     W = np.bincount(inv, w)
     X = np.stack([np.bincount(inv, w * pts[:, k]) for k in range(3)], axis=1) / W[:, None]
-    pairs = np.unique(np.stack([inv, vid], 1), axis=0)
-    n_views = np.bincount(pairs[:, 0], minlength=len(W))
+    pairs = np.unique(inv * len(views) + vid)  # (voxel, view) met
+    n_views = np.bincount(pairs // len(views), minlength=len(W))
     return Fused(X, 1.0 / np.sqrt(W), n_views)

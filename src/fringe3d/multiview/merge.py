@@ -30,13 +30,16 @@ class Merged:
     registration: Registration
     fused: Fused
     mesh: o3d.geometry.TriangleMesh | None
+    stage_sigma: tuple[float, float] | None = None
 
     def summary(self) -> dict:
         r = self.registration
         per_view = [{"name": n, "residual_rms_mm": _f(r.residual_rms_mm[i]),
                      "rotation_sigma_mrad": _f(r.rotation_sigma_mrad[i]),
                      "translation_sigma_um": _f(r.translation_sigma_um[i])} for i, n in enumerate(self.names)]
-        out = {"views": per_view, "edges": r.edges, "fused_points": len(self.fused.points),
+        prior = None if self.stage_sigma is None else {"rotation_mrad": self.stage_sigma[0],
+                                                       "translation_mm": self.stage_sigma[1]}
+        out = {"views": per_view, "stage_prior": prior, "edges": r.edges, "fused_points": len(self.fused.points),
                "fused_sigma_median_mm": _f(np.median(self.fused.sigma))}
         if self.mesh is not None:
             out["mesh"] = mesh_figures(self.mesh)
@@ -48,19 +51,22 @@ def _f(x) -> float | None:
 
 
 def merge_views(views: list[View], poses=None, voxel: float = 2.0, fuse_voxel: float | None = None,
-                mesh: str = "poisson", seed: int = 0) -> Merged:
+                mesh: str = "poisson", seed: int = 0, stage_sigma=None) -> Merged:
     """Register ``views`` (from ``poses`` (V, 4, 4) view → model, or free-hand when None), fuse
     them (σ-weighted voxels of ``fuse_voxel`` mm, default ``voxel / 2``) and mesh them
-    (``mesh``: ``poisson`` or ``none``)."""
+    (``mesh``: ``poisson`` or ``none``). ``stage_sigma`` (rotation mrad, translation mm at the
+    object centre): the stated 1σ of stage ``poses``, which keeps each pose near its stage pose
+    by that weight (:func:`fringe3d.multiview.register.register_views`)."""
     if mesh not in MESH_METHODS:
         raise ValueError(f"mesh must be one of {', '.join(MESH_METHODS)}, got {mesh!r}")
     if poses is not None and len(poses) != len(views):
         raise ValueError(f"{len(poses)} poses for {len(views)} views")
-    r = register_views(views, poses, voxel=voxel, seed=seed)
+    r = register_views(views, poses, voxel=voxel, seed=seed, stage_sigma=stage_sigma)
     fv = fuse_voxel if fuse_voxel is not None else 0.5 * voxel
     fused = fuse_views(views, r.poses, fv)
     m = poisson_mesh(fused.points, fv) if mesh == "poisson" else None
-    return Merged([v.name for v in views], r, fused, m)
+    return Merged([v.name for v in views], r, fused, m,
+                  None if stage_sigma is None else (float(stage_sigma[0]), float(stage_sigma[1])))
 
 
 def write_merge(folder: str | os.PathLike, merged: Merged) -> dict:

@@ -7,6 +7,16 @@
 
 ``matrix`` maps the view's points (its camera frame, mm) into the common model frame:
 ``x_model = M @ [x_view, 1]``.
+
+Poses from a stage may say how well the stage knows them (what registration's stage prior
+weighs them by, :func:`read_stage_sigma`), and a simulated sequence keeps the truth beside them::
+
+    {..., "stage": {"kind": "virtual turntable", ..., "sigma_rotation_mrad": 2.0,
+                    "sigma_translation_mm": 0.2},
+     "views": [{"name": "view-00", "matrix": ..., "true_matrix": ..., "angle_deg": 0.0}, ...]}
+
+``sigma_rotation_mrad`` is the 1σ rotation error per axis, ``sigma_translation_mm`` the 1σ
+translation error per axis at the object's centre (the centroid of the view's points).
 """
 from __future__ import annotations
 
@@ -36,16 +46,46 @@ def check_rigid(M, where: str, tol: float = 1e-4) -> np.ndarray:
     return A
 
 
-def write_poses(path: str | os.PathLike, names, matrices) -> Path:
-    """Write ``poses.json`` (names: view names; matrices: (V, 4, 4) view → model, mm)."""
+def write_poses(path: str | os.PathLike, names, matrices, extra=None, stage: dict | None = None) -> Path:
+    """Write ``poses.json``.
+
+    Parameters
+    ----------
+    path : path
+        The file.
+    names : sequence of str
+        View names.
+    matrices : (V, 4, 4) array_like
+        View → model transforms, mm.
+    extra : sequence of dict, optional
+        More fields per view (e.g. ``true_matrix``, ``angle_deg``).
+    stage : dict, optional
+        The ``stage`` entry (:func:`stage_entry`).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     views = [{"name": str(n), "matrix": np.asarray(M, float).tolist()} for n, M in zip(names, matrices)]
-    atomic_write_text(path, json.dumps({"format": FORMAT, "version": 1, "unit": "mm", "views": views}, indent=1))
+    for v, e in zip(views, extra or []):
+        v.update(e)
+    doc: dict = {"format": FORMAT, "version": 1, "unit": "mm"}
+    if stage is not None:
+        doc["stage"] = stage
+    doc["views"] = views
+    atomic_write_text(path, json.dumps(doc, indent=1))
     return Path(path)
 
 
-def read_poses(path: str | os.PathLike) -> dict[str, np.ndarray]:
-    """``{view name: (4, 4) view → model}`` from ``path``; ValueError naming the file and field."""
-    path = Path(path)
+def stage_entry(description: dict, sigma_rotation_mrad: float, sigma_translation_mm: float) -> dict:
+    """The ``stage`` entry of a poses file: ``description`` (kind, axis, ...) and the stage's
+    stated 1σ rotation (mrad) and translation at the object centre (mm)."""
+    return {**description, "sigma_rotation_mrad": float(sigma_rotation_mrad),
+            "sigma_translation_mm": float(sigma_translation_mm)}
+
+
+def _load(path: Path) -> dict:
     if not path.is_file():
         raise ValueError(f"poses file {path} does not exist")
     try:
@@ -54,6 +94,41 @@ def read_poses(path: str | os.PathLike) -> dict[str, np.ndarray]:
         raise ValueError(f"poses file {path} is not valid JSON: {e}") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise ValueError(f"poses file {path}: field 'format' must be {FORMAT!r}")
+    return doc
+
+
+def read_stage_sigma(path: str | os.PathLike) -> tuple[float, float] | None:
+    """The stage's stated 1σ ``(rotation mrad, translation mm)`` from ``path``'s ``stage`` entry,
+    or None when the file states none; ValueError naming the field when it is not two numbers ≥ 0."""
+    path = Path(path)
+    stage = _load(path).get("stage")
+    if stage is None:
+        return None
+    out = []
+    for key in ("sigma_rotation_mrad", "sigma_translation_mm"):
+        v = stage.get(key) if isinstance(stage, dict) else None
+        if v is None:
+            return None
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
+            raise ValueError(f"poses file {path}: field 'stage.{key}' must be a number >= 0, got {v!r}")
+        out.append(float(v))
+    return out[0], out[1]
+
+
+def read_poses(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """``{view name: (4, 4) view → model}`` from ``path``; ValueError naming the file and field."""
+    return _read(path, "matrix")
+
+
+def read_true_poses(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """``{view name: (4, 4) true view → model}`` from the ``true_matrix`` fields a simulated
+    sequence writes (:func:`fringe3d.sim.turntable.simulate_turntable`)."""
+    return _read(path, "true_matrix")
+
+
+def _read(path, key: str) -> dict[str, np.ndarray]:
+    path = Path(path)
+    doc = _load(path)
     if doc.get("unit", "mm") != "mm":
         raise ValueError(f"poses file {path}: field 'unit' must be 'mm', got {doc.get('unit')!r}")
     views = doc.get("views")
@@ -63,9 +138,9 @@ def read_poses(path: str | os.PathLike) -> dict[str, np.ndarray]:
     for i, v in enumerate(views):
         if not isinstance(v, dict) or not isinstance(v.get("name"), str):
             raise ValueError(f"poses file {path}: field 'views[{i}].name' must be a string")
-        if "matrix" not in v:
-            raise ValueError(f"poses file {path}: field 'views[{i}].matrix' is missing")
-        out[v["name"]] = check_rigid(v["matrix"], f"poses file {path}: field 'views[{i}].matrix'")
+        if key not in v:
+            raise ValueError(f"poses file {path}: field 'views[{i}].{key}' is missing")
+        out[v["name"]] = check_rigid(v[key], f"poses file {path}: field 'views[{i}].{key}'")
     return out
 
 

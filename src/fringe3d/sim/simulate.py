@@ -99,7 +99,7 @@ def make_patterns(spec, width: int, height: int) -> PatternSet:
 
 # ----------------------------------------------------------------------------- scenes
 SCENE_NAMES = ("sphere", "plane", "spheres", "step", "board", "sculpture", "mesh", "falling-balls", "wing",
-               "textured-spheres", "shiny-part", "printed-part")
+               "textured-spheres", "shiny-part", "printed-part", "sphere-bar")
 
 
 def make_scene(spec, preset: Preset) -> Scene:
@@ -143,6 +143,8 @@ def named_scene(name: str, preset: Preset) -> Scene:
     * ``board``: a 9x9 circle-grid calibration board facing the camera.
     * ``sculpture``, ``mesh`` (~100k triangles, Embree), ``falling-balls``, ``wing``,
       ``textured-spheres``: from :mod:`fringe3d.sim.catalog`.
+    * ``sphere-bar``: a VDI/VDE 2634-3 ball bar, two spheres on a square bar
+      (:func:`fringe3d.sim.turntable.sphere_bar_scene`).
 
     Parameters
     ----------
@@ -183,6 +185,9 @@ def named_scene(name: str, preset: Preset) -> Scene:
         return Scene([board_facing(cam_c, c, cols=9, rows=9, spacing=spacing)], name="board")
     if name in catalog.NAMES:
         return catalog.named_scene(name, preset)
+    if name == "sphere-bar":
+        from .turntable import sphere_bar_scene
+        return sphere_bar_scene(preset)[0]
     raise ValueError(f"unknown scene {name!r}; expected a scene file (*.json) or one of: {', '.join(SCENE_NAMES)}")
 
 

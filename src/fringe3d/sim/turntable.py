@@ -9,9 +9,14 @@ and normals in the model frame (view 0's camera frame) as the truth surface.
 
 These views are truth ray-casts plus noise, not rendered fringe images run through decode and
 reconstruct: they test registration, fusion and meshing, not the phase chain.
+:func:`simulate_turntable` renders the whole chain instead: one full capture folder (fringe
+frames, ``truth/``, ``rig.json``) per table angle, the scene turned by :class:`TurnedObject`,
+plus ``poses.json`` with what the stage reports (the true poses off by a seeded error of the
+stage's stated uncertainty) and the true poses beside them.
 """
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,13 +24,16 @@ import numpy as np
 
 from fringe3d.devices.stage import rotation_about
 from fringe3d.io.images import write_image
-from fringe3d.multiview.poses import write_poses
+from fringe3d.multiview.poses import stage_entry, write_poses
+from fringe3d.utils.atomic import atomic_write_text
 
 from .catalog import preset_frame, sculpture_scene
+from .hits import Hit, as_rays
 from .presets import Preset
 from .primitives import Box, Sphere
 from .rays import camera_rays
 from .scene import Scene
+from .scene_object import CullingVolume, SceneObject
 
 
 class VirtualTurntable:
@@ -109,11 +117,37 @@ def turntable_views(scene: Scene, preset: Preset, angles_deg, sigma: float = 0.0
                          np.concatenate(tn), np.asarray(angles_deg, float))
 
 
-def sphere_bar_scene(preset: Preset, spacing: float | None = None, radius: float | None = None):
-    """A ball bar for VDI/VDE 2634-3: two spheres ``spacing`` mm apart (default 45 % of the volume
-    width) joined by a square bar, and a smaller knob sphere on the bar (it breaks the bar's
-    symmetry so free-hand registration has a unique answer). Returns ``(scene, centres (2, 3),
-    radius)`` in the camera frame at table angle 0."""
+BAR_KINDS = ("box", "none")
+
+
+def sphere_bar_scene(preset: Preset, spacing: float | None = None, radius: float | None = None,
+                     knob: bool = False, bar: str = "box"):
+    """A ball bar for VDI/VDE 2634-3.
+
+    Two spheres ``spacing`` mm apart (default 45 % of the volume width), joined by a square bar
+    (``bar="box"``) or by nothing visible (``bar="none"``: a dumbbell whose roll about the line
+    of centres no view can observe), with an optional smaller knob sphere on the bar (``knob``:
+    it breaks the bar's symmetries so free-hand registration has a unique answer; a real ball bar
+    has none, and its two equal spheres and square bar make the free-hand answer ambiguous).
+
+    Parameters
+    ----------
+    preset : Preset
+        The rig preset whose working volume (mm) places the bar.
+    spacing, radius : float, optional
+        Centre distance and sphere radius (mm); default 45 % and 8 % of the volume width.
+    knob : bool
+        Add the asymmetric knob sphere.
+    bar : str
+        ``"box"`` or ``"none"`` (:data:`BAR_KINDS`).
+
+    Returns
+    -------
+    tuple
+        ``(scene, centres (2, 3) mm, radius mm)``, in the camera frame at table angle 0.
+    """
+    if bar not in BAR_KINDS:
+        raise ValueError(f"bar must be one of {', '.join(BAR_KINDS)}, got {bar!r}")
     c, size, view, down = preset_frame(preset)
     L = 0.45 * size[0] if spacing is None else float(spacing)
     r = 0.08 * size[0] if radius is None else float(radius)
@@ -121,9 +155,12 @@ def sphere_bar_scene(preset: Preset, spacing: float | None = None, radius: float
     right /= np.linalg.norm(right)
     ca, cb = c - 0.5 * L * right, c + 0.5 * L * right
     R = np.column_stack([right, -down, -view])
-    bar = Box(c, (L - r, 0.5 * r, 0.5 * r), R=R)
-    knob = Sphere(c + 0.2 * L * right - 0.6 * r * down, 0.5 * r)
-    return Scene([Sphere(ca, r), Sphere(cb, r), bar, knob], name="sphere-bar"), np.stack([ca, cb]), r
+    objects: list = [Sphere(ca, r), Sphere(cb, r)]
+    if bar == "box":
+        objects.append(Box(c, (L - r, 0.5 * r, 0.5 * r), R=R))
+    if knob:
+        objects.append(Sphere(c + 0.2 * L * right - 0.6 * r * down, 0.5 * r))
+    return Scene(objects, name="sphere-bar"), np.stack([ca, cb]), r
 
 
 def sculpture_turntable(preset: Preset, seed: int = 0) -> Scene:
@@ -148,3 +185,170 @@ def write_turntable(folder, scan: TurntableScan) -> list[Path]:
     np.savez_compressed(folder / "truth.npz", points=scan.truth_points, normals=scan.truth_normals,
                         poses=scan.true_poses, angles_deg=scan.angles_deg)
     return out
+
+
+def write_spheres(folder, scene: Scene) -> Path | None:
+    """Write ``folder/spheres.json``: the static spheres of ``scene`` (at its home pose, the model
+    frame) as ``centre_mm`` and ``radius_mm``, the truth of a multi-view ball-bar test
+    (:func:`fringe3d.analyze.ball_bar.read_spheres`); None (nothing written) without spheres."""
+    spheres = [{"centre_mm": ob.center.tolist(), "radius_mm": ob.radius} for ob in scene.objects
+               if isinstance(ob, Sphere) and ob.motion.is_static]
+    if not spheres:
+        return None
+    path = Path(folder) / "spheres.json"
+    atomic_write_text(path, json.dumps({"format": "fringe3d-spheres", "version": 1, "unit": "mm",
+                                        "frame": "model (view 0 camera frame)", "scene": scene.name,
+                                        "spheres": spheres}, indent=1))
+    return path
+
+
+class TurnedObject:
+    """``inner`` (a scene object) moved rigidly by ``T`` (4, 4) world → world, mm: what a
+    turntable or stage does to the object on it. Rays are cast at the object in its home pose
+    (origins and directions moved by ``T⁻¹``) and the hit normals moved back by ``T``; distances
+    along the rays are unchanged by a rigid motion. Gloss, albedo and texture are the inner
+    object's; extra truth fields (the wing's curvature) are not carried."""
+
+    def __init__(self, inner: SceneObject, T):
+        self.inner = inner
+        self.T = np.asarray(T, float)
+        self._Ti = np.linalg.inv(self.T)
+
+    @property
+    def moving(self) -> bool:
+        return bool(self.inner.moving)
+
+    @property
+    def specular(self) -> float:
+        return float(getattr(self.inner, "specular", 0.0))
+
+    @property
+    def roughness(self) -> float:
+        return float(getattr(self.inner, "roughness", 1.0))
+
+    def _home(self, origins, dirs) -> tuple[np.ndarray, np.ndarray]:
+        o, d = as_rays(origins, dirs)
+        Ti = self._Ti
+        return (np.ascontiguousarray(o @ Ti[:3, :3].T + Ti[:3, 3]), np.ascontiguousarray(d @ Ti[:3, :3].T))
+
+    def intersect(self, origins: np.ndarray, dirs: np.ndarray, time: float = 0.0) -> Hit:
+        o, d = self._home(origins, dirs)
+        h = self.inner.intersect(o, d, time)
+        h.normal = np.ascontiguousarray(h.normal @ self.T[:3, :3].T)
+        return h
+
+    def hit_distance(self, origins: np.ndarray, dirs: np.ndarray, time: float = 0.0) -> np.ndarray:
+        o, d = self._home(origins, dirs)
+        return self.inner.hit_distance(o, d, time)
+
+    def culling_volume(self, time: float = 0.0) -> CullingVolume | None:
+        v = self.inner.culling_volume(time)
+        if v is None:
+            return None
+        R = self.T[:3, :3]
+        return CullingVolume(R @ v.center + self.T[:3, 3], v.radius, R @ v.R, v.lo, v.hi)
+
+    def bounding_sphere(self, time: float = 0.0) -> tuple[np.ndarray, float]:
+        c, r = self.inner.bounding_sphere(time)
+        return self.T[:3, :3] @ np.asarray(c, float) + self.T[:3, 3], r
+
+    def describe(self) -> str:
+        return f"{self.inner.describe()} on a stage"
+
+    def to_dict(self) -> dict:
+        raise ValueError(f"{self.describe()} cannot be saved to a scene file (save the scene at its home pose)")
+
+
+def turned_scene(scene: Scene, T) -> Scene:
+    """``scene`` with every object moved by ``T`` (4, 4) world → world (:class:`TurnedObject`)."""
+    return Scene([TurnedObject(ob, T) for ob in scene.objects], ambient=scene.ambient, name=scene.name)
+
+
+def stage_errors(true_poses, centres, sigma_rotation_mrad: float, sigma_translation_mm: float,
+                 seed: int = 0) -> np.ndarray:
+    """What a stage of stated 1σ uncertainty reports: each true pose (V, 4, 4) view → model
+    followed by a random error ``E`` in its view frame, a rotation of N(0, σ_rot) per axis about
+    the view's object centre ``centres[k]`` (mm) and a shift of N(0, σ_trans) per axis. View 0
+    defines the model frame and is exact. Seeded: the same seed gives the same errors."""
+    rng = np.random.default_rng(seed)
+    out = [np.asarray(true_poses[0], float)]
+    for P, c in zip(true_poses[1:], centres[1:]):
+        w = rng.normal(scale=1e-3 * sigma_rotation_mrad, size=3)
+        ang = float(np.linalg.norm(w))
+        E = rotation_about(w if ang > 0 else (0.0, 0.0, 1.0), ang, c)
+        E[:3, 3] += rng.normal(scale=sigma_translation_mm, size=3)
+        out.append(np.asarray(P, float) @ E)
+    return np.stack(out)
+
+
+def simulate_turntable(folder, preset="tiny", scene=None, patterns=None, *, views: int, step_deg: float,
+                       stage_sigma: tuple[float, float] = (0.0, 0.0), progress: bool = True,
+                       **capture) -> dict:
+    """Render a turntable sequence: one capture folder per table angle and its poses.
+
+    Writes ``folder/view-NN/`` (a full :func:`fringe3d.sim.simulate.simulate_capture` folder of
+    the scene turned by ``NN × step_deg`` about :func:`default_turntable`'s axis) and
+    ``folder/poses.json``: per view its ``matrix`` (what the stage reports: the true view → model
+    pose off by :func:`stage_errors`), ``true_matrix`` (the truth) and ``angle_deg``, plus a
+    ``stage`` entry (axis, point, step, the stated 1σ ``sigma_rotation_mrad`` and
+    ``sigma_translation_mm`` at the object centre). The model frame is view 0's camera frame.
+    A scene with spheres also gets ``folder/spheres.json`` (their true centres and radii in the
+    model frame, mm): the truth of a multi-view ball-bar test (``fringe3d evaluate --ball-bar``).
+
+    Parameters
+    ----------
+    folder : path
+        Output folder (the view folders and ``poses.json`` are written inside it).
+    preset, scene, patterns
+        As :func:`fringe3d.sim.simulate.simulate_capture` (a scene at its home pose, table angle 0).
+    views : int
+        Number of views (≥ 2).
+    step_deg : float
+        Table turn between consecutive views (degrees).
+    stage_sigma : (float, float)
+        The stage's stated 1σ uncertainty: rotation (mrad) and translation at the object centre
+        (mm); the reported poses carry a seeded error of that size.
+    progress : bool
+        Show progress bars.
+    **capture
+        Any other keyword of ``simulate_capture`` (``seed`` also seeds the stage error; view
+        ``k`` renders with ``seed + k``).
+
+    Returns
+    -------
+    dict
+        Summary: folder, views (their folders), angles, the ``poses`` file and each view's summary.
+    """
+    from . import presets as _presets
+    from .simulate import make_scene, simulate_capture
+
+    if views < 2:
+        raise ValueError(f"views must be >= 2, got {views}")
+    if not np.isfinite(step_deg) or step_deg == 0:
+        raise ValueError(f"step_deg must be a finite non-zero angle in degrees, got {step_deg}")
+    if min(stage_sigma) < 0:
+        raise ValueError(f"stage_sigma must be >= 0 (mrad, mm), got {stage_sigma}")
+    p = _presets.get(preset)
+    sc = make_scene(scene, p)
+    table = default_turntable(p)
+    folder = Path(folder)
+    seed = int(capture.pop("seed", None) or 0)
+    angles = step_deg * np.arange(views)
+    names = [f"view-{k:02d}" for k in range(views)]
+    true, centres, summaries = [], [], []
+    for k, (name, a) in enumerate(zip(names, angles)):
+        table.move_to(float(a))
+        T = table.transform()
+        true.append(np.linalg.inv(T))  # view k -> model (view 0: angle 0, the home pose)
+        centres.append(T[:3, :3] @ table.point + T[:3, 3])
+        summaries.append(simulate_capture(folder / name, p, turned_scene(sc, T), patterns, seed=seed + k,
+                                          progress=progress, **capture))
+    stage = stage_errors(np.stack(true), centres, stage_sigma[0], stage_sigma[1], seed)
+    write_spheres(folder, sc)
+    desc = {**table.describe(), "step_deg": float(step_deg), "angles_deg": angles.tolist()}
+    poses = write_poses(folder / "poses.json", names, stage,
+                        extra=[{"true_matrix": t.tolist(), "angle_deg": float(a)} for t, a in zip(true, angles)],
+                        stage=stage_entry(desc, *stage_sigma))
+    return {"folder": str(folder), "views": [str(folder / n) for n in names], "angles_deg": angles.tolist(),
+            "poses": str(poses), "stage_sigma": {"rotation_mrad": stage_sigma[0], "translation_mm": stage_sigma[1]},
+            "captures": summaries}
