@@ -27,6 +27,7 @@ from fringe3d.live import (
     ViewerSetup,
     ViserViewer,
 )
+from fringe3d.live.display import COLOURINGS
 from fringe3d.optics import Rig
 from fringe3d.patterns.render import render_set
 from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
@@ -93,10 +94,12 @@ def register(app: typer.Typer) -> None:
         Example: fringe3d live --camera pylon:40012345 --projector window:1 --patterns pats --calibration rig.json
         """
         opts = dict(locals())
+        o = LiveOptions(**{f.name: opts[f.name] for f in fields(LiveOptions)})
         try:
-            run_live(LiveOptions(**{f.name: opts[f.name] for f in fields(LiveOptions)}))
+            summary = run_live(o)
         except (ValueError, FileNotFoundError) as e:
             raise ValueError(in_flag_words(str(e))) from None
+        _report(summary, o)
 
 
 @dataclass(frozen=True)
@@ -220,13 +223,22 @@ def _devices(o: LiveOptions, spec: DeviceSpec) -> _Rig:
                 meta, z_range, [d for d in (cam, proj) if d is not None])
 
 
-def run_live(o: LiveOptions) -> None:
-    """The body of ``fringe3d live`` (see its --help).
+def run_live(o: LiveOptions, on_serving=None) -> dict:
+    """The body of ``fringe3d live`` (see its --help): open the camera, serve the page, run the
+    loop, and return the summary ``--json`` prints.
 
     Parameters
     ----------
     o : LiveOptions
         The flags.
+    on_serving : callable, optional
+        Called with the page's address once it is served (tests open it then).
+
+    Returns
+    -------
+    dict
+        The figures of :meth:`fringe3d.live.LiveSession.run` plus the camera, size, engine path,
+        pattern sets, address and whether Ctrl-C stopped the run.
     """
     set_quiet(o.quiet or o.json_)
     if o.frames is not None and o.frames < 1:
@@ -235,6 +247,8 @@ def run_live(o: LiveOptions) -> None:
         raise ValueError(f"--seconds must be positive, got {o.seconds}")
     if o.record_cycles < 1:
         raise ValueError(f"--record-cycles must be at least 1, got {o.record_cycles}")
+    if o.colour not in COLOURINGS:
+        raise ValueError(f"--colour must be one of {', '.join(COLOURINGS)}, got {o.colour!r}")
     spec = DeviceSpec.parse(o.camera)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", Fringe3DWarning)  # a moving scene's per-cycle notices would flood the console
@@ -248,6 +262,8 @@ def run_live(o: LiveOptions) -> None:
                         look_at=(0.0, 0.0, 0.5 * (rig.z_range[0] + rig.z_range[1])))
     viewer = ViserViewer(setup, controls)
     info(f"live view at {viewer.url} ({W}x{H} camera, {first.engine.path}); Ctrl-C stops")
+    if on_serving is not None:
+        on_serving(viewer.url)
     settings = LiveSettings(frames=o.frames, seconds=o.seconds, step=o.step, z_range=rig.z_range,
                             wait_viewer=o.wait_viewer)
     session = LiveSession(rig.choices, viewer, settings, controls, rig.apply_exposure,
@@ -269,9 +285,8 @@ def run_live(o: LiveOptions) -> None:
         viewer.close()
         for d in rig.closing:
             d.close()
-    summary = {**summary, "camera": o.camera, "size": [int(W), int(H)], "path": first.engine.path,
-               "patterns": [c.name for c in rig.choices], "url": viewer.url, "interrupted": interrupted}
-    _report(summary, o)
+    return {**summary, "camera": o.camera, "size": [int(W), int(H)], "path": first.engine.path,
+            "patterns": [c.name for c in rig.choices], "url": viewer.url, "interrupted": interrupted}
 
 
 def _stop_on_ctrl_c(session: LiveSession):
