@@ -14,11 +14,15 @@ import numpy as np
 
 from fringe3d.decode.edges import INVALID
 
+from ._display_kernel import gather_points
+
 #: Colourings of the points.
 COLOURINGS = ("z", "texture")
 
-# a perceptual blue -> green -> yellow ramp (viridis at 5 stops), interpolated linearly
+# a perceptual blue -> green -> yellow ramp (viridis at 5 stops), interpolated linearly into 256 colours
 _RAMP = np.array([[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]], np.float32)
+_LUT = np.stack([np.interp(np.linspace(0, len(_RAMP) - 1, 256), np.arange(len(_RAMP)), _RAMP[:, c])
+                 for c in range(3)], axis=1).round().astype(np.uint8)
 
 
 def decimated(points: np.ndarray, step: int) -> np.ndarray:
@@ -54,13 +58,13 @@ def depth_colours(z: np.ndarray, z_range: tuple[float, float]) -> np.ndarray:
     Returns
     -------
     (N, 3) uint8 ndarray
-        RGB colours.
+        RGB colours (256 steps over ``z_range``).
     """
     z0, z1 = float(z_range[0]), float(z_range[1])
-    t = np.clip((np.asarray(z, np.float32) - z0) / max(z1 - z0, 1e-6), 0.0, 1.0) * (len(_RAMP) - 1)
-    i = np.minimum(t.astype(np.int32), len(_RAMP) - 2)
-    f = (t - i)[:, None]
-    return (_RAMP[i] * (1 - f) + _RAMP[i + 1] * f).astype(np.uint8)
+    t = np.asarray(z, np.float32) - np.float32(z0)
+    t *= np.float32(255.0 / max(z1 - z0, 1e-6))
+    np.clip(t, 0.0, 255.0, out=t)
+    return _LUT[(t + np.float32(0.5)).astype(np.uint8)]
 
 
 def display_points(points: np.ndarray, texture: np.ndarray | None, colouring: str, z_range: tuple[float, float],
@@ -89,15 +93,16 @@ def display_points(points: np.ndarray, texture: np.ndarray | None, colouring: st
     """
     if colouring not in COLOURINGS:
         raise ValueError(f"colouring must be one of {', '.join(COLOURINGS)}, got {colouring!r}")
-    p = decimated(points, step)
-    valid = np.isfinite(p[..., 2])
-    pts = np.ascontiguousarray(p[valid], dtype=np.float32)
-    if colouring == "texture":
-        if texture is None:
-            raise ValueError("colouring by texture needs the texture (reconstruct with texture)")
-        g = np.clip(decimated(texture, step)[valid] * 255.0 + 0.5, 0, 255).astype(np.uint8)
-        return pts, np.repeat(g[:, None], 3, axis=1)
-    return pts, depth_colours(pts[:, 2], z_range)
+    if int(step) < 1:
+        raise ValueError(f"step is a pixel stride of at least 1, got {step}")
+    if points.ndim != 3 or points.shape[2] != 3:
+        raise ValueError(f"points must be an (H, W, 3) point map, got shape {points.shape}")
+    use_texture = colouring == "texture"
+    if use_texture and texture is None:
+        raise ValueError("colouring by texture needs the texture (reconstruct with texture)")
+    tex = texture if use_texture else np.zeros((1, 1), np.float32)
+    z0, z1 = float(z_range[0]), float(z_range[1])
+    return gather_points(points, tex, use_texture, int(step), z0, 255.0 / max(z1 - z0, 1e-6), _LUT)
 
 
 def mask_overlay(texture: np.ndarray | None, quality: np.ndarray, width: int | None = None) -> np.ndarray:
