@@ -40,7 +40,7 @@ def main() -> None:
         o = LiveOptions(camera=f"virtual:{args.preset}", projector=None, patterns="3-step", calibration=None,
                         z_min=None, frame_rate=args.frame_rate, loop_cycles=args.loop_cycles, exposure=None,
                         frames=None, seconds=args.seconds, host="127.0.0.1", port=0, step=args.step, colour="z",
-                        record=Path(tmp) / "rec", record_cycles=1, wait_viewer=0.0 if args.no_browser else 120.0,
+                        output=Path(tmp) / "rec", record_cycles=1, wait_viewer=0.0 if args.no_browser else 120.0,
                         hold=0.0, overwrite=False, json_=True, quiet=True)
         t = threading.Thread(target=lambda: result.update(summary=run_live(o, on_serving=served.append)))
         t.start()

@@ -76,7 +76,7 @@ def _messages(payload: bytes) -> list[dict]:
 def _options(record: Path) -> LiveOptions:
     return LiveOptions(camera="virtual:tiny", projector=None, patterns="3-step", calibration=None, z_min=None,
                        frame_rate=FRAME_RATE, loop_cycles=LOOP_CYCLES, exposure=None, frames=FRAMES, seconds=None,
-                       host="127.0.0.1", port=0, step=1, colour="z", record=record, record_cycles=1,
+                       host="127.0.0.1", port=0, step=1, colour="z", output=record, record_cycles=1,
                        wait_viewer=60.0, hold=2.0, overwrite=False, json_=True, quiet=True)
 
 

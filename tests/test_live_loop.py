@@ -12,7 +12,6 @@ from fringe3d.io.capture import read_capture
 from fringe3d.live import (
     CameraCycles,
     Choice,
-    Controls,
     LiveSession,
     LiveSettings,
     LiveStats,
@@ -172,7 +171,8 @@ def plane_take():
 def _session(take, viewer, frames=4, record=None, apply_exposure=None, seconds=None):
     frames_, _, ps, rig = take
     cam = ReplayCamera(frames_, frame_rate=300.0)
-    engine = FrameReconstructor(reconstruction_plans(ps, "geometric"), rig, DecodeOptions(z_min=TINY_Z_MIN, bit_depth=8))
+    engine = FrameReconstructor(reconstruction_plans(ps, "geometric"), rig,
+                                DecodeOptions(z_min=TINY_Z_MIN, bit_depth=8))
     return LiveSession([Choice("3-step", CameraCycles(cam, ps, name="3-step"), engine)], viewer,
                        LiveSettings(frames=frames, seconds=seconds, z_range=(300.0, 500.0)),
                        apply_exposure=apply_exposure,

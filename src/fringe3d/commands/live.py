@@ -55,7 +55,8 @@ def register(app: typer.Typer) -> None:
                                                       "shown first. Virtual camera: " + ", ".join(LIVE_PATTERNS[:4])
                                                       + ", ... (fringe3d simulate's names); a real rig: pattern "
                                                       "folders (fringe3d patterns)."),
-        calibration: Path = typer.Option(None, help="Real rig: the calibration (or rig) file."),
+        calibration: Path = typer.Option(None, "-c", "--calibration", help="Real rig: the calibration (or rig) "
+                                                                             "file."),
         z_min: float = typer.Option(None, "--z-min", help="Nearest depth (mm) for geometric unwrapping on a real "
                                                           "rig (the virtual take knows its own)."),
         frame_rate: float = typer.Option(120.0, "--frame-rate", help="Virtual camera: frames per second it "
@@ -70,8 +71,9 @@ def register(app: typer.Typer) -> None:
         port: int = typer.Option(8080, help="Port of the page (0: any free port)."),
         step: int = typer.Option(1, help="Draw every STEP-th pixel in both directions."),
         colour: str = typer.Option("z", help="Colour the points by z (depth) or texture."),
-        record: Path = typer.Option(Path("live-recording"), help="The folder the page's record button writes (a "
-                                                                 "capture folder; the page can change it)."),
+        output: Path = typer.Option(Path("live-recording"), "-o", "--output",
+                                    help="The capture folder the page's record button writes (the page can change "
+                                         "it; a non-empty one only with --overwrite)."),
         record_cycles: int = typer.Option(1, "--record-cycles", help="Pattern cycles one recording takes."),
         wait_viewer: float = typer.Option(0.0, "--wait-viewer", help="Seconds to wait for a page to connect "
                                                                       "before the first frame."),
@@ -120,7 +122,7 @@ class LiveOptions:
     port: int
     step: int
     colour: str
-    record: Path
+    output: Path
     record_cycles: int
     wait_viewer: float
     hold: float
@@ -257,7 +259,7 @@ def run_live(o: LiveOptions, on_serving=None) -> dict:
     first = rig.choices[0]
     H, W = first.source.camera.roi[3], first.source.camera.roi[2]
     setup = ViewerSetup(host=o.host, port=o.port, choices=tuple(c.name for c in rig.choices), exposure=rig.exposure,
-                        record_folder=str(o.record), record_cycles=o.record_cycles,
+                        record_folder=str(o.output), record_cycles=o.record_cycles,
                         point_size=_point_size(rig.rig, rig.z_range, o.step),
                         look_at=(0.0, 0.0, 0.5 * (rig.z_range[0] + rig.z_range[1])))
     viewer = ViserViewer(setup, controls)

@@ -15,7 +15,7 @@
 """
 from __future__ import annotations
 
-from .cycles import Arrival, CameraCycles
+from .cycles import Arrival, CameraCycles, CycleSource
 from .display import display_points, mask_overlay
 from .record import Recording, write_recording
 from .replay import ReplayCamera
@@ -26,6 +26,7 @@ from .viewer import ExposureControl, ViewerSetup, ViserViewer, require_viser
 __all__ = [
     "Arrival",
     "CameraCycles",
+    "CycleSource",
     "Choice",
     "Controls",
     "ExposureControl",

@@ -18,7 +18,7 @@ Each cycle is an :class:`Arrival`: its frames ``(n, H, W)``, the host time its l
 from __future__ import annotations
 
 import time
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
@@ -35,6 +35,22 @@ class Arrival(NamedTuple):
     arrival: float
     first_id: int
     choice: str = ""
+
+
+class CycleSource(Protocol):
+    """What the live loop takes cycles from (:class:`CameraCycles` is the one for cameras)."""
+
+    def start(self) -> None:
+        """Start acquiring."""
+        ...
+
+    def stop(self) -> None:
+        """Stop acquiring."""
+        ...
+
+    def next_cycle(self) -> Arrival:
+        """The next complete cycle."""
+        ...
 
 
 class CameraCycles:

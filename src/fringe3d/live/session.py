@@ -30,7 +30,7 @@ from fringe3d.reconstruct.depth import EmptyMaskError
 from fringe3d.reconstruct.frame import Cycle, FrameReconstructor
 from fringe3d.utils.warning_types import DeviceWarning
 
-from .cycles import Arrival
+from .cycles import Arrival, CycleSource
 from .display import display_points, mask_overlay
 from .record import Recording, write_recording
 from .stats import LiveStats
@@ -39,10 +39,11 @@ from .stats import LiveStats
 @dataclass
 class Choice:
     """One pattern set the page can switch to: its ``name``, the ``source`` of its cycles (a
-    :class:`~fringe3d.live.cycles.CameraCycles`) and the ``engine`` that reconstructs them."""
+    :class:`~fringe3d.live.cycles.CycleSource`: a :class:`~fringe3d.live.cycles.CameraCycles`)
+    and the ``engine`` that reconstructs them."""
 
     name: str
-    source: object
+    source: CycleSource
     engine: FrameReconstructor
 
 

@@ -3,8 +3,8 @@
 The latency of a 3D frame is the time from the arrival of its cycle's last camera frame on the
 host to the moment its points were handed to the viewer (both ``time.monotonic()``, s). The
 frame rate is the number of 3D frames shown per second between the first and the last shown.
-:meth:`LiveStats.summary` gives the figures the page shows and ``--json`` prints, rounded
-once, in one place, so both show the same numbers.
+:meth:`LiveStats.summary` gives the figures the page shows and the command's JSON summary
+prints, rounded once, in one place, so both show the same numbers.
 """
 from __future__ import annotations
 
