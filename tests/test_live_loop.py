@@ -3,6 +3,8 @@ figures, the page's controls (pause, exposure, record) acting on a session with 
 viewer, and recordings read back as capture folders."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -23,8 +25,11 @@ from fringe3d.live.replay import BUFFER_FRAMES
 from fringe3d.decode.edges import INVALID
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
+from fringe3d.patterns.render import render_set
 from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
 from fringe3d.sim import Plane, Scene, presets, render
+from fringe3d.sim.simulate import make_scene
+from fringe3d.sim.virtual_devices import open_virtual_rig
 
 TINY_Z_MIN = 340.0
 
@@ -230,3 +235,61 @@ def test_record_refuses_a_folder_that_is_not_empty_and_says_so_on_the_page(plane
     assert "not empty" in summary["recordings"][0]["error"]
     assert any(s.startswith("not recorded:") and "not empty" in s for s in viewer.status)
     assert (tmp_path / "rec" / "keep.txt").read_text() == "mine"
+
+
+# ----------------------------------------------------------------------------- the device path and the command
+def test_software_synced_cycles_from_the_virtual_rig_equal_the_simulators_frames():
+    p = presets.get("tiny")
+    ps = sets.phase_shift(32, 3, "v", width=p.rig.projector.width, height=p.rig.projector.height)
+    proj, cam = open_virtual_rig("virtual:tiny", "virtual:tiny?scene=plane", patterns=ps)
+    src = CameraCycles(cam, ps, projector=proj, images=render_set(ps))
+    try:
+        got = [src.next_cycle() for _ in range(2)]
+    finally:
+        src.stop()
+    frames, _ = render(make_scene("plane", p), p.rig, ps, p.settings.replace(seed=0),
+                       times=np.arange(6) / p.settings.frame_rate, progress=False)
+    assert [a.first_id for a in got] == [0, 3]
+    assert np.array_equal(np.concatenate([a.frames for a in got]), frames)  # same frames, same noise
+
+
+def test_switching_the_pattern_set_takes_cycles_from_the_other_source(plane_take):
+    frames_, _, ps, rig = plane_take
+    opts = DecodeOptions(z_min=TINY_Z_MIN, bit_depth=8)
+    cams = {n: ReplayCamera(frames_, frame_rate=300.0) for n in ("a", "b")}
+    viewer = RecordingViewer()
+    session = LiveSession([Choice(n, CameraCycles(cams[n], ps, name=n),
+                                  FrameReconstructor(reconstruction_plans(ps, "geometric"), rig, opts)) for n in cams],
+                          viewer, LiveSettings(frames=6, z_range=(300.0, 500.0)))
+    viewer.on_frame = lambda n: setattr(session.controls, "choice", "b") if n == 2 else None
+    session.run()
+    assert cams["b"].lost + cams["b"]._next > 0  # b delivered frames once chosen
+    assert len(viewer.clouds) == 6
+
+
+def test_live_command_runs_the_device_path_and_prints_its_summary(capsys):
+    from fringe3d.cli import main
+    rc = main(["live", "--camera", "virtual:tiny?scene=plane", "--projector", "virtual:tiny", "--frames", "2",
+               "--port", "0", "--json"])
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    s = json.loads(out)
+    assert s["frames_shown"] == 2 and s["size"] == [160, 128] and s["latency_ms"]["median"] > 0
+
+
+def test_a_missing_viser_names_the_live_extra(monkeypatch):
+    import importlib
+
+    from fringe3d.devices import MissingExtraError
+    from fringe3d.live import require_viser
+
+    real = importlib.import_module
+
+    def no_viser(name, *a, **k):
+        if name == "viser":
+            raise ImportError("No module named 'viser'")
+        return real(name, *a, **k)
+
+    monkeypatch.setattr(importlib, "import_module", no_viser)
+    with pytest.raises(MissingExtraError, match=r"fringe3d\[live\]"):
+        require_viser()
