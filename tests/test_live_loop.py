@@ -24,6 +24,7 @@ from fringe3d.live.display import display_points, mask_overlay
 from fringe3d.live.replay import BUFFER_FRAMES
 from fringe3d.decode.edges import INVALID
 from fringe3d.optics import Rig
+from fringe3d.pipeline import reconstruct_capture
 from fringe3d.patterns import sets
 from fringe3d.patterns.render import render_set
 from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
@@ -223,6 +224,12 @@ def test_record_writes_a_capture_folder_the_other_commands_read(plane_take, tmp_
     assert cap.frames.shape == (6,) + frames_.shape[1:]
     assert all(any(np.array_equal(cap.frames[k], f) for f in frames_) for k in range(6))
     assert Rig.load(tmp_path / "rec" / "rig.json").to_dict() == rig.to_dict()
+    assert cap.meta["reconstruct"] == {"method": "geometric", "z_min": TINY_Z_MIN}
+    # what `fringe3d reconstruct` makes of the recording is what the live engine showed for that cycle
+    again = reconstruct_capture(tmp_path / "rec", tmp_path / "rec" / "rig.json", method="geometric", z_min=TINY_Z_MIN)
+    engine = FrameReconstructor(reconstruction_plans(ps, "geometric"), rig,
+                                DecodeOptions(z_min=TINY_Z_MIN, bit_depth=8))
+    assert np.array_equal(again.points, engine.reconstruct(cap.frames[:3]).points, equal_nan=True)
 
 
 def test_record_refuses_a_folder_that_is_not_empty_and_says_so_on_the_page(plane_take, tmp_path):

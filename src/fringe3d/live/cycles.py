@@ -38,7 +38,10 @@ class Arrival(NamedTuple):
 
 
 class CycleSource(Protocol):
-    """What the live loop takes cycles from (:class:`CameraCycles` is the one for cameras)."""
+    """What the live loop takes cycles from (:class:`CameraCycles` is the one for cameras): the
+    ``patterns`` its frames show (the projected manifest) and three methods."""
+
+    patterns: PatternSet
 
     def start(self) -> None:
         """Start acquiring."""

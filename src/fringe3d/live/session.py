@@ -211,11 +211,11 @@ class LiveSession:
                 if c.record is not None and recording is None:
                     folder, cycles = c.record
                     c.record = None
-                    recording = Recording(Path(folder), int(cycles), choice.engine.patterns)
+                    recording = Recording(Path(folder), int(cycles), choice.source.patterns)
                     self.viewer.show_status(f"recording {int(cycles)} cycle(s) into {folder}")
                 arrival = choice.source.next_cycle()
                 self.stats.arrived += 1
-                if recording is not None and recording.patterns is choice.engine.patterns:
+                if recording is not None and recording.patterns is choice.source.patterns:
                     if recording.add(arrival.frames, arrival.first_id):
                         self._write(recording)
                         recording = None
@@ -231,10 +231,13 @@ class LiveSession:
 
     def _write(self, recording: Recording) -> None:
         rs = self.record_settings
+        engine = next(c.engine for c in self.choices.values() if c.source.patterns is recording.patterns)
+        meta = {**rs.meta, "reconstruct": {"method": engine.patterns.plans[0].method if engine.patterns.plans else None,
+                                           "z_min": engine.z_min}}
 
         def write() -> None:
             try:
-                done = write_recording(recording, rs.meta, rs.rig, rs.overwrite)
+                done = write_recording(recording, meta, rs.rig, rs.overwrite)
                 self.recordings.append(done)
                 self.viewer.show_status(f"recorded {done['cycles']} cycle(s) ({done['frames']} frames) into "
                                         f"{done['folder']}")
