@@ -127,7 +127,7 @@ class ViserViewer:
         cam.position = (0.0, 0.0, 0.0)
         cam.look_at = tuple(1e-3 * np.asarray(s.look_at, float))
         cam.up = (0.0, -1.0, 0.0)
-        self._cloud_args = {"point_size": 1e-3 * s.point_size, "precision": "float32", "scale": 1e-3,
+        self._cloud_args = {"point_size": s.point_size, "precision": "float32", "scale": 1e-3,  # size scales too
                             "point_shape": "square", "point_shading": "flat"}
 
     def _build_gui(self) -> None:
