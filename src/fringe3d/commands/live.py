@@ -279,7 +279,7 @@ def run_live(o: LiveOptions, on_serving=None) -> dict:
         interrupted = session.controls.stop
         if o.hold > 0 and not interrupted:
             time.sleep(o.hold)
-    except DeviceError as e:
+    except (DeviceError, TimeoutError) as e:
         raise ValueError(f"device error: {e}") from None
     finally:
         if previous is not None:

@@ -6,7 +6,8 @@ view receives; :func:`write_recording` writes them as a standard capture folder
 when the rig is known) through :func:`fringe3d.utils.output_folder.open_output`: a non-empty
 folder is refused unless ``overwrite``, nothing is written outside it, and its
 ``fringe3d.json`` marks it complete last. ``fringe3d decode`` and ``fringe3d reconstruct``
-then read it like any capture.
+then read it like any capture. A live run that stops before every cycle asked for arrived
+writes the cycles it has (``capture.json`` field ``live.cycles`` says how many).
 """
 from __future__ import annotations
 

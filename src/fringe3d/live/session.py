@@ -223,6 +223,8 @@ class LiveSession:
         except BaseException as e:  # handed to the pipeline, which raises it
             self._capture_error = e
         finally:
+            if recording is not None and recording.frames:  # stopped part way: keep the cycles taken
+                self._write(recording)
             if active is not None:
                 try:
                     active.source.stop()
