@@ -1,6 +1,7 @@
 """``fringe3d live``: camera -> decode -> 3D, shown continuously in a browser (fringe3d.live)."""
 from __future__ import annotations
 
+import math
 import signal
 import time
 import warnings
@@ -26,6 +27,7 @@ from fringe3d.live import (
     ReplayCamera,
     ViewerSetup,
     ViserViewer,
+    require_viser,
 )
 from fringe3d.live.display import COLOURINGS
 from fringe3d.optics import Rig
@@ -180,49 +182,56 @@ def _virtual(o: LiveOptions, spec: DeviceSpec) -> _Rig:
     first = cams[0]
     meta = {"frame_rate": first.frame_rate, "bit_depth": first.bit_depth, "camera_device": first.describe(),
             "simulated": True, "preset": spec.ident or "tiny", "seed": seed}
-    return _Rig(choices, rig, ExposureControl("exposure (virtual gain)", 0.1, 3.0, 0.05, first.gain), apply, meta,
-                tuple(volume["z"]), [])
+    slider = ExposureControl("exposure (virtual gain)", min(0.1, first.gain), max(3.0, first.gain), 0.05, first.gain)
+    return _Rig(choices, rig, slider, apply, meta, tuple(volume["z"]), [])
 
 
 def _devices(o: LiveOptions, spec: DeviceSpec) -> _Rig:
     """A real camera (and projector), or the capture command's virtual rig rendering every frame."""
-    if o.calibration is None and spec.backend != "virtual":
+    virtual = spec.backend == "virtual"
+    if o.calibration is None and not virtual:
         raise ValueError("a real camera needs --calibration (the rig's calibration file) to triangulate")
+    preset = presets.get(DeviceSpec.parse(o.projector).ident or "tiny") if virtual else None
     loaded = []
     for name in _names(o.patterns):
-        if spec.backend == "virtual":  # the virtual rig's own pattern sets
-            ps, method = live_patterns(name, presets.get(spec.ident or "tiny"))
+        if preset is not None:  # the virtual rig's own pattern sets
+            ps, method = live_patterns(name, preset)
             loaded.append((name, ps, list(render_set(ps)), method))
         else:
             ps, images, _ = read_pattern_folder(Path(name))
             loaded.append((name, ps, images, None))
     if o.projector is None and len(loaded) > 1:
         raise ValueError("a free-running camera shows one pattern set; give --projector to switch between several")
-    proj, cam = open_rig(o.projector, o.camera, patterns=loaded[0][1]) if o.projector else (None, None)
-    if cam is None:
-        cam = open_camera(spec)
-    if spec.backend == "virtual":
-        p = presets.get(spec.ident or "tiny")
-        rig, z_min, z_range = p.rig, o.z_min if o.z_min is not None else p.volume["z"][0], tuple(p.volume["z"])
+    if preset is not None:
+        rig, z_range = preset.rig, tuple(preset.volume["z"])
+        z_min = o.z_min if o.z_min is not None else z_range[0]
     else:
         rig = Rig.load(o.calibration)
         z_min, z_range = o.z_min, (o.z_min or 0.0, (o.z_min or 0.0) + 500.0)
-    if o.exposure is not None:
-        configure_camera(cam, exposure=o.exposure)
-    bit_depth = {"Mono8": 8, "Mono10": 10, "Mono12": 12}.get(getattr(cam, "pixel_format", "Mono8"), 8)
-    choices = [Choice(name, CameraCycles(cam, ps, proj, images, name=name),
-                      FrameReconstructor(reconstruction_plans(ps, method), rig,
-                                         DecodeOptions(z_min=z_min, bit_depth=bit_depth)))
-               for name, ps, images, method in loaded]
-    ms = cam.exposure * 1e3
+    proj, cam = open_rig(o.projector, o.camera, patterns=loaded[0][1]) if o.projector else (None, open_camera(spec))
+    devices = [d for d in (cam, proj) if d is not None]
+    try:
+        if o.exposure is not None:
+            configure_camera(cam, exposure=o.exposure)
+        bit_depth = {"Mono8": 8, "Mono10": 10, "Mono12": 12}.get(getattr(cam, "pixel_format", "Mono8"), 8)
+        choices = [Choice(name, CameraCycles(cam, ps, proj, images, name=name),
+                          FrameReconstructor(reconstruction_plans(ps, method), rig,
+                                             DecodeOptions(z_min=z_min, bit_depth=bit_depth)))
+                   for name, ps, images, method in loaded]
+        ms = float(cam.exposure) * 1e3
+        meta = {"bit_depth": bit_depth, "camera_device": cam.describe(),
+                "projector": proj.describe() if proj is not None else None}
+    except BaseException:
+        for d in devices:
+            d.close()
+        raise
 
     def apply(value_ms: float) -> None:
         cam.exposure = value_ms / 1e3
 
-    meta = {"bit_depth": bit_depth, "camera_device": cam.describe(),
-            "projector": proj.describe() if proj is not None else None}
-    return _Rig(choices, rig, ExposureControl("exposure (ms)", max(0.01, ms / 10), ms * 10, ms / 100, ms), apply,
-                meta, z_range, [d for d in (cam, proj) if d is not None])
+    slider = (ExposureControl("exposure (ms)", ms / 10, ms * 10, ms / 100, ms) if math.isfinite(ms) and ms > 0
+              else None)  # a camera without an exposure time (a webcam) gets no slider
+    return _Rig(choices, rig, slider, apply, meta, z_range, devices)
 
 
 def run_live(o: LiveOptions, on_serving=None) -> dict:
@@ -251,6 +260,7 @@ def run_live(o: LiveOptions, on_serving=None) -> dict:
         raise ValueError(f"--record-cycles must be at least 1, got {o.record_cycles}")
     if o.colour not in COLOURINGS:
         raise ValueError(f"--colour must be one of {', '.join(COLOURINGS)}, got {o.colour!r}")
+    require_viser()  # before rendering or opening anything: the page needs the live extra
     spec = DeviceSpec.parse(o.camera)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", Fringe3DWarning)  # a moving scene's per-cycle notices would flood the console
@@ -262,7 +272,12 @@ def run_live(o: LiveOptions, on_serving=None) -> dict:
                         record_folder=str(o.output), record_cycles=o.record_cycles,
                         point_size=_point_size(rig.rig, rig.z_range, o.step),
                         look_at=(0.0, 0.0, 0.5 * (rig.z_range[0] + rig.z_range[1])))
-    viewer = ViserViewer(setup, controls)
+    try:
+        viewer = ViserViewer(setup, controls)
+    except BaseException:
+        for d in rig.closing:
+            d.close()
+        raise
     info(f"live view at {viewer.url} ({W}x{H} camera, {first.engine.path}); Ctrl-C stops")
     if on_serving is not None:
         on_serving(viewer.url)
