@@ -43,6 +43,8 @@ COMMANDS: tuple[CommandEntry, ...] = (
                  "Keep the projector's measured response with the rig, in a copy of its calibration file."),
     CommandEntry("reconstruct", "reconstruct",
                  "Reconstruct absolute 3D point maps from a capture and a calibration."),
+    CommandEntry("live", "live",
+                 "Show camera frames as 3D in a browser, continuously: capture, decode, triangulate, draw."),
     CommandEntry("export", "export",
                  "Write a measurement in the file format other tools read (PLY, E57, LAS/LAZ, MAT, STL, OBJ, GLB)."),
     CommandEntry("evaluate", "evaluate",

@@ -1,0 +1,40 @@
+"""The compiled gather of :func:`fringe3d.live.display.display_points`: valid points and colours in one pass.
+
+Private: :func:`gather_points` takes flat arguments (numba kernels take arrays, not settings).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def gather_points(points, texture, use_texture, step, z0, scale, lut):  # pragma: no cover - compiled
+    """Valid points of ``points[::step, ::step]`` (row-major) and their colours: ``lut`` (256, 3)
+    indexed by ``(z - z0) * scale`` clipped to 0..255, or the grey of ``texture`` (in [0, 1])."""
+    H, W = points.shape[0], points.shape[1]
+    n = 0
+    for v in range(0, H, step):
+        for u in range(0, W, step):
+            if np.isfinite(points[v, u, 2]):
+                n += 1
+    out = np.empty((n, 3), np.float32)
+    col = np.empty((n, 3), np.uint8)
+    i = 0
+    for v in range(0, H, step):
+        for u in range(0, W, step):
+            z = points[v, u, 2]
+            if not np.isfinite(z):
+                continue
+            out[i, 0] = points[v, u, 0]
+            out[i, 1] = points[v, u, 1]
+            out[i, 2] = z
+            if use_texture:
+                g = min(max(texture[v, u] * 255.0 + 0.5, 0.0), 255.0)
+                col[i, 0] = col[i, 1] = col[i, 2] = np.uint8(g)
+            else:
+                t = min(max((z - z0) * scale + 0.5, 0.0), 255.0)
+                k = int(t)
+                col[i, 0], col[i, 1], col[i, 2] = lut[k, 0], lut[k, 1], lut[k, 2]
+            i += 1
+    return out, col
