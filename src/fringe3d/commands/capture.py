@@ -141,8 +141,8 @@ def register(app: typer.Typer) -> None:
         spacing: float = typer.Option(None, help="--session: circle spacing (mm, recorded in session.json)."),
         views: int = typer.Option(None, "--views", help="Multi-view capture: N views, the stage moved before each; "
                                   "writes OUTPUT/view-NN capture folders and OUTPUT/poses.json."),
-        stage: str = typer.Option(None, "--stage", help="--views: the stage, virtual[:STEP_DEG][?axis=X,Y,Z&point=X,Y,Z] "
-                                  "(turns the virtual rig's scene) or grbl:PORT[?step=DEG&axis=A&baud=B&feed=F] (a "
+        stage: str = typer.Option(None, "--stage", help="--views: the stage, "
+                                  "virtual[:STEP_DEG][?axis=X,Y,Z&point=X,Y,Z] (turns the virtual rig's scene) or grbl:PORT[?step=DEG&axis=A&baud=B&feed=F] (a "
                                   "GRBL controller's rotary axis); the step defaults to 360/N degrees."),
         stage_axis: Path = typer.Option(None, "--stage-axis", help="--views: the turntable axis (axis.json from "
                                         "fringe3d calibrate-axis) that turns stage angles into the poses of "
@@ -166,7 +166,7 @@ def register(app: typer.Typer) -> None:
 
         Example: fringe3d capture calib-pats --session session --poses 12 --auto --projector window:1 --camera pylon:
 
-        Example: fringe3d capture pats -o scan --views 8 --stage virtual:15 --projector virtual:tiny --camera "virtual:tiny?scene=sculpture"
+        Example: fringe3d capture pats -o scan --views 4 --stage virtual:20 --projector virtual:tiny --camera virtual
         """
         opts = dict(locals())
         try:
