@@ -142,8 +142,9 @@ def register(app: typer.Typer) -> None:
         views: int = typer.Option(None, "--views", help="Multi-view capture: N views, the stage moved before each; "
                                   "writes OUTPUT/view-NN capture folders and OUTPUT/poses.json."),
         stage: str = typer.Option(None, "--stage", help="--views: the stage, "
-                                  "virtual[:STEP_DEG][?axis=X,Y,Z&point=X,Y,Z] (turns the virtual rig's scene) or grbl:PORT[?step=DEG&axis=A&baud=B&feed=F] (a "
-                                  "GRBL controller's rotary axis); the step defaults to 360/N degrees."),
+                                  "virtual[:STEP_DEG][?axis=X,Y,Z&point=X,Y,Z] (turns the virtual rig's scene) or "
+                                  "grbl:PORT[?step=DEG&axis=A&baud=B&feed=F] (a GRBL controller's rotary axis); the "
+                                  "step defaults to 360/N degrees."),
         stage_axis: Path = typer.Option(None, "--stage-axis", help="--views: the turntable axis (axis.json from "
                                         "fringe3d calibrate-axis) that turns stage angles into the poses of "
                                         "poses.json."),
