@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fringe3d.devices import DeviceSpec
+from fringe3d.devices import DeviceSpec, option
 from fringe3d.devices.stage import STAGE_BACKENDS, open_stage
 from fringe3d.devices.views import capture_views, stage_positions
 from fringe3d.multiview.axis import read_axis, turntable_poses
@@ -44,7 +44,7 @@ def check_views_options(mode) -> None:
 def stage_step(spec: DeviceSpec, views: int) -> float:
     """The turn between views (deg): the virtual stage's ``virtual:STEP``, any stage's ``?step=``,
     else 360 / views."""
-    text = spec.options.get("step") or (spec.ident if spec.backend == "virtual" else "") or ""
+    text = option(spec.options, "step", "") or (spec.ident if spec.backend == "virtual" else "")
     if not text:
         return 360.0 / views
     try:
