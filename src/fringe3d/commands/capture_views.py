@@ -17,7 +17,7 @@ from fringe3d.devices.stage import STAGE_BACKENDS, open_stage
 from fringe3d.devices.views import capture_views, stage_positions
 from fringe3d.multiview.axis import read_axis, turntable_poses
 from fringe3d.multiview.poses import write_poses
-from fringe3d.sim.turntable import open_virtual_stage, write_spheres
+from fringe3d.sim.turntable import VirtualStage, open_virtual_stage, write_spheres
 from fringe3d.utils.console import progress_bar
 
 
@@ -72,18 +72,18 @@ def capture_views_mode(proj, cam, loaded: tuple, meta: dict, dev, mode, run) -> 
     positions = stage_positions(mode.views, stage_step(spec, mode.views))
     out = Path(run.output)
     seq = {"patterns": ps, "images": show, "sync": dev.sync, "cycles": run.cycles, "settle": dev.settle,
-           "timeout": dev.timeout, "frame_rate": dev.frame_rate, "planes": planes, "extra_meta": meta}
+           "timeout": dev.timeout, "frame_rate": dev.frame_rate, "planes": planes, "extra_meta": meta,
+           "exposures": dev.exposures}
     stage = _open_stage(spec, proj)
     try:
         total = len(ps) * run.cycles * mode.views
         with progress_bar(f"capturing {mode.views} views", total, enabled=not (run.quiet or run.json_)) as advance:
-            done = [0, 0]  # frames of finished views, frames of the current view
+            last = [0]  # frames of the current view so far (each view counts from 1)
 
             def prog(k, n):
-                advance(n - done[1] if n >= done[1] else n)
-                done[1] = n
+                advance(n - last[0] if n >= last[0] else n)
+                last[0] = n
             views = capture_views(proj, cam, stage, positions, seq, out, progress=prog)
-        home = getattr(stage, "_home", None)
         desc = stage.describe()
     finally:
         stage.close()
@@ -91,15 +91,13 @@ def capture_views_mode(proj, cam, loaded: tuple, meta: dict, dev, mode, run) -> 
     angles = [v.position for v in views]
     extra: list[dict] = [{"angle_deg": a} for a in angles]
     virtual = spec.backend == "virtual"
-    if virtual:  # the simulator's truth beside what the poses say
+    if isinstance(stage, VirtualStage):  # the simulator's truth beside what the poses say
         T0 = views[0].transform
         for e, v in zip(extra, views):
             e["true_matrix"] = (T0 @ np.linalg.inv(v.transform)).tolist()
-        rig = proj._state.rig
         for n in names:
-            rig.save(out / n / "rig.json")
-        if home is not None:
-            write_spheres(out, home)
+            stage.rig.save(out / n / "rig.json")
+        write_spheres(out, stage.home_scene)
     if mode.stage_axis is not None:
         axis, point = read_axis(mode.stage_axis)
         matrices = turntable_poses(axis, point, angles)

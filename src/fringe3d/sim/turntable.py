@@ -82,6 +82,16 @@ class VirtualStage(VirtualTurntable):
         self._state = state
         self._home = state.scene
 
+    @property
+    def home_scene(self) -> Scene:
+        """The scene at table angle 0 (the model frame's)."""
+        return self._home
+
+    @property
+    def rig(self):
+        """The virtual rig (what its ``rig.json`` holds)."""
+        return self._state.rig
+
     def move_to(self, position: float) -> None:
         super().move_to(position)
         self._state.set_scene(turned_scene(self._home, self.transform()))
