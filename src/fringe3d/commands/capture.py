@@ -42,6 +42,7 @@ from fringe3d.commands.checks import parse_exposures
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.commands.flag_words import in_flag_words
 from fringe3d.utils.output_folder import open_output, open_output_file
+from fringe3d.commands.capture_views import capture_views_mode, check_views_options
 
 #: Exit code of a capture that stopped or lost frames (the folder is not marked complete).
 EXIT_INCOMPLETE = 4
@@ -138,6 +139,15 @@ def register(app: typer.Typer) -> None:
         cols: int = typer.Option(9, help="--session: board circles per row."),
         rows: int = typer.Option(9, help="--session: board rows."),
         spacing: float = typer.Option(None, help="--session: circle spacing (mm, recorded in session.json)."),
+        views: int = typer.Option(None, "--views", help="Multi-view capture: N views, the stage moved before each; "
+                                  "writes OUTPUT/view-NN capture folders and OUTPUT/poses.json."),
+        stage: str = typer.Option(None, "--stage", help="--views: the stage, "
+                                  "virtual[:STEP_DEG][?axis=X,Y,Z&point=X,Y,Z] (turns the virtual rig's scene) or "
+                                  "grbl:PORT[?step=DEG&axis=A&baud=B&feed=F] (a GRBL controller's rotary axis); the "
+                                  "step defaults to 360/N degrees."),
+        stage_axis: Path = typer.Option(None, "--stage-axis", help="--views: the turntable axis (axis.json from "
+                                        "fringe3d calibrate-axis) that turns stage angles into the poses of "
+                                        "poses.json."),
         overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print a JSON summary."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bars."),
@@ -156,6 +166,8 @@ def register(app: typer.Typer) -> None:
         Example: fringe3d capture -o gamma.json --gamma --projector window:1 --camera pylon:40012345
 
         Example: fringe3d capture calib-pats --session session --poses 12 --auto --projector window:1 --camera pylon:
+
+        Example: fringe3d capture pats -o scan --views 4 --stage virtual:20 --projector virtual:tiny --camera virtual
         """
         opts = dict(locals())
         try:
@@ -199,6 +211,9 @@ class ModeOptions:
     cols: int
     rows: int
     spacing: float
+    views: int | None
+    stage: str | None
+    stage_axis: Any  # Path or None
 
 
 @dataclass(frozen=True)
@@ -227,9 +242,10 @@ def run_capture(dev: DeviceOptions, mode: ModeOptions, run: RunOptions) -> None:
         raise ValueError("--camera is required, e.g. --camera pylon:SERIAL or --camera virtual:tiny")
     features = _parse_features(dev.camera_feature)
     roi_v = _parse_roi(dev.roi)
-    modes = sum(bool(m) for m in (latency, gamma, session is not None))
+    modes = sum(bool(m) for m in (latency, gamma, session is not None, mode.views is not None))
     if modes > 1:
-        raise ValueError("--latency, --gamma and --session are separate modes; give one")
+        raise ValueError("--latency, --gamma, --session and --views are separate modes; give one")
+    check_views_options(mode)
     ps = images = packed = None
     if not (latency or gamma):
         if patterns is None:
@@ -257,9 +273,12 @@ def run_capture(dev: DeviceOptions, mode: ModeOptions, run: RunOptions) -> None:
                 open_output(session, overwrite=run.overwrite, inputs=[patterns],
                             options={"camera": camera, "poses": mode.poses}, keep_unfinished=True)).path)
         else:
+            opts = {"camera": camera, "cycles": run.cycles}
+            if mode.views is not None:
+                opts.update(views=mode.views, stage=mode.stage)
             run = replace(run, output=outputs.enter_context(
-                open_output(output, overwrite=run.overwrite, inputs=[patterns],
-                            options={"camera": camera, "cycles": run.cycles}, keep_unfinished=True)).path)
+                open_output(output, overwrite=run.overwrite, inputs=[patterns, mode.stage_axis],
+                            options=opts, keep_unfinished=True)).path)
         _run_with_devices((ps, images, packed), (roi_v, features), dev, mode, run)
 
 
@@ -325,6 +344,14 @@ def _run_with_devices(loaded: tuple, parsed: tuple, dev: DeviceOptions, mode: Mo
             elif not quiet:
                 console.print(f"captured {summary['poses']} poses into {session}; calibrate with "
                               f"fringe3d calibrate {session}")
+            return
+        if mode.views is not None:
+            summary = capture_views_mode(proj, cam, (ps, show, planes), meta, dev, mode, run)
+            if json_:
+                print_json(summary)
+            elif not quiet:
+                console.print(f"captured {mode.views} views into {output} (view-NN folders, poses.json: "
+                              f"{summary['poses_from']})")
             return
         bracket = dev.exposures
         total = len(ps) * (cycles if bracket is None else len(bracket))

@@ -65,6 +65,7 @@ FLAGS: dict[str, str] = {
     "store_layout": "--store-layout",
     "store_quality=False": "--no-store-quality",
     "sync": "--sync",
+    "views": "--views",
     "thickness": "--thickness",
     "threshold": "--threshold",
     "truth": "--truth",

@@ -39,6 +39,8 @@ COMMANDS: tuple[CommandEntry, ...] = (
                  "Decode a capture folder to absolute phase per fringe direction, driven by its manifest."),
     CommandEntry("calibrate", "calibrate",
                  "Calibrate camera and projector from board poses (circle grid, chessboard or ChArUco)"),
+    CommandEntry("calibrate-axis", "calibrate_axis",
+                 "Calibrate a turntable's axis from a circle board captured at several table angles."),
     CommandEntry("response", "response",
                  "Keep the projector's measured response with the rig, in a copy of its calibration file."),
     CommandEntry("reconstruct", "reconstruct",

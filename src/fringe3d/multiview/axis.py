@@ -8,10 +8,14 @@ solution of the stacked ``(I − R_k) p = t_k`` (nearest to the boards' centroid
 """
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from fringe3d.devices.stage import rotation_about
+from fringe3d.utils.atomic import atomic_write_text
 
 
 def fit_axis(board_poses) -> tuple[np.ndarray, np.ndarray]:
@@ -45,3 +49,121 @@ def turntable_poses(axis, point, angles_deg) -> np.ndarray:
     table angles ``angles_deg``: the object turned by θ_k − θ_0, so view k's points go back by it."""
     a = np.asarray(angles_deg, float)
     return np.stack([rotation_about(axis, -np.deg2rad(t - a[0]), point) for t in a])
+
+
+AXIS_FORMAT = "fringe3d-turntable-axis"
+
+
+def axis_residuals(board_poses, angles_deg, axis, point, object_points) -> dict:
+    """How well a turntable model explains the board poses.
+
+    Each board pose ``k`` is predicted from pose 0 turned by the stage's ``θ_k − θ_0`` about the
+    fitted axis; the residual is the distance (mm) between the predicted and the observed board
+    points, and the rotation residual the angle (mrad) of ``R_pred⁻¹ R_obs``.
+
+    Parameters
+    ----------
+    board_poses : (K, 4, 4) array_like
+        Board → camera, mm.
+    angles_deg : (K,) array_like
+        The stage angles the poses were taken at.
+    axis, point : (3,) array_like
+        The fitted axis (unit) and a point on it, camera frame, mm.
+    object_points : (N, 3) array_like
+        The board points (board frame, mm).
+
+    Returns
+    -------
+    dict
+        ``rms_residual_mm`` (over all poses' points), ``rms_rotation_residual_mrad`` and per
+        pose ``residual_mm`` (RMS), ``rotation_residual_mrad`` and ``measured_angle_deg`` (the
+        turn from pose 0 about ``axis`` the board poses show).
+    """
+    T = np.asarray(board_poses, float)
+    a = np.asarray(angles_deg, float)
+    X = np.c_[np.asarray(object_points, float), np.ones(len(object_points))]
+    per, rot, meas, sq = [], [], [], []
+    for Tk, ak in zip(T, a):
+        pred = rotation_about(axis, np.deg2rad(ak - a[0]), point) @ T[0]
+        d = (X @ pred.T)[:, :3] - (X @ Tk.T)[:, :3]
+        sq.append(np.sum(d * d, axis=1))
+        per.append(float(np.sqrt(np.mean(sq[-1]))))
+        rot.append(1e3 * float(np.linalg.norm(Rotation.from_matrix(pred[:3, :3].T @ Tk[:3, :3]).as_rotvec())))
+        rel = Rotation.from_matrix(Tk[:3, :3] @ T[0][:3, :3].T).as_rotvec()
+        meas.append(float(np.rad2deg(rel @ np.asarray(axis, float))))
+    return {"rms_residual_mm": float(np.sqrt(np.mean(np.concatenate(sq)))),
+            "rms_rotation_residual_mrad": float(np.sqrt(np.mean(np.square(rot)))),
+            "residual_mm": per, "rotation_residual_mrad": rot, "measured_angle_deg": meas}
+
+
+def fit_turntable(board_poses, angles_deg, object_points) -> dict:
+    """The turntable axis from board poses taken at known stage angles.
+
+    :func:`fit_axis`, with the axis signed so that a positive stage turn is right-handed about
+    it (the sign the stage's angles show), and its :func:`axis_residuals`.
+
+    Parameters
+    ----------
+    board_poses : (K, 4, 4) array_like
+        Board → camera, mm (K ≥ 2, not all at one angle).
+    angles_deg : (K,) array_like
+        Stage angles of the poses.
+    object_points : (N, 3) array_like
+        The board points (board frame, mm), for the residuals.
+
+    Returns
+    -------
+    dict
+        ``axis`` (unit, camera frame), ``point_mm`` (on the axis, nearest the boards' centroid)
+        and the residual fields of :func:`axis_residuals`.
+    """
+    a = np.asarray(angles_deg, float)
+    T = np.asarray(board_poses, float)
+    if a.shape != (len(T),):
+        raise ValueError(f"angles_deg must give one angle per board pose ({len(T)}), got shape {a.shape}")
+    axis, point = fit_axis(T)
+    k = int(np.argmax(np.abs(a - a[0])))
+    rel = Rotation.from_matrix(T[k][:3, :3] @ T[0][:3, :3].T).as_rotvec()
+    if (rel @ axis) * (a[k] - a[0]) < 0:
+        axis = -axis
+    res = axis_residuals(T, a, axis, point, object_points)
+    return {"axis": axis.tolist(), "point_mm": point.tolist(), **res}
+
+
+def write_axis(path, fit: dict, views: list[dict] | None = None) -> Path:
+    """Write ``axis.json``: ``axis`` (unit, camera frame), ``point_mm``, the residuals of
+    :func:`fit_turntable` and ``views`` (per view: name, stage angle and its residuals)."""
+    doc = {"format": AXIS_FORMAT, "version": 1, "unit": "mm", "frame": "camera",
+           **{k: fit[k] for k in ("axis", "point_mm", "rms_residual_mm", "rms_rotation_residual_mrad")}}
+    if views is not None:
+        doc["views"] = views
+    atomic_write_text(path, json.dumps(doc, indent=1))
+    return Path(path)
+
+
+def read_axis(path) -> tuple[np.ndarray, np.ndarray]:
+    """``(unit axis, point mm)`` from an ``axis.json``; ValueError naming the file and field."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"turntable axis file {path} does not exist")
+    try:
+        doc = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise ValueError(f"turntable axis file {path} is not valid JSON: {e}") from None
+    if not isinstance(doc, dict) or doc.get("format") != AXIS_FORMAT:
+        raise ValueError(f"turntable axis file {path}: field 'format' must be {AXIS_FORMAT!r}")
+    if doc.get("unit", "mm") != "mm":
+        raise ValueError(f"turntable axis file {path}: field 'unit' must be 'mm', got {doc.get('unit')!r}")
+    out = []
+    for key in ("axis", "point_mm"):
+        try:
+            v = np.asarray(doc.get(key), float)
+        except (TypeError, ValueError):
+            v = np.array([])
+        if v.shape != (3,) or not np.all(np.isfinite(v)):
+            raise ValueError(f"turntable axis file {path}: field '{key}' must be three finite numbers")
+        out.append(v)
+    n = np.linalg.norm(out[0])
+    if not n > 0:
+        raise ValueError(f"turntable axis file {path}: field 'axis' must be a non-zero direction")
+    return out[0] / n, out[1]

@@ -55,8 +55,9 @@ def write_poses(path: str | os.PathLike, names, matrices, extra=None, stage: dic
         The file.
     names : sequence of str
         View names.
-    matrices : (V, 4, 4) array_like
-        View → model transforms, mm.
+    matrices : (V, 4, 4) array_like or None
+        View → model transforms, mm; None writes the views without ``matrix`` (a stage's
+        positions recorded before its axis is calibrated: not yet a poses file to merge with).
     extra : sequence of dict, optional
         More fields per view (e.g. ``true_matrix``, ``angle_deg``).
     stage : dict, optional
@@ -67,7 +68,10 @@ def write_poses(path: str | os.PathLike, names, matrices, extra=None, stage: dic
     Path
         ``path``.
     """
-    views = [{"name": str(n), "matrix": np.asarray(M, float).tolist()} for n, M in zip(names, matrices)]
+    views: list[dict] = [{"name": str(n)} for n in names]
+    if matrices is not None:
+        for v, M in zip(views, matrices):
+            v["matrix"] = np.asarray(M, float).tolist()
     for v, e in zip(views, extra or []):
         v.update(e)
     doc: dict = {"format": FORMAT, "version": 1, "unit": "mm"}
@@ -139,7 +143,9 @@ def _read(path, key: str) -> dict[str, np.ndarray]:
         if not isinstance(v, dict) or not isinstance(v.get("name"), str):
             raise ValueError(f"poses file {path}: field 'views[{i}].name' must be a string")
         if key not in v:
-            raise ValueError(f"poses file {path}: field 'views[{i}].{key}' is missing")
+            why = (" (the stage's positions were recorded without a turntable axis: calibrate the axis and "
+                   "capture with it, or register without poses)" if "angle_deg" in v and key == "matrix" else "")
+            raise ValueError(f"poses file {path}: field 'views[{i}].{key}' is missing{why}")
         out[v["name"]] = check_rigid(v[key], f"poses file {path}: field 'views[{i}].{key}'")
     return out
 

@@ -63,6 +63,79 @@ class VirtualTurntable:
         pass
 
 
+class VirtualStage(VirtualTurntable):
+    """A :class:`VirtualTurntable` under the virtual rig's scene: each move turns the scene the
+    virtual camera films (:class:`TurnedObject` by :meth:`transform`), so ``fringe3d capture``
+    on the virtual rig sees the object turned, as :func:`simulate_turntable` renders it.
+
+    Parameters
+    ----------
+    state : fringe3d.sim.virtual_devices.VirtualRigState
+        The shared state of the virtual projector and camera (its scene at table angle 0 is the
+        home pose).
+    axis, point : array_like
+        The table axis (unit vector) and a point on it, camera frame, mm.
+    """
+
+    def __init__(self, state, axis, point):
+        super().__init__(axis, point)
+        self._state = state
+        self._home = state.scene
+
+    @property
+    def home_scene(self) -> Scene:
+        """The scene at table angle 0 (the model frame's)."""
+        return self._home
+
+    @property
+    def rig(self):
+        """The virtual rig (what its ``rig.json`` holds)."""
+        return self._state.rig
+
+    def move_to(self, position: float) -> None:
+        super().move_to(position)
+        self._state.set_scene(turned_scene(self._home, self.transform()))
+
+    def describe(self) -> dict:
+        return {**super().describe(), "kind": "virtual turntable", "unit": "deg"}
+
+    def close(self) -> None:
+        self._state.set_scene(self._home)
+
+
+def _vec3(options: dict, key: str, default) -> np.ndarray:
+    if key not in options:
+        return np.asarray(default, float)
+    try:
+        v = np.array([float(x) for x in str(options[key]).split(",")])
+    except ValueError:
+        v = np.array([])
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise ValueError(f"virtual stage option {key}={options[key]!r}: expected three comma-separated numbers "
+                         "(camera frame, mm)")
+    return v
+
+
+def open_virtual_stage(spec, projector) -> VirtualStage:
+    """The virtual turntable under ``projector``'s scene (a :class:`~fringe3d.sim.virtual_devices.VirtualProjector`).
+
+    ``spec`` (a :class:`fringe3d.devices.DeviceSpec`): ``virtual[:STEP_DEG][?axis=X,Y,Z&point=X,Y,Z]``;
+    the axis and point (camera frame, mm) default to :func:`default_turntable`'s (image-up through
+    the centre of the preset's volume). The step is the caller's to read.
+    """
+    from fringe3d.devices.base import check_unknown_options
+
+    state = getattr(projector, "_state", None)
+    if state is None:
+        raise ValueError("the virtual stage turns the virtual rig's scene: use the virtual projector and camera")
+    check_unknown_options(spec, {"axis", "point", "step"})
+    home = default_turntable(state.preset)
+    axis = _vec3(spec.options, "axis", home.axis)
+    if not np.linalg.norm(axis) > 0:
+        raise ValueError("virtual stage option axis: expected a non-zero direction")
+    return VirtualStage(state, axis, _vec3(spec.options, "point", home.point))
+
+
 @dataclass
 class TurntableScan:
     """Views of a turntable sequence: ``points`` (V, H, W, 3) mm camera frame (NaN: no point),

@@ -200,6 +200,12 @@ class VirtualRigState:
         self.static = not scene.moving
         self._geo0 = None
 
+    def set_scene(self, scene) -> None:
+        """Film ``scene`` from now on (a stage moved the object): the cached static cast is dropped."""
+        self.scene = scene
+        self.static = not scene.moving
+        self._geo0 = None
+
     def register(self, patterns) -> None:
         """Remember the 8-bit rendering of each frame of ``patterns`` (see the module docstring)."""
         self.patterns = patterns
