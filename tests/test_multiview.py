@@ -422,3 +422,20 @@ def test_evaluate_ball_bar_finds_the_spheres_of_a_calibrated_bar_without_the_tru
     assert found["error_um"] == pytest.approx(with_truth["error_um"], abs=5.0)
     assert main(["evaluate", str(folder / "fused.ply"), "--ball-bar"]) == 2
     assert "--truth SIMFOLDER" in " ".join(capsys.readouterr().err.split())
+
+
+def test_simulated_sequence_truth_is_the_true_surface_in_the_model_frame(bar_captures):
+    from fringe3d.sim.turntable import read_turntable_truth
+    true, points, normals = read_turntable_truth(bar_captures, ["view-01", "view-00"])
+    expected = rotation_about(default_turntable(presets.get("tiny")).axis, -np.deg2rad(30.0),
+                              default_turntable(presets.get("tiny")).point)
+    assert np.allclose(true[0], expected, atol=1e-9) and np.allclose(true[1], np.eye(4))
+    assert np.allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-5)
+    for s in json.loads((bar_captures / "spheres.json").read_text())["spheres"]:
+        d = np.linalg.norm(points - s["centre_mm"], axis=1) - s["radius_mm"]
+        near = np.abs(d) < 0.5
+        # mm: both views land on the true sphere (the rest within 0.5 mm: the bar where it meets the sphere)
+        assert near.sum() > 100 and np.quantile(np.abs(d[near]), 0.8) < 1e-6
+    with pytest.raises(ValueError, match="no true_matrix for view"):
+        read_turntable_truth(bar_captures, ["view-07"])
+

@@ -204,3 +204,22 @@ def test_merge_truth_figures_recover_a_known_pose_error_and_surface_offset(tmp_p
     assert mv["fused_rms_mm"] == pytest.approx(0.1, rel=1e-3)
     assert mv["coverage"] == 1.0
     assert json.loads((out / "evaluate.json").read_text())["multiview"] == mv
+
+
+def test_report_mesh_is_cut_to_the_limit_by_vertex_clustering_staying_on_the_surface():
+    import trimesh
+    from fringe3d.report.multiview_view import cluster_mesh
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=50.0)  # 5120 triangles
+    V, F = cluster_mesh(sphere.vertices, sphere.faces, 1000)
+    assert 250 < len(F) <= 1000 and F.max() < len(V)
+    assert np.abs(np.linalg.norm(V, axis=1) - 50.0).max() < 5.0  # mm: a cell's mean stays near the sphere
+    same = cluster_mesh(sphere.vertices, sphere.faces, 10_000)
+    assert len(same[1]) == 5120
+
+
+def test_report_refuses_a_merge_json_without_views_naming_the_file_and_field(tmp_path):
+    from fringe3d.report import write_report
+    (tmp_path / "merge.json").write_text(json.dumps({"views": 3}))
+    with pytest.raises(ValueError, match=r"merge\.json: field 'views' must be a list"):
+        write_report(tmp_path)
+    assert not (tmp_path / "report.html").exists()
