@@ -122,6 +122,11 @@ def test_merge_cli_writes_the_fused_cloud_mesh_and_registered_poses(scan_folder,
     import open3d as o3d
     assert len(o3d.io.read_point_cloud(str(out / "fused.ply")).points) > 1000
     assert len(o3d.io.read_triangle_mesh(str(out / "mesh.ply")).triangles) > 1000
+    summary = json.loads((out / "merge.json").read_text())
+    for v, view in zip(summary["views"], views):
+        assert v["points"] == int(np.isfinite(np.load(view / "points.npy")).all(-1).sum())
+        assert 0 < v["overlap_share"] <= 1
+    assert 0 < summary["fused_overlap_share"] < 1
     got = read_poses(out / "poses.json")
     truth = np.load(folder / "truth.npz")
     rot, _ = pose_errors(np.stack([got[v.name] for v in views]), truth["poses"], truth["points"].mean(0))
@@ -161,6 +166,20 @@ def test_fusion_resolves_overlap_by_inverse_variance_weights():
     assert np.allclose(f.points[:, 2], (w1 * 0.5 + w2 * 0.8) / (w1 + w2))
     assert np.allclose(f.sigma, (w1 + w2) ** -0.5)
     assert np.all(f.views == 2)
+
+
+def test_fusion_counts_each_views_points_and_the_share_of_its_surface_another_view_saw():
+    from fringe3d.multiview.fuse import fuse_views
+    from fringe3d.multiview.views import View
+    g = np.stack(np.meshgrid(np.arange(10.0), np.arange(10.0)), -1).reshape(-1, 2) + 0.5
+    flat = np.column_stack([g, np.full(len(g), 0.5)])
+    half = flat[:, 0] < 5  # the second view sees the left half only
+    whole = View("whole", flat, np.full(len(g), 0.01))
+    left = View("left", flat[half], np.full(int(half.sum()), 0.01))
+    f = fuse_views([whole, left], [np.eye(4), np.eye(4)], voxel=1.0)
+    assert f.view_points.tolist() == [100, 50]
+    assert f.view_overlap.tolist() == [0.5, 1.0]  # half of the whole view's voxels, all of the left one's
+    assert f.overlap_share == 0.5  # 50 of the 100 fused points were seen twice
 
 
 def test_sphere_spacing_across_views_matches_the_simulated_bar():
@@ -403,3 +422,20 @@ def test_evaluate_ball_bar_finds_the_spheres_of_a_calibrated_bar_without_the_tru
     assert found["error_um"] == pytest.approx(with_truth["error_um"], abs=5.0)
     assert main(["evaluate", str(folder / "fused.ply"), "--ball-bar"]) == 2
     assert "--truth SIMFOLDER" in " ".join(capsys.readouterr().err.split())
+
+
+def test_simulated_sequence_truth_is_the_true_surface_in_the_model_frame(bar_captures):
+    from fringe3d.sim.turntable import read_turntable_truth
+    true, points, normals = read_turntable_truth(bar_captures, ["view-01", "view-00"])
+    expected = rotation_about(default_turntable(presets.get("tiny")).axis, -np.deg2rad(30.0),
+                              default_turntable(presets.get("tiny")).point)
+    assert np.allclose(true[0], expected, atol=1e-9) and np.allclose(true[1], np.eye(4))
+    assert np.allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-5)
+    for s in json.loads((bar_captures / "spheres.json").read_text())["spheres"]:
+        d = np.linalg.norm(points - s["centre_mm"], axis=1) - s["radius_mm"]
+        near = np.abs(d) < 0.5
+        # mm: both views land on the true sphere (the rest within 0.5 mm: the bar where it meets the sphere)
+        assert near.sum() > 100 and np.quantile(np.abs(d[near]), 0.8) < 1e-6
+    with pytest.raises(ValueError, match="no true_matrix for view"):
+        read_turntable_truth(bar_captures, ["view-07"])
+

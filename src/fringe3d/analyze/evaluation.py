@@ -37,8 +37,8 @@ def load_points(result: Path, frame: int = 0) -> tuple[np.ndarray, dict]:
     Parameters
     ----------
     result : Path
-        A reconstruct output folder (``points.npy`` or ``points.zarr``), a ``.npy`` point map or
-        a ``.ply`` file.
+        A reconstruct output folder (``points.npy`` or ``points.zarr``), a ``fringe3d merge``
+        folder (its ``fused.ply``, unorganized), a ``.npy`` point map or a ``.ply`` file.
     frame : int
         3D frame to read from a ``points.zarr`` store (ignored otherwise).
 
@@ -69,6 +69,8 @@ def load_points(result: Path, frame: int = 0) -> tuple[np.ndarray, dict]:
                 raise ValueError(f"3D frame {frame} of {result / 'points.zarr'} was never completed; rerun reconstruct")
             info["frame"] = frame
             return check_finite_points(st.read(frame), result / "points.zarr"), info
+        if (result / "merge.json").exists() and (result / "fused.ply").exists():  # a fringe3d merge folder
+            return check_finite_points(read_ply(result / "fused.ply").points, result / "fused.ply"), info
         raise FileNotFoundError(f"{result} holds neither points.npy nor points.zarr; run fringe3d reconstruct first")
     if result.suffix == ".npy":
         return check_point_map(load_array(result, "point map"), result), info

@@ -21,7 +21,8 @@ from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import overwrite_option
 
 #: Units of evaluate.json: lengths (fits, errors, residuals) in mm; each figure may name its own.
-EVALUATE_UNITS = {"length": "mm", "rms": "mm", "residuals": "mm", "angle": "rad", "share": "1"}
+EVALUATE_UNITS = {"length": "mm", "rms": "mm", "residuals": "mm", "angle": "rad", "share": "1",
+                  "multiview": "pose errors mrad / um (named), lengths mm, coverage a share"}
 
 
 def load_truth(folder: Path, info: dict, frame: int, shape) -> Truth | TruthPoints:
@@ -83,6 +84,11 @@ def register(app: typer.Typer) -> None:
         simulated sequence's folder or spheres.json) or found by their calibrated --diameter
         (with --distance, the calibrated length); SD (mm and um) and each sphere's form error.
 
+        A merge folder (fringe3d merge's output) with --truth SIMFOLDER (the simulated sequence)
+        gets its figures against the truth in evaluate.json's multiview section: per-view pose
+        errors (mrad, um at the object centre), fused RMS to the true surface (mm) and the
+        coverage of that surface; with --ball-bar also the sphere spacing of its fused.ply.
+
         Example: fringe3d evaluate sphere-3d --sphere --truth sphere-capture --json
 
         Example: fringe3d evaluate merged/fused.ply --ball-bar --truth bar-views
@@ -106,6 +112,14 @@ def register(app: typer.Typer) -> None:
             warn(f"{result} was triangulated from wrapped or relative phase ({relative}): its points are off by an "
                  "unknown number of fringe periods in depth, so these figures measure that offset, not the "
                  "measurement. Reconstruct it with an absolute method (fringe3d reconstruct names them).")
+        if (result.is_dir() and (result / "merge.json").is_file() and not (sphere or plane)
+                and (ball_bar or (truth is not None and truth.is_dir()))):
+            if ball_bar:
+                out["ball_bar"] = merged_ball_bar(points, truth, diameter, distance, exclude)
+            if truth is not None and truth.is_dir() and ((truth / "truth.npz").is_file()
+                                                         or (truth / "poses.json").is_file()):
+                out["multiview"] = merge_truth(result, truth, points)
+            return _report(out, result, overwrite, json_, quiet, relative)
         if ball_bar and points.ndim == 2 and (truth is None or truth.is_dir() or truth.suffix == ".json"):
             out["ball_bar"] = merged_ball_bar(points, truth, diameter, distance, exclude)
             return _report(out, result, overwrite, json_, quiet, relative)
@@ -121,6 +135,26 @@ def register(app: typer.Typer) -> None:
             out.update(evaluate_points(points, t, sphere=sphere, plane=plane, ball_bar=ball_bar, diameter=diameter,
                                        distance=distance, exclude=exclude, result=result))
         _report(out, result, overwrite, json_, quiet, relative)
+
+
+def merge_truth(folder: Path, truth: Path, points) -> dict:
+    """Figures of the merge in ``folder`` (its merge.json views, poses.json and fused ``points``)
+    against a simulated sequence's truth (:func:`fringe3d.sim.turntable.read_turntable_truth`)."""
+    from fringe3d.multiview.accuracy import merge_truth_figures
+    from fringe3d.multiview.poses import read_poses
+    from fringe3d.sim.turntable import read_turntable_truth
+    from fringe3d.utils.jsonfile import read_json
+
+    views = read_json(folder / "merge.json", "merge summary").get("views")
+    if not isinstance(views, list) or not all(isinstance(v, dict) and isinstance(v.get("name"), str) for v in views):
+        raise ValueError(f"{folder / 'merge.json'}: field 'views' must be a list of objects with a 'name'")
+    names = [v["name"] for v in views]
+    est = read_poses(folder / "poses.json")
+    missing = [n for n in names if n not in est]
+    if missing:
+        raise ValueError(f"{folder / 'poses.json'}: no pose for view(s) {', '.join(missing)}")
+    true, tp, tn = read_turntable_truth(truth, names)
+    return merge_truth_figures(points, np.stack([est[n] for n in names]), true, tp.mean(0), tp, tn, names)
 
 
 def merged_ball_bar(points, truth: Path | None, diameter: float | None, distance: float | None,
@@ -153,10 +187,13 @@ def _report(out: dict, result: Path, overwrite: bool, json_: bool, quiet: bool, 
     if quiet:
         return
     rows = []
-    for sect in ("truth", "sphere", "plane", "ball_bar"):
+    for sect in ("truth", "sphere", "plane", "ball_bar", "multiview"):
         for k, v in out.get(sect, {}).items():
             if not isinstance(v, (dict, list, tuple)):
                 rows.append([f"{sect}.{k}", "n/a" if v is None else v, figure_unit(k, v)])
+    for v in out.get("multiview", {}).get("views", []):
+        rows += [[f"multiview.{v['name']}.rotation_error", v["rotation_error_mrad"], "mrad"],
+                 [f"multiview.{v['name']}.translation_error", v["translation_error_um"], "um"]]
     for k, sph in enumerate(out.get("ball_bar", {}).get("spheres", [])):
         for key in ("form", "size", "diameter", "rms"):
             if sph.get(key) is not None:
@@ -172,8 +209,12 @@ _UNITLESS = re.compile(r"^n_|_count$|count|object_id|index|coverage|share|fracti
 def figure_unit(key: str, value) -> str:
     """The unit of evaluate's figure ``key``: ``"mm"`` for lengths, ``""`` for counts, ids, shares
     and figures without a value (None)."""
+    if value is not None and key.endswith("_mm"):
+        return "mm"
     if value is None or isinstance(value, (bool, int)) or _UNITLESS.search(key):
         return ""
     if key.endswith("_um"):
         return "um"
+    if key.endswith("_mrad"):
+        return "mrad"
     return "mm"

@@ -17,7 +17,7 @@ def register(app: typer.Typer) -> None:
     def report(
         results: Path = typer.Argument(...,
                                        help="Results folder of any command (demo, decode, reconstruct + evaluate, "
-                                       "strain) or a calibration JSON."),
+                                       "strain, merge) or a calibration JSON."),
         output: Path = typer.Option(None, "-o", "--output", help="HTML file to write [default: RESULTS/report.html]."),
         overwrite: bool = overwrite_option(),
         json_: bool = typer.Option(False, "--json", help="Print the written path as JSON."),
@@ -25,8 +25,10 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Write one self-contained HTML page from what RESULTS holds: provenance (fringe3d.json),
         calibration parameters, measurement figures with their definitions (evaluate.json), error
-        and quality maps with colour bars and an interactive 3D view of the points. It needs no
-        network to view.
+        and quality maps with colour bars and an interactive 3D view of the points. A merge
+        folder gets its fused model (coloured by the number of views or sigma, and the mesh), a
+        per-view table (residual RMS, pose 1-sigma, points, overlap) and its coverage, with the
+        figures against the truth when evaluate wrote them. It needs no network to view.
 
         Example: fringe3d report demo-out -o demo-out/report.html
         """

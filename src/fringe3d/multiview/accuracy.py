@@ -42,3 +42,22 @@ def coverage(points, truth_points, radius: float) -> float:
     """Share of ``truth_points`` (the visible surface) with a measured point within ``radius`` mm."""
     d, _ = cKDTree(np.asarray(points, float)).query(truth_points, distance_upper_bound=radius)
     return float(np.isfinite(d).mean())
+
+
+def merge_truth_figures(fused_points, poses, true_poses, centre, truth_points, truth_normals,
+                        names: list[str]) -> dict:
+    """Figures of a merge against the truth: per view (``names``) the pose errors of ``poses``
+    (V, 4, 4) against ``true_poses`` (:func:`pose_errors` at ``centre``), the largest of each, the
+    fused cloud's point-to-plane RMS to the true surface (``truth_points`` / ``truth_normals``,
+    model frame, mm) and the coverage of that surface within twice the fused cloud's median point
+    spacing (``coverage_radius_mm``)."""
+    P = np.asarray(fused_points, float)
+    rot, tra = (np.round(e, 9) for e in pose_errors(poses, true_poses, centre))  # view 0: 0, not 1e-30
+    spacing = float(np.median(cKDTree(P).query(P, k=2)[0][:, 1])) if len(P) > 1 else float("nan")
+    radius = 2.0 * spacing
+    return {"views": [{"name": n, "rotation_error_mrad": float(r), "translation_error_um": float(t)}
+                      for n, r, t in zip(names, rot, tra)],
+            "rotation_error_max_mrad": float(rot.max()), "translation_error_max_um": float(tra.max()),
+            "fused_rms_mm": rms(surface_distances(P, truth_points, truth_normals)),
+            "coverage": coverage(P, truth_points, radius), "coverage_radius_mm": radius,
+            "truth_points": int(len(truth_points))}

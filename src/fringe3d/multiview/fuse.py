@@ -4,10 +4,14 @@ Every view's points are placed in the model frame and binned into cubic voxels o
 each occupied voxel gives one point, the inverse-variance weighted mean
 ``x̄ = Σ wᵢ xᵢ / Σ wᵢ`` with ``wᵢ = 1/σᵢ²`` and its σ ``(Σ wᵢ)^(−1/2)``, so where views overlap the
 better-measured ones dominate. Views without σ weigh equally (σ = 1 for all).
+
+Overlap: a voxel met by ≥ 2 views is seen twice; a view's overlap share is the share of the
+voxels it meets that another view meets too, and the fused cloud's the share of its points seen
+by ≥ 2 views.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -16,11 +20,20 @@ from .views import View
 
 @dataclass
 class Fused:
-    """``points`` (M, 3) mm model frame, ``sigma`` (M,) mm, ``views`` (M,) how many views met."""
+    """``points`` (M, 3) mm model frame, ``sigma`` (M,) mm, ``views`` (M,) how many views met;
+    per input view ``view_points`` (V,) its points and ``view_overlap`` (V,) the share of the
+    voxels it meets that another view meets too."""
 
     points: np.ndarray
     sigma: np.ndarray
     views: np.ndarray
+    view_points: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    view_overlap: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def overlap_share(self) -> float:
+        """Share of the fused points seen by at least 2 views (NaN for an empty cloud)."""
+        return float(np.mean(self.views >= 2)) if len(self.views) else float("nan")
 
 
 def place(view: View, pose) -> np.ndarray:
@@ -57,4 +70,8 @@ def fuse_views(views: list[View], poses, voxel: float) -> Fused:
     X = np.stack([np.bincount(inv, w * pts[:, k]) for k in range(3)], axis=1) / W[:, None]
     pairs = np.unique(inv * len(views) + vid)  # (voxel, view) met
     n_views = np.bincount(pairs // len(views), minlength=len(W))
-    return Fused(X, 1.0 / np.sqrt(W), n_views)
+    pair_view = pairs % len(views)
+    met = np.bincount(pair_view, minlength=len(views))
+    shared = np.bincount(pair_view, n_views[pairs // len(views)] >= 2, minlength=len(views))
+    overlap = np.divide(shared, met, out=np.full(len(views), np.nan), where=met > 0)
+    return Fused(X, 1.0 / np.sqrt(W), n_views, np.array([len(v.points) for v in views]), overlap)

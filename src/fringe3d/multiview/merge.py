@@ -34,13 +34,17 @@ class Merged:
 
     def summary(self) -> dict:
         r = self.registration
+        f = self.fused
         per_view = [{"name": n, "residual_rms_mm": _f(r.residual_rms_mm[i]),
                      "rotation_sigma_mrad": _f(r.rotation_sigma_mrad[i]),
-                     "translation_sigma_um": _f(r.translation_sigma_um[i])} for i, n in enumerate(self.names)]
+                     "translation_sigma_um": _f(r.translation_sigma_um[i]),
+                     "points": int(f.view_points[i]) if i < len(f.view_points) else None,
+                     "overlap_share": _f(f.view_overlap[i]) if i < len(f.view_overlap) else None}
+                    for i, n in enumerate(self.names)]
         prior = None if self.stage_sigma is None else {"rotation_mrad": self.stage_sigma[0],
                                                        "translation_mm": self.stage_sigma[1]}
-        out = {"views": per_view, "stage_prior": prior, "edges": r.edges, "fused_points": len(self.fused.points),
-               "fused_sigma_median_mm": _f(np.median(self.fused.sigma))}
+        out = {"views": per_view, "stage_prior": prior, "edges": r.edges, "fused_points": len(f.points),
+               "fused_overlap_share": _f(f.overlap_share), "fused_sigma_median_mm": _f(np.median(f.sigma))}
         if self.mesh is not None:
             out["mesh"] = mesh_figures(self.mesh)
         return out

@@ -8,6 +8,7 @@
 * ``evaluate.json`` (figures), ``reconstruct.json`` / ``decoded.json`` / ``summary.json``
   (summaries shown as key-value tables);
 * point data: ``points.npy`` (H, W, 3) or the first complete frame of ``points.zarr``;
+* a ``fringe3d merge`` folder: ``merge.json``, ``fused.ply`` and ``mesh.ply`` (:mod:`.multiview_view`);
 * maps: the ``.tif`` images (residuals, 3D error, modulation, mask, depth, phase, texture) and
   ``.png`` figures (``maps/``, calibration residual plots).
 """
@@ -25,6 +26,7 @@ from fringe3d.io.store import PointMapStore
 from fringe3d.utils.jsonfile import read_json
 from fringe3d.utils.output_folder import MARKER_NAME, check_complete, read_marker
 
+from .multiview_view import read_merge
 from .strain_view import strain_series
 
 CALIBRATION_FORMATS = ("fringe3d-calibration", "fringe3d-rig")
@@ -82,6 +84,7 @@ class FolderContents:
     maps: list = field(default_factory=list)
     pngs: list = field(default_factory=list)
     strain: dict | None = None
+    merge: dict | None = None
 
 
 def _json_format(path: Path) -> str | None:
@@ -180,6 +183,7 @@ def discover(results: str | Path) -> FolderContents:
             c.calibration, c.calibration_source = found
     c.points, c.points_source = _points(results)
     c.maps = _maps(results)
+    c.merge = read_merge(results)
     rate = (c.summaries.get("summary.json") or {}).get("frame_rate_hz")
     c.strain = strain_series(results, rate if isinstance(rate, (int, float)) and rate > 0 else None)
     maps = sorted((results / "maps").glob("*.png")) if (results / "maps").is_dir() else []
@@ -188,7 +192,7 @@ def discover(results: str | Path) -> FolderContents:
         maps = [peak if peak.is_file() else maps[0]]
     c.pngs += maps[:MAX_PNGS]
     if not (c.marker or c.calibration or c.evaluation or c.summaries or c.points is not None or c.maps or c.pngs
-            or c.strain):
+            or c.strain or c.merge):
         raise ValueError(f"nothing to report in {results}: it holds no fringe3d output (no fringe3d.json, summary, "
                          "evaluation, calibration, point map or figures); give a folder a fringe3d command wrote")
     return c

@@ -14,6 +14,7 @@ from .definitions import DEFINITIONS, SECTION_TITLES
 from .discover import FolderContents
 from .plotly_bundle import draw_script, loader_script
 from .map_view import map_figure
+from .multiview_view import multiview_parts
 from .radiometry_view import radiometry_parts
 from .strain_view import strain_script
 from .typed import JS_DECODE, b64_uint16, sample_points
@@ -26,7 +27,8 @@ PAGE_CSS = """
 .maptitle{font-weight:600;font-size:.95em;padding:.3em .5em} .maptitle .muted{font-weight:400}
 .warn{background:#fff4d6;border-left:4px solid #e0a800;padding:.4em .8em}
 table.provenance td,table.provenance th,table.summary td,table.summary th{text-align:left} .scroll{overflow-x:auto}
-table.figures td:last-child{text-align:left;color:#555;max-width:520px}
+table.figures td:last-child{text-align:left;color:#555;max-width:520px} table.figures th:last-child{text-align:left}
+table.views td:first-child{white-space:nowrap}
 @media (max-width:900px){body{margin:1em auto} .plot3d{height:420px}}
 """
 
@@ -71,7 +73,10 @@ def provenance_rows(marker: dict | None, fallback: tuple[dict, str] | None = Non
 
 
 def evaluation_parts(ev: dict, table) -> list[str]:
-    """One table per evaluated section, each figure with its unit and definition."""
+    """One table per evaluated section, each figure with its unit and definition (nothing when
+    ``ev`` holds none of :data:`~.definitions.SECTION_TITLES`' sections)."""
+    if not any(isinstance(ev.get(sect), dict) for sect in SECTION_TITLES):
+        return []
     parts = ["<h2>Measurement figures</h2>"]
     for sect, title in SECTION_TITLES.items():
         figs = ev.get(sect)
@@ -131,6 +136,10 @@ def build_page(c: FolderContents, table, css: str, plotly_js: str) -> str:
         parts.append(f"<h2>Calibration</h2><p class='muted'>from {html.escape(str(c.calibration_source))}</p>")
         for t, header, rows in calibration_tables(c.calibration):
             parts.append(f"<h3>{html.escape(t)}</h3><div class='scroll'>{table(rows, header, 'calibration')}</div>")
+    if c.merge is not None:
+        mv_parts, mv_scripts = multiview_parts(c.merge, c.evaluation, table)
+        parts += mv_parts
+        scripts += mv_scripts
     if c.evaluation:
         parts += evaluation_parts(c.evaluation, table)
     parts += radiometry_parts(c, table)

@@ -425,3 +425,47 @@ def simulate_turntable(folder, preset="tiny", scene=None, patterns=None, *, view
     return {"folder": str(folder), "views": [str(folder / n) for n in names], "angles_deg": angles.tolist(),
             "poses": str(poses), "stage_sigma": {"rotation_mrad": stage_sigma[0], "translation_mm": stage_sigma[1]},
             "captures": summaries}
+
+
+def read_turntable_truth(folder, names: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The truth of a simulated multi-view sequence for the views ``names``: their true view →
+    model poses (V, 4, 4) and the true visible surface, points and unit normals (M, 3) in the
+    model frame (mm).
+
+    ``folder`` is what :func:`write_turntable` wrote (``truth.npz``: poses in view order
+    ``view-00``, ``view-01``, ...) or :func:`simulate_turntable` (``poses.json``'s ``true_matrix``
+    and each ``view-NN/truth/``, whose valid pixels are placed by the view's true pose).
+    ValueError naming the file when a view has no truth there."""
+    from fringe3d.multiview.poses import read_true_poses
+
+    from .truth import Truth
+
+    folder = Path(folder)
+    npz = folder / "truth.npz"
+    if npz.is_file():
+        with np.load(npz) as z:
+            poses, points, normals = z["poses"], z["points"], z["normals"]
+        order = {f"view-{i:02d}": i for i in range(len(poses))}
+        missing = [n for n in names if n not in order]
+        if missing:
+            raise ValueError(f"{npz}: no true pose for view(s) {', '.join(missing)} (it holds {len(poses)} views, "
+                             "named view-00, view-01, ... in order)")
+        return np.stack([poses[order[n]] for n in names]), points, normals
+    if not (folder / "poses.json").is_file():
+        raise ValueError(f"{folder}: expected a simulated multi-view sequence (truth.npz, or poses.json with "
+                         "true_matrix and view-NN/truth/)")
+    true = read_true_poses(folder / "poses.json")
+    missing = [n for n in names if n not in true]
+    if missing:
+        raise ValueError(f"{folder / 'poses.json'}: no true_matrix for view(s) {', '.join(missing)}")
+    pts, nrm = [], []
+    for name in names:
+        t = Truth.load(folder / name)
+        xyz, normal, mask = (np.asarray(a) for a in (t.xyz, t.normal, t.mask))
+        if xyz.ndim == 4:  # a sequence: its first frame
+            xyz, normal, mask = xyz[0], normal[0], mask[0]
+        keep = mask.astype(bool) & np.isfinite(xyz).all(-1)
+        R, c = true[name][:3, :3], true[name][:3, 3]
+        pts.append(xyz[keep] @ R.T + c)
+        nrm.append(normal[keep] @ R.T)
+    return np.stack([true[n] for n in names]), np.concatenate(pts), np.concatenate(nrm)
