@@ -156,10 +156,11 @@ def _names(text: str) -> list[str]:
 
 def _virtual(o: LiveOptions, spec: DeviceSpec) -> _Rig:
     """The replayed virtual take(s): one rendered loop per pattern set."""
-    unknown = sorted(set(spec.options) - {"seed"})
+    camera_settings = dict(spec.options)  # the device spec's ?key=value part (not a plan's options)
+    unknown = sorted(set(camera_settings) - {"seed"})
     if unknown:
         raise ValueError(f"virtual live camera: unknown option(s) {unknown}; allowed: ['seed']")
-    seed = int(spec.options.get("seed", 0))
+    seed = int(camera_settings.get("seed", 0))
     if o.loop_cycles < 1:
         raise ValueError(f"--loop-cycles must be at least 1, got {o.loop_cycles}")
     choices, cams = [], []
