@@ -33,7 +33,7 @@ def register(app: typer.Typer) -> None:
         json_: bool = typer.Option(False, "--json", help="Print the written path and counts as JSON."),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="Print nothing but errors (and --json output)."),
     ) -> None:
-        """Write a measurement in the file format other tools read (PLY, VTP, E57, LAS/LAZ, MAT, STL, OBJ, GLB).
+        """Write a measurement in the format other tools read (PLY, VTP, E57, LAS/LAZ, MAT, STL, OBJ, GLB).
 
         Points keep their colours and scalar fields (sigma_z_mm, roughness_mm) where the format
         can hold them (VTP: for ParaView and PyVista, whose PLY reader drops scalar fields); units

@@ -48,7 +48,7 @@ COMMANDS: tuple[CommandEntry, ...] = (
     CommandEntry("live", "live",
                  "Show camera frames as 3D in a browser, continuously: capture, decode, triangulate, draw."),
     CommandEntry("export", "export",
-                 "Write a measurement in the file format other tools read (PLY, VTP, E57, LAS/LAZ, MAT, STL, OBJ, GLB)."),
+                 "Write a measurement in the format other tools read (PLY, VTP, E57, LAS/LAZ, MAT, STL, OBJ, GLB)."),
     CommandEntry("evaluate", "evaluate",
                  "Accuracy figures of a reconstruction: fits, VDI/VDE 2634-2-style errors, error vs truth."),
     CommandEntry("merge", "merge",
