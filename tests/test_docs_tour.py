@@ -50,8 +50,10 @@ FAST = (
 WRITES = (
     (r"^fringe3d patterns --set three-frequency -o pat\b", [("pat/*.png", 15)]),  # README: "15 PNGs + manifest"
     (r"^fringe3d patterns .*-o (\S+)", [r"\1/manifest.json", r"\1/00000.png"]),
-    (r"^fringe3d simulate .*-o (\S+)", [r"\1/manifest.json", r"\1/capture.json", r"\1/frames/00000.png",
-                                        r"\1/truth/*", r"\1/rig.json"]),
+    (r"^fringe3d simulate (?!.*--views).*-o (\S+)", [r"\1/manifest.json", r"\1/capture.json", r"\1/frames/00000.png",
+                                                     r"\1/truth/*", r"\1/rig.json"]),
+    (r"^fringe3d simulate .*--views.*-o (\S+)", [r"\1/poses.json", r"\1/view-00/manifest.json",
+                                                r"\1/view-00/capture.json", r"\1/view-00/truth/*"]),
     (r"^fringe3d decode .*-o (\S+)", [r"\1/decoded.json", r"\1/decoded.npz", r"\1/quality_*.tif"]),
     (r"^fringe3d reconstruct .*-o (\S+)", [r"\1/quality.tif", r"\1/sigma_z.tif", r"\1/depth.tif"]),
     (r"^fringe3d reconstruct .*-o (\S+) --ply", [r"\1/*.ply"]),

@@ -39,6 +39,7 @@ from fringe3d.utils.console import console, info, make_table, print_json, set_qu
 from fringe3d.utils.warning_types import Fringe3DWarning
 from fringe3d.commands.flag_words import in_flag_words
 from fringe3d.commands.output_options import overwrite_option
+from fringe3d.commands.vocabulary import set_option
 
 
 def register(app: typer.Typer) -> None:
@@ -53,10 +54,10 @@ def register(app: typer.Typer) -> None:
                                                  "free and its frame ids say which pattern each frame shows. "
                                                  "virtual[:PRESET] renders every frame as it is triggered "
                                                  "(slow; for checking the device path)."),
-        patterns: str = typer.Option(THREE_STEP, help="Pattern set(s) the page offers, comma-separated, the first "
-                                                      "shown first. Virtual camera: " + ", ".join(LIVE_PATTERNS[:4])
-                                                      + ", ... (fringe3d simulate's names); a real rig: pattern "
-                                                      "folders (fringe3d patterns)."),
+        patterns: str = set_option(THREE_STEP, "Pattern set(s) the page offers, comma-separated, the first "
+                                   "shown first. Virtual camera: " + ", ".join(LIVE_PATTERNS[:4])
+                                   + ", ... (fringe3d simulate's names); a real rig: pattern folders "
+                                   "(fringe3d patterns)."),
         calibration: Path = typer.Option(None, "-c", "--calibration", help="Real rig: the calibration (or rig) "
                                                                              "file."),
         z_min: float = typer.Option(None, "--z-min", help="Nearest depth (mm) for geometric unwrapping on a real "
@@ -95,7 +96,7 @@ def register(app: typer.Typer) -> None:
 
         Example: fringe3d live --camera virtual:high-speed --loop-cycles 16 --seconds 20 --json
 
-        Example: fringe3d live --camera pylon:40012345 --projector window:1 --patterns pats --calibration rig.json
+        Example: fringe3d live --camera pylon:40012345 --projector window:1 --set pats --calibration rig.json
         """
         opts = dict(locals())
         o = LiveOptions(**{f.name: opts[f.name] for f in fields(LiveOptions)})
@@ -150,7 +151,7 @@ class _Rig:
 def _names(text: str) -> list[str]:
     names = [n.strip() for n in str(text).split(",") if n.strip()]
     if not names:
-        raise ValueError("--patterns names no pattern set")
+        raise ValueError("--set names no pattern set")
     return names
 
 
