@@ -11,11 +11,11 @@ the outlier rule (:func:`fringe3d.analyze.evaluation.spacing_figures`): the spac
 """
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 
 import numpy as np
+from fringe3d.utils.jsonfile import read_format_json
 from scipy.spatial import cKDTree
 
 SPHERES_FORMAT = "fringe3d-spheres"
@@ -29,12 +29,7 @@ def read_spheres(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     if not f.is_file():
         raise ValueError(f"no spheres.json at {path} (expected the folder of a simulated multi-view "
                          "sequence of a scene with spheres, or its spheres.json)")
-    try:
-        doc = json.loads(f.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"{f} is not valid JSON: {e}") from None
-    if not isinstance(doc, dict) or doc.get("format") != SPHERES_FORMAT:
-        raise ValueError(f"{f}: field 'format' must be {SPHERES_FORMAT!r}")
+    doc = read_format_json(f, "spheres file", SPHERES_FORMAT)
     spheres = doc.get("spheres")
     if not isinstance(spheres, list) or not spheres:
         raise ValueError(f"{f}: field 'spheres' must be a non-empty list")

@@ -16,6 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from fringe3d.devices.stage import rotation_about
 from fringe3d.utils.atomic import atomic_write_text
+from fringe3d.utils.jsonfile import read_format_json
 
 
 def fit_axis(board_poses) -> tuple[np.ndarray, np.ndarray]:
@@ -144,14 +145,7 @@ def write_axis(path, fit: dict, views: list[dict] | None = None) -> Path:
 def read_axis(path) -> tuple[np.ndarray, np.ndarray]:
     """``(unit axis, point mm)`` from an ``axis.json``; ValueError naming the file and field."""
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"turntable axis file {path} does not exist")
-    try:
-        doc = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"turntable axis file {path} is not valid JSON: {e}") from None
-    if not isinstance(doc, dict) or doc.get("format") != AXIS_FORMAT:
-        raise ValueError(f"turntable axis file {path}: field 'format' must be {AXIS_FORMAT!r}")
+    doc = read_format_json(path, "turntable axis file", AXIS_FORMAT)
     if doc.get("unit", "mm") != "mm":
         raise ValueError(f"turntable axis file {path}: field 'unit' must be 'mm', got {doc.get('unit')!r}")
     out = []

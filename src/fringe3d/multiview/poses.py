@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.utils.atomic import atomic_write_text
+from fringe3d.utils.jsonfile import read_format_json
 
 FORMAT = "fringe3d-poses"
 
@@ -90,15 +91,7 @@ def stage_entry(description: dict, sigma_rotation_mrad: float, sigma_translation
 
 
 def _load(path: Path) -> dict:
-    if not path.is_file():
-        raise ValueError(f"poses file {path} does not exist")
-    try:
-        doc = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"poses file {path} is not valid JSON: {e}") from None
-    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        raise ValueError(f"poses file {path}: field 'format' must be {FORMAT!r}")
-    return doc
+    return read_format_json(path, "poses file", FORMAT)
 
 
 def read_stage_sigma(path: str | os.PathLike) -> tuple[float, float] | None:

@@ -69,6 +69,38 @@ def read_json(path: str | os.PathLike, what: str = "JSON file", require_object: 
     return data
 
 
+def read_format_json(path: str | os.PathLike, what: str, format_name: str) -> dict:
+    """Parse a fringe3d JSON document whose ``format`` field must be ``format_name``.
+
+    Parameters
+    ----------
+    path : path-like
+        The file.
+    what : str
+        What the file is, for the messages ("poses file", "turntable axis file").
+    format_name : str
+        The value its ``format`` field must hold.
+
+    Returns
+    -------
+    dict
+        The document.
+
+    Raises
+    ------
+    ValueError
+        The file does not exist, is not valid JSON (:func:`read_json`), or its ``format`` differs;
+        each message names the file and the field.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"{what} {path} does not exist")
+    doc = read_json(path, what)
+    if doc.get("format") != format_name:
+        raise ValueError(f"{what} {path}: field 'format' must be {format_name!r}")
+    return doc
+
+
 def to_jsonable(obj):
     """Convert numpy scalars/arrays and non-finite floats into JSON-friendly values."""
     if isinstance(obj, dict):
