@@ -14,7 +14,7 @@ import pytest
 
 from fringe3d.cli import main
 from fringe3d.devices.base import DeviceError
-from fringe3d.devices.stage import open_stage
+from fringe3d.devices.stage_backends import open_stage
 
 BANNER = b"\r\nGrbl 1.1h ['$' for help]\r\n"
 

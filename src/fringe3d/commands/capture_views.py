@@ -2,7 +2,7 @@
 
 The stage is ``virtual[:STEP_DEG][?axis=X,Y,Z&point=X,Y,Z]`` (the simulator's turntable under the
 virtual rig's scene: it turns the object the virtual camera films) or a real one
-(:func:`fringe3d.devices.stage.open_stage`). Poses (view -> model, model = view 0's camera frame)
+(:func:`fringe3d.devices.stage_backends.open_stage`). Poses (view -> model, model = view 0's camera frame)
 come from the turntable axis file (``--stage-axis``), or for the virtual stage from its own axis
 (the simulator's truth); a real stage without an axis file records its angles only.
 """
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.devices import DeviceSpec, option
-from fringe3d.devices.stage import STAGE_BACKENDS, open_stage
+from fringe3d.devices.stage_backends import STAGE_BACKENDS, open_stage
 from fringe3d.devices.views import capture_views, stage_positions
 from fringe3d.multiview.axis import read_axis, turntable_poses
 from fringe3d.multiview.poses import write_poses

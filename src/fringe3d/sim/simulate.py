@@ -186,8 +186,7 @@ def named_scene(name: str, preset: Preset) -> Scene:
     if name in catalog.NAMES:
         return catalog.named_scene(name, preset)
     if name == "sphere-bar":
-        from .turntable import sphere_bar_scene
-        return sphere_bar_scene(preset)[0]
+        return catalog.sphere_bar_scene(preset)[0]
     raise ValueError(f"unknown scene {name!r}; expected a scene file (*.json) or one of: {', '.join(SCENE_NAMES)}")
 
 

@@ -27,10 +27,10 @@ from fringe3d.io.images import write_image
 from fringe3d.multiview.poses import stage_entry, write_poses
 from fringe3d.utils.atomic import atomic_write_text
 
-from .catalog import preset_frame, sculpture_scene
+from .catalog import BAR_KINDS, preset_frame, sculpture_scene, sphere_bar_scene  # noqa: F401 (re-exported)
 from .hits import Hit, as_rays
 from .presets import Preset
-from .primitives import Box, Sphere
+from .primitives import Sphere
 from .rays import camera_rays
 from .scene import Scene
 from .scene_object import CullingVolume, SceneObject
@@ -188,52 +188,6 @@ def turntable_views(scene: Scene, preset: Preset, angles_deg, sigma: float = 0.0
         tn.append(n_cam[ok] @ pose[:3, :3].T)
     return TurntableScan(np.stack(pts), np.stack(sig), np.stack(poses), np.concatenate(tp),
                          np.concatenate(tn), np.asarray(angles_deg, float))
-
-
-BAR_KINDS = ("box", "none")
-
-
-def sphere_bar_scene(preset: Preset, spacing: float | None = None, radius: float | None = None,
-                     knob: bool = False, bar: str = "box"):
-    """A ball bar for VDI/VDE 2634-3.
-
-    Two spheres ``spacing`` mm apart (default 45 % of the volume width), joined by a square bar
-    (``bar="box"``) or by nothing visible (``bar="none"``: a dumbbell whose roll about the line
-    of centres no view can observe), with an optional smaller knob sphere on the bar (``knob``:
-    it breaks the bar's symmetries so free-hand registration has a unique answer; a real ball bar
-    has none, and its two equal spheres and square bar make the free-hand answer ambiguous).
-
-    Parameters
-    ----------
-    preset : Preset
-        The rig preset whose working volume (mm) places the bar.
-    spacing, radius : float, optional
-        Centre distance and sphere radius (mm); default 45 % and 8 % of the volume width.
-    knob : bool
-        Add the asymmetric knob sphere.
-    bar : str
-        ``"box"`` or ``"none"`` (:data:`BAR_KINDS`).
-
-    Returns
-    -------
-    tuple
-        ``(scene, centres (2, 3) mm, radius mm)``, in the camera frame at table angle 0.
-    """
-    if bar not in BAR_KINDS:
-        raise ValueError(f"bar must be one of {', '.join(BAR_KINDS)}, got {bar!r}")
-    c, size, view, down = preset_frame(preset)
-    L = 0.45 * size[0] if spacing is None else float(spacing)
-    r = 0.08 * size[0] if radius is None else float(radius)
-    right = np.cross(down, view)
-    right /= np.linalg.norm(right)
-    ca, cb = c - 0.5 * L * right, c + 0.5 * L * right
-    R = np.column_stack([right, -down, -view])
-    objects: list = [Sphere(ca, r), Sphere(cb, r)]
-    if bar == "box":
-        objects.append(Box(c, (L - r, 0.5 * r, 0.5 * r), R=R))
-    if knob:
-        objects.append(Sphere(c + 0.2 * L * right - 0.6 * r * down, 0.5 * r))
-    return Scene(objects, name="sphere-bar"), np.stack([ca, cb]), r
 
 
 def sculpture_turntable(preset: Preset, seed: int = 0) -> Scene:
