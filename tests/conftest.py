@@ -204,3 +204,26 @@ def quick_experiment(tmp_path_factory):
         return pickle.loads(memo[key])
 
     return get
+
+
+# ----------------------------------------------------------------------------- small shared fixtures
+def cli_ok(*args: str) -> None:
+    """Run ``fringe3d ARGS -q`` in-process with its stdout swallowed; it must exit 0."""
+    import contextlib
+    import io
+
+    from fringe3d.cli import main
+
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main([*args, "-q"]) == 0, args
+
+
+@pytest.fixture(scope="module")
+def pats(tmp_path_factory):
+    """A 256x200 three-frequency pattern folder (``fringe3d patterns``)."""
+    from fringe3d.cli import main
+
+    out = tmp_path_factory.mktemp("pats") / "three-frequency"
+    assert main(["patterns", "--set", "three-frequency", "--width", "256", "--height", "200",
+                 "-o", str(out), "-q"]) == 0
+    return out

@@ -19,14 +19,6 @@ RIG = ["--projector", "virtual:tiny"]
 
 
 @pytest.fixture(scope="module")
-def pats(tmp_path_factory):
-    out = tmp_path_factory.mktemp("pats") / "three-frequency"
-    assert main(["patterns", "--set", "three-frequency", "--width", "256", "--height", "200",
-                 "-o", str(out), "-q"]) == 0
-    return out
-
-
-@pytest.fixture(scope="module")
 def scan(pats, tmp_path_factory):
     """Three views of the sculpture, 20 degrees apart, on the virtual stage (default noise)."""
     out = tmp_path_factory.mktemp("views") / "scan"

@@ -9,14 +9,6 @@ from fringe3d.cli import main
 from fringe3d.io.capture import read_capture
 
 
-@pytest.fixture(scope="module")
-def pats(tmp_path_factory):
-    out = tmp_path_factory.mktemp("pats") / "three-frequency"
-    assert main(["patterns", "--set", "three-frequency", "--width", "256", "--height", "200",
-                 "-o", str(out), "-q"]) == 0
-    return out
-
-
 def _meta(folder):
     return json.loads((folder / "capture.json").read_text())
 

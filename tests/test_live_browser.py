@@ -14,7 +14,6 @@ same figures).
 from __future__ import annotations
 
 import json
-import shutil
 import threading
 import time
 import warnings
@@ -22,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from headless_chromium import launch
 
 from fringe3d.commands.live import LiveOptions, run_live
 from fringe3d.decode import DecodeOptions
@@ -31,7 +32,6 @@ from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
 from fringe3d.sim.live_take import render_take
 from fringe3d.utils.warning_types import DepthRangeWarning
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 LOOP_CYCLES = 4
 FRAME_RATE = 120.0
 FRAMES = 12
@@ -85,7 +85,6 @@ def live_run(tmp_path_factory):
     """Run `fringe3d live` for FRAMES 3D frames with a headless Chromium page open on it."""
     from playwright.sync_api import sync_playwright
 
-    assert CHROMIUM, "Debian's chromium is missing: `make test` installs it (scripts/ensure-chromium.sh)"
     out = tmp_path_factory.mktemp("live")
     served: list[str] = []
     result: dict = {}
@@ -99,9 +98,7 @@ def live_run(tmp_path_factory):
     live = threading.Thread(target=run, daemon=True)
     received: list[bytes] = []
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=[
-            "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-background-networking",
-            "--disable-component-update", "--disable-sync"])
+        browser = launch(p)
         live.start()
         end = time.monotonic() + 60
         while not served and live.is_alive() and time.monotonic() < end:

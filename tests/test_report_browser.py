@@ -1,16 +1,16 @@
 """The HTML report renders in a real headless browser with no console errors."""
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from headless_chromium import launch
+
 from fringe3d.report import write_report
 from fringe3d.report.results import save_summary
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 
 def _sphere_points(h=60, w=80, r=20.0, z0=300.0):
@@ -48,14 +48,11 @@ def test_report_is_self_contained(results_folder: Path):
 def test_report_renders_3d_view_and_tables_without_console_errors(results_folder: Path):
     from playwright.sync_api import sync_playwright
 
-    assert CHROMIUM, "Debian's chromium is missing: `make test` installs it (scripts/ensure-chromium.sh)"
 
     path = write_report(results_folder)
     errors: list[str] = []
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=[
-            "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-            "--disable-background-networking", "--disable-component-update", "--disable-sync"])
+        browser = launch(p)
         page = browser.new_page(viewport={"width": 1200, "height": 900})
         page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
         page.on("pageerror", lambda e: errors.append(str(e)))

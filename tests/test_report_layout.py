@@ -7,17 +7,17 @@ from __future__ import annotations
 import contextlib
 import io
 import json
-import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import write_wing_sequence
+from conftest import cli_ok, write_wing_sequence
+
+from headless_chromium import launch
 
 from fringe3d.cli import main
 from fringe3d.io.images import read_image
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 SHOTS = Path("/tmp/report-shots")
 WIDTHS = (1400, 800)
 
@@ -48,32 +48,27 @@ FACTS_JS = """() => {
 }"""
 
 
-def _cli(*args: str) -> None:
-    with contextlib.redirect_stdout(io.StringIO()):
-        assert main([*args, "-q"]) == 0, args
-
-
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory) -> dict:
     """One tiny simulated run of each command, shared by every test here."""
     root = tmp_path_factory.mktemp("layout")
     cap, rec, dec, demo = root / "cap", root / "rec", root / "dec", root / "demo"
-    _cli("simulate", "-o", str(cap), "--scene", "sphere", "--ideal")
-    _cli("reconstruct", str(cap), "-c", str(cap / "rig.json"), "-o", str(rec))
-    _cli("evaluate", str(rec), "--sphere", "--truth", str(cap))
-    _cli("decode", str(cap), "-o", str(dec))
+    cli_ok("simulate", "-o", str(cap), "--scene", "sphere", "--ideal")
+    cli_ok("reconstruct", str(cap), "-c", str(cap / "rig.json"), "-o", str(rec))
+    cli_ok("evaluate", str(rec), "--sphere", "--truth", str(cap))
+    cli_ok("decode", str(cap), "-o", str(dec))
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(["demo", "--profile", "tiny", "-o", str(demo), "--json"]) == 0
     seq = root / "seq"
     seq.mkdir()
     anchors, _ = write_wing_sequence(seq, (0.0, 0.01, 0.02))
-    _cli("strain", str(seq), "--anchors", ",".join(f"{x:.3f}" for x in anchors.ravel()), "-o", str(root / "strain"),
+    cli_ok("strain", str(seq), "--anchors", ",".join(f"{x:.3f}" for x in anchors.ravel()), "-o", str(root / "strain"),
          "--thickness", "0.1", "--step", "6", "--window", "9", "--frame-rate", "100")
     pages = {"demo": demo / "report.html"}
     for name, folder in (("decode", dec), ("evaluate", rec), ("strain", root / "strain")):
-        _cli("report", str(folder))
+        cli_ok("report", str(folder))
         pages[name] = folder / "report.html"
-    _cli("report", str(demo / "calibration.json"))
+    cli_ok("report", str(demo / "calibration.json"))
     pages["calibration"] = demo / "calibration.html"
     return {"pages": pages, "dec": dec, "rec": rec}
 
@@ -83,13 +78,10 @@ def facts(runs) -> dict:
     """``facts[(report, width)]``: the layout facts of each page at each width (screenshots saved)."""
     from playwright.sync_api import sync_playwright
 
-    assert CHROMIUM, "Debian's chromium is missing: `make test` installs it (scripts/ensure-chromium.sh)"
     SHOTS.mkdir(parents=True, exist_ok=True)
     out: dict = {}
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=[
-            "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-            "--disable-background-networking", "--disable-component-update", "--disable-sync"])
+        browser = launch(p)
         for name, path in runs["pages"].items():
             for width in WIDTHS:
                 page = browser.new_page(viewport={"width": width, "height": 900})

@@ -4,19 +4,18 @@ merge.json's values and units, coverage and the figures against the truth (``eva
 truth pinned on a merge folder whose errors are known by construction."""
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import math
-import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from conftest import cli_ok
+from headless_chromium import launch
+
 from fringe3d.cli import main
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 SHOTS = Path("/tmp/report-shots")
 WIDTHS = (1400, 800)
 
@@ -44,11 +43,6 @@ FACTS_JS = """() => {
 }"""
 
 
-def _cli(*args: str) -> None:
-    with contextlib.redirect_stdout(io.StringIO()):
-        assert main([*args, "-q"]) == 0, args
-
-
 @pytest.fixture(scope="module")
 def merged(tmp_path_factory) -> dict:
     """Three views of the tiny sculpture on the virtual turntable, merged, evaluated against the
@@ -61,9 +55,9 @@ def merged(tmp_path_factory) -> dict:
     scan = turntable_views(sculpture_turntable(p, seed=0), p, [-20.0, 0.0, 20.0], sigma=0.05, seed=0)
     views = write_turntable(root / "scan", scan)
     out = root / "merged"
-    _cli("merge", *map(str, views), "--poses", str(root / "scan" / "poses.json"), "-o", str(out), "--voxel", "4")
-    _cli("evaluate", str(out), "--truth", str(root / "scan"))
-    _cli("report", str(out))
+    cli_ok("merge", *map(str, views), "--poses", str(root / "scan" / "poses.json"), "-o", str(out), "--voxel", "4")
+    cli_ok("evaluate", str(out), "--truth", str(root / "scan"))
+    cli_ok("report", str(out))
     return {"folder": out, "page": out / "report.html",
             "merge": json.loads((out / "merge.json").read_text()),
             "evaluate": json.loads((out / "evaluate.json").read_text())}
@@ -75,13 +69,10 @@ def facts(merged) -> dict:
     ``facts["mesh"]``: the 3D view's traces after its mesh button is clicked."""
     from playwright.sync_api import sync_playwright
 
-    assert CHROMIUM, "Debian's chromium is missing: `make test` installs it (scripts/ensure-chromium.sh)"
     SHOTS.mkdir(parents=True, exist_ok=True)
     out: dict = {}
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=[
-            "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-            "--disable-background-networking", "--disable-component-update", "--disable-sync"])
+        browser = launch(p)
         page = browser.new_page(viewport={"width": WIDTHS[0], "height": 900})
         errors: list[str] = []
         page.on("pageerror", lambda e: errors.append(str(e)))

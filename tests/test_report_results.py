@@ -10,10 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from headless_chromium import launch
+
 from fringe3d.cli import main
 from fringe3d.report.typed import b64_float32, b64_uint16, decode_float32, decode_uint16
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 
 @pytest.fixture(scope="module")
@@ -76,14 +77,11 @@ def test_report_of_a_calibration_json(evaluated: Path, tmp_path: Path):
 def test_reconstruct_evaluate_report_renders_at_two_widths(evaluated: Path):
     from playwright.sync_api import sync_playwright
 
-    assert CHROMIUM, "Debian's chromium is missing: `make test` installs it (scripts/ensure-chromium.sh)"
     out = evaluated.parent / "browser.html"
     assert main(["report", str(evaluated), "-o", str(out), "-q"]) == 0
     errors: list[str] = []
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=[
-            "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-            "--disable-background-networking", "--disable-component-update", "--disable-sync"])
+        browser = launch(p)
         for width in (1400, 800):
             page = browser.new_page(viewport={"width": width, "height": 900})
             page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
