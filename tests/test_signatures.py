@@ -21,7 +21,6 @@ ALLOWED = {
     "commands/import_options.py:layout_arguments": "maps the import command's flags one to one",
     "decode/edges.py:quality_map": "public quality-map API: one keyword per test threshold",
     "decode/edges.py:_quality_map_fused": "the fused quality map's private entry, flat like its kernels",
-    "devices/acquire.py:capture_sequence": "device timing knobs of the capture loop",
     "devices/session.py:capture_session": "calibration-session capture knobs (board, poses, timing)",
     "gpu/ops.py:three_step_points": "host wrapper handing the flat kernel arrays to the device",
     "io/importer.py:layout_patterns": "import layout options, one per import flag",
