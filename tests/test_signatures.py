@@ -25,7 +25,6 @@ ALLOWED = {
     "gpu/ops.py:three_step_points": "host wrapper handing the flat kernel arrays to the device",
     "io/importer.py:layout_patterns": "import layout options, one per import flag",
     "io/importer.py:import_images": "import layout options, one per import flag",
-    "io/store.py:open": "point store creation: layout, rays, codec and per-frame arrays",
     "reconstruct/single_shot.py:single_shot": "single-shot method knobs (FTP window, thresholds)",
     "sim/board.py:__init__": "calibration board geometry and appearance",
     "sim/calibration_session.py:sample_board_poses": "pose sampling ranges",
