@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fringe3d.io.store import PointMapStore
+from fringe3d.io.store import PointMapStore, StoreSettings
 
 
 def test_point_store_opens_with_xarray(tmp_path):
@@ -25,7 +25,8 @@ def test_point_store_opens_with_a_plain_open_zarr_without_warning_and_has_pixel_
     import warnings
 
     xr = pytest.importorskip("xarray")
-    st = PointMapStore.open(tmp_path / "p.zarr", frames=3, height=4, width=5, times=[0.0, 0.04, 0.08], sigma=True)
+    st = PointMapStore.open(tmp_path / "p.zarr", frames=3, height=4, width=5, times=[0.0, 0.04, 0.08],
+                            settings=StoreSettings(sigma=True))
     st.write_frame(2, np.ones((4, 5, 3), np.float32), sigma_z=np.full((4, 5), 0.01, np.float32))
     st.mark_done([2])
     with warnings.catch_warnings():
