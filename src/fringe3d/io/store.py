@@ -218,7 +218,8 @@ class PointMapStore:
             if attrs.get("format") != STORE_FORMAT and not unfinished:
                 raise ValueError(f"{path} exists but is not a fringe3d point store (format {attrs.get('format')!r})")
             if unfinished:  # an interrupted run of this output started the store but recorded no frame in it
-                return cls.open(path, frames, height, width, meta, overwrite=True, settings=settings, rays=rays)
+                return cls.open(path, frames, height, width, meta, overwrite=True, settings=settings, rays=rays,
+                                times=times)
             got = (attrs.get("frames"), attrs.get("height"), attrs.get("width"))
             if got != (frames, height, width):
                 raise ValueError(f"{path} holds {got[0]} frames of {got[2]}x{got[1]}, "
