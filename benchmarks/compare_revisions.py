@@ -106,7 +106,7 @@ def main(argv=None) -> int:
         for r in rows:
             ratio = f"{r['ratio_b_over_a']:.3f}" if r["ratio_b_over_a"] is not None else "-"
             flag = "  REGRESSION" if r in bad else ""
-            print(f"  {r['figure']:92s} A {r['a']:10.4g}  B {r['b']:10.4g}  B/A {ratio}{flag}")
+            print(f"  {r['figure']:100s} A {r['a']:10.4g}  B {r['b']:10.4g}  B/A {ratio}{flag}")
         if args.fail_above:
             print(f"{len(bad)} figure(s) of fringe3d's code regressed by more than "
                   f"{100 * (args.fail_above - 1):.0f} %" + (": " + "; ".join(r["figure"] for r in bad) if bad else ""))
