@@ -1,7 +1,10 @@
 """Long sequences end to end: a 1280x1024 3-step + geometric sequence read from an MRAW file.
 
-Run: ``.venv/bin/python benchmarks/bench_sequence.py [--cycles 120] [--json]`` (not a test; needs the
-``dask`` and ``camfiles`` extras, both in ``.[test]``). The scene is seeded (``seed=0``).
+Run: ``.venv/bin/python benchmarks/bench_sequence.py [--cycles 120] [--repeat 20] [--rounds 3] [--json]``
+(not a test; needs the ``dask`` and ``camfiles`` extras, both in ``.[test]``). The scene is seeded
+(``seed=0``). The in-memory cases (kernels, copy bound) are timed in ``--repeat`` alternated rounds
+(every case once per round, in rotating order), the serial end-to-end runs in ``--rounds``
+alternated rounds; min / median / max go to the JSON ``figures`` (``benchmarks/summary.py``).
 
 One run measures, side by side on this machine:
 
@@ -23,8 +26,12 @@ One run measures, side by side on this machine:
 - **store**: bytes per 3D frame on disk and write time per frame of the layouts (xyz; ray_depth
   alone; ray_depth + quality + sigma_z) and codecs (lz4, zstd-3, none), on the same 3D frame.
 
-The sequence repeats one rendered cycle (a sphere before a wall on the ``macro`` rig); the
-pipeline's cost does not depend on the scene changing.
+The sequence repeats one rendered cycle (a sphere before a wall on the ``macro`` rig, fringe
+period ``PERIOD`` = 120 projector px); the pipeline's cost does not depend on the scene changing.
+At the period of 36 px this benchmark once used, the wall lay beyond the geometric constraint's
+unambiguous depth range from the sphere's front (z_min), so about 1.1 M of the 1.3 M pixels got
+the wrong fringe order; the wrap errors (pixels whose point projects more than half a period off
+the truth's projector coordinate) are counted and reported (0 at 120 px).
 """
 from __future__ import annotations
 
@@ -33,6 +40,7 @@ import dataclasses
 import json
 import os
 import shutil
+import sys
 import tempfile
 import time
 import warnings
@@ -54,16 +62,15 @@ from fringe3d.reconstruct.sequence import CaptureFrames, FrameReconstructor, rec
 from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from summary import alternated, figure, format_table, stats, table_rows, timed_figures  # noqa: E402  (beside this script)
+
 
 #: cycles written and read as PNG files (their read rate)
 PNG_CYCLES = 30
-
-
-def rate(fn, n_items: int, repeat: int = 3) -> float:
-    """Best items per second of ``fn`` (which processes ``n_items``) over ``repeat`` runs, after a warm-up."""
-    fn()
-    best = min(_timed(fn) for _ in range(repeat))
-    return n_items / best
+#: fringe period (projector px): wide enough that the whole sphere-and-wall scene lies within the
+#: geometric constraint's unambiguous depth range (36 px put the wall beyond it)
+PERIOD = 120.0
 
 
 def _timed(fn) -> float:
@@ -74,9 +81,9 @@ def _timed(fn) -> float:
 
 def make_inputs(work: Path, cycles: int):
     """One rendered 3-step cycle at 1280x1024, repeated ``cycles`` times into an MRAW file and a
-    PNG capture; returns (mraw capture folder, png capture folder, patterns, rig, z_min)."""
+    PNG capture; returns (mraw capture folder, png capture folder, patterns, rig, z_min, truth)."""
     one = work / "one"
-    ps = sets.phase_shift(36, 3, "v", width=800, height=600)
+    ps = sets.phase_shift(PERIOD, 3, "v", width=800, height=600)
     simulate_capture(one, preset="macro", scene="sphere", patterns=ps, seed=0, progress=False)
     cap, rig, truth = read_capture(one), Rig.load(one / "rig.json"), Truth.load(one)
     z_min = float(np.nanmin(truth.depth[truth.mask])) - 5.0
@@ -85,7 +92,15 @@ def make_inputs(work: Path, cycles: int):
     import_images(str(Path(mraw).with_suffix(".cih")), work / "mraw-cap", manifest=one / "manifest.json")
     png_cycles = min(cycles, PNG_CYCLES)  # the PNG read rate needs no more
     write_capture(work / "png-cap", frames[:png_cycles * len(cap.patterns)], cap.patterns, meta={"bit_depth": 8})
-    return work / "mraw-cap", work / "png-cap", reconstruction_plans(cap.patterns, "geometric"), rig, z_min
+    return work / "mraw-cap", work / "png-cap", reconstruction_plans(cap.patterns, "geometric"), rig, z_min, truth
+
+
+def wrap_errors(rig: Rig, points: np.ndarray, truth: Truth) -> int:
+    """Pixels whose point is finite but on the wrong fringe: its projector coordinate is off the
+    truth's by more than half a period."""
+    valid = np.isfinite(points[..., 0]) & truth.mask & np.isfinite(truth.up)
+    up = rig.projector.project(points[valid].astype(np.float64))[..., 0]
+    return int(np.sum(np.abs(up - truth.up[valid]) > PERIOD / 2))
 
 
 def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dict:
@@ -118,35 +133,51 @@ def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dic
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cycles", type=int, default=120)
+    ap.add_argument("--repeat", type=int, default=20, help="alternated rounds of the in-memory cases")
+    ap.add_argument("--rounds", type=int, default=3, help="alternated rounds of the serial end-to-end runs")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     warnings.simplefilter("ignore")  # depth-range warnings of the repeated scene are not the point here
     work = Path(tempfile.mkdtemp(prefix="bench-seq-"))
+    group = "reconstruct a sequence: 3-step + geometric, 1280x1024, MRAW in, zarr store out"
+    figs: list[dict] = []
     try:
-        mraw_cap, png_cap, ps, rig, z_min = make_inputs(work, args.cycles)
+        mraw_cap, png_cap, ps, rig, z_min, truth = make_inputs(work, args.cycles)
         opts = DecodeOptions(z_min=z_min, bit_depth=8)
         frames = open_frames(mraw_cap)
         n = len(ps)
         cycle = np.ascontiguousarray(frames[0:n])
         rec = FrameReconstructor(ps, rig, opts)
-        res: dict = {"cycles": args.cycles, "shape": list(cycle.shape[1:]), "path": rec.path,
-                     "cores": os.cpu_count(), "load_average": os.getloadavg()[0]}
-        res["kernel_3d_per_s"] = rate(lambda: [rec(cycle) for _ in range(20)], 20)
-        res["kernel_fused_only_3d_per_s"] = rate(lambda: [rec.fast.depth(cycle, rec.fused.index)
-                                                          for _ in range(20)], 20)
-        res["window_as_stored_3d_per_s"] = rate(lambda: [rec.reconstruct(cycle, uncertainty="z", points=False,
-                                                                         texture=False)
-                                                         for _ in range(20)], 20)
+        res: dict = {"benchmark": "sequence", "cycles": args.cycles, "shape": list(cycle.shape[1:]),
+                     "path": rec.path, "cores": os.cpu_count(), "load_average": os.getloadavg()[0],
+                     "period_px": PERIOD, "wrap_errors": wrap_errors(rig, rec.reconstruct(cycle).points, truth)}
         buf_in, buf_out = np.empty_like(cycle), np.empty(cycle.shape[1:] + (3,), np.float32)
         src_out = np.ones_like(buf_out)
-        res["copy_bound_3d_per_s"] = rate(lambda: [(np.copyto(buf_in, cycle), np.copyto(buf_out, src_out))
-                                                   for _ in range(20)], 20)
-        res["mraw_read_cycles_per_s"] = rate(lambda: [np.asarray(frames[c * n:(c + 1) * n])
-                                                      for c in range(args.cycles)], args.cycles, repeat=2)
+        mem = alternated({
+            "kernel_fused_only": lambda: rec.fast.depth(cycle, rec.fused.index),
+            "kernel": lambda: rec(cycle),
+            "window_as_stored": lambda: rec.reconstruct(cycle, uncertainty="z", points=False, texture=False),
+            "copy_bound": lambda: (np.copyto(buf_in, cycle), np.copyto(buf_out, src_out))}, args.repeat)
+        for k, ts in mem.items():
+            res[f"{k}_3d_per_s"] = 1.0 / stats(ts)["median"]
+        figs += timed_figures(group, mem, {"kernel_fused_only": "kernel", "kernel": "reference",
+                                           "window_as_stored": "reference", "copy_bound": "bound"},
+                              unit="3D frames/s",
+                              names={"kernel_fused_only": "fused kernel alone (depth)",
+                                     "kernel": "FrameReconstructor: kernel + quality map + points",
+                                     "window_as_stored": "one window as stored (+ sigma_z)",
+                                     "copy_bound": "copy bound: cycle in, points out"})
+        reads = alternated({"mraw": lambda: [np.asarray(frames[c * n:(c + 1) * n]) for c in range(args.cycles)]},
+                           2)["mraw"]
+        res["mraw_read_cycles_per_s"] = args.cycles / min(reads)
+        figs.append(figure(group, "read the MRAW cycle by cycle", "reference", "cycles/s",
+                           [args.cycles / t for t in reads]))
         png = CaptureFrames(png_cap)
         m = min(args.cycles, PNG_CYCLES)
-        res["png_read_cycles_per_s"] = rate(lambda: [png[np.arange(c * n, (c + 1) * n)] for c in range(m)], m,
-                                            repeat=1)
+        png_t = alternated({"png": lambda: [png[np.arange(c * n, (c + 1) * n)] for c in range(m)]}, 1)["png"]
+        res["png_read_cycles_per_s"] = m / min(png_t)
+        figs.append(figure(group, "read the same frames as PNG files", "reference", "cycles/s",
+                           [m / t for t in png_t]))
 
         def serial(store_quality=True, edge_mask=True, codec="lz4"):
             out = work / "serial"
@@ -155,15 +186,22 @@ def main() -> None:
                                  decode=DecodeSettings(options=dataclasses.replace(opts, edge_mask=edge_mask)),
                                  outputs=OutputSettings(store_quality=store_quality, codec=codec),
                                  run=RunSettings(progress=False))
-        serial()  # warm (numba's compiled kernels load on first use)
-        res["end_to_end_serial_3d_per_s"] = args.cycles / _timed(serial)
-        res["end_to_end_serial_codec_none_3d_per_s"] = args.cycles / _timed(lambda: serial(codec="none"))
-        res["end_to_end_serial_no_store_quality_3d_per_s"] = args.cycles / _timed(lambda: serial(False))
-        # the issue's configuration (the modulation mask, the points only): lz4 and uncompressed
-        res["end_to_end_serial_no_edge_mask_no_store_quality_3d_per_s"] = args.cycles / _timed(
-            lambda: serial(False, False))
-        res["end_to_end_serial_no_edge_mask_no_store_quality_codec_none_3d_per_s"] = args.cycles / _timed(
-            lambda: serial(False, False, "none"))
+        e2e = {  # the defaults; uncompressed; no quality map stored; the issue's configuration
+            "end_to_end_serial": serial,  # (the modulation mask, the points only), lz4 and uncompressed
+            "end_to_end_serial_codec_none": lambda: serial(codec="none"),
+            "end_to_end_serial_no_store_quality": lambda: serial(False),
+            "end_to_end_serial_no_edge_mask_no_store_quality": lambda: serial(False, False),
+            "end_to_end_serial_no_edge_mask_no_store_quality_codec_none": lambda: serial(False, False, "none")}
+        e2e_t = alternated(e2e, args.rounds)  # warm-up included (numba's compiled kernels load on first use)
+        names = {"end_to_end_serial": "reconstruct_sequence, defaults (lz4)",
+                 "end_to_end_serial_codec_none": "reconstruct_sequence, uncompressed",
+                 "end_to_end_serial_no_store_quality": "reconstruct_sequence, no quality stored",
+                 "end_to_end_serial_no_edge_mask_no_store_quality": "reconstruct_sequence, no edge mask/quality",
+                 "end_to_end_serial_no_edge_mask_no_store_quality_codec_none":
+                     "reconstruct_sequence, no edge mask/quality, uncompressed"}
+        for k, ts in e2e_t.items():
+            res[f"{k}_3d_per_s"] = args.cycles / stats(ts)["median"]
+            figs.append(figure(group, names[k], "ours", "3D frames/s", [args.cycles / t for t in ts]))
         for workers in (1, 2):
             client = connect(workers=workers)
             try:
@@ -174,21 +212,26 @@ def main() -> None:
                                                 dask_executor(client, chunk=8), DecodeSettings(opts),
                                                 run=RunSettings(progress=False))
                 on_dask()  # warm the workers (imports, the reconstructor's tables)
-                res[f"end_to_end_dask_{workers}w_3d_per_s"] = args.cycles / _timed(on_dask)
+                t = _timed(on_dask)
+                res[f"end_to_end_dask_{workers}w_3d_per_s"] = args.cycles / t
+                figs.append(figure(group, f"on Dask, {workers} worker process(es)", "ours", "3D frames/s",
+                                   [args.cycles / t]))
             finally:
                 close(client, own_cluster=True)
         res["store"] = store_figures(rec, cycle, work)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     res = {k: (round(v, 1) if isinstance(v, float) else v) for k, v in res.items()}
+    res["figures"] = figs
+    res["groups"] = {group: {"scene": f"rendered sphere before a wall, macro rig, T = {PERIOD:g} px",
+                             "wrap_errors": res["wrap_errors"]}}
     if args.json:
         print(json.dumps(res, indent=1))
         return
     for k, v in res.items():
-        print(f"{k:32s} {v}")
-    k = res["kernel_3d_per_s"]
-    print(f"{'end to end / kernel (serial)':32s} {res['end_to_end_serial_3d_per_s'] / k:.2f}")
-    print(f"{'kernel / copy bound':32s} {k / res['copy_bound_3d_per_s']:.2f}")
+        if k not in ("figures", "groups"):
+            print(f"{k:32s} {v}")
+    print(format_table(table_rows(figs), res["groups"]))
 
 
 if __name__ == "__main__":

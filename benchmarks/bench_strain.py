@@ -64,6 +64,9 @@ from fringe3d.experiments import flapping_wing as fw
 from fringe3d.optics.pinhole import intrinsics
 from fringe3d.sim import presets
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from summary import figure  # noqa: E402  (beside this script)
+
 OLD_REV = "428e8f5"
 
 
@@ -198,6 +201,14 @@ def main(argv=None) -> int:
         out[f"dask_{nd}"] = {**rd, "equal_to_first": bool(np.array_equal(uv, uv1, equal_nan=True))}
     ok = res_old.ok & res_new.ok
     out["max_uv_difference_px"] = float(np.nanmax(np.abs(res_old.uv - res_new.uv)[ok])) if ok.any() else float("nan")
+    group = f"strain: geodesic tracking + bending strain per 3D frame, {out['resolution']}"
+    out["figures"] = [figure(group, "wing_sequence (current geodesic search)", "ours", "s", dt_new[1:])]
+    if not args.no_old:
+        out["figures"].append(figure(group, "the same with the geodesic search of 428e8f5", "reference", "s",
+                                     dt_old[1:]))
+    out["figures"] += [figure(group, f"frame scheduler, {k.split('_')[1]} {k.split('_')[0]} (wall / frame)", "ours",
+                              "s", [out[k]["s_per_3d_frame"]]) for k in out if k.startswith(("workers_", "dask_"))]
+    out["groups"] = {group: {"scene": "simulated flapping wing, noise-free ray-cast maps (no fringes to unwrap)"}}
     if args.json:
         print(json.dumps(out, indent=1))
     else:
