@@ -20,7 +20,7 @@ import tifffile
 import zarr
 
 from fringe3d.io.capture import read_capture
-from fringe3d.io.importer import import_camera_file, layout_patterns
+from fringe3d.io.importer import ImportLayout, import_camera_file, layout_patterns
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from cine_writer import write_cine  # noqa: E402  (the tests' CINE writer)
@@ -52,7 +52,7 @@ def peak_mb(fn) -> tuple[float, float]:
 
 
 def main() -> None:
-    ps = layout_patterns("phase-shift", (256, 200), steps=3, period=16)
+    ps = layout_patterns(ImportLayout("phase-shift", (256, 200), steps=3, period=16))
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         print(f"recording: {F} frames {W}x{H} uint16 = {F * H * W * 2 / 1e6:.0f} MB")

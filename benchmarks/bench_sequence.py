@@ -97,8 +97,9 @@ def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dic
     for codec in store_module.CODECS:
         for name, (layout, q) in cases.items():
             path = work / f"store-{codec}-{name}.zarr"
-            st = store_module.PointMapStore.open(path, 10, H, W, layout=layout, quality=q, sigma=q,
-                                                 rays=rec.rays if layout == "ray_depth" else None, codec=codec)
+            settings = store_module.StoreSettings(layout, quality=q, sigma=q, codec=codec)
+            st = store_module.PointMapStore.open(path, 10, H, W, settings=settings,
+                                                 rays=rec.rays if layout == "ray_depth" else None)
             arrays = {"points": c.points} if layout == "xyz" else {"depth": c.depth}
             if q:
                 arrays.update(quality=c.quality, sigma_z=c.sigma_z)

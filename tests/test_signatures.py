@@ -16,15 +16,9 @@ MOST = 10
 #: "module/path.py:function" -> why it still takes more than MOST parameters.
 ALLOWED = {
     "calibrate/session.py:calibrate_to_files": "calibration session typing is another change (issue 24, part 5)",
-    "commands/import_options.py:layout_arguments": "maps the import command's flags one to one",
     "decode/edges.py:quality_map": "public quality-map API: one keyword per test threshold",
     "decode/edges.py:_quality_map_fused": "the fused quality map's private entry, flat like its kernels",
-    "devices/acquire.py:capture_sequence": "device timing knobs of the capture loop",
     "devices/session.py:capture_session": "calibration-session capture knobs (board, poses, timing)",
-    "io/importer.py:layout_patterns": "import layout options, one per import flag",
-    "io/importer.py:import_images": "import layout options, one per import flag",
-    "io/store.py:open": "point store creation: layout, rays, codec and per-frame arrays",
-    "patterns/sets.py:psp_with_gray_code": "pattern-set recipe: one keyword per pattern parameter",
     "sim/board.py:__init__": "calibration board geometry and appearance",
     "sim/calibration_session.py:sample_board_poses": "pose sampling ranges",
     "sim/calibration_session.py:simulate_session": "simulated session knobs",

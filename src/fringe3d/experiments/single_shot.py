@@ -19,7 +19,7 @@ import numpy as np
 
 from fringe3d.decode import decode
 from fringe3d.optics import Rig
-from fringe3d.patterns.sets import modified_ftp, psp_with_gray_code
+from fringe3d.patterns.sets import CodeFrames, modified_ftp, psp_with_gray_code
 from fringe3d.reconstruct.single_shot import SingleShotSettings, single_shot
 from fringe3d.reconstruct.triangulate import Triangulator
 from fringe3d.sim import presets, render
@@ -73,7 +73,7 @@ def _render(sc, rig, settings, seed: int):
     w, h = rig.projector.width, rig.projector.height
     s = settings.replace(seed=seed)
     pair = modified_ftp(PERIOD, "v", width=w, height=h)
-    ref = psp_with_gray_code(PERIOD, 3, "v", width=w, height=h, code_period=PERIOD / 2)
+    ref = psp_with_gray_code(PERIOD, 3, "v", width=w, height=h, code=CodeFrames(period=PERIOD / 2))
     f_pair, truth = render(sc, rig, pair, s, progress=False)
     f_ref, _ = render(sc, rig, ref, s.replace(seed=seed + 1), progress=False)
     return f_pair, pair, f_ref, ref, truth
