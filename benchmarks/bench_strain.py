@@ -58,7 +58,7 @@ import numpy as np
 import fringe3d.analyze.strain as strain_mod
 from fringe3d.analyze.anchors import check_anchor
 from fringe3d.analyze.frame_task import StrainFrameTask
-from fringe3d.analyze.strain import wing_frame, wing_reference, wing_sequence
+from fringe3d.analyze.strain import TrackingSettings, wing_frame, wing_reference, wing_sequence
 from fringe3d.analyze.wing_strain import frames_in_order
 from fringe3d.experiments import flapping_wing as fw
 from fringe3d.optics.pinhole import intrinsics
@@ -99,7 +99,7 @@ def run_stage(maps, anchors, q, window, distance_maps=None, stop_margin=0.1):
     if distance_maps is not None:
         strain_mod.distance_maps = distance_maps
     try:
-        res = wing_sequence(maps, anchors, q, fw.THICKNESS, window, stop_margin=stop_margin,
+        res = wing_sequence(maps, anchors, q, fw.THICKNESS, TrackingSettings(window=window, stop_margin=stop_margin),
                             progress=lambda: stamps.append(time.perf_counter()))
     finally:
         strain_mod.distance_maps = saved
@@ -108,7 +108,7 @@ def run_stage(maps, anchors, q, window, distance_maps=None, stop_margin=0.1):
 
 def run_workers(maps, anchors, q, window, workers):
     """Wall seconds per deformed 3D frame of wing_frame over ``workers`` threads, and its uv (F-1, N, 2)."""
-    ref = wing_reference(maps[0], anchors[0], q, fw.THICKNESS, window)
+    ref = wing_reference(maps[0], anchors[0], q, fw.THICKNESS, TrackingSettings(window=window))
     t0 = time.perf_counter()
     got = [r.uv for _, r in frames_in_order(lambda f: wing_frame(ref, maps[f + 1], anchors[f + 1], f + 1),
                                             len(maps) - 1, workers)]
@@ -123,7 +123,7 @@ def run_dask(maps, anchors, q, window, workers):
 
     path = Path(tempfile.mkdtemp(prefix="bench_strain_")) / "points.npy"
     np.save(path, np.stack(maps))
-    ref = wing_reference(maps[0], anchors[0], q, fw.THICKNESS, window)
+    ref = wing_reference(maps[0], anchors[0], q, fw.THICKNESS, TrackingSettings(window=window))
     task = StrainFrameTask(str(path), 0, (ref,), np.asarray(anchors)[:, None])
     client = connect(workers=workers)
     try:

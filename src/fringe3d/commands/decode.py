@@ -28,7 +28,7 @@ from fringe3d.patterns.manifest import MANIFEST_NAME
 from fringe3d.patterns.layouts import with_threshold
 from fringe3d.optics import Rig
 from fringe3d.phase.ftp import WINDOWS
-from fringe3d.utils.output_folder import check_complete
+from fringe3d.utils.output_folder import OutputGuard, check_complete
 from fringe3d.utils.console import (
     console,
     info,
@@ -210,8 +210,8 @@ def register(app: typer.Typer) -> None:
             try:
                 dopts = DecodeOptions(z_min=z_min, response=response_lut, **opts)
                 results = decode_capture(cap.source if cap.source is not None else cap.frames, patterns, out,
-                                         rig=rig_obj, options=dopts, cycles=n, overwrite=overwrite,
-                                         allow_empty=allow_empty, inputs=inputs, fingerprint=options,
+                                         rig=rig_obj, options=dopts, cycles=n,
+                                         guard=OutputGuard(overwrite, inputs, options), allow_empty=allow_empty,
                                          name=str(capture),
                                          on_cycle=None if fusion is None else _exposure_fields(cap, fusion))
             finally:
