@@ -167,7 +167,7 @@ def _build(kind: str, kw: dict) -> SceneObject:
     if kind == "box":
         return Box(**kw)
     if kind == "board":
-        return BoardTarget(**kw)
+        return BoardTarget.from_fields(kw)
     if kind == "heightfield":
         return HeightField(**kw)
     if kind == "sculpture":

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fringe3d.calibrate.boards import CircleBoard
 from fringe3d.io.capture import FRAMES_DIR, write_capture_frames
 from fringe3d.optics import TelecentricCamera
 from fringe3d.patterns import sets
@@ -182,7 +183,8 @@ def named_scene(name: str, preset: Preset) -> Scene:
         spacing = lateral / 12.0
         cam = preset.rig.camera
         cam_c = c - view * 1000.0 if isinstance(cam, TelecentricCamera) else cam.center  # no centre: 1 m back
-        return Scene([board_facing(cam_c, c, cols=9, rows=9, spacing=spacing)], name="board")
+        return Scene([board_facing(cam_c, c, board=CircleBoard(cols=9, rows=9, spacing=spacing,
+                                                                     radius=0.25 * spacing))], name="board")
     if name in catalog.NAMES:
         return catalog.named_scene(name, preset)
     if name == "sphere-bar":
