@@ -175,7 +175,7 @@ def _build(kind: str, kw: dict) -> SceneObject:
     if kind == "mesh":
         return Mesh(kw.pop("path"), **kw)
     if kind == "wing":
-        return Wing(**kw)
+        return Wing.from_fields(kw)
     raise AssertionError(kind)
 
 
