@@ -10,20 +10,21 @@ from fringe3d.calibrate.evaluation import rotation_angle_deg
 from fringe3d.calibrate.session import PoseCapture, calibrate_observations, calibrate_session, observe_session
 from fringe3d.cli import main
 from fringe3d.optics import Rig
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import SessionImaging, SessionOptics, simulate_session
 from fringe3d.utils.warning_types import CalibrationWarning
 
 
 @pytest.fixture(scope="module")
 def tiny_session(tmp_path_factory):
     folder = tmp_path_factory.mktemp("calib") / "session"
-    ss = simulate_session("tiny", n_poses=5, seed=3, noise=False, folder=folder, progress=False)
+    ss = simulate_session("tiny", n_poses=5, seed=3, folder=folder, progress=False, imaging=SessionImaging(noise=False))
     return ss
 
 
 def test_noise_free_macro_session_meets_truth_tolerances():
     # >= 10 board poses, half-resolution macro camera (640x512) to keep the test fast
-    ss = simulate_session("macro", n_poses=10, seed=0, camera_scale=0.5, noise=False, progress=False)
+    ss = simulate_session("macro", n_poses=10, seed=0, progress=False, optics=SessionOptics(camera_scale=0.5),
+                          imaging=SessionImaging(noise=False))
     obs, info = observe_session(ss.poses, ss.board, progress=False)
     cal, res = calibrate_observations(obs, info, ss.board, camera_dist="k1k2")
     true, est = ss.rig, cal.rig

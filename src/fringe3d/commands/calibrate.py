@@ -15,7 +15,7 @@ from fringe3d.calibrate.code_mapping import DEFAULT_WINDOW
 from fringe3d.calibrate.session import board_from_options, calibrate_to_files
 from fringe3d.calibrate.square_boards import BOARD_KINDS, squares_from_inner_corners
 from fringe3d.io.importer import parse_size as parse_projector_size
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import PoseRanges, SessionImaging, SessionOptics, simulate_session
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import overwrite_option
@@ -186,10 +186,11 @@ def register(app: typer.Typer) -> None:
                                                 marker, dictionary],
                                       "camera_scale": camera_scale, "noise_free": noise_free,
                                       "patterns": sim_patterns, "stripe": stripe, "partial": partial}) as o:
-                ss = simulate_session(simulate, n_poses=poses, seed=seed, defocus=defocus, board=sim_board,
-                                      camera_scale=camera_scale, noise=not noise_free, folder=o.path,
-                                      progress=not (quiet or json_), patterns=sim_patterns, stripe=stripe,
-                                      partial=partial)
+                ss = simulate_session(simulate, n_poses=poses, seed=seed, patterns=sim_patterns, board=sim_board,
+                                      folder=o.path, progress=not (quiet or json_),
+                                      optics=SessionOptics(camera_scale=camera_scale, defocus=defocus),
+                                      imaging=SessionImaging(noise=not noise_free, stripe=stripe),
+                                      pose_ranges=PoseRanges(partial=partial))
             truth = ss.rig
         plot_path = None if no_plot else (plot or output.with_suffix(".png"))
         try:
