@@ -8,6 +8,7 @@ import pytest
 from fringe3d.calibrate.calibration_file import export_opencv_yaml, load_calibration
 from fringe3d.calibrate.evaluation import rotation_angle_deg
 from fringe3d.calibrate.session import PoseCapture, calibrate_observations, calibrate_session, observe_session
+from fringe3d.calibrate.session_settings import ObservationSettings
 from fringe3d.cli import main
 from fringe3d.optics import Rig
 from fringe3d.sim.calibration_session import SessionImaging, SessionOptics, simulate_session
@@ -172,7 +173,8 @@ def test_a_session_result_is_typed_and_its_residuals_read_alike_for_both_rig_mod
     obs, facts = observe_session(tiny_session.poses, tiny_session.board, progress=False)
     assert isinstance(facts, SessionFacts) and facts.camera_size == tiny_session.poses[0].frames.shape[2:0:-1]
     assert facts.names == [p.name for p in tiny_session.poses] and facts.skipped == []
-    session = calibrate_session([tiny_session.folder], progress=False, min_modulation_share=0.1)
+    session = calibrate_session([tiny_session.folder], progress=False,
+                                observe=ObservationSettings(min_modulation_share=0.1))
     assert isinstance(session, SessionCalibration)
     cal, fit = session
     assert session.pose_names == [p["name"] for p in cal.poses] and fit is session.fit
@@ -183,5 +185,6 @@ def test_a_session_result_is_typed_and_its_residuals_read_alike_for_both_rig_mod
 def test_the_fraction_min_modulation_fraction_is_a_deprecated_spelling_of_min_modulation_share(tiny_session):
     with pytest.warns(DeprecationWarning, match="min_modulation_share"):
         old, _ = calibrate_session([tiny_session.folder], progress=False, min_modulation_fraction=0.1)
-    new, _ = calibrate_session([tiny_session.folder], progress=False, min_modulation_share=0.1)
+    new, _ = calibrate_session([tiny_session.folder], progress=False,
+                               observe=ObservationSettings(min_modulation_share=0.1))
     assert old.rms == new.rms

@@ -13,6 +13,7 @@ from fringe3d.calibrate.model_choice import check_dist_option
 from fringe3d.calibrate.opencv_file import load_opencv_calibration, parse_node_map, parse_size
 from fringe3d.calibrate.code_mapping import DEFAULT_WINDOW
 from fringe3d.calibrate.session import board_from_options, calibrate_to_files
+from fringe3d.calibrate.session_settings import CalibrationOutput, FitSettings, ObservationSettings
 from fringe3d.calibrate.square_boards import BOARD_KINDS, squares_from_inner_corners
 from fringe3d.io.importer import parse_size as parse_projector_size
 from fringe3d.sim.calibration_session import PoseRanges, SessionImaging, SessionOptics, simulate_session
@@ -195,10 +196,14 @@ def register(app: typer.Typer) -> None:
         plot_path = None if no_plot else (plot or output.with_suffix(".png"))
         try:
             with open_output_file(output, plot_path, yaml, overwrite=overwrite, inputs=inputs):
-                s = calibrate_to_files(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
-                                       min_modulation, progress=not (quiet or json_), refine=not no_refine,
-                                       phase_window=phase_window, layout=layout, projector_size=size,
-                                       homography_window=homography_window, accept_poor=accept_poor)
+                s = calibrate_to_files(inputs, output, board, model, progress=not (quiet or json_), layout=layout,
+                                       projector_size=size,
+                                       observe=ObservationSettings(min_modulation_share=min_modulation,
+                                                                   phase_window=phase_window,
+                                                                   homography_window=homography_window),
+                                       fit=FitSettings(camera_dist=camera_dist, projector_dist=projector_dist,
+                                                       telecentric_refine=not no_refine),
+                                       files=CalibrationOutput(plot=plot_path, yaml=yaml, accept_poor=accept_poor))
         except AcceptanceGateError as e:  # show the figures, then the error (exit 2, nothing written)
             _show(e.summary, json_, quiet)
             raise
