@@ -68,7 +68,7 @@ def test_help_and_version_import_no_command_module():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     light = "['fringe3d.commands.flag_words', 'fringe3d.commands.lazy']"  # the error words' table and the loader
     assert "Commands" in out and out.strip().endswith(light)
-    for heavy in ("cv2", "scipy", "numba"):
+    for heavy in ("cv2", "scipy", "numba", "numpy", "importlib.metadata"):
         probe = subprocess.run([sys.executable, "-c", "import sys; from fringe3d.cli import main; main(['--help']); "
                                 f"print({heavy!r} in sys.modules)"], capture_output=True, text=True, check=True)
         assert probe.stdout.strip().endswith("False"), heavy

@@ -25,9 +25,6 @@ rebinds it); the sub-packages stay reachable as attributes (``fringe3d.decode.de
 not part of ``__all__``.
 """
 import importlib as _importlib
-from importlib.metadata import version as _version
-
-__version__ = _version("fringe3d")  # the one version source is pyproject.toml
 
 #: Public name -> (module that defines it, attribute there) (imported lazily by :func:`__getattr__`).
 _LAZY: dict[str, tuple[str, str]] = {
@@ -71,7 +68,11 @@ __all__ = ["__version__", *_LAZY]
 
 
 def __getattr__(name: str):
-    if name in _LAZY:
+    if name == "__version__":  # read on first use: importlib.metadata costs a start of the command line
+        from importlib.metadata import version
+
+        value = version("fringe3d")  # the one version source is pyproject.toml
+    elif name in _LAZY:
         module, attr = _LAZY[name]
         value = getattr(_importlib.import_module(module), attr)
     elif name in _MODULES:

@@ -21,7 +21,6 @@ import warnings
 import typer
 from rich.markup import escape
 
-from fringe3d import __version__
 from fringe3d.commands.lazy import LazyCommands
 from fringe3d.commands.flag_words import in_flag_words
 from fringe3d.gpu.runtime import CudaUnavailableError
@@ -71,6 +70,8 @@ def _root(
 
 def _print_version(value: bool) -> None:
     if value:
+        from fringe3d import __version__
+
         typer.echo(__version__)
         raise typer.Exit()
 

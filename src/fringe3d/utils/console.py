@@ -10,7 +10,6 @@ import math
 from contextlib import contextmanager
 from typing import Iterable, Iterator
 
-import numpy as np
 from rich.console import Console
 from rich.progress import (
     BarColumn,
@@ -108,6 +107,8 @@ def make_table(title: str, columns: list[str], rows: list[list]) -> Table:
 
 
 def _fmt(v) -> str:
+    import numpy as np  # here, not at the top: the command line's start (``--help``) needs no numpy
+
     if isinstance(v, (float, np.floating)):
         if not math.isfinite(v):
             return "—"

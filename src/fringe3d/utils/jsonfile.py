@@ -7,8 +7,6 @@ import os
 from pathlib import Path
 from typing import Mapping
 
-import numpy as np
-
 from fringe3d.utils.atomic import atomic_write_text
 from fringe3d.utils.provenance import PROVENANCE_KEY, provenance
 
@@ -103,12 +101,18 @@ def read_format_json(path: str | os.PathLike, what: str, format_name: str) -> di
 
 def to_jsonable(obj):
     """Convert numpy scalars/arrays and non-finite floats into JSON-friendly values."""
+    import numpy as np  # here, not at the top: the command line's start (``--help``) needs no numpy
+
+    return _jsonable(obj, np)
+
+
+def _jsonable(obj, np):
     if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
+        return {str(k): _jsonable(v, np) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v) for v in obj]
+        return [_jsonable(v, np) for v in obj]
     if isinstance(obj, np.ndarray):
-        return to_jsonable(obj.tolist())
+        return _jsonable(obj.tolist(), np)
     if isinstance(obj, (np.floating, float)):
         f = float(obj)
         return f if math.isfinite(f) else None
