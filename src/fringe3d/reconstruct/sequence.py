@@ -187,6 +187,7 @@ def _write_all(results: Iterator, out: Path, store: tuple[PointMapStore | None, 
             while writes:
                 written.append(_finish(writes.popleft()))
         finally:
+            getattr(results, "close", lambda: None)()  # the executor's readers and workers stop now
             if st is not None:
                 _drain(writes, written)
                 st.mark_done(written)
