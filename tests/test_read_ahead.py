@@ -62,7 +62,7 @@ def test_at_most_depth_items_are_read_and_not_taken(depth):
 
     ahead = []
     with ReadAhead(lambda k: k, keys(), depth=depth) as read:
-        for taken, k in enumerate(read, start=1):
+        for taken, _ in enumerate(read, start=1):
             ahead.append(drawn["n"] - taken)
             if taken == 10:
                 break
