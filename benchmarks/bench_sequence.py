@@ -1,7 +1,18 @@
 """Long sequences end to end: a 1280x1024 3-step + geometric sequence read from an MRAW file.
 
-Run: ``.venv/bin/python benchmarks/bench_sequence.py [--cycles 120] [--json]`` (not a test; needs the
-``dask`` and ``camfiles`` extras, both in ``.[test]``). The scene is seeded (``seed=0``).
+Run: ``.venv/bin/python benchmarks/bench_sequence.py [--cycles 120] [--rounds 3] [--pipeline-only] [--json]``
+(not a test; needs the ``dask`` and ``camfiles`` extras, both in ``.[test]``). The scene is seeded
+(``seed=0``). ``--pipeline-only`` measures the pipeline section alone (below; no Dask, no store table).
+
+**Pipeline** (issue 29, the must-show; ``--rounds`` alternated rounds, min / median / max): in each
+round, in this order, the fused kernel alone on a cycle in memory (``fused``), ``reconstruct_sequence``
+with the defaults from the camera file (``e2e camera file``: what ``fringe3d reconstruct CAPTURE``
+runs, the capture folder referencing the MRAW), decoding the PNG capture's files and nothing else on
+a thread pool of as many threads as cores (``decode PNGs``) and ``reconstruct_sequence`` with the
+defaults from those PNG files (``e2e PNG``); the ratios e2e camera file / fused (target <= 2.5) and
+e2e PNG / decode PNGs (target <= 1.3) from the best round. **Writer against the disk**: the default
+store's ``write_frame`` (float16 cast, lz4, write and rename of each chunk) per frame beside writing
+the same bytes in the same files with plain ``open().write()`` + rename and ``dd``-style as one file.
 
 One run measures, side by side on this machine:
 
@@ -29,6 +40,7 @@ pipeline's cost does not depend on the scene changing.
 from __future__ import annotations
 
 import argparse
+import statistics
 import dataclasses
 import json
 import os
@@ -36,6 +48,7 @@ import shutil
 import tempfile
 import time
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -44,8 +57,9 @@ import pyMRAW
 from fringe3d.cluster.engine import close, connect, dask_executor, reconstruct_capture_on_dask
 from fringe3d.decode import DecodeOptions
 from fringe3d.io import store as store_module
-from fringe3d.io.capture import open_frames, read_capture, write_capture
+from fringe3d.io.capture import list_frame_files, open_frames, read_capture, write_capture
 from fringe3d.io.capture_frames import CaptureFolder
+from fringe3d.io.images import read_image
 from fringe3d.io.importer import import_images
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
@@ -53,6 +67,10 @@ from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSet
 from fringe3d.reconstruct.sequence import CaptureFrames, FrameReconstructor, reconstruct_sequence, reconstruction_plans
 from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
+
+
+class _Done(Exception):
+    """The figures asked for are measured (``--pipeline-only``)."""
 
 
 #: cycles written and read as PNG files (their read rate)
@@ -114,9 +132,106 @@ def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dic
     return out
 
 
+def pipeline_figures(mraw_cap: Path, png_cap: Path, ps, rig, opts: DecodeOptions, cycles: int, rounds: int,
+                     work: Path) -> dict:
+    """The must-show figures of issue 29 from ``rounds`` alternated rounds: per round the fused
+    kernel (20 cycles in memory), ``reconstruct_sequence`` with the defaults from the camera file,
+    decoding every PNG file on ``os.cpu_count()`` threads, and ``reconstruct_sequence`` from the
+    PNG files; each as min / median / max seconds per 3D frame (or cycle) and the ratios of the
+    best times."""
+    rec = FrameReconstructor(ps, rig, opts)
+    frames = open_frames(mraw_cap)
+    n = len(ps)
+    cycle = np.ascontiguousarray(frames[0:n])
+    files = list_frame_files(png_cap)
+    png_cycles = len(files) // n
+    cores = os.cpu_count() or 1
+
+    def fused():
+        for _ in range(20):
+            rec.fast.depth(cycle, rec.fused.index)
+        return 20
+
+    def e2e(cap: Path, count: int):
+        def run():
+            out = work / "e2e"
+            shutil.rmtree(out, ignore_errors=True)
+            reconstruct_sequence(CaptureFolder(str(cap)), ps, rig, out, DecodeSettings(opts),
+                                 run=RunSettings(progress=False))
+            return count
+        return run
+
+    def decode_pngs():
+        with ThreadPoolExecutor(max_workers=cores) as pool:
+            for _ in pool.map(read_image, files):
+                pass
+        return png_cycles
+
+    cases = {"fused kernel": fused, "e2e camera file": e2e(mraw_cap, cycles), "decode PNGs": decode_pngs,
+             "e2e PNG": e2e(png_cap, png_cycles)}
+    for fn in cases.values():  # warm: numba's kernels load, the page cache holds the inputs
+        fn()
+    per: dict[str, list[float]] = {name: [] for name in cases}
+    for _ in range(rounds):
+        for name, fn in cases.items():
+            t = time.perf_counter()
+            count = fn()
+            per[name].append((time.perf_counter() - t) / count)
+    out: dict = {}
+    for name, ts in per.items():
+        out[name] = {"per_s_best": round(1 / min(ts), 1), "ms_min": round(min(ts) * 1e3, 2),
+                     "ms_median": round(statistics.median(ts) * 1e3, 2), "ms_max": round(max(ts) * 1e3, 2)}
+    out["e2e camera file / fused kernel"] = round(min(per["e2e camera file"]) / min(per["fused kernel"]), 2)
+    out["e2e PNG / decode PNGs"] = round(min(per["e2e PNG"]) / min(per["decode PNGs"]), 2)
+    return out
+
+
+def writer_against_disk(rec: FrameReconstructor, cycle: np.ndarray, work: Path, frames: int = 10) -> dict:
+    """The default store's writer per frame (``write_frame``: cast, lz4, write + rename of each
+    array's chunk) beside the disk's own bound for the same bytes: the same files written with
+    plain ``open().write()`` + rename, and ``dd``-style as one sequential file, in ms per frame."""
+    c = rec.reconstruct(cycle, uncertainty="z", points=False, texture=False)
+    H, W = c.quality.shape
+    path = work / "writer.zarr"
+    st = store_module.PointMapStore.open(path, frames, H, W, layout="ray_depth", quality=True, sigma=True,
+                                         rays=rec.rays)
+    st.write_frame(0, depth=c.depth, quality=c.quality, sigma_z=c.sigma_z)  # warm (folders, codecs)
+    t = time.perf_counter()
+    for k in range(frames):
+        st.write_frame(k, depth=c.depth, quality=c.quality, sigma_z=c.sigma_z)
+    writer = (time.perf_counter() - t) / frames
+    sizes = [f.stat().st_size for f in sorted(path.rglob("c.0.*")) if f.is_file()]
+    shutil.rmtree(path)
+    data = os.urandom(max(sizes))
+    folder = work / "plain"
+    folder.mkdir()
+    t = time.perf_counter()
+    for k in range(frames):
+        for i, size in enumerate(sizes):
+            tmp, dst = folder / f"{i}.{k}.partial", folder / f"{i}.{k}"
+            with open(tmp, "wb") as f:
+                f.write(memoryview(data)[:size])
+            os.replace(tmp, dst)
+    files = (time.perf_counter() - t) / frames
+    block = memoryview(data)[:min(len(data), 1 << 20)]
+    total = sum(sizes) * frames
+    t = time.perf_counter()
+    with open(folder / "dd", "wb") as f:
+        written = 0
+        while written < total:
+            written += f.write(block[:min(len(block), total - written)])
+    dd = (time.perf_counter() - t) / frames
+    shutil.rmtree(folder)
+    return {"bytes_per_frame": sum(sizes), "files_per_frame": len(sizes), "writer_ms": round(writer * 1e3, 2),
+            "plain_files_ms": round(files * 1e3, 2), "dd_ms": round(dd * 1e3, 2),
+            "writer / plain files": round(writer / files, 2), "writer / dd": round(writer / dd, 2)}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cycles", type=int, default=120)
+    ap.add_argument("--rounds", type=int, default=3, help="alternated rounds of the pipeline section")
+    ap.add_argument("--pipeline-only", action="store_true", help="the pipeline section and the writer alone")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     warnings.simplefilter("ignore")  # depth-range warnings of the repeated scene are not the point here
@@ -130,6 +245,11 @@ def main() -> None:
         rec = FrameReconstructor(ps, rig, opts)
         res: dict = {"cycles": args.cycles, "shape": list(cycle.shape[1:]), "path": rec.path,
                      "cores": os.cpu_count(), "load_average": os.getloadavg()[0]}
+        res["pipeline"] = pipeline_figures(mraw_cap, png_cap, ps, rig, opts, args.cycles, args.rounds, work)
+        res["writer_against_disk"] = writer_against_disk(rec, cycle, work)
+        res["load_average_after_pipeline"] = os.getloadavg()[0]
+        if args.pipeline_only:
+            raise _Done
         res["kernel_3d_per_s"] = rate(lambda: [rec(cycle) for _ in range(20)], 20)
         res["kernel_fused_only_3d_per_s"] = rate(lambda: [rec.fast.depth(cycle, rec.fused.index)
                                                           for _ in range(20)], 20)
@@ -177,6 +297,8 @@ def main() -> None:
             finally:
                 close(client, own_cluster=True)
         res["store"] = store_figures(rec, cycle, work)
+    except _Done:
+        pass
     finally:
         shutil.rmtree(work, ignore_errors=True)
     res = {k: (round(v, 1) if isinstance(v, float) else v) for k, v in res.items()}
@@ -184,7 +306,14 @@ def main() -> None:
         print(json.dumps(res, indent=1))
         return
     for k, v in res.items():
-        print(f"{k:32s} {v}")
+        if isinstance(v, dict):
+            print(k)
+            for kk, vv in v.items():
+                print(f"  {kk:34s} {vv}")
+        else:
+            print(f"{k:32s} {v}")
+    if args.pipeline_only:
+        return
     k = res["kernel_3d_per_s"]
     print(f"{'end to end / kernel (serial)':32s} {res['end_to_end_serial_3d_per_s'] / k:.2f}")
     print(f"{'kernel / copy bound':32s} {k / res['copy_bound_3d_per_s']:.2f}")
