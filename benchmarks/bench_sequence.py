@@ -187,33 +187,46 @@ def pipeline_figures(mraw_cap: Path, png_cap: Path, ps, rig, opts: DecodeOptions
 
 
 def writer_against_disk(rec: FrameReconstructor, cycle: np.ndarray, work: Path, frames: int = 10) -> dict:
-    """The default store's writer per frame (``write_frame``: cast, lz4, write + rename of each
-    array's chunk) beside the disk's own bound for the same bytes: the same files written with
+    """The store writer per frame (``write_frame``: float16 cast, compression, write + rename of
+    each array's chunk; the default layout, quality map and sigma_z) with the default codec (lz4)
+    and uncompressed, each beside the disk's own bound for its bytes: the same files written with
     plain ``open().write()`` + rename, and ``dd``-style as one sequential file, in ms per frame."""
     c = rec.reconstruct(cycle, uncertainty="z", points=False, texture=False)
     H, W = c.quality.shape
-    path = work / "writer.zarr"
-    st = store_module.PointMapStore.open(path, frames, H, W, layout="ray_depth", quality=True, sigma=True,
-                                         rays=rec.rays)
-    st.write_frame(0, depth=c.depth, quality=c.quality, sigma_z=c.sigma_z)  # warm (folders, codecs)
-    t = time.perf_counter()
-    for k in range(frames):
-        st.write_frame(k, depth=c.depth, quality=c.quality, sigma_z=c.sigma_z)
-    writer = (time.perf_counter() - t) / frames
-    sizes = [f.stat().st_size for f in sorted(path.rglob("c.0.*")) if f.is_file()]
-    shutil.rmtree(path)
-    data = os.urandom(max(sizes))
-    folder = work / "plain"
+    res: dict = {}
+    for codec in ("lz4", "none"):
+        path = work / f"writer-{codec}.zarr"
+        st = store_module.PointMapStore.open(path, frames, H, W, layout="ray_depth", quality=True, sigma=True,
+                                             rays=rec.rays, codec=codec)
+        st.write_frame(0, depth=c.depth, quality=c.quality, sigma_z=c.sigma_z)  # warm (folders, codecs)
+        t = time.perf_counter()
+        for k in range(frames):
+            st.write_frame(k, depth=c.depth, quality=c.quality, sigma_z=c.sigma_z)
+        writer = (time.perf_counter() - t) / frames
+        sizes = [f.stat().st_size for f in sorted(path.rglob("c.0.*")) if f.is_file()]
+        shutil.rmtree(path)
+        files, dd = plain_writes(sizes, frames, work / "plain")
+        res[codec] = {"bytes_per_frame": sum(sizes), "files_per_frame": len(sizes),
+                      "writer_ms": round(writer * 1e3, 2), "plain_files_ms": round(files * 1e3, 2),
+                      "dd_ms": round(dd * 1e3, 2), "writer / plain files": round(writer / files, 2),
+                      "writer / dd": round(writer / dd, 2)}
+    return res
+
+
+def plain_writes(sizes: list[int], frames: int, folder: Path) -> tuple[float, float]:
+    """Seconds per frame to write files of ``sizes`` bytes (``open().write()`` + rename, as the
+    store does) and, ``dd``-style, the same bytes as one file in 1 MiB blocks."""
+    data = memoryview(os.urandom(max(sizes)))
     folder.mkdir()
     t = time.perf_counter()
     for k in range(frames):
         for i, size in enumerate(sizes):
             tmp, dst = folder / f"{i}.{k}.partial", folder / f"{i}.{k}"
             with open(tmp, "wb") as f:
-                f.write(memoryview(data)[:size])
+                f.write(data[:size])
             os.replace(tmp, dst)
     files = (time.perf_counter() - t) / frames
-    block = memoryview(data)[:min(len(data), 1 << 20)]
+    block = data[:1 << 20]
     total = sum(sizes) * frames
     t = time.perf_counter()
     with open(folder / "dd", "wb") as f:
@@ -222,9 +235,7 @@ def writer_against_disk(rec: FrameReconstructor, cycle: np.ndarray, work: Path, 
             written += f.write(block[:min(len(block), total - written)])
     dd = (time.perf_counter() - t) / frames
     shutil.rmtree(folder)
-    return {"bytes_per_frame": sum(sizes), "files_per_frame": len(sizes), "writer_ms": round(writer * 1e3, 2),
-            "plain_files_ms": round(files * 1e3, 2), "dd_ms": round(dd * 1e3, 2),
-            "writer / plain files": round(writer / files, 2), "writer / dd": round(writer / dd, 2)}
+    return files, dd
 
 
 def main() -> None:
@@ -306,7 +317,7 @@ def main() -> None:
         print(json.dumps(res, indent=1))
         return
     for k, v in res.items():
-        if isinstance(v, dict):
+        if isinstance(v, dict) and k != "store":
             print(k)
             for kk, vv in v.items():
                 print(f"  {kk:34s} {vv}")
