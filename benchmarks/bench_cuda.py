@@ -37,6 +37,10 @@ import os
 import platform
 import sys
 import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from summary import figure  # noqa: E402  (beside this script)
 
 TARGET_RESIDENT = 10_000.0
 TARGET_TRANSFER = 2_000.0
@@ -235,6 +239,14 @@ def main(argv=None) -> int:
               "targets": {"resident_fps": TARGET_RESIDENT, "with_transfers_fps": TARGET_TRANSFER,
                           "resident_vs_bound": TARGET_BOUND_RATIO},
               "results": [r3, r3d, r15]}
+    report["figures"] = [  # benchmarks/summary.py: one value each (the repeats are summed inside workload)
+        figure(f"CUDA {r['workload']}, {width}x{height}, {dev}", name, role, "3D frames/s", [r[key]])
+        for r in report["results"]
+        for key, role, name in (("bound_device_fps", "bound", "device copy bound (input + output bytes)"),
+                                ("bound_host_device_fps", "reference", "host<->device copy bound"),
+                                ("resident_fps", "kernel", "kernel, frames resident on the device"),
+                                ("with_transfers_fps", "ours", "with transfers (pinned, two streams)"),
+                                ("cpu_fps", "reference", "the CPU kernel, all cores"))]
     cols = ["resident_fps", "with_transfers_fps", "bound_device_fps", "bound_host_device_fps", "cpu_fps",
             "resident_vs_bound"]
     print(f"device: {dev}   {width}x{height}   (3D frames/s; resident_vs_bound = bound / resident)")

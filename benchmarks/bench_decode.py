@@ -1,24 +1,27 @@
 """Benchmark: fringe3d decoding vs fringes, OpenCV structured_light and the unavoidable-work bound.
 
-1280x1024 uint8 camera frames, one run, median of ``--repeat`` timed calls after a warm-up:
+1280x1024 uint8 camera frames, one run of ``--repeat`` alternated rounds after a warm-up (every
+case of a capture timed once per round, in rotating order; min / median / max reported):
 
 (a) the 15-frame three-frequency set (9-step T=18 + 3-step T=21 + 3-step T=144) decoded to
     absolute phase: ``fringe3d.decode.decode`` (whole manifest-driven decoder: frame checks,
-    fused heterodyne kernel, mask, texture) and the fused kernel alone
+    fused heterodyne kernel, mask, texture, quality outputs) and the fused kernel alone
     (``unwrap.temporal.three_frequency_decode``); peer: ``fringes`` ``Fringes.decode``.
-(b) 3-step wrapped phase alone: ``fringe3d.phase.psp.wrapped_phase`` (phase + average +
-    modulation); peers: OpenCV ``SinusoidalPattern.computePhaseMap`` (PSP) and ``fringes``
-    ``decode(unwrap=False)``.
+(b) 3-step: ``fringe3d.phase.psp.wrapped_phase`` (the kernel: phase + average + modulation) and
+    ``decode()`` of the 3-step set; peers: OpenCV ``SinusoidalPattern.computePhaseMap`` (PSP)
+    and ``fringes`` ``decode(unwrap=False)``.
 
-Bound (same run): copying the input bytes (``np.copyto`` into a preallocated stack) plus NumPy's
-vectorised ``np.arctan2`` over the output pixels (float32 in and out) - the work any decoder must
-do; the same function (``benchmarks/timing.py``, :func:`bound_times`) as ``python
-benchmarks/timing.py``. ``--threads N`` sets numba's thread count (default: all cores).
+Bound, in the same alternated rounds: the copy bound, ``np.copyto`` of the input frames into a
+preallocated stack (the bytes any decoder must read). "copy + np.arctan2" (the copy plus one
+float32 ``np.arctan2`` per output pixel) is a second, named reference. ``--threads N`` sets
+numba's thread count (default: all cores). The wrap-error count of the scene (pixels whose
+fringe order is wrong against the known ramp) is printed with (a).
 
 Peers run in a separate interpreter (``--peer-python``, default ``$FRINGE3D_BENCH_PYTHON``,
 else ``/tmp/benchvenv/bin/python`` if it exists, else this one) so that
 ``opencv-contrib-python-headless`` and ``fringes`` never touch the project's environment; a
-peer that is missing is printed as "not installed".
+peer that is missing is printed as "peer not installed". ``--json`` prints one object whose
+``figures`` the summary table of ``run_all.py`` collects (``benchmarks/summary.py``).
 
 Example: python benchmarks/bench_decode.py --repeat 10
 """
@@ -30,28 +33,14 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from summary import alternated, figure, format_table, table_rows, timed_figures  # noqa: E402  (beside this script)
+
 H, W = 1024, 1280
-
-
-BEST: dict = {}  # id of the last timed call -> best time, filled by median_time
-
-
-def median_time(fn, repeat: int, key: str | None = None) -> float:
-    """Median wall time of ``repeat`` calls after one warm-up; the best goes to ``BEST[key]``."""
-    fn()
-    ts = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    if key:
-        BEST[key] = float(np.min(ts))
-    return float(np.median(ts))
 
 
 def make_frames():
@@ -69,17 +58,24 @@ def make_frames():
     return ps15, f15, ps3, f3, 2 * np.pi * u_p / 18
 
 
-def bound_time(frames: np.ndarray, repeat: int) -> float:
-    """Copy of the input bytes + np.arctan2 over the output pixels (float32 in, float32 out),
-    the definition shared with ``python benchmarks/timing.py``
-    (``timing.bound_times``); median returned, best kept in ``BEST``."""
-    from timing import bound_times  # benchmarks/timing.py, beside this script
-    b = bound_times(frames, repeat)
-    BEST[f"bound{len(frames)}"] = b["best"]
-    return b["median"]
+def bound_cases(frames: np.ndarray) -> dict:
+    """The copy bound (``np.copyto`` of the input frames into a preallocated stack) and the
+    "copy + arctan2" reference (the same copy plus one float32 ``np.arctan2`` per output pixel),
+    as calls for :func:`summary.alternated`; the definitions of ``timing.bound_times``."""
+    h, w = frames.shape[1:]
+    rng = np.random.default_rng(1)
+    y, x = rng.standard_normal((2, h, w)).astype(np.float32)
+    out = np.empty((h, w), np.float32)
+    dst = np.empty_like(frames)
+
+    def copy_atan():
+        np.copyto(dst, frames)
+        np.arctan2(y, x, out=out)
+    return {"bound": lambda: np.copyto(dst, frames), "copy_atan": copy_atan}
 
 
-def ours(ps15, f15, ps3, f3, truth, repeat: int) -> dict:
+def ours(ps15, f15, ps3, f3, truth, rounds: int) -> dict:
+    """Alternated rounds of fringe3d's decoders and the bounds, per capture; accuracy on the truth."""
     from fringe3d.decode import decode
     from fringe3d.phase.psp import wrapped_phase
     from fringe3d.unwrap.temporal import three_frequency_decode
@@ -94,15 +90,45 @@ def ours(ps15, f15, ps3, f3, truth, repeat: int) -> dict:
     sh3 = [f.shift for f in ps3.frames]
     wp = wrapped_phase(f3, sh3)
     err3 = np.angle(np.exp(1j * (wp.phase - truth)))
+    a = alternated({**bound_cases(f15), "kernel": kernel, "decode": lambda: decode(f15, ps15)}, rounds)
+    b = alternated({**bound_cases(f3), "kernel": lambda: wrapped_phase(f3, sh3), "decode": lambda: decode(f3, ps3)},
+                   rounds)
     return {
-        "a_decode_s": median_time(lambda: decode(f15, ps15), repeat, "a_decode"),
-        "a_kernel_s": median_time(kernel, repeat, "a_kernel"),
+        "a_seconds": a, "b_seconds": b,
         "a_phase_rms_rad": float(np.sqrt(np.nanmean(err ** 2))),
         "a_order_errors": int(np.sum(np.abs(err) > np.pi)),
-        "b_s": median_time(lambda: wrapped_phase(f3, sh3), repeat, "b"),
-        "b_decode_s": median_time(lambda: decode(f3, ps3), repeat, "b_decode"),
         "b_phase_rms_rad": float(np.sqrt(np.mean(err3 ** 2))),
     }
+
+
+ROLES = {"bound": "bound", "copy_atan": "reference", "kernel": "kernel", "decode": "ours"}
+GROUP_A = f"decode, 15-frame three-frequency, {W}x{H}"
+GROUP_B = f"decode, 3-step wrapped phase, {W}x{H}"
+
+
+def figures(r: dict) -> tuple[list[dict], dict]:
+    """The summary figures (``summary.figure`` dicts) and group notes of one run."""
+    o, fr, cv = r["ours"], r["peers"]["fringes"], r["peers"]["opencv"]
+    names_a = {"bound": "copy bound: np.copyto of the 15 frames", "copy_atan": "copy + np.arctan2 (float32)",
+               "kernel": "fused three-frequency kernel", "decode": "decode() (whole decoder, every output)"}
+    names_b = {"bound": "copy bound: np.copyto of the 3 frames", "copy_atan": "copy + np.arctan2 (float32)",
+               "kernel": "wrapped_phase (3-step kernel)", "decode": "decode() of the 3-step set"}
+    out = timed_figures(GROUP_A, o["a_seconds"], ROLES, names=names_a)
+    out.append(_peer(GROUP_A, "fringes Fringes.decode", fr, "a"))
+    out += timed_figures(GROUP_B, o["b_seconds"], ROLES, names=names_b)
+    out.append(_peer(GROUP_B, "OpenCV structured_light computePhaseMap (PSP)", cv, "b"))
+    out.append(_peer(GROUP_B, "fringes decode(unwrap=False)", fr, "b"))
+    notes = {GROUP_A: {"scene": "synthetic ramp u_p = 5 + 0.7 u + 3 sin, noise 1 grey level",
+                       "wrap_errors": o["a_order_errors"]},
+             GROUP_B: {"scene": "the same ramp, 3 frames (wrapped phase: no order to get wrong)"}}
+    return out, notes
+
+
+def _peer(group: str, name: str, p: dict, case: str) -> dict:
+    """A peer's figure (ms; its own process, its own alternation), or "not installed"."""
+    if p.get("status") != "ok" or f"{case}_seconds" not in p:
+        return figure(group, name, "peer", "ms", None, status="peer not installed")
+    return figure(group, name, "peer", "ms", [1e3 * t for t in p[f"{case}_seconds"]], version=p.get("version"))
 
 
 def peer_python(arg: str | None) -> str:
@@ -134,49 +160,9 @@ def peers(f3: np.ndarray, repeat: int, python: str) -> dict:
                 "opencv": {"status": "not installed", "error": err}}
 
 
-def fmt_ms(s):
-    return "not installed" if s is None else f"{1000 * s:9.1f} ms"
-
-
-def table(r: dict) -> str:
-    o, fr, cv, bnd = r["ours"], r["peers"]["fringes"], r["peers"]["opencv"], r["bound_s"]
-    fa = fr.get("a_s") if fr.get("status") == "ok" else None
-    fb = fr.get("b_s") if fr.get("status") == "ok" else None
-    cb = cv.get("b_s") if cv.get("status") == "ok" else None
-    lines = [f"decode benchmark, {W}x{H} uint8 frames, median of {r['repeat']} runs, {os.cpu_count()} cores, "
-             f"numba threads {r.get('numba_threads')}, load average {r.get('load_average')}",
-             f"{'task':<46}{'time':>14}{'vs bound':>10}{'peer/ours':>11}"]
-
-    def row(name, t, ours_t=None):
-        vb = "" if t is None else f"{t / bnd['a' if name.startswith('(a)') else 'b']:9.1f}x"
-        pr = "" if t is None or ours_t is None else f"{t / ours_t:10.1f}x"
-        lines.append(f"{name:<46}{fmt_ms(t):>14}{vb:>10}{pr:>11}")
-
-    lines.append(f"{'(a) bound: copy 15 frames + arctan2':<46}{fmt_ms(bnd['a']):>14}")
-    row("(a) fringe3d decode() (whole decoder)", o["a_decode_s"])
-    row("(a) fringe3d fused three-frequency kernel", o["a_kernel_s"])
-    row("(a) fringes Fringes.decode", fa, o["a_decode_s"])  # peer/ours vs the whole decoder
-    lines.append(f"{'(a) OpenCV structured_light':<46}{'n/a (no multi-frequency decoder)':>35}")
-    lines.append(f"{'(b) bound: copy 3 frames + arctan2':<46}{fmt_ms(bnd['b']):>14}")
-    row("(b) fringe3d wrapped_phase (3-step)", o["b_s"])
-    row("(b) fringe3d decode() of the 3-step set", o["b_decode_s"])
-    fastest_b = min(o["b_s"], o["b_decode_s"])
-    row("(b) OpenCV computePhaseMap (PSP)", cb, fastest_b)
-    row("(b) fringes decode(unwrap=False)", fb, fastest_b)
-    b = r.get("best_s", {})
-    if b:
-        lines.append("best of runs (ms): " + ", ".join(f"{k} {1000 * v:.1f}" for k, v in b.items()))
-    lines.append(f"accuracy: (a) phase RMS {o['a_phase_rms_rad']:.4f} rad, {o['a_order_errors']} order errors; "
-                 f"(b) phase RMS {o['b_phase_rms_rad']:.4f} rad (noise 1 grey level)")
-    if fr.get("status") == "ok":
-        lines.append(f"fringes {fr.get('version')}: first call (JIT) {fr['a_first_call_s']:.1f} s, "
-                     f"its coordinate RMS {fr['a_coordinate_rms_px']:.3f} px on its own frames")
-    return "\n".join(lines)
-
-
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=10, help="timed repetitions (median reported)")
+    ap.add_argument("--repeat", type=int, default=10, help="alternated rounds (min / median / max reported)")
     ap.add_argument("--peer-python", default=None, help="interpreter with fringes / opencv-contrib installed")
     ap.add_argument("--no-peers", action="store_true", help="time fringe3d and the bound only")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
@@ -188,17 +174,25 @@ def main(argv=None) -> dict:
         numba.set_num_threads(args.threads)
     load_start = round(os.getloadavg()[0], 1)
     ps15, f15, ps3, f3, truth = make_frames()
-    r = {"repeat": args.repeat, "size": [W, H]}
+    r: dict = {"benchmark": "decode", "repeat": args.repeat, "size": [W, H]}
     r["ours"] = ours(ps15, f15, ps3, f3, truth, args.repeat)
-    r["bound_s"] = {"a": bound_time(f15, args.repeat), "b": bound_time(f3, args.repeat)}
-    r["best_s"] = {"(a) bound": BEST["bound15"], "(a) decode": BEST["a_decode"], "(a) kernel": BEST["a_kernel"],
-                   "(b) bound": BEST["bound3"], "(b) wrapped_phase": BEST["b"],
-                   "(b) decode": BEST["b_decode"]}
     r["numba_threads"] = numba.get_num_threads()
     r["load_average"] = f"{load_start} -> {round(os.getloadavg()[0], 1)}"
     r["peers"] = ({"fringes": {"status": "not installed"}, "opencv": {"status": "not installed"}} if args.no_peers
                   else peers(f3, args.repeat, peer_python(args.peer_python)))
-    print(json.dumps(r, indent=1) if args.json else table(r))
+    r["figures"], r["groups"] = figures(r)
+    if args.json:
+        print(json.dumps(r, indent=1))
+        return r
+    o, fr = r["ours"], r["peers"]["fringes"]
+    print(format_table(table_rows(r["figures"]), r["groups"],
+                       f"decode benchmark, {W}x{H} uint8 frames, {args.repeat} alternated rounds, {os.cpu_count()} "
+                       f"cores, numba threads {r['numba_threads']}, load average {r['load_average']}"))
+    print(f"accuracy: (a) phase RMS {o['a_phase_rms_rad']:.4f} rad, {o['a_order_errors']} order errors; "
+          f"(b) phase RMS {o['b_phase_rms_rad']:.4f} rad (noise 1 grey level)")
+    if fr.get("status") == "ok":
+        print(f"fringes {fr.get('version')}: first call (JIT) {fr['a_first_call_s']:.1f} s, "
+              f"its coordinate RMS {fr['a_coordinate_rms_px']:.3f} px on its own frames")
     return r
 
 

@@ -34,6 +34,9 @@ import numpy as np
 
 from fringe3d.analyze.evaluation import evaluate_points, truth_objects
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from summary import figure  # noqa: E402  (beside this script)
+
 OLD_REV = "f658f7a"
 OLD_FILES = ("fits", "vdi", "sections", "evaluation")
 ROOT = Path(__file__).resolve().parents[1]
@@ -137,6 +140,10 @@ def main(argv=None) -> int:
         rep["streak"] = {"new_flatness": evaluate_points(Q, t, plane=True)["plane"]["flatness"]}
         if not a.skip_old:
             rep["streak"]["old_flatness"] = old_mod.evaluate_points(Q, t, plane=True)["plane"]["flatness"]
+    group = f"evaluate --plane, {rep['points']} points"
+    rep["figures"] = [figure(group, "evaluate_points (current)", "ours", "s", [t for _, t in runs])]
+    if not a.skip_old:
+        rep["figures"].append(figure(group, f"the evaluation of {OLD_REV}", "reference", "s", [rep["old"]["seconds"]]))
     if a.json:
         print(json.dumps(rep, indent=1))
     else:

@@ -16,12 +16,16 @@ import argparse
 import json
 import os
 import shutil
+import sys
 import tempfile
 import threading
 import time
 from pathlib import Path
 
 from fringe3d.commands.live import LiveOptions, run_live
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from summary import figure  # noqa: E402  (beside this script)
 
 
 def main() -> None:
@@ -61,6 +65,11 @@ def main() -> None:
     s = result["summary"]
     s.update(browser=not args.no_browser, cores=os.cpu_count(), load_average=round(os.getloadavg()[0], 2),
              step=args.step, frame_rate=args.frame_rate)
+    group = (f"fringe3d live, virtual:{args.preset}, {s['size'][0]}x{s['size'][1]}, "
+             f"{'headless Chromium page open' if not args.no_browser else 'no page open'}")
+    s["figures"] = [figure(group, "3D frames shown", "ours", "3D frames/s", [s["fps"]])] + [
+        figure(group, f"latency, frame arrival to display, {k} over the frames", "ours", "ms", [s["latency_ms"][k]])
+        for k in ("median", "p95", "max")]
     if args.json:
         print(json.dumps(s, indent=1))
     else:

@@ -31,6 +31,9 @@ from fringe3d.io.store import PointMapStore
 from fringe3d.patterns import sets
 from fringe3d.sim import simulate_capture
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from summary import figure  # noqa: E402  (beside this script)
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -128,6 +131,11 @@ def main() -> None:
                     ["strain", str(store), "--anchors", anchors(store), "-o", str(work / f"{name}-strain"),
                      "--no-figures", "-q"])
             out[name] = row
+    group = f"peak memory of a take, {args.short} vs {args.long} frames (tiny rig)"
+    out["figures"] = [figure(group, f"{stage}, {name} take ({out[name]['frames']} frames)", "ours", "MB",
+                             [out[name][stage + "_mb"]])
+                      for stage in ("reconstruct", "simulate", "strain") if stage in stages
+                      for name in ("short", "long")]
     if args.json:
         print(json.dumps(out, indent=1))
         return

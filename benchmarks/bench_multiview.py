@@ -22,6 +22,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from summary import figure  # noqa: E402  (beside this script)
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -138,6 +141,10 @@ def main() -> None:
         subprocess.run([*base, "--child", "generate"], env=env, check=True)
     out = subprocess.run([*base, "--child", "run"], env=env, check=True, stdout=subprocess.PIPE, text=True)
     fig = json.loads(out.stdout.strip().splitlines()[-1])
+    group = f"multi-view merge: register + fuse + mesh, {fig['views']} views, {fig['preset']}"
+    fig["figures"] = [figure(group, "seconds per view (wall)", "ours", "s", [fig["seconds_per_view"]]),
+                      figure(group, "seconds per view (CPU)", "reference", "s", [fig["cpu_seconds_per_view"]]),
+                      figure(group, "peak resident set size", "ours", "MB", [fig["peak_rss_mb"]])]
     if a.json:
         print(json.dumps(fig, indent=1))
         return

@@ -1,18 +1,21 @@
 """Long sequences end to end: a 1280x1024 3-step + geometric sequence read from an MRAW file.
 
-Run: ``.venv/bin/python benchmarks/bench_sequence.py [--cycles 120] [--rounds 3] [--pipeline-only] [--json]``
-(not a test; needs the ``dask`` and ``camfiles`` extras, both in ``.[test]``). The scene is seeded
-(``seed=0``). ``--pipeline-only`` measures the pipeline section alone (below; no Dask, no store table).
+Run: ``.venv/bin/python benchmarks/bench_sequence.py [--cycles 120] [--repeat 20] [--rounds 3]
+[--pipeline-only] [--json]`` (not a test; needs the ``dask`` and ``camfiles`` extras, both in
+``.[test]``). The scene is seeded (``seed=0``). The in-memory cases (kernels, copy bound) are
+timed in ``--repeat`` alternated rounds (every case once per round, in rotating order), the serial
+end-to-end runs in ``--rounds`` alternated rounds; min / median / max go to the JSON ``figures``
+(``benchmarks/summary.py``). ``--pipeline-only`` measures the pipeline and the writer (below) alone.
 
-**Pipeline** (issue 29, the must-show; ``--rounds`` alternated rounds, min / median / max): in each
-round, in this order, the fused kernel alone on a cycle in memory (``fused``), ``reconstruct_sequence``
-with the defaults from the camera file (``e2e camera file``: what ``fringe3d reconstruct CAPTURE``
-runs, the capture folder referencing the MRAW), decoding the PNG capture's files and nothing else on
-a thread pool of as many threads as cores (``decode PNGs``) and ``reconstruct_sequence`` with the
-defaults from those PNG files (``e2e PNG``); the ratios e2e camera file / fused (target <= 2.5) and
-e2e PNG / decode PNGs (target <= 1.3) from the best round. **Writer against the disk**: the default
-store's ``write_frame`` (float16 cast, lz4, write and rename of each chunk) per frame beside writing
-the same bytes in the same files with plain ``open().write()`` + rename and ``dd``-style as one file.
+**Pipeline** (issue 29's must-show, ``--rounds`` alternated rounds): the fused kernel alone on a
+cycle in memory, ``reconstruct_sequence`` with the defaults from the camera file (a capture folder
+referencing the MRAW, as ``fringe3d reconstruct CAPTURE`` reads it), decoding the PNG capture's
+files and nothing else on as many threads as cores, and ``reconstruct_sequence`` with the
+defaults from those PNG files; printed with the ratios e2e camera file / fused kernel (target
+<= 2.5) and e2e PNG / decode PNGs (target <= 1.3), medians of the rounds. **Writer against the
+disk**: the store's ``write_frame`` (float16 cast, compression, write + rename of each chunk; the
+default arrays) with lz4 and uncompressed, each beside writing the same bytes in the same files
+with plain ``open().write()`` + rename and ``dd``-style as one file.
 
 One run measures, side by side on this machine:
 
@@ -34,17 +37,21 @@ One run measures, side by side on this machine:
 - **store**: bytes per 3D frame on disk and write time per frame of the layouts (xyz; ray_depth
   alone; ray_depth + quality + sigma_z) and codecs (lz4, zstd-3, none), on the same 3D frame.
 
-The sequence repeats one rendered cycle (a sphere before a wall on the ``macro`` rig); the
-pipeline's cost does not depend on the scene changing.
+The sequence repeats one rendered cycle (a sphere before a wall on the ``macro`` rig, fringe
+period ``PERIOD`` = 120 projector px); the pipeline's cost does not depend on the scene changing.
+At the period of 36 px this benchmark once used, the wall lay beyond the geometric constraint's
+unambiguous depth range from the sphere's front (z_min), so about 1.1 M of the 1.3 M pixels got
+the wrong fringe order; the wrap errors (pixels whose point projects more than half a period off
+the truth's projector coordinate) are counted and reported (0 at 120 px).
 """
 from __future__ import annotations
 
 import argparse
-import statistics
 import dataclasses
 import json
 import os
 import shutil
+import sys
 import tempfile
 import time
 import warnings
@@ -68,20 +75,19 @@ from fringe3d.reconstruct.sequence import CaptureFrames, FrameReconstructor, rec
 from fringe3d.sim import simulate_capture
 from fringe3d.sim.truth import Truth
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from summary import alternated, figure, format_table, stats, table_rows, timed_figures  # noqa: E402  (beside this script)
 
-class _Done(Exception):
+
+class _Measured(Exception):
     """The figures asked for are measured (``--pipeline-only``)."""
 
 
 #: cycles written and read as PNG files (their read rate)
 PNG_CYCLES = 30
-
-
-def rate(fn, n_items: int, repeat: int = 3) -> float:
-    """Best items per second of ``fn`` (which processes ``n_items``) over ``repeat`` runs, after a warm-up."""
-    fn()
-    best = min(_timed(fn) for _ in range(repeat))
-    return n_items / best
+#: fringe period (projector px): wide enough that the whole sphere-and-wall scene lies within the
+#: geometric constraint's unambiguous depth range (36 px put the wall beyond it)
+PERIOD = 120.0
 
 
 def _timed(fn) -> float:
@@ -92,9 +98,9 @@ def _timed(fn) -> float:
 
 def make_inputs(work: Path, cycles: int):
     """One rendered 3-step cycle at 1280x1024, repeated ``cycles`` times into an MRAW file and a
-    PNG capture; returns (mraw capture folder, png capture folder, patterns, rig, z_min)."""
+    PNG capture; returns (mraw capture folder, png capture folder, patterns, rig, z_min, truth)."""
     one = work / "one"
-    ps = sets.phase_shift(36, 3, "v", width=800, height=600)
+    ps = sets.phase_shift(PERIOD, 3, "v", width=800, height=600)
     simulate_capture(one, preset="macro", scene="sphere", patterns=ps, seed=0, progress=False)
     cap, rig, truth = read_capture(one), Rig.load(one / "rig.json"), Truth.load(one)
     z_min = float(np.nanmin(truth.depth[truth.mask])) - 5.0
@@ -103,7 +109,15 @@ def make_inputs(work: Path, cycles: int):
     import_images(str(Path(mraw).with_suffix(".cih")), work / "mraw-cap", manifest=one / "manifest.json")
     png_cycles = min(cycles, PNG_CYCLES)  # the PNG read rate needs no more
     write_capture(work / "png-cap", frames[:png_cycles * len(cap.patterns)], cap.patterns, meta={"bit_depth": 8})
-    return work / "mraw-cap", work / "png-cap", reconstruction_plans(cap.patterns, "geometric"), rig, z_min
+    return work / "mraw-cap", work / "png-cap", reconstruction_plans(cap.patterns, "geometric"), rig, z_min, truth
+
+
+def wrap_errors(rig: Rig, points: np.ndarray, truth: Truth) -> int:
+    """Pixels whose point is finite but on the wrong fringe: its projector coordinate is off the
+    truth's by more than half a period."""
+    valid = np.isfinite(points[..., 0]) & truth.mask & np.isfinite(truth.up)
+    up = rig.projector.project(points[valid].astype(np.float64))[..., 0]
+    return int(np.sum(np.abs(up - truth.up[valid]) > PERIOD / 2))
 
 
 def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dict:
@@ -115,8 +129,9 @@ def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dic
     for codec in store_module.CODECS:
         for name, (layout, q) in cases.items():
             path = work / f"store-{codec}-{name}.zarr"
-            st = store_module.PointMapStore.open(path, 10, H, W, layout=layout, quality=q, sigma=q,
-                                                 rays=rec.rays if layout == "ray_depth" else None, codec=codec)
+            settings = store_module.StoreSettings(layout, quality=q, sigma=q, codec=codec)
+            st = store_module.PointMapStore.open(path, 10, H, W, settings=settings,
+                                                 rays=rec.rays if layout == "ray_depth" else None)
             arrays = {"points": c.points} if layout == "xyz" else {"depth": c.depth}
             if q:
                 arrays.update(quality=c.quality, sigma_z=c.sigma_z)
@@ -133,150 +148,154 @@ def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dic
 
 
 def pipeline_figures(mraw_cap: Path, png_cap: Path, ps, rig, opts: DecodeOptions, cycles: int, rounds: int,
-                     work: Path) -> dict:
-    """The must-show figures of issue 29 from ``rounds`` alternated rounds: per round the fused
-    kernel (20 cycles in memory), ``reconstruct_sequence`` with the defaults from the camera file,
-    decoding every PNG file on ``os.cpu_count()`` threads, and ``reconstruct_sequence`` from the
-    PNG files; each as min / median / max seconds per 3D frame (or cycle) and the ratios of the
-    best times."""
+                     work: Path) -> tuple[list[dict], dict]:
+    """Issue 29's must-show in ``rounds`` alternated rounds: the fused kernel (a cycle in memory),
+    ``reconstruct_sequence`` with the defaults from the camera file, decoding every PNG file on
+    ``os.cpu_count()`` threads, ``reconstruct_sequence`` from the PNG files; the figures (two
+    groups: camera file against the kernel, PNG files against decoding them) and the ratios."""
     rec = FrameReconstructor(ps, rig, opts)
-    frames = open_frames(mraw_cap)
     n = len(ps)
-    cycle = np.ascontiguousarray(frames[0:n])
+    cycle = np.ascontiguousarray(open_frames(mraw_cap)[0:n])
     files = list_frame_files(png_cap)
     png_cycles = len(files) // n
-    cores = os.cpu_count() or 1
 
-    def fused():
-        for _ in range(20):
-            rec.fast.depth(cycle, rec.fused.index)
-        return 20
-
-    def e2e(cap: Path, count: int):
+    def e2e(cap: Path):
         def run():
             out = work / "e2e"
             shutil.rmtree(out, ignore_errors=True)
             reconstruct_sequence(CaptureFolder(str(cap)), ps, rig, out, DecodeSettings(opts),
                                  run=RunSettings(progress=False))
-            return count
         return run
 
     def decode_pngs():
-        with ThreadPoolExecutor(max_workers=cores) as pool:
+        with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
             for _ in pool.map(read_image, files):
                 pass
-        return png_cycles
 
-    cases = {"fused kernel": fused, "e2e camera file": e2e(mraw_cap, cycles), "decode PNGs": decode_pngs,
-             "e2e PNG": e2e(png_cap, png_cycles)}
-    for fn in cases.values():  # warm: numba's kernels load, the page cache holds the inputs
-        fn()
-    per: dict[str, list[float]] = {name: [] for name in cases}
-    for _ in range(rounds):
-        for name, fn in cases.items():
-            t = time.perf_counter()
-            count = fn()
-            per[name].append((time.perf_counter() - t) / count)
-    out: dict = {}
-    for name, ts in per.items():
-        out[name] = {"per_s_best": round(1 / min(ts), 1), "ms_min": round(min(ts) * 1e3, 2),
-                     "ms_median": round(statistics.median(ts) * 1e3, 2), "ms_max": round(max(ts) * 1e3, 2)}
-    out["e2e camera file / fused kernel"] = round(min(per["e2e camera file"]) / min(per["fused kernel"]), 2)
-    out["e2e PNG / decode PNGs"] = round(min(per["e2e PNG"]) / min(per["decode PNGs"]), 2)
-    return out
+    def fused():
+        for _ in range(20):
+            rec.fast.depth(cycle, rec.fused.index)
+
+    t = alternated({"fused": fused, "e2e_camera": e2e(mraw_cap), "decode_png": decode_pngs,
+                    "e2e_png": e2e(png_cap)}, rounds)
+    per = {"fused": 20, "e2e_camera": cycles, "decode_png": png_cycles, "e2e_png": png_cycles}
+    rates = {k: [per[k] / x for x in ts] for k, ts in t.items()}
+    cam = "pipeline: reconstruct a sequence from the camera file (MRAW), defaults"
+    pngs = f"pipeline: reconstruct a sequence from PNG files, defaults, {os.cpu_count()} cores"
+    figs = [figure(cam, "fused kernel alone (depth)", "kernel", "3D frames/s", rates["fused"]),
+            figure(cam, "end to end from the camera file", "ours", "3D frames/s", rates["e2e_camera"]),
+            figure(pngs, "decode the PNG files alone, all cores", "bound", "cycles/s", rates["decode_png"]),
+            figure(pngs, "end to end from the PNG files", "ours", "3D frames/s", rates["e2e_png"])]
+    med = {k: stats(v)["median"] for k, v in rates.items()}
+    ratios = {"e2e camera file / fused kernel (target <= 2.5)": round(med["fused"] / med["e2e_camera"], 2),
+              "e2e PNG / decode PNGs (target <= 1.3)": round(med["decode_png"] / med["e2e_png"], 2),
+              "e2e camera file 3D frames/s (median; target >= 150)": round(med["e2e_camera"], 1),
+              "e2e PNG 3D frames/s (median)": round(med["e2e_png"], 1)}
+    return figs, ratios
 
 
-def writer_against_disk(rec: FrameReconstructor, cycle: np.ndarray, work: Path, frames: int = 10) -> dict:
+def writer_against_disk(rec: FrameReconstructor, cycle: np.ndarray, work: Path, rounds: int,
+                        frames: int = 10) -> list[dict]:
     """The store writer per frame (``write_frame``: float16 cast, compression, write + rename of
-    each array's chunk; the default layout, quality map and sigma_z) with the default codec (lz4)
-    and uncompressed, each beside the disk's own bound for its bytes: the same files written with
-    plain ``open().write()`` + rename, and ``dd``-style as one sequential file, in ms per frame."""
+    each array's chunk; ray_depth with the quality map and sigma_z) with lz4 and uncompressed,
+    each beside the disk's own bound for its bytes: the same files written with plain
+    ``open().write()`` + rename, and ``dd``-style as one sequential file; figures in ms per frame."""
     c = rec.reconstruct(cycle, uncertainty="z", points=False, texture=False)
     H, W = c.quality.shape
-    res: dict = {}
+    figs = []
     for codec in ("lz4", "none"):
         path = work / f"writer-{codec}.zarr"
-        st = store_module.PointMapStore.open(path, frames, H, W, layout="ray_depth", quality=True, sigma=True,
-                                             rays=rec.rays, codec=codec)
-        st.write_frame(0, depth=c.depth, quality=c.quality, sigma_z=c.sigma_z)  # warm (folders, codecs)
-        t = time.perf_counter()
-        for k in range(frames):
-            st.write_frame(k, depth=c.depth, quality=c.quality, sigma_z=c.sigma_z)
-        writer = (time.perf_counter() - t) / frames
+        st = store_module.PointMapStore.open(path, frames, H, W, rays=rec.rays, settings=store_module.StoreSettings(
+            "ray_depth", quality=True, sigma=True, codec=codec))
+
+        def write(st=st):
+            for k in range(frames):
+                st.write_frame(k, depth=c.depth, quality=c.quality, sigma_z=c.sigma_z)
+        write()
         sizes = [f.stat().st_size for f in sorted(path.rglob("c.0.*")) if f.is_file()]
+        data = memoryview(os.urandom(max(sizes)))
+        folder = work / "plain"
+        folder.mkdir(exist_ok=True)
+
+        def plain(data=data, sizes=sizes, folder=folder):
+            for k in range(frames):
+                for i, size in enumerate(sizes):
+                    tmp, dst = folder / f"{i}.{k}.partial", folder / f"{i}.{k}"
+                    with open(tmp, "wb") as f:
+                        f.write(data[:size])
+                    os.replace(tmp, dst)
+
+        def dd(data=data, sizes=sizes, folder=folder):
+            total, block, written = sum(sizes) * frames, data[:1 << 20], 0
+            with open(folder / "dd", "wb") as f:
+                while written < total:
+                    written += f.write(block[:min(len(block), total - written)])
+
+        t = alternated({"writer": write, "plain": plain, "dd": dd}, rounds)
+        group = f"store writer against the disk: {codec}, {sum(sizes) / 1e6:.2f} MB in {len(sizes)} files per frame"
+        names = {"writer": f"store writer ({codec}): cast, compress, write",
+                 "plain": "plain writes + rename, same files", "dd": "dd-style: the same bytes as one file"}
+        roles = {"writer": "ours", "plain": "bound", "dd": "reference"}
+        figs += [figure(group, names[k], roles[k], "ms", [1e3 * x / frames for x in ts]) for k, ts in t.items()]
         shutil.rmtree(path)
-        files, dd = plain_writes(sizes, frames, work / "plain")
-        res[codec] = {"bytes_per_frame": sum(sizes), "files_per_frame": len(sizes),
-                      "writer_ms": round(writer * 1e3, 2), "plain_files_ms": round(files * 1e3, 2),
-                      "dd_ms": round(dd * 1e3, 2), "writer / plain files": round(writer / files, 2),
-                      "writer / dd": round(writer / dd, 2)}
-    return res
-
-
-def plain_writes(sizes: list[int], frames: int, folder: Path) -> tuple[float, float]:
-    """Seconds per frame to write files of ``sizes`` bytes (``open().write()`` + rename, as the
-    store does) and, ``dd``-style, the same bytes as one file in 1 MiB blocks."""
-    data = memoryview(os.urandom(max(sizes)))
-    folder.mkdir()
-    t = time.perf_counter()
-    for k in range(frames):
-        for i, size in enumerate(sizes):
-            tmp, dst = folder / f"{i}.{k}.partial", folder / f"{i}.{k}"
-            with open(tmp, "wb") as f:
-                f.write(data[:size])
-            os.replace(tmp, dst)
-    files = (time.perf_counter() - t) / frames
-    block = data[:1 << 20]
-    total = sum(sizes) * frames
-    t = time.perf_counter()
-    with open(folder / "dd", "wb") as f:
-        written = 0
-        while written < total:
-            written += f.write(block[:min(len(block), total - written)])
-    dd = (time.perf_counter() - t) / frames
-    shutil.rmtree(folder)
-    return files, dd
+        shutil.rmtree(folder)
+    return figs
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cycles", type=int, default=120)
-    ap.add_argument("--rounds", type=int, default=3, help="alternated rounds of the pipeline section")
-    ap.add_argument("--pipeline-only", action="store_true", help="the pipeline section and the writer alone")
+    ap.add_argument("--repeat", type=int, default=20, help="alternated rounds of the in-memory cases")
+    ap.add_argument("--rounds", type=int, default=3, help="alternated rounds of the serial end-to-end runs")
+    ap.add_argument("--pipeline-only", action="store_true", help="the pipeline and the writer against the disk alone")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     warnings.simplefilter("ignore")  # depth-range warnings of the repeated scene are not the point here
     work = Path(tempfile.mkdtemp(prefix="bench-seq-"))
+    group = "reconstruct a sequence: 3-step + geometric, 1280x1024, MRAW in, zarr store out"
+    figs: list[dict] = []
     try:
-        mraw_cap, png_cap, ps, rig, z_min = make_inputs(work, args.cycles)
+        mraw_cap, png_cap, ps, rig, z_min, truth = make_inputs(work, args.cycles)
         opts = DecodeOptions(z_min=z_min, bit_depth=8)
         frames = open_frames(mraw_cap)
         n = len(ps)
         cycle = np.ascontiguousarray(frames[0:n])
         rec = FrameReconstructor(ps, rig, opts)
-        res: dict = {"cycles": args.cycles, "shape": list(cycle.shape[1:]), "path": rec.path,
-                     "cores": os.cpu_count(), "load_average": os.getloadavg()[0]}
-        res["pipeline"] = pipeline_figures(mraw_cap, png_cap, ps, rig, opts, args.cycles, args.rounds, work)
-        res["writer_against_disk"] = writer_against_disk(rec, cycle, work)
+        res: dict = {"benchmark": "sequence", "cycles": args.cycles, "shape": list(cycle.shape[1:]),
+                     "path": rec.path, "cores": os.cpu_count(), "load_average": os.getloadavg()[0],
+                     "period_px": PERIOD, "wrap_errors": wrap_errors(rig, rec.reconstruct(cycle).points, truth)}
+        pipe, res["pipeline"] = pipeline_figures(mraw_cap, png_cap, ps, rig, opts, args.cycles, args.rounds, work)
+        figs += pipe + writer_against_disk(rec, cycle, work, args.rounds)
         res["load_average_after_pipeline"] = os.getloadavg()[0]
         if args.pipeline_only:
-            raise _Done
-        res["kernel_3d_per_s"] = rate(lambda: [rec(cycle) for _ in range(20)], 20)
-        res["kernel_fused_only_3d_per_s"] = rate(lambda: [rec.fast.depth(cycle, rec.fused.index)
-                                                          for _ in range(20)], 20)
-        res["window_as_stored_3d_per_s"] = rate(lambda: [rec.reconstruct(cycle, uncertainty="z", points=False,
-                                                                         texture=False)
-                                                         for _ in range(20)], 20)
+            raise _Measured
         buf_in, buf_out = np.empty_like(cycle), np.empty(cycle.shape[1:] + (3,), np.float32)
         src_out = np.ones_like(buf_out)
-        res["copy_bound_3d_per_s"] = rate(lambda: [(np.copyto(buf_in, cycle), np.copyto(buf_out, src_out))
-                                                   for _ in range(20)], 20)
-        res["mraw_read_cycles_per_s"] = rate(lambda: [np.asarray(frames[c * n:(c + 1) * n])
-                                                      for c in range(args.cycles)], args.cycles, repeat=2)
+        mem = alternated({
+            "kernel_fused_only": lambda: rec.fast.depth(cycle, rec.fused.index),
+            "kernel": lambda: rec(cycle),
+            "window_as_stored": lambda: rec.reconstruct(cycle, uncertainty="z", points=False, texture=False),
+            "copy_bound": lambda: (np.copyto(buf_in, cycle), np.copyto(buf_out, src_out))}, args.repeat)
+        for k, ts in mem.items():
+            res[f"{k}_3d_per_s"] = 1.0 / stats(ts)["median"]
+        figs += timed_figures(group, mem, {"kernel_fused_only": "kernel", "kernel": "reference",
+                                           "window_as_stored": "reference", "copy_bound": "bound"},
+                              unit="3D frames/s",
+                              names={"kernel_fused_only": "fused kernel alone (depth)",
+                                     "kernel": "FrameReconstructor: kernel + quality map + points",
+                                     "window_as_stored": "one window as stored (+ sigma_z)",
+                                     "copy_bound": "copy bound: cycle in, points out"})
+        reads = alternated({"mraw": lambda: [np.asarray(frames[c * n:(c + 1) * n]) for c in range(args.cycles)]},
+                           2)["mraw"]
+        res["mraw_read_cycles_per_s"] = args.cycles / min(reads)
+        figs.append(figure(group, "read the MRAW cycle by cycle", "reference", "cycles/s",
+                           [args.cycles / t for t in reads]))
         png = CaptureFrames(png_cap)
         m = min(args.cycles, PNG_CYCLES)
-        res["png_read_cycles_per_s"] = rate(lambda: [png[np.arange(c * n, (c + 1) * n)] for c in range(m)], m,
-                                            repeat=1)
+        png_t = alternated({"png": lambda: [png[np.arange(c * n, (c + 1) * n)] for c in range(m)]}, 1)["png"]
+        res["png_read_cycles_per_s"] = m / min(png_t)
+        figs.append(figure(group, "read the same frames as PNG files", "reference", "cycles/s",
+                           [m / t for t in png_t]))
 
         def serial(store_quality=True, edge_mask=True, codec="lz4"):
             out = work / "serial"
@@ -285,15 +304,22 @@ def main() -> None:
                                  decode=DecodeSettings(options=dataclasses.replace(opts, edge_mask=edge_mask)),
                                  outputs=OutputSettings(store_quality=store_quality, codec=codec),
                                  run=RunSettings(progress=False))
-        serial()  # warm (numba's compiled kernels load on first use)
-        res["end_to_end_serial_3d_per_s"] = args.cycles / _timed(serial)
-        res["end_to_end_serial_codec_none_3d_per_s"] = args.cycles / _timed(lambda: serial(codec="none"))
-        res["end_to_end_serial_no_store_quality_3d_per_s"] = args.cycles / _timed(lambda: serial(False))
-        # the issue's configuration (the modulation mask, the points only): lz4 and uncompressed
-        res["end_to_end_serial_no_edge_mask_no_store_quality_3d_per_s"] = args.cycles / _timed(
-            lambda: serial(False, False))
-        res["end_to_end_serial_no_edge_mask_no_store_quality_codec_none_3d_per_s"] = args.cycles / _timed(
-            lambda: serial(False, False, "none"))
+        e2e = {  # the defaults; uncompressed; no quality map stored; the issue's configuration
+            "end_to_end_serial": serial,  # (the modulation mask, the points only), lz4 and uncompressed
+            "end_to_end_serial_codec_none": lambda: serial(codec="none"),
+            "end_to_end_serial_no_store_quality": lambda: serial(False),
+            "end_to_end_serial_no_edge_mask_no_store_quality": lambda: serial(False, False),
+            "end_to_end_serial_no_edge_mask_no_store_quality_codec_none": lambda: serial(False, False, "none")}
+        e2e_t = alternated(e2e, args.rounds)  # warm-up included (numba's compiled kernels load on first use)
+        names = {"end_to_end_serial": "reconstruct_sequence, defaults (lz4)",
+                 "end_to_end_serial_codec_none": "reconstruct_sequence, uncompressed",
+                 "end_to_end_serial_no_store_quality": "reconstruct_sequence, no quality stored",
+                 "end_to_end_serial_no_edge_mask_no_store_quality": "reconstruct_sequence, no edge mask/quality",
+                 "end_to_end_serial_no_edge_mask_no_store_quality_codec_none":
+                     "reconstruct_sequence, no edge mask/quality, uncompressed"}
+        for k, ts in e2e_t.items():
+            res[f"{k}_3d_per_s"] = args.cycles / stats(ts)["median"]
+            figs.append(figure(group, names[k], "ours", "3D frames/s", [args.cycles / t for t in ts]))
         for workers in (1, 2):
             client = connect(workers=workers)
             try:
@@ -304,30 +330,31 @@ def main() -> None:
                                                 dask_executor(client, chunk=8), DecodeSettings(opts),
                                                 run=RunSettings(progress=False))
                 on_dask()  # warm the workers (imports, the reconstructor's tables)
-                res[f"end_to_end_dask_{workers}w_3d_per_s"] = args.cycles / _timed(on_dask)
+                t = _timed(on_dask)
+                res[f"end_to_end_dask_{workers}w_3d_per_s"] = args.cycles / t
+                figs.append(figure(group, f"on Dask, {workers} worker process(es)", "ours", "3D frames/s",
+                                   [args.cycles / t]))
             finally:
                 close(client, own_cluster=True)
         res["store"] = store_figures(rec, cycle, work)
-    except _Done:
+    except _Measured:
         pass
     finally:
         shutil.rmtree(work, ignore_errors=True)
     res = {k: (round(v, 1) if isinstance(v, float) else v) for k, v in res.items()}
+    res["figures"] = figs
+    res["groups"] = {group: {"scene": f"rendered sphere before a wall, macro rig, T = {PERIOD:g} px",
+                             "wrap_errors": res["wrap_errors"]}}
     if args.json:
         print(json.dumps(res, indent=1))
         return
     for k, v in res.items():
-        if isinstance(v, dict) and k != "store":
-            print(k)
+        if k == "pipeline":
             for kk, vv in v.items():
-                print(f"  {kk:34s} {vv}")
-        else:
+                print(f"{kk:54s} {vv}")
+        elif k not in ("figures", "groups"):
             print(f"{k:32s} {v}")
-    if args.pipeline_only:
-        return
-    k = res["kernel_3d_per_s"]
-    print(f"{'end to end / kernel (serial)':32s} {res['end_to_end_serial_3d_per_s'] / k:.2f}")
-    print(f"{'kernel / copy bound':32s} {k / res['copy_bound_3d_per_s']:.2f}")
+    print(format_table(table_rows(figs), res["groups"]))
 
 
 if __name__ == "__main__":

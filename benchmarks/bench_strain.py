@@ -58,11 +58,14 @@ import numpy as np
 import fringe3d.analyze.strain as strain_mod
 from fringe3d.analyze.anchors import check_anchor
 from fringe3d.analyze.frame_task import StrainFrameTask
-from fringe3d.analyze.strain import wing_frame, wing_reference, wing_sequence
+from fringe3d.analyze.strain import TrackingSettings, wing_frame, wing_reference, wing_sequence
 from fringe3d.analyze.wing_strain import frames_in_order
 from fringe3d.experiments import flapping_wing as fw
 from fringe3d.optics.pinhole import intrinsics
 from fringe3d.sim import presets
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from summary import figure  # noqa: E402  (beside this script)
 
 OLD_REV = "428e8f5"
 
@@ -96,7 +99,7 @@ def run_stage(maps, anchors, q, window, distance_maps=None, stop_margin=0.1):
     if distance_maps is not None:
         strain_mod.distance_maps = distance_maps
     try:
-        res = wing_sequence(maps, anchors, q, fw.THICKNESS, window, stop_margin=stop_margin,
+        res = wing_sequence(maps, anchors, q, fw.THICKNESS, TrackingSettings(window=window, stop_margin=stop_margin),
                             progress=lambda: stamps.append(time.perf_counter()))
     finally:
         strain_mod.distance_maps = saved
@@ -105,7 +108,7 @@ def run_stage(maps, anchors, q, window, distance_maps=None, stop_margin=0.1):
 
 def run_workers(maps, anchors, q, window, workers):
     """Wall seconds per deformed 3D frame of wing_frame over ``workers`` threads, and its uv (F-1, N, 2)."""
-    ref = wing_reference(maps[0], anchors[0], q, fw.THICKNESS, window)
+    ref = wing_reference(maps[0], anchors[0], q, fw.THICKNESS, TrackingSettings(window=window))
     t0 = time.perf_counter()
     got = [r.uv for _, r in frames_in_order(lambda f: wing_frame(ref, maps[f + 1], anchors[f + 1], f + 1),
                                             len(maps) - 1, workers)]
@@ -120,7 +123,7 @@ def run_dask(maps, anchors, q, window, workers):
 
     path = Path(tempfile.mkdtemp(prefix="bench_strain_")) / "points.npy"
     np.save(path, np.stack(maps))
-    ref = wing_reference(maps[0], anchors[0], q, fw.THICKNESS, window)
+    ref = wing_reference(maps[0], anchors[0], q, fw.THICKNESS, TrackingSettings(window=window))
     task = StrainFrameTask(str(path), 0, (ref,), np.asarray(anchors)[:, None])
     client = connect(workers=workers)
     try:
@@ -198,6 +201,14 @@ def main(argv=None) -> int:
         out[f"dask_{nd}"] = {**rd, "equal_to_first": bool(np.array_equal(uv, uv1, equal_nan=True))}
     ok = res_old.ok & res_new.ok
     out["max_uv_difference_px"] = float(np.nanmax(np.abs(res_old.uv - res_new.uv)[ok])) if ok.any() else float("nan")
+    group = f"strain: geodesic tracking + bending strain per 3D frame, {out['resolution']}"
+    out["figures"] = [figure(group, "wing_sequence (current geodesic search)", "ours", "s", dt_new[1:])]
+    if not args.no_old:
+        out["figures"].append(figure(group, "the same with the geodesic search of 428e8f5", "reference", "s",
+                                     dt_old[1:]))
+    out["figures"] += [figure(group, f"frame scheduler, {k.split('_')[1]} {k.split('_')[0]} (wall / frame)", "ours",
+                              "s", [out[k]["s_per_3d_frame"]]) for k in out if k.startswith(("workers_", "dask_"))]
+    out["groups"] = {group: {"scene": "simulated flapping wing, noise-free ray-cast maps (no fringes to unwrap)"}}
     if args.json:
         print(json.dumps(out, indent=1))
     else:

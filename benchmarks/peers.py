@@ -1,6 +1,7 @@
 """Peer timings for bench_decode.py, run in the interpreter that has the peers installed.
 
-Usage: python peers.py FRAMES3.npy REPEAT  -> one JSON object on stdout.
+Usage: python peers.py FRAMES3.npy REPEAT  -> one JSON object on stdout (seconds of every timed
+call, ``*_seconds``, and their median, ``*_s``).
 
 * ``fringes`` (non-commercial licence, benchmark only; never imported by fringe3d):
   (a) its own 15-frame 9+3+3-step three-frequency sequence at 1280x1024 decoded to the
@@ -22,14 +23,15 @@ import time
 import numpy as np
 
 
-def _median_time(fn, repeat):
-    fn()  # warm-up (JIT, caches)
+def _times(fn, repeat):
+    """Seconds of ``repeat`` calls of ``fn`` after one warm-up (JIT, caches)."""
+    fn()
     ts = []
     for _ in range(repeat):
         t0 = time.perf_counter()
         fn()
         ts.append(time.perf_counter() - t0)
-    return float(np.median(ts))
+    return ts
 
 
 def bench_fringes(height, width, repeat):
@@ -56,11 +58,13 @@ def bench_fringes(height, width, repeat):
     err = np.mod(coord - truth + L / 2, L) - L / 2  # the coordinate is defined modulo its range L
     out["a_coordinate_rms_px"] = float(np.sqrt(np.nanmean(err ** 2)))
     out["a_wavelengths_px"] = [float(x) for x in lam]
-    out["a_s"] = _median_time(lambda: f.decode(seq), repeat)
+    out["a_seconds"] = _times(lambda: f.decode(seq), repeat)
+    out["a_s"] = float(np.median(out["a_seconds"]))
     f1 = fringes.Fringes(X=width, Y=height, axes=(0,), K=1, N=(3,))
     f1.v = (L / lam[0],)
     seq1 = f1.encode()
-    out["b_s"] = _median_time(lambda: f1.decode(seq1, unwrap=False), repeat)
+    out["b_seconds"] = _times(lambda: f1.decode(seq1, unwrap=False), repeat)
+    out["b_s"] = float(np.median(out["b_seconds"]))
     return out
 
 
@@ -77,7 +81,8 @@ def bench_opencv(frames3, repeat):
     pat = sl.SinusoidalPattern_create(p)
     imgs = [np.ascontiguousarray(f) for f in frames3]
     phase, _ = pat.computePhaseMap(imgs)
-    return {"status": "ok", "version": cv2.__version__, "b_s": _median_time(lambda: pat.computePhaseMap(imgs), repeat),
+    ts = _times(lambda: pat.computePhaseMap(imgs), repeat)
+    return {"status": "ok", "version": cv2.__version__, "b_seconds": ts, "b_s": float(np.median(ts)),
             "b_output_dtype": str(np.asarray(phase).dtype)}
 
 

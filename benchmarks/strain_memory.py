@@ -21,7 +21,8 @@ import zarr
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from conftest import ANCHORS, AnalyticWing, camera, point_map  # noqa: E402
 
-from fringe3d.analyze.wing_strain import run_strain  # noqa: E402
+from fringe3d.analyze.strain import TrackingSettings  # noqa: E402
+from fringe3d.analyze.wing_strain import StrainSettings, run_strain  # noqa: E402
 
 
 def main(n: int) -> None:
@@ -36,8 +37,8 @@ def main(n: int) -> None:
         arr[i] = P
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     an = np.array([cam.project(wing.world(*x, 0.0)) for x in ANCHORS])
-    s = run_strain(d + "/s.zarr", ",".join(f"{x:.3f}" for x in an.ravel()), Path(d) / "o", step=8, figures=False,
-                   fill_dots=0)
+    s = run_strain(d + "/s.zarr", ",".join(f"{x:.3f}" for x in an.ravel()), Path(d) / "o",
+                   StrainSettings(step=8, tracking=TrackingSettings(fill_dots=0)), figures=False)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"{n} frames {P.shape}: peak RSS {peak:.0f} MB (before the run {before:.0f} MB), {s['seconds']} s")
 

@@ -81,7 +81,7 @@ def sweep_case(ratio, code, sigma, inverse, seed=1):
 
 def simulated_case(out: Path, code_period, code="gray"):
     """(valid pixels off by a period, valid pixels, order_inconsistent share or None)."""
-    ps = sets.psp_with_gray_code(18, 3, "v", width=800, height=600, code=code, code_period=code_period)
+    ps = sets.psp_with_gray_code(18, 3, "v", width=800, height=600, code=sets.CodeFrames(code, period=code_period))
     folder = out / f"{code}-{code_period:g}"
     if not (folder / "truth").is_dir():
         simulate_capture(folder, preset="high-speed", scene="sphere", patterns=ps, seed=1, progress=False)

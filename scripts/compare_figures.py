@@ -77,8 +77,8 @@ def _diff(a, b, path="", rtol=0.0) -> list[str]:
     return [] if a == b else [f"{path}: A {a!r} != B {b!r}"]
 
 
-def _tree(rev: str, tmp: Path) -> Path:
-    tree = tmp / rev.replace("/", "_")
+def _tree(rev: str, tmp: Path, label: str) -> Path:
+    tree = tmp / label  # by side, not by revision: A and B may name the same commit (a determinism check)
     subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", "-q", str(tree), rev], check=True)
     return tree
 
@@ -100,9 +100,9 @@ def main(argv=None) -> int:
             if args.load_a:
                 fa = {p.stem: p for p in args.load_a.glob("*.json")}
             else:
-                trees.append(_tree(args.rev_a, tmp))
+                trees.append(_tree(args.rev_a, tmp, "A"))
                 fa = _runs(trees[-1], save / "A")
-            trees.append(_tree(args.rev_b, tmp))
+            trees.append(_tree(args.rev_b, tmp, "B"))
             fb = _runs(trees[-1], save / "B")
         finally:
             for tree in trees:

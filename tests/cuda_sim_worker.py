@@ -92,15 +92,14 @@ def main(out_path: str) -> None:
     r["fused_gpu_streamed_again"] = gpu_fast.points(f3)  # the next batch: the same chunk buffers, reused
     r["pool_reused"] = np.array(bool(before) and before == {k: id(v) for k, v in _POOL.buffers.items()})
     from fringe3d.gpu import ops
-    r["fused_gpu_chunk2"] = ops.three_step_points(f3, idx3, gpu_fast.coef, gpu_fast.min_mod2, gpu_fast.phi_min,
-                                                  gpu_fast.sign, gpu_fast.scale, tri.O, tri.D_planes, tri.Q, tri.P3,
-                                                  chunk=2)
+    geometry = ops.ThreeStepGeometry(gpu_fast.coef, gpu_fast.phi_min, gpu_fast.sign, gpu_fast.scale, tri.O,
+                                     tri.D_planes, tri.Q, tri.P3)
+    r["fused_gpu_chunk2"] = ops.three_step_points(f3, idx3, geometry, gpu_fast.min_mod2, chunk=2)
     d_pts = gpu_fast.points(cuda.to_device(f3), device_output=True)  # resident: device in, device out
     r["fused_gpu_resident_is_device"] = np.array(hasattr(d_pts, "copy_to_host") and not isinstance(d_pts, np.ndarray))
     r["fused_gpu_resident"] = d_pts.copy_to_host()
     r["fused_gpu_one_cycle"] = gpu_fast.points(f3[1])
-    d_chunked = ops.three_step_points(f3, idx3, gpu_fast.coef, gpu_fast.min_mod2, gpu_fast.phi_min, gpu_fast.sign,
-                                      gpu_fast.scale, tri.O, tri.D_planes, tri.Q, tri.P3, chunk=2, device_output=True)
+    d_chunked = ops.three_step_points(f3, idx3, geometry, gpu_fast.min_mod2, chunk=2, device_output=True)
     r["fused_gpu_chunk2_device"] = d_chunked.copy_to_host()  # host frames up in chunks, results left on the device
 
     # wrapped phase (3-step), geometric unwrap, closed-form triangulation

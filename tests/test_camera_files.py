@@ -22,7 +22,7 @@ from fringe3d.decode import decode, decode_sequence
 from fringe3d.io import frame_sources
 from fringe3d.io.capture import open_frames, read_capture, write_capture
 from fringe3d.io.frame_sources import FrameRange, MrawSource, TiffSource, ZarrSource
-from fringe3d.io.importer import import_images
+from fringe3d.io.importer import FrameReading, ImportLayout, import_images
 from fringe3d.io.store import PointMapStore
 from fringe3d.patterns import sets
 from fringe3d.sim import presets
@@ -113,8 +113,8 @@ def test_camera_file_imports_as_a_reference_and_decodes_bit_identically_to_png(t
     assert import_(src, tmp_path / "cap", ps, "--first-frame", LEAD) == 0
     assert "1 trailing frame(s) after the last whole 3-frame cycle are not used" in capsys.readouterr().err
     with pytest.warns(DataQualityWarning, match="1 trailing frame"):  # the library warns (cli shows it)
-        import_images(src, tmp_path / "api", layout="phase-shift", projector_size=(ps.width, ps.height), steps=3,
-                      period=PERIOD, first_frame=LEAD)
+        import_images(src, tmp_path / "api", layout=ImportLayout("phase-shift", (ps.width, ps.height), steps=3,
+                                                                 period=PERIOD), reading=FrameReading(first_frame=LEAD))
     meta = json.loads((tmp_path / "cap" / "capture.json").read_text())
     assert not (tmp_path / "cap" / "frames").exists()  # referenced, not converted
     numbered = {"first_image_no": -LEAD} if kind == "cine" else {}  # the trigger at the first cycle
@@ -269,8 +269,9 @@ def test_frame_range_beyond_the_file_is_refused(tmp_path, sim):
     ps, frames = sim
     src = write_tiff(tmp_path / "stack.tif", frames)
     with pytest.raises(ValueError, match="beyond the file's 9 frames"):
-        import_images(src, tmp_path / "a", layout="phase-shift", projector_size=(ps.width, ps.height), steps=3,
-                      period=PERIOD, first_frame=3, frame_count=9)
+        import_images(src, tmp_path / "a", layout=ImportLayout("phase-shift", (ps.width, ps.height), steps=3,
+                                                               period=PERIOD),
+                      reading=FrameReading(first_frame=3, frame_count=9))
     assert import_(src, tmp_path / "b", ps, "--first-frame", 8) == 2  # fewer than one cycle left
     assert import_(src, tmp_path / "c", ps, "--frame-count", 4) == 2  # not whole cycles
     assert import_(src, tmp_path / "d", ps) == 0
@@ -342,8 +343,8 @@ def test_load_images_holds_what_import_writes_and_channel_on_a_camera_file_is_re
     write_mraw(tmp_path / "run.mraw", frames, rate=12000)
     assert import_(tmp_path / "run.cih", tmp_path / "cap", ps) == 0
     written = json.loads((tmp_path / "cap" / "capture.json").read_text())
-    held = load_images(tmp_path / "run.cih", layout="phase-shift", projector_size=(ps.width, ps.height), steps=3,
-                       period=PERIOD)
+    held = load_images(tmp_path / "run.cih", layout=ImportLayout("phase-shift", (ps.width, ps.height), steps=3,
+                                                                 period=PERIOD))
     for field in ("frame_rate", "bit_depth", "camera", "source_dtype", "layout"):
         assert held.meta[field] == written[field], field
     np.testing.assert_array_equal(held.frames, frames[:3])

@@ -142,7 +142,7 @@ def test_multi_frequency_orders_on_exact_zero_phases_are_exact(sigma):
 
 
 def _simulated(tmp_path, code_period, seed=1):
-    ps = sets.psp_with_gray_code(18, 3, "v", width=256, height=200, code_period=code_period)
+    ps = sets.psp_with_gray_code(18, 3, "v", width=256, height=200, code=sets.CodeFrames(period=code_period))
     simulate_capture(tmp_path / "cap", preset="tiny", scene="sphere", patterns=ps, seed=seed, progress=False)
     cap = read_capture(tmp_path / "cap")
     with np.load(tmp_path / "cap" / "truth" / "truth.npz") as t:

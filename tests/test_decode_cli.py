@@ -108,6 +108,20 @@ def test_decode_capture_is_a_library_call_that_resumes_the_cycles_already_writte
     assert again[0]["directions"] == first[0]["directions"]
 
 
+def test_decode_capture_takes_its_output_guard_whole_refusing_overwrite_and_an_output_inside_an_input(tmp_path):
+    from fringe3d.decode import decode_capture
+    from fringe3d.utils.output_folder import OutputGuard
+    ps = sets.three_frequency("v")
+    frames, truth = capture_frames(ps)
+    decode_capture(frames, ps, tmp_path / "out")
+    with pytest.raises(ValueError, match="overwrite"):
+        decode_capture(frames, ps, tmp_path / "out")
+    decode_capture(frames, ps, tmp_path / "out", guard=OutputGuard(overwrite=True, fingerprint={"run": 2}))
+    assert not np.round((Decoded.load(tmp_path / "out").phase["v"] - truth) / (2 * math.pi)).any()
+    with pytest.raises(ValueError, match="inside"):
+        decode_capture(frames, ps, tmp_path / "out" / "sub", guard=OutputGuard(inputs=[tmp_path / "out"]))
+
+
 def test_an_empty_cycle_names_the_parameter_to_python_and_the_flag_on_the_command_line(tmp_path, capsys):
     from fringe3d.decode import decode_capture
     ps = sets.three_frequency("v")

@@ -95,7 +95,7 @@ def test_hierarchical_set_exact_orders_with_noise():
 
 
 def test_phase_plus_half_period_gray_code_exact_orders_with_noise():
-    ps = sets.psp_with_gray_code(16, steps=4, direction="v", code_period=8)
+    ps = sets.psp_with_gray_code(16, steps=4, direction="v", code=sets.CodeFrames(period=8))
     d = decode(synthesize(ps, sigma=3.0, seed=3), ps)
     assert d.mask["v"].all()
     assert not order_errors(d.phase["v"], true_phase(ps, "v"))[d.mask["v"]].any()

@@ -15,7 +15,7 @@ def _truth(folder):
 
 @pytest.mark.parametrize("patterns", ["three-frequency", "psp-gray-half"])
 def test_simulated_sphere_exact_orders_and_mrad_phase(tmp_path, patterns):
-    ps = (sets.psp_with_gray_code(18, steps=4, direction="v", code_period=9, width=256, height=200)
+    ps = (sets.psp_with_gray_code(18, steps=4, direction="v", code=sets.CodeFrames(period=9), width=256, height=200)
           if patterns == "psp-gray-half" else patterns)
     simulate_capture(tmp_path / "cap", preset="tiny", scene="sphere", patterns=ps, seed=1, progress=False)
     cap = read_capture(tmp_path / "cap")

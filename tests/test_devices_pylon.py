@@ -58,7 +58,7 @@ def test_fifteen_frame_capture_arrives_complete_in_order_and_decodes_to_the_fed_
 def test_skipped_trigger_is_reported_by_frame_number_and_not_marked_complete(fed, tmp_path, xvfb):
     from fringe3d.io.pattern_folder import read_pattern_folder
     from fringe3d.devices import open_projector
-    from fringe3d.devices.acquire import CaptureIncompleteError, capture_sequence
+    from fringe3d.devices.acquire import CaptureIncompleteError, CaptureTiming, capture_sequence
     from fringe3d.devices.pylon import PylonCamera
 
     class SkipsTriggerSeven(PylonCamera):
@@ -79,7 +79,7 @@ def test_skipped_trigger_is_reported_by_frame_number_and_not_marked_complete(fed
         proj = open_projector("window:0")
     try:
         with pytest.raises(CaptureIncompleteError) as info:
-            capture_sequence(proj, cam, ps, images, tmp_path / "cap", timeout=0.3)
+            capture_sequence(proj, cam, ps, images, tmp_path / "cap", timing=CaptureTiming(timeout=0.3))
     finally:
         cam.close()
         proj.close()

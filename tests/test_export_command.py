@@ -191,9 +191,10 @@ def test_reconstruct_refuses_an_unknown_format_before_writing_anything(out, tmp_
 
 def test_export_a_point_store_frame_to_las_with_its_sigma(tmp_path):
     laspy = pytest.importorskip("laspy")
-    from fringe3d.io.store import PointMapStore
+    from fringe3d.io.store import PointMapStore, StoreSettings
 
-    st = PointMapStore.open(tmp_path / "points.zarr", frames=2, height=6, width=7, sigma=True, quality=True)
+    st = PointMapStore.open(tmp_path / "points.zarr", frames=2, height=6, width=7,
+                            settings=StoreSettings(quality=True, sigma=True))
     v, u = np.mgrid[0:6, 0:7].astype(np.float32)
     P = np.stack([u, v, 300 + 0.1 * u], -1)
     sigma = np.full((6, 7), 0.25, np.float32)  # exact in the store's float16

@@ -64,14 +64,14 @@ OPTION_USE = re.compile(r"""(?:\bmethod_option\(|\boptions\.get\(|\boptions\[)\s
 def built_plan_options() -> set[str]:
     """Every plan option key the pattern-set builders and layouts write (all sets, both directions)."""
     from fringe3d.commands.patterns import SETS, build_set
-    from fringe3d.io.importer import layout_patterns
+    from fringe3d.io.importer import ImportLayout, layout_patterns
     from fringe3d.patterns.layouts import opencv_graycode
 
     sets_ = [build_set(name, None, None, "v,h" if name not in ("calibration", "optimal-angle") else "v",
                        30.0 if name == "optimal-angle" else None, "sinusoid", 64, 48, None) for name in SETS]
     sets_ += [sets.binary_fine_calibration(800, 600), sets.binary_modified_ftp(800, 600), opencv_graycode(64, 48),
-              layout_patterns("gray-code", (64, 48), period=4, direction="v,h", inverse=False, interleave=True,
-                              threshold=100)]
+              layout_patterns(ImportLayout("gray-code", (64, 48), period=4, direction="v,h", inverse=False,
+                                           interleave=True, threshold=100))]
     return {k for ps in sets_ for p in ps.plans for k in p.options}
 
 

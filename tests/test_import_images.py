@@ -15,7 +15,7 @@ import tifffile
 from fringe3d.cli import main
 from fringe3d.decode import DecodeOptions, decode, with_method
 from fringe3d.io.capture import read_capture
-from fringe3d.io.importer import import_images, list_sources, natural_key, phase_shift_layout, to_grey
+from fringe3d.io.importer import ImportLayout, import_images, list_sources, natural_key, phase_shift_layout, to_grey
 from fringe3d.patterns import render_set, sets
 from fringe3d.patterns.layouts import opencv_graycode
 from fringe3d.patterns.synthetic import frames_from_coordinates
@@ -83,8 +83,8 @@ def test_rgb_jpeg_sequence_imports_and_decodes_identically_from_cli_and_api(tmp_
     assert meta["conversion"].startswith("ITU-R BT.601") and meta["bit_depth"] == 8
     assert meta["source_dtype"] == "uint8"
     assert [p.split("/")[-1] for p in meta["source_files"]] == ["img_0001.jpg", "img_0002.jpg", "img_0003.jpg"]
-    s = import_images(src, tmp_path / "api", layout="phase-shift", projector_size=(ps.width, ps.height), steps=3,
-                      period=PERIOD, unwrap="spatial")
+    s = import_images(src, tmp_path / "api", layout=ImportLayout("phase-shift", (ps.width, ps.height), steps=3,
+                                                                 period=PERIOD, unwrap="spatial"))
     api_cap = read_capture(s["folder"])  # float luma: the capture's bit depth sets the saturation level
     api = decode(api_cap.frames, with_method(ps, "spatial"), options=DecodeOptions(bit_depth=api_cap.bit_depth))
     cli_phase = np.load(tmp_path / "dec" / "decoded.npz")["phase_v"]
@@ -343,8 +343,8 @@ def test_frames_read_as_several_one_direction_cycles_warn_about_two_directions(t
     for f in sorted((tmp_path / "src").glob("*.png"))[:1]:
         f.unlink()  # 12 frames: two 6-frame cycles of a one-direction, inverse-free 64-px code
     with pytest.warns(DataQualityWarning, match=r"2 cycles.*`direction` v,h"):
-        import_images(tmp_path / "src", tmp_path / "cap", layout="gray-code", projector_size=(64, 32), period=1,
-                      inverse=False, threshold=115)
+        import_images(tmp_path / "src", tmp_path / "cap",
+                      layout=ImportLayout("gray-code", (64, 32), period=1, inverse=False, threshold=115))
 
 
 def test_threshold_applies_to_the_opencv_layout_and_to_a_manifest(tmp_path):

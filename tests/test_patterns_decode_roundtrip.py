@@ -29,7 +29,7 @@ def _truth(u_p, v_p, angle, period):
     ("three-frequency h", lambda: sets.three_frequency("h")),
     ("hierarchical", lambda: sets.hierarchical((16, 128, 1024), (4, 3, 3), "v")),
     ("gray T/2", lambda: sets.psp_with_gray_code(20, 4, "h")),
-    ("binary code", lambda: sets.psp_with_gray_code(20, 3, "v", code="binary")),
+    ("binary code", lambda: sets.psp_with_gray_code(20, 3, "v", code=sets.CodeFrames("binary"))),
     ("calibration", lambda: sets.calibration()),
     ("optimal angle 100 deg", lambda: sets.optimal_angle_calibration(math.radians(100))),
     ("gray at 130 deg", lambda: sets.psp_with_gray_code(24, 4, "d", angle=math.radians(130))),

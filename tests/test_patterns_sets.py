@@ -104,7 +104,7 @@ def test_manifest_json_round_trip(tmp_path):
 
 def test_half_period_code_refines_the_full_period_gray_code_by_one_bit():
     from fringe3d.patterns import codes, render_frame
-    full = sets.psp_with_gray_code(20, 3, "v", width=320, height=8, code_period=20)
+    full = sets.psp_with_gray_code(20, 3, "v", width=320, height=8, code=sets.CodeFrames(period=20))
     half = sets.psp_with_gray_code(20, 3, "v", width=320, height=8)
     nf, nh = full.plan("v").options["bits"], half.plan("v").options["bits"]
     assert nh == nf + 1 and half.plan("v").options["code_period"] == 10

@@ -15,29 +15,16 @@ MOST = 10
 
 #: "module/path.py:function" -> why it still takes more than MOST parameters.
 ALLOWED = {
-    "analyze/strain.py:wing_sequence": "the strain run's tracking knobs; to group with run_strain's",
-    "analyze/wing_strain.py:run_strain": "strain run settings not yet a dataclass (issue 24, part 3)",
     "calibrate/session.py:calibrate_to_files": "calibration session typing is another change (issue 24, part 5)",
-    "commands/import_options.py:layout_arguments": "maps the import command's flags one to one",
     "decode/edges.py:quality_map": "public quality-map API: one keyword per test threshold",
     "decode/edges.py:_quality_map_fused": "the fused quality map's private entry, flat like its kernels",
-    "devices/acquire.py:capture_sequence": "device timing knobs of the capture loop",
     "devices/session.py:capture_session": "calibration-session capture knobs (board, poses, timing)",
-    "gpu/ops.py:three_step_points": "host wrapper handing the flat kernel arrays to the device",
-    "io/importer.py:layout_patterns": "import layout options, one per import flag",
-    "io/importer.py:import_images": "import layout options, one per import flag",
-    "io/store.py:open": "point store creation: layout, rays, codec and per-frame arrays",
-    "patterns/sets.py:psp_with_gray_code": "pattern-set recipe: one keyword per pattern parameter",
-    "reconstruct/single_shot.py:single_shot": "single-shot method knobs (FTP window, thresholds)",
     "sim/board.py:__init__": "calibration board geometry and appearance",
     "sim/calibration_session.py:sample_board_poses": "pose sampling ranges",
     "sim/calibration_session.py:simulate_session": "simulated session knobs",
     "calibrate/session.py:calibrate_session": "session options not yet grouped into settings (issue 24, part 3)",
-    "decode/capture_decode.py:decode_capture": "keyword-only output guard options (overwrite, inputs, fingerprint)",
     "sim/simulate.py:simulate_capture": "simulator knobs, one per simulate flag",
     "sim/wing.py:__init__": "the flapping-wing model's physical parameters",
-    "pipeline.py:reconstruct_cycle": "the one-call API's keywords (+ compensate, response: issue 25)",
-    "unwrap/hybrid.py:hybrid_unwrap": "hybrid unwrapping thresholds",
 }
 
 

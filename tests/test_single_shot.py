@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from fringe3d.patterns.sets import modified_ftp
-from fringe3d.reconstruct.single_shot import single_shot
+from fringe3d.reconstruct.single_shot import SingleShotSettings, single_shot
 from fringe3d.utils.warning_types import DepthRangeWarning
 from fringe3d.sim import presets, render
 from fringe3d.sim.primitives import Plane, Sphere
@@ -51,7 +51,7 @@ def _order_share(res, truth):
 def test_single_shot_gets_correct_absolute_order_on_isolated_objects(in_range, method, window):
     rig, frames, truth = in_range
     imgs = frames[:1] if method == "ftp" else frames
-    res = single_shot(imgs, rig, T, Z_MIN, method=method, window=window)
+    res = single_shot(imgs, rig, T, Z_MIN, method=method, settings=SingleShotSettings(window=window))
     share, n = _order_share(res, truth)
     assert n > 10000
     assert share >= 0.999
@@ -62,7 +62,7 @@ def test_modified_ftp_phase_is_closer_to_truth_than_ftp(in_range):
     rig, frames, truth = in_range
     errs = {}
     for method, imgs in (("ftp", frames[:1]), ("modified_ftp", frames)):
-        res = single_shot(imgs, rig, T, Z_MIN, method=method, erode=3)
+        res = single_shot(imgs, rig, T, Z_MIN, method=method, settings=SingleShotSettings(erode=3))
         sel = res.mask & truth.mask
         errs[method] = np.sqrt(np.mean((res.phase[sel] - truth.phase["v"][sel]) ** 2))
     assert errs["modified_ftp"] < errs["ftp"] < 0.5

@@ -7,7 +7,7 @@ import pytest
 
 from fringe3d.io import store as store_module
 from fringe3d.io._chunk_write import chunk_writer
-from fringe3d.io.store import PointMapStore
+from fringe3d.io.store import PointMapStore, StoreSettings
 
 H, W = 48, 64
 
@@ -23,7 +23,7 @@ def frame_data(seed: int) -> dict:
 
 def open_store(path) -> PointMapStore:
     rays = (np.zeros(3), np.ones((3, H, W), np.float32))
-    return PointMapStore.open(path, 3, H, W, layout="ray_depth", rays=rays, quality=True, sigma=True)
+    return PointMapStore.open(path, 3, H, W, settings=StoreSettings("ray_depth", quality=True, sigma=True), rays=rays)
 
 
 @pytest.mark.parametrize("codec", ["lz4", "zstd", "none"])

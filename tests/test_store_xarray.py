@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fringe3d.io.store import PointMapStore
+from fringe3d.io.store import PointMapStore, StoreSettings
 
 
 def test_point_store_opens_with_xarray(tmp_path):
@@ -25,7 +25,8 @@ def test_point_store_opens_with_a_plain_open_zarr_without_warning_and_has_pixel_
     import warnings
 
     xr = pytest.importorskip("xarray")
-    st = PointMapStore.open(tmp_path / "p.zarr", frames=3, height=4, width=5, times=[0.0, 0.04, 0.08], sigma=True)
+    st = PointMapStore.open(tmp_path / "p.zarr", frames=3, height=4, width=5, times=[0.0, 0.04, 0.08],
+                            settings=StoreSettings(sigma=True))
     st.write_frame(2, np.ones((4, 5, 3), np.float32), sigma_z=np.full((4, 5), 0.01, np.float32))
     st.mark_done([2])
     with warnings.catch_warnings():
@@ -45,3 +46,17 @@ def test_point_store_without_a_frame_rate_has_no_time_coordinate(tmp_path):
     PointMapStore.open(tmp_path / "p.zarr", frames=2, height=3, width=3)
     ds = xr.open_zarr(tmp_path / "p.zarr")
     assert "time" not in ds.coords and ds["frame"].values.tolist() == [0, 1]
+
+
+def test_a_store_whose_creation_was_cut_short_is_restarted_with_its_time_coordinate(tmp_path):
+    import zarr
+
+    from fringe3d.utils.write_guard import writing_into
+
+    xr = pytest.importorskip("xarray")
+    path = tmp_path / "p.zarr"
+    zarr.open_group(str(path), mode="w")  # an interrupted run: the group exists, no format recorded yet
+    with writing_into(tmp_path):
+        PointMapStore.open(path, frames=2, height=3, width=3, times=[0.0, 0.5])
+    ds = xr.open_zarr(path)
+    np.testing.assert_allclose(ds["time"].values, [0.0, 0.5])

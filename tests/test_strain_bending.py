@@ -7,6 +7,7 @@ from fringe3d.analyze.strain import (
     bending_strain,
     local_shape,
     principal_strains,
+    TrackingSettings,
     wing_sequence,
 )
 
@@ -74,7 +75,7 @@ def _wing_run(curvature, flap, times, h=0.1):
     maps = [point_map([wing], cam, t)[0] for t in times]
     anchors = np.array([[cam.project(wing.world(a[0], a[1], t)) for a in ANCHORS] for t in times])
     q = cam.project(wing.world(MARKERS[:, 0], MARKERS[:, 1], times[0]))
-    return wing, wing_sequence(maps, anchors, q, thickness=h, window=9, radius=3)
+    return wing, wing_sequence(maps, anchors, q, thickness=h, tracking=TrackingSettings(window=9, radius=3))
 
 
 def test_rigid_flapping_gives_zero_strain():

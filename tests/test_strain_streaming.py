@@ -8,8 +8,8 @@ from conftest import ANCHORS, AnalyticWing, camera, point_map
 import fringe3d.analyze.strain as strain_mod
 from fringe3d.analyze.anchors import check_anchor, follow_anchors, query_grid
 from fringe3d.analyze.geodesic import bezier_geodesic
-from fringe3d.analyze.strain import wing_sequence
-from fringe3d.analyze.wing_strain import run_strain
+from fringe3d.analyze.strain import TrackingSettings, wing_sequence
+from fringe3d.analyze.wing_strain import StrainSettings, run_strain
 from fringe3d.io.export_vtk import grid_triangles, strain_table, write_strain_csv, write_strain_frame
 from fringe3d.io.point_sequence import read_point_sequence
 from fringe3d.utils.streamed_quantiles import streamed_median, streamed_percentile
@@ -53,7 +53,7 @@ def test_streaming_strain_command_gives_the_same_csv_as_the_up_front_full_search
                                                                                  monkeypatch):
     path, pts, anchors0 = zarr_sequence
     arg = ",".join(f"{x:.4f}" for x in anchors0.ravel())
-    run_strain(path, arg, tmp_path / "o", step=6, window=9, figures=False, fill_dots=0)
+    run_strain(path, arg, tmp_path / "o", StrainSettings(step=6, tracking=TrackingSettings(window=9)), figures=False)
     got = np.genfromtxt(tmp_path / "o" / "strain.csv", delimiter=",", names=True)
     # before: every frame loaded up front as float64, both anchors' maps searched over the whole frame
     seq = read_point_sequence(path)
@@ -62,7 +62,7 @@ def test_streaming_strain_command_gives_the_same_csv_as_the_up_front_full_search
     per_frame = follow_anchors(seq.texture, len(seq), [a])[:, 0]
     q = query_grid(maps[0], a, 6, margin=9 // 2)
     monkeypatch.setattr(strain_mod, "distance_maps", _full_search_distance_maps)
-    ref = wing_sequence(maps, per_frame, q, 0.1, 9, stop_margin=None)
+    ref = wing_sequence(maps, per_frame, q, 0.1, TrackingSettings(window=9, stop_margin=None))
     want = np.vstack([strain_table(ref.xyz[f], ref.E[f], ref.principal[f], ref.dominant[f], ref.uv[f],
                                    ref.residual[f], ref.ok[f]) for f in range(len(maps))])
     names = [n for n in got.dtype.names if n not in ("frame", "wing")]
@@ -85,7 +85,7 @@ def test_wing_sequence_reads_one_frame_at_a_time(zarr_sequence):
             return np.asarray(pts[i], np.float64)
 
     q = query_grid(np.asarray(pts[0], float), anchors0, 8, margin=4)
-    wing_sequence(Frames(), anchors, q, 0.1, 9, progress=lambda: log.append("done"))
+    wing_sequence(Frames(), anchors, q, 0.1, TrackingSettings(window=9), progress=lambda: log.append("done"))
     # the reference is read first; every other frame is read just before it is processed, never ahead
     assert log == [("read", 0), "done", ("read", 1), "done", ("read", 2), "done"]
 
@@ -97,7 +97,7 @@ def _previous_outputs(path, arg, step, window, out):
     a = np.array([float(x) for x in arg.split(",")]).reshape(2, 2)
     per_frame = follow_anchors(seq.texture, len(seq), [a])[:, 0]
     q = query_grid(seq[0], a, step, margin=window // 2)
-    r = wing_sequence(seq, per_frame, q, 0.1, window)
+    r = wing_sequence(seq, per_frame, q, 0.1, TrackingSettings(window=window))
     tabs = [strain_table(r.xyz[f], r.E[f], r.principal[f], r.dominant[f], r.uv[f], r.residual[f], r.ok[f])
             for f in range(len(seq))]
     write_strain_csv(out / "strain.csv", np.vstack(tabs), np.repeat(np.arange(len(seq)), len(q)),
@@ -110,8 +110,9 @@ def _previous_outputs(path, arg, step, window, out):
 def test_streamed_outputs_equal_the_in_memory_run_and_any_worker_count(zarr_sequence, tmp_path):
     path, pts, anchors0 = zarr_sequence
     arg = ",".join(f"{x:.4f}" for x in anchors0.ravel())
-    one = run_strain(path, arg, tmp_path / "w1", step=6, window=9, figures=True, fill_dots=0)
-    two = run_strain(path, arg, tmp_path / "w2", step=6, window=9, figures=True, fill_dots=0, workers=2)
+    settings = StrainSettings(step=6, tracking=TrackingSettings(window=9))  # dots not filled (fill_dots=0)
+    one = run_strain(path, arg, tmp_path / "w1", settings, figures=True)
+    two = run_strain(path, arg, tmp_path / "w2", settings, figures=True, workers=2)
     prev = _previous_outputs(path, arg, 6, 9, tmp_path / "prev")
     # the CSV and every frame's VTU: the very bytes of the in-memory run, with 1 or 2 workers
     want_csv = (tmp_path / "prev" / "strain.csv").read_bytes()

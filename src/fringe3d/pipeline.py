@@ -11,9 +11,9 @@ pattern cycle (read the capture, load the rig, decode, triangulate; Eq. 2.37).
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+import dataclasses
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -197,11 +197,45 @@ def check_sizes(rig: Rig, frames: np.ndarray, calibration, patterns: PatternSet 
                       hint=f" (expected the calibration {calibration} of the camera that recorded this capture)")
 
 
-def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: float | None = None,
-                      triangulation: str = "auto", min_modulation: float | None = None, edge_mask: bool = True,
-                      edge_margin: float | None = None, backend: str = "cpu",
-                      allow_relative: bool = False, compensate: str | None = None,
-                      response: Any = None) -> Reconstruction:
+@dataclass(frozen=True)
+class CycleSettings:
+    """How :func:`reconstruct_cycle` reconstructs one pattern cycle; every field has a default.
+
+    Attributes
+    ----------
+    options : DecodeOptions
+        The decoder's options (:class:`fringe3d.decode.DecodeOptions`): among them ``z_min``
+        (nearest scene depth, mm, for the geometric methods), ``min_modulation`` (camera counts;
+        default from the bit depth), ``edge_mask`` and ``edge_margin`` (edge and mixed pixels;
+        projector px, default 2 px + twice the estimated blur), ``compensate`` and ``response``
+        (projector-nonlinearity compensation). Its ``bit_depth``, when not set, is the capture's.
+        Default ``DecodeOptions()``.
+    method : str, optional
+        Unwrapping method for every direction (default None: the manifest's plans).
+    triangulation : {"auto", "fast", "lsq"}
+        Closed form or least squares (Eq. 2.37); default ``"auto"``.
+    backend : {"cpu", "cuda"}
+        Where the per-pixel kernels run (:class:`fringe3d.reconstruct.frame.FrameReconstructor`);
+        default ``"cpu"``.
+    allow_relative : bool
+        Triangulate a wrapped or relative phase (method ``none`` or ``spatial``) anyway, with a
+        warning; its 3D is off by an unknown number of fringe periods in depth. Default False.
+
+    Examples
+    --------
+    >>> s = CycleSettings(method="geometric", options=DecodeOptions(z_min=350.0))
+    >>> s.options.z_min, s.triangulation, s.backend
+    (350.0, 'auto', 'cpu')
+    """
+
+    options: DecodeOptions = field(default_factory=DecodeOptions)
+    method: str | None = None
+    triangulation: str = "auto"
+    backend: str = "cpu"
+    allow_relative: bool = False
+
+
+def reconstruct_cycle(cap: Capture, rig: Rig, settings: CycleSettings | None = None) -> Reconstruction:
     """Reconstruct the first pattern cycle of a capture in memory.
 
     Parameters
@@ -210,26 +244,16 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
         From :func:`fringe3d.io.capture.read_capture` (frames in manifest order).
     rig : Rig
         Calibrated rig whose camera recorded ``cap``.
-    method : str, optional
-        Unwrapping method for every direction (default: the manifest's plans).
-    z_min : float, optional
-        Nearest scene depth (mm), for the geometric methods.
-    triangulation : {"auto", "fast", "lsq"}
-        Closed form or least squares (Eq. 2.37).
-    min_modulation : float, optional
-        Modulation threshold (camera counts); default from the bit depth.
-    edge_mask : bool
-        Mask edge and mixed pixels (:class:`fringe3d.decode.DecodeOptions` ``edge_mask``).
-    edge_margin : float, optional
-        Projector-edge band (projector px); default 2 px + twice the estimated blur.
-    backend : {"cpu", "cuda"}
-        Where the per-pixel kernels run (:class:`fringe3d.reconstruct.frame.FrameReconstructor`).
-    allow_relative : bool
-        Triangulate a wrapped or relative phase (method ``none`` or ``spatial``) anyway, with a
-        warning; its 3D is off by an unknown number of fringe periods in depth.
-    compensate, response
-        Projector-nonlinearity compensation (:class:`fringe3d.decode.DecodeOptions` ``compensate``
-        ``"response"`` or ``"harmonic"``) and the measured response for ``"response"``.
+    settings : CycleSettings, optional
+        The decoder's options, unwrapping method, triangulation, backend and whether a relative
+        phase may be triangulated (default ``CycleSettings()``: the manifest's plans, closed form
+        where it applies, on the CPU).
+
+    Returns
+    -------
+    Reconstruction
+        ``points`` (H, W, 3) float32 mm (NaN where invalid), ``texture``, ``mask``, ``quality``,
+        ``sigma_xyz`` / ``sigma_z``, the manifest as decoded and the code path taken.
 
     Raises
     ------
@@ -238,14 +262,26 @@ def reconstruct_cycle(cap: Capture, rig: Rig, method: str | None = None, z_min: 
         the absolute methods the manifest can feed.
     fringe3d.decode.plan_checks.MissingGeometryError
         A geometric-constraint method without ``z_min``.
+
+    Examples
+    --------
+    >>> import tempfile, fringe3d
+    >>> cap = tempfile.mkdtemp() + "/cap"
+    >>> _ = fringe3d.simulate_capture(cap, preset="tiny", seed=0, progress=False)  # a virtual capture
+    >>> settings = CycleSettings(triangulation="lsq", options=DecodeOptions(edge_margin=4.0))
+    >>> r = reconstruct_cycle(read_capture(cap, max_cycles=1), Rig.load(cap + "/rig.json"), settings)
+    >>> r.points.shape[-1], bool(r.mask.any())
+    (3, True)
     """
-    ps = reconstruction_plans(cap.patterns, method)
+    s = settings if settings is not None else CycleSettings()
+    ps = reconstruction_plans(cap.patterns, s.method)
     source = f"{cap.folder / MANIFEST_NAME}" if cap.folder is not None else "the manifest"
-    check_plans(ps, rig, z_min, original=cap.patterns, source=source, allow_relative=allow_relative)
-    options = DecodeOptions(z_min=z_min, bit_depth=cap.meta.get("bit_depth"), min_modulation=min_modulation,
-                            edge_mask=edge_mask, edge_margin=edge_margin, compensate=compensate, response=response)
-    rec = FrameReconstructor(ps, rig, options, triangulation=triangulation, backend=backend,
-                             allow_relative=allow_relative)
+    check_plans(ps, rig, s.options.z_min, original=cap.patterns, source=source, allow_relative=s.allow_relative)
+    options = s.options
+    if options.bit_depth is None:
+        options = dataclasses.replace(options, bit_depth=cap.meta.get("bit_depth"))
+    rec = FrameReconstructor(ps, rig, options, triangulation=s.triangulation, backend=s.backend,
+                             allow_relative=s.allow_relative)
     c = rec.reconstruct(np.ascontiguousarray(cap.frames))
     texture_rgb = None
     if cap.folder is not None and c.texture is not None:
@@ -282,9 +318,8 @@ def reconstruct_capture(folder: str | os.PathLike, calibration: str | os.PathLik
     rig = calibration if isinstance(calibration, Rig) else Rig.load(calibration)
     cap = read_capture(folder, max_cycles=1)
     check_sizes(rig, cap.frames, calibration, cap.patterns)
-    return reconstruct_cycle(cap, rig, method=method, z_min=z_min, triangulation=triangulation,
-                             min_modulation=min_modulation, edge_mask=edge_mask, edge_margin=edge_margin,
-                             allow_relative=allow_relative)
+    options = DecodeOptions(z_min=z_min, min_modulation=min_modulation, edge_mask=edge_mask, edge_margin=edge_margin)
+    return reconstruct_cycle(cap, rig, CycleSettings(options, method, triangulation, allow_relative=allow_relative))
 
 
 def write_point_maps(out: Path, points: np.ndarray, texture: np.ndarray | None, ply: bool,

@@ -7,11 +7,11 @@ from .evaluation import evaluate_points, load_points, truth_errors
 from .fits import CircleFit, PlaneFit, SphereFit, fit_circle, fit_plane, fit_sphere, inner_mask, robust_fit
 from .geodesic import bezier_geodesic, grid_geodesic, heat_geodesic
 from .sections import segments, sphere_sections
-from .strain import (LocalShape, StrainResult, WingSequence, bending_strain, local_shape, principal_strains,
-                     wing_sequence)
+from .strain import (LocalShape, StrainResult, TrackingSettings, WingSequence, bending_strain, local_shape,
+                     principal_strains, wing_sequence)
 from .tracking import TrackResult, track_points
 from .vdi import flatness, probing_errors, sphere_spacing
-from .wing_strain import run_strain
+from .wing_strain import StrainSettings, run_strain
 
 __all__ = [
     "fit_plane", "fit_sphere", "fit_circle", "PlaneFit", "SphereFit", "CircleFit", "inner_mask", "robust_fit",
@@ -21,5 +21,5 @@ __all__ = [
     "find_anchor_dots", "pair_anchors", "check_anchor", "fill_dot_holes", "distance_maps", "follow_anchors",
     "track_points", "TrackResult",
     "local_shape", "LocalShape", "bending_strain", "StrainResult", "principal_strains", "wing_sequence",
-    "WingSequence", "run_strain",
+    "WingSequence", "TrackingSettings", "run_strain", "StrainSettings",
 ]

@@ -33,7 +33,44 @@ from fringe3d.analyze.geodesic import check_point_map, valid_mask
 from fringe3d.analyze.tracking import SURFACE_SAMPLING, side_of_line, track_points
 from fringe3d.phase.sampling import sample_bilinear
 
-__all__ = ["LocalShape", "local_shape", "bending_strain", "StrainResult", "principal_strains"]
+__all__ = ["LocalShape", "local_shape", "bending_strain", "StrainResult", "principal_strains", "TrackingSettings"]
+
+
+@dataclass(frozen=True)
+class TrackingSettings:
+    """How the material points of a wing are tracked (Eq. 6.9) and their local shape fitted
+    (Eq. 6.13-6.21): the settings :func:`wing_sequence` and
+    :func:`fringe3d.analyze.wing_strain.run_strain` share.
+
+    Attributes
+    ----------
+    window : int
+        Odd side of the local-shape fit window, pixels (:func:`local_shape`; default 11).
+    method : str
+        Geodesic method: ``"bezier"`` (with wavefront update, the default), ``"bezier-edges"`` or
+        ``"grid"`` (:func:`fringe3d.analyze.anchors.distance_maps`).
+    radius : int
+        Half-size of the Bézier marching window, pixels (default 3: a 7 x 7 window).
+    fill_dots : int
+        If > 0, holes within this many pixels of each anchor (dark dots do not reconstruct) are
+        filled first (:func:`fringe3d.analyze.anchors.fill_dot_holes`); default 0, none.
+    stop_margin : float or None
+        Relative margin, dimensionless: on the deformed frames each anchor's geodesic search stops
+        at ``(1 + stop_margin) · max_k d_k`` (mm), the farthest query point's reference distance
+        plus this margin (an inextensible wing keeps its geodesic distances; the margin covers
+        noise and the tracker's sub-pixel neighbourhood); None searches the whole map. Default 0.1.
+
+    Examples
+    --------
+    >>> TrackingSettings(fill_dots=8).window
+    11
+    """
+
+    window: int = 11
+    method: str = "bezier"
+    radius: int = 3
+    fill_dots: int = 0
+    stop_margin: float | None = 0.1
 
 
 @dataclass
@@ -345,9 +382,8 @@ class WingSequence:
     ok: np.ndarray
 
 
-def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, window: int = 11,
-                  reference: int = 0, method: str = "bezier", radius: int = 3, fill_dots: int = 0,
-                  progress=None, stop_margin: float | None = 0.1) -> WingSequence:
+def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float,
+                  tracking: TrackingSettings | None = None, reference: int = 0, progress=None) -> WingSequence:
     """Track ``query_uv`` (N,2) of the reference frame through ``frames`` and compute strain.
 
     Tracking: Eq. 6.9 (:func:`fringe3d.analyze.tracking.track_points`); strain: Eq. 6.11–6.21
@@ -365,25 +401,13 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
         Pixel positions (u column, v row) of the material points on the reference frame.
     thickness : float
         Wing thickness h, mm (> 0; :func:`bending_strain`).
-    window : int
-        Odd side of the local-shape fit window, pixels (:func:`local_shape`).
+    tracking : TrackingSettings, optional
+        Fit window, geodesic method and window, dot filling and search margin (default
+        ``TrackingSettings()``).
     reference : int
         Index of the reference frame.
-    method : str
-        Geodesic method ("bezier" with wavefront update, "bezier-edges", "grid"; see
-        :func:`fringe3d.analyze.anchors.distance_maps`).
-    radius : int
-        Half-size of the Bézier marching window, pixels.
-    fill_dots : int
-        If > 0, holes within this many pixels of each anchor (dark dots do not
-        reconstruct) are filled first (:func:`fringe3d.analyze.anchors.fill_dot_holes`).
     progress : callable, optional
         Called with no argument once per frame.
-    stop_margin : float or None
-        On the deformed frames each anchor's geodesic search stops at
-        ``(1 + stop_margin) · max_k d_k`` (mm), the farthest query point's reference distance
-        plus a relative margin (an inextensible wing keeps its geodesic distances; the margin
-        covers noise and the tracker's sub-pixel neighbourhood); None searches the whole map.
 
     Returns
     -------
@@ -395,8 +419,7 @@ def wing_sequence(frames, anchors, query_uv: np.ndarray, thickness: float, windo
     nf = len(frames)
     if anchors.shape != (nf, 2, 2):
         raise ValueError(f"anchors must have shape (frames={nf}, 2, 2); got {anchors.shape}")
-    ref = wing_reference(frames[reference], anchors[reference], query_uv, thickness, window, method, radius,
-                         fill_dots, stop_margin)
+    ref = wing_reference(frames[reference], anchors[reference], query_uv, thickness, tracking)
     n = ref.q.shape[0]
     out = WingSequence(ref.q, ref.d, np.full((nf, n, 2), np.nan), np.full((nf, n, 3), np.nan),
                        np.full((nf, n, 2, 2), np.nan), np.full((nf, n, 2), np.nan), np.full((nf, n), np.nan),
@@ -454,11 +477,12 @@ def _filled(points, anchors, fill_dots: int) -> np.ndarray:
 
 
 def wing_reference(points: np.ndarray, anchors: np.ndarray, query_uv: np.ndarray, thickness: float,
-                   window: int = 11, method: str = "bezier", radius: int = 3, fill_dots: int = 0,
-                   stop_margin: float | None = 0.1) -> WingReference:
+                   tracking: TrackingSettings | None = None) -> WingReference:
     """The :class:`WingReference` of one wing from its reference point map (H, W, 3) mm and anchors
     (2, 2) px (parameters as :func:`wing_sequence`): the reference distance maps (Eq. 6.7–6.8),
     the query points' distances, sides and material direction, and their local shapes (Eq. 6.13–6.21)."""
+    t = tracking if tracking is not None else TrackingSettings()
+    window, method, radius, fill_dots, stop_margin = t.window, t.method, t.radius, t.fill_dots, t.stop_margin
     anchors = np.asarray(anchors, dtype=np.float64)
     q = np.atleast_2d(np.asarray(query_uv, dtype=np.float64))
     ref_pts = _filled(points, anchors, fill_dots)

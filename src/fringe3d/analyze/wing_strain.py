@@ -19,6 +19,7 @@ from collections import deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import ExitStack
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -44,7 +45,7 @@ from .anchors import (
     query_grid,
 )
 from .frame_task import StrainFrameTask
-from .strain import WingFrame, wing_reference
+from .strain import TrackingSettings, WingFrame, wing_reference
 
 #: Per-point arrays written to ``arrays/wing_K/NAME.npy``: (per-point shape, dtype) of each.
 ARRAY_FIELDS = {"uv": ((2,), np.float64), "xyz": ((3,), np.float64), "E": ((2, 2), np.float64),
@@ -144,8 +145,45 @@ def frame_label(f: int, frame_rate: float | None) -> str:
     return f"frame {f}" + (f", t = {1e3 * f / frame_rate:.4g} ms" if frame_rate else "")
 
 
-def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window: int = 11, step: int = 4,
-               wings: int = 1, radius: int = 3, reference: int = 0, figures: bool = True, fill_dots: int = 8,
+def _run_tracking() -> TrackingSettings:
+    """A strain run's default tracking: :class:`~fringe3d.analyze.strain.TrackingSettings` with the
+    anchor-dot holes filled up to 8 px (a dark dot does not reconstruct)."""
+    return TrackingSettings(fill_dots=8)
+
+
+@dataclass(frozen=True)
+class StrainSettings:
+    """What a strain run (:func:`run_strain`) measures and how it tracks.
+
+    Attributes
+    ----------
+    thickness : float
+        Wing thickness h, mm (> 0; E = (h/2)·κ, Eq. 6.11). Default 0.1.
+    step : int
+        Spacing of the tracked grid of reference pixels, pixels (>= 1). Default 4.
+    wings : int
+        Number of wings, for ``anchors="auto"``. Default 1.
+    reference : int
+        Index of the undeformed reference frame. Default 0.
+    tracking : TrackingSettings
+        Fit window (odd, >= 3 px), geodesic method and marching window (px), anchor-dot filling
+        (px) and search margin (:class:`~fringe3d.analyze.strain.TrackingSettings`); default
+        ``TrackingSettings(fill_dots=8)``: a strain run fills dot holes up to 8 px.
+
+    Examples
+    --------
+    >>> StrainSettings(step=6).tracking.fill_dots
+    8
+    """
+
+    thickness: float = 0.1
+    step: int = 4
+    wings: int = 1
+    reference: int = 0
+    tracking: TrackingSettings = field(default_factory=_run_tracking)
+
+
+def run_strain(sequence, anchors: str, out: Path, settings: StrainSettings | None = None, figures: bool = True,
                workers: int = 1, frames: FrameScheduler | None = None, frame_rate: float | None = None) -> dict:
     """Track a wing sequence and map its bending strain (Eq. 6.9-6.21): everything
     ``fringe3d strain`` does; returns the JSON summary. Validates all inputs before any file
@@ -163,22 +201,11 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         one group per wing (:func:`fringe3d.analyze.anchors.parse_anchors`).
     out : Path
         Output folder.
-    thickness : float
-        Wing thickness, mm (> 0).
-    window : int
-        Odd side (>= 3) of the local-shape fit window, pixels.
-    step : int
-        Spacing of the tracked grid of reference pixels, pixels (>= 1).
-    wings : int
-        Number of wings, for ``anchors="auto"``.
-    radius : int
-        Half-size of the Bézier geodesic marching window, pixels.
-    reference : int
-        Index of the reference frame.
+    settings : StrainSettings, optional
+        Thickness (mm), grid step (px), wing count, reference frame and the tracking settings
+        (default ``StrainSettings()``).
     figures : bool
         Write the strain maps (PNG) and the GIF animation.
-    fill_dots : int
-        Fill reconstruction holes within this many pixels of each anchor; 0 fills none.
     workers : int
         Frames processed at once on threads (the same output for any number).
     frames : FrameScheduler, optional
@@ -197,6 +224,10 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         settings and the run time (s).
     """
     t0 = time.perf_counter()
+    settings = settings if settings is not None else StrainSettings()
+    thickness, step, wings, reference = settings.thickness, settings.step, settings.wings, settings.reference
+    tracking = settings.tracking
+    window, radius, fill_dots = tracking.window, tracking.radius, tracking.fill_dots
     if not (thickness > 0):
         raise ValueError(f"`thickness` must be > 0 mm; got {thickness}")
     if window < 3 or window % 2 == 0:
@@ -227,8 +258,7 @@ def run_strain(sequence, anchors: str, out: Path, thickness: float = 0.1, window
         q = query_grid(ref, a, step, margin=window // 2)
         if len(q) == 0:
             raise ValueError(f"wing {w}: no surface pixels around the anchors to track")
-        refs.append(wing_reference(ref, per_frame[reference, w], q, thickness, window, radius=radius,
-                                   fill_dots=fill_dots))
+        refs.append(wing_reference(ref, per_frame[reference, w], q, thickness, tracking))
     out = Path(out)
     nf = len(seq)
     folders = [out / "arrays" / f"wing_{w}" for w in range(len(refs))]

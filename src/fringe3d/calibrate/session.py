@@ -29,7 +29,7 @@ import numpy as np
 
 from fringe3d.decode import decode
 from fringe3d.io.capture import read_capture
-from fringe3d.io.importer import layout_patterns, list_sources, read_frames
+from fringe3d.io.importer import ImportLayout, layout_patterns, list_sources, read_frames
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.patterns.method_registry import method_facts
 from fringe3d.utils.console import progress_bar
@@ -103,7 +103,7 @@ def find_pose_folders(paths, layout: str | None = None,
         The merged ``session.json`` contents, or {}.
     """
     if layout is not None:
-        return _frame_folders(paths, layout_patterns(layout, projector_size))
+        return _frame_folders(paths, layout_patterns(ImportLayout(layout, projector_size)))
     out: list[Path] = []
     meta: dict = {}
     for p in map(Path, paths):

@@ -18,6 +18,7 @@ from fringe3d import __version__
 from fringe3d.devices import DeviceSpec, open_camera, open_projector
 from fringe3d.devices.acquire import (
     CaptureIncompleteError,
+    CaptureTiming,
     capture_ramp,
     capture_sequence,
     check_exposure,
@@ -365,9 +366,8 @@ def _run_with_devices(loaded: tuple, parsed: tuple, dev: DeviceOptions, mode: Mo
             def prog(n):
                 advance(n - last[0])
                 last[0] = n
-            res = capture_sequence(proj, cam, ps, show, output, sync=sync, cycles=cycles, settle=settle,
-                                   timeout=timeout, frame_rate=frame_rate, planes=planes, extra_meta=meta,
-                                   progress=prog, exposures=bracket)
+            res = capture_sequence(proj, cam, ps, show, output, cycles=cycles, planes=planes, extra_meta=meta,
+                                   progress=prog, timing=CaptureTiming(sync, settle, timeout, frame_rate, bracket))
     except CaptureIncompleteError as e:
         err_console.print(f"[bold red]capture incomplete:[/] {e}")
         raise SystemExit(EXIT_INCOMPLETE) from None

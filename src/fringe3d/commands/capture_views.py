@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from fringe3d.devices import DeviceSpec, option
+from fringe3d.devices.acquire import CaptureTiming
 from fringe3d.devices.stage_backends import STAGE_BACKENDS, open_stage
 from fringe3d.devices.views import capture_views, stage_positions
 from fringe3d.multiview.axis import read_axis, turntable_poses
@@ -71,9 +72,8 @@ def capture_views_mode(proj, cam, loaded: tuple, meta: dict, dev, mode, run) -> 
     spec = DeviceSpec.parse(mode.stage)
     positions = stage_positions(mode.views, stage_step(spec, mode.views))
     out = Path(run.output)
-    seq = {"patterns": ps, "images": show, "sync": dev.sync, "cycles": run.cycles, "settle": dev.settle,
-           "timeout": dev.timeout, "frame_rate": dev.frame_rate, "planes": planes, "extra_meta": meta,
-           "exposures": dev.exposures}
+    seq = {"patterns": ps, "images": show, "cycles": run.cycles, "planes": planes, "extra_meta": meta,
+           "timing": CaptureTiming(dev.sync, dev.settle, dev.timeout, dev.frame_rate, dev.exposures)}
     stage = _open_stage(spec, proj)
     try:
         total = len(ps) * run.cycles * mode.views

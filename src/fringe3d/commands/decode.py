@@ -23,12 +23,12 @@ from fringe3d.decode.bracket import INDEX_NAME, fuse_bracket
 from fringe3d.decode.plan_checks import check_geometry
 from fringe3d.io.capture import read_capture, read_meta
 from fringe3d.io.images import write_tiff
-from fringe3d.io.importer import load_images, parse_size
+from fringe3d.io.importer import FrameReading, ImportLayout, load_images, parse_size
 from fringe3d.patterns.manifest import MANIFEST_NAME
 from fringe3d.patterns.layouts import with_threshold
 from fringe3d.optics import Rig
 from fringe3d.phase.ftp import WINDOWS
-from fringe3d.utils.output_folder import check_complete
+from fringe3d.utils.output_folder import OutputGuard, check_complete
 from fringe3d.utils.console import (
     console,
     info,
@@ -141,13 +141,12 @@ def register(app: typer.Typer) -> None:
         if capture is None and list_file is None:
             raise ValueError("give the capture folder (or frames with --set/--manifest), or --list FILE")
         if described:  # what fringe3d import reads, in memory
-            cap = load_images(capture, list_file=list_file, manifest=manifest, layout=layout,
-                              projector_size=parse_size(projector_size), channel=channel, bit_depth=bit_depth,
-                              first_frame=first_frame, frame_count=frame_count,
-                              **io.layout_arguments(layout, steps=steps, period=period, direction=direction,
-                                                    shift_order=shift_order, shift_sign=shift_sign, unwrap=unwrap,
-                                                    no_inverse=no_inverse, interleave=interleave,
-                                                    white_black=white_black, threshold=threshold))
+            size = parse_size(projector_size)
+            flags = io.LayoutFlags(steps, period, direction, shift_order, shift_sign, unwrap, no_inverse, interleave,
+                                   white_black, threshold)
+            cap = load_images(capture, list_file=list_file, manifest=manifest,
+                              layout=ImportLayout(layout, size, **io.layout_arguments(layout, flags)),
+                              reading=FrameReading(channel, bit_depth, first_frame, frame_count))
             if cap.source is None and max_cycles is not None:
                 cap.frames = cap.frames[:max(1, max_cycles) * len(cap.patterns)]
         else:
@@ -211,8 +210,8 @@ def register(app: typer.Typer) -> None:
             try:
                 dopts = DecodeOptions(z_min=z_min, response=response_lut, **opts)
                 results = decode_capture(cap.source if cap.source is not None else cap.frames, patterns, out,
-                                         rig=rig_obj, options=dopts, cycles=n, overwrite=overwrite,
-                                         allow_empty=allow_empty, inputs=inputs, fingerprint=options,
+                                         rig=rig_obj, options=dopts, cycles=n,
+                                         guard=OutputGuard(overwrite, inputs, options), allow_empty=allow_empty,
                                          name=str(capture),
                                          on_cycle=None if fusion is None else _exposure_fields(cap, fusion))
             finally:

@@ -11,7 +11,7 @@ from fringe3d.commands.deprecated import AliasCommand
 from fringe3d.commands.import_options import SRC_HELP
 from fringe3d.commands.output_options import overwrite_option
 from fringe3d.utils.output_folder import open_output
-from fringe3d.io.importer import check_source, import_images, parse_size
+from fringe3d.io.importer import FrameReading, ImportLayout, check_source, import_images, parse_size
 from fringe3d.utils.console import console, make_table, print_json, set_quiet
 
 
@@ -54,9 +54,8 @@ def register(app: typer.Typer) -> None:
         --projector-size 1280x800 --unwrap spatial -o scan-capture
         """
         set_quiet(quiet or json_)
-        opts = io.layout_arguments(layout, steps=steps, period=period, direction=direction, shift_order=shift_order,
-                                   shift_sign=shift_sign, unwrap=unwrap, no_inverse=no_inverse,
-                                   interleave=interleave, white_black=white_black, threshold=threshold)
+        opts = io.layout_arguments(layout, io.LayoutFlags(steps, period, direction, shift_order, shift_sign, unwrap,
+                                                          no_inverse, interleave, white_black, threshold))
         check_source(src, list_file)
         bracket = parse_exposures(exposures, "--exposures")
         inputs = io.source_inputs(src, list_file, manifest)
@@ -64,11 +63,10 @@ def register(app: typer.Typer) -> None:
                          options={"src": src, "layout": layout, "first_frame": first_frame,
                                   "frame_count": frame_count, "copy_frames": copy_frames, "exposures": bracket,
                                   **opts}) as o:
-            summary = o.final_paths(import_images(src, o.path, list_file=list_file, manifest=manifest, layout=layout,
-                                                  projector_size=parse_size(projector_size), channel=channel,
-                                                  bit_depth=bit_depth, overwrite=True, first_frame=first_frame,
-                                                  frame_count=frame_count, copy_frames=copy_frames,
-                                                  exposures=bracket, **opts))
+            summary = o.final_paths(import_images(src, o.path, list_file=list_file, manifest=manifest,
+                                                  layout=ImportLayout(layout, parse_size(projector_size), **opts),
+                                                  reading=FrameReading(channel, bit_depth, first_frame, frame_count),
+                                                  overwrite=True, copy_frames=copy_frames, exposures=bracket))
         if json_:
             print_json(summary)
             return

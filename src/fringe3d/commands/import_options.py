@@ -3,6 +3,7 @@ decode`` (one definition each): the frame list, what was projected (``--manifest
 ``--set/--layout`` with its parameters), the colour channel, bit depth and camera-file range."""
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import typer
@@ -100,24 +101,64 @@ def frame_count_option() -> int:
                                                     "the whole cycles left).")
 
 
-def layout_arguments(layout: str | None, *, steps: int, period: float | None, direction: str,
-                     shift_order: str | None, shift_sign: int, unwrap: str | None, no_inverse: bool,
-                     interleave: bool = False, white_black: str = "none", threshold: str | None = None) -> dict:
-    """The ``--set`` parameters as keyword arguments of
-    :func:`fringe3d.io.importer.layout_patterns` (for a manifest or ``opencv-graycode`` only
-    ``threshold``, which :func:`fringe3d.io.importer.described_patterns` applies to any set)."""
+@dataclass(frozen=True)
+class LayoutFlags:
+    """The values of the flags that describe a ``--set`` layout, as typed on the command line
+    (:func:`layout_arguments` checks them against the layout and converts them).
+
+    Attributes
+    ----------
+    steps : int
+        ``--steps``: phase-shift steps N.
+    period : float | None
+        ``--period``: fringe period / stripe width (projector px).
+    direction : str
+        ``--direction``: ``v``, ``h`` or several, e.g. ``v,h``.
+    shift_order : str | None
+        ``--shift-order``: the step held by each captured frame, comma-separated, e.g. ``2,0,1``.
+    shift_sign : int
+        ``--shift-sign``: +1, or -1 for shifts ``-2 pi k / N``.
+    unwrap : str | None
+        ``--unwrap``: the plans' unwrapping method.
+    no_inverse : bool
+        ``--no-inverse``: gray-code without inverse frames.
+    interleave : bool
+        ``--interleave``: the directions alternate frame by frame.
+    white_black : str
+        ``--white-black``: ``none``, ``first`` or ``last``.
+    threshold : str | None
+        ``--threshold``: ``inverse``, ``white-black``, ``average`` or a level in camera counts.
+    """
+
+    steps: int = 3
+    period: float | None = None
+    direction: str = "v"
+    shift_order: str | None = None
+    shift_sign: int = 1
+    unwrap: str | None = None
+    no_inverse: bool = False
+    interleave: bool = False
+    white_black: str = "none"
+    threshold: str | None = None
+
+
+def layout_arguments(layout: str | None, flags: LayoutFlags) -> dict:
+    """The ``--set`` parameters ``flags`` as fields of :class:`fringe3d.io.importer.ImportLayout`
+    (for a manifest or ``opencv-graycode`` only ``threshold``, which
+    :func:`fringe3d.io.importer.described_patterns` applies to any set): what the import records
+    among its options."""
     if layout is None or layout == "opencv-graycode":
-        if interleave or white_black != "none" or "," in direction:
+        if flags.interleave or flags.white_black != "none" or "," in flags.direction:
             raise ValueError("--direction v,h, --interleave and --white-black describe a --set gray-code or "
                              f"phase-shift layout; {'the manifest' if layout is None else layout} fixes its frames")
-        return {} if threshold is None else {"threshold": threshold}
-    opts: dict = {"period": period, "direction": direction, "unwrap": unwrap, "interleave": interleave,
-                  "white_black": white_black, "threshold": threshold}
+        return {} if flags.threshold is None else {"threshold": flags.threshold}
+    opts: dict = {"period": flags.period, "direction": flags.direction, "unwrap": flags.unwrap,
+                  "interleave": flags.interleave, "white_black": flags.white_black, "threshold": flags.threshold}
     if layout == "phase-shift":
-        opts.update(steps=steps, shift_sign=shift_sign,
-                    shift_order=None if shift_order is None else [int(k) for k in shift_order.split(",")])
+        opts.update(steps=flags.steps, shift_sign=flags.shift_sign,
+                    shift_order=None if flags.shift_order is None else [int(k) for k in flags.shift_order.split(",")])
     else:
-        opts["inverse"] = not no_inverse
+        opts["inverse"] = not flags.no_inverse
     return opts
 
 

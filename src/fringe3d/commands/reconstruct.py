@@ -28,7 +28,7 @@ from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import MANIFEST_NAME
 from fringe3d.patterns.method_registry import relative_methods
 from fringe3d.utils.output_folder import open_output
-from fringe3d.pipeline import check_sizes, reconstruct_cycle, reference_z_min
+from fringe3d.pipeline import CycleSettings, check_sizes, reconstruct_cycle, reference_z_min
 from fringe3d.reconstruct.depth import EmptyMaskError
 from fringe3d.io.capture_frames import CaptureFolder
 from fringe3d.reconstruct.frame import reconstruction_plans
@@ -224,11 +224,8 @@ def register(app: typer.Typer) -> None:
                              options=fp_options, resumable=sequence) as o:
                 if not sequence:
                     try:
-                        r = reconstruct_cycle(cap, rig, method, z_min, triangulation=triangulation,
-                                              min_modulation=min_modulation, edge_mask=edge_mask,
-                                              edge_margin=edge_margin, backend=device,
-                                              allow_relative=allow_relative, compensate=compensate,
-                                              response=response_lut)
+                        r = reconstruct_cycle(cap, rig, CycleSettings(DecodeOptions(z_min=z_min, **opts), method,
+                                                                      triangulation, device, allow_relative))
                     except EmptyMaskError:
                         raise ValueError(f"{capture}: no valid 3D point: "
                                          f"{why()}."

@@ -30,7 +30,8 @@ from pathlib import Path
 import typer
 
 from fringe3d.analyze.anchors import parse_anchors
-from fringe3d.analyze.wing_strain import run_strain
+from fringe3d.analyze.strain import TrackingSettings
+from fringe3d.analyze.wing_strain import StrainSettings, run_strain
 from fringe3d.commands.checks import check_number
 from fringe3d.io.point_sequence import read_point_sequence
 from fringe3d.cluster.engine import close, connect
@@ -92,8 +93,9 @@ def register(app: typer.Typer) -> None:
         try:
             with open_output(out, overwrite=overwrite, inputs=[sequence], options=options) as o:
                 frames = frames_on_dask(client) if client is not None else None
-                summary = o.final_paths(run_strain(sequence, anchors, o.path, thickness, window, step, wings, radius,
-                                                   reference, figures=not no_figures, fill_dots=fill_dots,
+                settings = StrainSettings(thickness, step, wings, reference,
+                                          TrackingSettings(window=window, radius=radius, fill_dots=fill_dots))
+                summary = o.final_paths(run_strain(sequence, anchors, o.path, settings, figures=not no_figures,
                                                    workers=workers, frames=frames, frame_rate=frame_rate))
         finally:
             if client is not None:

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -19,13 +18,12 @@ from fringe3d.optics import Rig
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.utils.console import progress_bar
 from fringe3d.utils.jsonfile import read_json
-from fringe3d.utils.output_folder import open_output
+from fringe3d.utils.output_folder import OutputGuard, open_output
 
 
 def decode_capture(frames: Sequence[np.ndarray] | np.ndarray, patterns: PatternSet, out: Path, *,
                    rig: Rig | None = None, options: DecodeOptions | None = None, cycles: int = 1,
-                   overwrite: bool = False, allow_empty: bool = False, inputs: Sequence[Any] = (),
-                   fingerprint: dict | None = None, name: str = "the capture",
+                   guard: OutputGuard | None = None, allow_empty: bool = False, name: str = "the capture",
                    on_cycle: Callable[[Path, dict], None] | None = None) -> list[dict]:
     """Decode the first ``cycles`` pattern cycles of ``frames`` into the guarded folder ``out``.
 
@@ -45,14 +43,12 @@ def decode_capture(frames: Sequence[np.ndarray] | np.ndarray, patterns: PatternS
         Decoding options (default ``DecodeOptions()``).
     cycles : int
         Number of cycles to decode.
-    overwrite : bool
-        Replace an existing, different output.
+    guard : OutputGuard, optional
+        How ``out`` is guarded (:class:`fringe3d.utils.output_folder.OutputGuard`): whether an
+        existing, different output is replaced, and the input files and options fingerprinted
+        into the output (a resumed run must have the same); default ``OutputGuard()``.
     allow_empty : bool
         Write a cycle in which no pixel is valid instead of raising.
-    inputs : sequence
-        Input files fingerprinted into the output (a resumed run must have the same inputs).
-    fingerprint : dict, optional
-        Options fingerprinted into the output (a resumed run must have the same options).
     name : str
         How error messages name the capture (its folder or file).
     on_cycle : callable, optional
@@ -71,9 +67,10 @@ def decode_capture(frames: Sequence[np.ndarray] | np.ndarray, patterns: PatternS
         A cycle has no valid pixel and ``allow_empty`` is False (nothing of it is written).
     """
     options = options if options is not None else DecodeOptions()
+    guard = guard if guard is not None else OutputGuard()
     length = len(patterns)
     results: list[dict] = []
-    with open_output(out, overwrite=overwrite, inputs=list(inputs), options=fingerprint or {},
+    with open_output(out, overwrite=guard.overwrite, inputs=list(guard.inputs), options=dict(guard.fingerprint or {}),
                      resumable=cycles > 1) as o, \
             progress_bar("decoding", cycles, enabled=cycles > 1) as advance:
         for c in range(cycles):

@@ -30,6 +30,7 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
@@ -120,15 +121,43 @@ def _place_burst(frames, n: int, period: float | None):
     return slots, dups
 
 
-def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *, sync: str = "software",
-                     cycles: int = 1, settle: float = 0.0, timeout: float = 1.0, frame_rate: float | None = None,
-                     planes: list[int] | None = None, extra_meta: dict | None = None, progress=None,
-                     exposures: list[float] | None = None) -> CaptureResult:
+@dataclass(frozen=True)
+class CaptureTiming:
+    """How the capture loop times the devices (:func:`capture_sequence`).
+
+    Attributes
+    ----------
+    sync : str
+        ``"software"`` (trigger after each shown image) or ``"hardware"`` (the projector's
+        trigger output exposes the camera); see the module docstring.
+    settle : float
+        Software sync: seconds to wait after ``show`` before triggering (display-to-light latency).
+    timeout : float
+        Seconds to wait for each frame.
+    frame_rate : float | None
+        Expected frame rate (Hz) for the hardware burst checks; ``None``: the projector's refresh
+        rate times the planes per image.
+    exposures : sequence of float | None
+        Software sync: an HDR bracket, the camera's exposure time (s) for each cycle, set before
+        the cycle (the cycle count is then its length); ``capture.json`` gets ``exposures`` and
+        every frame record its ``exposure``. ``None``: the configured exposure throughout.
+    """
+
+    sync: str = "software"
+    settle: float = 0.0
+    timeout: float = 1.0
+    frame_rate: float | None = None
+    exposures: Sequence[float] | None = None
+
+
+def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *, timing: CaptureTiming | None = None,
+                     cycles: int = 1, planes: list[int] | None = None, extra_meta: dict | None = None,
+                     progress=None) -> CaptureResult:
     """Capture ``cycles`` cycles of ``patterns`` into the capture folder ``folder``.
 
-    ``exposures`` (s, software sync): an HDR bracket, one cycle per exposure time, the camera's
-    exposure set before each cycle (``cycles`` is then ``len(exposures)``); ``capture.json`` gets
-    ``exposures`` and every frame record its ``exposure``.
+    ``timing.exposures`` (s, software sync): an HDR bracket, one cycle per exposure time, the
+    camera's exposure set before each cycle (``cycles`` is then ``len(exposures)``);
+    ``capture.json`` gets ``exposures`` and every frame record its ``exposure``.
 
     Parameters
     ----------
@@ -141,16 +170,13 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
         What the projector shows, in order. Unpacked: one image per pattern. Packed bit-planes:
         one RGB image per video frame, ``planes[j]`` patterns each (``sync="hardware"`` only).
     folder : path
-    sync : ``"software"`` or ``"hardware"``
+    timing : CaptureTiming, optional
+        Sync mode, settle and frame timeout (s), expected frame rate (Hz), exposure bracket (s);
+        default :class:`CaptureTiming` ``()`` (software sync).
     cycles : int
         Repetitions of the sequence (moving scenes).
-    settle : float
-        Software sync: seconds to wait after ``show`` before triggering (display-to-light latency).
-    timeout : float
-        Seconds to wait for each frame.
-    frame_rate : float, optional
-        Expected frame rate (Hz) for the hardware burst checks; default the projector's refresh
-        rate times the planes per image.
+    planes : list of int, optional
+        Patterns per shown image (packed bit-planes, hardware sync); default one each.
     extra_meta : dict, optional
         More ``capture.json`` fields (command line, provenance).
     progress : callable, optional
@@ -167,6 +193,9 @@ def capture_sequence(projector, camera, patterns: PatternSet, images, folder, *,
     CaptureIncompleteError
         Frames were missing or duplicated; the folder is written but not marked complete.
     """
+    timing = timing or CaptureTiming()
+    sync, settle, timeout, frame_rate, exposures = (timing.sync, timing.settle, timing.timeout, timing.frame_rate,
+                                                    timing.exposures)
     if exposures is not None:
         if sync != "software":
             raise ValueError("exposures: an exposure bracket changes the exposure between cycles; use software sync")

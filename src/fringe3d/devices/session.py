@@ -27,7 +27,7 @@ from fringe3d.calibrate.board_detection import find_board
 from fringe3d.calibrate.boards import CircleBoard
 from fringe3d.utils.jsonfile import write_json
 
-from .acquire import capture_sequence
+from .acquire import CaptureTiming, capture_sequence
 from .base import DeviceError, require_module
 
 
@@ -172,7 +172,8 @@ def capture_session(projector, camera, patterns, images, folder, poses: int, *, 
             finally:
                 camera.stop()
             name = f"pose_{len(taken):02d}"
-            capture_sequence(projector, camera, patterns, images, folder / name, settle=settle, timeout=timeout,
+            capture_sequence(projector, camera, patterns, images, folder / name,
+                             timing=CaptureTiming(settle=settle, timeout=timeout),
                              extra_meta={**(extra_meta or {}), "session_pose": len(taken),
                                          "board_centres_px": history[-1][1].tolist()})
             taken.append(name)

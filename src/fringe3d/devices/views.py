@@ -58,7 +58,7 @@ def capture_views(projector, camera, stage: Stage, positions, sequence: dict, fo
         Stage positions in view order (degrees for a turntable).
     sequence : dict
         Keywords of :func:`fringe3d.devices.acquire.capture_sequence`: ``patterns``, ``images``
-        and any of its options (``sync``, ``settle``, ``timeout``, ``extra_meta``, ...).
+        and any of its options (``timing``, ``cycles``, ``planes``, ``extra_meta``).
     folder : path
         The multi-view output folder.
     progress : callable, optional

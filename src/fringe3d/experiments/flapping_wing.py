@@ -14,7 +14,7 @@ from scipy import ndimage
 
 from fringe3d.analyze.anchors import find_anchor_dots, follow_anchors
 from fringe3d.analyze.geodesic import bezier_geodesic, grid_geodesic, heat_geodesic
-from fringe3d.analyze.strain import local_shape, wing_sequence
+from fringe3d.analyze.strain import TrackingSettings, local_shape, wing_sequence
 from fringe3d.analyze.tracking import SURFACE_SAMPLING
 from fringe3d.phase.sampling import sample_bilinear
 from fringe3d.decode import DecodeOptions, decode
@@ -143,7 +143,7 @@ def _marker_rows(label, err):
 
 def _track_markers(maps, anchors, q_markers, grid, window, fill, method="bezier"):
     q = np.vstack([q_markers, grid]) if grid is not None and len(grid) else q_markers
-    return wing_sequence(maps, anchors, q, THICKNESS, window, method=method, fill_dots=fill)
+    return wing_sequence(maps, anchors, q, THICKNESS, TrackingSettings(window=window, method=method, fill_dots=fill))
 
 
 def _reconstruct_side(wing, preset, settings, ps, starts, seed, advance=None):
@@ -449,8 +449,8 @@ def _noise_floor_table(cfg: _Setup) -> dict:
     floor_rows = []
     for win in ((11, 31) if cfg.quick else (11, 21, 31)):
         gq, _ = interior_grid(np.isfinite(Pa).all(axis=2), aa, win, 8)
-        nres = wing_sequence([Pa.astype(float), Pb.astype(float)], np.stack([aa, aa]), gq, THICKNESS, win,
-                             fill_dots=8)
+        nres = wing_sequence([Pa.astype(float), Pb.astype(float)], np.stack([aa, aa]), gq, THICKNESS,
+                             TrackingSettings(window=win, fill_dots=8))
         okn = nres.ok[1]
         floor_rows.append([win, 1e6 * float(np.sqrt(np.mean(nres.dominant[1][okn] ** 2))), int(okn.sum())])
     return {"title": "strain noise floor: one pose measured twice with independent sensor noise (interior)",

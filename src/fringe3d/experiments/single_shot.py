@@ -19,8 +19,8 @@ import numpy as np
 
 from fringe3d.decode import decode
 from fringe3d.optics import Rig
-from fringe3d.patterns.sets import modified_ftp, psp_with_gray_code
-from fringe3d.reconstruct.single_shot import single_shot
+from fringe3d.patterns.sets import CodeFrames, modified_ftp, psp_with_gray_code
+from fringe3d.reconstruct.single_shot import SingleShotSettings, single_shot
 from fringe3d.reconstruct.triangulate import Triangulator
 from fringe3d.sim import presets, render
 from fringe3d.sim import Plane, Scene, Sphere
@@ -73,7 +73,7 @@ def _render(sc, rig, settings, seed: int):
     w, h = rig.projector.width, rig.projector.height
     s = settings.replace(seed=seed)
     pair = modified_ftp(PERIOD, "v", width=w, height=h)
-    ref = psp_with_gray_code(PERIOD, 3, "v", width=w, height=h, code_period=PERIOD / 2)
+    ref = psp_with_gray_code(PERIOD, 3, "v", width=w, height=h, code=CodeFrames(period=PERIOD / 2))
     f_pair, truth = render(sc, rig, pair, s, progress=False)
     f_ref, _ = render(sc, rig, ref, s.replace(seed=seed + 1), progress=False)
     return f_pair, pair, f_ref, ref, truth
@@ -108,7 +108,7 @@ def depth_limit_case(rig, settings, seed: int, z_limit: float) -> dict:
     :data:`MARGIN` of the limit are reported apart (phase noise decides their side).
     """
     f_pair, pair, _, _, truth = _render(limit_scene(z_limit), rig, settings, seed)
-    res = single_shot(f_pair, rig, PERIOD, Z_MIN, method="modified_ftp", window="hanning")
+    res = single_shot(f_pair, rig, PERIOD, Z_MIN, method="modified_ftp", settings=SingleShotSettings(window="hanning"))
     mp = minimum_phase(rig, Z_MIN, PERIOD)
     sel = res.mask & truth.mask
     r_true = mp.sign * (truth.phase["v"] - mp.phi_min)
@@ -134,7 +134,7 @@ def run(quick: bool = False, seed: int = 0) -> dict:
                 ("modified FTP", "modified_ftp", "circular"), ("modified FTP", "modified_ftp", "hanning")]
     for label, method, window in track(variants, "single-shot variants"):
         imgs = f_pair[:1] if method == "ftp" else f_pair
-        res = single_shot(imgs, rig, PERIOD, Z_MIN, method=method, window=window)
+        res = single_shot(imgs, rig, PERIOD, Z_MIN, method=method, settings=SingleShotSettings(window=window))
         share, rms_psp, rms_true, n = _evaluate(res, truth, ref_pts)
         rows.append([label, window, n, round(100 * share, 3), rms_psp, rms_true, res.range_check["warned"]])
         figures[f"{method}/{window}"] = {"correct_order_share": share, "rms_vs_psp_mm": rms_psp,

@@ -48,7 +48,7 @@ def methods(width: int = 800, height: int = 600) -> dict:
         "heterodyne 18/21/144": sets.three_frequency("v", width=width, height=height),
         "gray code + phase (T/2 stripes)": sets.psp_with_gray_code(18, 9, "v", width=width, height=height),
         "gray code + phase (T stripes)": sets.psp_with_gray_code(18, 9, "v", width=width, height=height,
-                                                                 code_period=18),
+                                                                 code=sets.CodeFrames(period=18)),
     }
 
 

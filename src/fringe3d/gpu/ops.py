@@ -11,6 +11,8 @@ users and :class:`fringe3d.reconstruct.triangulate.FastThreeStep`.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from fringe3d.gpu.runtime import cuda_module, is_device_array
@@ -168,33 +170,70 @@ def central_points(w, mask, O, D_planes, Q, P3, device_output: bool = False):
     return _maps(res, n_cyc, hw, single, device_output, (3,))
 
 
-def three_step_constants(coef, phi_min, sign, O, D_planes, Q, P3) -> tuple:
+class ThreeStepGeometry(NamedTuple):
+    """The per-rig host arrays of the fused 3-step kernel
+    (:func:`fringe3d.reconstruct._kernels.three_step_kernel`), in its argument order.
+
+    Attributes
+    ----------
+    coef : (3, 3) float64
+        Least-squares phase coefficients of the three shifts
+        (:func:`fringe3d.phase.psp.lsq_coefficients`), dimensionless.
+    phi_min : (H, W) float32
+        Minimum phase map ``Φ_min`` (rad, Eq. 4.19).
+    sign : (H, W) int8
+        Direction of the phase along depth, +1 or -1 per pixel.
+    scale : float
+        Projector pixels per radian of phase, ``period / 2π`` (px/rad).
+    O : (3,) float64
+        Camera centre, mm.
+    D_planes : (3, H, W) float32
+        Each pixel's ray direction with depth 1 (so the ray parameter ``s`` is the camera-frame
+        depth, mm; :attr:`fringe3d.optics.rays.RayGeometry.D_planes`).
+    Q, P3 : (4,) float64
+        The projector's row ``cos(alpha)*P[1] + sin(alpha)*P[0]`` and third row of its (3, 4)
+        projection matrix (Eq. 2.37; :class:`fringe3d.optics.rays.RayGeometry`).
+    """
+
+    coef: np.ndarray
+    phi_min: np.ndarray
+    sign: np.ndarray
+    scale: float
+    O: np.ndarray
+    D_planes: np.ndarray
+    Q: np.ndarray
+    P3: np.ndarray
+
+
+def three_step_constants(geometry: ThreeStepGeometry) -> tuple:
     """The per-rig inputs of :func:`three_step_points` uploaded once (``constants=``): a
     sequence reuses them instead of sending the ray planes (12 bytes a pixel) every call."""
+    g = geometry
     cuda = cuda_module()
-    return ((D_planes.shape[1], D_planes.shape[2]), cuda.to_device(np.ascontiguousarray(coef, np.float64)),
-            cuda.to_device(np.ascontiguousarray(phi_min, np.float32).ravel()),
-            cuda.to_device(np.ascontiguousarray(sign, np.int8).ravel())) + _ray_constants(cuda, O, D_planes, Q, P3)
+    return ((g.D_planes.shape[1], g.D_planes.shape[2]), cuda.to_device(np.ascontiguousarray(g.coef, np.float64)),
+            cuda.to_device(np.ascontiguousarray(g.phi_min, np.float32).ravel()),
+            cuda.to_device(np.ascontiguousarray(g.sign, np.int8).ravel())) + _ray_constants(cuda, g.O, g.D_planes,
+                                                                                             g.Q, g.P3)
 
 
-def three_step_points(frames, index, coef, min_mod2: float, phi_min, sign, scale: float, O, D_planes, Q, P3,
-                      chunk: int = DEFAULT_CHUNK, device_output: bool = False, constants: tuple | None = None,
-                      depth: bool = False):
+def three_step_points(frames, index, geometry: ThreeStepGeometry, min_mod2: float, chunk: int = DEFAULT_CHUNK,
+                      device_output: bool = False, constants: tuple | None = None, depth: bool = False):
     """The fused 3-step + geometric + triangulation kernel on the device (the arguments of
-    :func:`fringe3d.reconstruct._kernels.three_step_kernel`); frames (F, H, W) or (C, F, H, W).
-    ``constants`` from :func:`three_step_constants` (else uploaded now).
+    :func:`fringe3d.reconstruct._kernels.three_step_kernel`: the per-rig arrays ``geometry`` and
+    the squared modulation threshold ``min_mod2``, frames' units squared); frames (F, H, W) or
+    (C, F, H, W). ``constants`` from :func:`three_step_constants` (else uploaded now).
     Returns (H, W, 3) or (C, H, W, 3) float32 mm, NaN invalid; with ``depth`` only the ray
     parameters ``s`` of ``X = O + s*D``, (H, W) or (C, H, W) float32 mm."""
     cuda = cuda_module()
     stack, hw, single = _cycles(frames)
-    check_camera_size(hw, D_planes.shape[1:], what="the frames")
+    check_camera_size(hw, geometry.D_planes.shape[1:], what="the frames")
     d_idx = cuda.to_device(_check_index(index, stack.shape[1]))
     if constants is None:
-        constants = three_step_constants(coef, phi_min, sign, O, D_planes, Q, P3)
+        constants = three_step_constants(geometry)
     _, d_coef, d_pm, d_sg = constants[:4]
     rays = constants[4:]
     mm2 = float(min_mod2)
-    sc = float(scale)
+    sc = float(geometry.scale)
     from fringe3d.gpu.triangulate_kernels import three_step_depth_kernel, three_step_kernel
 
     kernel = three_step_depth_kernel if depth else three_step_kernel

@@ -22,7 +22,7 @@ import glob
 import os
 import re
 import warnings
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -169,6 +169,84 @@ def check_bit_depth(frames: np.ndarray, bit_depth: int | None, dtype: str | np.d
     return bit_depth
 
 
+@dataclass(frozen=True)
+class ImportLayout:
+    """What was projected, as a layout instead of a pattern manifest (:func:`layout_patterns`),
+    and the code threshold of the plans (also of a manifest's).
+
+    Attributes
+    ----------
+    name : str | None
+        The layout: ``"phase-shift"``, ``"gray-code"`` or ``"opencv-graycode"`` (:data:`LAYOUTS`);
+        ``None`` when a pattern manifest says what was projected.
+    projector_size : tuple of int | None
+        Projector (width, height) in px; a layout needs it (it fixes the code bits and the
+        unwrapping range).
+    steps : int
+        ``"phase-shift"``: phase steps N.
+    period : float | None
+        Fringe period / stripe width (projector px); a ``"phase-shift"`` or ``"gray-code"``
+        layout needs it.
+    direction : str
+        ``"v"`` (vertical stripes, columns), ``"h"`` (rows), or several, e.g. ``"v,h"``: one set
+        each, concatenated (or alternating: ``interleave``).
+    shift_order : sequence of int | None
+        ``"phase-shift"``: the step held by each captured frame (frame i holds step
+        ``shift_order[i]``); ``None``: 0, 1, ..., N-1.
+    shift_sign : int
+        ``"phase-shift"``: +1 for shifts ``2 pi k / N``, -1 for ``-2 pi k / N``.
+    unwrap : str | None
+        Unwrapping method of the plans; ``None``: the layout's own (``"none"`` for phase-shift).
+    inverse : bool
+        ``"gray-code"``: each bit followed by its inverse frame.
+    interleave : bool
+        Several directions alternate frame by frame (bit by bit, step by step;
+        :func:`fringe3d.patterns.layouts.combine_directions`) instead of one after the other.
+    white_black : str
+        ``"none"``, ``"first"`` or ``"last"``: a white then a black frame before or after the patterns.
+    threshold : str | float | None
+        The plans' code threshold: ``"inverse"``, ``"white-black"``, ``"average"`` or a level in
+        camera counts; ``None``: the decoder's default. Applied to a manifest's plans too.
+    """
+
+    name: str | None = None
+    projector_size: tuple[int, int] | None = None
+    steps: int = 3
+    period: float | None = None
+    direction: str = "v"
+    shift_order: Sequence[int] | None = None
+    shift_sign: int = 1
+    unwrap: str | None = None
+    inverse: bool = True
+    interleave: bool = False
+    white_black: str = "none"
+    threshold: str | float | None = None
+
+
+@dataclass(frozen=True)
+class FrameReading:
+    """How imported frames are read (:func:`import_images`, :func:`load_images`).
+
+    Attributes
+    ----------
+    channel : str | None
+        ``"r"``, ``"g"`` or ``"b"``: that colour channel, the source dtype unchanged; ``None``:
+        the BT.601 luma of colour frames (float32, the source's counts).
+    bit_depth : int | None
+        Camera bit depth (bits; e.g. 10/12/14 in 16-bit files); ``None``: the files' 8 / 16, or
+        the camera file's.
+    first_frame : int
+        Camera file: the frame (index) where the first pattern cycle starts.
+    frame_count : int | None
+        Camera file: frames to use (a multiple of the cycle); ``None``: the whole cycles left.
+    """
+
+    channel: str | None = None
+    bit_depth: int | None = None
+    first_frame: int = 0
+    frame_count: int | None = None
+
+
 def require_size(projector_size: tuple[int, int] | None, layout: str) -> tuple[int, int]:
     """The projector size, or ``ValueError`` saying the layout needs it."""
     if projector_size is None:
@@ -177,14 +255,11 @@ def require_size(projector_size: tuple[int, int] | None, layout: str) -> tuple[i
     return projector_size
 
 
-def layout_patterns(layout: str, projector_size: tuple[int, int] | None = None, steps: int = 3,
-                    period: float | None = None, direction: str = "v", shift_order: Sequence[int] | None = None,
-                    shift_sign: int = 1, unwrap: str | None = None, inverse: bool = True, interleave: bool = False,
-                    white_black: str = "none", threshold: str | float | None = None) -> PatternSet:
-    """The :class:`PatternSet` a layout describes: ``"phase-shift"`` (``steps`` frames of
-    ``period`` px along ``direction``; captured step order ``shift_order`` (frame i holds
-    step ``shift_order[i]``), ``shift_sign=-1`` for shifts ``-2 pi k / N``; plan method
-    ``unwrap``, default ``"none"``), ``"gray-code"`` (stripes of ``period`` px, with or
+def layout_patterns(described: ImportLayout) -> PatternSet:
+    """The :class:`PatternSet` a layout (:class:`ImportLayout`) describes: ``"phase-shift"``
+    (``steps`` frames of ``period`` px along ``direction``; captured step order ``shift_order``
+    (frame i holds step ``shift_order[i]``), ``shift_sign=-1`` for shifts ``-2 pi k / N``; plan
+    method ``unwrap``, default ``"none"``), ``"gray-code"`` (stripes of ``period`` px, with or
     without inverses) or ``"opencv-graycode"`` (:func:`fringe3d.patterns.layouts.opencv_graycode`).
     The projector size is required.
 
@@ -193,8 +268,17 @@ def layout_patterns(layout: str, projector_size: tuple[int, int] | None = None, 
     :func:`fringe3d.patterns.layouts.combine_directions`). ``white_black`` (``"first"``,
     ``"last"``) adds a white and a black frame; ``threshold`` (``"inverse"``, ``"white-black"``,
     ``"average"`` or a level in camera counts) is the plans' code threshold. A code without
-    inverse frames, white/black frames or phase frames needs a fixed ``threshold``."""
-    if layout not in LAYOUTS:
+    inverse frames, white/black frames or phase frames needs a fixed ``threshold``.
+
+    Examples
+    --------
+    >>> ps = layout_patterns(ImportLayout("phase-shift", (64, 48), steps=3, period=16))
+    >>> len(ps), ps.plans[0].method
+    (3, 'none')
+    """
+    layout, projector_size, threshold = described.name, described.projector_size, described.threshold
+    period, direction, interleave = described.period, described.direction, described.interleave
+    if layout is None or layout not in LAYOUTS:
         raise ValueError(f"unknown layout {layout!r}; expected one of {LAYOUTS} or a manifest (`manifest`)")
     width, height = require_size(projector_size, layout)
     if layout == "opencv-graycode":
@@ -209,13 +293,14 @@ def layout_patterns(layout: str, projector_size: tuple[int, int] | None = None, 
         raise ValueError("`interleave=True` alternates the frames of several directions: give them, "
                          "e.g. `direction` v,h")
     if layout == "gray-code":
-        parts = [sets.gray_code(period, d, width=width, height=height, inverse=inverse) for d in directions]
+        parts = [sets.gray_code(period, d, width=width, height=height, inverse=described.inverse) for d in directions]
     else:
-        parts = [phase_shift_layout(sets.phase_shift(period, steps, d, width=width, height=height),
-                                    shift_order, shift_sign) for d in directions]
-    ps = with_white_black(combine_directions(parts, interleave), white_black)
+        parts = [phase_shift_layout(sets.phase_shift(period, described.steps, d, width=width, height=height),
+                                    described.shift_order, described.shift_sign) for d in directions]
+    ps = with_white_black(combine_directions(parts, interleave), described.white_black)
     level = parse_threshold(threshold)
     check_code_threshold(ps, level)
+    unwrap = described.unwrap
     plans = tuple(replace(p, method=p.method if unwrap is None else unwrap,
                           options=p.options if level is None else {**p.options, "threshold": level})
                   for p in ps.plans)
@@ -469,19 +554,20 @@ def check_source(src: str | os.PathLike | None, list_file: str | os.PathLike | N
         raise ValueError("no frames given: pass SRC (a folder, glob or camera file) or `list_file` FILE")
 
 
-def described_patterns(manifest: str | os.PathLike | None, layout: str | None,
-                       projector_size: tuple[int, int] | None = None, **layout_options) -> tuple[PatternSet, str]:
-    """(patterns, name) of what was projected: the pattern ``manifest`` file or the ``layout``
-    (:func:`layout_patterns`); exactly one must be given. A ``threshold`` among
-    ``layout_options`` sets every plan's code threshold, also of a manifest or of
-    ``opencv-graycode`` (:func:`fringe3d.patterns.layouts.with_threshold`)."""
-    if (manifest is None) == (layout is None):
+def described_patterns(manifest: str | os.PathLike | None, layout: ImportLayout | None = None
+                       ) -> tuple[PatternSet, str]:
+    """(patterns, name) of what was projected: the pattern ``manifest`` file or the layout
+    ``layout.name`` (:func:`layout_patterns`); exactly one must be given. ``layout.threshold``
+    sets every plan's code threshold, also of a manifest or of ``opencv-graycode``
+    (:func:`fringe3d.patterns.layouts.with_threshold`)."""
+    layout = layout or ImportLayout()
+    if (manifest is None) == (layout.name is None):
         raise ValueError("describe what was projected with exactly one of `manifest` FILE or `layout` "
                          f"({', '.join(LAYOUTS)})")
     if manifest is None:
-        assert layout is not None
-        return layout_patterns(layout, projector_size, **layout_options), layout
-    ps, threshold = PatternSet.load(manifest), layout_options.get("threshold")
+        assert layout.name is not None
+        return layout_patterns(layout), layout.name
+    ps, threshold = PatternSet.load(manifest), layout.threshold
     if threshold is not None:
         ps = with_threshold(ps, threshold)
         check_code_threshold(ps, parse_threshold(threshold))
@@ -489,16 +575,18 @@ def described_patterns(manifest: str | os.PathLike | None, layout: str | None,
 
 
 def load_images(src: str | os.PathLike | None, *, list_file: str | os.PathLike | None = None,
-                manifest: str | os.PathLike | None = None, layout: str | None = None,
-                projector_size: tuple[int, int] | None = None, channel: str | None = None,
-                bit_depth: int | None = None, first_frame: int = 0, frame_count: int | None = None,
-                **layout_options) -> Capture:
+                manifest: str | os.PathLike | None = None, layout: ImportLayout | None = None,
+                reading: FrameReading | None = None) -> Capture:
     """What :func:`import_images` would write, in memory and writing nothing: a
     :class:`fringe3d.io.capture.Capture` of the frames of ``src`` (a folder or glob of images,
     or ``list_file``; a camera file is read on demand as its ``source``) described by
-    ``manifest`` or ``layout``. Same arguments and errors as :func:`import_images`."""
+    ``manifest`` or ``layout`` (:class:`ImportLayout`), read as ``reading`` says
+    (:class:`FrameReading`). Same arguments and errors as :func:`import_images`."""
+    reading = reading or FrameReading()
+    channel, bit_depth, first_frame, frame_count = (reading.channel, reading.bit_depth, reading.first_frame,
+                                                    reading.frame_count)
     check_source(src, list_file)
-    patterns, name = described_patterns(manifest, layout, projector_size, **layout_options)
+    patterns, name = described_patterns(manifest, layout)
     kind = camera_file_kind(src, list_file, channel)
     if kind is not None and src is not None:
         _, used, meta = camera_file_range(kind, src, patterns, name, first_frame, frame_count, bit_depth)
@@ -510,32 +598,34 @@ def load_images(src: str | os.PathLike | None, *, list_file: str | os.PathLike |
 
 
 def import_images(src: str | os.PathLike | None, out: str | os.PathLike, *, list_file: str | os.PathLike | None = None,
-                  manifest: str | os.PathLike | None = None, layout: str | None = None,
-                  projector_size: tuple[int, int] | None = None, channel: str | None = None,
-                  bit_depth: int | None = None, overwrite: bool = False, first_frame: int = 0,
-                  frame_count: int | None = None, copy_frames: bool = False, exposures: Sequence[float] | None = None,
-                  **layout_options) -> dict:
+                  manifest: str | os.PathLike | None = None, layout: ImportLayout | None = None,
+                  reading: FrameReading | None = None, overwrite: bool = False, copy_frames: bool = False,
+                  exposures: Sequence[float] | None = None) -> dict:
     """``fringe3d import``: frames of ``src`` (folder or glob) or of ``list_file`` (exactly one) described by
-    a pattern ``manifest`` file or a ``layout`` (:func:`layout_patterns` with
-    ``projector_size`` and ``layout_options``) -> capture folder ``out`` (:func:`import_capture`).
-    A camera file ``src`` (:func:`guess_kind`) is referenced, not converted
-    (:func:`import_camera_file` with ``first_frame``, ``frame_count``, ``copy_frames``).
+    a pattern ``manifest`` file or a ``layout`` (:class:`ImportLayout`, :func:`layout_patterns`)
+    -> capture folder ``out`` (:func:`import_capture`), read as ``reading`` says
+    (:class:`FrameReading`: colour channel, bit depth, camera-file range). A camera file ``src``
+    (:func:`guess_kind`) is referenced, not converted (:func:`import_camera_file` with
+    ``reading.first_frame``, ``reading.frame_count``, ``copy_frames``).
 
     Examples
     --------
     >>> import tempfile
     >>> from fringe3d.patterns import render_set
-    >>> ps = layout_patterns("phase-shift", (64, 48), steps=3, period=16)
+    >>> described = ImportLayout("phase-shift", (64, 48), steps=3, period=16)
+    >>> ps = layout_patterns(described)
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     for i, img in enumerate(render_set(ps)):
     ...         ok = cv2.imwrite(f"{tmp}/shot_{i + 1}.bmp", img)
-    ...     s = import_images(tmp, f"{tmp}/capture", layout="phase-shift", projector_size=(64, 48), steps=3,
-    ...                       period=16)
+    ...     s = import_images(tmp, f"{tmp}/capture", layout=described)
     >>> s["frames"], s["bit_depth"], s["source_files"][0].endswith("shot_1.bmp")
     (3, 8, True)
     """
+    reading = reading or FrameReading()
+    channel, bit_depth, first_frame, frame_count = (reading.channel, reading.bit_depth, reading.first_frame,
+                                                    reading.frame_count)
     check_source(src, list_file)
-    patterns, name = described_patterns(manifest, layout, projector_size, **layout_options)
+    patterns, name = described_patterns(manifest, layout)
     ranged = (first_frame, frame_count) != (0, None)
     kind = camera_file_kind(src, list_file, channel, convert_tiff=copy_frames and not ranged)
     if kind is not None and src is not None:

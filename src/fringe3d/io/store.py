@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
@@ -125,6 +126,31 @@ def _compressor(codec: str | None = None):
     return BloscCodec(cname=codec, clevel=CODEC_LEVELS[codec], shuffle=SHUFFLE)  # type: ignore[arg-type]  # checked against CODECS
 
 
+@dataclass(frozen=True)
+class StoreSettings:
+    """What a new point store holds and how its per-frame chunks are compressed
+    (:meth:`PointMapStore.open`).
+
+    Attributes
+    ----------
+    layout : str
+        ``"xyz"`` (the points, (H, W, 3) float32 mm per frame) or ``"ray_depth"`` (the ray
+        parameter, (H, W) float32 mm per frame, with the camera rays; :data:`LAYOUTS`).
+    quality : bool
+        Add the per-frame quality bits (uint8, 0 = kept).
+    sigma : bool
+        Add the per-frame predicted standard deviation of z, sigma_z (float16 mm).
+    codec : str | None
+        Compression of the per-frame chunks (:data:`CODECS`); ``None``: :data:`CODEC`. A resumed
+        store keeps its own.
+    """
+
+    layout: str = "xyz"
+    quality: bool = False
+    sigma: bool = False
+    codec: str | None = None
+
+
 class PointMapStore:
     """Point maps (and their quality maps and sigma_z) of many frames in one zarr store.
 
@@ -152,20 +178,23 @@ class PointMapStore:
     # -- creation / resumption --------------------------------------------------------
     @classmethod
     def open(cls, path: str | os.PathLike, frames: int, height: int, width: int, meta: dict | None = None,
-             overwrite: bool = False, layout: str = "xyz", rays: tuple[np.ndarray, np.ndarray] | None = None,
-             quality: bool = False, sigma: bool = False, codec: str | None = None,
-             times=None) -> "PointMapStore":
+             overwrite: bool = False, settings: StoreSettings | None = None,
+             rays: tuple[np.ndarray, np.ndarray] | None = None, times=None) -> "PointMapStore":
         """Create a store for ``frames`` point maps of ``height x width``, or resume an existing one.
 
-        ``layout`` ``"ray_depth"`` needs ``rays = (O (3,), D_planes (3, H, W))`` of the pinhole
-        camera (:class:`fringe3d.optics.rays.RayGeometry`); ``quality`` / ``sigma`` add the
-        per-frame quality and sigma_z arrays; ``codec`` is the per-frame arrays' compression
-        (:data:`CODECS`, default :data:`CODEC`; a resumed store keeps its own); ``times`` (F,)
-        the seconds of each frame (the ``time`` coordinate), optional. An existing store
+        ``settings`` (:class:`StoreSettings`, default ``xyz`` without quality or sigma_z, lz4):
+        the layout, whether the per-frame quality and sigma_z arrays are added, and the per-frame
+        arrays' compression (a resumed store keeps its own). Layout ``"ray_depth"`` needs
+        ``rays = (O (3,), D_planes (3, H, W))`` of the pinhole camera
+        (:class:`fringe3d.optics.rays.RayGeometry`); ``times`` (F,) the seconds of each frame
+        (the ``time`` coordinate), optional. An existing store
         must hold the same number of frames, image size, layout and arrays (else ValueError, so a
         resumed run never mixes two different sequences).
         """
         import zarr  # optional heavy dependency: loaded only when a store is opened
+
+        settings = settings or StoreSettings()
+        layout, quality, sigma, codec = settings.layout, settings.quality, settings.sigma, settings.codec
 
         if frames <= 0 or height <= 0 or width <= 0:
             raise ValueError(f"a point store needs positive frames, height and width, got {frames}, {height}, {width}")
@@ -189,8 +218,8 @@ class PointMapStore:
             if attrs.get("format") != STORE_FORMAT and not unfinished:
                 raise ValueError(f"{path} exists but is not a fringe3d point store (format {attrs.get('format')!r})")
             if unfinished:  # an interrupted run of this output started the store but recorded no frame in it
-                return cls.open(path, frames, height, width, meta, overwrite=True, layout=layout, rays=rays,
-                                quality=quality, sigma=sigma, codec=codec)
+                return cls.open(path, frames, height, width, meta, overwrite=True, settings=settings, rays=rays,
+                                times=times)
             got = (attrs.get("frames"), attrs.get("height"), attrs.get("width"))
             if got != (frames, height, width):
                 raise ValueError(f"{path} holds {got[0]} frames of {got[2]}x{got[1]}, "

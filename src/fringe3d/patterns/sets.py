@@ -280,29 +280,53 @@ def binary_code(period: float, direction: str = "v", **kw) -> PatternSet:
     return gray_code(period, direction, code="binary", **kw)
 
 
+@dataclasses.dataclass(frozen=True)
+class CodeFrames:
+    """The code frames of :func:`psp_with_gray_code`.
+
+    Attributes
+    ----------
+    code : str
+        ``"gray"`` (Gray code) or ``"binary"`` (simple binary code).
+    inverse : bool
+        An inverse copy right after each code bit's frame (the decoder thresholds a bit against
+        its inverse).
+    period : float | None
+        Stripe width (projector px); ``None``: half the fringe period.
+    """
+
+    code: str = "gray"
+    inverse: bool = True
+    period: float | None = None
+
+
 def psp_with_gray_code(period: float, steps: int = 3, direction: str = "v", angle: float | None = None,
                        kind: str = "sinusoid", width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
-                       code: str = "gray", inverse: bool = True, bit_depth: int | None = None,
-                       code_period: float | None = None) -> PatternSet:
+                       bit_depth: int | None = None, code: CodeFrames | None = None) -> PatternSet:
     """N-step phase frames followed by code frames (plan ``"gray_code"``).
 
-    ``code_period`` is the code's stripe width; the default ``period / 2`` resolves half
+    ``code`` (:class:`CodeFrames`) says which code, with or without inverse frames, and its
+    stripe width ``code.period``; the default ``period / 2`` resolves half
     fringe periods (one bit more than a period-wide code, the complementary Gray code): a
     decoder that rounds ``(2 pi c / T - phi) / 2 pi`` against the stripe centre ``c`` then
-    tolerates stripe edges misplaced by up to T/4. With ``code_period = period`` the codeword
+    tolerates stripe edges misplaced by up to T/4. With ``code.period = period`` the codeword
     is the fringe order itself, but its stripe edges coincide with phase 0 of every fringe: the
     decoder takes the order of the edge whose code bit fades, exact without noise, yet a pixel
     within noise of an edge can take the neighbouring order (measured in ``fringe3d experiment
     unwrap-noise``). Code frames carry the stripe width in ``period``.
     """
+    if code is None:
+        code = CodeFrames()
+    elif not isinstance(code, CodeFrames):
+        raise TypeError(f"code must be a CodeFrames (code, inverse, period), got {code!r}")
     ps = phase_shift(period, steps, direction, angle, kind, width, height, bit_depth)
     a = ps.plans[0].angle
-    cp = float(period / 2.0 if code_period is None else code_period)
-    cframes, opts = _code_frames(cp, direction, a, width, height, code, inverse)
+    cp = float(period / 2.0 if code.period is None else code.period)
+    cframes, opts = _code_frames(cp, direction, a, width, height, code.code, code.inverse)
     opts["code_period"] = cp
-    plan = DirectionPlan(direction, a, f"{code}_code", (float(period),), {"phase": "psp", **opts})
+    plan = DirectionPlan(direction, a, f"{code.code}_code", (float(period),), {"phase": "psp", **opts})
     return PatternSet(width, height, ps.frames + cframes, (plan,), ps.bit_depth,
-                      f"psp-{steps}step-{code}-T{period:g}-{direction}")
+                      f"psp-{steps}step-{code.code}-T{period:g}-{direction}")
 
 
 def ftp(period: float, direction: str = "v", angle: float | None = None, kind: str = "sinusoid",

@@ -14,8 +14,9 @@
 """
 from fringe3d.reconstruct.depth import depth_map, points_from_decoded, projector_coordinates
 from fringe3d.reconstruct.motion import Measurement, dissertation_sequence, hybrid_view, measure
-from fringe3d.reconstruct.single_shot import SingleShotResult, single_shot
+from fringe3d.reconstruct.single_shot import SingleShotResult, SingleShotSettings, single_shot
 from fringe3d.reconstruct.triangulate import FastThreeStep, Triangulator, triangulate
 
-__all__ = ["FastThreeStep", "Measurement", "SingleShotResult", "Triangulator", "depth_map", "dissertation_sequence",
+__all__ = ["FastThreeStep", "Measurement", "SingleShotResult", "SingleShotSettings",
+           "Triangulator", "depth_map", "dissertation_sequence",
            "hybrid_view", "measure", "points_from_decoded", "projector_coordinates", "single_shot", "triangulate"]

@@ -27,7 +27,7 @@ import numpy as np
 
 from fringe3d.io.capture_frames import CaptureFolder, CaptureFrames
 from fringe3d.io.ply_standard import write_measurement_ply
-from fringe3d.io.store import PointMapStore
+from fringe3d.io.store import PointMapStore, StoreSettings
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.reconstruct.executors import Executor, WindowJob, serial
@@ -89,9 +89,9 @@ def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out
     meta = {"patterns": patterns.name, "mode": decode.mode, "step": decode.step, "z_min": decode.options.z_min,
             "rig": rig.to_dict(), "window_starts": [starts[0], starts[-1], len(starts)]}
     if lay is not None:
-        st = PointMapStore.open(out / STORE_NAME, len(starts), H, W, meta=meta, layout=lay,
-                                rays=rec.rays if lay == "ray_depth" else None, quality=outputs.store_quality,
-                                sigma=outputs.store_quality, codec=outputs.codec,
+        kept = StoreSettings(lay, quality=outputs.store_quality, sigma=outputs.store_quality, codec=outputs.codec)
+        st = PointMapStore.open(out / STORE_NAME, len(starts), H, W, meta=meta, settings=kept,
+                                rays=rec.rays if lay == "ray_depth" else None,
                                 times=None if outputs.frame_rate is None
                                 else np.asarray(starts, np.float64) / outputs.frame_rate)
     if outputs.ply:

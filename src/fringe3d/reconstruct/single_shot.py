@@ -68,9 +68,38 @@ class SingleShotResult:
     range_check: dict = field(default_factory=dict)
 
 
-def single_shot(images, rig: Rig, period: float, z_min: float, method: str = "ftp", window: str = "hanning",
-                angle: float = math.pi / 2, shifts=(0.0, math.pi), mask: np.ndarray | None = None,
-                min_ratio: float = 0.15, erode: int = 0, warn_share: float = 1e-3) -> SingleShotResult:
+@dataclass(frozen=True)
+class SingleShotSettings:
+    """The FTP window and the thresholds of :func:`single_shot`.
+
+    Attributes
+    ----------
+    window : {"hanning", "circular"}
+        Band-pass window of the FTP (``"circular"``: smoothed circular); default ``"hanning"``.
+    min_ratio : float
+        Fringe-contrast threshold ``B / A``, dimensionless, of the default mask
+        (:func:`fringe3d.unwrap.segmentation.foreground_mask`); default 0.15.
+    erode : int
+        Rim erosion of the default mask, pixels; default 0.
+    warn_share : float
+        Warn when more than this share (0-1) of object pixels disagree with their object's
+        fringe order; default 1e-3.
+
+    Examples
+    --------
+    >>> SingleShotSettings(window="circular").min_ratio
+    0.15
+    """
+
+    window: str = "hanning"
+    min_ratio: float = 0.15
+    erode: int = 0
+    warn_share: float = 1e-3
+
+
+def single_shot(images, rig: Rig, period: float, z_min: float, method: str = "ftp",
+                settings: SingleShotSettings | None = None, angle: float = math.pi / 2, shifts=(0.0, math.pi),
+                mask: np.ndarray | None = None) -> SingleShotResult:
     """Absolute 3D from one fringe image (FTP) or a π-shifted pair (modified FTP), ch. 4.
 
     Parameters
@@ -83,22 +112,22 @@ def single_shot(images, rig: Rig, period: float, z_min: float, method: str = "ft
     z_min : float
         Nearest depth of the measurement volume (mm, camera frame), Eq. (4.15)–(4.17).
     method : ``"ftp"`` or ``"modified_ftp"``
-    window : ``"hanning"`` or ``"circular"`` (smoothed circular) band-pass window.
+    settings : SingleShotSettings, optional
+        FTP window, contrast threshold and rim erosion (px) of the default mask, and the share of
+        disagreeing pixels that warns (default ``SingleShotSettings()``).
     angle : float
         Fringe angle (rad); π/2 = vertical fringes encoding ``u_p``.
     shifts : sequence
         Phase shift of each image (rad); the first is removed from the FTP phase.
     mask : (H, W) bool, optional
         Valid pixels; default: :func:`fringe3d.unwrap.segmentation.foreground_mask`.
-    min_ratio, erode : float, int
-        Contrast threshold and rim erosion (pixels) of the default mask.
-    warn_share : float
-        Warn when more than this share of object pixels disagree with their object's order.
 
     Returns
     -------
     :class:`SingleShotResult`
     """
+    s = settings if settings is not None else SingleShotSettings()
+    window, min_ratio, erode, warn_share = s.window, s.min_ratio, s.erode, s.warn_share
     if method not in METHODS:
         raise ValueError(f"unknown single-shot method {method!r}; expected one of {METHODS}")
     imgs = np.asarray(images)

@@ -305,12 +305,12 @@ class FastThreeStep:
     def _cuda(self, frames, index, out, device_output: bool, depth: bool):
         from fringe3d.gpu import ops
 
+        geometry = ops.ThreeStepGeometry(self.coef, self.phi_min, self.sign, self.scale, self.tri.O,
+                                         self.tri.D_planes, self.tri.Q, self.tri.P3)
         if getattr(self, "_cuda_constants", None) is None:  # the ray planes and phi_min go up once
-            self._cuda_constants = ops.three_step_constants(self.coef, self.phi_min, self.sign, self.tri.O,
-                                                            self.tri.D_planes, self.tri.Q, self.tri.P3)
+            self._cuda_constants = ops.three_step_constants(geometry)
         res = ops.three_step_points(frames if hasattr(frames, "copy_to_host") else np.asarray(frames),
-                                    np.asarray(index, np.int64), self.coef, self.min_mod2, self.phi_min, self.sign,
-                                    self.scale, self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3,
+                                    np.asarray(index, np.int64), geometry, self.min_mod2,
                                     device_output=device_output, constants=self._cuda_constants, depth=depth)
         if out is not None and not device_output:
             out[...] = res

@@ -14,15 +14,16 @@ from fringe3d.unwrap.geometric import (MinimumPhase, cached_minimum_phase, check
                                        depth_limit, fringe_order, geometric_unwrap, minimum_phase, propose_z_min)
 from fringe3d.unwrap.histogram import (OrderVote, apply_order_shift, fringe_order_difference, histogram_unwrap,
                                        minimum_phase_orders, mode_of_orders)
-from fringe3d.unwrap.hybrid import (HybridResult, carrier_from_minimum_phase, ftp_group_phase, hybrid_phase,
-                                    hybrid_unwrap)
+from fringe3d.unwrap.hybrid import (HybridResult, HybridSettings, carrier_from_minimum_phase, ftp_group_phase,
+                                    hybrid_phase, hybrid_unwrap)
 from fringe3d.unwrap.segmentation import foreground_mask, match_objects, segment_objects, shift_image
 from fringe3d.unwrap.spatial import unwrap_objects
 from fringe3d.unwrap.temporal import (MAX_CODE_RESIDUAL, CodeStripes, CodeUnwrapped, FusedResult, OrderedPhase,
                                       beat_chain, coarse_window, code_centers, code_stripes, gray_code_order,
                                       heterodyne, hierarchical, three_frequency_decode)
 
-__all__ = ["MAX_CODE_RESIDUAL", "CodeStripes", "CodeUnwrapped", "FusedResult", "HybridResult", "MinimumPhase",
+__all__ = ["MAX_CODE_RESIDUAL", "CodeStripes", "CodeUnwrapped", "FusedResult", "HybridResult", "HybridSettings",
+           "MinimumPhase",
            "OrderVote", "OrderedPhase",
            "apply_order_shift", "beat_chain", "cached_minimum_phase", "carrier_from_minimum_phase",
            "check_depth_range", "check_wrap_around", "coarse_window", "code_centers", "code_stripes", "depth_limit",

@@ -204,10 +204,41 @@ def ftp_group_phase(images: np.ndarray, shifts, carrier: tuple[float, float],
     return PhaseResult(phase.astype(np.float32), np.asarray(avg, np.float32), np.asarray(mod, np.float32))
 
 
+@dataclass(frozen=True)
+class HybridSettings:
+    """The object segmentation and motion thresholds of :func:`hybrid_unwrap`.
+
+    Attributes
+    ----------
+    erode : int
+        Erosion of each object mask before unwrapping, pixels (FTP is unreliable at the rim);
+        default 2.
+    min_size : int
+        Smallest object, pixels; default 200.
+    min_ratio : float
+        Fringe-contrast threshold ``B / A``, dimensionless, of
+        :func:`fringe3d.unwrap.segmentation.foreground_mask`; default 0.15.
+    max_shift : float, optional
+        Largest object displacement between the captures, pixels (default None: no limit).
+    cross_motion : bool
+        Also remove the phase change of motion across the fringes (``phi_min`` of
+        :func:`hybrid_phase`); default False, the dissertation's Eq. (5.13).
+
+    Examples
+    --------
+    >>> HybridSettings(max_shift=12.0).min_size
+    200
+    """
+
+    erode: int = 2
+    min_size: int = 200
+    min_ratio: float = 0.15
+    max_shift: float | None = None
+    cross_motion: bool = False
+
+
 def hybrid_unwrap(high: PhaseResult, low: PhaseResult, mp_low: MinimumPhase, period: float, period_low: float, *,
-                  erode: int = 2,
-                  min_size: int = 200, min_ratio: float = 0.15, max_shift: float | None = None,
-                  cross_motion: bool = False, seed: int | None = 0, valid_high: np.ndarray | None = None,
+                  settings: HybridSettings | None = None, seed: int | None = 0, valid_high: np.ndarray | None = None,
                   valid_low: np.ndarray | None = None) -> HybridResult:
     """The whole hybrid chain from wrapped phases (ch. 5.2.5, Fig. 5.4).
 
@@ -222,17 +253,9 @@ def hybrid_unwrap(high: PhaseResult, low: PhaseResult, mp_low: MinimumPhase, per
         ``Φ_min`` for ``period_low`` (Eq. 4.19).
     period, period_low : float
         ``T`` and ``T_l`` (projector pixels).
-    erode : int
-        Erosion (pixels) of each object mask before unwrapping: FTP is unreliable at the rim.
-    min_size : int
-        Smallest object (pixels).
-    min_ratio : float
-        Fringe-contrast threshold of :func:`fringe3d.unwrap.segmentation.foreground_mask`.
-    max_shift : float, optional
-        Largest object displacement between the captures (pixels).
-    cross_motion : bool
-        Also remove the phase change of motion across the fringes (``phi_min`` of
-        :func:`hybrid_phase`); off = the dissertation's Eq. (5.13).
+    settings : HybridSettings, optional
+        Rim erosion (px), smallest object (px), contrast threshold, largest displacement (px) and
+        cross-fringe motion correction (default ``HybridSettings()``).
     seed : int or None
         Seed of the spatial unwrapping (:func:`fringe3d.unwrap.spatial.unwrap_objects`).
     valid_high, valid_low : (H, W) bool, optional
@@ -242,6 +265,8 @@ def hybrid_unwrap(high: PhaseResult, low: PhaseResult, mp_low: MinimumPhase, per
     -------
     :class:`HybridResult` with ``coarse`` = ``Φ_e`` and ``labels_low``.
     """
+    s = settings if settings is not None else HybridSettings()
+    erode, min_size, min_ratio = s.erode, s.min_size, s.min_ratio
     fg_h = foreground_mask(high.average, high.modulation, min_ratio)
     if valid_high is not None:
         fg_h &= np.asarray(valid_high, bool)
@@ -253,7 +278,7 @@ def hybrid_unwrap(high: PhaseResult, low: PhaseResult, mp_low: MinimumPhase, per
     labels_e = segment_objects(fg_l, min_size=min_size, erode=erode)
     phi_e, _ = geometric_unwrap(low.phase, mp_low, labels_e > 0, check=False)
     res = hybrid_phase(phi_r, labels_r, phi_e, period, period_low, labels_e=labels_e,
-                       max_shift=max_shift, phi_min=mp_low.phi_min if cross_motion else None)
+                       max_shift=s.max_shift, phi_min=mp_low.phi_min if s.cross_motion else None)
     res.coarse = phi_e
     res.labels_low = labels_e
     return res

@@ -38,7 +38,7 @@ import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Iterator
+from typing import Any, Iterable, Iterator, Mapping, Sequence
 
 from fringe3d.utils.atomic import atomic_write_text
 from fringe3d.utils.provenance import FOLDER_UNITS, _CommandLine, command_line, version
@@ -47,11 +47,40 @@ from fringe3d.utils.write_guard import OutsideOutputError, guard_write, is_being
 
 __all__ = ["open_output", "set_command_line", "request_interrupt", "interrupt_requested",
            "open_output_file", "check_complete", "read_marker", "fingerprint",
-           "clean_partials", "OutsideOutputError", "BusyOutputError", "guard_write", "MARKER_NAME", "output_note"]
+           "clean_partials", "OutsideOutputError", "BusyOutputError", "guard_write", "MARKER_NAME", "output_note",
+           "OutputGuard"]
 
 MARKER_NAME = "fringe3d.json"
 LOCK_NAME = ".fringe3d.lock"
 MARKER_FORMAT = "fringe3d-output"
+
+
+@dataclass(frozen=True)
+class OutputGuard:
+    """How a library function that writes an output folder guards it (:func:`open_output`): the
+    options a caller passes whole instead of one keyword each.
+
+    Attributes
+    ----------
+    overwrite : bool
+        Replace an existing, different output (default False: such an output is refused).
+    inputs : sequence of paths
+        Input files and folders the run reads (None entries are skipped): the output may not be,
+        hold or lie in one of them, and they are fingerprinted into the output (a resumed run must
+        have the same inputs). Default none.
+    fingerprint : mapping, optional
+        The options that shape the result, fingerprinted into the output (a resumed run must have
+        the same options); default none.
+
+    Examples
+    --------
+    >>> OutputGuard(overwrite=True).inputs
+    ()
+    """
+
+    overwrite: bool = False
+    inputs: Sequence[Any] = ()
+    fingerprint: Mapping[str, Any] | None = None
 
 
 class _Interrupt:

@@ -7,7 +7,7 @@ import numpy as np
 from fringe3d.decode.context import DecodeContext, not_saturated, require_geometry
 from fringe3d.decode.result import Unwrapped
 from fringe3d.unwrap.geometric import cached_minimum_phase
-from fringe3d.unwrap.hybrid import carrier_from_minimum_phase, ftp_group_phase, hybrid_unwrap
+from fringe3d.unwrap.hybrid import HybridSettings, carrier_from_minimum_phase, ftp_group_phase, hybrid_unwrap
 
 
 def unwrap_hybrid(ctx: DecodeContext) -> Unwrapped:
@@ -30,11 +30,13 @@ def unwrap_hybrid(ctx: DecodeContext) -> Unwrapped:
     carrier = carrier_from_minimum_phase(mp.phi_min, lo.period / hi.period)
     high = ftp_group_phase(ctx.frames[list(hi.indices)], hi.shifts, carrier,
                            window=str(ctx.method_option("ftp_window", "hanning")))
-    res = hybrid_unwrap(high, ctx.group_phase(lo), mp, hi.period, lo.period,
-                        erode=int(ctx.method_option("erode", 2)), min_size=int(ctx.method_option("min_size", 200)),
-                        min_ratio=float(ctx.method_option("min_ratio", 0.15)),
-                        max_shift=ctx.method_option("max_shift"),
-                        cross_motion=bool(ctx.method_option("cross_motion", False)),
+    d = HybridSettings()
+    settings = HybridSettings(erode=int(ctx.method_option("erode", d.erode)),
+                              min_size=int(ctx.method_option("min_size", d.min_size)),
+                              min_ratio=float(ctx.method_option("min_ratio", d.min_ratio)),
+                              max_shift=ctx.method_option("max_shift", d.max_shift),
+                              cross_motion=bool(ctx.method_option("cross_motion", d.cross_motion)))
+    res = hybrid_unwrap(high, ctx.group_phase(lo), mp, hi.period, lo.period, settings=settings,
                         valid_high=not_saturated(ctx, hi.indices), valid_low=ctx.group_mask(lo))
     mask = np.isfinite(res.phase)
     return Unwrapped(res.phase, mask, wrapped=high.phase, modulation=high.modulation, period=hi.period,
