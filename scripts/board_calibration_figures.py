@@ -27,7 +27,7 @@ import time
 from fringe3d.calibrate.evaluation import compare_to_truth
 from fringe3d.calibrate.session import calibrate_observations, observe_session
 from fringe3d.calibrate.square_boards import CharucoBoard, ChessBoard
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import PoseRanges, SessionOptics, simulate_session
 
 ROWS = (
     ("circles + phase", {"board": None, "patterns": "phase"}),
@@ -45,9 +45,10 @@ def run(preset: str, poses: int, seed: int, scale: float) -> list[dict]:
     out = []
     for name, opt in ROWS:
         t0 = time.time()
-        kw = dict(opt)
-        kw["board"] = boards.get(kw["board"]) if kw["board"] else None
-        ss = simulate_session(preset, n_poses=poses, seed=seed, camera_scale=scale, noise=True, progress=False, **kw)
+        board = boards.get(opt["board"]) if opt["board"] else None
+        ss = simulate_session(preset, n_poses=poses, seed=seed, patterns=opt["patterns"], board=board, progress=False,
+                              optics=SessionOptics(camera_scale=scale, defocus=opt.get("defocus")),
+                              pose_ranges=PoseRanges(partial=opt.get("partial", 0)))
         obs, info = observe_session(ss.poses, ss.board, progress=False)
         cal, _ = calibrate_observations(obs, info, ss.board, camera_dist="k1k2")
         err = compare_to_truth(cal.rig, ss.rig)

@@ -18,7 +18,7 @@ from fringe3d.analyze.fits import inner_mask, robust_fit
 from fringe3d.calibrate.evaluation import measure_points
 from fringe3d.sim.calibration_session import render_and_decode
 from fringe3d.calibrate.session import calibrate_observations, observe_session
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import SessionOptics, simulate_session
 from fringe3d.sim.calibration_session import scaled_camera
 from fringe3d.experiments.optimal_angle import sections_rms
 from fringe3d.patterns import sets
@@ -31,8 +31,8 @@ ALPHA_OPT = np.radians(93.9)  # the rig's measured alpha_opt (fringe3d experimen
 
 def sections_um(preset, pattern_set, n_poses, scale, seed, truth, dirs):
     """Row and column cross-section RMS (um) of the sphere frames under one calibration."""
-    ss = simulate_session(preset, n_poses=n_poses, seed=seed, patterns=pattern_set, camera_scale=scale,
-                          progress=False)
+    ss = simulate_session(preset, n_poses=n_poses, seed=seed, patterns=pattern_set, progress=False,
+                          optics=SessionOptics(camera_scale=scale))
     obs, info = observe_session(ss.poses, ss.board, progress=False)
     cal, _ = calibrate_observations(obs, info, ss.board)
     pts = measure_points(cal.rig, dirs)

@@ -11,7 +11,7 @@ from fringe3d.calibrate.calibration_file import load_calibration
 from fringe3d.calibrate.session import calibrate_observations, observe_session
 from fringe3d.cli import main
 from fringe3d.optics import intrinsics
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import PoseRanges, SessionOptics, simulate_session
 
 
 def _calibrate_cli(folder, out, *extra, capsys=None):
@@ -50,7 +50,8 @@ def test_accept_poor_writes_the_file_and_records_the_failed_gates(few_poses, tmp
 
 def test_near_parallel_poses_exit_2_naming_the_orientation_gate(tmp_path, capsys):
     # every board tilted by at most 1 deg: the focal length is undetermined (Zhang's method)
-    ss = simulate_session("tiny", n_poses=8, seed=1, max_tilt_deg=1.0, folder=tmp_path / "flat", progress=False)
+    ss = simulate_session("tiny", n_poses=8, seed=1, folder=tmp_path / "flat", progress=False,
+                          pose_ranges=PoseRanges(max_tilt_deg=1.0))
     out = tmp_path / "calib.json"
     rc, summary, err = _calibrate_cli(ss.folder, out, capsys=capsys)
     assert rc == 2 and not out.exists() and "orientations:" in err
@@ -69,7 +70,8 @@ def test_good_simulated_session_passes_every_gate(tmp_path, capsys):
 
 @pytest.mark.parametrize("k1", [0.0, 0.08])
 def test_auto_models_projector_distortion_only_when_the_lens_has_it(k1):
-    ss = simulate_session("tiny", n_poses=8, seed=1, progress=False, projector_dist=(k1, 0, 0, 0, 0))
+    ss = simulate_session("tiny", n_poses=8, seed=1, progress=False,
+                          optics=SessionOptics(projector_dist=(k1, 0, 0, 0, 0)))
     with pytest.warns(Warning, match="pose_07"):  # the tiny camera's noise spoils one pose's grid
         obs, info = observe_session(ss.poses, ss.board, progress=False)
     cal, _ = calibrate_observations(obs, info, ss.board, camera_dist="auto", projector_dist="auto")

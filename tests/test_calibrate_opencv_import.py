@@ -15,7 +15,7 @@ from fringe3d.calibrate.session import calibrate_observations
 from fringe3d.cli import main
 from fringe3d.optics import PinholeDevice, Rig
 from fringe3d.reconstruct import triangulate
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import SessionImaging, simulate_session
 
 CRIT = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-12)
 
@@ -23,7 +23,7 @@ CRIT = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-12)
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory):
     """fringe3d's calibration of a tiny simulated session, and OpenCV's of the same observations."""
-    ss = simulate_session("tiny", n_poses=5, seed=3, noise=False, progress=False)
+    ss = simulate_session("tiny", n_poses=5, seed=3, progress=False, imaging=SessionImaging(noise=False))
     obs, info = observe_session(ss.poses, ss.board, progress=False)
     cal, _ = calibrate_observations(obs, info, ss.board, camera_dist="k1k2p")
     obj = ss.board.object_points().astype(np.float32)

@@ -8,22 +8,24 @@ import pytest
 from fringe3d.calibrate.calibration_file import export_opencv_yaml, load_calibration
 from fringe3d.calibrate.evaluation import rotation_angle_deg
 from fringe3d.calibrate.session import PoseCapture, calibrate_observations, calibrate_session, observe_session
+from fringe3d.calibrate.session_settings import ObservationSettings
 from fringe3d.cli import main
 from fringe3d.optics import Rig
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import SessionImaging, SessionOptics, simulate_session
 from fringe3d.utils.warning_types import CalibrationWarning
 
 
 @pytest.fixture(scope="module")
 def tiny_session(tmp_path_factory):
     folder = tmp_path_factory.mktemp("calib") / "session"
-    ss = simulate_session("tiny", n_poses=5, seed=3, noise=False, folder=folder, progress=False)
+    ss = simulate_session("tiny", n_poses=5, seed=3, folder=folder, progress=False, imaging=SessionImaging(noise=False))
     return ss
 
 
 def test_noise_free_macro_session_meets_truth_tolerances():
     # >= 10 board poses, half-resolution macro camera (640x512) to keep the test fast
-    ss = simulate_session("macro", n_poses=10, seed=0, camera_scale=0.5, noise=False, progress=False)
+    ss = simulate_session("macro", n_poses=10, seed=0, progress=False, optics=SessionOptics(camera_scale=0.5),
+                          imaging=SessionImaging(noise=False))
     obs, info = observe_session(ss.poses, ss.board, progress=False)
     cal, res = calibrate_observations(obs, info, ss.board, camera_dist="k1k2")
     true, est = ss.rig, cal.rig
@@ -171,7 +173,8 @@ def test_a_session_result_is_typed_and_its_residuals_read_alike_for_both_rig_mod
     obs, facts = observe_session(tiny_session.poses, tiny_session.board, progress=False)
     assert isinstance(facts, SessionFacts) and facts.camera_size == tiny_session.poses[0].frames.shape[2:0:-1]
     assert facts.names == [p.name for p in tiny_session.poses] and facts.skipped == []
-    session = calibrate_session([tiny_session.folder], progress=False, min_modulation_share=0.1)
+    session = calibrate_session([tiny_session.folder], progress=False,
+                                observe=ObservationSettings(min_modulation_share=0.1))
     assert isinstance(session, SessionCalibration)
     cal, fit = session
     assert session.pose_names == [p["name"] for p in cal.poses] and fit is session.fit
@@ -182,5 +185,6 @@ def test_a_session_result_is_typed_and_its_residuals_read_alike_for_both_rig_mod
 def test_the_fraction_min_modulation_fraction_is_a_deprecated_spelling_of_min_modulation_share(tiny_session):
     with pytest.warns(DeprecationWarning, match="min_modulation_share"):
         old, _ = calibrate_session([tiny_session.folder], progress=False, min_modulation_fraction=0.1)
-    new, _ = calibrate_session([tiny_session.folder], progress=False, min_modulation_share=0.1)
+    new, _ = calibrate_session([tiny_session.folder], progress=False,
+                               observe=ObservationSettings(min_modulation_share=0.1))
     assert old.rms == new.rms

@@ -11,7 +11,7 @@ from fringe3d.calibrate.session import calibrate_observations, observe_session
 from fringe3d.calibrate.square_boards import CharucoBoard, ChessBoard, board_from_dict
 from fringe3d.cli import main
 from fringe3d.io.images import write_image
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import PoseRanges, SessionImaging, SessionOptics, simulate_session
 
 
 def test_charuco_corners_are_opencvs_board_corners_in_id_order():
@@ -54,8 +54,9 @@ def test_local_homography_recovers_points_from_one_pixel_stripe_codes():
 def chess_gray_session():
     # macro rig at half camera resolution; a sharp projector (the Gray-code route needs one:
     # 1-px stripes = OpenCV's GrayCodePattern layout), no sensor noise
-    return simulate_session("macro", n_poses=10, seed=0, camera_scale=0.5, noise=False, progress=False,
-                            board=ChessBoard(cols=11, rows=9, spacing=13.0), patterns="gray-code", defocus=0.3)
+    return simulate_session("macro", n_poses=10, seed=0, progress=False,
+                            board=ChessBoard(cols=11, rows=9, spacing=13.0), patterns="gray-code",
+                            optics=SessionOptics(camera_scale=0.5, defocus=0.3), imaging=SessionImaging(noise=False))
 
 
 def test_noise_free_chessboard_gray_code_calibration_meets_truth_tolerances(chess_gray_session):
@@ -72,8 +73,10 @@ def test_noise_free_chessboard_gray_code_calibration_meets_truth_tolerances(ches
 
 
 def test_charuco_partial_views_are_used_and_calibrate_near_truth():
-    ss = simulate_session("macro", n_poses=7, seed=2, camera_scale=0.5, noise=False, progress=False,
-                          board=CharucoBoard(cols=8, rows=6, spacing=16.0, marker=11.2), partial=2)
+    ss = simulate_session("macro", n_poses=7, seed=2, progress=False,
+                          board=CharucoBoard(cols=8, rows=6, spacing=16.0, marker=11.2),
+                          optics=SessionOptics(camera_scale=0.5), imaging=SessionImaging(noise=False),
+                          pose_ranges=PoseRanges(partial=2))
     obs, info = observe_session(ss.poses, ss.board, progress=False)
     assert len(obs) == 7
     seen = [int(np.isfinite(o.camera_uv[:, 0]).sum()) for o in obs]
@@ -96,7 +99,8 @@ def test_charuco_partial_views_are_used_and_calibrate_near_truth():
 @pytest.fixture(scope="module")
 def tiny_circles(tmp_path_factory):
     folder = tmp_path_factory.mktemp("calib") / "session"
-    return simulate_session("tiny", n_poses=3, seed=3, noise=False, folder=folder, progress=False)
+    return simulate_session("tiny", n_poses=3, seed=3, folder=folder, progress=False,
+                            imaging=SessionImaging(noise=False))
 
 
 def test_board_not_found_in_any_pose_names_the_board_and_poses_and_writes_nothing(tiny_circles, tmp_path, capsys):
@@ -113,7 +117,8 @@ def test_board_not_found_in_any_pose_names_the_board_and_poses_and_writes_nothin
 
 def test_other_tools_session_of_numbered_frames_calibrates_through_layout(tmp_path, capsys):
     board = ChessBoard(cols=6, rows=5, spacing=20.0)
-    ss = simulate_session("tiny", n_poses=5, seed=1, noise=True, progress=False, board=board, patterns="gray-code")
+    ss = simulate_session("tiny", n_poses=5, seed=1, progress=False, board=board, patterns="gray-code",
+                          imaging=SessionImaging(noise=True))
     assert ss.poses[0].patterns.name.startswith("opencv-graycode")
     for pose in ss.poses:  # another tool's layout: one folder per pose, frames img_1.png ...
         for k, f in enumerate(pose.frames):

@@ -7,7 +7,7 @@ import pytest
 
 from fringe3d.analyze.vdi import flatness
 from fringe3d.calibrate.session import calibrate_observations, observe_session
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import SessionImaging, simulate_session
 from fringe3d.decode import decode
 from fringe3d.patterns import sets
 from fringe3d.reconstruct.triangulate import triangulate
@@ -19,7 +19,7 @@ from fringe3d.sim.scene import Scene
 @pytest.fixture(scope="module")
 def calibrated():
     p = presets.get("macro")
-    sess = simulate_session(p, n_poses=10, seed=0, noise=False, progress=False)
+    sess = simulate_session(p, n_poses=10, seed=0, progress=False, imaging=SessionImaging(noise=False))
     obs, info = observe_session(sess.poses, sess.board, progress=False)
     cal, _ = calibrate_observations(obs, info, sess.board)
     return p, sess.rig, cal.rig

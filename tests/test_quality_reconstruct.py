@@ -14,7 +14,7 @@ from fringe3d.optics import Rig
 from fringe3d.patterns import sets
 from fringe3d.pipeline import reconstruct_capture
 from fringe3d.reconstruct.sequence import FrameReconstructor, reconstruction_plans
-from fringe3d.sim import simulate_capture
+from fringe3d.sim import RenderChanges, simulate_capture
 from fringe3d.sim.truth import Truth
 
 
@@ -23,7 +23,8 @@ def three_step(tmp_path_factory):
     """A noisy 3-step T=64 capture of the tiny preset's sphere before a wall (fused fast path)."""
     folder = tmp_path_factory.mktemp("q") / "cap"
     ps = sets.phase_shift(64, 3, "v", width=256, height=200)
-    simulate_capture(folder, preset="tiny", scene="sphere", patterns=ps, seed=7, progress=False, noise=0.005)
+    simulate_capture(folder, preset="tiny", scene="sphere", patterns=ps, seed=7, progress=False,
+                     render=RenderChanges(noise=0.005))
     return folder
 
 

@@ -11,7 +11,7 @@ from fringe3d.cli import main
 from fringe3d.io.capture import read_capture, write_capture
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
-from fringe3d.sim import simulate_capture
+from fringe3d.sim import RenderChanges, simulate_capture
 from fringe3d.sim.truth import Truth
 
 
@@ -20,7 +20,7 @@ def ideal_capture(tmp_path_factory):
     """Noise-free (analytic sinusoids, float frames) two-frequency capture of a sphere before a wall."""
     folder = tmp_path_factory.mktemp("cap") / "ideal"
     simulate_capture(folder, preset="tiny", scene="sphere", patterns="two-frequency", seed=3, progress=False,
-                     bit_depth=None, ideal=True)
+                     render=RenderChanges(bit_depth=None, others={"ideal": True}))
     return folder
 
 
@@ -28,7 +28,8 @@ def ideal_capture(tmp_path_factory):
 def noisy_capture(tmp_path_factory):
     folder = tmp_path_factory.mktemp("cap") / "noisy"
     ps = sets.phase_shift(64, 3, "v", width=256, height=200)
-    simulate_capture(folder, preset="tiny", scene="sphere", patterns=ps, seed=4, progress=False, noise=0.005)
+    simulate_capture(folder, preset="tiny", scene="sphere", patterns=ps, seed=4, progress=False,
+                     render=RenderChanges(noise=0.005))
     return folder
 
 
@@ -168,7 +169,7 @@ def test_z_min_proposed_from_a_reference_measurement(ideal_capture, tmp_path, ca
 def test_ball_bar_evaluation_on_noise_free_spheres(tmp_path, capsys):
     cap = tmp_path / "spheres"
     simulate_capture(cap, preset="tiny", scene="spheres", patterns="two-frequency", seed=1, progress=False,
-                     bit_depth=None, ideal=True)
+                     render=RenderChanges(bit_depth=None, others={"ideal": True}))
     out = tmp_path / "out"
     code, _, err = run(["reconstruct", str(cap), "-c", str(cap / "rig.json"), "-o", str(out), "--z-min", "250", "-q"],
                        capsys)

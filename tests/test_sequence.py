@@ -15,7 +15,7 @@ from fringe3d.patterns import sets
 from fringe3d.reconstruct import sequence
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.reconstruct.sequence import reconstruct_sequence, window_index, window_starts, reconstruction_plans
-from fringe3d.sim import simulate_capture
+from fringe3d.sim import RenderChanges, simulate_capture
 from fringe3d.sim.truth import Truth
 from fringe3d.utils.warning_types import DepthRangeWarning
 
@@ -28,7 +28,7 @@ def seq_capture(tmp_path_factory):
     folder = tmp_path_factory.mktemp("seq") / "cap"
     ps = sets.phase_shift(64, 3, "v", width=256, height=200)
     simulate_capture(folder, preset="tiny", scene="sphere", patterns=ps, cycles=3, seed=5, progress=False,
-                     bit_depth=None, ideal=True)
+                     render=RenderChanges(bit_depth=None, others={"ideal": True}))
     cap = read_capture(folder)
     return cap, Rig.load(folder / "rig.json"), Truth.load(folder)
 

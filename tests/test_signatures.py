@@ -15,16 +15,8 @@ MOST = 10
 
 #: "module/path.py:function" -> why it still takes more than MOST parameters.
 ALLOWED = {
-    "calibrate/session.py:calibrate_to_files": "calibration session typing is another change (issue 24, part 5)",
     "decode/edges.py:quality_map": "public quality-map API: one keyword per test threshold",
     "decode/edges.py:_quality_map_fused": "the fused quality map's private entry, flat like its kernels",
-    "devices/session.py:capture_session": "calibration-session capture knobs (board, poses, timing)",
-    "sim/board.py:__init__": "calibration board geometry and appearance",
-    "sim/calibration_session.py:sample_board_poses": "pose sampling ranges",
-    "sim/calibration_session.py:simulate_session": "simulated session knobs",
-    "calibrate/session.py:calibrate_session": "session options not yet grouped into settings (issue 24, part 3)",
-    "sim/simulate.py:simulate_capture": "simulator knobs, one per simulate flag",
-    "sim/wing.py:__init__": "the flapping-wing model's physical parameters",
 }
 
 

@@ -3,8 +3,9 @@ import cv2
 import numpy as np
 import pytest
 
+from fringe3d.calibrate.boards import CircleBoard
 from fringe3d.optics import PinholeDevice, intrinsics
-from fringe3d.sim.board import BoardTarget, board_facing
+from fringe3d.sim.board import BoardLook, BoardTarget, board_facing
 
 CAM = PinholeDevice(intrinsics(400, 400, 159.5, 127.5), 320, 256)
 
@@ -17,8 +18,9 @@ def _image(board):
 
 @pytest.mark.parametrize("asym", [False, True])
 def test_opencv_finds_board_circles_at_projected_true_centres(asym):
-    kw = dict(cols=4, rows=9, spacing=12.0, asymmetric=True) if asym else dict(cols=7, rows=6, spacing=15.0)
-    board = board_facing((0, 0, 0), (5, -3, 300), tilt=(0.3, -0.2, 0.1), edge_width=0.6, **kw)
+    grid = (CircleBoard(cols=4, rows=9, spacing=12.0, radius=3.0, asymmetric=True) if asym
+            else CircleBoard(cols=7, rows=6, spacing=15.0, radius=3.75))
+    board = board_facing((0, 0, 0), (5, -3, 300), tilt=(0.3, -0.2, 0.1), board=grid, look=BoardLook(edge_width=0.6))
     ok, found = cv2.findCirclesGrid(_image(board), board.pattern_size, flags=board.cv_flags)
     assert ok
     truth = CAM.project(board.circle_centers())
@@ -28,7 +30,8 @@ def test_opencv_finds_board_circles_at_projected_true_centres(asym):
 
 def test_board_albedo_dark_in_circles_white_between():
     for asym in (False, True):
-        b = BoardTarget(cols=5, rows=4, spacing=10, radius=3, asymmetric=asym, white=0.9, dark=0.1)
+        b = BoardTarget(CircleBoard(cols=5, rows=4, spacing=10, radius=3, asymmetric=asym),
+                        look=BoardLook(white=0.9, dark=0.1))
         c = b.object_points()[:, :2]
         np.testing.assert_allclose(b.albedo_at(c), 0.1)
         np.testing.assert_allclose(b.albedo_at(c + [2.9, 0]), 0.1)
@@ -39,7 +42,7 @@ def test_board_albedo_dark_in_circles_white_between():
 def test_board_pose_maps_object_points_and_hits_lie_on_board_plane():
     R = cv2.Rodrigues(np.array([0.2, -0.4, 0.1]))[0]
     t = np.array([-40.0, -30.0, 350.0])
-    b = BoardTarget(cols=6, rows=5, spacing=10, R=R, t=t)
+    b = BoardTarget(CircleBoard(cols=6, rows=5, spacing=10, radius=2.5), R=R, t=t)
     np.testing.assert_allclose(b.circle_centers(), b.object_points() @ R.T + t)
     # a ray aimed at each true centre hits the board there and sees a dark circle
     X = b.circle_centers()
@@ -51,15 +54,15 @@ def test_board_pose_maps_object_points_and_hits_lie_on_board_plane():
 
 
 def test_board_is_finite_with_its_margin():
-    b = BoardTarget(cols=3, rows=3, spacing=10, margin=5, t=(0, 0, 100))
+    b = BoardTarget(CircleBoard(cols=3, rows=3, spacing=10, radius=2.5), t=(0, 0, 100), look=BoardLook(margin=5))
     d = np.array([[-4.9, 0, 100], [-5.1, 0, 100], [24.9, 24.9, 100], [25.1, 10, 100]])
     np.testing.assert_array_equal(b.intersect(np.zeros(3), d).mask, [True, False, True, False])
 
 
 def test_board_rejects_overlapping_circles_and_tiny_grids():
     with pytest.raises(ValueError, match="radius"):
-        BoardTarget(spacing=10, radius=5)
+        BoardTarget(CircleBoard(spacing=10, radius=5))
     with pytest.raises(ValueError, match="radius"):
-        BoardTarget(spacing=10, radius=7.1, asymmetric=True)
+        BoardTarget(CircleBoard(spacing=10, radius=7.1, asymmetric=True))
     with pytest.raises(ValueError, match="2x2"):
-        BoardTarget(cols=1, rows=5)
+        BoardTarget(CircleBoard(cols=1, rows=5))

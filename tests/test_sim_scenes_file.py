@@ -11,7 +11,7 @@ from fringe3d.sim.primitives import Plane, Sphere
 from fringe3d.sim.scene import Scene
 from fringe3d.sim.scene_file import load_scene, scene_from_dict
 from fringe3d.sim.validate import check_scene, scene_problems
-from fringe3d.sim.wing import Wing
+from fringe3d.sim.wing import Wing, WingBeat, WingDots
 
 
 def _rig():
@@ -143,7 +143,7 @@ def test_named_scenes_fit_the_tiny_rig(name):
 
 
 def test_scene_truth_fields_carry_wing_curvature_only_on_wing_pixels():
-    w = Wing(kappa_mean=0.01)
+    w = Wing(beat=WingBeat(kappa_mean=0.01))
     scene = Scene([Plane((0, 0, 600), (0, 0, -1)), w])
     cam = PinholeDevice(intrinsics(200, 200, 79.5, 63.5), 160, 128)
     o, d = cam.rays(cam.pixel_grid().reshape(-1, 2))
@@ -158,7 +158,8 @@ def test_scene_truth_fields_carry_wing_curvature_only_on_wing_pixels():
 
 
 def test_scene_save_load_round_trip_casts_identically(tmp_path):
-    from fringe3d.sim.board import BoardTarget
+    from fringe3d.calibrate.boards import CircleBoard
+    from fringe3d.sim.board import BoardLook, BoardTarget
     from fringe3d.sim.mesh import Mesh
     from fringe3d.sim.motion import RigidMotion
     from fringe3d.sim.primitives import Box
@@ -170,10 +171,11 @@ def test_scene_save_load_round_trip_casts_identically(tmp_path):
         Plane((0, 0, 520), (0.1, 0, -1), albedo=0.7, texture=Checker(8.0), size=(400, 300)),
         Sphere((30, 10, 430), 25, texture=Checker(0.4), velocity=(0, 500, 0), spin=(1, 2, 3)),
         Box((-60, 30, 470), (20, 25, 10), R=(0.1, 0.2, 0.3), motion=RigidMotion(velocity=(5, 0, 0))),
-        BoardTarget(cols=4, rows=3, spacing=12, t=(-40, -60, 480), asymmetric=True, edge_width=0.5),
+        BoardTarget(CircleBoard(cols=4, rows=3, spacing=12, radius=3, asymmetric=True), t=(-40, -60, 480),
+                    look=BoardLook(edge_width=0.5)),
         sculpture(center=(60, -50, 490), size=(50, 40), relief=10, seed=3),
         Mesh(tmp_path / "ball.stl", center=(-20, -20, 400), texture=Blotches(5.0)),
-        Wing(root=(-75, 60, 450), anchors=[(5, 5)], markers=[(50, 30)], kappa_mean=0.01),
+        Wing(beat=WingBeat(kappa_mean=0.01), root=(-75, 60, 450), dots=WingDots(anchors=[(5, 5)], markers=[(50, 30)])),
     ], ambient=0.05, name="round-trip")
     path = save_scene(scene, tmp_path / "scene.json")
     back = load_scene(path)

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from fringe3d.optics import PinholeDevice, intrinsics
-from fringe3d.sim.wing import Wing
+from fringe3d.sim.wing import Wing, WingBeat, WingDots, WingShape
 
 TIMES = (0.0, 0.004, 0.011, 0.027)
 
@@ -12,7 +12,7 @@ def _wing(**kw):
     base = dict(kappa_mean=0.004, kappa_amp=1 / 50, bend_angle=0.35, bend_offset=10.0,
                 anchors=[(6, 6), (140, 6)], markers=[(40, 30), (90, 25)])
     base.update(kw)
-    return Wing(**base)
+    return Wing.from_fields(base)
 
 
 def _pairs(w, n, seed):
@@ -165,17 +165,18 @@ def test_flapping_rotates_about_the_root_hinge_periodically():
 
 def test_wing_rejects_bad_parameters():
     with pytest.raises(ValueError, match="inside the outline"):
-        Wing(anchors=[(149, 69)])
+        Wing(dots=WingDots(anchors=[(149, 69)]))
     with pytest.raises(ValueError, match="wrap"):
-        Wing(kappa_amp=0.1)
+        Wing(beat=WingBeat(kappa_amp=0.1))
     with pytest.raises(ValueError, match="outline"):
-        Wing(outline="circle")
+        Wing(WingShape(outline="circle"))
     with pytest.raises(ValueError, match="inside the wing outline"):
         Wing().geodesic_distance([0, 0], [200, 0])
 
 
 def test_bounding_sphere_encloses_the_bent_sheet():
-    w = Wing(outline="rectangle", kappa_mean=0.0, kappa_amp=np.pi / 70 * 0.99)  # almost a half tube
+    w = Wing(WingShape(outline="rectangle"),  # almost a half tube
+             WingBeat(kappa_mean=0.0, kappa_amp=np.pi / 70 * 0.99))
     for t in (0.0, 0.01, 0.03):
         c, r = w.bounding_sphere(t)
         X = w.material_to_world(w.material_grid(0.5), t)

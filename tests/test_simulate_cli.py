@@ -8,7 +8,7 @@ import pytest
 from fringe3d.cli import main
 from fringe3d.io.capture import read_capture
 from fringe3d.optics import Rig
-from fringe3d.sim import Truth, presets, simulate_capture
+from fringe3d.sim import RenderChanges, Truth, presets, simulate_capture
 
 
 def wrapped(frames):
@@ -39,8 +39,8 @@ def test_simulate_cli_writes_a_capture_with_truth_and_rig(tmp_path, capsys):
 
 
 def test_simulate_capture_repeats_the_sequence_with_frame_times(tmp_path):
-    summary = simulate_capture(tmp_path / "c", "tiny", "plane", "two-frequency", frames=12, frame_rate=500.0,
-                               progress=False)
+    summary = simulate_capture(tmp_path / "c", "tiny", "plane", "two-frequency", frames=12, progress=False,
+                               render=RenderChanges(frame_rate=500.0))
     assert summary["frames"] == 12
     cap = read_capture(tmp_path / "c")
     assert len(cap.frames) == 12 and cap.meta["frame_rate"] == 500.0
@@ -115,7 +115,8 @@ def test_simulated_three_frequency_capture_decodes_to_the_truth_absolute_phase(t
     """The decoder (heterodyne unwrapping) on a noise-free 16-bit capture returns the truth
     absolute phase Phi = 2 pi w / T (narrowest period) within 1e-3 rad in both directions."""
     from fringe3d.decode import decode
-    simulate_capture(tmp_path / "c", "tiny", "sphere", "three-frequency", bit_depth=16, ideal=True, progress=False)
+    simulate_capture(tmp_path / "c", "tiny", "sphere", "three-frequency", progress=False,
+                     render=RenderChanges(bit_depth=16, others={"ideal": True}))
     cap = read_capture(tmp_path / "c")
     truth = Truth.load(tmp_path / "c")
     dec = decode(cap.frames, cap.patterns)
@@ -128,7 +129,8 @@ def test_simulated_three_frequency_capture_decodes_to_the_truth_absolute_phase(t
 def test_moving_scene_capture_has_per_frame_truth_on_the_falling_balls(tmp_path):
     from fringe3d.sim.catalog import named_scene
     scene = named_scene("falling-balls", presets.get("tiny"))
-    simulate_capture(tmp_path / "c", "tiny", scene, "two-frequency", frame_rate=500.0, progress=False)
+    simulate_capture(tmp_path / "c", "tiny", scene, "two-frequency", progress=False,
+                     render=RenderChanges(frame_rate=500.0))
     truth = Truth.load(tmp_path / "c")
     assert truth.per_frame and truth.xyz.shape[0] == 6
     for k in (0, 5):
@@ -141,7 +143,8 @@ def test_moving_scene_capture_has_per_frame_truth_on_the_falling_balls(tmp_path)
 
 
 def test_twelve_bit_capture_is_written_as_uint16_with_its_bit_depth(tmp_path):
-    simulate_capture(tmp_path / "c", "tiny", "plane", "phase-shift", bit_depth=12, progress=False)
+    simulate_capture(tmp_path / "c", "tiny", "plane", "phase-shift", progress=False,
+                     render=RenderChanges(bit_depth=12))
     cap = read_capture(tmp_path / "c")
     assert cap.frames.dtype == np.uint16 and cap.frames.max() <= 4095 and cap.frames.max() > 255
     assert json.loads((tmp_path / "c" / "capture.json").read_text())["bit_depth"] == 12

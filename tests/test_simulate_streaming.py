@@ -7,7 +7,7 @@ import pytest
 
 from fringe3d.io.capture import read_capture
 from fringe3d.io.npy_stream import NpyFrameWriter, pack_npz, read_npy_frame
-from fringe3d.sim import Truth, presets, simulate_capture
+from fringe3d.sim import RenderChanges, Truth, presets, simulate_capture
 from fringe3d.sim.catalog import named_scene
 from fringe3d.sim.render import render
 from fringe3d.sim.simulate import make_patterns, make_scene
@@ -26,7 +26,8 @@ def test_streamed_capture_and_truth_equal_the_in_memory_render(tmp_path, moving)
     p = presets.get("tiny")
     scene = named_scene("falling-balls", p) if moving else "sphere"
     sc = make_scene(scene, p)
-    simulate_capture(tmp_path / "c", "tiny", sc, "two-frequency", frames=12, frame_rate=500.0, progress=False)
+    simulate_capture(tmp_path / "c", "tiny", sc, "two-frequency", frames=12, progress=False,
+                     render=RenderChanges(frame_rate=500.0))
     frames, truth = _in_memory(sc, "two-frequency", 12, 500.0)
     np.testing.assert_array_equal(read_capture(tmp_path / "c").frames, frames)
     got = Truth.load(tmp_path / "c")

@@ -55,6 +55,7 @@ _LAZY: dict[str, tuple[str, str]] = {
     # sim
     "render": ("fringe3d.sim", "render"),
     "RenderSettings": ("fringe3d.sim", "RenderSettings"),
+    "RenderChanges": ("fringe3d.sim", "RenderChanges"),
     "simulate_capture": ("fringe3d.sim", "simulate_capture"),
     "simulate_session": ("fringe3d.sim.calibration_session", "simulate_session"),
 }

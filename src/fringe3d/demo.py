@@ -29,7 +29,7 @@ from fringe3d.reconstruct.triangulate import triangulate
 from fringe3d.report import write_report
 from fringe3d.report.results import save_summary
 from fringe3d.sim import presets, render
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import SessionOptics, simulate_session
 from fringe3d.utils.warning_types import CalibrationWarning
 from fringe3d.sim.catalog import facing_rotation, preset_frame
 from fringe3d.sim import Scene, Sphere
@@ -140,7 +140,7 @@ def run_demo(out: str | Path, profile: str = "default", seed: int = 0,
     preset = presets.get(preset_name)
 
     with st.time("render calibration session"):
-        sess = simulate_session(preset, n_poses=n_poses, seed=seed, camera_scale=scale)
+        sess = simulate_session(preset, n_poses=n_poses, seed=seed, optics=SessionOptics(camera_scale=scale))
     with st.time("calibrate"):
         obs, inf = observe_session(sess.poses, sess.board, progress=True)
         cal, res = calibrate_observations(obs, inf, sess.board)

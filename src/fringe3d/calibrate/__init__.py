@@ -39,6 +39,7 @@ from .session import (
     observe_pose,
     observe_session,
 )
+from .session_settings import CalibrationOutput, FitSettings, ObservationSettings
 from .square_boards import CharucoBoard, ChessBoard, board_from_dict
 from .stereo import PoseObservation, RigCalibration, calibrate_pinhole_rig
 from .telecentric import (
@@ -55,7 +56,7 @@ __all__ = [
     "DeviceCalibration", "calibrate_device",
     "FringeDirection", "projector_points", "projector_maps",
     "PoseCapture", "PoseObservation", "observe_pose", "observe_session", "find_pose_folders",
-    "calibrate_observations", "calibrate_session",
+    "calibrate_observations", "calibrate_session", "ObservationSettings", "FitSettings", "CalibrationOutput",
     "RigCalibration", "calibrate_pinhole_rig",
     "TelecentricCalibration", "calibrate_telecentric_rig", "triangulate_telecentric",
     "optimal_angle", "epipolar_angle",

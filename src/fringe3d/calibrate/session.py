@@ -22,7 +22,7 @@ result in a :class:`Calibration`. Simulated sessions are rendered by
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +49,7 @@ from .square_boards import CharucoBoard, ChessBoard, board_from_dict, describe_b
 from .plots import residual_plot
 from .stereo import PoseObservation, calibrate_pinhole_rig
 from .session_result import SessionCalibration, SessionFacts
+from .session_settings import CalibrationOutput, FitSettings, ObservationSettings
 from .telecentric import calibrate_telecentric_rig
 
 SESSION_NAME = "session.json"
@@ -523,9 +524,7 @@ def _calibrate_once(obs, info: SessionFacts, board, model, camera_dist, projecto
 
 def calibrate_session(paths, board=None, model: str | None = None, progress: bool = True,
                       layout: str | None = None, projector_size: tuple[int, int] | None = None, *,
-                      min_modulation_share: float = 0.1, phase_window=0.0,
-                      homography_window: int = DEFAULT_WINDOW, camera_dist: str = "k1k2p",
-                      projector_dist: str = "none", telecentric_refine: bool = True,
+                      observe: ObservationSettings = ObservationSettings(), fit: FitSettings = FitSettings(),
                       min_modulation_fraction: float | None = None) -> SessionCalibration:
     """Calibrate a rig from pose folders or a session folder.
 
@@ -543,19 +542,14 @@ def calibrate_session(paths, board=None, model: str | None = None, progress: boo
         Another tool's session layout (:func:`find_pose_folders`), e.g. ``"opencv-graycode"``.
     projector_size : (int, int), optional
         The projector's ``(width, height)`` for a ``layout``.
-    min_modulation_share : float
-        Board points whose modulation is below this share of the pose's 95th percentile are
-        left out of the projector's points (:func:`observe_pose`).
-    phase_window : float or str
-        How the phase is sampled at a board point (:func:`phase_window_px`).
-    homography_window : int
-        Gray-code sets: the local homographies' window, camera px.
-    camera_dist, projector_dist : str
-        Distortion models, or ``"auto"`` (:func:`calibrate_observations`).
-    telecentric_refine : bool
-        Telecentric rigs: the joint refinement after ch. 3's steps.
+    observe : ObservationSettings
+        How the board points are observed: the modulation share (:func:`observe_pose`), the
+        phase sampling (:func:`phase_window_px`) and the Gray-code homography window (camera px).
+    fit : FitSettings
+        Distortion models, or ``"auto"`` (:func:`calibrate_observations`), and the telecentric
+        refinement.
     min_modulation_fraction : float, optional
-        Deprecated spelling of ``min_modulation_share``.
+        Deprecated spelling of ``observe.min_modulation_share``.
 
     Returns
     -------
@@ -565,7 +559,7 @@ def calibrate_session(paths, board=None, model: str | None = None, progress: boo
     if min_modulation_fraction is not None:
         warnings.warn("the parameter min_modulation_fraction is deprecated; pass `min_modulation_share`",
                       DeprecationWarning, stacklevel=2)
-        min_modulation_share = min_modulation_fraction
+        observe = replace(observe, min_modulation_share=min_modulation_fraction)
     folders, meta = find_pose_folders(paths, layout, projector_size)
     if board is None:
         if "board" not in meta:
@@ -573,10 +567,10 @@ def calibrate_session(paths, board=None, model: str | None = None, progress: boo
                              f"or put {{\"board\": {{...}}}} in the session folder's {SESSION_NAME}")
         board = board_from_dict(meta["board"])
     model = model or meta.get("model", "pinhole")
-    obs, facts = observe_session(folders, board, min_modulation_share, progress, phase_window=phase_window,
-                                 homography_window=homography_window)
-    return calibrate_observations(obs, facts, board, model, camera_dist=camera_dist, projector_dist=projector_dist,
-                                  telecentric_refine=telecentric_refine)
+    obs, facts = observe_session(folders, board, observe.min_modulation_share, progress,
+                                 phase_window=observe.phase_window, homography_window=observe.homography_window)
+    return calibrate_observations(obs, facts, board, model, camera_dist=fit.camera_dist,
+                                  projector_dist=fit.projector_dist, telecentric_refine=fit.telecentric_refine)
 
 
 def board_from_options(cols: int, rows: int, spacing: float | None, radius: float | None, asymmetric: bool,
@@ -598,27 +592,27 @@ def board_from_options(cols: int, rows: int, spacing: float | None, radius: floa
     raise ValueError(f"`board` must be circles, chessboard or charuco, got {kind!r}")
 
 
-def calibrate_to_files(inputs, output: Path, board=None, model=None, camera_dist="auto", projector_dist="auto",
-                       plot: Path | None = None, yaml: Path | None = None, min_modulation_share: float = 0.1,
-                       progress: bool = True, refine: bool = True, phase_window="bilinear",
+def calibrate_to_files(inputs, output: Path, board=None, model=None, progress: bool = True,
                        layout: str | None = None, projector_size: tuple[int, int] | None = None,
-                       homography_window: int = DEFAULT_WINDOW, accept_poor: bool = False) -> dict:
-    """Calibrate from pose/session folders (:func:`calibrate_session`); write the calibration JSON
-    (+ optional residual PNG plot / OpenCV YAML).
+                       observe: ObservationSettings = ObservationSettings(phase_window="bilinear"),
+                       fit: FitSettings = FitSettings(camera_dist="auto", projector_dist="auto"),
+                       files: CalibrationOutput = CalibrationOutput()) -> dict:
+    """Calibrate from pose/session folders (:func:`calibrate_session`, with ``observe`` and ``fit``:
+    by default bilinear phase sampling and automatic distortion models); write the calibration
+    JSON (+ optional residual PNG plot / OpenCV YAML, ``files``).
 
     Returns a JSON-friendly summary. Nothing is written unless the calibration succeeds and
     passes its acceptance gates (:mod:`.gates`): a failed gate raises :class:`.gates.AcceptanceGateError`
-    (its ``summary`` is this function's summary with nothing written) - unless ``accept_poor``,
+    (its ``summary`` is this function's summary with nothing written) - unless ``files.accept_poor``,
     which writes the files, records ``acceptance.accepted_poor`` and warns.
     """
-    session = calibrate_session(inputs, board=board, model=model, progress=progress, camera_dist=camera_dist,
-                                projector_dist=projector_dist, min_modulation_share=min_modulation_share,
-                                telecentric_refine=refine, phase_window=phase_window, layout=layout,
-                                projector_size=projector_size, homography_window=homography_window)
+    plot, yaml = files.plot, files.yaml
+    session = calibrate_session(inputs, board=board, model=model, progress=progress, layout=layout,
+                                projector_size=projector_size, observe=observe, fit=fit)
     cal = session.calibration
     gates = [Gate(**g) for g in cal.acceptance["gates"]]
     if failed(gates):
-        if not accept_poor:
+        if not files.accept_poor:
             raise AcceptanceGateError(failure_message(gates) + "\nnothing was written; `accept_poor=True` writes "
                                       "the calibration anyway and records the failed gates in it", _summary(cal, {}))
         cal.acceptance["accepted_poor"] = True

@@ -13,9 +13,10 @@ from fringe3d.calibrate.model_choice import check_dist_option
 from fringe3d.calibrate.opencv_file import load_opencv_calibration, parse_node_map, parse_size
 from fringe3d.calibrate.code_mapping import DEFAULT_WINDOW
 from fringe3d.calibrate.session import board_from_options, calibrate_to_files
+from fringe3d.calibrate.session_settings import CalibrationOutput, FitSettings, ObservationSettings
 from fringe3d.calibrate.square_boards import BOARD_KINDS, squares_from_inner_corners
 from fringe3d.io.importer import parse_size as parse_projector_size
-from fringe3d.sim.calibration_session import simulate_session
+from fringe3d.sim.calibration_session import PoseRanges, SessionImaging, SessionOptics, simulate_session
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
 from fringe3d.commands.checks import check_number
 from fringe3d.commands.output_options import overwrite_option
@@ -186,18 +187,23 @@ def register(app: typer.Typer) -> None:
                                                 marker, dictionary],
                                       "camera_scale": camera_scale, "noise_free": noise_free,
                                       "patterns": sim_patterns, "stripe": stripe, "partial": partial}) as o:
-                ss = simulate_session(simulate, n_poses=poses, seed=seed, defocus=defocus, board=sim_board,
-                                      camera_scale=camera_scale, noise=not noise_free, folder=o.path,
-                                      progress=not (quiet or json_), patterns=sim_patterns, stripe=stripe,
-                                      partial=partial)
+                ss = simulate_session(simulate, n_poses=poses, seed=seed, patterns=sim_patterns, board=sim_board,
+                                      folder=o.path, progress=not (quiet or json_),
+                                      optics=SessionOptics(camera_scale=camera_scale, defocus=defocus),
+                                      imaging=SessionImaging(noise=not noise_free, stripe=stripe),
+                                      pose_ranges=PoseRanges(partial=partial))
             truth = ss.rig
         plot_path = None if no_plot else (plot or output.with_suffix(".png"))
         try:
             with open_output_file(output, plot_path, yaml, overwrite=overwrite, inputs=inputs):
-                s = calibrate_to_files(inputs, output, board, model, camera_dist, projector_dist, plot_path, yaml,
-                                       min_modulation, progress=not (quiet or json_), refine=not no_refine,
-                                       phase_window=phase_window, layout=layout, projector_size=size,
-                                       homography_window=homography_window, accept_poor=accept_poor)
+                s = calibrate_to_files(inputs, output, board, model, progress=not (quiet or json_), layout=layout,
+                                       projector_size=size,
+                                       observe=ObservationSettings(min_modulation_share=min_modulation,
+                                                                   phase_window=phase_window,
+                                                                   homography_window=homography_window),
+                                       fit=FitSettings(camera_dist=camera_dist, projector_dist=projector_dist,
+                                                       telecentric_refine=not no_refine),
+                                       files=CalibrationOutput(plot=plot_path, yaml=yaml, accept_poor=accept_poor))
         except AcceptanceGateError as e:  # show the figures, then the error (exit 2, nothing written)
             _show(e.summary, json_, quiet)
             raise

@@ -1,6 +1,7 @@
 """``fringe3d simulate``: render a capture folder (frames + manifest + truth/ + rig.json)."""
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import typer
@@ -12,6 +13,7 @@ from fringe3d.utils.output_folder import open_output
 from fringe3d.commands.vocabulary import set_option, set_word
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.sim.scene_file import load_scene
+from fringe3d.sim.settings import RenderChanges
 from fringe3d.sim.simulate import simulate_capture
 from fringe3d.sim.turntable import simulate_turntable
 from fringe3d.utils.console import console, info, make_table, print_json, set_quiet
@@ -119,19 +121,18 @@ def register(app: typer.Typer) -> None:
         with open_output(out, overwrite=overwrite, inputs=inputs, options=options, resumable=True) as o:
             if o.resumed:
                 info(f"resuming the unfinished capture in {out}: frames already written are kept")
+            changes = RenderChanges(frame_rate=frame_rate, exposure=exposure, noise=noise, defocus=defocus,
+                                    bit_depth=bit_depth, others=extra)
             if multi:
                 summary = o.final_paths(simulate_turntable(
                     o.path, preset, scene, patterns, views=multi["views"], step_deg=multi["turntable_step"],
                     stage_sigma=multi["stage_sigma"], progress=not (quiet or json_), frames=frames,
-                    frame_rate=frame_rate, exposure=exposure, noise=noise, defocus=defocus, bit_depth=bit_depth,
-                    seed=seed, resume=o.resumed, **extra))
+                    seed=seed, resume=o.resumed, render=changes))
                 summary.pop("captures")
             else:
-                summary = o.final_paths(simulate_capture(o.path, preset, scene, patterns, frames=frames,
-                                                     frame_rate=frame_rate, exposure=exposure, noise=noise,
-                                                     defocus=defocus, bit_depth=bit_depth, seed=seed,
-                                                     progress=not (quiet or json_), resume=o.resumed,
-                                                     exposures=bracket, **extra))
+                summary = o.final_paths(simulate_capture(o.path, preset, scene, patterns, frames=frames, seed=seed,
+                                                     render=replace(changes, exposures=bracket),
+                                                     progress=not (quiet or json_), resume=o.resumed))
         if json_:
             print_json(summary)
             return

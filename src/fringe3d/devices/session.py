@@ -18,6 +18,7 @@ Esc / q stops early.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -75,31 +76,107 @@ class PreviewWindow:
         self.window.close()
 
 
-def _board(cols: int, rows: int, spacing: float | None, radius: float | None):
-    s = float(spacing) if spacing else 10.0
-    return CircleBoard(cols=cols, rows=rows, spacing=s, radius=float(radius) if radius else 0.25 * s)
+@dataclass(frozen=True)
+class SessionBoard:
+    """The circle board of a captured session; only its layout is needed to find it.
+
+    Attributes
+    ----------
+    cols : int
+        Circles per row.
+    rows : int
+        Rows of circles.
+    spacing : float | None
+        Grid spacing (mm), written to ``session.json`` for calibration; ``None``: not written
+        (the board is found with a 10 mm spacing).
+    radius : float | None
+        Circle radius (mm); ``None`` = a quarter of the spacing.
+    """
+
+    cols: int = 9
+    rows: int = 9
+    spacing: float | None = None
+    radius: float | None = None
+
+    def circle_board(self) -> CircleBoard:
+        """The :class:`~fringe3d.calibrate.boards.CircleBoard` to look for."""
+        s = float(self.spacing) if self.spacing else 10.0
+        return CircleBoard(cols=self.cols, rows=self.rows, spacing=s,
+                           radius=float(self.radius) if self.radius else 0.25 * s)
 
 
-def capture_session(projector, camera, patterns, images, folder, poses: int, *, cols: int = 9, rows: int = 9,
-                    spacing: float | None = None, radius: float | None = None, auto: bool = True,
-                    still_seconds: float = 1.0, still_px: float = 0.5, moved_px: float = 5.0, preview: bool = False,
-                    settle: float = 0.0, timeout: float = 1.0, pose_timeout: float = 120.0,
-                    extra_meta: dict | None = None) -> dict:
+@dataclass(frozen=True)
+class PoseTrigger:
+    """When a board pose is taken (see the module docstring).
+
+    Attributes
+    ----------
+    auto : bool
+        Capture when the board is found and still for ``still_seconds`` (camera time).
+    preview : bool
+        Show the preview window (needs a display); without it ``auto`` is required.
+    still_seconds : float
+        How long (s, camera time) the board must be still before an automatic capture.
+    still_px : float
+        Largest movement (camera px) of a circle centre that still counts as still.
+    moved_px : float
+        Movement (camera px) of a centre that re-arms the trigger after a pose.
+    pose_timeout : float
+        Give up when no pose is taken within this many seconds of camera time.
+    """
+
+    auto: bool = True
+    preview: bool = False
+    still_seconds: float = 1.0
+    still_px: float = 0.5
+    moved_px: float = 5.0
+    pose_timeout: float = 120.0
+
+
+@dataclass(frozen=True)
+class GrabTiming:
+    """The timing of every grab of a session (preview frames and calibration sets).
+
+    Attributes
+    ----------
+    settle : float
+        Wait (s) after showing a pattern before triggering the camera.
+    timeout : float
+        Longest wait (s) for a camera frame.
+    """
+
+    settle: float = 0.0
+    timeout: float = 1.0
+
+
+def capture_session(projector, camera, patterns, images, folder, poses: int, *,
+                    board: SessionBoard = SessionBoard(), trigger: PoseTrigger = PoseTrigger(),
+                    timing: GrabTiming = GrabTiming(), extra_meta: dict | None = None) -> dict:
     """Capture ``poses`` board poses into ``folder/pose_XX`` (see the module docstring).
 
     Parameters
     ----------
+    projector, camera : the devices
     patterns, images : the calibration set (PatternSet) and its 8-bit frames
-    cols, rows, spacing, radius : the circle board (spacing/radius in mm; only the layout is
-        needed to find it, ``spacing`` is written to ``session.json`` for calibration)
-    auto : capture when the board is found and still for ``still_seconds`` (camera time)
-    preview : show the preview window (needs a display); without it ``auto`` is required
-    pose_timeout : give up when no pose is taken within this many seconds of camera time
+    folder : the session folder (created)
+    poses : number of board poses to take
+    board : SessionBoard
+        The circle board (cols, rows; spacing and radius in mm).
+    trigger : PoseTrigger
+        When a pose is taken: automatically (still for seconds, px) or by key in the preview
+        window, and the pose timeout (s).
+    timing : GrabTiming
+        Settle time and frame timeout (s) of every grab.
+    extra_meta : dict, optional
+        Extra fields for every pose's ``capture.json``.
 
     Returns
     -------
     dict: folder, poses, pose folders, preview frames per pose.
     """
+    auto, preview, still_seconds = trigger.auto, trigger.preview, trigger.still_seconds
+    still_px, moved_px, pose_timeout = trigger.still_px, trigger.moved_px, trigger.pose_timeout
+    settle, timeout, spacing = timing.settle, timing.timeout, board.spacing
     if poses < 1:
         raise ValueError(f"`poses` must be >= 1, got {poses}")
     if not preview and not auto:
@@ -108,7 +185,7 @@ def capture_session(projector, camera, patterns, images, folder, poses: int, *, 
     if not any(f.kind == "white" for f in patterns.frames):
         raise ValueError("the calibration pattern set has no white frame to find the board in; pass "
                          "the 'calibration' pattern set as `patterns`")
-    board = _board(cols, rows, spacing, radius)
+    grid = board.circle_board()
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -146,7 +223,7 @@ def capture_session(projector, camera, patterns, images, folder, poses: int, *, 
                     if t - t_start > pose_timeout:
                         raise DeviceError(f"no board pose was taken within {pose_timeout:g} s "
                                           f"({len(taken)} of {poses} poses done)")
-                    uv, _ = find_board(fr.image, board)
+                    uv, _ = find_board(fr.image, grid)
                     if uv is None:
                         history.clear()
                         armed = True
@@ -185,7 +262,7 @@ def capture_session(projector, camera, patterns, images, folder, poses: int, *, 
             win.close()
     meta = {"format": "fringe3d-session", "poses": taken, "captured_with": "fringe3d capture --session"}
     if spacing:
-        meta["board"] = board.to_dict()
+        meta["board"] = grid.to_dict()
     write_json(folder / "session.json", meta, units={"spacing": "mm"})
     return {"folder": str(folder), "poses": len(taken), "pose_folders": taken, "preview_frames": frames_per_pose}
 

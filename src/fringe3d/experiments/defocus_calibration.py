@@ -17,6 +17,7 @@ from fringe3d.optics.defocus import fundamental_contrast
 from fringe3d.patterns import sets
 from fringe3d.sim import presets
 from fringe3d.sim.calibration_session import (
+    SessionOptics,
     render_and_decode,
     scaled_camera,
     simulate_session,
@@ -57,8 +58,8 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     scene, centre, radius = sphere_scene(preset)
     cals, meas = [], []
     for k, (_label, sigma) in enumerate(track(LEVELS, "defocus levels")):
-        ss = simulate_session(preset, n_poses=n_poses, seed=seed, defocus=sigma, patterns=patterns,
-                              camera_scale=scale, noise=True, progress=False)
+        ss = simulate_session(preset, n_poses=n_poses, seed=seed, patterns=patterns, progress=False,
+                              optics=SessionOptics(camera_scale=scale, defocus=sigma))
         obs, info = observe_session(ss.poses, ss.board, progress=False)
         cal, _ = calibrate_observations(obs, info, ss.board)
         s = preset.settings.replace(defocus="gaussian", defocus_size=sigma, seed=seed * 7919 + 17 + k)

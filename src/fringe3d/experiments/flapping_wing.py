@@ -24,7 +24,7 @@ from fringe3d.reconstruct.triangulate import triangulate
 from fringe3d.sim import presets
 from fringe3d import sim as sc
 from fringe3d.sim.render import render
-from fringe3d.sim.wing import Wing
+from fringe3d.sim.wing import Wing, WingBeat, WingDots, WingShape
 from fringe3d.utils.console import progress_bar
 
 # =====================================================================================================
@@ -50,9 +50,10 @@ def sim_wing(side: int = 1, kappa_amp: float = 1 / 150.0, flap_deg: float = 20.0
     (the dissertation removed them for its strain dataset)."""
     R0 = None if side > 0 else np.array([[-1.0, 0, 0], [0, 1.0, 0], [0, 0, -1.0]])
     root = (-75.0, 35.0, z0) if side > 0 else (75.0, -35.0, z0)
-    return Wing(root=root, R0=R0, frequency=BEAT, flap_amplitude=np.radians(flap_deg), kappa_amp=kappa_amp,
-                kappa_mean=0.0, anchors=SIM_ANCHORS, markers=SIM_MARKERS if painted_markers else (),
-                dot_radius=2.0, thickness=THICKNESS)
+    return Wing(WingShape(thickness=THICKNESS),
+                WingBeat(frequency=BEAT, flap_amplitude=np.radians(flap_deg), kappa_amp=kappa_amp, kappa_mean=0.0),
+                root=root, R0=R0,
+                dots=WingDots(anchors=SIM_ANCHORS, markers=SIM_MARKERS if painted_markers else (), dot_radius=2.0))
 
 
 def truth_map(wing, cam, t: float):

@@ -19,6 +19,7 @@ from fringe3d.calibrate.session import calibrate_observations, observe_session
 from fringe3d.patterns import sets
 from fringe3d.sim import presets
 from fringe3d.sim.calibration_session import (
+    SessionOptics,
     render_and_decode,
     scaled_camera,
     simulate_session,
@@ -75,7 +76,8 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     sphere = Scene([Sphere(center=preset.center, radius=50.0, albedo=0.8)])
     rows, worse = [], {}
     for k, (label, ps) in enumerate(variants):
-        ss = simulate_session(preset, n_poses=n_poses, seed=seed, patterns=ps, camera_scale=scale, progress=False)
+        ss = simulate_session(preset, n_poses=n_poses, seed=seed, patterns=ps, progress=False,
+                              optics=SessionOptics(camera_scale=scale))
         obs, info = observe_session(ss.poses, ss.board, progress=False)
         cal, _ = calibrate_observations(obs, info, ss.board)
         _, truth, dirs = render_and_decode(sphere, rig_true, ps, settings.replace(seed=seed * 7919 + 11 + k))

@@ -28,6 +28,7 @@ from fringe3d.sim import presets
 from fringe3d.sim.calibration_session import (
     render_and_decode,
     render_board_poses,
+    SessionOptics,
     sample_board_poses,
     simulate_session,
 )
@@ -109,7 +110,8 @@ def run(quick: bool = False, seed: int = 0) -> dict:
     n_cal, n_test, n_steps = (5, 3, 3) if quick else (10, 10, 6)
     rig0 = preset.rig
     patterns = pattern_set(rig0.projector.width, rig0.projector.height)
-    ss = simulate_session(preset, n_poses=n_cal, seed=seed, patterns=patterns, camera_scale=scale, progress=False)
+    ss = simulate_session(preset, n_poses=n_cal, seed=seed, patterns=patterns, progress=False,
+                          optics=SessionOptics(camera_scale=scale))
     board, rig_true, settings = ss.board, ss.rig, ss.settings
     cals, obs_of = {}, {}
     for sampling, window in SAMPLINGS:

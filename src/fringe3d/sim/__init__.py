@@ -22,11 +22,12 @@ from .scene import Scene
 from .scene_file import load_scene, save_scene
 from .scene_object import PosedObject, SceneObject
 from .sculpture import HeightField, sculpture
-from .settings import RenderSettings
+from .settings import RenderChanges, RenderSettings
 from .simulate import make_patterns, make_scene, named_scene, simulate_capture
 from .truth import Truth
-from .wing import Wing
+from .wing import Wing, WingBeat, WingDots, WingShape
 
-__all__ = ["Box", "HeightField", "Hit", "Mesh", "Plane", "PosedObject", "RenderSettings", "RigidMotion",
-           "Scene", "SceneObject", "Sphere", "Truth", "Wing", "falling", "load_scene", "make_patterns",
-           "make_scene", "named_scene", "presets", "render", "save_scene", "sculpture", "simulate_capture"]
+__all__ = ["Box", "HeightField", "Hit", "Mesh", "Plane", "PosedObject", "RenderChanges", "RenderSettings",
+           "RigidMotion", "Scene", "SceneObject", "Sphere", "Truth", "Wing", "WingBeat", "WingDots", "WingShape",
+           "falling", "load_scene", "make_patterns", "make_scene", "named_scene", "presets", "render", "save_scene",
+           "sculpture", "simulate_capture"]

@@ -6,6 +6,8 @@ a scene (pose, margin, albedos, anti-aliased circle edges) so the renderer can d
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from fringe3d.calibrate.boards import CircleBoard
@@ -14,46 +16,67 @@ from .motion import STATIC, RigidMotion, rotation_vector_to_matrix
 from .scene_object import PosedObject, check_albedo, check_rotation, check_vec3
 
 
-class BoardTarget(PosedObject):
-    """A matte white board with dark circles: a :class:`CircleBoard` placed in a scene.
+#: The circle board a :class:`BoardTarget` draws when none is given: 9 x 9 circles, 10 mm apart.
+DEFAULT_BOARD = CircleBoard(cols=9, rows=9, spacing=10.0, radius=2.5)
 
-    Parameters
+
+@dataclass(frozen=True)
+class BoardLook:
+    """How a printed circle board looks in a scene: its border and albedos.
+
+    Attributes
     ----------
-    cols, rows : int
-        Circles per row and number of rows (OpenCV ``pattern_size = (cols, rows)``).
-    spacing : float
-        Grid spacing ``s`` (mm): centre distance along a row (symmetric) / between rows.
-    radius : float
-        Circle radius (mm); must leave a gap between neighbours.
-    R, t : board → world rotation ((3, 3) or rotation vector) and translation (mm).
-    asymmetric : bool
-        OpenCV asymmetric grid layout.
-    margin : float
-        White border around the outermost circles (mm); default ``spacing``.
-    white, dark : float
-        Albedos of the board and of the circles, in [0, 1].
+    margin : float | None
+        White border around the outermost circles (mm); ``None`` = the grid spacing.
+    white : float
+        Albedo of the board, in [0, 1].
+    dark : float
+        Albedo of the circles, in [0, 1].
     edge_width : float
         Width (mm) of a linear albedo ramp centred on each circle's edge (0 = sharp). A ramp
         about one pixel footprint wide anti-aliases single-sample renders without moving the
         circle's centroid (the ramp is symmetric about the true radius).
     """
 
-    def __init__(self, cols=9, rows=9, spacing=10.0, radius=None, R=None, t=(0.0, 0.0, 400.0),
-                 asymmetric=False, margin=None, white=0.9, dark=0.1, edge_width=0.0,
-                 motion: RigidMotion = STATIC):
-        spacing = float(spacing)
-        self.board = CircleBoard(cols=int(cols), rows=int(rows), spacing=spacing,
-                                 radius=float(radius) if radius is not None else 0.25 * spacing,
-                                 asymmetric=bool(asymmetric))
+    margin: float | None = None
+    white: float = 0.9
+    dark: float = 0.1
+    edge_width: float = 0.0
+
+
+#: The board geometry fields of a scene file's ``board`` entry (the rest: pose, look, motion).
+_GEOMETRY_FIELDS = ("cols", "rows", "spacing", "radius", "asymmetric")
+
+
+class BoardTarget(PosedObject):
+    """A matte white board with dark circles: a :class:`CircleBoard` placed in a scene.
+
+    Parameters
+    ----------
+    board : CircleBoard, optional
+        The grid: circles per row and rows, spacing and radius (mm), symmetric or asymmetric
+        layout; default :data:`DEFAULT_BOARD` (9 x 9, 10 mm).
+    R, t : board → world rotation ((3, 3) or rotation vector) and translation (mm).
+    look : BoardLook
+        Border (mm), albedos and anti-aliased circle edges (mm).
+    motion : RigidMotion
+        The board's rigid motion (default static).
+    """
+
+    def __init__(self, board: CircleBoard | None = None, R=None, t=(0.0, 0.0, 400.0),
+                 look: BoardLook = BoardLook(), motion: RigidMotion = STATIC):
+        b = DEFAULT_BOARD if board is None else board
+        self.board = CircleBoard(cols=int(b.cols), rows=int(b.rows), spacing=float(b.spacing),
+                                 radius=float(b.radius), asymmetric=bool(b.asymmetric))
         self.cols, self.rows = self.board.cols, self.board.rows
         self.spacing, self.radius, self.asymmetric = self.board.spacing, self.board.radius, self.board.asymmetric
-        self.margin = self.spacing if margin is None else float(margin)
+        self.margin = self.spacing if look.margin is None else float(look.margin)
         if self.margin < self.radius:
             raise ValueError(f"board margin ({self.margin} mm) must be at least the circle radius")
-        self.white, self.dark = check_albedo(white, "white"), check_albedo(dark, "dark")
-        self.edge_width = float(edge_width)
+        self.white, self.dark = check_albedo(look.white, "white"), check_albedo(look.dark, "dark")
+        self.edge_width = float(look.edge_width)
         if self.edge_width < 0 or self.edge_width > self.radius:
-            raise ValueError(f"edge_width must be in [0, radius] mm, got {edge_width}")
+            raise ValueError(f"edge_width must be in [0, radius] mm, got {look.edge_width}")
         self.R = np.eye(3) if R is None else check_rotation(R)
         self.center = check_vec3(t, "t")
         self.motion = motion
@@ -63,16 +86,27 @@ class BoardTarget(PosedObject):
         self.extent = np.array([pts[:, 0].min() - self.margin, pts[:, 0].max() + self.margin,
                                 pts[:, 1].min() - self.margin, pts[:, 1].max() + self.margin])
 
+    @classmethod
+    def from_fields(cls, fields: dict) -> "BoardTarget":
+        """The board of a scene file's flat ``board`` entry: ``cols``, ``rows``, ``spacing`` (mm),
+        ``radius`` (mm, default a quarter of the spacing), ``asymmetric``, ``R``, ``t`` (mm),
+        ``margin`` (mm), ``white``, ``dark``, ``edge_width`` (mm) and ``motion``, each optional
+        (defaults as :data:`DEFAULT_BOARD` and :class:`BoardLook`); the inverse of :meth:`to_dict`."""
+        rest = dict(fields)
+        geometry = {k: rest.pop(k) for k in _GEOMETRY_FIELDS if k in rest}
+        look = {k: rest.pop(k) for k in ("margin", "white", "dark", "edge_width") if k in rest}
+        spacing = float(geometry.get("spacing", DEFAULT_BOARD.spacing))
+        radius = geometry.get("radius")
+        board = CircleBoard(cols=int(geometry.get("cols", DEFAULT_BOARD.cols)),
+                            rows=int(geometry.get("rows", DEFAULT_BOARD.rows)), spacing=spacing,
+                            radius=float(radius) if radius is not None else 0.25 * spacing,
+                            asymmetric=bool(geometry.get("asymmetric", False)))
+        return cls(board, look=BoardLook(**look), **rest)
+
     # -- grid geometry -----------------------------------------------------------------------
     @property
     def t(self) -> np.ndarray:
         return self.center
-
-    @classmethod
-    def from_board(cls, board: CircleBoard, **scene_kwargs) -> "BoardTarget":
-        """The scene object rendering ``board``; ``scene_kwargs`` as in the constructor (R, t, albedos...)."""
-        return cls(cols=board.cols, rows=board.rows, spacing=board.spacing, radius=board.radius,
-                   asymmetric=board.asymmetric, **scene_kwargs)
 
     @property
     def pattern_size(self) -> tuple[int, int]:
@@ -163,7 +197,7 @@ def board_facing(camera_center, board_center, tilt=(0.0, 0.0, 0.0), **board_kwar
     """A :class:`BoardTarget` whose grid centre sits at ``board_center`` (world mm), facing
     ``camera_center`` and then tilted by the rotation vector ``tilt`` (rad, board axes).
 
-    Other keyword arguments go to :class:`BoardTarget` (``cols``, ``rows``, ``spacing``...).
+    Other keyword arguments go to :class:`BoardTarget` (``board``, ``look``, ``motion``).
     """
     bc = check_vec3(board_center, "board_center")
     R = look_at_rotation(check_vec3(camera_center, "camera_center") - bc) @ rotation_vector_to_matrix(tilt)

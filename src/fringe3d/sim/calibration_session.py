@@ -143,15 +143,45 @@ def _partly_seen(rig: Rig, obj_world: np.ndarray, margin: float, seen: tuple[flo
     return bool(lit.mean() >= 0.8)
 
 
+@dataclass(frozen=True)
+class PoseRanges:
+    """The ranges :func:`sample_board_poses` draws board poses from.
+
+    Attributes
+    ----------
+    max_tilt_deg : float
+        Largest tilt of the board normal (degrees); a few degrees gives a degenerate session of
+        near-parallel poses (the calibration's orientation gate, :mod:`fringe3d.calibrate.gates`).
+    spin_deg : float
+        In-plane spin drawn from ``[-spin_deg, spin_deg]`` (degrees).
+    margin : float
+        Border of each device's image the whole board stays out of (fraction of its width and
+        height).
+    max_tries : int
+        Poses drawn at most before giving up.
+    partial : int
+        The last ``partial`` poses show only part of the board to the camera (pinhole cameras).
+    partial_seen : (float, float)
+        Share (min, max) of the board points a partial view shows to the camera.
+    """
+
+    max_tilt_deg: float = 35.0
+    spin_deg: float = 15.0
+    margin: float = 0.04
+    max_tries: int = 20000
+    partial: int = 0
+    partial_seen: tuple[float, float] = (0.6, 0.85)
+
+
 def sample_board_poses(rig: Rig, volume: dict, board, n: int, rng: np.random.Generator,
-                       max_tilt_deg: float = 35.0, spin_deg: float = 15.0, margin: float = 0.04,
-                       max_tries: int = 20000, partial: int = 0,
-                       partial_seen: tuple[float, float] = (0.6, 0.85)) -> list[tuple[np.ndarray, np.ndarray]]:
+                       ranges: PoseRanges = PoseRanges()) -> list[tuple[np.ndarray, np.ndarray]]:
     """``n`` board -> world poses with the whole board (incl. a one-spacing border,
     :func:`board_outline`) inside both devices' images, facing both, centres spread over the
-    working volume. The last ``partial`` poses instead show only a share ``partial_seen``
-    (min, max) of the board points to the camera (a ChArUco board's partial views), 80 % of
-    them lit by the projector."""
+    working volume (tilt, spin and image margin as ``ranges``, :class:`PoseRanges`). The last
+    ``ranges.partial`` poses instead show only a share ``ranges.partial_seen`` (min, max) of the
+    board points to the camera (a ChArUco board's partial views), 80 % of them lit by the projector."""
+    max_tilt_deg, spin_deg, margin = ranges.max_tilt_deg, ranges.spin_deg, ranges.margin
+    max_tries, partial, partial_seen = ranges.max_tries, ranges.partial, ranges.partial_seen
     if not 0 <= partial <= n:
         raise ValueError(f"partial views must be between 0 and the {n} poses, got {partial}")
     if partial and rig.telecentric:
@@ -267,12 +297,62 @@ def calibration_patterns(kind, width: int, height: int, stripe: float | None = N
                      "PatternSet")
 
 
-def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: float | None = None,
-                     patterns=None, board=None, camera_scale: float = 1.0,
-                     noise: bool = True, settings_overrides: dict | None = None, folder=None,
-                     dark_albedo: float = 0.35, progress: bool = True, max_tilt_deg: float = 35.0,
-                     edge_pixels: float | None = None, partial: int = 0,
-                     stripe: float | None = None, projector_dist=None) -> SimulatedSession:
+@dataclass(frozen=True)
+class SessionOptics:
+    """The simulated rig of a session: the preset's, changed so.
+
+    Attributes
+    ----------
+    camera_scale : float
+        Render with a camera of this fraction of the preset's resolution (same field of view).
+    defocus : float | None
+        Projector defocus size (projector px, the preset's defocus model; Gaussian when the preset
+        has none); ``None`` = the preset's.
+    projector_dist : sequence of float | None
+        Brown coefficients ``(k1, k2, p1, p2, k3)`` of the true projector lens (the presets'
+        projectors have none); the renderer maps through them (Eq. 2.14-2.16).
+    """
+
+    camera_scale: float = 1.0
+    defocus: float | None = None
+    projector_dist: tuple[float, ...] | None = None
+
+
+@dataclass(frozen=True)
+class SessionImaging:
+    """What a session's images show besides the rig: noise, the printed board, the Gray-code stripe.
+
+    Attributes
+    ----------
+    noise : bool
+        False renders noise-free frames (no shot / read noise; 16-bit quantisation).
+    settings_overrides : dict | None
+        Other ``RenderSettings`` fields.
+    dark_albedo : float
+        Albedo of the board's circles or black squares (the board is 0.9); a grey circle keeps
+        enough fringe modulation at the circle centres for phase mapping.
+    edge_pixels : float | None
+        Width of the circles' or squares' anti-aliasing albedo ramp, in camera pixels at the
+        board (the renderer casts one ray per pixel); ``None``: 4 for chessboards (a lens blurs a
+        printed edge over a few pixels; a narrower ramp aliases: the rendered corners' error is
+        0.036 / 0.026 / 0.015 px for ramps of 1 / 2 / 4 px on the macro rig at half resolution),
+        2 for circle grids and ChArUco boards (a wider blur erases the markers' bits).
+    stripe : float | None
+        Gray-code patterns: the narrowest stripe (projector px); ``None`` = the smallest power of
+        two >= 2 x the defocus size (:func:`calibration_patterns`).
+    """
+
+    noise: bool = True
+    settings_overrides: dict | None = None
+    dark_albedo: float = 0.35
+    edge_pixels: float | None = None
+    stripe: float | None = None
+
+
+def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, patterns=None, board=None, folder=None,
+                     progress: bool = True, optics: SessionOptics = SessionOptics(),
+                     imaging: SessionImaging = SessionImaging(),
+                     pose_ranges: PoseRanges = PoseRanges()) -> SimulatedSession:
     """Render a calibration session with the simulator.
 
     Parameters
@@ -280,31 +360,20 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
     preset : preset name or ``fringe3d.sim.presets.Preset``
     n_poses : number of board poses (>= 3; the dissertation's figures use >= 10)
     seed : seeds the board poses and the sensor noise
-    defocus : projector defocus size (projector px, the preset's defocus model), None = preset's
     patterns : PatternSet, or ``"phase"`` (default: ``patterns.sets.calibration`` at the
-        projector's size) or ``"gray-code"`` (:func:`calibration_patterns`, stripe ``stripe``)
+        projector's size) or ``"gray-code"`` (:func:`calibration_patterns`, stripe ``imaging.stripe``)
     board : CircleBoard, ChessBoard or CharucoBoard, or a kind (``"circles"``,
         ``"chessboard"``, ``"charuco"``) or ``(kind, cols, rows)`` for :func:`default_board`;
         default circles
-    camera_scale : render with a camera of this fraction of the preset's resolution
-    noise : False renders noise-free frames (no shot / read noise; 16-bit quantisation)
-    settings_overrides : other ``RenderSettings`` fields
     folder : if given, write ``folder/pose_XX`` capture folders and ``folder/session.json``
-    dark_albedo : albedo of the board's circles (the board is 0.9); a grey circle keeps
-        enough fringe modulation at the circle centres for phase mapping
     progress : show a progress bar while the poses are rendered
-    edge_pixels : width of the circles' or squares' anti-aliasing albedo ramp, in camera
-        pixels at the board (the renderer casts one ray per pixel); default 4 for chessboards (a lens
-        blurs a printed edge over a few pixels; a narrower ramp aliases: the rendered corners'
-        error is 0.036 / 0.026 / 0.015 px for ramps of 1 / 2 / 4 px on the macro rig at half
-        resolution), 2 for circle grids and ChArUco boards (a wider blur erases the markers' bits)
-    partial : the last ``partial`` poses show only part of the board to the camera
-        (:func:`sample_board_poses`; for ChArUco boards)
-    stripe : Gray-code patterns: narrowest stripe (projector px)
-    max_tilt_deg : largest board tilt; a few degrees gives a degenerate session of
-        near-parallel poses (the calibration's orientation gate, :mod:`fringe3d.calibrate.gates`)
-    projector_dist : Brown coefficients ``(k1, k2, p1, p2, k3)`` of the true projector lens
-        (the presets' projectors have none); the renderer maps through them (Eq. 2.14-2.16)
+    optics : SessionOptics
+        Camera scale, projector defocus (px) and projector lens distortion of the true rig.
+    imaging : SessionImaging
+        Noise, other render settings, the board's albedo and edge ramp (px), the Gray-code stripe (px).
+    pose_ranges : PoseRanges
+        Tilt and spin (deg), image margins and partial views of the board poses
+        (:func:`sample_board_poses`; partial views for ChArUco boards).
 
     Returns
     -------
@@ -313,8 +382,9 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
         true rig and board poses (board -> world, mm), the rig model, the folder written (or
         None) and the render settings used.
     """
+    defocus, projector_dist = optics.defocus, optics.projector_dist
     p = presets.get(preset)
-    rig = scaled_camera(p.rig, camera_scale)
+    rig = scaled_camera(p.rig, optics.camera_scale)
     if projector_dist is not None:
         rig = Rig(rig.camera, replace(rig.projector, dist=np.asarray(projector_dist, np.float64)))
     model = "telecentric" if rig.telecentric else "pinhole"
@@ -323,23 +393,24 @@ def simulate_session(preset="macro", n_poses: int = 12, seed: int = 0, defocus: 
         board = default_board(rig, p.volume, kind=kind, **dict(zip(("cols", "rows"), cols_rows)))
     s = p.settings
     blur = (defocus if defocus is not None else s.defocus_size if s.defocus != "none" else 0.0)
-    patterns = calibration_patterns(patterns, rig.projector.width, rig.projector.height, stripe, blur)
+    patterns = calibration_patterns(patterns, rig.projector.width, rig.projector.height, imaging.stripe, blur)
     if (patterns.width, patterns.height) != (rig.projector.width, rig.projector.height):
         raise ValueError(f"pattern set is {patterns.width}x{patterns.height} but the projector is "
                          f"{rig.projector.width}x{rig.projector.height}")
     rng = np.random.default_rng(seed)
-    board_poses = sample_board_poses(rig, p.volume, board, n_poses, rng, max_tilt_deg=max_tilt_deg, partial=partial)
-    over = dict(settings_overrides or {})
+    board_poses = sample_board_poses(rig, p.volume, board, n_poses, rng, pose_ranges)
+    over = dict(imaging.settings_overrides or {})
     if defocus is not None:
         over.setdefault("defocus", s.defocus if s.defocus != "none" else "gaussian")
         over["defocus_size"] = float(defocus)
-    if not noise:
+    if not imaging.noise:
         over.update(shot_noise=False, read_noise=0.0, bit_depth=16)
     s = s.replace(**over)
     folder = Path(folder) if folder is not None else None
+    edge_pixels = imaging.edge_pixels
     if edge_pixels is None:
         edge_pixels = 4.0 if isinstance(board, ChessBoard) else 2.0
-    poses = render_board_poses(rig, s, board, board_poses, patterns, seed=seed, dark_albedo=dark_albedo,
+    poses = render_board_poses(rig, s, board, board_poses, patterns, seed=seed, dark_albedo=imaging.dark_albedo,
                                edge_pixels=edge_pixels, progress=progress)
     if folder is not None:
         for pose, (R, t) in zip(poses, board_poses):

@@ -23,7 +23,7 @@ from .scene import Scene
 from .scene_object import PosedObject
 from .sculpture import sculpture
 from .textures import Checker, Ramp
-from .wing import Wing
+from .wing import Wing, WingBeat, WingDots, WingShape
 
 NAMES = ("sculpture", "mesh", "falling-balls", "wing", "textured-spheres", "shiny-part", "printed-part")
 
@@ -106,9 +106,10 @@ def wing_scene(preset, frequency: float = 25.0, markers: bool = True) -> Scene:
     anchors = [(0.04 * span, 0.1 * chord), (0.04 * span, 0.85 * chord)]
     mk = [(0.3 * span, 0.5 * chord), (0.5 * span, 0.3 * chord), (0.5 * span, 0.65 * chord),
           (0.7 * span, 0.45 * chord), (0.85 * span, 0.2 * chord)] if markers else []
-    wing = Wing(span=span, chord=chord, root=root, R0=R0, kappa_mean=0.0, kappa_amp=1.0 / (0.9 * chord),
-                frequency=frequency, flap_amplitude=np.radians(15), anchors=anchors, markers=mk,
-                dot_radius=0.03 * chord, kappa_phase=0.5)
+    wing = Wing(WingShape(span=span, chord=chord),
+                WingBeat(kappa_mean=0.0, kappa_amp=1.0 / (0.9 * chord), frequency=frequency,
+                         flap_amplitude=np.radians(15), kappa_phase=0.5),
+                root=root, R0=R0, dots=WingDots(anchors=anchors, markers=mk, dot_radius=0.03 * chord))
     return Scene([wing], name="wing")
 
 

@@ -167,7 +167,7 @@ def _build(kind: str, kw: dict) -> SceneObject:
     if kind == "box":
         return Box(**kw)
     if kind == "board":
-        return BoardTarget(**kw)
+        return BoardTarget.from_fields(kw)
     if kind == "heightfield":
         return HeightField(**kw)
     if kind == "sculpture":
@@ -175,7 +175,7 @@ def _build(kind: str, kw: dict) -> SceneObject:
     if kind == "mesh":
         return Mesh(kw.pop("path"), **kw)
     if kind == "wing":
-        return Wing(**kw)
+        return Wing.from_fields(kw)
     raise AssertionError(kind)
 
 

@@ -16,7 +16,7 @@ quantisation to ``bit_depth`` bits with saturation (``bit_depth=None`` keeps flo
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 
@@ -201,3 +201,55 @@ def _response_table(values) -> tuple[float, ...]:
 def _finite_nonneg(name: str, value: float) -> None:
     if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
         raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class RenderChanges:
+    """Changes to a preset's render settings for one simulated capture
+    (:func:`fringe3d.sim.simulate.simulate_capture`); ``None`` keeps the preset's value.
+
+    Attributes
+    ----------
+    settings : RenderSettings | None
+        Replace the preset's settings entirely (the changes below still apply).
+    frame_rate : float | None
+        Frames per second (Hz).
+    exposure : float | None
+        Exposure time (s), at most ``1 / frame_rate``.
+    noise : float | None
+        Read-noise sigma (full-scale units, :attr:`RenderSettings.read_noise`).
+    defocus : float | None
+        Projector defocus size (projector pixels); a preset without defocus blurs with the
+        Gaussian model.
+    bit_depth : int | None
+        8, 10, 12 or 16 bits; ``None`` writes float32 TIFF frames; ``0`` keeps the preset's.
+    exposures : tuple of float | None
+        An exposure bracket (s, each at most ``1 / frame_rate``; shortest first): one pattern
+        cycle per exposure (:func:`fringe3d.sim.bracket.render_bracket`'s seeds). Static
+        scenes, one cycle.
+    others : dict
+        Any other :class:`RenderSettings` field (applied before the named changes above).
+    """
+
+    settings: RenderSettings | None = None
+    frame_rate: float | None = None
+    exposure: float | None = None
+    noise: float | None = None
+    defocus: float | None = None
+    bit_depth: int | None = 0
+    exposures: tuple[float, ...] | None = None
+    others: dict = field(default_factory=dict)
+
+    def applied_to(self, base: RenderSettings) -> RenderSettings:
+        """``base`` (or :attr:`settings` when set) with these changes and ``others`` applied."""
+        s = self.settings or base
+        changes = dict(self.others)
+        for key, val in (("frame_rate", self.frame_rate), ("exposure", self.exposure),
+                         ("read_noise", self.noise), ("defocus_size", self.defocus)):
+            if val is not None:
+                changes[key] = val
+        if self.defocus is not None and s.defocus == "none" and "defocus" not in changes:
+            changes["defocus"] = "gaussian"
+        if self.bit_depth != 0:
+            changes["bit_depth"] = self.bit_depth
+        return s.replace(**changes)

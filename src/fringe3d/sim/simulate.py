@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fringe3d.calibrate.boards import CircleBoard
 from fringe3d.io.capture import FRAMES_DIR, write_capture_frames
 from fringe3d.optics import TelecentricCamera
 from fringe3d.patterns import sets
@@ -35,7 +36,7 @@ from .render import RenderStream, render_stream
 from .scene import Scene
 from .scene_file import load_scene
 from .scene_object import SceneObject
-from .settings import RenderSettings
+from .settings import RenderChanges
 from .truth import TruthWriter, make_truth, truth_meta
 from .validate import check_scene
 
@@ -182,7 +183,8 @@ def named_scene(name: str, preset: Preset) -> Scene:
         spacing = lateral / 12.0
         cam = preset.rig.camera
         cam_c = c - view * 1000.0 if isinstance(cam, TelecentricCamera) else cam.center  # no centre: 1 m back
-        return Scene([board_facing(cam_c, c, cols=9, rows=9, spacing=spacing)], name="board")
+        return Scene([board_facing(cam_c, c, board=CircleBoard(cols=9, rows=9, spacing=spacing,
+                                                                     radius=0.25 * spacing))], name="board")
     if name in catalog.NAMES:
         return catalog.named_scene(name, preset)
     if name == "sphere-bar":
@@ -247,10 +249,8 @@ def _write_streamed(folder: Path, stream: RenderStream | BracketStream, p: Prese
 
 
 def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames: int | None = None,
-                     cycles: int = 1, frame_rate: float | None = None, exposure: float | None = None,
-                     noise: float | None = None, defocus: float | None = None, bit_depth: int | None = 0,
-                     seed: int | None = None, settings: RenderSettings | None = None, progress: bool = True,
-                     resume: bool = False, exposures=None, **overrides) -> dict:
+                     cycles: int = 1, seed: int | None = None, render: RenderChanges = RenderChanges(),
+                     progress: bool = True, resume: bool = False) -> dict:
     """Render and write a capture folder with ``truth/`` and ``rig.json``.
 
     Parameters
@@ -267,25 +267,20 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
         Total frames to capture (a multiple of the pattern count; the sequence repeats).
     cycles : int
         Pattern cycles to capture when ``frames`` is not given.
-    frame_rate, exposure, noise, defocus, bit_depth, seed
-        Override the preset's render settings (Hz, s, read-noise sigma in full-scale units,
-        defocus size in projector pixels, 8/10/12/16 bits, integer seed). ``bit_depth=None``
-        writes float32 TIFF frames; ``0`` keeps the preset's.
-    settings : RenderSettings, optional
-        Replace the preset's settings entirely (overrides still apply).
+    seed : int, optional
+        Seed of the sensor noise (overrides the render settings' ``seed``).
+    render : RenderChanges
+        Changes to the preset's render settings: frame rate (Hz), exposure (s), read noise
+        (full-scale units), defocus (projector px), bit depth, other :class:`RenderSettings`
+        fields, or other settings entirely; and an exposure bracket (s), written exposure-major
+        (frame ``e * len + k`` is pattern frame ``k`` at ``exposures[e]``), ``capture.json`` field
+        ``exposures``; ``fringe3d decode`` fuses them per pixel.
+    progress : bool
+        Show a progress bar while rendering (default ``True``).
     resume : bool
         ``folder`` holds the frames ``0, 1, ...`` of an interrupted run with the same arguments: they
         are kept and not shaded again (every frame's noise is seeded by its index, so the result is
         bit-identical to an uninterrupted run).
-    exposures : sequence of float, optional
-        An exposure bracket (s, each at most ``1 / frame_rate``; list it shortest first): one pattern
-        cycle per exposure, written exposure-major (frame ``e * len + k`` is pattern frame ``k`` at
-        ``exposures[e]``, :func:`fringe3d.sim.bracket.render_bracket`'s seeds), ``capture.json``
-        field ``exposures``; ``fringe3d decode`` fuses them per pixel. Static scenes, one cycle.
-    progress : bool
-        Show a progress bar while rendering (default ``True``).
-    **overrides
-        Any other :class:`RenderSettings` field.
 
     Returns
     -------
@@ -302,17 +297,10 @@ def simulate_capture(folder, preset="tiny", scene=None, patterns=None, *, frames
     """
     t0 = time.perf_counter()
     p = _presets.get(preset)
-    s = settings or p.settings
-    changes = dict(overrides)
-    for key, val in (("frame_rate", frame_rate), ("exposure", exposure), ("read_noise", noise),
-                     ("defocus_size", defocus), ("seed", seed)):
-        if val is not None:
-            changes[key] = val
-    if defocus is not None and s.defocus == "none" and "defocus" not in changes:
-        changes["defocus"] = "gaussian"
-    if bit_depth != 0:
-        changes["bit_depth"] = bit_depth
-    s = s.replace(**changes)
+    s = render.applied_to(p.settings)
+    if seed is not None:
+        s = s.replace(seed=seed)
+    exposures = render.exposures
     proj = p.rig.projector
     ps = make_patterns(patterns if patterns is not None else p.patterns, proj.width, proj.height)
     if (ps.width, ps.height) != (proj.width, proj.height):

@@ -25,7 +25,7 @@ import numpy as np
 from fringe3d.calibrate.boards import CircleBoard
 from fringe3d.calibrate.square_boards import CharucoBoard, ChessBoard
 
-from .board import BoardTarget, rectangle_hits
+from .board import BoardLook, BoardTarget, rectangle_hits
 from .motion import STATIC, RigidMotion
 from .projector_sampling import bilinear
 from .scene_object import PosedObject, check_albedo, check_rotation, check_vec3
@@ -145,7 +145,7 @@ class CharucoTarget(_PrintedBoard):
 def board_target(board, R, t, white: float = 0.9, dark: float = 0.1, edge_width: float = 0.0):
     """The scene object that renders ``board`` (any kind) posed by ``(R, t)`` (board -> world)."""
     if isinstance(board, CircleBoard):
-        return BoardTarget.from_board(board, R=R, t=t, white=white, dark=dark,
-                                      edge_width=min(edge_width, 0.9 * board.radius))
+        return BoardTarget(board, R=R, t=t, look=BoardLook(white=white, dark=dark,
+                                                           edge_width=min(edge_width, 0.9 * board.radius)))
     cls = ChessBoardTarget if isinstance(board, ChessBoard) else CharucoTarget
     return cls(board, R=R, t=t, white=white, dark=dark, edge_width=min(edge_width, 0.5 * board.spacing))

@@ -49,7 +49,7 @@ from fringe3d.patterns.manifest import PatternSet
 from fringe3d.patterns.render import render_set
 
 from . import presets as _presets
-from .board import BoardTarget
+from .board import BoardLook, BoardTarget
 from .calibration_session import default_board, sample_board_poses
 from .geometry import cast, crop
 from .hits import Hit
@@ -95,8 +95,7 @@ class HandHeldBoard:
         b = self.board
         px_mm = self.rig.camera.to_device(t)[2] / self.rig.camera.K[0, 0]
         edge = min(2.0 * px_mm, 0.9 * b.radius)
-        return BoardTarget(cols=b.cols, rows=b.rows, spacing=b.spacing, radius=b.radius, asymmetric=b.asymmetric,
-                          R=R, t=t, white=0.9, dark=0.35, edge_width=edge)
+        return BoardTarget(b, R=R, t=t, look=BoardLook(white=0.9, dark=0.35, edge_width=edge))
 
     def board_at(self, time: float):
         """The scene board at ``time`` (s), or None once every pose has been shown."""

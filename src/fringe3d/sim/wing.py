@@ -21,6 +21,9 @@ thickness ``h`` is ``E_αβ = (h/2) κ_αβ`` (Eq. 6.11) with ``κ_αβ = b_αβ
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+
 import numba
 import numpy as np
 
@@ -94,32 +97,114 @@ def _wing_kernel(o, d, R, c, k, a2, p2, s0, span, chord, rect, t_out, uv_out):
             break
 
 
+@dataclass(frozen=True)
+class WingShape:
+    """The flat sheet's outline and its bend.
+
+    Attributes
+    ----------
+    span : float
+        Sheet length along the span from the root (mm); default 150 like the dissertation's wing.
+    chord : float
+        Sheet length along the chord from the leading edge (mm); default 70.
+    outline : str
+        ``"wing"``: ``0 ≤ x ≤ span``, ``0 ≤ y ≤ chord·(1 − (x/span)⁴)^½`` (convex, rounded tip);
+        ``"rectangle"``: the full ``span`` × ``chord`` rectangle.
+    bend_angle : float
+        β, angle of the bend axis from the span direction (rad).
+    bend_offset : float
+        s0, position of the unbent line (mm along ``p``).
+    thickness : float
+        Sheet thickness h (mm), for :meth:`Wing.bending_strain`.
+    """
+
+    span: float = 150.0
+    chord: float = 70.0
+    outline: str = "wing"
+    bend_angle: float = 0.0
+    bend_offset: float = 0.0
+    thickness: float = 0.1
+
+
+@dataclass(frozen=True)
+class WingBeat:
+    """The wing's beat: ``κ(t) = kappa_mean + kappa_amp sin(2π f t + kappa_phase)`` and
+    ``ψ(t) = flap_amplitude sin(2π f t + flap_phase)``.
+
+    Attributes
+    ----------
+    kappa_mean : float
+        Mean curvature κ_mean (1/mm).
+    kappa_amp : float
+        Curvature amplitude κ_amp (1/mm).
+    frequency : float
+        Beat frequency f (Hz), >= 0.
+    flap_amplitude : float
+        Flapping amplitude ψ_amp about the root hinge (rad).
+    kappa_phase : float
+        Phase φ_κ of the curvature (rad).
+    flap_phase : float
+        Phase φ_ψ of the flapping angle (rad).
+    """
+
+    kappa_mean: float = 0.0
+    kappa_amp: float = 1.0 / 60
+    frequency: float = 25.0
+    flap_amplitude: float = float(np.radians(20))
+    kappa_phase: float = 0.0
+    flap_phase: float = 0.0
+
+
+@dataclass(frozen=True)
+class WingDots:
+    """Dots painted on the membrane at material points.
+
+    Attributes
+    ----------
+    anchors : sequence of (x, y) or (N, 2) array
+        Material points (mm) of the dark anchor dots.
+    markers : sequence of (x, y) or (N, 2) array
+        Material points (mm) of the bright marker dots.
+    dot_radius : float
+        Radius of every dot (mm).
+    anchor_albedo : float
+        Albedo of the anchor dots, in [0, 1].
+    marker_albedo : float
+        Albedo of the marker dots, in [0, 1].
+    """
+
+    anchors: Sequence | np.ndarray = ()
+    markers: Sequence | np.ndarray = ()
+    dot_radius: float = 2.0
+    anchor_albedo: float = 0.05
+    marker_albedo: float = 0.95
+
+
+_SHAPE_FIELDS = tuple(f.name for f in fields(WingShape))
+_BEAT_FIELDS = tuple(f.name for f in fields(WingBeat))
+_DOT_FIELDS = tuple(f.name for f in fields(WingDots))
+
+
 class Wing(PosedObject):
     """Flapping, bending inextensible membrane (see the module docstring for the formulas).
 
     Parameters
     ----------
-    span, chord : float
-        Sheet size (mm), default 150 × 70 like the dissertation's wing.
-    outline : ``"wing"`` | ``"rectangle"``
-        ``"wing"``: ``0 ≤ x ≤ span``, ``0 ≤ y ≤ chord·(1 − (x/span)⁴)^½`` (convex, rounded tip).
+    shape : WingShape
+        Sheet size and outline (mm), bend axis (rad) and offset (mm), thickness (mm).
+    beat : WingBeat
+        Curvature (1/mm) and flapping (rad) amplitudes, phases (rad) and frequency (Hz).
     root : (3,) world position of material point (0, 0) (mm), the root hinge.
     R0 : material → world rotation at rest ((3, 3) or rotation vector).
-    kappa_mean, kappa_amp : curvature mean and amplitude (1/mm).
-    frequency : beat frequency f (Hz); flap_amplitude (rad); kappa_phase, flap_phase (rad).
-    bend_angle : β, angle of the bend axis from the span direction (rad).
-    bend_offset : s0, position of the unbent line (mm along ``p``).
-    thickness : h (mm), for :meth:`bending_strain`.
     albedo, texture : membrane albedo and optional texture (material mm coordinates).
-    anchors, markers : lists of material points (mm) carrying dots of ``dot_radius`` mm with
-        albedos ``anchor_albedo`` / ``marker_albedo``.
+    dots : WingDots
+        Anchor and marker dots: material points (mm), radius (mm), albedos.
     """
 
-    def __init__(self, span=150.0, chord=70.0, outline="wing", root=(-75.0, 35.0, 420.0), R0=None,
-                 kappa_mean=0.0, kappa_amp=1.0 / 60, frequency=25.0, flap_amplitude=np.radians(20),
-                 kappa_phase=0.0, flap_phase=0.0, bend_angle=0.0, bend_offset=0.0, thickness=0.1,
-                 albedo=0.6, texture=None, anchors=(), markers=(), dot_radius=2.0,
-                 anchor_albedo=0.05, marker_albedo=0.95):
+    def __init__(self, shape: WingShape = WingShape(), beat: WingBeat = WingBeat(), root=(-75.0, 35.0, 420.0),
+                 R0=None, albedo=0.6, texture=None, dots: WingDots = WingDots()):
+        self.shape, self.beat = shape, beat
+        span, chord, outline, thickness = shape.span, shape.chord, shape.outline, shape.thickness
         self.span, self.chord = float(span), float(chord)
         if not (self.span > 0 and self.chord > 0):
             raise ValueError(f"wing span and chord must be > 0 mm, got {span}, {chord}")
@@ -128,13 +213,13 @@ class Wing(PosedObject):
         self.outline = outline
         self.root = check_vec3(root, "root")
         self.R0 = _rest_rotation() if R0 is None else check_rotation(R0, "R0")
-        self.kappa_mean, self.kappa_amp = float(kappa_mean), float(kappa_amp)
-        self.frequency = float(frequency)
+        self.kappa_mean, self.kappa_amp = float(beat.kappa_mean), float(beat.kappa_amp)
+        self.frequency = float(beat.frequency)
         if self.frequency < 0:
-            raise ValueError(f"wing frequency must be >= 0 Hz, got {frequency}")
-        self.flap_amplitude = float(flap_amplitude)
-        self.kappa_phase, self.flap_phase = float(kappa_phase), float(flap_phase)
-        self.beta, self.s0 = float(bend_angle), float(bend_offset)
+            raise ValueError(f"wing frequency must be >= 0 Hz, got {beat.frequency}")
+        self.flap_amplitude = float(beat.flap_amplitude)
+        self.kappa_phase, self.flap_phase = float(beat.kappa_phase), float(beat.flap_phase)
+        self.beta, self.s0 = float(shape.bend_angle), float(shape.bend_offset)
         self.a2 = np.array([np.cos(self.beta), np.sin(self.beta)])
         self.p2 = np.array([-np.sin(self.beta), np.cos(self.beta)])
         self.thickness = float(thickness)
@@ -142,11 +227,11 @@ class Wing(PosedObject):
             raise ValueError(f"wing thickness must be > 0 mm, got {thickness}")
         self.albedo = check_albedo(albedo)
         self.texture = texture
-        self.anchors = np.asarray(anchors, float).reshape(-1, 2)
-        self.markers = np.asarray(markers, float).reshape(-1, 2)
-        self.dot_radius = float(dot_radius)
-        self.anchor_albedo = check_albedo(anchor_albedo, "anchor_albedo")
-        self.marker_albedo = check_albedo(marker_albedo, "marker_albedo")
+        self.anchors = np.asarray(dots.anchors, float).reshape(-1, 2)
+        self.markers = np.asarray(dots.markers, float).reshape(-1, 2)
+        self.dot_radius = float(dots.dot_radius)
+        self.anchor_albedo = check_albedo(dots.anchor_albedo, "anchor_albedo")
+        self.marker_albedo = check_albedo(dots.marker_albedo, "marker_albedo")
         for name, pts in (("anchors", self.anchors), ("markers", self.markers)):
             if len(pts) and not self.contains(pts).all():
                 raise ValueError(f"wing {name} must lie inside the outline, got {pts.tolist()}")
@@ -159,6 +244,17 @@ class Wing(PosedObject):
                              f"sheet past a half circle; expected |kappa| * extent < pi")
         self.R = self.R0
         self.center = self.root
+
+    @classmethod
+    def from_fields(cls, entry: dict) -> "Wing":
+        """The wing of a scene file's flat ``wing`` entry (the inverse of :meth:`to_dict`): the
+        :class:`WingShape`, :class:`WingBeat` and :class:`WingDots` fields plus ``root`` (mm),
+        ``R0``, ``albedo`` and ``texture``, each optional."""
+        rest = dict(entry)
+        shape = WingShape(**{k: rest.pop(k) for k in _SHAPE_FIELDS if k in rest})
+        beat = WingBeat(**{k: rest.pop(k) for k in _BEAT_FIELDS if k in rest})
+        dots = WingDots(**{k: rest.pop(k) for k in _DOT_FIELDS if k in rest})
+        return cls(shape, beat, dots=dots, **rest)
 
     # -- time functions ----------------------------------------------------------------------
     @property
