@@ -1,10 +1,21 @@
 """Long sequences end to end: a 1280x1024 3-step + geometric sequence read from an MRAW file.
 
-Run: ``.venv/bin/python benchmarks/bench_sequence.py [--cycles 120] [--repeat 20] [--rounds 3] [--json]``
-(not a test; needs the ``dask`` and ``camfiles`` extras, both in ``.[test]``). The scene is seeded
-(``seed=0``). The in-memory cases (kernels, copy bound) are timed in ``--repeat`` alternated rounds
-(every case once per round, in rotating order), the serial end-to-end runs in ``--rounds``
-alternated rounds; min / median / max go to the JSON ``figures`` (``benchmarks/summary.py``).
+Run: ``.venv/bin/python benchmarks/bench_sequence.py [--cycles 120] [--repeat 20] [--rounds 3]
+[--pipeline-only] [--json]`` (not a test; needs the ``dask`` and ``camfiles`` extras, both in
+``.[test]``). The scene is seeded (``seed=0``). The in-memory cases (kernels, copy bound) are
+timed in ``--repeat`` alternated rounds (every case once per round, in rotating order), the serial
+end-to-end runs in ``--rounds`` alternated rounds; min / median / max go to the JSON ``figures``
+(``benchmarks/summary.py``). ``--pipeline-only`` measures the pipeline and the writer (below) alone.
+
+**Pipeline** (issue 29's must-show, ``--rounds`` alternated rounds): the fused kernel alone on a
+cycle in memory, ``reconstruct_sequence`` with the defaults from the camera file (a capture folder
+referencing the MRAW, as ``fringe3d reconstruct CAPTURE`` reads it), decoding the PNG capture's
+files and nothing else on as many threads as cores, and ``reconstruct_sequence`` with the
+defaults from those PNG files; printed with the ratios e2e camera file / fused kernel (target
+<= 2.5) and e2e PNG / decode PNGs (target <= 1.3), medians of the rounds. **Writer against the
+disk**: the store's ``write_frame`` (float16 cast, compression, write + rename of each chunk; the
+default arrays) with lz4 and uncompressed, each beside writing the same bytes in the same files
+with plain ``open().write()`` + rename and ``dd``-style as one file.
 
 One run measures, side by side on this machine:
 
@@ -44,6 +55,7 @@ import sys
 import tempfile
 import time
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -52,8 +64,9 @@ import pyMRAW
 from fringe3d.cluster.engine import close, connect, dask_executor, reconstruct_capture_on_dask
 from fringe3d.decode import DecodeOptions
 from fringe3d.io import store as store_module
-from fringe3d.io.capture import open_frames, read_capture, write_capture
+from fringe3d.io.capture import list_frame_files, open_frames, read_capture, write_capture
 from fringe3d.io.capture_frames import CaptureFolder
+from fringe3d.io.images import read_image
 from fringe3d.io.importer import import_images
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
@@ -64,6 +77,10 @@ from fringe3d.sim.truth import Truth
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from summary import alternated, figure, format_table, stats, table_rows, timed_figures  # noqa: E402  (beside this script)
+
+
+class _Measured(Exception):
+    """The figures asked for are measured (``--pipeline-only``)."""
 
 
 #: cycles written and read as PNG files (their read rate)
@@ -130,11 +147,107 @@ def store_figures(rec: FrameReconstructor, cycle: np.ndarray, work: Path) -> dic
     return out
 
 
+def pipeline_figures(mraw_cap: Path, png_cap: Path, ps, rig, opts: DecodeOptions, cycles: int, rounds: int,
+                     work: Path) -> tuple[list[dict], dict]:
+    """Issue 29's must-show in ``rounds`` alternated rounds: the fused kernel (a cycle in memory),
+    ``reconstruct_sequence`` with the defaults from the camera file, decoding every PNG file on
+    ``os.cpu_count()`` threads, ``reconstruct_sequence`` from the PNG files; the figures (two
+    groups: camera file against the kernel, PNG files against decoding them) and the ratios."""
+    rec = FrameReconstructor(ps, rig, opts)
+    n = len(ps)
+    cycle = np.ascontiguousarray(open_frames(mraw_cap)[0:n])
+    files = list_frame_files(png_cap)
+    png_cycles = len(files) // n
+
+    def e2e(cap: Path):
+        def run():
+            out = work / "e2e"
+            shutil.rmtree(out, ignore_errors=True)
+            reconstruct_sequence(CaptureFolder(str(cap)), ps, rig, out, DecodeSettings(opts),
+                                 run=RunSettings(progress=False))
+        return run
+
+    def decode_pngs():
+        with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+            for _ in pool.map(read_image, files):
+                pass
+
+    def fused():
+        for _ in range(20):
+            rec.fast.depth(cycle, rec.fused.index)
+
+    t = alternated({"fused": fused, "e2e_camera": e2e(mraw_cap), "decode_png": decode_pngs,
+                    "e2e_png": e2e(png_cap)}, rounds)
+    per = {"fused": 20, "e2e_camera": cycles, "decode_png": png_cycles, "e2e_png": png_cycles}
+    rates = {k: [per[k] / x for x in ts] for k, ts in t.items()}
+    cam = "pipeline: reconstruct a sequence from the camera file (MRAW), defaults"
+    pngs = f"pipeline: reconstruct a sequence from PNG files, defaults, {os.cpu_count()} cores"
+    figs = [figure(cam, "fused kernel alone (depth)", "kernel", "3D frames/s", rates["fused"]),
+            figure(cam, "end to end from the camera file", "ours", "3D frames/s", rates["e2e_camera"]),
+            figure(pngs, "decode the PNG files alone, all cores", "bound", "cycles/s", rates["decode_png"]),
+            figure(pngs, "end to end from the PNG files", "ours", "3D frames/s", rates["e2e_png"])]
+    med = {k: stats(v)["median"] for k, v in rates.items()}
+    ratios = {"e2e camera file / fused kernel (target <= 2.5)": round(med["fused"] / med["e2e_camera"], 2),
+              "e2e PNG / decode PNGs (target <= 1.3)": round(med["decode_png"] / med["e2e_png"], 2),
+              "e2e camera file 3D frames/s (median; target >= 150)": round(med["e2e_camera"], 1),
+              "e2e PNG 3D frames/s (median)": round(med["e2e_png"], 1)}
+    return figs, ratios
+
+
+def writer_against_disk(rec: FrameReconstructor, cycle: np.ndarray, work: Path, rounds: int,
+                        frames: int = 10) -> list[dict]:
+    """The store writer per frame (``write_frame``: float16 cast, compression, write + rename of
+    each array's chunk; ray_depth with the quality map and sigma_z) with lz4 and uncompressed,
+    each beside the disk's own bound for its bytes: the same files written with plain
+    ``open().write()`` + rename, and ``dd``-style as one sequential file; figures in ms per frame."""
+    c = rec.reconstruct(cycle, uncertainty="z", points=False, texture=False)
+    H, W = c.quality.shape
+    figs = []
+    for codec in ("lz4", "none"):
+        path = work / f"writer-{codec}.zarr"
+        st = store_module.PointMapStore.open(path, frames, H, W, rays=rec.rays, settings=store_module.StoreSettings(
+            "ray_depth", quality=True, sigma=True, codec=codec))
+
+        def write(st=st):
+            for k in range(frames):
+                st.write_frame(k, depth=c.depth, quality=c.quality, sigma_z=c.sigma_z)
+        write()
+        sizes = [f.stat().st_size for f in sorted(path.rglob("c.0.*")) if f.is_file()]
+        data = memoryview(os.urandom(max(sizes)))
+        folder = work / "plain"
+        folder.mkdir(exist_ok=True)
+
+        def plain(data=data, sizes=sizes, folder=folder):
+            for k in range(frames):
+                for i, size in enumerate(sizes):
+                    tmp, dst = folder / f"{i}.{k}.partial", folder / f"{i}.{k}"
+                    with open(tmp, "wb") as f:
+                        f.write(data[:size])
+                    os.replace(tmp, dst)
+
+        def dd(data=data, sizes=sizes, folder=folder):
+            total, block, written = sum(sizes) * frames, data[:1 << 20], 0
+            with open(folder / "dd", "wb") as f:
+                while written < total:
+                    written += f.write(block[:min(len(block), total - written)])
+
+        t = alternated({"writer": write, "plain": plain, "dd": dd}, rounds)
+        group = f"store writer against the disk: {codec}, {sum(sizes) / 1e6:.2f} MB in {len(sizes)} files per frame"
+        names = {"writer": f"store writer ({codec}): cast, compress, write",
+                 "plain": "plain writes + rename, same files", "dd": "dd-style: the same bytes as one file"}
+        roles = {"writer": "ours", "plain": "bound", "dd": "reference"}
+        figs += [figure(group, names[k], roles[k], "ms", [1e3 * x / frames for x in ts]) for k, ts in t.items()]
+        shutil.rmtree(path)
+        shutil.rmtree(folder)
+    return figs
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cycles", type=int, default=120)
     ap.add_argument("--repeat", type=int, default=20, help="alternated rounds of the in-memory cases")
     ap.add_argument("--rounds", type=int, default=3, help="alternated rounds of the serial end-to-end runs")
+    ap.add_argument("--pipeline-only", action="store_true", help="the pipeline and the writer against the disk alone")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     warnings.simplefilter("ignore")  # depth-range warnings of the repeated scene are not the point here
@@ -151,6 +264,11 @@ def main() -> None:
         res: dict = {"benchmark": "sequence", "cycles": args.cycles, "shape": list(cycle.shape[1:]),
                      "path": rec.path, "cores": os.cpu_count(), "load_average": os.getloadavg()[0],
                      "period_px": PERIOD, "wrap_errors": wrap_errors(rig, rec.reconstruct(cycle).points, truth)}
+        pipe, res["pipeline"] = pipeline_figures(mraw_cap, png_cap, ps, rig, opts, args.cycles, args.rounds, work)
+        figs += pipe + writer_against_disk(rec, cycle, work, args.rounds)
+        res["load_average_after_pipeline"] = os.getloadavg()[0]
+        if args.pipeline_only:
+            raise _Measured
         buf_in, buf_out = np.empty_like(cycle), np.empty(cycle.shape[1:] + (3,), np.float32)
         src_out = np.ones_like(buf_out)
         mem = alternated({
@@ -219,6 +337,8 @@ def main() -> None:
             finally:
                 close(client, own_cluster=True)
         res["store"] = store_figures(rec, cycle, work)
+    except _Measured:
+        pass
     finally:
         shutil.rmtree(work, ignore_errors=True)
     res = {k: (round(v, 1) if isinstance(v, float) else v) for k, v in res.items()}
@@ -229,7 +349,10 @@ def main() -> None:
         print(json.dumps(res, indent=1))
         return
     for k, v in res.items():
-        if k not in ("figures", "groups"):
+        if k == "pipeline":
+            for kk, vv in v.items():
+                print(f"{kk:54s} {vv}")
+        elif k not in ("figures", "groups"):
             print(f"{k:32s} {v}")
     print(format_table(table_rows(figs), res["groups"]))
 

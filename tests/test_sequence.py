@@ -208,3 +208,22 @@ def test_sequence_store_has_a_time_coordinate_in_seconds_from_the_frame_rate(seq
     ds = xr.open_zarr(tmp_path / "points.zarr")
     np.testing.assert_allclose(ds["time"].values, np.arange(0, 7, 2) / 250.0)  # window starts 0, 2, 4, 6
     assert ds["time"].attrs["units"] == "s" and "time" in ds["depth"].coords  # ray_depth layout
+
+
+def test_a_broken_frame_file_stops_the_run_naming_it_and_the_cycles_before_are_stored(seq_capture, tmp_path):
+    import shutil
+
+    from fringe3d.io.capture import list_frame_files
+    from fringe3d.io.capture_frames import CaptureFolder
+    cap, rig, truth = seq_capture
+    folder = tmp_path / "cap"
+    shutil.copytree(cap.folder, folder)
+    bad = list_frame_files(folder)[7]  # in the third cycle, read ahead while the first is computed
+    bad.write_bytes(b"not an image")
+    ps = reconstruction_plans(cap.patterns, "geometric")
+    with pytest.raises(ValueError, match=bad.name):
+        reconstruct_sequence(CaptureFolder(str(folder)), ps, rig, tmp_path / "out", decode=DecodeSettings(options=Z340),
+                             run=RunSettings(progress=False))
+    st = PointMapStore.open_existing(tmp_path / "out" / "points.zarr")
+    assert st.pending() == [2]
+    assert all(max_error(st.read(k), truth) < 1e-3 for k in range(2))

@@ -3,7 +3,7 @@
 
 An executor is a callable ``executor(job, todo)`` yielding ``(k, cycle, empty)`` for every 3D
 frame ``k`` of ``todo`` (any order) where ``job`` is a :class:`WindowJob`; it computes, the caller
-writes and keeps the books (store, PLY files, ``done`` marks, summary). :func:`serial` runs here,
+writes and keeps the books (store, PLY files, ``done`` marks, summary). :func:`serial` runs here (reading ahead),
 :func:`threads` on a thread pool, and ``fringe3d.cluster.engine.dask_executor`` on Dask workers.
 """
 from __future__ import annotations
@@ -15,7 +15,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from fringe3d.io.capture_frames import CaptureFolder
-from fringe3d.reconstruct.frame import Cycle, FrameReconstructor, reconstructed_windows
+from fringe3d.io.read_ahead import ReadAhead
+from fringe3d.reconstruct.frame import (Cycle, FrameReconstructor, reconstructed_cycles, reconstructed_windows,
+                                      window_frames)
 
 #: Cycles per batched launch on the CUDA backend (one cycle at a time on the CPU).
 CUDA_BATCH = 32
@@ -51,11 +53,15 @@ def batch_size(job: WindowJob) -> int:
 
 
 def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
-    """Every 3D frame of ``todo`` in this thread, in order."""
+    """Every 3D frame of ``todo`` in this thread, in order, the next batches' frames read ahead on a
+    reader thread (:class:`~fringe3d.io.read_ahead.ReadAhead`: PNG or TIFF decoding is off the
+    compute's path; a few cycles in memory at most)."""
     size = batch_size(job)
-    for b0 in range(0, len(todo), size):
-        yield from reconstructed_windows(job.rec, job.frames, list(job.starts), todo[b0:b0 + size], job.ply,
-                                         job.layout, job.quality)
+    parts = [todo[b0:b0 + size] for b0 in range(0, len(todo), size)]
+    n = len(job.rec.patterns)
+    with ReadAhead(lambda ks: window_frames(job.frames, job.starts, ks, n), parts) as read:
+        for ks, cycles in zip(parts, read):
+            yield from reconstructed_cycles(job.rec, ks, cycles, job.ply, job.layout, job.quality)
 
 
 def threads(workers: int = 2, in_flight: int | None = None) -> Executor:

@@ -245,19 +245,31 @@ def reconstruct_window(rec: FrameReconstructor, frames: np.ndarray, ply: bool, l
                  np.full((H, W), INVALID, np.uint8), None, nan if rec.fast is not None else None), True
 
 
-def reconstructed_windows(rec: FrameReconstructor, frames, starts, ks: list[int], ply: bool, layout: str | None,
-                          quality: bool) -> Iterator[tuple[int, Cycle, bool]]:
-    """``(k, cycle, empty)`` of each 3D frame ``k`` of ``ks`` (:func:`reconstruct_window`), its
-    window read from ``frames`` (F, H, W) at ``starts[k]``; on the CUDA fused path the ray
-    parameters of all of ``ks`` come from one batched launch (:meth:`FrameReconstructor.depths`).
-    The one per-frame loop of the serial and the Dask paths."""
-    n = len(rec.patterns)
-    cycles = [np.ascontiguousarray(frames[window_index(starts[k], n)]) for k in ks]
+def window_frames(frames, starts, ks: list[int], n: int) -> list[np.ndarray]:
+    """The contiguous ``(n, H, W)`` frames (manifest order, :func:`~fringe3d.reconstruct.windows.
+    window_index`) of each 3D frame ``k`` of ``ks``, read from ``frames`` (F, H, W) at ``starts[k]``."""
+    return [np.ascontiguousarray(frames[window_index(starts[k], n)]) for k in ks]
+
+
+def reconstructed_cycles(rec: FrameReconstructor, ks: list[int], cycles: list[np.ndarray], ply: bool,
+                         layout: str | None, quality: bool) -> Iterator[tuple[int, Cycle, bool]]:
+    """``(k, cycle, empty)`` of each 3D frame ``k`` of ``ks`` from its frames already read
+    (``cycles``, :func:`window_frames`; :func:`reconstruct_window`); on the CUDA fused path the
+    ray parameters of all of them come from one batched launch (:meth:`FrameReconstructor.depths`)."""
     depths = rec.depths(cycles)
     for i, (k, cycle_frames) in enumerate(zip(ks, cycles)):
         cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, layout, quality,
                                             depth=None if depths is None else depths[i])
         yield k, cyc, was_empty
+
+
+def reconstructed_windows(rec: FrameReconstructor, frames, starts, ks: list[int], ply: bool, layout: str | None,
+                          quality: bool) -> Iterator[tuple[int, Cycle, bool]]:
+    """``(k, cycle, empty)`` of each 3D frame ``k`` of ``ks`` (:func:`reconstructed_cycles`), its
+    window read from ``frames`` (F, H, W) at ``starts[k]`` (:func:`window_frames`). The
+    per-frame loop of the threaded and the Dask paths (the serial one reads ahead)."""
+    yield from reconstructed_cycles(rec, ks, window_frames(frames, starts, ks, len(rec.patterns)), ply, layout,
+                                    quality)
 
 
 @dataclasses.dataclass(frozen=True)

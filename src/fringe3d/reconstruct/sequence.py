@@ -160,42 +160,53 @@ def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig, out, decode: De
 
 def _write_all(results: Iterator, out: Path, store: tuple[PointMapStore | None, int], ply: bool, progress: bool,
                n: int) -> int:
-    """Write every ``(k, cycle, empty)`` of ``results`` (PLY here, store writes on a writer thread
-    behind the next frame's compute) into ``store`` = (the store or None, frames marked done at
-    once); returns the number of empty frames. Also when interrupted the frames whose writes
-    finished are marked."""
+    """Write every ``(k, cycle, empty)`` of ``results`` into ``store`` = (the store or None, frames
+    marked done at once) and, with ``ply``, ``out/ply``: on a writer thread (compression, file
+    writes) behind the next frame's compute, at most :data:`IN_FLIGHT` frames queued; a write's
+    error is raised here. Returns the number of empty frames. Only written frames are marked
+    done, also when the run stops early (the writes in flight are waited for)."""
     st, mark_every = store
     empty = 0
     writes: deque = deque()
     written: list[int] = []
     with progress_bar("reconstructing 3D frames", n, enabled=progress) as advance, \
             ThreadPoolExecutor(max_workers=1, thread_name_prefix="fringe3d-store") as writer, \
-            _kernel_threads_beside(st is not None):
+            _kernel_threads_beside(True):
         try:
             for k, cyc, was_empty in results:
                 empty += was_empty
-                if ply:
-                    write_ply_frame(out / PLY_DIR, k, cyc)
-                if st is not None:
-                    writes.append((k, writer.submit(st.write_frame, k, **store_arrays(cyc, st))))
-                    while len(writes) > 2:  # at most two frames in flight: bounded memory
-                        written.append(_finish(writes.popleft()))
-                    if len(written) >= mark_every:
-                        st.mark_done(written)
-                        written.clear()
+                writes.append((k, writer.submit(_write_frame, k, cyc, st, out / PLY_DIR if ply else None)))
+                while len(writes) > IN_FLIGHT:  # bounded memory: the compute waits for the writer
+                    written.append(_finish(writes.popleft()))
+                if st is not None and len(written) >= mark_every:
+                    st.mark_done(written)
+                    written.clear()
                 advance()
             while writes:
                 written.append(_finish(writes.popleft()))
         finally:
+            getattr(results, "close", lambda: None)()  # the executor's readers and workers stop now
+            _drain(writes, written)
             if st is not None:
-                _drain(writes, written)
                 st.mark_done(written)
     return empty
 
 
+#: 3D frames computed and queued for the writer thread at most
+IN_FLIGHT = 2
+
+
+def _write_frame(k: int, cycle: Cycle, st: PointMapStore | None, ply_dir: Path | None) -> None:
+    """3D frame ``k``'s store chunks (not marked done) and PLY file, where asked for (on the writer thread)."""
+    if st is not None:
+        st.write_frame(k, **store_arrays(cycle, st))
+    if ply_dir is not None:
+        write_ply_frame(ply_dir, k, cycle)
+
+
 @contextlib.contextmanager
 def _kernel_threads_beside(writer: bool):
-    """While a store writer thread runs beside the kernels, the numba kernels of this thread use
+    """While the writer thread runs beside the kernels, the numba kernels of this thread use
     one thread fewer (at least one): every parallel kernel waits for its slowest thread, and a
     thread sharing its core with the writer's compression made each kernel up to twice as slow
     (``benchmarks/bench_sequence.py`` on 2 cores)."""

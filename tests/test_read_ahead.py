@@ -1,0 +1,116 @@
+"""Reading ahead (fringe3d.io.read_ahead.ReadAhead): the items of the keys in order, at most
+``depth`` read and not taken, a read's error raised at its item with the file named, and the
+reader stopped when the caller stops (an exception, ``KeyboardInterrupt``, leaving early)."""
+from __future__ import annotations
+
+import itertools
+import random
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from fringe3d.io.capture_frames import CaptureFrames
+from fringe3d.io.images import write_image
+from fringe3d.io.read_ahead import ReadAhead
+
+
+def reader_threads() -> list[threading.Thread]:
+    return [t for t in threading.enumerate() if t.name.startswith("fringe3d-read-ahead")]
+
+
+@pytest.fixture
+def png_frames(tmp_path):
+    """A capture folder of 12 small PNG frames (each a different random image) and the frames."""
+    rng = np.random.default_rng(3)
+    frames = rng.integers(0, 256, (12, 9, 11), dtype=np.uint8)
+    (tmp_path / "frames").mkdir()
+    for i, f in enumerate(frames):
+        write_image(tmp_path / "frames" / f"{i:05d}.png", f)
+    return tmp_path, frames
+
+
+def test_cycles_read_ahead_equal_the_frames_written_in_order(png_frames):
+    folder, truth = png_frames
+    lazy = CaptureFrames(folder)
+    cycles = [np.arange(c * 3, c * 3 + 3) for c in range(4)]
+    with ReadAhead(lambda idx: lazy[idx], cycles, depth=2) as read:
+        got = list(read)
+    assert len(got) == 4
+    for idx, cyc in zip(cycles, got):
+        np.testing.assert_array_equal(cyc, truth[idx])
+
+
+def test_order_is_the_keys_order_whatever_each_read_takes():
+    def slow_sometimes(k):
+        time.sleep(random.Random(k).choice([0.0, 0.002]))
+        return k
+
+    with ReadAhead(slow_sometimes, range(20), depth=4) as read:
+        assert list(read) == list(range(20))
+
+
+@pytest.mark.parametrize("depth", [1, 3])
+def test_at_most_depth_items_are_read_and_not_taken(depth):
+    drawn = {"n": 0}
+
+    def keys():
+        for k in itertools.count():
+            drawn["n"] += 1
+            yield k
+
+    ahead = []
+    with ReadAhead(lambda k: k, keys(), depth=depth) as read:
+        for taken, _ in enumerate(read, start=1):
+            ahead.append(drawn["n"] - taken)
+            if taken == 10:
+                break
+    assert max(ahead) == depth  # keys drawn beyond those taken: exactly the depth asked for
+    assert not reader_threads()
+
+
+def test_a_read_error_is_raised_at_its_item_naming_the_file(png_frames):
+    folder, truth = png_frames
+    bad = folder / "frames" / "00007.png"
+    bad.write_bytes(b"not a png")
+    lazy = CaptureFrames(folder)
+    got = []
+    with pytest.raises(ValueError, match="00007.png"):
+        with ReadAhead(lambda idx: lazy[idx], [np.arange(c * 3, c * 3 + 3) for c in range(4)], depth=3) as read:
+            for cyc in read:
+                got.append(cyc)
+    assert len(got) == 2  # the cycles before the broken file's arrived whole
+    np.testing.assert_array_equal(np.concatenate(got), truth[:6])
+    assert not reader_threads()
+
+
+def test_an_interrupt_in_the_caller_stops_the_reader():
+    started = []
+
+    def read(k):
+        started.append(k)
+        return k
+
+    with pytest.raises(KeyboardInterrupt):
+        with ReadAhead(read, itertools.count(), depth=2) as items:
+            for k in items:
+                if k == 1:
+                    raise KeyboardInterrupt  # the user stops the run while item 1 is processed
+    assert not reader_threads()
+    n = len(started)
+    assert n <= 2 + 2  # the two taken and at most depth more
+    time.sleep(0.01)
+    assert len(started) == n  # nothing is read after the stop
+
+
+def test_leaving_the_iteration_early_without_a_with_block_stops_the_reader():
+    it = iter(ReadAhead(lambda k: k, itertools.count(), depth=2))
+    assert next(it) == 0
+    it.close()
+    assert not reader_threads()
+
+
+def test_a_depth_below_one_is_refused():
+    with pytest.raises(ValueError, match="at least 1"):
+        ReadAhead(lambda k: k, range(3), depth=0)
