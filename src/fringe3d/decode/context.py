@@ -311,7 +311,8 @@ def clipping_broken(ctx: DecodeContext, group: PhaseGroup, order_only: bool = Fa
     if key not in ctx.cache:
         level = quality.saturation_level(ctx.frames, ctx.bit_depth)
         bound = float(ctx.options.max_disagreement) if order_only else ctx.options.max_clip_bias
-        r = clipping.clipping_mask(ctx.frames, group.indices, group.shifts, level, lambda: intensity_noise(ctx), bound)
+        r = clipping.clipping_mask(ctx.frames, group.indices, group.shifts, level, lambda: intensity_noise(ctx), bound,
+                                   clipped=ctx.cache.get(("clipped", group.name)))
         n_clipped = int(r.clipped.sum())
         ctx.cache[("saturation", group.name)] = {
             "clipped": n_clipped / r.clipped.size, "masked": float(r.broken.mean()),
