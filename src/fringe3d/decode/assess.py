@@ -98,7 +98,8 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
             info["masked"] = edges.bit_counts(q)
         return Assessment(q, sigma_phi, info)
     valid = mask if order is None else mask & ~np.asarray(order, bool)
-    w = phase_to_w(np.where(valid, phase, np.nan), period).astype(np.float32)
+    # the decoder's phase is NaN outside its mask already; w outside ``valid`` is never read
+    w = phase_to_w(phase if order is None else np.where(valid, phase, np.nan), period).astype(np.float32, copy=False)
     coarse = [g for g in groups if g.period > period * (1 + 1e-9)]
     blur = 0.0
     residual = None

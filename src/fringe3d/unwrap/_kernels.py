@@ -287,19 +287,22 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
                     cl3[j] = pk3[j] >= clip_level
                 accumulate_chunk(frames, idx2, c64_2, i, j0, n, e_a, e_b2, e_c2, e_pk, True, True, False)
                 accumulate_chunk(frames, idx3, c64_3, i, j0, n, e_a, e_b3, e_c3, e_pk, True, True, False)
+                # again a few arrays per loop (see above): phi_2, then phi_3 and B_3, then the residual
                 for j in range(n):
                     bj = np.float32(e_b2[j])
                     cj = np.float32(e_c2[j])
-                    p2 = fast_atan2_f32(-cj, bj)
+                    ss[j] = fast_atan2_f32(-cj, bj)
+                for j in range(n):
                     bj = np.float32(e_b3[j])
                     cj = np.float32(e_c3[j])
-                    p3 = fast_atan2_f32(-cj, bj)
+                    a2[j] = fast_atan2_f32(-cj, bj)
                     m3o[j] = math.sqrt(bj * bj + cj * cj)
+                for j in range(n):
                     big64 = np.float64(ph[j])
-                    e2 = np.float64(p2) - big64 * sc2
-                    e3 = np.float64(p3) - big64 * sc3
-                    e2 = abs(e2 - TWO_PI * np.round(e2 / TWO_PI))
-                    e3 = abs(e3 - TWO_PI * np.round(e3 / TWO_PI))
+                    e2 = np.float64(ss[j]) - big64 * sc2
+                    e3 = np.float64(a2[j]) - big64 * sc3
+                    e2 = abs(e2 - TWO_PI * np.rint(e2 / TWO_PI))
+                    e3 = abs(e3 - TWO_PI * np.rint(e3 / TWO_PI))
                     re[j] = np.float32(max(e2, e3)) if ma[j] else np.float32(0.0)
 
 

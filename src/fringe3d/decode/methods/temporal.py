@@ -62,9 +62,11 @@ def unwrap_heterodyne(ctx: DecodeContext) -> Unwrapped:
                                        max_residual=float(ctx.options.max_residual), backend=ctx.options.backend)
         mask, phase = r.mask, r.phase
         if np.isfinite(level):
-            for i, g in enumerate(groups):  # the coarser groups only choose fringe orders
-                mask = mask & ~clipping_broken(ctx, g, order_only=i > 0)
-            phase = np.where(mask, phase, np.float32(np.nan)).astype(np.float32, copy=False)
+            broken = [b for i, g in enumerate(groups)  # the coarser groups only choose fringe orders
+                      if (b := clipping_broken(ctx, g, order_only=i > 0)).any()]
+            if broken:  # else mask and phase stand as they are
+                mask = mask & ~np.logical_or.reduce(broken)
+                phase = np.where(mask, phase, np.float32(np.nan)).astype(np.float32, copy=False)
         return Unwrapped(phase, mask, wrapped=r.wrapped, modulation=r.modulation, average=r.average,
                          texture=r.texture, phase_is_masked=True)
     phases = [ctx.group_phase(g).phase for g in groups]
