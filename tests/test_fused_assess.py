@@ -2,8 +2,9 @@
 (:mod:`fringe3d.decode._fused_assess`) and its last per-pixel passes
 (:mod:`fringe3d.decode._finish_kernels`) equal the separate passes they replace (kept as the
 references): the decode outputs, clipping flags, disagreement and modulation bit for bit or to
-float32 rounding, the float32 fit-residual variance within 1e-4 (phase sigma within 1e-4 or 1e-6 rad), and a whole ``decode()`` with
-the same masks, quality bits and texture as the path that re-reads the frames."""
+float32 rounding, the float32 fit-residual variance within 1e-4 (phase sigma within 1e-4 or
+1e-6 rad), and a whole ``decode()`` with the same masks, quality bits and texture as the path that
+re-reads the frames."""
 from __future__ import annotations
 
 import warnings

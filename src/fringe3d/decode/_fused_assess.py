@@ -72,9 +72,9 @@ def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]],
     variance = np.empty((h, w) if n1 >= 4 else (1, 1), np.float32)
     residual = np.empty((h, w), np.float32)
     modulation3 = np.empty((h, w), np.float32)
+    coef64_23 = np.ascontiguousarray(np.concatenate(coef64[1:], axis=1))
     kernels.three_frequency_assess_kernel(frames, idx[0], coef[0], idx[1], coef[1], idx[2], coef[2], params,
-                                          design, scales,
-                                          np.ascontiguousarray(np.concatenate(coef64[1:], axis=1)), *out, clipped, variance, residual, modulation3)
+                                          design, scales, coef64_23, *out, clipped, variance, residual, modulation3)
     if not math.isfinite(level):
         clipped[:] = False
     return FusedAssessment(out, clipped, variance if n1 >= 4 else None, residual, modulation3)
