@@ -88,10 +88,10 @@ class DecodeContext:
     # -- groups ------------------------------------------------------------------------
     def phase_groups(self) -> list[PhaseGroup]:
         """Phase groups of this direction in manifest order (see :func:`phase_groups`), read from
-        the manifest once per context (``cache["phase_groups"]``)."""
-        groups = self.cache.get("phase_groups")
+        the manifest once per context (``cache[("phase_groups",)]``)."""
+        groups = self.cache.get(("phase_groups",))
         if groups is None:
-            groups = self.cache["phase_groups"] = phase_groups(self.patterns, self.direction)
+            groups = self.cache[("phase_groups",)] = phase_groups(self.patterns, self.direction)
         return list(groups)
 
     def group_for_period(self, period: float) -> PhaseGroup:

@@ -171,7 +171,7 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     for plan in plans:
         ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig,
                             options=opts, min_modulation=min_mod, geometry=geometry,
-                            cache={"phase_groups": groups_of[plan.direction]})
+                            cache={("phase_groups",): groups_of[plan.direction]})
         if not groups_of[plan.direction] and not method_facts(plan.method).code_only:
             raise ValueError(f"direction {plan.direction!r} has an unwrapping plan ({plan.method}) but no phase frames "
                              "in the manifest; the decoder needs phase-shifted or FTP frames, or code frames with "
