@@ -40,7 +40,9 @@ def noise_model(ctx: DecodeContext, groups: list[PhaseGroup], average: np.ndarra
     four = [g for g in groups if len(g.indices) >= 4]
     if four:
         g = four[0]
-        var = noise.fit_residual_variance(ctx.frames, g.indices, g.shifts)
+        var = ctx.cache.get(("fit_variance", g.name))  # from the fused pass, when it ran
+        if var is None:
+            var = noise.fit_residual_variance(ctx.frames, g.indices, g.shifts)
         return noise.fit_noise_model(var, average, mask), f"fit residual ({g.name}, {len(g.indices)} steps)"
     if len(groups) >= 2:
         a, b = groups[0], groups[1]
@@ -96,15 +98,20 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
             info["masked"] = edges.bit_counts(q)
         return Assessment(q, sigma_phi, info)
     valid = mask if order is None else mask & ~np.asarray(order, bool)
-    w = phase_to_w(np.where(valid, phase, np.nan), period).astype(np.float32)
+    # the decoder's phase is NaN outside its mask already; w outside ``valid`` is never read
+    w = phase_to_w(phase if order is None else np.where(valid, phase, np.nan), period).astype(np.float32, copy=False)
     coarse = [g for g in groups if g.period > period * (1 + 1e-9)]
     blur = 0.0
     residual = None
     if coarse:
         c = coarse[-1]
-        blur = edges.estimate_blur(modulation, ctx.group_phase(c).modulation, period, c.period, mask)
-        residual = edges.disagreement(phase, period, [ctx.group_phase(g).phase for g in coarse],
-                                      [g.period for g in coarse])
+        mod_c = ctx.cache.get(("modulation", c.name))  # the fused pass's, when it ran
+        blur = edges.estimate_blur(modulation, ctx.group_phase(c).modulation if mod_c is None else mod_c,
+                                   period, c.period, mask)
+        residual = ctx.cache.get(("disagreement", *(g.name for g in coarse)))
+        if residual is None:
+            residual = edges.disagreement(phase, period, [ctx.group_phase(g).phase for g in coarse],
+                                          [g.period for g in coarse])
     margin = edges.edge_margin(opts.edge_margin, blur)
     lo, hi = ctx.w_range()
     f = edges.oblique_factor(ctx.plan.angle)  # w-width of the band (edges docstring)

@@ -87,8 +87,12 @@ class DecodeContext:
 
     # -- groups ------------------------------------------------------------------------
     def phase_groups(self) -> list[PhaseGroup]:
-        """Phase groups of this direction in manifest order (see :func:`phase_groups`)."""
-        return phase_groups(self.patterns, self.direction)
+        """Phase groups of this direction in manifest order (see :func:`phase_groups`), read from
+        the manifest once per context (``cache[("phase_groups",)]``)."""
+        groups = self.cache.get(("phase_groups",))
+        if groups is None:
+            groups = self.cache[("phase_groups",)] = phase_groups(self.patterns, self.direction)
+        return list(groups)
 
     def group_for_period(self, period: float) -> PhaseGroup:
         """The phase group of this direction with the given period (``ValueError`` if none)."""
@@ -311,10 +315,12 @@ def clipping_broken(ctx: DecodeContext, group: PhaseGroup, order_only: bool = Fa
     if key not in ctx.cache:
         level = quality.saturation_level(ctx.frames, ctx.bit_depth)
         bound = float(ctx.options.max_disagreement) if order_only else ctx.options.max_clip_bias
-        r = clipping.clipping_mask(ctx.frames, group.indices, group.shifts, level, lambda: intensity_noise(ctx), bound)
-        n_clipped = int(r.clipped.sum())
+        r = clipping.clipping_mask(ctx.frames, group.indices, group.shifts, level, lambda: intensity_noise(ctx), bound,
+                                   clipped=ctx.cache.get(("clipped", group.name)))
+        n_clipped = int(np.count_nonzero(r.clipped))  # count_nonzero: no float pass; the same shares
         ctx.cache[("saturation", group.name)] = {
-            "clipped": n_clipped / r.clipped.size, "masked": float(r.broken.mean()),
+            "clipped": n_clipped / r.clipped.size,
+            "masked": np.count_nonzero(r.broken) / r.broken.size if n_clipped else 0.0,
             "estimated": r.estimated / n_clipped if n_clipped else 0.0,
             "rule": "phase bias of the clipped samples > " + (
                 f"{bound:g} rad" + (" (fringe order only)" if order_only else "") if bound is not None

@@ -16,6 +16,7 @@ from typing import Any, Iterator
 import numpy as np
 
 from fringe3d.decode import compensation, edges, self_calibration
+from fringe3d.decode._finish_kernels import masked_phase, texture_fraction
 from fringe3d.decode.assess import assess
 from fringe3d.decode.context import DecodeContext, phase_groups
 from fringe3d.decode.method_plans import plans_to_decode as _plans
@@ -31,6 +32,7 @@ from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.patterns.method_registry import code_only_methods, is_relative, method_facts
 from fringe3d.phase import quality
 from fringe3d.phase.frames import as_frame_stack
+from fringe3d.phase.quality import full_scale
 from fringe3d.utils.console import progress_bar
 
 
@@ -168,7 +170,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     first: tuple[DecodeContext, Any, Unwrapped] | None = None
     for plan in plans:
         ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig,
-                            options=opts, min_modulation=min_mod, geometry=geometry)
+                            options=opts, min_modulation=min_mod, geometry=geometry,
+                            cache={("phase_groups",): groups_of[plan.direction]})
         if not groups_of[plan.direction] and not method_facts(plan.method).code_only:
             raise ValueError(f"direction {plan.direction!r} has an unwrapping plan ({plan.method}) but no phase frames "
                              "in the manifest; the decoder needs phase-shifted or FTP frames, or code frames with "
@@ -190,6 +193,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
             modulation = pr.modulation if result.modulation is None else result.modulation
         if result.phase_is_masked and phi.dtype == np.float32:  # NaN exactly where mask is False already
             phase, mask = phi, mask
+        elif phi.dtype == np.float32:
+            mask, phase = masked_phase(phi, mask)  # one pass
         else:
             mask = np.asarray(mask, dtype=bool) & np.isfinite(phi)
             phase = np.where(mask, phi, np.nan).astype(np.float32)
@@ -198,9 +203,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         average = result.average if result.average is not None or g is None else ctx.group_phase(g).average
         a = assess(ctx, phase, mask, np.asarray(modulation, np.float32), average, period,
                    order=result.order_inconsistent)
-        if opts.edge_mask or result.order_inconsistent is not None:
-            mask = mask & ((a.quality == 0) if opts.edge_mask else (a.quality & edges.ORDER) == 0)
-            phase = np.where(mask, phase, np.float32(np.nan)).astype(np.float32, copy=False)
+        if opts.edge_mask or result.order_inconsistent is not None:  # one pass
+            mask, phase = masked_phase(phase, mask, a.quality, 0xFF if opts.edge_mask else edges.ORDER)
         out.quality[d], out.phase_sigma[d] = a.quality, a.phase_sigma
         out.info.setdefault("quality", {})[d] = a.info
         out.phase[d], out.mask[d] = phase, mask
@@ -223,12 +227,11 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     out.average = np.asarray(average, np.float32)
     white = ps.indices(kind="white")
     if white:
-        raw = frames[white[0]]
-    elif result.texture is not None:  # the fused kernel wrote average + modulation
-        raw = result.texture
-    else:
-        raw = np.add(out.average, out.modulation[plans[0].direction], dtype=np.float32)  # one pass
-    out.texture = as_fraction(raw, frames, bit_depth)  # one meaning everywhere (fringe3d.decode.texture)
+        out.texture = as_fraction(frames[white[0]], frames, bit_depth)  # one meaning everywhere (decode.texture)
+    else:  # as_fraction of the fused kernel's average + modulation, or of their float32 sum: one pass
+        out.texture = texture_fraction(out.average if result.texture is None else result.texture,
+                                       out.modulation[plans[0].direction] if result.texture is None else None,
+                                       full_scale(frames, bit_depth))
     if opts.edge_mask:
         mask_projector_border(out, ps, plans)
     return out

@@ -92,12 +92,14 @@ def _line_moments(x, y, m, c0, c1, limit, ref_x, ref_y, rows):  # pragma: no cov
         sy = 0.0
         sxx = 0.0
         sxy = 0.0
-        for j in range(W):
+        inf = np.inf
+        robust = limit > 0
+        for j in range(W):  # branch-free ('&', no short-circuit): the loop vectorises
             xv = np.float64(x[i, j])
             yv = np.float64(y[i, j])
-            ok = m[i, j] and np.isfinite(xv) and np.isfinite(yv)
-            if ok and limit > 0:  # the robust step: keep y < limit * max(c0 + c1 x, 1e-12)
-                ok = yv < limit * max(c0 + c1 * xv, 1e-12)
+            ok = m[i, j] & (abs(xv) < inf) & (abs(yv) < inf)  # finite: NaN compares False
+            # the robust step: keep y < limit * max(c0 + c1 x, 1e-12)
+            ok = ok & ((not robust) | (yv < limit * max(c0 + c1 * xv, 1e-12)))
             dx = xv - ref_x
             dy = yv - ref_y
             w = 1.0 if ok else 0.0

@@ -103,7 +103,8 @@ def clipping_bias(samples: np.ndarray, shifts: Sequence[float], level: float) ->
 
 
 def clipping_mask(frames: np.ndarray, index: Sequence[int], shifts: Sequence[float], level: float,
-                  noise: float | Callable[[], float], max_bias: float | None = None) -> ClippingMask:
+                  noise: float | Callable[[], float], max_bias: float | None = None,
+                  clipped: np.ndarray | None = None) -> ClippingMask:
     """Which pixels of one N-step group clipping breaks (see the module docstring).
 
     Parameters
@@ -120,6 +121,9 @@ def clipping_mask(frames: np.ndarray, index: Sequence[int], shifts: Sequence[flo
     max_bias : float, optional
         Largest accepted bias (rad); default the pixel's phase-noise sigma
         ``sqrt(2/N) noise / B`` (:func:`fringe3d.phase.noise.phase_sigma`).
+    clipped : (H, W) bool, optional
+        The group's clipping flags (a frame ``>= level``) when already known, e.g. from the
+        decoder's fused pass; default: compared here, one pass per frame.
 
     Returns
     -------
@@ -127,10 +131,11 @@ def clipping_mask(frames: np.ndarray, index: Sequence[int], shifts: Sequence[flo
     """
     idx = list(index)
     h, w = frames.shape[1:]
-    clipped = np.zeros((h, w), bool)
-    if math.isfinite(level):
-        for i in idx:
-            clipped |= frames[i] >= level
+    if clipped is None:
+        clipped = np.zeros((h, w), bool)
+        if math.isfinite(level):
+            for i in idx:
+                clipped |= frames[i] >= level
     broken = np.zeros((h, w), bool)
     if not clipped.any():
         return ClippingMask(clipped, broken, 0)

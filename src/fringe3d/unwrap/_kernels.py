@@ -172,6 +172,140 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
                     ph[j] = absolute if ok else nan
 
 
+@njit(cache=True, parallel=True, fastmath=FASTMATH)
+def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params, design1, scales, coef64,
+                                  phase, wrapped, modulation, average, mask, texture,
+                                  clipped, variance, residual, modulation3):  # pragma: no cover - compiled
+    """:func:`three_frequency_kernel` with what the decoder's assessment needs from the same pass.
+
+    Inputs and the first six outputs as :func:`three_frequency_kernel` (equal bit for bit: the
+    same float32 arithmetic), ``params`` with a ninth entry, the saturation level of the
+    per-group clipping flags. ``design1`` (N_1, 3) float32 ``[1, cos d_k, sin d_k]`` of group 1
+    (N_1 >= 4 for a variance; else ``variance`` may be (1, 1) and is left alone); ``scales``
+    float64 ``(T_1 / T_2, T_1 / T_3, 1 / (N_1 - 3))``; ``coef64`` the float64 coefficients of
+    groups 2 and 3 side by side, (3, N_2 + N_3). Extra outputs:
+
+    * ``clipped`` (3, H, W) bool: a frame of group g at or above the saturation level;
+    * ``variance`` (H, W) float32: group 1's least-squares fit residual
+      ``sum_k (I_k - a - b cos d_k - c sin d_k)^2 / (N_1 - 3)`` (float32 sums);
+    * ``residual`` (H, W) float32: the multi-frequency disagreement
+      ``max_g |wrap(phi_g - Phi T_1 / T_g)|`` (rad, in float64) over groups 2 and 3, 0 where the
+      pixel is invalid;
+    * ``modulation3`` (H, W) float32: the modulation of group 3.
+
+    ``phi_2``, ``phi_3`` and the modulation of group 3 are :func:`fringe3d.phase._kernels.psp_kernel`'s
+    (float64 sums of the rows still in the cache, float32 atan2 and sqrt), not the float32 ones
+    of the decode: the residual and the blur estimate equal the separate passes'.
+    """
+    s12 = params[0]
+    s123 = params[1]
+    r_top = params[2]
+    r_mid = params[3]
+    lower = params[4]
+    min_mod2 = params[5] * params[5]
+    sat_level = params[6]
+    max_res = params[7]
+    clip_level = params[8]
+    sc2 = scales[0]
+    sc3 = scales[1]
+    vscale = np.float32(scales[2])
+    n1 = idx1.shape[0]
+    with_var = n1 >= 4
+    n2 = idx2.shape[0]
+    c64_2 = coef64[:, :n2]
+    c64_3 = coef64[:, n2:]
+    h = frames.shape[1]
+    w = frames.shape[2]
+    nan = np.float32(np.nan)
+    nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
+    for blk in prange(nblk):
+        acc = np.empty((12, COL_CHUNK), np.float32)
+        a1, b1, c1, a2, b2, c2, b3, c3 = acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], acc[6], acc[7]
+        pk1, pk2, pk3, ss = acc[8], acc[9], acc[10], acc[11]
+        acc64 = np.empty((6, COL_CHUNK))
+        e_a, e_b2, e_c2, e_b3, e_c3, e_pk = acc64[0], acc64[1], acc64[2], acc64[3], acc64[4], acc64[5]
+        for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
+            for j0 in range(0, w, COL_CHUNK):
+                n = min(COL_CHUNK, w - j0)
+                accumulate_chunk(frames, idx1, coef1, i, j0, n, a1, b1, c1, pk1, True, True, True)
+                accumulate_chunk(frames, idx2, coef2, i, j0, n, a2, b2, c2, pk2, True, True, False)
+                accumulate_chunk(frames, idx3, coef3, i, j0, n, a2, b3, c3, pk3, True, True, False)
+                if with_var:  # the group's rows again, from the cache: the fit residual
+                    for k in range(n1):
+                        row = frames[idx1[k], i, j0:j0 + n]
+                        d0 = design1[k, 0]
+                        d1 = design1[k, 1]
+                        d2 = design1[k, 2]
+                        for j in range(n):
+                            r = np.float32(row[j]) - (d0 * a1[j] + d1 * b1[j] + d2 * c1[j])
+                            ss[j] = r * r if k == 0 else ss[j] + r * r
+                    va = variance[i, j0:j0 + n]
+                    for j in range(n):
+                        va[j] = ss[j] * vscale
+                ph = phase[i, j0:j0 + n]
+                wr = wrapped[i, j0:j0 + n]
+                mo = modulation[i, j0:j0 + n]
+                av = average[i, j0:j0 + n]
+                ma = mask[i, j0:j0 + n]
+                tx = texture[i, j0:j0 + n]
+                cl1 = clipped[0, i, j0:j0 + n]
+                cl2 = clipped[1, i, j0:j0 + n]
+                cl3 = clipped[2, i, j0:j0 + n]
+                re = residual[i, j0:j0 + n]
+                m3o = modulation3[i, j0:j0 + n]
+                # three loops, each with few arrays: one loop storing to all eleven outputs has too
+                # many possibly-aliasing pointers for LLVM's runtime checks and does not vectorise
+                for j in range(n):
+                    m1 = b1[j] * b1[j] + c1[j] * c1[j]
+                    m2 = b2[j] * b2[j] + c2[j] * c2[j]
+                    m3 = b3[j] * b3[j] + c3[j] * c3[j]
+                    p1 = fast_atan2_f32(-c1[j], b1[j])
+                    p2 = fast_atan2_f32(-c2[j], b2[j])
+                    p3 = fast_atan2_f32(-c3[j], b3[j])
+                    x12 = mod_2pi_f32(s12 * (p1 - p2))
+                    x123 = mod_2pi_f32(s123 * (x12 - p3))
+                    big = lower + mod_2pi_f32(x123 - lower)
+                    d1 = big * r_top - x12
+                    k1 = round_half_up_f32(d1 * FINV2PI)
+                    big = x12 + F2PI * k1
+                    d2 = big * r_mid - p1
+                    k2 = round_half_up_f32(d2 * FINV2PI)
+                    absolute = p1 + F2PI * k2
+                    consistent = (abs(d1 - F2PI * k1) <= max_res) & (abs(d2 - F2PI * k2) <= max_res)
+                    peak = max(pk1[j], max(pk2[j], pk3[j]))
+                    ok = (min(m1, min(m2, m3)) >= min_mod2) & (peak < sat_level) & consistent
+                    bm = math.sqrt(m1)
+                    wr[j] = p1
+                    mo[j] = bm
+                    av[j] = a1[j]
+                    tx[j] = a1[j] + bm
+                    ma[j] = ok
+                    ph[j] = absolute if ok else nan
+                for j in range(n):
+                    cl1[j] = pk1[j] >= clip_level
+                    cl2[j] = pk2[j] >= clip_level
+                    cl3[j] = pk3[j] >= clip_level
+                accumulate_chunk(frames, idx2, c64_2, i, j0, n, e_a, e_b2, e_c2, e_pk, True, True, False)
+                accumulate_chunk(frames, idx3, c64_3, i, j0, n, e_a, e_b3, e_c3, e_pk, True, True, False)
+                # again a few arrays per loop (see above): phi_2, then phi_3 and B_3, then the residual
+                for j in range(n):
+                    bj = np.float32(e_b2[j])
+                    cj = np.float32(e_c2[j])
+                    ss[j] = fast_atan2_f32(-cj, bj)
+                for j in range(n):
+                    bj = np.float32(e_b3[j])
+                    cj = np.float32(e_c3[j])
+                    a2[j] = fast_atan2_f32(-cj, bj)
+                    m3o[j] = math.sqrt(bj * bj + cj * cj)
+                for j in range(n):
+                    big64 = np.float64(ph[j])
+                    e2 = np.float64(ss[j]) - big64 * sc2
+                    e3 = np.float64(a2[j]) - big64 * sc3
+                    e2 = abs(e2 - TWO_PI * np.rint(e2 / TWO_PI))
+                    e3 = abs(e3 - TWO_PI * np.rint(e3 / TWO_PI))
+                    re[j] = np.float32(max(e2, e3)) if ma[j] else np.float32(0.0)
+
+
 @njit(cache=True, inline="always")
 def _edge_fades(diff, amp, fl, fh, el, eh):
     """(d_lo, d_hi): how far the bits that change at the stripe's lower / upper edge are from

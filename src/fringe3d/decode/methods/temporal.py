@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from fringe3d.decode._fused_assess import three_frequency_assess
 from fringe3d.decode.code_threshold import code_reference
 from fringe3d.decode.context import DecodeContext, clipping_broken, combined_mask
 from fringe3d.decode.result import Unwrapped
@@ -51,20 +52,44 @@ def unwrap_heterodyne(ctx: DecodeContext) -> Unwrapped:
     groups = ctx.groups_for_plan()
     if len(groups) == 3 and all(len(g.indices) >= 3 for g in groups) and ctx.options.fused \
             and ctx.options.compensate is None:
-        r = three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
-                                   [g.period for g in groups], w_range=ctx.w_range(),
-                                   min_modulation=ctx.min_modulation, saturation_level=np.inf,
-                                   max_residual=float(ctx.options.max_residual), backend=ctx.options.backend)
+        level = quality.saturation_level(ctx.frames, ctx.bit_depth)
+        if ctx.options.backend == "cpu":  # the assessment's inputs from the same pass
+            r = _fused_with_assessment(ctx, groups, level)
+        else:
+            r = three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
+                                       [g.period for g in groups], w_range=ctx.w_range(),
+                                       min_modulation=ctx.min_modulation, saturation_level=np.inf,
+                                       max_residual=float(ctx.options.max_residual), backend=ctx.options.backend)
         mask, phase = r.mask, r.phase
-        if np.isfinite(quality.saturation_level(ctx.frames, ctx.bit_depth)):
-            for i, g in enumerate(groups):  # the coarser groups only choose fringe orders
-                mask = mask & ~clipping_broken(ctx, g, order_only=i > 0)
-            phase = np.where(mask, phase, np.float32(np.nan)).astype(np.float32, copy=False)
+        if np.isfinite(level):
+            broken = [b for i, g in enumerate(groups)  # the coarser groups only choose fringe orders
+                      if (b := clipping_broken(ctx, g, order_only=i > 0)).any()]
+            if broken:  # else mask and phase stand as they are
+                mask = mask & ~np.logical_or.reduce(broken)
+                phase = np.where(mask, phase, np.float32(np.nan)).astype(np.float32, copy=False)
         return Unwrapped(phase, mask, wrapped=r.wrapped, modulation=r.modulation, average=r.average,
                          texture=r.texture, phase_is_masked=True)
     phases = [ctx.group_phase(g).phase for g in groups]
     res = heterodyne(phases, [g.period for g in groups], w_range=ctx.w_range())
     return Unwrapped(res.phase, combined_mask(ctx, groups), order_inconsistent=_beyond(ctx, res.residual))
+
+
+def _fused_with_assessment(ctx: DecodeContext, groups: list, level: float):
+    """:func:`three_frequency_decode` of the three groups (saturation ignored) by the one pass
+    of :func:`fringe3d.decode._fused_assess.three_frequency_assess`, its assessment maps left in
+    ``ctx.cache`` for :func:`fringe3d.decode.context.clipping_broken` (``("clipped", group)``),
+    :func:`fringe3d.decode.assess.assess` (``("fit_variance", group)``, ``("modulation",
+    group)``, ``("disagreement", coarser groups)``)."""
+    a = three_frequency_assess(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
+                               [g.period for g in groups], ctx.w_range(),
+                               (ctx.min_modulation, float(ctx.options.max_residual), level))
+    for g, clipped in zip(groups, a.clipped):
+        ctx.cache[("clipped", g.name)] = clipped
+    if a.variance is not None:
+        ctx.cache[("fit_variance", groups[0].name)] = a.variance
+    ctx.cache[("modulation", groups[2].name)] = a.modulation3
+    ctx.cache[("disagreement", groups[1].name, groups[2].name)] = a.residual
+    return a.decoded
 
 
 def code_frames(ctx: DecodeContext) -> tuple[list[int], list[int] | None]:

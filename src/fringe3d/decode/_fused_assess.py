@@ -1,0 +1,80 @@
+"""The decoder's fused three-frequency pass with its assessment inputs (private; the default
+three-frequency plan of :func:`fringe3d.decode.methods.temporal.unwrap_heterodyne`).
+
+:func:`fringe3d.unwrap.temporal.three_frequency_decode` reads the 15 frames once; the
+assessment then read them again, several times: each group's clipping flags (a NumPy pass per
+frame, :func:`fringe3d.phase.clipping.clipping_mask`), the 9-step group's fit residual
+(:func:`fringe3d.phase.noise.fit_residual_variance`) and the coarser groups' wrapped phases and
+modulation (two more least-squares passes) for the disagreement and the blur estimate. Here the
+one pass of :func:`fringe3d.unwrap._kernels.three_frequency_assess_kernel` returns them all.
+
+Tolerances against those references (``tests/test_fused_assess.py``): the decode outputs equal
+:func:`three_frequency_decode`'s bit for bit and the clipping flags are exact; the variance is
+summed in float32 (relative 1e-4 of the float64 reference at 1 grey level of noise; the phase
+sigma of the noise model fitted to it within 1e-4, or 1e-6 rad where c0 + c1 A nearly cancels); the
+disagreement and the coarsest modulation are made as the separate passes make them (float64 sums
+of the coarser groups, as :func:`fringe3d.phase.psp.wrapped_phase`), equal up to the last bit
+of a float32.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple, Sequence
+
+import numpy as np
+
+from fringe3d.phase.frames import as_frame_stack
+from fringe3d.phase.psp import lsq_coefficients
+from fringe3d.unwrap import _kernels as kernels
+from fringe3d.unwrap.temporal import FusedResult, beat_chain, coarse_window
+
+
+class FusedAssessment(NamedTuple):
+    """:class:`~fringe3d.unwrap.temporal.FusedResult` of the decode and, each (H, W):
+    ``clipped`` (3, H, W) bool per group (a frame at the saturation level), ``variance``
+    float32 fit-residual variance of group 1 (None with fewer than 4 steps), ``residual``
+    float32 disagreement (rad, 0 where invalid), ``modulation3`` float32 modulation of group 3."""
+
+    decoded: FusedResult
+    clipped: np.ndarray
+    variance: np.ndarray | None
+    residual: np.ndarray
+    modulation3: np.ndarray
+
+
+def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]], shifts: Sequence[Sequence[float]],
+                           periods: Sequence[float], w_range: tuple[float, float] | None,
+                           thresholds: tuple[float, float, float]) -> FusedAssessment:
+    """One pass: :func:`fringe3d.unwrap.temporal.three_frequency_decode` of ``frames`` (F, H, W)
+    with ``thresholds = (min_modulation, max_residual, saturation level of the clipping flags)``
+    (the mask ignores saturation, as the decoder's call does) and the assessment maps of
+    :class:`FusedAssessment`."""
+    frames = as_frame_stack(frames)
+    min_modulation, max_residual, level = (float(t) for t in thresholds)
+    idx = [np.asarray(i, dtype=np.int64) for i in indices]
+    for i in idx:
+        if i.size and (i.min() < 0 or i.max() >= frames.shape[0]):
+            raise ValueError(f"frame index {i.tolist()} out of range for {frames.shape[0]} frames")
+    coef64 = [lsq_coefficients(s) for s in shifts]
+    coef = [c.astype(np.float32) for c in coef64]
+    beats, signs = beat_chain(periods)
+    params = np.array([signs[0], signs[1], beats[1] / beats[0], beats[0] / periods[0],
+                       coarse_window(beats[-1], w_range), min_modulation, 3e38, max_residual,
+                       min(level, 3e38)], dtype=np.float32)
+    d = np.asarray(shifts[0], np.float64)
+    design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1).astype(np.float32)
+    n1 = d.size
+    scales = np.array([periods[0] / periods[1], periods[0] / periods[2], 1.0 / (n1 - 3) if n1 > 3 else 0.0])
+    h, w = frames.shape[1:]
+    out = FusedResult(np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.float32),
+                      np.empty((h, w), np.float32), np.empty((h, w), np.bool_), np.empty((h, w), np.float32))
+    clipped = np.empty((3, h, w), np.bool_)
+    variance = np.empty((h, w) if n1 >= 4 else (1, 1), np.float32)
+    residual = np.empty((h, w), np.float32)
+    modulation3 = np.empty((h, w), np.float32)
+    coef64_23 = np.ascontiguousarray(np.concatenate(coef64[1:], axis=1))
+    kernels.three_frequency_assess_kernel(frames, idx[0], coef[0], idx[1], coef[1], idx[2], coef[2], params,
+                                          design, scales, coef64_23, *out, clipped, variance, residual, modulation3)
+    if not math.isfinite(level):
+        clipped[:] = False
+    return FusedAssessment(out, clipped, variance if n1 >= 4 else None, residual, modulation3)

@@ -1,0 +1,123 @@
+"""The decoder's fused three-frequency pass with its assessment maps
+(:mod:`fringe3d.decode._fused_assess`) and its last per-pixel passes
+(:mod:`fringe3d.decode._finish_kernels`) equal the separate passes they replace (kept as the
+references): the decode outputs, clipping flags, disagreement and modulation bit for bit or to
+float32 rounding, the float32 fit-residual variance within 1e-4 (phase sigma within 1e-4 or
+1e-6 rad), and a whole ``decode()`` with the same masks, quality bits and texture as the path that
+re-reads the frames."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from fringe3d.decode import DecodeOptions, decode, edges
+from fringe3d.decode import _finish_kernels as fk
+from fringe3d.decode._fused_assess import three_frequency_assess
+from fringe3d.decode.methods import temporal as temporal_method
+from fringe3d.decode.texture import as_fraction
+from fringe3d.patterns import sets
+from fringe3d.patterns.synthetic import frames_from_coordinates
+from fringe3d.phase import noise
+from fringe3d.phase.psp import wrapped_phase
+from fringe3d.unwrap.temporal import three_frequency_decode
+
+LEVEL = 255.0
+
+
+@pytest.fixture(scope="module")
+def capture():
+    """A 48 x 64 three-frequency capture: a depth step, a dark band and clipped crests."""
+    ps = sets.three_frequency("v", width=912, height=570)
+    v, u = np.mgrid[0:48, 0:64].astype(np.float64)
+    u_p = 100 + 1.3 * u + 40 * (u > 32) + 2 * np.sin(v / 7)
+    amp = 120 + 60 * np.cos(u / 9)
+    amp[:6] = 2
+    frames = frames_from_coordinates(ps, u_p, np.full_like(u_p, 300.0), amp + 10, amp + 20, noise=1.5,
+                                     rng=np.random.default_rng(2), dtype=np.uint8)
+    groups = [ps.indices(group=g) for g in ps.groups("v", "phase")]
+    shifts = [[ps.frames[i].shift for i in g] for g in groups]
+    plan = ps.plan("v")
+    return ps, frames, groups, shifts, plan.periods, tuple(plan.options["w_range"])
+
+
+def test_fused_assessment_equals_the_separate_passes(capture):
+    _, frames, groups, shifts, periods, wr = capture
+    a = three_frequency_assess(frames, groups, shifts, periods, wr, (5.0, 0.5 * np.pi, LEVEL))
+    ref = three_frequency_decode(frames, groups, shifts, periods, w_range=wr, min_modulation=5.0,
+                                 max_residual=0.5 * np.pi)
+    for got, want in zip(a.decoded, ref):
+        np.testing.assert_array_equal(got, want)  # the same float32 arithmetic
+    for g, idx in enumerate(groups):
+        np.testing.assert_array_equal(a.clipped[g], (frames[idx] >= LEVEL).any(axis=0))
+    assert a.clipped.any() and not a.clipped.all()
+    np.testing.assert_allclose(a.variance, noise.fit_residual_variance(frames, groups[0], shifts[0]),
+                               rtol=1e-4, atol=1e-3)  # float32 sums against float64
+    coarse = [wrapped_phase(frames, shifts[g], groups[g]) for g in (1, 2)]
+    np.testing.assert_allclose(a.modulation3, coarse[1].modulation, rtol=1e-6)
+    residual = edges.disagreement(ref.phase, periods[0], [c.phase for c in coarse], periods[1:])
+    np.testing.assert_allclose(a.residual, residual, rtol=0, atol=1e-6)
+    assert (a.residual[~ref.mask] == 0).all()
+
+
+def test_fused_assessment_of_a_three_step_first_group_has_no_variance(capture):
+    _, frames, groups, shifts, periods, wr = capture
+    g3 = [groups[0][:3], groups[1], groups[2]]
+    s3 = [shifts[0][:3], shifts[1], shifts[2]]
+    a = three_frequency_assess(frames, g3, s3, periods, wr, (5.0, 0.5 * np.pi, np.inf))
+    assert a.variance is None and not a.clipped.any()
+
+
+def test_decode_with_the_fused_assessment_equals_the_path_that_rereads_the_frames(capture, monkeypatch):
+    ps, frames, *_ = capture
+    opts = DecodeOptions(min_modulation=5.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = decode(frames, ps, options=opts)
+
+        def plain(ctx, groups, level):  # the decode alone: the assessment computes its own inputs
+            return three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
+                                          [g.period for g in groups], w_range=ctx.w_range(),
+                                          min_modulation=ctx.min_modulation, saturation_level=np.inf,
+                                          max_residual=float(ctx.options.max_residual))
+        monkeypatch.setattr(temporal_method, "_fused_with_assessment", plain)
+        want = decode(frames, ps, options=opts)
+    d = "v"
+    np.testing.assert_array_equal(got.mask[d], want.mask[d])
+    np.testing.assert_array_equal(got.phase[d], want.phase[d])
+    np.testing.assert_array_equal(got.quality[d], want.quality[d])
+    np.testing.assert_array_equal(got.texture, want.texture)
+    # the noise model from the float32 variance: sigma within 1e-4 relative, or 1e-6 rad where the
+    # model's c0 + c1 A nearly cancels (a negative c0 on this clipped scene)
+    np.testing.assert_allclose(got.phase_sigma[d], want.phase_sigma[d], rtol=1e-4, atol=1e-6)
+    qg, qw = got.info["quality"][d], want.info["quality"][d]
+    assert qg["masked"] == qw["masked"] and qg["saturation"] == qw["saturation"]
+    assert qg["masked"]["saturated"] > 0
+    np.testing.assert_allclose(qg["blur"], qw["blur"], rtol=1e-9)
+    np.testing.assert_allclose([qg["noise"]["c0"], qg["noise"]["c1"]], [qw["noise"]["c0"], qw["noise"]["c1"]],
+                               rtol=1e-5)
+
+
+def test_masked_phase_and_texture_fraction_equal_their_numpy_expressions():
+    rng = np.random.default_rng(7)
+    phase = rng.uniform(-5, 300, (17, 23)).astype(np.float32)
+    phase[0, :3] = [np.nan, np.inf, -np.inf]
+    mask = rng.random(phase.shape) > 0.2
+    q = rng.integers(0, 256, phase.shape).astype(np.uint8)
+    m, p = fk.masked_phase(phase, mask)
+    want = mask & np.isfinite(phase)
+    np.testing.assert_array_equal(m, want)
+    np.testing.assert_array_equal(p, np.where(want, phase, np.nan).astype(np.float32))
+    for bits in (0xFF, edges.ORDER):
+        m, p = fk.masked_phase(phase, want, q, bits)
+        keep = want & ((q & bits) == 0)
+        np.testing.assert_array_equal(m, keep)
+        np.testing.assert_array_equal(p, np.where(keep, phase, np.float32(np.nan)))
+    frames = np.zeros((1, 2, 2), np.uint16)
+    avg = rng.uniform(-100, 70000, phase.shape).astype(np.float32)
+    avg[1, :3] = [np.nan, np.inf, -np.inf]
+    mod = rng.uniform(0, 3000, phase.shape).astype(np.float32)
+    np.testing.assert_array_equal(fk.texture_fraction(avg, mod, 65535.0),
+                                  as_fraction(np.add(avg, mod, dtype=np.float32), frames, None))
+    np.testing.assert_array_equal(fk.texture_fraction(avg, None, 65535.0), as_fraction(avg, frames, None))
