@@ -2,6 +2,8 @@
 plain-NumPy references (tests/reference_implementations.py) within stated tolerances."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from reference_implementations import (disagreement_reference, estimate_blur_reference, fit_noise_model_reference,
@@ -94,6 +96,12 @@ def _quality_inputs(shape, seed, nan_order=True):
                 saturated=saturated)
 
 
+def _quality_map(margin=2.0, max_disagreement=math.inf, rim=1, **maps):
+    """:func:`fringe3d.decode.edges.quality_map` called with the reference's flat keywords."""
+    tests = edges.QualityTests(margin=margin, max_disagreement=max_disagreement, rim=rim)
+    return edges.quality_map(**maps, tests=tests)
+
+
 @pytest.mark.parametrize("shape", [(1, 1), (3, 8), (47, 61)])
 @pytest.mark.parametrize("extent", [(-0.5, 99.5), None])
 @pytest.mark.parametrize("flags", [(), ("order",), ("saturated", "residual"), ("order", "saturated", "residual")])
@@ -104,13 +112,13 @@ def test_quality_map_equals_the_per_bit_numpy_reference(shape, extent, flags):
             if name not in flags:
                 x[name] = None
         kw = dict(extent=extent, margin=2.5, max_disagreement=0.9, rim=rim, **x)
-        got = edges.quality_map(**kw)
+        got = _quality_map(**kw)
         np.testing.assert_array_equal(got, quality_map_reference(**kw))
 
 
 def test_quality_map_sets_every_bit_on_these_inputs():
     x = _quality_inputs((47, 61), 0)
-    q = edges.quality_map(extent=(-0.5, 99.5), margin=2.5, max_disagreement=0.9, **x)
+    q = _quality_map(extent=(-0.5, 99.5), margin=2.5, max_disagreement=0.9, **x)
     for bit in edges.BITS:
         assert (q & bit).any(), edges.BITS[bit]
 
@@ -119,7 +127,7 @@ def test_quality_map_with_nan_on_valid_pixels_keeps_the_numpy_semantics():
     x = _quality_inputs((31, 40), 3)  # w NaN on order pixels, but order not passed: NaN on valid pixels
     x.update(order=None)
     kw = dict(extent=(-0.5, 99.5), margin=2.0, max_disagreement=0.9, **x)
-    np.testing.assert_array_equal(edges.quality_map(**kw), quality_map_reference(**kw))
+    np.testing.assert_array_equal(_quality_map(**kw), quality_map_reference(**kw))
 
 
 @pytest.mark.parametrize("shape", [(1, 1), (2, 3), (5, 7), (64, 49)])

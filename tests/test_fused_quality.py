@@ -37,7 +37,7 @@ def test_fused_quality_map_equals_quality_map(shape, rim):
     for seed in range(3):
         valid, w, mod, avg = maps(shape, seed)
         kw = dict(gradient_ratio=4.0, gradient_floor=1.0, modulation_ratio=0.5, rim=rim)
-        ref = edges.quality_map(valid, w, EXTENT, MARGIN, mod, avg, None, **kw)
+        ref = edges.quality_map(valid, w, EXTENT, mod, avg, None, tests=edges.QualityTests(margin=MARGIN, **kw))
         np.testing.assert_array_equal(fused_quality_map(valid, w, EXTENT, MARGIN, mod, avg, **kw), ref)
 
 
@@ -51,5 +51,6 @@ def test_every_bit_is_exercised():
 def test_other_thresholds_match_too():
     valid, w, mod, avg = maps((40, 50), 4)
     kw = dict(gradient_ratio=2.5, gradient_floor=0.3, modulation_ratio=0.8, rim=1)
+    tests = edges.QualityTests(margin=3.7, **kw)
     np.testing.assert_array_equal(fused_quality_map(valid, w, EXTENT, 3.7, mod, avg, **kw),
-                                  edges.quality_map(valid, w, EXTENT, 3.7, mod, avg, None, **kw))
+                                  edges.quality_map(valid, w, EXTENT, mod, avg, None, tests=tests))

@@ -117,9 +117,9 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     f = edges.oblique_factor(ctx.plan.angle)  # w-width of the band (edges docstring)
     # a relative phase (one unknown 2 pi k per object) has no place on the projector: no EDGE test
     extent = None if is_relative(ctx.plan.method) else edges.pixel_extent(lo, hi, ctx.plan.angle)
-    q = edges.quality_map(mask, w, extent, margin * f, modulation, average, residual,
-                          max_disagreement=float(opts.max_disagreement), gradient_ratio=float(opts.gradient_ratio),
-                          modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim), order=order,
-                          saturated=broken)
+    tests = edges.QualityTests(margin=margin * f, max_disagreement=float(opts.max_disagreement),
+                               gradient_ratio=float(opts.gradient_ratio),
+                               modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim))
+    q = edges.quality_map(mask, w, extent, modulation, average, residual, order=order, saturated=broken, tests=tests)
     info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})
     return Assessment(q, sigma_phi, info)

@@ -55,6 +55,7 @@ passes too (no complex or full-size temporaries).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -79,6 +80,39 @@ BITS = {INVALID: "invalid", EDGE: "edge", INCONSISTENT: "inconsistent", GRADIENT
 
 #: Base margin (projector px) added to the blur width.
 BASE_MARGIN = 2.0
+
+
+@dataclass(frozen=True)
+class QualityTests:
+    """The thresholds of the quality map's tests (:func:`quality_map`), passed whole.
+
+    Attributes
+    ----------
+    margin : float
+        EDGE band width (projector px).
+    max_disagreement : float
+        INCONSISTENT threshold on the unwrapping residual (rad; ``inf``: off).
+    gradient_ratio : float
+        GRADIENT: a jump of ``w`` over this many times the local median jump ...
+    gradient_floor : float
+        ... and over this floor (projector px).
+    modulation_ratio : float
+        MOD_DROP: contrast ``B / A`` below this share of the 5 x 5 neighbourhood's largest.
+    rim : int
+        RIM width in pixels (0: off).
+
+    Examples
+    --------
+    >>> QualityTests(margin=3.0).rim
+    1
+    """
+
+    margin: float = BASE_MARGIN
+    max_disagreement: float = math.inf
+    gradient_ratio: float = 4.0
+    gradient_floor: float = 1.0
+    modulation_ratio: float = 0.5
+    rim: int = 1
 
 
 def estimate_blur(mod_fine: np.ndarray, mod_coarse: np.ndarray, period_fine: float, period_coarse: float,
@@ -194,12 +228,9 @@ def modulation_drop(modulation: np.ndarray, average: np.ndarray, valid: np.ndarr
 
 
 def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[float, float] | None = None,
-                margin: float = BASE_MARGIN, modulation: np.ndarray | None = None,
-                average: np.ndarray | None = None, residual: np.ndarray | None = None,
-                max_disagreement: float = math.inf,
-                gradient_ratio: float = 4.0, gradient_floor: float = 1.0,
-                modulation_ratio: float = 0.5, rim: int = 1, order: np.ndarray | None = None,
-                saturated: np.ndarray | None = None) -> np.ndarray:
+                modulation: np.ndarray | None = None, average: np.ndarray | None = None,
+                residual: np.ndarray | None = None, order: np.ndarray | None = None,
+                saturated: np.ndarray | None = None, tests: QualityTests = QualityTests()) -> np.ndarray:
     """(H, W) uint8 quality map (bits of the module docstring) of one direction.
 
     With float32 ``w``, ``modulation`` and ``average`` and ``w`` finite on the valid pixels (the
@@ -217,18 +248,19 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
         Projector fringe coordinate ``w = Phi T / 2 pi`` (px); None skips EDGE and GRADIENT.
     extent : (lo, hi), optional
         The pattern's extent along ``w`` (px); None skips EDGE.
-    margin : float
-        EDGE band width (projector px).
     modulation, average : (H, W) float, optional
         Modulation ``B`` and average ``A``; None skips MOD_DROP.
     residual : (H, W) float, optional
         Unwrapping residual (rad, :func:`disagreement`); None skips INCONSISTENT.
-    max_disagreement, gradient_ratio, gradient_floor, modulation_ratio : float
-        Thresholds of INCONSISTENT (rad), GRADIENT (ratio, px) and MOD_DROP (ratio).
-    rim : int
-        RIM width in pixels (0: off).
     saturated : (H, W) bool, optional
         Where clipping broke the pixel; sets SATURATED on the invalid ones.
+    tests : QualityTests
+        The tests' thresholds (EDGE margin, INCONSISTENT, GRADIENT, MOD_DROP, RIM).
+
+    Returns
+    -------
+    (H, W) uint8
+        The bits; 0 where the pixel passed every test.
     """
     if w is not None and modulation is not None and average is not None and all(
             np.asarray(x).dtype == np.float32 for x in (w, modulation, average)):
@@ -236,9 +268,9 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
         if order is not None:
             valid = valid & ~np.asarray(order, bool)
         if not np.isnan(w, where=valid, out=np.zeros(valid.shape, bool)).any():
-            return _quality_map_fused(mask, valid, w, extent, margin, modulation, average, residual,
-                                      max_disagreement, gradient_ratio, gradient_floor, modulation_ratio, rim,
-                                      order, saturated)
+            return _quality_map_fused(mask, valid, w, extent, modulation, average, residual, order, saturated,
+                                      tests)
+    margin, max_disagreement, rim = tests.margin, tests.max_disagreement, tests.rim
     valid = np.asarray(mask, bool)
     q = _bits(~valid, INVALID)
     if saturated is not None:
@@ -253,27 +285,25 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
         with np.errstate(invalid="ignore"):
             q |= _bits(valid & (residual > max_disagreement), INCONSISTENT)
     if w is not None:
-        q |= _bits(gradient_jump(w, valid, gradient_ratio, gradient_floor), GRADIENT)
+        q |= _bits(gradient_jump(w, valid, tests.gradient_ratio, tests.gradient_floor), GRADIENT)
     if modulation is not None and average is not None:
-        q |= _bits(modulation_drop(modulation, average, valid, modulation_ratio), MOD_DROP)
+        q |= _bits(modulation_drop(modulation, average, valid, tests.modulation_ratio), MOD_DROP)
     if rim > 0:
         q |= _bits(rim_of_invalid(valid, rim), RIM)
     return q
 
 
 def _quality_map_fused(mask: np.ndarray, valid: np.ndarray, w: np.ndarray, extent: tuple[float, float] | None,
-                       margin: float, modulation: np.ndarray, average: np.ndarray, residual: np.ndarray | None,
-                       max_disagreement: float, gradient_ratio: float, gradient_floor: float,
-                       modulation_ratio: float, rim: int, order: np.ndarray | None,
-                       saturated: np.ndarray | None) -> np.ndarray:
+                       modulation: np.ndarray, average: np.ndarray, residual: np.ndarray | None,
+                       order: np.ndarray | None, saturated: np.ndarray | None, tests: QualityTests) -> np.ndarray:
     """:func:`quality_map` from four numba passes (float32 ``w``, ``modulation``, ``average``,
     ``w`` finite on ``valid = mask & ~order``): the bits of :func:`fused_quality_map` on
     ``valid``, then ORDER, SATURATED and INCONSISTENT (:func:`finish_quality_map`); equal bit for
     bit (``tests/test_assess_kernels.py``)."""
-    band = (extent, margin) if extent is not None else ((-math.inf, math.inf), 0.0)
-    q = fused_quality_map(valid, w, band[0], band[1], modulation, average, gradient_ratio=gradient_ratio,
-                          gradient_floor=gradient_floor, modulation_ratio=modulation_ratio, rim=rim)
-    finish_quality_map(q, mask, order, saturated, residual, max_disagreement)
+    band = (extent, tests.margin) if extent is not None else ((-math.inf, math.inf), 0.0)
+    q = fused_quality_map(valid, w, band[0], band[1], modulation, average, gradient_ratio=tests.gradient_ratio,
+                          gradient_floor=tests.gradient_floor, modulation_ratio=tests.modulation_ratio, rim=tests.rim)
+    finish_quality_map(q, mask, order, saturated, residual, tests.max_disagreement)
     return q
 
 
