@@ -26,14 +26,16 @@ S. Zhang and S.-T. Yau, Appl. Opt. 46(1), 36-43 (2007).
 from __future__ import annotations
 
 import functools
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from ._harmonic_kernel import harmonic_ratio_pass
 from .phase_error import PhaseErrorLUT, lut_from_response
 from .response import power_law
+
+if TYPE_CHECKING:
+    from scipy.interpolate import CubicSpline
 
 GAMMA_RANGE = (0.2, 8.0)
 
@@ -131,7 +133,9 @@ def _observed_ratios(gammas: np.ndarray, steps: int, samples: int = 512) -> np.n
 @functools.lru_cache(maxsize=8)
 def _ratio_table(steps: int) -> tuple[np.ndarray, np.ndarray, CubicSpline]:
     """The gammas, their observed ratios (increasing) and the spline of ``log gamma`` against the
-    ratio that :func:`gamma_from_ratio` reads, for an N-step set (N >= 3; cached)."""
+    ratio that :func:`gamma_from_ratio` reads, for an N-step set (N >= 3; cached). scipy's
+    interpolation module is imported here, on first use, not with the package."""
+    from scipy.interpolate import CubicSpline
     gammas = np.geomspace(*GAMMA_RANGE, TABLE_SIZE)
     ratios = _observed_ratios(gammas, steps)
     if not np.all(np.diff(ratios) > 0):  # pragma: no cover - a property of the model, checked by the tests
