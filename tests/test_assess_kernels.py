@@ -212,3 +212,17 @@ def test_ratio_median_falls_back_when_the_sample_misleads():
     fine[::8, ::8] = 1e6  # every sampled pixel far above the median: the bracket misses it
     m = mask & (coarse > 0)
     assert ratio_median(fine, coarse, mask) == float(np.median(fine[m] / coarse[m]))
+
+
+def test_ratio_median_falls_back_when_the_bracket_overflows_its_buffer(monkeypatch):
+    from fringe3d.decode import _ratio_median
+    rng = np.random.default_rng(13)
+    coarse = rng.uniform(1, 50, (160, 200)).astype(np.float32)
+    fine = 2 * coarse                                    # every ratio exactly 2: all inside [2, 2]
+    fine[:, :20] = 3 * coarse[:, :20]
+    mask = np.ones(coarse.shape, bool)
+    calls = []
+    numpy_median = _ratio_median._numpy_median
+    monkeypatch.setattr(_ratio_median, "_numpy_median", lambda *a: calls.append(1) or numpy_median(*a))
+    assert ratio_median(fine, coarse, mask) == float(np.median(fine / coarse)) == 2.0
+    assert calls == [1]

@@ -43,3 +43,20 @@ def test_check_frames_reports_dark_and_saturated_frames():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         check_frames(np.full((4, 64, 64), 120, np.uint8))   # healthy frames: no warning
+
+
+def test_check_frames_counts_integer_frames_at_the_exact_cuts():
+    # 8-bit: the dark cut is 2 % of 255 = 5.1 counts, so 5 is dark and 6 is lit; 255 saturates
+    frames = np.stack([np.full((40, 50), 5, np.uint8), np.full((40, 50), 6, np.uint8),
+                       np.full((40, 50), 254, np.uint8), np.full((40, 50), 255, np.uint8)])
+    frames[2, :10] = 255                         # a quarter of the pixels at the max code
+    with pytest.warns(FrameQualityWarning):
+        out = check_frames(frames)
+    assert out["dark"] == [0]
+    assert out["saturated_fraction"] == [0.0, 0.0, 0.25, 1.0]
+    # a 12-bit sensor in 16-bit words saturates at 4095, not 65535; 8-bit words never reach 4095
+    words = np.full((2, 40, 50), 4094, np.uint16)
+    words[1, :, :5] = 4095
+    assert check_frames(words, bit_depth=12)["saturated_fraction"] == [0.0, 0.1]
+    with pytest.warns(FrameQualityWarning):
+        assert check_frames(frames, bit_depth=12)["saturated_fraction"] == [0.0] * 4

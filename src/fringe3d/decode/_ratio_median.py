@@ -21,7 +21,12 @@ STRIDE = 8
 @numba.njit(parallel=True, cache=True)
 def _bracket_pass(fine, coarse, mask, lo, hi, keep, counts):  # pragma: no cover - compiled
     """Per chunk of rows ``c``: ``counts[c] = (below lo, inside [lo, hi], all, NaN)`` of the
-    ratios ``fine / coarse`` (float32) over ``mask & coarse > 0``; the inside ones into ``keep[c]``."""
+    ratios ``fine / coarse`` (float32) over ``mask & coarse > 0``; the inside ones into ``keep[c]``
+    while they fit (``counts[c, 1] >= cap`` when they did not).
+
+    Row by row: a branch-free loop (it vectorises) counts and parks the row's ratios in a row
+    buffer (NaN outside the bracket); a second, branch-free loop over that buffer compacts the
+    bracketed ones (every slot written, the write position advancing only on a kept one)."""
     H, W = fine.shape
     nch, cap = keep.shape
     for c in numba.prange(nch):
@@ -29,18 +34,26 @@ def _bracket_pass(fine, coarse, mask, lo, hi, keep, counts):  # pragma: no cover
         inside = 0
         total = 0
         nan = 0
+        row = np.empty(W, np.float32)
         for i in range(c * H // nch, (c + 1) * H // nch):
-            for j in range(W):  # the counts branch-free (the loop vectorises); a rare store for the bracket
+            n_in = 0
+            for j in range(W):
                 d = coarse[i, j]
                 ok = mask[i, j] & (d > 0)
                 r = np.float32(fine[i, j] / d) if d > 0 else np.float32(0.0)
                 total += ok
                 below += ok & (r < lo)
                 nan += ok & (r != r)
-                if ok & (r >= lo) & (r <= hi):
-                    if inside < cap:
-                        keep[c, inside] = r
-                    inside += 1
+                isin = ok & (r >= lo) & (r <= hi)
+                n_in += isin
+                row[j] = r if isin else np.float32(np.nan)
+            if n_in > 0 and inside + n_in < cap:  # the last write lands at inside + n_in < cap
+                k = inside
+                for j in range(W):
+                    r = row[j]
+                    keep[c, k] = r
+                    k += r == r
+            inside += n_in
         counts[c, 0] = below
         counts[c, 1] = inside
         counts[c, 2] = total
@@ -74,7 +87,7 @@ def ratio_median(fine: np.ndarray, coarse: np.ndarray, mask: np.ndarray) -> floa
     if nans:
         return float("nan")
     ranks = [n // 2] if n % 2 else [n // 2 - 1, n // 2]
-    if n == 0 or (counts[:, 1] > cap).any() or not below <= ranks[0] <= ranks[-1] < below + inside:
+    if n == 0 or (counts[:, 1] >= cap).any() or not below <= ranks[0] <= ranks[-1] < below + inside:
         return _numpy_median(fine, coarse, mask)
     kept = np.concatenate([keep[c, :counts[c, 1]] for c in range(nch)])
     part = np.partition(kept, [r - below for r in ranks])
