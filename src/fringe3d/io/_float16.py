@@ -7,7 +7,9 @@ nearest, ties to even; beyond the largest half (65504, from 65520 up) the result
 below half the smallest subnormal (2^-25, inclusive: the tie goes to the even zero) +-0; NaN
 keeps its sign and the top ten bits of its significand, made non-zero where they are not
 (numpy's ``npy_floatbits_to_halfbits``). ``tests/test_float16_cast.py`` checks every float16
-boundary's neighbourhood and a large random sample against numpy.
+value's and midpoint's neighbourhood and a large random sample against numpy; all 2^32 float32
+bit patterns were compared once, in chunks of 2^26 (0 mismatches, 15 min on a loaded 2-core
+machine: too slow for the suite).
 """
 from __future__ import annotations
 
