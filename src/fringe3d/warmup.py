@@ -7,7 +7,8 @@ is removed afterwards:
 
 * the decode path (``decode`` + triangulation) on the tiny preset's default capture;
 * the fused 3-step + geometric-constraint path (:class:`fringe3d.reconstruct.FastThreeStep`) on a
-  3-step capture, with every default output (quality, sigma_z, texture).
+  3-step capture, with every default output (quality, sigma_z, texture), and the point store's
+  float16 cast of sigma_z.
 
 The kernels are specialised on array types, not sizes, so a tiny capture compiles what a
 1280x1024 camera uses. Nothing is written outside the temporary folder and numba's own cache.
@@ -21,6 +22,7 @@ from pathlib import Path
 from typing import Callable
 
 from fringe3d.decode import DecodeOptions
+from fringe3d.io._float16 import to_float16
 from fringe3d.io.capture import read_capture
 from fringe3d.optics import Rig
 from fringe3d.patterns import sets
@@ -46,6 +48,10 @@ def _fused_path(folder: Path) -> None:
     rec = FrameReconstructor(reconstruction_plans(capture.patterns, "geometric"), Rig.load(cap / "rig.json"),
                              DecodeOptions(z_min=TINY_Z_MIN))
     rec.reconstruct(capture.frames[:3])
+    # a sequence's window (sigma_z alone, sigma_z_kernel) and the point store's float16 cast of it
+    cycle = rec.reconstruct(capture.frames[:3], uncertainty="z", points=False, texture=False)
+    if cycle.sigma_z is not None:
+        to_float16(cycle.sigma_z)
 
 
 #: The warmed paths in the order :func:`warm_up` runs them.

@@ -45,6 +45,7 @@ from typing import Any, Literal
 import numpy as np
 
 from fringe3d.io._chunk_write import chunk_writer
+from fringe3d.io._float16 import to_float16
 from fringe3d.optics.rays import ray_points
 from fringe3d.utils.write_guard import is_being_written
 
@@ -363,6 +364,8 @@ class PointMapStore:
         v = np.asarray(v)
         if v.shape != self.shape:
             raise ValueError(f"{name} of frame {k} has shape {v.shape}, the store holds {self.shape}")
+        if v.dtype == np.float32 and dtype == np.float16:  # sigma_z: numpy's cast in one vectorised pass
+            return to_float16(v)
         return v.astype(dtype, copy=False)
 
     def mark_done(self, ks) -> None:

@@ -138,10 +138,13 @@ def three_step_fields_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, 
 
 
 @numba.njit(parallel=True, cache=True)
-def mask_flagged(depth, quality):  # pragma: no cover - compiled
-    """``depth[quality != 0] = NaN`` in place, one pass (no boolean temporaries)."""
+def mask_flagged(depth, quality, keep):  # pragma: no cover - compiled
+    """``depth[quality != 0] = NaN`` in place and ``keep = quality == 0``, one pass (no boolean
+    temporaries)."""
     H, W = depth.shape
     nan = np.float32(np.nan)
     for i in numba.prange(H):
         for j in range(W):
-            depth[i, j] = depth[i, j] if quality[i, j] == 0 else nan
+            k = quality[i, j] == 0
+            keep[i, j] = k
+            depth[i, j] = depth[i, j] if k else nan

@@ -73,12 +73,13 @@ def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shi
         q = edges.fused_quality_map(valid, w, extent, margin, mod, avg,
                                     gradient_ratio=float(options.gradient_ratio),
                                     modulation_ratio=float(options.modulation_ratio), rim=int(options.rim))
-        mask_flagged(depth, q)
+        keep = np.empty(q.shape, bool)  # q == 0, from the same pass
+        mask_flagged(depth, q, keep)
     else:
         q = invalid_bits(valid)
+        keep = valid  # q == 0 exactly where valid
     sigma_z = sigma_xyz = None
     if uncertainty:
-        keep = q == 0
         n = len(index)
         sigma_n = noise.laplacian_noise(avg, keep) * math.sqrt(n)  # the average of N frames carries sigma / sqrt(N)
         if uncertainty is True:  # every axis; z is the same bits sigma_z_from_phase_noise gives
