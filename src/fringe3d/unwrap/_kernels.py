@@ -96,6 +96,34 @@ def heterodyne_kernel(wrapped, signs, beat_periods, periods, lower, order_out, p
             residual_out[i, j] = max(res, abs(x - k))
 
 
+@njit(cache=True, inline="always", fastmath=FASTMATH)
+def heterodyne_pixel(b1, c1, b2, c2, b3, c3, peak, s12, s123, r_top, r_mid, lower, min_mod2, sat_level,
+                     max_res):  # pragma: no cover - compiled
+    """One pixel of the three-frequency heterodyne (float32; :func:`three_frequency_kernel`'s
+    parameters): from the groups' ``b, c`` sums and the brightest frame ``peak``, the wrapped
+    phase ``p1`` of group 1, its modulation, whether the pixel is valid and its absolute phase.
+    Inlined into the kernels' column loops, which stay branch-free (vectorised)."""
+    m1 = b1 * b1 + c1 * c1
+    m2 = b2 * b2 + c2 * c2
+    m3 = b3 * b3 + c3 * c3
+    p1 = fast_atan2_f32(-c1, b1)
+    p2 = fast_atan2_f32(-c2, b2)
+    p3 = fast_atan2_f32(-c3, b3)
+    x12 = mod_2pi_f32(s12 * (p1 - p2))
+    x123 = mod_2pi_f32(s123 * (x12 - p3))
+    big = lower + mod_2pi_f32(x123 - lower)
+    d1 = big * r_top - x12
+    k1 = round_half_up_f32(d1 * FINV2PI)
+    big = x12 + F2PI * k1
+    d2 = big * r_mid - p1
+    k2 = round_half_up_f32(d2 * FINV2PI)
+    absolute = p1 + F2PI * k2
+    # non-short-circuit '&' so the loop stays branch-free (vectorised)
+    consistent = (abs(d1 - F2PI * k1) <= max_res) & (abs(d2 - F2PI * k2) <= max_res)
+    ok = (min(m1, min(m2, m3)) >= min_mod2) & (peak < sat_level) & consistent
+    return p1, math.sqrt(m1), ok, absolute
+
+
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
 def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params,
                            phase, wrapped, modulation, average, mask, texture):
@@ -145,25 +173,9 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
                 ma = mask[i, j0:j0 + n]
                 tx = texture[i, j0:j0 + n]
                 for j in range(n):
-                    m1 = b1[j] * b1[j] + c1[j] * c1[j]
-                    m2 = b2[j] * b2[j] + c2[j] * c2[j]
-                    m3 = b3[j] * b3[j] + c3[j] * c3[j]
-                    p1 = fast_atan2_f32(-c1[j], b1[j])
-                    p2 = fast_atan2_f32(-c2[j], b2[j])
-                    p3 = fast_atan2_f32(-c3[j], b3[j])
-                    x12 = mod_2pi_f32(s12 * (p1 - p2))
-                    x123 = mod_2pi_f32(s123 * (x12 - p3))
-                    big = lower + mod_2pi_f32(x123 - lower)
-                    d1 = big * r_top - x12
-                    k1 = round_half_up_f32(d1 * FINV2PI)
-                    big = x12 + F2PI * k1
-                    d2 = big * r_mid - p1
-                    k2 = round_half_up_f32(d2 * FINV2PI)
-                    absolute = p1 + F2PI * k2
-                    # non-short-circuit '&' so the loop stays branch-free (vectorised)
-                    consistent = (abs(d1 - F2PI * k1) <= max_res) & (abs(d2 - F2PI * k2) <= max_res)
-                    ok = (min(m1, min(m2, m3)) >= min_mod2) & (peak[j] < sat_level) & consistent
-                    bm = math.sqrt(m1)
+                    p1, bm, ok, absolute = heterodyne_pixel(b1[j], c1[j], b2[j], c2[j], b3[j], c3[j], peak[j],
+                                                            s12, s123, r_top, r_mid, lower, min_mod2, sat_level,
+                                                            max_res)
                     wr[j] = p1
                     mo[j] = bm
                     av[j] = a1[j]
@@ -256,25 +268,10 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
                 # three loops, each with few arrays: one loop storing to all eleven outputs has too
                 # many possibly-aliasing pointers for LLVM's runtime checks and does not vectorise
                 for j in range(n):
-                    m1 = b1[j] * b1[j] + c1[j] * c1[j]
-                    m2 = b2[j] * b2[j] + c2[j] * c2[j]
-                    m3 = b3[j] * b3[j] + c3[j] * c3[j]
-                    p1 = fast_atan2_f32(-c1[j], b1[j])
-                    p2 = fast_atan2_f32(-c2[j], b2[j])
-                    p3 = fast_atan2_f32(-c3[j], b3[j])
-                    x12 = mod_2pi_f32(s12 * (p1 - p2))
-                    x123 = mod_2pi_f32(s123 * (x12 - p3))
-                    big = lower + mod_2pi_f32(x123 - lower)
-                    d1 = big * r_top - x12
-                    k1 = round_half_up_f32(d1 * FINV2PI)
-                    big = x12 + F2PI * k1
-                    d2 = big * r_mid - p1
-                    k2 = round_half_up_f32(d2 * FINV2PI)
-                    absolute = p1 + F2PI * k2
-                    consistent = (abs(d1 - F2PI * k1) <= max_res) & (abs(d2 - F2PI * k2) <= max_res)
                     peak = max(pk1[j], max(pk2[j], pk3[j]))
-                    ok = (min(m1, min(m2, m3)) >= min_mod2) & (peak < sat_level) & consistent
-                    bm = math.sqrt(m1)
+                    p1, bm, ok, absolute = heterodyne_pixel(b1[j], c1[j], b2[j], c2[j], b3[j], c3[j], peak,
+                                                            s12, s123, r_top, r_mid, lower, min_mod2, sat_level,
+                                                            max_res)
                     wr[j] = p1
                     mo[j] = bm
                     av[j] = a1[j]
