@@ -83,7 +83,7 @@ def _jump_test_kernel(valid, gp, ref, g_ratio, g_floor, t):  # pragma: no cover 
 @numba.njit(parallel=True, cache=True)
 def _bits_kernel(w, valid, t, hmax, lo, hi, m_ratio, rim1, q):  # pragma: no cover - compiled
     """Every bit of row ``i`` from row-clamped neighbours (a repeated row leaves an OR or a max
-    alone); each condition is made a 0/1 integer and shifted into its bit, so the pixel loops
+    alone); each condition is made a 0/1 integer times its bit, so the pixel loops
     are branch-free and vectorise."""
     H, W = w.shape
     for i in numba.prange(H):
@@ -97,9 +97,9 @@ def _bits_kernel(w, valid, t, hmax, lo, hi, m_ratio, rim1, q):  # pragma: no cov
             # value over rows i-2..i+2 of the five-column maxima
             top = max(max(max(hmax[u2, j], hmax[u1, j]), max(hmax[i, j], hmax[d1, j])), hmax[d2, j])
             x = w[i, j]
-            b[j] = ((np.uint8((x < lo) | (x > hi)) << np.uint8(1))
-                    | ((vo[j] | vo[j + 1] | vo[j + 2]) << np.uint8(3))
-                    | (np.uint8(hmax[i + H, j] < m_ratio * top) << np.uint8(4)))
+            b[j] = ((np.uint8((x < lo) | (x > hi)) * np.uint8(EDGE))
+                    | ((vo[j] | vo[j + 1] | vo[j + 2]) * np.uint8(GRADIENT))
+                    | (np.uint8(hmax[i + H, j] < m_ratio * top) * np.uint8(MOD_DROP)))
         if rim1:  # RIM: a 4-neighbour invalid; the row padded by its own end pixels (the outside counts as valid)
             vp = np.empty(W + 2, np.uint8)
             for j in range(W):
@@ -108,10 +108,10 @@ def _bits_kernel(w, valid, t, hmax, lo, hi, m_ratio, rim1, q):  # pragma: no cov
             vp[W + 1] = valid[i, W - 1]
             for j in range(W):
                 inside = vp[j] & vp[j + 1] & vp[j + 2] & np.uint8(valid[u1, j]) & np.uint8(valid[d1, j])
-                b[j] |= (inside ^ np.uint8(1)) << np.uint8(5)
-        for j in range(W):
+                b[j] |= (inside ^ np.uint8(1)) * np.uint8(RIM)
+        for j in range(W):  # the bits where valid (v = 1: a mask of ones), else INVALID alone
             v = np.uint8(valid[i, j])
-            q[i, j] = (b[j] & (np.uint8(0) - v)) | (v ^ np.uint8(1))
+            q[i, j] = (b[j] & (np.uint8(0) - v)) | ((v ^ np.uint8(1)) * np.uint8(INVALID))
 
 
 def fused_quality_map(mask: np.ndarray, w: np.ndarray, extent: tuple[float, float], margin: float,
