@@ -83,7 +83,8 @@ def _jump_test_kernel(valid, gp, ref, g_ratio, g_floor, t):  # pragma: no cover 
 @numba.njit(parallel=True, cache=True)
 def _bits_kernel(w, valid, t, hmax, lo, hi, m_ratio, rim1, q):  # pragma: no cover - compiled
     """Every bit of row ``i`` from row-clamped neighbours (a repeated row leaves an OR or a max
-    alone), so the pixel loops are branch-free and vectorise."""
+    alone); each condition is made a 0/1 integer times its bit, so the pixel loops
+    are branch-free and vectorise."""
     H, W = w.shape
     for i in numba.prange(H):
         u1, d1 = max(i - 1, 0), min(i + 1, H - 1)
@@ -91,21 +92,26 @@ def _bits_kernel(w, valid, t, hmax, lo, hi, m_ratio, rim1, q):  # pragma: no cov
         vo = np.empty(W + 2, np.uint8)  # GRADIENT: the jump test OR-ed over rows i-1..i+1 ...
         for j in range(W + 2):
             vo[j] = t[u1, j] | t[i, j] | t[d1, j]
-        vp = np.empty(W + 2, np.bool_)  # RIM: the row padded by its own end pixels (the outside counts as valid)
-        for j in range(W):
-            vp[j + 1] = valid[i, j]
-        vp[0] = valid[i, 0]
-        vp[W + 1] = valid[i, W - 1]
-        for j in range(W):
-            # MOD_DROP: the contrast's largest value over rows i-2..i+2 of the five-column maxima
+        b = np.empty(W, np.uint8)
+        for j in range(W):  # ... and columns j-1..j+1; EDGE; MOD_DROP: the contrast's largest
+            # value over rows i-2..i+2 of the five-column maxima
             top = max(max(max(hmax[u2, j], hmax[u1, j]), max(hmax[i, j], hmax[d1, j])), hmax[d2, j])
             x = w[i, j]
-            inside = vp[j + 1] & vp[j] & vp[j + 2] & (valid[u1, j] if rim1 else True) & (valid[d1, j] if rim1 else True)
-            b = ((np.uint8(EDGE) if ((x < lo) | (x > hi)) else np.uint8(0))
-                 | (np.uint8(GRADIENT) if (vo[j] | vo[j + 1] | vo[j + 2]) else np.uint8(0))
-                 | (np.uint8(MOD_DROP) if hmax[i + H, j] < m_ratio * top else np.uint8(0))
-                 | (np.uint8(RIM) if (rim1 and not inside) else np.uint8(0)))
-            q[i, j] = b if valid[i, j] else np.uint8(INVALID)
+            b[j] = ((np.uint8((x < lo) | (x > hi)) * np.uint8(EDGE))
+                    | ((vo[j] | vo[j + 1] | vo[j + 2]) * np.uint8(GRADIENT))
+                    | (np.uint8(hmax[i + H, j] < m_ratio * top) * np.uint8(MOD_DROP)))
+        if rim1:  # RIM: a 4-neighbour invalid; the row padded by its own end pixels (the outside counts as valid)
+            vp = np.empty(W + 2, np.uint8)
+            for j in range(W):
+                vp[j + 1] = valid[i, j]
+            vp[0] = valid[i, 0]
+            vp[W + 1] = valid[i, W - 1]
+            for j in range(W):
+                inside = vp[j] & vp[j + 1] & vp[j + 2] & np.uint8(valid[u1, j]) & np.uint8(valid[d1, j])
+                b[j] |= (inside ^ np.uint8(1)) * np.uint8(RIM)
+        for j in range(W):  # the bits where valid (v = 1: a mask of ones), else INVALID alone
+            v = np.uint8(valid[i, j])
+            q[i, j] = (b[j] & (np.uint8(0) - v)) | ((v ^ np.uint8(1)) * np.uint8(INVALID))
 
 
 def fused_quality_map(mask: np.ndarray, w: np.ndarray, extent: tuple[float, float], margin: float,
