@@ -123,3 +123,32 @@ def estimate_blur_reference(mod_fine, mod_coarse, period_fine, period_coarse, ma
         return 0.0
     den = 2 * math.pi ** 2 * (1 / period_fine ** 2 - 1 / period_coarse ** 2)
     return float(min(math.sqrt(-math.log(r) / den), period_fine))
+
+
+def harmonic_bins_reference(frames: np.ndarray) -> np.ndarray:
+    """DFT bins 1 and 2, ``(1/N) sum_k I_k exp(-i m delta_k)``, (2, H, W) complex (real products only)."""
+    n = frames.shape[0]
+    ang = 2.0 * np.pi * np.outer([1, 2], np.arange(n)) / n
+    flat = frames.reshape(n, -1)
+    re = (np.cos(ang) @ flat) / n
+    im = (-np.sin(ang) @ flat) / n
+    return (re + 1j * im).reshape((2,) + frames.shape[1:])
+
+
+def harmonic_ratio_reference(s: np.ndarray, ok: np.ndarray, n: int) -> tuple[float, float]:
+    """Least-squares ``c_2 / c_1`` over pixels ``ok`` of an ``n``-step set from its DFT bins 1 and 2
+    ``s`` (2, H, W) (:func:`harmonic_bins_reference`), and its standard error."""
+    s1 = s[0][ok]
+    amp = np.abs(s1)
+    rot = (np.conj(s1) / amp) ** 2                  # e^{-2 i phi}
+    if n == 4:                                      # Nyquist bin: S_2 = c_2 cos(2 phi), real
+        y = s[1][ok].real.astype(complex)
+        model = (2.0 * amp * np.real(1.0 / rot)).astype(complex)  # c_1 cos(2 phi)
+    else:                                           # S_2 e^{-2 i phi} = c_2 / 2, |S_1| = c_1 / 2
+        y = s[1][ok] * rot
+        model = amp.astype(complex)
+    den = float(np.sum(np.abs(model) ** 2))
+    ratio = float(np.sum(np.real(np.conj(model) * y)) / den)
+    resid = y - ratio * model
+    sigma = float(np.sqrt(np.sum(np.abs(resid) ** 2) / max(1, amp.size - 1) / den))
+    return ratio, sigma

@@ -7,7 +7,9 @@ import pytest
 from scipy.optimize import brentq
 
 from fringe3d.radiometry import estimate_gamma
-from fringe3d.radiometry.harmonics import GAMMA_RANGE, _bins, _ratio, _ratio_table, gamma_from_ratio, observed_ratio
+from fringe3d.radiometry.harmonics import GAMMA_RANGE, _ratio_table, gamma_from_ratio, observed_ratio
+from reference_implementations import harmonic_bins_reference as _bins
+from reference_implementations import harmonic_ratio_reference as _ratio
 
 
 def _reference_gamma(ratio: float, steps: int, xtol: float) -> float:

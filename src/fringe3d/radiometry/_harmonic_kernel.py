@@ -1,11 +1,11 @@
 """One compiled pass for the second-to-first harmonic ratio of an N-step set (private;
 :func:`fringe3d.radiometry.harmonics.estimate_gamma`).
 
-The same least squares as :func:`fringe3d.radiometry.harmonics._ratio` on the DFT bins of
-:func:`fringe3d.radiometry.harmonics._bins`, without the (2, H, W) complex bins, the
-float64 products and the masked copies: each pixel's bins 1 and 2 are summed from its N samples
-frame by frame, then folded into the sums of the fit; a last pass sums the squared residuals (the
-standard error without the cancellation of an expanded sum of squares).
+The same least squares as the NumPy reference on the complex DFT bins
+(``tests/reference_implementations.py``: ``harmonic_bins_reference``, ``harmonic_ratio_reference``),
+without the (2, H, W) complex bins, the float64 products and the masked copies: each pixel's
+bins 1 and 2 are summed from its N samples frame by frame, then folded into the sums of the
+fit; a last pass sums the squared residuals (the standard error without the cancellation of an expanded sum of squares).
 """
 from __future__ import annotations
 

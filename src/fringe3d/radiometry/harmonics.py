@@ -77,10 +77,7 @@ def observed_ratio(gamma: float, steps: int, samples: int = 512) -> float:
     Equals :func:`harmonic_ratio` up to the higher harmonics folding onto bin 2 and the ripple
     of the phase used to rotate it; matching this instead removes both biases.
     """
-    phi = 2.0 * np.pi * np.arange(samples) / samples
-    d = 2.0 * np.pi * np.arange(steps) / steps
-    frames = (0.5 * (1.0 + np.cos(phi[None, None, :] + d[:, None, None]))) ** gamma
-    return _ratio(_bins(frames), np.ones((1, samples), bool), steps)[0]
+    return float(_observed_ratios(np.array([gamma], float), steps, samples)[0])
 
 
 def gamma_from_ratio(ratio: float, steps: int) -> float:
@@ -141,35 +138,6 @@ def _ratio_table(steps: int) -> tuple[np.ndarray, np.ndarray, CubicSpline]:
     if not np.all(np.diff(ratios) > 0):  # pragma: no cover - a property of the model, checked by the tests
         raise ArithmeticError(f"the observed harmonic ratio of a {steps}-step set is not monotone in gamma")
     return gammas, ratios, CubicSpline(ratios, np.log(gammas))
-
-
-def _bins(frames: np.ndarray) -> np.ndarray:
-    """DFT bins 1 and 2, ``(1/N) sum_k I_k exp(-i m delta_k)``, (2, H, W) complex (real products only)."""
-    n = frames.shape[0]
-    ang = 2.0 * np.pi * np.outer([1, 2], np.arange(n)) / n
-    flat = frames.reshape(n, -1)
-    re = (np.cos(ang) @ flat) / n
-    im = (-np.sin(ang) @ flat) / n
-    return (re + 1j * im).reshape((2,) + frames.shape[1:])
-
-
-def _ratio(s: np.ndarray, ok: np.ndarray, n: int) -> tuple[float, float]:
-    """Least-squares ``c_2 / c_1`` over pixels ``ok`` of an ``n``-step set from its DFT bins 1 and 2
-    ``s`` (2, H, W) (:func:`_bins`), and its standard error."""
-    s1 = s[0][ok]
-    amp = np.abs(s1)
-    rot = (np.conj(s1) / amp) ** 2                  # e^{-2 i phi}
-    if n == 4:                                      # Nyquist bin: S_2 = c_2 cos(2 phi), real
-        y = s[1][ok].real.astype(complex)
-        model = (2.0 * amp * np.real(1.0 / rot)).astype(complex)  # c_1 cos(2 phi)
-    else:                                           # S_2 e^{-2 i phi} = c_2 / 2, |S_1| = c_1 / 2
-        y = s[1][ok] * rot
-        model = amp.astype(complex)
-    den = float(np.sum(np.abs(model) ** 2))
-    ratio = float(np.sum(np.real(np.conj(model) * y)) / den)
-    resid = y - ratio * model
-    sigma = float(np.sqrt(np.sum(np.abs(resid) ** 2) / max(1, amp.size - 1) / den))
-    return ratio, sigma
 
 
 def estimate_gamma(frames, mask=None, min_modulation: float = 0.0) -> HarmonicEstimate:
