@@ -1,9 +1,14 @@
 """Plain-NumPy reference implementations of the fused numba kernels, used only by the tests
-(each states the equation it implements; the tests compare the fast paths against them)."""
+(each states the equation it implements; the tests compare the fast paths against them), and
+the previous compiled form of a kernel where a faster one must equal it bit for bit."""
 from __future__ import annotations
 
-import numpy as np
+import math
 
+import numpy as np
+from numba import njit
+
+from fringe3d.phase._kernels import COL_CHUNK, FASTMATH, accumulate_chunk, fast_atan2_f32
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.phase.psp import PhaseResult, default_shifts
 
@@ -152,3 +157,46 @@ def harmonic_ratio_reference(s: np.ndarray, ok: np.ndarray, n: int) -> tuple[flo
     resid = y - ratio * model
     sigma = float(np.sqrt(np.sum(np.abs(resid) ** 2) / max(1, amp.size - 1) / den))
     return ratio, sigma
+
+
+# ---- previous compiled forms, kept to pin the faster kernels bit for bit ------------------------
+# (numba, serial: the per-pixel arithmetic is the same in a prange loop; the test compares them)
+
+@njit(cache=True, fastmath=FASTMATH)
+def psp_kernel_previous(frames, index, coef, sat_level, phase, average, modulation, saturated):
+    """:func:`fringe3d.phase._kernels.psp_kernel` as it was before its last loop was split in two
+    (one loop mixing the float64 sums and the float32 atan2 and sqrt, run 4 lanes wide)."""
+    h, w = frames.shape[1], frames.shape[2]
+    acc = np.empty((4, COL_CHUNK))
+    a, b, c, peak = acc[0], acc[1], acc[2], acc[3]
+    for i in range(h):
+        for j0 in range(0, w, COL_CHUNK):
+            n = min(COL_CHUNK, w - j0)
+            accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, True, True, True)
+            for j in range(n):
+                bj = np.float32(b[j])
+                cj = np.float32(c[j])
+                phase[i, j0 + j] = fast_atan2_f32(-cj, bj)
+                average[i, j0 + j] = a[j]
+                modulation[i, j0 + j] = math.sqrt(bj * bj + cj * cj)
+                saturated[i, j0 + j] = saturated[i, j0 + j] | (peak[j] >= sat_level)
+
+
+def interior_laplacian_reference(image, mask):
+    """Plain-NumPy ``(per-row sum |I * L|, per-row count)`` (H,) float64 and int64 over the pixels
+    of ``mask`` eroded once (the image's outside unset), the 3 x 3 stencil ``L = [[1, -2, 1],
+    [-2, 4, -2], [1, -2, 1]]`` summed directly in float64 (the form of
+    :func:`fringe3d.phase._noise_kernel.interior_laplacian` before it became separable)."""
+    x = np.asarray(image, np.float64)
+    m = np.asarray(mask, bool)
+    h = x.shape[0]
+    sums, counts = np.zeros(h), np.zeros(h, np.int64)
+    if h < 3 or x.shape[1] < 3:
+        return sums, counts
+    c = (slice(1, -1), slice(1, -1))
+    r = (4.0 * x[c] - 2.0 * (x[:-2, 1:-1] + x[2:, 1:-1] + x[1:-1, :-2] + x[1:-1, 2:])
+         + (x[:-2, :-2] + x[:-2, 2:] + x[2:, :-2] + x[2:, 2:]))
+    inside = m[c] & m[:-2, 1:-1] & m[2:, 1:-1] & m[1:-1, :-2] & m[1:-1, 2:]
+    sums[1:-1] = np.where(inside, np.abs(r), 0.0).sum(axis=1)
+    counts[1:-1] = inside.sum(axis=1)
+    return sums, counts

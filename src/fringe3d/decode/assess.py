@@ -82,7 +82,7 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     if saturation:  # per phase group (and "code"): shares clipped and masked for it, and the rule
         info["saturation"] = saturation
     mask = np.asarray(mask, bool)
-    sigma_phi = np.full(mask.shape, np.nan, np.float32)
+    sigma_phi = None
     if groups:
         assert average is not None
         model, source = noise_model(ctx, groups, average, mask)
@@ -90,6 +90,8 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
                          "c1": model[1] if math.isfinite(model[1]) else None, "source": source}
         if math.isfinite(model[0]):
             sigma_phi = noise.model_phase_sigma(model[0], model[1], average, modulation, len(groups[0].indices))
+    if sigma_phi is None:  # no noise model: unknown
+        sigma_phi = np.full(mask.shape, np.nan, np.float32)
     broken = clipping_broken_map(ctx)
     if not opts.edge_mask or not groups or ctx.plan.method == "none":
         # code-only stripes and wrapped ("none") phases have no continuous w to test

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from fringe3d.decode import compensation
+from fringe3d.decode._finish_kernels import valid_phase
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.optics.rays import camera_shape, pixel_rays
 from fringe3d.optics.rig import Rig
@@ -133,6 +134,13 @@ class DecodeContext:
         """(H, W) bool validity of one group: modulation >= min_modulation and not saturated."""
         pr = self.group_phase(group)
         return (pr.modulation >= self.min_modulation) & ~self.group_saturated(group)
+
+    def valid_group_phase(self, group: PhaseGroup) -> tuple[np.ndarray, np.ndarray]:
+        """``(mask, phase)``: :meth:`group_mask` and a finite phase, and the group's wrapped phase
+        with NaN outside that mask, (H, W) bool and float32, new arrays, in one pass
+        (:func:`fringe3d.decode._finish_kernels.valid_phase`)."""
+        pr = self.group_phase(group)
+        return valid_phase(pr.phase, pr.modulation, self.min_modulation, self.group_saturated(group))
 
     def w_range(self) -> tuple[float, float]:
         """(w_min, w_max) projector fringe coordinates: the plan's ``options["w_range"]`` if

@@ -16,7 +16,7 @@ from typing import Any, Iterator
 import numpy as np
 
 from fringe3d.decode import compensation, edges, self_calibration
-from fringe3d.decode._finish_kernels import masked_phase, texture_fraction
+from fringe3d.decode._finish_kernels import masked_phase, quality_masked_phase, texture_fraction
 from fringe3d.decode.assess import assess
 from fringe3d.decode.context import DecodeContext, phase_groups
 from fringe3d.decode.method_plans import plans_to_decode as _plans
@@ -203,8 +203,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         average = result.average if result.average is not None or g is None else ctx.group_phase(g).average
         a = assess(ctx, phase, mask, np.asarray(modulation, np.float32), average, period,
                    order=result.order_inconsistent)
-        if opts.edge_mask or result.order_inconsistent is not None:  # one pass
-            mask, phase = masked_phase(phase, mask, a.quality, 0xFF if opts.edge_mask else edges.ORDER)
+        if opts.edge_mask or result.order_inconsistent is not None:  # one read; a pass if it masks any pixel
+            mask, phase = quality_masked_phase(phase, mask, a.quality, 0xFF if opts.edge_mask else edges.ORDER)
         out.quality[d], out.phase_sigma[d] = a.quality, a.phase_sigma
         out.info.setdefault("quality", {})[d] = a.info
         out.phase[d], out.mask[d] = phase, mask

@@ -137,6 +137,8 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
     for blk in prange(nblk):
         acc = np.empty((4, COL_CHUNK))
         a, b, c, peak = acc[0], acc[1], acc[2], acc[3]
+        acc32 = np.empty((2, COL_CHUNK), np.float32)
+        bf, cf = acc32[0], acc32[1]
         for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
             for j0 in range(0, w, COL_CHUNK):
                 n = min(COL_CHUNK, w - j0)
@@ -145,15 +147,20 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
                 av = average[i, j0:j0 + n]
                 mo = modulation[i, j0:j0 + n]
                 sa = saturated[i, j0:j0 + n]
+                # sums in float64 (exact for integer frames); atan2 and sqrt in float32 (error
+                # < 3e-7 rad after rounding b, c to float32: no float64 divide). Two loops: the
+                # float64 one runs 4 lanes wide, the float32 one (the divide, the polynomial, the
+                # square root) 8; one loop mixing both ran all of it 4 wide, at twice the time.
                 for j in range(n):
-                    # sums in float64 (exact for integer frames); atan2 and sqrt in float32 (error
-                    # < 3e-7 rad after rounding b, c to float32: twice the SIMD lanes, no float64 divide)
-                    bj = np.float32(b[j])
-                    cj = np.float32(c[j])
-                    ph[j] = fast_atan2_f32(-cj, bj)
+                    bf[j] = np.float32(b[j])
+                    cf[j] = np.float32(c[j])
                     av[j] = a[j]
-                    mo[j] = math.sqrt(bj * bj + cj * cj)
                     sa[j] = sa[j] | (peak[j] >= sat_level)
+                for j in range(n):
+                    bj = bf[j]
+                    cj = cf[j]
+                    ph[j] = fast_atan2_f32(-cj, bj)
+                    mo[j] = math.sqrt(bj * bj + cj * cj)
 
 
 F2PI = np.float32(TWO_PI)

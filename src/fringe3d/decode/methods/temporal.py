@@ -25,9 +25,11 @@ from fringe3d.unwrap.temporal import (CodeStripes, code_stripes, gray_code_order
 
 
 def unwrap_none(ctx: DecodeContext) -> Unwrapped:
-    """Plan ``method="none"``: the wrapped phase of the narrowest group, returned as is."""
+    """Plan ``method="none"``: the wrapped phase of the narrowest group, returned as is (NaN
+    outside its mask)."""
     g = ctx.groups_for_plan()[0]
-    return Unwrapped(ctx.group_phase(g).phase.copy(), ctx.group_mask(g))
+    mask, phase = ctx.valid_group_phase(g)
+    return Unwrapped(phase, mask, phase_is_masked=True)
 
 
 def unwrap_hierarchical(ctx: DecodeContext) -> Unwrapped:
