@@ -166,3 +166,15 @@ def test_phase_sigma_of_a_constant_noise_model_equals_noise_sigma_then_phase_sig
     mod[0, 3:6] = [0.0, -1.0, 2.0]
     want = noise.phase_sigma(noise.noise_sigma((c0, 0.0), avg), mod, 3)
     np.testing.assert_array_equal(noise.model_phase_sigma(c0, 0.0, avg, mod, 3), want)
+
+
+@pytest.mark.parametrize("model", [(2.7, 0.0), (1.7, 0.043), (-2.0, 0.05)])
+def test_phase_sigma_and_texture_from_one_pass_equal_their_separate_kernels(model):
+    rng = np.random.default_rng(13)
+    avg = rng.uniform(-5, 300, (15, 31)).astype(np.float32)
+    avg[0, :3] = [np.nan, np.inf, -np.inf]
+    mod = rng.uniform(-1, 60, avg.shape).astype(np.float32)
+    mod[1, :3] = [np.nan, 0.0, np.inf]
+    sigma, texture = noise.model_phase_sigma_and_fraction(model[0], model[1], avg, mod, 4, 255.0)
+    np.testing.assert_array_equal(sigma, noise.model_phase_sigma(model[0], model[1], avg, mod, 4))
+    np.testing.assert_array_equal(texture, fk.texture_fraction(avg, mod, 255.0))

@@ -16,12 +16,15 @@ from fringe3d.phase import noise
 
 
 class Assessment(NamedTuple):
-    """Quality map (H, W) uint8, phase sigma (H, W) float32 rad (NaN where unknown) and a
-    small JSON-friendly dict (blur, margin, noise model, bit counts)."""
+    """Quality map (H, W) uint8, phase sigma (H, W) float32 rad (NaN where unknown), a
+    small JSON-friendly dict (blur, margin, noise model, bit counts) and, when asked for and
+    the phase sigma had a noise model, the texture fraction of the average and modulation
+    from the same pass (else None)."""
 
     quality: np.ndarray
     phase_sigma: np.ndarray
     info: dict[str, Any]
+    texture: np.ndarray | None = None
 
 
 def _psp_groups(ctx: DecodeContext) -> list[PhaseGroup]:
@@ -64,7 +67,8 @@ def clipping_broken_map(ctx: DecodeContext) -> np.ndarray | None:
 
 
 def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: np.ndarray,
-           average: np.ndarray | None, period: float, order: np.ndarray | None = None) -> Assessment:
+           average: np.ndarray | None, period: float, order: np.ndarray | None = None,
+           texture_scale: float | None = None) -> Assessment:
     """Quality map and phase sigma of one direction.
 
     ``phase`` (H, W) absolute phase (rad, of ``period`` px), ``mask`` the method's mask,
@@ -73,7 +77,9 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     set). Only the INVALID and ORDER bits are set with
     ``ctx.options.edge_mask`` False, for code-only methods and FTP groups (no phase-shifted group
     of 3 or more steps; code stripes' ``w`` steps by design) and for ``method="none"`` (a wrapped
-    phase is not a fringe coordinate).
+    phase is not a fringe coordinate). ``texture_scale`` (full scale, frames' units): also
+    return ``clip(nan_to_num((average + modulation) / texture_scale), 0, 1)`` in float32 when
+    the phase sigma's pass runs (``Assessment.texture``; None otherwise).
     """
     opts = ctx.options
     groups = _psp_groups(ctx) if average is not None else []
@@ -82,14 +88,18 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     if saturation:  # per phase group (and "code"): shares clipped and masked for it, and the rule
         info["saturation"] = saturation
     mask = np.asarray(mask, bool)
-    sigma_phi = None
+    sigma_phi = texture = None
     if groups:
         assert average is not None
         model, source = noise_model(ctx, groups, average, mask)
         info["noise"] = {"c0": model[0] if math.isfinite(model[0]) else None,
                          "c1": model[1] if math.isfinite(model[1]) else None, "source": source}
-        if math.isfinite(model[0]):
-            sigma_phi = noise.model_phase_sigma(model[0], model[1], average, modulation, len(groups[0].indices))
+        steps = len(groups[0].indices)
+        if math.isfinite(model[0]) and texture_scale is not None:  # one pass over A and B for both
+            sigma_phi, texture = noise.model_phase_sigma_and_fraction(model[0], model[1], average, modulation,
+                                                                      steps, texture_scale)
+        elif math.isfinite(model[0]):
+            sigma_phi = noise.model_phase_sigma(model[0], model[1], average, modulation, steps)
     if sigma_phi is None:  # no noise model: unknown
         sigma_phi = np.full(mask.shape, np.nan, np.float32)
     broken = clipping_broken_map(ctx)
@@ -98,7 +108,7 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
         q = edges.order_bits(mask, order, broken)
         if order is not None or broken is not None:
             info["masked"] = edges.bit_counts(q)
-        return Assessment(q, sigma_phi, info)
+        return Assessment(q, sigma_phi, info, texture)
     valid = mask if order is None else mask & ~np.asarray(order, bool)
     # the decoder's phase is NaN outside its mask already; w outside ``valid`` is never read
     w = phase_to_w(phase if order is None else np.where(valid, phase, np.nan), period).astype(np.float32, copy=False)
@@ -124,4 +134,4 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
                                modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim))
     q = edges.quality_map(mask, w, extent, modulation, average, residual, order=order, saturated=broken, tests=tests)
     info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})
-    return Assessment(q, sigma_phi, info)
+    return Assessment(q, sigma_phi, info, texture)

@@ -168,6 +168,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     out = Decoded(info={"frame_checks": checks, "warnings": [str(w.message) for w in caught],
                         "min_modulation": min_mod})
     first: tuple[DecodeContext, Any, Unwrapped] | None = None
+    white = ps.indices(kind="white")
+    texture = None  # the first direction's, from its phase sigma's pass
     for plan in plans:
         ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig,
                             options=opts, min_modulation=min_mod, geometry=geometry,
@@ -202,7 +204,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         period = float(result.period if result.period is not None else g.period)  # type: ignore[union-attr]
         average = result.average if result.average is not None or g is None else ctx.group_phase(g).average
         a = assess(ctx, phase, mask, np.asarray(modulation, np.float32), average, period,
-                   order=result.order_inconsistent)
+                   order=result.order_inconsistent, texture_scale=full_scale(frames, bit_depth)
+                   if first is None and not white and result.texture is None else None)
         if opts.edge_mask or result.order_inconsistent is not None:  # one read; a pass if it masks any pixel
             mask, phase = quality_masked_phase(phase, mask, a.quality, 0xFF if opts.edge_mask else edges.ORDER)
         out.quality[d], out.phase_sigma[d] = a.quality, a.phase_sigma
@@ -217,7 +220,7 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         if rad is not None:
             out.info.setdefault("radiometry", {})[d] = rad
         if first is None:
-            first = (ctx, g, result)
+            first, texture = (ctx, g, result), a.texture
     assert first is not None  # _plans returns at least one plan
     ctx, g, result = first
     average = result.average
@@ -225,9 +228,10 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         assert g is not None  # a code-only method returns its average
         average = ctx.group_phase(g).average
     out.average = np.asarray(average, np.float32)
-    white = ps.indices(kind="white")
     if white:
         out.texture = as_fraction(frames[white[0]], frames, bit_depth)  # one meaning everywhere (decode.texture)
+    elif texture is not None:  # as_fraction of average + modulation, made with the phase sigma
+        out.texture = texture
     else:  # as_fraction of the fused kernel's average + modulation, or of their float32 sum: one pass
         out.texture = texture_fraction(out.average if result.texture is None else result.texture,
                                        out.modulation[plans[0].direction] if result.texture is None else None,

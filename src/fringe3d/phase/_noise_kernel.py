@@ -155,29 +155,31 @@ def line_moments(x: np.ndarray, y: np.ndarray, mask: np.ndarray, model: tuple[fl
 
 
 @numba.njit(parallel=True, cache=True)
-def _model_phase_sigma(average, modulation, c0, c1, k, out):  # pragma: no cover - compiled
-    H, W = average.shape
-    inf = np.float32(np.inf)
-    zero = np.float32(0.0)
-    for i in numba.prange(H):
-        for j in range(W):
-            v = c1 * average[i, j] + c0  # float32, as numpy with Python-float scalars
-            s = np.sqrt(zero if v < zero else v)  # NaN stays NaN (np.maximum)
-            b = modulation[i, j]
-            out[i, j] = k * s / b if b > zero else inf
-
-
-@numba.njit(parallel=True, cache=True)
-def _constant_phase_sigma(average, modulation, ks, out):  # pragma: no cover - compiled
+def _model_phase_sigma(average, modulation, c0, c1, k, ks, scale, out, fraction):  # pragma: no cover - compiled
+    # ks > 0: the constant model (c1 = 0, c0 > 0), ks = k sqrt(c0); a (H, W) ``fraction``: also
+    # the fraction of full scale ``scale``, from the same rows while they are in the cache
     H, W = average.shape
     inf = np.float32(np.inf)
     nan = np.float32(np.nan)
     zero = np.float32(0.0)
+    one = np.float32(1.0)
+    with_fraction = fraction.shape == average.shape
     for i in numba.prange(H):
-        for j in range(W):
-            s = ks if abs(average[i, j]) < inf else nan  # 0 * A is NaN for a non-finite A
-            b = modulation[i, j]
-            out[i, j] = s / b if b > zero else inf
+        if ks > zero:
+            for j in range(W):
+                s = ks if abs(average[i, j]) < inf else nan  # c0 + 0 A: c0, or NaN for a non-finite A
+                b = modulation[i, j]
+                out[i, j] = s / b if b > zero else inf
+        else:
+            for j in range(W):
+                v = c1 * average[i, j] + c0  # float32, as numpy with Python-float scalars
+                s = np.sqrt(zero if v < zero else v)  # NaN stays NaN (np.maximum)
+                b = modulation[i, j]
+                out[i, j] = k * s / b if b > zero else inf
+        if with_fraction:
+            for j in range(W):  # clip(nan_to_num((A + B) / scale), 0, 1) in float32
+                t = (average[i, j] + modulation[i, j]) / scale
+                fraction[i, j] = zero if t != t else min(max(t, zero), one)
 
 
 def model_phase_sigma(c0: float, c1: float, average: np.ndarray, modulation: np.ndarray, steps: int) -> np.ndarray:
@@ -186,13 +188,27 @@ def model_phase_sigma(c0: float, c1: float, average: np.ndarray, modulation: np.
     :func:`~fringe3d.phase.noise.phase_sigma` make it (equal bit for bit). With ``c1 = 0`` and
     ``c0 > 0`` (the Laplacian model) ``c0 + 0 A`` is ``c0`` wherever ``A`` is finite: the
     square root is taken once."""
+    return _phase_sigma(c0, c1, average, modulation, steps, None)[0]
+
+
+def model_phase_sigma_and_fraction(c0: float, c1: float, average: np.ndarray, modulation: np.ndarray, steps: int,
+                                   full_scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`model_phase_sigma` and, from the same pass, (H, W) float32 ``clip(nan_to_num((A +
+    B) / full_scale), 0, 1)`` (each operation in float32: the texture of
+    :func:`fringe3d.decode.texture.as_fraction` of ``np.add(A, B, dtype=float32)``)."""
+    sigma, fraction = _phase_sigma(c0, c1, average, modulation, steps, float(full_scale))
+    assert fraction is not None
+    return sigma, fraction
+
+
+def _phase_sigma(c0: float, c1: float, average: np.ndarray, modulation: np.ndarray, steps: int,
+                 full_scale: float | None) -> tuple[np.ndarray, np.ndarray | None]:
     a = np.ascontiguousarray(average, np.float32)
     b = np.ascontiguousarray(modulation, np.float32)
     out = np.empty(a.shape, np.float32)
     f32 = np.float32
     k, v0, v1 = f32(math.sqrt(2.0 / steps)), f32(c0), f32(c1)
-    if v1 == 0 and 0 < v0 < np.inf:
-        _constant_phase_sigma(a, b, k * np.sqrt(v0), out)
-    else:
-        _model_phase_sigma(a, b, v0, v1, k, out)
-    return out
+    ks = k * np.sqrt(v0) if v1 == 0 and 0 < v0 < np.inf else f32(0.0)
+    fraction = np.empty(a.shape if full_scale is not None else (0, 0), np.float32)
+    _model_phase_sigma(a, b, v0, v1, k, ks, f32(full_scale if full_scale is not None else 1.0), out, fraction)
+    return out, (fraction if full_scale is not None else None)

@@ -24,7 +24,7 @@ import numpy as np
 from scipy import ndimage
 
 from fringe3d.phase._noise_kernel import (interior_laplacian, line_moments, model_phase_sigma,  # noqa: F401 (API)
-                                          residual_sum_of_squares)
+                                          model_phase_sigma_and_fraction, residual_sum_of_squares)
 
 from fringe3d.phase.psp import lsq_coefficients
 
