@@ -12,7 +12,7 @@ from fringe3d.decode import _finish_kernels as fk
 from fringe3d.decode.texture import as_fraction
 from fringe3d.patterns import sets
 from fringe3d.patterns.synthetic import frames_from_coordinates
-from fringe3d.phase import _kernels, noise
+from fringe3d.phase import _kernels, noise, psp
 from fringe3d.phase._noise_kernel import interior_laplacian
 from fringe3d.phase.psp import lsq_coefficients, wrapped_phase
 
@@ -35,7 +35,8 @@ def test_psp_kernel_equals_its_previous_single_loop_form_bit_for_bit(dtype, shif
     idx, coef, level = np.arange(d.size), lsq_coefficients(d), 200.0
     got = [np.empty(f.shape[1:], np.float32) for _ in range(3)] + [np.zeros(f.shape[1:], bool)]
     want = [np.empty(f.shape[1:], np.float32) for _ in range(3)] + [np.zeros(f.shape[1:], bool)]
-    _kernels.psp_kernel(f, idx, coef, level, *got)
+    none = (np.empty((0, 0), bool), np.empty((0, 0), np.float32))
+    _kernels.psp_kernel(f, idx, coef, level, *got, np.float32(0), *none)
     psp_kernel_previous(f, idx, coef, level, *want)
     for g, w in zip(got, want):
         np.testing.assert_array_equal(g, w)
@@ -124,14 +125,15 @@ def test_quality_masked_phase_returns_its_inputs_unless_a_valid_pixel_is_masked(
         np.testing.assert_array_equal(p, want_p)
 
 
-@pytest.fixture(scope="module")
-def three_step():
+@pytest.fixture(scope="module", params=["clipped", "unclipped"])
+def three_step(request):
     ps = sets.phase_shift(18, 3, "v", width=200, height=120)
     v, u = np.mgrid[0:60, 0:90].astype(np.float64)
     u_p = 5 + 0.9 * u + 2 * np.sin(v / 9)
     f = frames_from_coordinates(ps, u_p, np.full_like(u_p, 50.0), 20, 200, noise=1.0,
                                 rng=np.random.default_rng(4), dtype=np.uint8)
-    f[:, 10:14, 20:30] = 255  # clipped
+    if request.param == "clipped":  # the mask from a pass of its own (the clipping test)
+        f[:, 10:14, 20:30] = 255
     f[:, 40:44, 50:60] = 3  # no modulation
     return ps, f
 
@@ -178,3 +180,18 @@ def test_phase_sigma_and_texture_from_one_pass_equal_their_separate_kernels(mode
     sigma, texture = noise.model_phase_sigma_and_fraction(model[0], model[1], avg, mod, 4, 255.0)
     np.testing.assert_array_equal(sigma, noise.model_phase_sigma(model[0], model[1], avg, mod, 4))
     np.testing.assert_array_equal(texture, fk.texture_fraction(avg, mod, 255.0))
+
+
+def test_wrapped_phase_and_mask_is_wrapped_phase_and_its_valid_phase():
+    rng = np.random.default_rng(14)
+    f = rng.normal(120, 60, (4, 23, 300)).astype(np.float32)
+    f[2, 5, 7] = np.nan
+    shifts, idx = (0.0, 1.6, 3.1, 4.7), (3, 1, 0, 2)
+    pr, sat, (mask, phase) = psp.wrapped_phase_and_mask(f, shifts, idx, 250.0, fk.float32_threshold(40.7))
+    want, want_sat = wrapped_phase(f, shifts, idx, saturation_level=250.0, return_saturated=True)
+    for g, w in zip((*pr, sat), (*want, want_sat)):
+        np.testing.assert_array_equal(g, w)
+    want_mask, want_phase = fk.valid_phase(want.phase, want.modulation, 40.7, want_sat)
+    np.testing.assert_array_equal(mask, want_mask)
+    np.testing.assert_array_equal(phase, want_phase)
+    assert 0 < mask.sum() < mask.size

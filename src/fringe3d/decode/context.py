@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from fringe3d.decode import compensation
-from fringe3d.decode._finish_kernels import valid_phase
+from fringe3d.decode._finish_kernels import float32_threshold, valid_phase
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.optics.rays import camera_shape, pixel_rays
 from fringe3d.optics.rig import Rig
@@ -22,7 +22,7 @@ from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.conventions import fringe_coordinate, w_range
 from fringe3d.patterns.manifest import DirectionPlan, PatternSet
 from fringe3d.phase import clipping, ftp, noise, quality
-from fringe3d.phase.psp import PhaseResult, wrapped_phase
+from fringe3d.phase.psp import PhaseResult, wrapped_phase, wrapped_phase_and_mask
 from fringe3d.utils.camera_size import check_camera_size
 from fringe3d.utils.warning_types import CalibrationWarning
 
@@ -137,8 +137,18 @@ class DecodeContext:
 
     def valid_group_phase(self, group: PhaseGroup) -> tuple[np.ndarray, np.ndarray]:
         """``(mask, phase)``: :meth:`group_mask` and a finite phase, and the group's wrapped phase
-        with NaN outside that mask, (H, W) bool and float32, new arrays, in one pass
+        with NaN outside that mask, (H, W) bool and float32, new arrays: from the pass of the
+        group's phase when this is its first use and no pixel is clipped (the saturation map is
+        then :meth:`group_saturated`), else one pass of its own
         (:func:`fringe3d.decode._finish_kernels.valid_phase`)."""
+        if group.name not in self.cache and len(group.indices) >= 3 and \
+                self.options.compensate in (None, "disagreement"):  # as group_phase_and_saturation
+            level = quality.saturation_level(self.frames, self.bit_depth)
+            pr, sat, valid = wrapped_phase_and_mask(self.frames, group.shifts, group.indices, level,
+                                                    float32_threshold(self.min_modulation))
+            self.cache[group.name] = (pr, sat)
+            if not sat.any():
+                return valid
         pr = self.group_phase(group)
         return valid_phase(pr.phase, pr.modulation, self.min_modulation, self.group_saturated(group))
 

@@ -123,17 +123,24 @@ def accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, init, init_pe
 
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
-def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, saturated):
+def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
+               masked):
     """Least-squares N-step phase (Eq. 2.4) for frames ``frames[index]``.
 
     frames (F, H, W) any real dtype; index (N,) int64; coef (3, N) float64 pseudo-inverse
     (float64 sums, float32 atan2/sqrt); sat_level: a pixel is flagged saturated when any of its N values
     >= sat_level (pass ``inf`` to disable). Outputs (H, W): phase float32 rad in (-pi, pi],
-    average and modulation float32 in the frames' units, saturated bool (or-ed in).
+    average and modulation float32 in the frames' units, saturated bool (or-ed in). With
+    ``valid`` (H, W) bool and ``masked`` (H, W) float32 (else pass (0, 0) arrays): also
+    ``valid = (modulation >= min_modulation) & ~saturated & isfinite(phase)`` (float32
+    ``min_modulation``) and the phase with NaN outside it, from the same pass.
     """
     h = frames.shape[1]
     w = frames.shape[2]
     nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
+    with_valid = valid.shape == phase.shape and h > 0
+    inf = np.float32(np.inf)
+    nan = np.float32(np.nan)
     for blk in prange(nblk):
         acc = np.empty((4, COL_CHUNK))
         a, b, c, peak = acc[0], acc[1], acc[2], acc[3]
@@ -161,6 +168,14 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
                     cj = cf[j]
                     ph[j] = fast_atan2_f32(-cj, bj)
                     mo[j] = math.sqrt(bj * bj + cj * cj)
+                if with_valid:  # from the rows just written, still in the cache
+                    va = valid[i, j0:j0 + n]
+                    ma = masked[i, j0:j0 + n]
+                    for j in range(n):
+                        p = ph[j]
+                        m = (mo[j] >= min_modulation) & (not sa[j]) & (abs(p) < inf)
+                        va[j] = m
+                        ma[j] = p if m else nan
 
 
 F2PI = np.float32(TWO_PI)

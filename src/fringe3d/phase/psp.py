@@ -132,16 +132,62 @@ def wrapped_phase(frames, shifts=None, index=None, saturation_level: float | Non
     d = default_shifts(idx.size) if shifts is None else np.asarray(shifts, dtype=np.float64)
     if d.size != idx.size:
         raise ValueError(f"got {d.size} phase shifts for {idx.size} frames; expected one shift per frame")
-    coef = lsq_coefficients(d)
+    result, saturated, _ = _wrapped_phase_cpu(frames, d, idx, saturation_level, None)
+    return (result, saturated) if return_saturated else result
+
+
+def _wrapped_phase_cpu(frames: np.ndarray, shifts: np.ndarray, idx: np.ndarray, saturation_level: float | None,
+                       min_modulation: np.float32 | None):
+    """The numba pass of :func:`wrapped_phase`: ``(PhaseResult, saturated, valid)``; with
+    ``min_modulation`` (float32) ``valid`` is ``(mask, phase NaN outside it)`` of
+    :func:`wrapped_phase_and_mask`, else None."""
+    coef = lsq_coefficients(shifts)
     h, w = frames.shape[1:]
     phase = np.empty((h, w), np.float32)
     average = np.empty((h, w), np.float32)
     modulation = np.empty((h, w), np.float32)
     saturated = np.zeros((h, w), np.bool_)
+    shape = (h, w) if min_modulation is not None else (0, 0)
+    mask, masked = np.empty(shape, np.bool_), np.empty(shape, np.float32)
     sat = math.inf if saturation_level is None else float(saturation_level)
-    _kernels.psp_kernel(frames, idx.astype(np.int64), coef, sat, phase, average, modulation, saturated)
-    result = PhaseResult(phase, average, modulation)
-    return (result, saturated) if return_saturated else result
+    _kernels.psp_kernel(frames, idx.astype(np.int64), coef, sat, phase, average, modulation, saturated,
+                        np.float32(0.0 if min_modulation is None else min_modulation), mask, masked)
+    return PhaseResult(phase, average, modulation), saturated, (mask, masked) if min_modulation is not None else None
+
+
+def wrapped_phase_and_mask(frames: np.ndarray, shifts, index, saturation_level: float | None,
+                           min_modulation: np.float32):
+    """:func:`wrapped_phase` (CPU, ``return_saturated``) and, from the same pass, ``(mask,
+    phase)``: ``(modulation >= min_modulation) & ~saturated & isfinite(phase)`` (H, W) bool and
+    the phase with NaN outside it (float32, a new array).
+
+    Parameters
+    ----------
+    frames : (F, H, W) ndarray
+        Camera frames, any real dtype.
+    shifts : (N,) float
+        Phase shift of each used frame (rad).
+    index : (N,) int
+        Which frames of ``frames`` to use.
+    saturation_level : float or None
+        As in :func:`wrapped_phase`.
+    min_modulation : numpy.float32
+        The modulation threshold, compared in float32.
+
+    Returns
+    -------
+    tuple
+        ``(PhaseResult, saturated, (mask, phase))``.
+    """
+    frames = as_frame_stack(frames, layout="(N, H, W)")
+    idx = np.asarray(index, dtype=np.int64)
+    d = np.asarray(shifts, dtype=np.float64)
+    if d.size != idx.size or (idx.size and (idx.min() < 0 or idx.max() >= frames.shape[0])):
+        raise ValueError(f"got {d.size} phase shifts for frame index {idx.tolist()} of {frames.shape[0]} frames; "
+                         "expected one shift per frame and indices in range")
+    pr, saturated, valid = _wrapped_phase_cpu(frames, d, idx, saturation_level, np.float32(min_modulation))
+    assert valid is not None
+    return pr, saturated, valid
 
 
 def _wrapped_phase_cuda(frames, shifts, index, saturation_level, return_saturated, device_output):
