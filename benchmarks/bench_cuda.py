@@ -196,7 +196,7 @@ def every_output(cuda, gpu3, cpu3, frames3, extent: tuple[float, float], repeats
 
     got = run_gpu(frames3[:1], False)
     fq, _ = run_cpu(frames3[0])
-    res = workload("fused 3-step, every output (quality, sigma_z, texture)", cuda, frames3, run_gpu, run_cpu,
+    res = workload("fused 3-step + quality, sigma_z, texture", cuda, frames3, run_gpu, run_cpu,
                    3 * frames3[0, 0].size, 13 * frames3[0, 0].size, *repeats)
     res["quality_bits_equal_cpu"] = bool(np.array_equal(got.quality[0], fq.quality))
     return res

@@ -8,7 +8,9 @@ imported. ``python tests/cuda_sim_quality_worker.py OUT.npz``.
 """
 from __future__ import annotations
 
+import glob
 import sys
+import tempfile
 import warnings
 
 import numpy as np
@@ -27,7 +29,9 @@ def main(out_path: str) -> None:
     from fringe3d.patterns import sets
     from fringe3d.reconstruct.depth import EmptyMaskError
     from fringe3d.reconstruct.frame import FrameReconstructor
-    from fringe3d.reconstruct.sequence import reconstruction_plans
+    from fringe3d.io.store import PointMapStore
+    from fringe3d.reconstruct.sequence import reconstruct_sequence, reconstruction_plans
+    from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 
     cuda_module()  # the simulator counts as a device
     from fringe3d.gpu import quality_kernels as qk
@@ -65,6 +69,20 @@ def main(out_path: str) -> None:
         r["one_gpu_quality"], r["one_cpu_quality"] = one.quality, ref.quality
         r["one_gpu_depth"], r["one_cpu_depth"] = one.depth, ref.depth
         r["one_gpu_none"] = np.array(one.sigma_z is None and one.texture is None)
+        # the sequence path (what `fringe3d reconstruct` runs): the store's quality maps and
+        # sigma_z, with PLY files (points and texture) written too, cpu and cuda backends
+        seq = np.concatenate(cycles[:2])
+        with tempfile.TemporaryDirectory() as tmp:
+            for backend in ("cpu", "cuda"):
+                res = reconstruct_sequence(seq, ps3, rig, f"{tmp}/{backend}",
+                                           decode=DecodeSettings(options=DecodeOptions(z_min=Z_MIN)),
+                                           outputs=OutputSettings(ply=True),
+                                           run=RunSettings(progress=False, backend=backend))
+                st = PointMapStore.open_existing(f"{tmp}/{backend}/points.zarr")
+                n = res["frames_3d"]
+                r[f"seq_{backend}_quality"] = np.stack([st.quality(k) for k in range(n)])
+                r[f"seq_{backend}_sigma_z"] = np.stack([st.sigma_z(k) for k in range(n)])
+                r[f"seq_{backend}_ply_files"] = np.array(len(glob.glob(f"{tmp}/{backend}/**/*.ply", recursive=True)))
     np.savez(out_path, **r)
 
 

@@ -83,6 +83,13 @@ def test_one_cycle_without_edge_tests_on_the_device_equals_cpu(simq):
     assert bool(simq["one_gpu_none"])  # neither sigma_z nor texture asked for
 
 
+def test_a_sequence_on_the_cuda_backend_stores_the_cpu_quality_and_sigma_z(simq):
+    np.testing.assert_array_equal(simq["seq_cuda_quality"], simq["seq_cpu_quality"])
+    assert (simq["seq_cpu_quality"] == 0).any()
+    same_nan_and_close(simq["seq_cpu_sigma_z"], simq["seq_cuda_sigma_z"], rtol=SIGMA_RTOL)
+    assert int(simq["seq_cpu_ply_files"]) == int(simq["seq_cuda_ply_files"]) == 2
+
+
 def test_device_bit_values_and_gradient_floor_are_the_cpu_ones(simq):
     np.testing.assert_array_equal(simq["bits"], [edges.INVALID, edges.EDGE, edges.GRADIENT, edges.MOD_DROP, edges.RIM])
     assert GRADIENT_FLOOR == inspect.signature(fused_quality_map).parameters["gradient_floor"].default
