@@ -67,8 +67,9 @@ class Controls:
 class Viewer(Protocol):
     """What the loop draws on (:class:`fringe3d.live.viewer.ViserViewer` in a browser)."""
 
-    def show_points(self, points: np.ndarray, colours: np.ndarray) -> None:
-        """Draw ``(N, 3)`` float32 points (mm) with ``(N, 3)`` uint8 colours, replacing the last."""
+    def show_points(self, points: np.ndarray, colours: np.ndarray, arrival: float) -> None:
+        """Draw ``(N, 3)`` float32 points (mm) with ``(N, 3)`` uint8 colours, replacing the last;
+        ``arrival`` is the host time (``time.monotonic()``, s) their cycle arrived."""
         ...
 
     def show_overlay(self, image: np.ndarray) -> None:
@@ -366,7 +367,7 @@ class LiveSession:
             else:
                 colouring = self.controls.colouring if cyc.texture is not None else "z"
                 pts, cols = display_points(cyc.points, cyc.texture, colouring, s.z_range, s.step)
-            self.viewer.show_points(pts, cols)
+            self.viewer.show_points(pts, cols, arrival.arrival)
             sent = time.monotonic()
             self.stats.shown(arrival.arrival, sent, len(pts))
             t_first = sent if t_first is None else t_first

@@ -7,7 +7,9 @@
   the working volume);
 * a GUI panel: **3D frames/s**, **latency median (ms)**, **latency p95 (ms)** (frame arrival
   to points handed to the page, measured by the pipeline: :mod:`fringe3d.live.stats`),
-  **3D frames shown**, **points**; the controls **exposure** (the virtual camera's gain or a
+  **3D frames shown**, **points**; under the view, the page's own figures: the frames it drew,
+  their rate and the **display latency** (frame arrival to the cloud drawn in the page, timed by
+  the page: :mod:`fringe3d.live.page_script`); the controls **exposure** (the virtual camera's gain or a
   camera's exposure time), **pattern set** (when there is a choice), **colour** (by depth or
   texture), **pause**, and **record**: a folder, a number of cycles and a button that records
   the next cycles there as a capture folder; the **mask overlay** image (texture in grey,
@@ -20,13 +22,17 @@ from __future__ import annotations
 import contextlib
 import importlib
 import io
+import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from fringe3d.devices.base import MissingExtraError
+from fringe3d.utils.warning_types import DeviceWarning
 
 from .display import COLOURINGS
+from .page_script import SCRIPT, frame_stamp
 from .session import Controls
 from .stats import shown_text
 
@@ -151,6 +157,19 @@ class ViserViewer:
         button.on_click(lambda _: self._ask_record(str(folder.value), int(cycles.value)))
         self._status = gui.add_text(LABELS["status"], initial_value="", disabled=True)
         self._overlay = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="mask overlay", format="jpeg")
+        self._stamp = gui.add_html(frame_stamp(0, 0.0))
+        self._frames = 0
+        self._run_page_script()
+
+    def _run_page_script(self) -> None:
+        """Run the page's display-latency script (:mod:`.page_script`) in every page, now and on connect."""
+        try:  # viser's own way to run JavaScript in its pages (it loads plotly.js so); kept for new pages
+            from viser import _messages
+            self.server._websock_server.queue_message(_messages.RunJavascriptMessage(source=SCRIPT))
+        except (ImportError, AttributeError, TypeError) as e:
+            warnings.warn(f"this viser ({getattr(require_viser(), '__version__', '?')}) cannot run the page's "
+                          f"display-latency script ({e}); the page shows the pipeline's figures only",
+                          DeviceWarning, stacklevel=3)
 
     def _ask_record(self, folder: str, cycles: int) -> None:
         if not folder.strip():
@@ -159,8 +178,8 @@ class ViserViewer:
         self.controls.record = (folder.strip(), max(1, cycles))
 
     # -- the Viewer protocol ----------------------------------------------------------------
-    def show_points(self, points: np.ndarray, colours: np.ndarray) -> None:
-        """Draw the points, replacing the last frame's, and send them now.
+    def show_points(self, points: np.ndarray, colours: np.ndarray, arrival: float) -> None:
+        """Draw the points, replacing the last frame's, and send them now, with the frame's stamp.
 
         Parameters
         ----------
@@ -168,8 +187,15 @@ class ViserViewer:
             Points (mm).
         colours : (N, 3) uint8 ndarray
             Their colours.
+        arrival : float
+            Host time (``time.monotonic()``, s) the frame's cycle arrived; sent as epoch ms in
+            the same atomic update as the cloud, for the page's display latency.
         """
-        self.server.scene.add_point_cloud("/points", points, colours, **self._cloud_args)
+        self._frames += 1
+        arrival_ms = (arrival + (time.time() - time.monotonic())) * 1e3
+        with self.server.atomic():  # the page applies the cloud and its stamp together
+            self.server.scene.add_point_cloud("/points", points, colours, **self._cloud_args)
+            self._stamp.content = frame_stamp(self._frames, arrival_ms)
         self.server.flush()
 
     def show_overlay(self, image: np.ndarray) -> None:
