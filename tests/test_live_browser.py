@@ -227,3 +227,26 @@ def test_live_points_lie_on_the_rendered_scene_within_the_tiny_rigs_accuracy(loo
         assert on_scene.mean() > 0.97
         assert np.median(err) < 0.3  # mm; the tiny rig (160x128) at 400 mm, a moving ball
         assert np.percentile(err, 90) < 1.0
+
+
+def test_viewer_waits_for_a_page_that_acknowledges_frames_and_not_for_one_that_never_does(monkeypatch):
+    from fringe3d.live import viewer as viewer_module
+    from fringe3d.live.session import Controls
+    from fringe3d.live.viewer import IN_FLIGHT, ViewerSetup, ViserViewer
+
+    v = ViserViewer(ViewerSetup(port=0), Controls(choice="3-step"))
+    try:
+        pts, cols = np.zeros((4, 3), np.float32), np.zeros((4, 3), np.uint8)
+        for _ in range(IN_FLIGHT + 1):
+            v.show_points(pts, cols, 0.0)
+        assert not v.busy()  # no page acknowledged a frame yet (none, or one without the page script)
+        v._acknowledged("1")  # the page drew frame 1 of IN_FLIGHT + 1 sent
+        assert v.busy()
+        v._acknowledged("2")
+        assert not v.busy()  # IN_FLIGHT - 1 frames in flight: send the next
+        v.show_points(pts, cols, 0.0)
+        assert v.busy()
+        monkeypatch.setattr(viewer_module, "PATIENCE", 0.0)  # a page that stopped drawing is sent frames again
+        assert not v.busy()
+    finally:
+        v.close()

@@ -157,6 +157,9 @@ class RecordingViewer:
     def show_overlay(self, image):
         pass
 
+    def busy(self):
+        return False
+
     def show_stats(self, summary):
         self.stats.append(summary)
 

@@ -18,12 +18,20 @@ between order statistics, as NumPy's default), and keeps the raw lists in
 ``window.fringe3dDisplay`` (``frame``, ``arrival``, ``received``, ``drawn``, ``latency``, all
 per drawn frame, and ``summary``) for a benchmark or a test to read. Frames the page never drew
 (two updates applied in one animation frame: only the newer is drawn) are not counted.
+
+After drawing a frame the script writes its number into the GUI field labelled
+:data:`ACK_LABEL` (as if typed: viser has no other way for page code to talk to the server; the
+script hides that field), so the viewer knows what the page has drawn
+(:meth:`fringe3d.live.viewer.ViserViewer.busy`) and the loop does not send clouds faster than the
+page draws them.
 """
 from __future__ import annotations
 
 #: The stamp element's attributes: the frame's number and its arrival time (epoch ms).
 FRAME_ATTRIBUTE = "data-fringe3d-frame"
 ARRIVAL_ATTRIBUTE = "data-fringe3d-arrival"
+#: The label of the GUI field the page writes the last frame it drew into.
+ACK_LABEL = "page drew frame"
 #: The id of the page element that shows the page's figures.
 FIGURES_ID = "fringe3d-display"
 
@@ -54,7 +62,20 @@ SCRIPT = r"""
       `max ${l.max.toFixed(1)} ms`;
   };
   let last = null, pending = null, scheduled = false, timer = null;
+  const setter = Object.getOwnPropertyDescriptor(HTMLInputElement.prototype, 'value').set;
+  const acknowledge = frame => {  // tell the server (a GUI text field, as if typed): it paces the clouds
+    const label = [...document.querySelectorAll('label, p, span, div')].filter(
+      e => e.textContent.trim() === '%(ack)s').pop();
+    let row = label;
+    while (row && !row.querySelector('input')) row = row.parentElement;
+    const input = row && row.querySelector('input');
+    if (!input) return;
+    row.style.display = 'none';  // the page's own field, not a control
+    setter.call(input, String(frame));
+    input.dispatchEvent(new Event('input', {bubbles: true}));
+  };
   const drawn = (p, t) => {
+    acknowledge(p.frame);
     d.frame.push(p.frame); d.arrival.push(p.arrival); d.received.push(p.received); d.drawn.push(t);
     d.latency.push(t - p.arrival);
     if (timer === null) timer = setTimeout(() => { timer = null; update(); }, 250);  // a few times a second
@@ -79,7 +100,7 @@ SCRIPT = r"""
   new MutationObserver(look).observe(document.body, {subtree: true, childList: true});
   look();
 })();
-""" % {"figures": FIGURES_ID, "frame": FRAME_ATTRIBUTE, "arrival": ARRIVAL_ATTRIBUTE}
+""" % {"ack": ACK_LABEL, "figures": FIGURES_ID, "frame": FRAME_ATTRIBUTE, "arrival": ARRIVAL_ATTRIBUTE}
 
 
 def frame_stamp(frame: int, arrival_ms: float) -> str:
