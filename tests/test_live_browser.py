@@ -119,7 +119,7 @@ def live_run(tmp_path_factory):
         page.wait_for_function(f"() => window.fringe3dDisplay && window.fringe3dDisplay.summary && "
                                f"window.fringe3dDisplay.summary.last_frame === {FRAMES}", timeout=30_000, polling=100)
         timed = page.evaluate("() => { const d = window.fringe3dDisplay; return {frame: d.frame, arrival: d.arrival, "
-                              "received: d.received, drawn: d.drawn, latency: d.latency}; }")
+                              "received: d.received, drawn: d.drawn, tick: d.tick, latency: d.latency}; }")
         timed["shown"] = page.evaluate(f"() => document.getElementById('{FIGURES_ID}').textContent")
         page.screenshot(path=str(out / "live.png"))
         browser.close()
@@ -202,12 +202,14 @@ def test_live_page_times_display_latency_of_the_frames_it_drew(live_run):
     t = live_run["timed"]
     frame, arrival = np.array(t["frame"]), np.array(t["arrival"])
     received, drawn, latency = np.array(t["received"]), np.array(t["drawn"]), np.array(t["latency"])
+    tick = np.array(t["tick"])
     sent = {f: a for f, a, _ in _stamps(live_run["received"])}
     # the frames the page drew: frames the pipeline sent, in order, the last one included
     assert frame.size >= 1 and np.all(np.diff(frame) > 0) and frame[-1] == FRAMES
     assert frame.size <= live_run["summary"]["frames_shown"]
     np.testing.assert_allclose(arrival, [sent[f] for f in frame], atol=1e-3)  # the stamps sent with the clouds
-    assert np.all(arrival <= received) and np.all(received <= drawn)  # one clock: arrival, then page, then drawn
+    # one wall clock: arrival, then the page applied it, then drew it (Date.now() counts whole ms)
+    assert np.all(arrival <= received + 1.0) and np.all(received <= drawn)
     np.testing.assert_allclose(latency, drawn - arrival)
     # the figures the page shows are NumPy's over its own list (linear percentiles, rounded to 0.1)
     shown = re.search(r"([0-9]+) 3D frames drawn, ([0-9.]+) frames/s; .* median ([0-9.]+) ms, p95 ([0-9.]+) ms, "
@@ -215,7 +217,7 @@ def test_live_page_times_display_latency_of_the_frames_it_drew(live_run):
     assert shown, t["shown"]
     n, fps, median, p95, worst = (float(x) for x in shown.groups())
     assert n == frame.size
-    expect_fps = (frame.size - 1) / ((drawn[-1] - drawn[0]) / 1e3) if frame.size > 1 else 0.0
+    expect_fps = (frame.size - 1) / ((tick[-1] - tick[0]) / 1e3) if frame.size > 1 else 0.0
     assert fps == pytest.approx(round(expect_fps, 1), abs=0.051)
     for figure, value in ((median, np.median(latency)), (p95, np.percentile(latency, 95)), (worst, latency.max())):
         assert figure == pytest.approx(round(float(value), 1), abs=0.051)

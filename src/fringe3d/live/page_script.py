@@ -9,15 +9,17 @@ viewer sends, in the same atomic update, a stamp element (:func:`frame_stamp`): 
 number and the host time its cycle's last camera frame arrived (epoch ms). The script watches
 the page for a new stamp (a ``MutationObserver``: the update was applied), waits for the next
 animation frame (the one that draws the cloud) and the task after it, and takes the time
-(``performance.timeOrigin + performance.now()``, epoch ms: page and host share the machine's
-clock). Display latency = that time - the arrival stamp.
+(``Date.now()``, epoch ms: page and host read the same wall clock; ``performance.timeOrigin +
+performance.now()`` follows a monotonic clock that drifts from it, by tens of ms within a minute
+on the development machine). Display latency = that time - the arrival stamp.
 
 The page shows, under the view, the frames it drew, their rate (``(drawn - 1) / (last -
-first)``) and the display latency median, p95 and max (percentiles interpolated linearly
-between order statistics, as NumPy's default), and keeps the raw lists in
-``window.fringe3dDisplay`` (``frame``, ``arrival``, ``received``, ``drawn``, ``latency``, all
-per drawn frame, and ``summary``) for a benchmark or a test to read. Frames the page never drew
-(two updates applied in one animation frame: only the newer is drawn) are not counted.
+first)``, on ``performance.now()``) and the display latency median, p95 and max (percentiles
+interpolated linearly between order statistics, as NumPy's default), and keeps the raw lists in
+``window.fringe3dDisplay`` (``frame``, ``arrival``, ``received``, ``drawn`` (epoch ms), ``tick``
+(``performance.now()`` when drawn), ``latency``, all per drawn frame, and ``summary``) for a
+benchmark or a test to read. Frames the page never drew (two updates applied in one animation
+frame: only the newer is drawn) are not counted.
 
 After drawing a frame the script writes its number into the GUI field labelled
 :data:`ACK_LABEL` (as if typed: viser has no other way for page code to talk to the server; the
@@ -38,8 +40,9 @@ FIGURES_ID = "fringe3d-display"
 SCRIPT = r"""
 (() => {
   if (window.fringe3dDisplay) return;  // the script is replayed on a reconnect
-  const now = () => performance.timeOrigin + performance.now();
-  const d = window.fringe3dDisplay = {frame: [], arrival: [], received: [], drawn: [], latency: [], summary: null};
+  const now = () => Date.now();  // the wall clock, as the host's stamps (a monotonic clock drifts from it)
+  const d = window.fringe3dDisplay = {frame: [], arrival: [], received: [], drawn: [], tick: [], latency: [],
+                                      summary: null};
   const box = document.createElement('div');
   box.id = '%(figures)s';
   box.style.cssText = 'position:fixed;left:8px;bottom:8px;z-index:1000;font:12px monospace;color:#222;' +
@@ -53,7 +56,7 @@ SCRIPT = r"""
   const round = x => Math.round(x * 10) / 10;
   const update = () => {
     const n = d.drawn.length, s = [...d.latency].sort((a, b) => a - b);
-    const fps = n > 1 && d.drawn[n - 1] > d.drawn[0] ? (n - 1) / ((d.drawn[n - 1] - d.drawn[0]) / 1000) : 0;
+    const fps = n > 1 && d.tick[n - 1] > d.tick[0] ? (n - 1) / ((d.tick[n - 1] - d.tick[0]) / 1000) : 0;
     d.summary = {frames_drawn: n, last_frame: d.frame[n - 1], fps: round(fps),
                  latency_ms: {median: round(quantile(s, 0.5)), p95: round(quantile(s, 0.95)), max: round(s[n - 1])}};
     const l = d.summary.latency_ms;
@@ -77,6 +80,7 @@ SCRIPT = r"""
   const drawn = (p, t) => {
     acknowledge(p.frame);
     d.frame.push(p.frame); d.arrival.push(p.arrival); d.received.push(p.received); d.drawn.push(t);
+    d.tick.push(performance.now());
     d.latency.push(t - p.arrival);
     if (timer === null) timer = setTimeout(() => { timer = null; update(); }, 250);  // a few times a second
   };
