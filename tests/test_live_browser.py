@@ -75,6 +75,14 @@ def _messages(payload: bytes) -> list[dict]:
     return [resolve(m) for m in body["messages"]]
 
 
+def _clouds(messages: list[dict]) -> list[np.ndarray]:
+    """The point clouds among decoded messages: the first as a new scene node, the next as updates of
+    its points."""
+    return ([m["props"]["points"].reshape(-1, 3) for m in messages if m.get("type") == "PointCloudMessage"] +
+            [m["updates"]["points"].reshape(-1, 3) for m in messages
+             if m.get("type") == "SceneNodeUpdateMessage" and "points" in m.get("updates", {})])
+
+
 def _options(record: Path) -> LiveOptions:
     return LiveOptions(camera="virtual:tiny", projector=None, patterns="3-step", calibration=None, z_min=None,
                        frame_rate=FRAME_RATE, loop_cycles=LOOP_CYCLES, exposure=None, frames=FRAMES, seconds=None,
@@ -161,8 +169,7 @@ def test_live_page_shows_the_figures_the_pipeline_measured(live_run):
 
 @pytest.mark.browser
 def test_live_page_receives_exactly_the_points_the_engine_reconstructs(live_run, loop_points):
-    clouds = [m["props"]["points"].reshape(-1, 3) for payload in live_run["received"]
-              for m in _messages(payload) if m.get("type") == "PointCloudMessage"]
+    clouds = [c for payload in live_run["received"] for c in _clouds(_messages(payload))]
     assert clouds, "the page received no point cloud"
     for cloud in clouds:
         matches = [k for k, (pts, *_) in enumerate(loop_points) if pts.shape == cloud.shape and
@@ -175,7 +182,7 @@ def _stamps(payloads: list[bytes]) -> list[tuple[int, float, bool]]:
     out = []
     for payload in payloads:
         messages = _messages(payload)
-        cloud = any(m.get("type") == "PointCloudMessage" for m in messages)
+        cloud = bool(_clouds(messages))
         for m in messages:
             content = m.get("updates", {}).get("content", "") if m.get("type") == "GuiUpdateMessage" else ""
             if FRAME_ATTRIBUTE in content:
@@ -188,7 +195,7 @@ def _stamps(payloads: list[bytes]) -> list[tuple[int, float, bool]]:
 @pytest.mark.browser
 def test_live_frame_stamps_travel_with_their_point_clouds(live_run):
     stamps = _stamps(live_run["received"])
-    clouds = sum(m.get("type") == "PointCloudMessage" for p in live_run["received"] for m in _messages(p))
+    clouds = sum(len(_clouds(_messages(p))) for p in live_run["received"])
     assert stamps and all(with_cloud for _, _, with_cloud in stamps)
     assert len(stamps) == clouds  # one stamp per cloud, in the same atomic update
     frames = [f for f, _, _ in stamps]

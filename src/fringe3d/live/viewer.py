@@ -172,6 +172,7 @@ class ViserViewer:
         ack.on_update(lambda _: self._acknowledged(ack.value))
         self._frames = 0
         self._sent_at = 0.0
+        self._cloud = None
         self._run_page_script()
 
     def _run_page_script(self) -> None:
@@ -214,7 +215,11 @@ class ViserViewer:
         self._sent_at = time.monotonic()
         arrival_ms = (arrival + (time.time() - time.monotonic())) * 1e3
         with self.server.atomic():  # the page applies the cloud and its stamp together
-            self.server.scene.add_point_cloud("/points", points, colours, **self._cloud_args)
+            if self._cloud is None:
+                self._cloud = self.server.scene.add_point_cloud("/points", points, colours, **self._cloud_args)
+            else:  # new buffers in the same scene node: the page keeps the node and its material
+                self._cloud.points = points
+                self._cloud.colors = colours
             self._stamp.content = frame_stamp(self._frames, arrival_ms)
         self.server.flush()
 
