@@ -248,7 +248,9 @@ def test_viewer_waits_for_a_page_that_acknowledges_frames_and_not_for_one_that_n
         pts, cols = np.zeros((4, 3), np.float32), np.zeros((4, 3), np.uint8)
         for _ in range(IN_FLIGHT + 1):
             v.show_points(pts, cols, 0.0)
-        assert not v.busy()  # no page acknowledged a frame yet (none, or one without the page script)
+        assert not v.busy()  # no page said it runs the page script (none, or one without it)
+        v._acknowledged("0")  # a page with the script started: it has drawn none of the frames sent
+        assert v.busy()
         v._acknowledged("1")  # the page drew frame 1 of IN_FLIGHT + 1 sent
         assert v.busy()
         v._acknowledged("2")

@@ -21,7 +21,8 @@ interpolated linearly between order statistics, as NumPy's default), and keeps t
 benchmark or a test to read. Frames the page never drew (two updates applied in one animation
 frame: only the newer is drawn) are not counted.
 
-After drawing a frame the script writes its number into the GUI field labelled
+When it starts (frame 0) and after drawing a frame the script writes its number into the GUI
+field labelled
 :data:`ACK_LABEL` (as if typed: viser has no other way for page code to talk to the server; the
 script hides that field), so the viewer knows what the page has drawn
 (:meth:`fringe3d.live.viewer.ViserViewer.busy`) and the loop does not send clouds faster than the
@@ -72,11 +73,13 @@ SCRIPT = r"""
     let row = label;
     while (row && !row.querySelector('input')) row = row.parentElement;
     const input = row && row.querySelector('input');
-    if (!input) return;
+    if (!input) return false;
     row.style.display = 'none';  // the page's own field, not a control
     setter.call(input, String(frame));
     input.dispatchEvent(new Event('input', {bubbles: true}));
+    return true;
   };
+  const hello = () => { if (!acknowledge(0)) setTimeout(hello, 100); };  // "drew frame 0": paced from the first
   const drawn = (p, t) => {
     acknowledge(p.frame);
     d.frame.push(p.frame); d.arrival.push(p.arrival); d.received.push(p.received); d.drawn.push(t);
@@ -102,6 +105,7 @@ SCRIPT = r"""
     });
   };
   new MutationObserver(look).observe(document.body, {subtree: true, childList: true});
+  hello();
   look();
 })();
 """ % {"ack": ACK_LABEL, "figures": FIGURES_ID, "frame": FRAME_ATTRIBUTE, "arrival": ARRIVAL_ATTRIBUTE}

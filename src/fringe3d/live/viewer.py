@@ -45,7 +45,7 @@ LABELS = {"fps": "3D frames/s", "latency_median": "latency median (ms)", "latenc
 
 
 #: Seconds the loop waits for the page to draw the last frame before it sends the next anyway.
-PATIENCE = 1.0
+PATIENCE = 2.0
 #: Frames sent and not yet drawn at most: the next cloud is reconstructed while the page draws one.
 IN_FLIGHT = 2
 
@@ -167,8 +167,8 @@ class ViserViewer:
         self._status = gui.add_text(LABELS["status"], initial_value="", disabled=True)
         self._overlay = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="mask overlay", format="jpeg")
         self._stamp = gui.add_html(frame_stamp(0, 0.0))
-        self.drawn = 0
-        ack = gui.add_text(ACK_LABEL, initial_value="0")
+        self.drawn = -1  # the last frame a page drew (0: a page runs the page script; -1: none yet)
+        ack = gui.add_text(ACK_LABEL, initial_value="")
         ack.on_update(lambda _: self._acknowledged(ack.value))
         self._frames = 0
         self._sent_at = 0.0
@@ -229,11 +229,12 @@ class ViserViewer:
         Returns
         -------
         bool
-            True when a page has acknowledged drawing frames before, has not yet acknowledged
-            the last one sent, and that was sent less than :data:`PATIENCE` s ago (a page that
-            stopped drawing, e.g. a hidden tab, is sent frames again).
+            True when a page runs the page script (it said so when it started), has not drawn
+            the last :data:`IN_FLIGHT` frames sent, and the last was sent less than
+            :data:`PATIENCE` s ago (a page that stopped drawing, e.g. a hidden tab, is sent
+            frames again). Never for pages without the script.
         """
-        return 0 < self.drawn <= self._frames - IN_FLIGHT and time.monotonic() - self._sent_at < PATIENCE
+        return 0 <= self.drawn <= self._frames - IN_FLIGHT and time.monotonic() - self._sent_at < PATIENCE
 
     def show_overlay(self, image: np.ndarray) -> None:
         """Show the mask overlay.
