@@ -6,7 +6,11 @@ simulator, only to prove that the script works).
 Two workloads, uint8 frames in, per 3D frame:
 
 * ``fused 3-step``: 3 frames -> wrapped phase -> geometric constraint -> closed-form point
-  (:class:`fringe3d.reconstruct.FastThreeStep` ``backend="cuda"``); out (H, W, 3) float32.
+  (:class:`fringe3d.reconstruct.FastThreeStep` ``backend="cuda"``); out (H, W, 3) float32;
+  also writing only the ray parameter (what the store keeps), and with every output of
+  ``fringe3d reconstruct --device cuda`` (:func:`fringe3d.gpu.fused_outputs.three_step_outputs`:
+  ray parameter masked by the quality tests, quality bits, sigma_z, texture; 13 bytes a pixel;
+  its CPU reference is the fused kernel plus :func:`fringe3d.reconstruct.fast_quality.fast_quality`).
 * ``three-frequency``: the 15-frame (9 + 3 + 3 step) heterodyne decode
   (:func:`fringe3d.unwrap.temporal.three_frequency_decode` ``backend="cuda"``); out absolute
   phase, wrapped phase, modulation, average, texture (float32) and the mask (bool).
@@ -163,6 +167,41 @@ def workload(name, cuda, cycles_host, run_gpu, run_cpu, in_bytes, out_bytes, rep
     return res
 
 
+def every_output(cuda, gpu3, cpu3, frames3, extent: tuple[float, float], repeats: tuple[int, int]) -> dict:
+    """The fused 3-step workload with every output of the sequence path made on the device
+    (masked ray parameter, quality bits with the default edge tests, sigma_z, texture), against
+    the CPU kernel plus :func:`fringe3d.reconstruct.fast_quality.fast_quality`."""
+    import numpy as np
+
+    from fringe3d.decode import DecodeOptions
+    from fringe3d.decode.edges import BASE_MARGIN
+    from fringe3d.gpu import fused_outputs as fo
+    from fringe3d.reconstruct.fast_quality import fast_quality
+
+    opts = DecodeOptions(z_min=0.0)
+    lo, hi = extent
+    settings = fo.QualitySettings(True, lo + BASE_MARGIN, hi - BASE_MARGIN, float(opts.gradient_ratio), 1.0,
+                                  float(opts.modulation_ratio), int(opts.rim), 255.0)
+    qo, po, qd, pd = gpu3.tri._ray_rows()
+    rows = fo.SigmaRows(po * qd - qo * pd, qd, pd, float(np.float32(gpu3.mp.period / (2 * math.pi))), 3)
+    inputs = fo.device_inputs(gpu3.device_geometry()[0], rows)
+    idx = np.arange(3)
+
+    def run_gpu(fr, dev):
+        return fo.three_step_outputs(fr, idx, inputs, gpu3.min_mod2, settings, True, device_output=dev)
+
+    def run_cpu(fr):
+        fq = fast_quality(cpu3, fr, idx, SHIFTS3, cpu3.depth_fields(fr, idx), extent, opts, "z")
+        return fq, np.add(fq.average, fq.modulation, dtype=np.float32) / np.float32(255.0)
+
+    got = run_gpu(frames3[:1], False)
+    fq, _ = run_cpu(frames3[0])
+    res = workload("fused 3-step + quality, sigma_z, texture", cuda, frames3, run_gpu, run_cpu,
+                   3 * frames3[0, 0].size, 13 * frames3[0, 0].size, *repeats)
+    res["quality_bits_equal_cpu"] = bool(np.array_equal(got.quality[0], fq.quality))
+    return res
+
+
 def main(argv=None) -> int:
     args = parse(argv)
     if os.path.exists(args.out) and not args.overwrite:
@@ -212,6 +251,8 @@ def main(argv=None) -> int:
     r3d = workload("fused 3-step, ray parameter out (store)", cuda, frames3,
                    lambda fr, dev: gpu3.depth(fr, device_output=dev), lambda fr: cpu3.depth(fr),
                    3 * px, 4 * px, repeat, cpu_repeat)
+    r3q = every_output(cuda, gpu3, cpu3, frames3, (float(np.nanmin(w)) - 1.0, float(np.nanmax(w)) + 1.0),
+                       (repeat, cpu_repeat))
     del frames3
 
     # 15-frame three-frequency decode
@@ -238,7 +279,7 @@ def main(argv=None) -> int:
               "repeat": repeat, "cpu": platform.processor() or platform.machine(), "cpu_cores": os.cpu_count(),
               "targets": {"resident_fps": TARGET_RESIDENT, "with_transfers_fps": TARGET_TRANSFER,
                           "resident_vs_bound": TARGET_BOUND_RATIO},
-              "results": [r3, r3d, r15]}
+              "results": [r3, r3d, r3q, r15]}
     report["figures"] = [  # benchmarks/summary.py: one value each (the repeats are summed inside workload)
         figure(f"CUDA {r['workload']}, {width}x{height}, {dev}", name, role, "3D frames/s", [r[key]])
         for r in report["results"]

@@ -23,13 +23,14 @@ def signatures():
     from numba import types as t
 
     from fringe3d.gpu import phase_kernels as pk
+    from fringe3d.gpu import quality_kernels as qk
     from fringe3d.gpu import triangulate_kernels as tk
     from fringe3d.gpu import unwrap_kernels as uk
 
     def A(dt, nd):
         return t.Array(dt, nd, "C")
 
-    f32, f64, i64, i8, b1 = t.float32, t.float64, t.int64, t.int8, t.boolean
+    f32, f64, i64, i32, i8, u8, b1 = t.float32, t.float64, t.int64, t.int32, t.int8, t.uint8, t.boolean
     out = []
     for fr in (t.uint8, t.uint16, t.float32):
         out += [
@@ -41,10 +42,25 @@ def signatures():
             (f"three_step[{fr}]", tk.three_step_kernel,
              (A(fr, 3), A(i64, 1), A(f64, 2), f64, A(f32, 1), A(i8, 1), f64, A(f64, 1), A(f32, 2), A(f64, 1),
               A(f64, 1), A(f32, 3))),
+            (f"three_step_depth[{fr}]", tk.three_step_depth_kernel,
+             (A(fr, 3), A(i64, 1), A(f64, 2), f64, A(f32, 1), A(i8, 1), f64, A(f64, 1), A(f32, 2), A(f64, 1),
+              A(f64, 1), A(f32, 2))),
+            (f"three_step_fields[{fr}]", qk.three_step_fields_kernel,
+             (A(fr, 3), A(i64, 1), A(f64, 2), f64, A(f32, 1), A(i8, 1), f64, A(f64, 1), A(f32, 2), A(f64, 1),
+              A(f64, 1), f32, A(f32, 2), A(f32, 2), A(f32, 2), A(f32, 2), b1, A(f32, 2))),
         ]
     out += [("geometric", uk.geometric_kernel, (A(f32, 2), A(f32, 1), A(i8, 1), A(b1, 2), b1, A(f32, 2), A(b1, 2))),
             ("central_points", tk.central_points_kernel, (A(f64, 2), A(b1, 2), A(f64, 1), A(f32, 2), A(f64, 1),
-                                                          A(f64, 1), A(f32, 3)))]
+                                                          A(f64, 1), A(f32, 3))),
+            ("jump_contrast", qk.jump_contrast_kernel, (A(f32, 2),) * 4 + (i64, i64, A(f32, 2), A(f32, 2))),
+            ("gradient_test", qk.gradient_test_kernel, (A(f32, 2), A(f32, 2), i64, i64, f32, f32, A(b1, 2))),
+            ("quality_bits", qk.quality_bits_kernel, (A(f32, 2), A(f32, 2), A(b1, 2), A(f32, 2), i64, i64, f32, f32,
+                                                      f32, i64, b1, A(u8, 2), A(f32, 2))),
+            ("laplacian_partials", qk.laplacian_partials_kernel, (A(f32, 2), A(u8, 2), i64, i64, A(f64, 2),
+                                                                  A(i32, 2))),
+            ("noise", qk.noise_kernel, (A(f64, 2), A(i32, 2), f64, f32, A(f32, 2))),
+            ("sigma_z", qk.sigma_z_kernel, (A(f32, 2), A(f32, 2), A(u8, 2), A(f32, 2), f32, A(f64, 1), A(f64, 1),
+                                            A(f64, 1), A(f32, 2), A(f32, 2)))]
     return out
 
 

@@ -200,3 +200,43 @@ def interior_laplacian_reference(image, mask):
     sums[1:-1] = np.where(inside, np.abs(r), 0.0).sum(axis=1)
     counts[1:-1] = inside.sum(axis=1)
     return sums, counts
+
+
+def sense_reference(image, settings, index):
+    """Plain-NumPy reference of :func:`fringe3d.sim.noise.sense` without blur (the steps before the
+    compiled pass): shot noise (``shot_noise``), read noise ``read_noise * N(0, 1)`` in float32,
+    then ``quantize``."""
+    from fringe3d.sim.noise import frame_rng, quantize, shot_noise
+
+    rng = frame_rng(settings.seed, index)
+    img = shot_noise(np.asarray(image, np.float64), settings.full_well, rng)
+    if settings.read_noise > 0:
+        img = img + settings.read_noise * rng.standard_normal(img.shape, dtype=np.float32)
+    return quantize(img, settings.bit_depth)
+
+
+def undistort_reference(xy_d, dist, iterations: int = 30, tol: float = 1e-14):
+    """Plain-NumPy reference of :func:`fringe3d.optics.distortion.undistort` (five coefficients):
+    Newton steps on Eq. (2.12)-(2.16) for all points together until the largest step is below
+    ``tol``."""
+    k1, k2, p1, p2, k3 = np.asarray(dist, float)
+    xy_d = np.asarray(xy_d, float)
+    xy = xy_d.copy()
+    for _ in range(iterations):
+        x, y = xy[..., 0], xy[..., 1]
+        r2 = x * x + y * y
+        radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        dradial = k1 + r2 * (2 * k2 + 3 * k3 * r2)
+        fx = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x) - xy_d[..., 0]
+        fy = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y - xy_d[..., 1]
+        jxx = radial + 2 * x * x * dradial + 2 * p1 * y + 6 * p2 * x
+        jxy = 2 * x * y * dradial + 2 * p1 * x + 2 * p2 * y
+        jyx = 2 * x * y * dradial + 2 * p1 * x + 2 * p2 * y
+        jyy = radial + 2 * y * y * dradial + 6 * p1 * y + 2 * p2 * x
+        det = jxx * jyy - jxy * jyx
+        dx = (jyy * fx - jxy * fy) / det
+        dy = (-jyx * fx + jxx * fy) / det
+        xy = np.stack([x - dx, y - dy], axis=-1)
+        if np.nanmax(np.abs(dx) + np.abs(dy), initial=0.0) < tol:
+            break
+    return xy

@@ -14,6 +14,7 @@ same figures).
 from __future__ import annotations
 
 import json
+import re
 import threading
 import time
 import warnings
@@ -27,6 +28,7 @@ from headless_chromium import launch
 from fringe3d.commands.live import LiveOptions, run_live
 from fringe3d.decode import DecodeOptions
 from fringe3d.live.display import display_points
+from fringe3d.live.page_script import ARRIVAL_ATTRIBUTE, FIGURES_ID, FRAME_ATTRIBUTE
 from fringe3d.live.viewer import LABELS
 from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
 from fringe3d.sim.live_take import render_take
@@ -73,6 +75,14 @@ def _messages(payload: bytes) -> list[dict]:
     return [resolve(m) for m in body["messages"]]
 
 
+def _clouds(messages: list[dict]) -> list[np.ndarray]:
+    """The point clouds among decoded messages: the first as a new scene node, the next as updates of
+    its points."""
+    return ([m["props"]["points"].reshape(-1, 3) for m in messages if m.get("type") == "PointCloudMessage"] +
+            [m["updates"]["points"].reshape(-1, 3) for m in messages
+             if m.get("type") == "SceneNodeUpdateMessage" and "points" in m.get("updates", {})])
+
+
 def _options(record: Path) -> LiveOptions:
     return LiveOptions(camera="virtual:tiny", projector=None, patterns="3-step", calibration=None, z_min=None,
                        frame_rate=FRAME_RATE, loop_cycles=LOOP_CYCLES, exposure=None, frames=FRAMES, seconds=None,
@@ -97,6 +107,7 @@ def live_run(tmp_path_factory):
 
     live = threading.Thread(target=run, daemon=True)
     received: list[bytes] = []
+    t_start = time.time()
     with sync_playwright() as p:
         browser = launch(p)
         live.start()
@@ -112,11 +123,18 @@ def live_run(tmp_path_factory):
                                timeout=60_000, polling=100)
         time.sleep(0.3)  # the final figures follow the last frame
         shown = {key: page.evaluate(GUI_VALUE, LABELS[key]) for key in LABELS}
+        # the page's own timing: its figures cover the last frame (always drawn: nothing newer replaces it)
+        page.wait_for_function(f"() => window.fringe3dDisplay && window.fringe3dDisplay.summary && "
+                               f"window.fringe3dDisplay.summary.last_frame === {FRAMES}", timeout=30_000, polling=100)
+        timed = page.evaluate("() => { const d = window.fringe3dDisplay; return {frame: d.frame, arrival: d.arrival, "
+                              "received: d.received, drawn: d.drawn, tick: d.tick, latency: d.latency}; }")
+        timed["shown"] = page.evaluate(f"() => document.getElementById('{FIGURES_ID}').textContent")
         page.screenshot(path=str(out / "live.png"))
         browser.close()
     live.join(timeout=60)
     assert "error" not in result, result.get("error")
-    return {"summary": result["summary"], "shown": shown, "received": received, "out": out}
+    return {"summary": result["summary"], "shown": shown, "received": received, "out": out, "timed": timed,
+            "wall": (t_start * 1e3, time.time() * 1e3)}
 
 
 @pytest.fixture(scope="module")
@@ -151,13 +169,65 @@ def test_live_page_shows_the_figures_the_pipeline_measured(live_run):
 
 @pytest.mark.browser
 def test_live_page_receives_exactly_the_points_the_engine_reconstructs(live_run, loop_points):
-    clouds = [m["props"]["points"].reshape(-1, 3) for payload in live_run["received"]
-              for m in _messages(payload) if m.get("type") == "PointCloudMessage"]
+    clouds = [c for payload in live_run["received"] for c in _clouds(_messages(payload))]
     assert clouds, "the page received no point cloud"
     for cloud in clouds:
         matches = [k for k, (pts, *_) in enumerate(loop_points) if pts.shape == cloud.shape and
                    np.array_equal(pts, cloud)]
         assert len(matches) == 1, "a cloud the page received is not one of the loop's cycles as the engine made it"
+
+
+def _stamps(payloads: list[bytes]) -> list[tuple[int, float, bool]]:
+    """(frame, arrival ms, a point cloud in the same websocket message) of each frame stamp the page received."""
+    out = []
+    for payload in payloads:
+        messages = _messages(payload)
+        cloud = bool(_clouds(messages))
+        for m in messages:
+            content = m.get("updates", {}).get("content", "") if m.get("type") == "GuiUpdateMessage" else ""
+            if FRAME_ATTRIBUTE in content:
+                frame = int(re.search(f'{FRAME_ATTRIBUTE}="([0-9]+)"', content).group(1))
+                arrival = float(re.search(f'{ARRIVAL_ATTRIBUTE}="([0-9.]+)"', content).group(1))
+                out.append((frame, arrival, cloud))
+    return out
+
+
+@pytest.mark.browser
+def test_live_frame_stamps_travel_with_their_point_clouds(live_run):
+    stamps = _stamps(live_run["received"])
+    clouds = sum(len(_clouds(_messages(p))) for p in live_run["received"])
+    assert stamps and all(with_cloud for _, _, with_cloud in stamps)
+    assert len(stamps) == clouds  # one stamp per cloud, in the same atomic update
+    frames = [f for f, _, _ in stamps]
+    assert frames == sorted(set(frames)) and frames[-1] == FRAMES
+    t0, t1 = live_run["wall"]  # arrival stamps are host wall-clock times (epoch ms) within the run
+    assert all(t0 <= a <= t1 for _, a, _ in stamps)
+
+
+@pytest.mark.browser
+def test_live_page_times_display_latency_of_the_frames_it_drew(live_run):
+    t = live_run["timed"]
+    frame, arrival = np.array(t["frame"]), np.array(t["arrival"])
+    received, drawn, latency = np.array(t["received"]), np.array(t["drawn"]), np.array(t["latency"])
+    tick = np.array(t["tick"])
+    sent = {f: a for f, a, _ in _stamps(live_run["received"])}
+    # the frames the page drew: frames the pipeline sent, in order, the last one included
+    assert frame.size >= 1 and np.all(np.diff(frame) > 0) and frame[-1] == FRAMES
+    assert frame.size <= live_run["summary"]["frames_shown"]
+    np.testing.assert_allclose(arrival, [sent[f] for f in frame], atol=1e-3)  # the stamps sent with the clouds
+    # one wall clock: arrival, then the page applied it, then drew it (Date.now() counts whole ms)
+    assert np.all(arrival <= received + 1.0) and np.all(received <= drawn)
+    np.testing.assert_allclose(latency, drawn - arrival)
+    # the figures the page shows are NumPy's over its own list (linear percentiles, rounded to 0.1)
+    shown = re.search(r"([0-9]+) 3D frames drawn, ([0-9.]+) frames/s; .* median ([0-9.]+) ms, p95 ([0-9.]+) ms, "
+                      r"max ([0-9.]+) ms", t["shown"])
+    assert shown, t["shown"]
+    n, fps, median, p95, worst = (float(x) for x in shown.groups())
+    assert n == frame.size
+    expect_fps = (frame.size - 1) / ((tick[-1] - tick[0]) / 1e3) if frame.size > 1 else 0.0
+    assert fps == pytest.approx(round(expect_fps, 1), abs=0.051)
+    for figure, value in ((median, np.median(latency)), (p95, np.percentile(latency, 95)), (worst, latency.max())):
+        assert figure == pytest.approx(round(float(value), 1), abs=0.051)
 
 
 def test_live_points_lie_on_the_rendered_scene_within_the_tiny_rigs_accuracy(loop_points):
@@ -166,3 +236,28 @@ def test_live_points_lie_on_the_rendered_scene_within_the_tiny_rigs_accuracy(loo
         assert on_scene.mean() > 0.97
         assert np.median(err) < 0.3  # mm; the tiny rig (160x128) at 400 mm, a moving ball
         assert np.percentile(err, 90) < 1.0
+
+
+def test_viewer_waits_for_a_page_that_acknowledges_frames_and_not_for_one_that_never_does(monkeypatch):
+    from fringe3d.live import viewer as viewer_module
+    from fringe3d.live.session import Controls
+    from fringe3d.live.viewer import IN_FLIGHT, ViewerSetup, ViserViewer
+
+    v = ViserViewer(ViewerSetup(port=0), Controls(choice="3-step"))
+    try:
+        pts, cols = np.zeros((4, 3), np.float32), np.zeros((4, 3), np.uint8)
+        for _ in range(IN_FLIGHT + 1):
+            v.show_points(pts, cols, 0.0)
+        assert not v.busy()  # no page said it runs the page script (none, or one without it)
+        v._acknowledged("0")  # a page with the script started: it has drawn none of the frames sent
+        assert v.busy()
+        v._acknowledged("1")  # the page drew frame 1 of IN_FLIGHT + 1 sent
+        assert v.busy()
+        v._acknowledged("2")
+        assert not v.busy()  # IN_FLIGHT - 1 frames in flight: send the next
+        v.show_points(pts, cols, 0.0)
+        assert v.busy()
+        monkeypatch.setattr(viewer_module, "PATIENCE", 0.0)  # a page that stopped drawing is sent frames again
+        assert not v.busy()
+    finally:
+        v.close()

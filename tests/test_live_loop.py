@@ -143,17 +143,22 @@ class RecordingViewer:
 
     def __init__(self):
         self.clouds: list = []
+        self.arrivals: list = []
         self.stats: list = []
         self.status: list = []
         self.on_frame = None
 
-    def show_points(self, points, colours):
+    def show_points(self, points, colours, arrival):
         self.clouds.append(points)
+        self.arrivals.append(arrival)
         if self.on_frame is not None:
             self.on_frame(len(self.clouds))
 
     def show_overlay(self, image):
         pass
+
+    def busy(self):
+        return False
 
     def show_stats(self, summary):
         self.stats.append(summary)

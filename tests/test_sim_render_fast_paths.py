@@ -160,3 +160,46 @@ def test_per_object_culling_equals_the_full_scene_cast_with_an_unbounded_plane()
     assert len(set(full.object_id.tolist())) == 7  # every object is seen, and some rays miss
     for name in ("t", "normal", "object_id", "albedo", "material_uv"):
         np.testing.assert_array_equal(getattr(culled, name), getattr(full, name), err_msg=name)
+
+
+@pytest.mark.parametrize("over", [{}, {"read_noise": 0.0}, {"bit_depth": 12, "full_well": 300.0}])
+def test_compiled_sensor_pass_gives_the_numpy_steps_frame_bit_for_bit(over):
+    from reference_implementations import sense_reference
+
+    from fringe3d.sim.noise import sense
+    from fringe3d.sim.settings import RenderSettings
+
+    s = RenderSettings(shot_noise=True, read_noise=0.004, bit_depth=8, full_well=1e4, seed=3).replace(**over)
+    rng = np.random.default_rng(0)
+    img = np.concatenate([rng.uniform(-0.01, 0.02, (40, 64)), rng.uniform(0.0, 1.3, (40, 64))])  # Poisson, clipped
+    for k in (0, 5):
+        assert np.array_equal(sense(img, s, k), sense_reference(img, s, k))
+
+
+def test_threaded_frames_equal_one_thread_and_the_session_keeps_its_images(monkeypatch):
+    import importlib
+
+    from fringe3d.sim import projector_sampling
+    from fringe3d.sim.calibration_session import default_board, render_board_poses, sample_board_poses
+
+    render_mod = importlib.import_module("fringe3d.sim.render")
+    p = presets.get("tiny")
+    ps = sets.phase_shift(18, 3, "v", width=p.rig.projector.width, height=p.rig.projector.height)
+    scene = Scene([Plane(p.center, (0, 0, -1))])
+    monkeypatch.setattr(render_mod, "SHADE_THREAD_PIXELS", 1)
+    monkeypatch.setattr(render_mod, "SHADE_THREADS", 3)
+    threaded, _ = render_capture(scene, p.rig, ps, p.settings, progress=False)
+    monkeypatch.setattr(render_mod, "SHADE_THREADS", 1)
+    serial, _ = render_capture(scene, p.rig, ps, p.settings, progress=False)
+    assert np.array_equal(threaded, serial)
+    made = []
+    real = projector_sampling.render_frame
+    monkeypatch.setattr(projector_sampling, "render_frame", lambda *a: made.append(a[0]) or real(*a))
+    monkeypatch.setattr(projector_sampling, "IMAGE_CACHE_SIZE", 2)  # fewer than the set's frames
+    IMAGE_CACHE.clear()
+
+    board = default_board(p.rig, p.volume)
+    poses = sample_board_poses(p.rig, p.volume, board, 3, np.random.default_rng(0))
+    render_board_poses(p.rig, p.settings, board, poses, ps, progress=False)
+    assert len(made) == len(ps.frames)  # once per image, not once per pose
+    assert len(IMAGE_CACHE) <= 2  # back to its usual size afterwards

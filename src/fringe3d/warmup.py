@@ -5,7 +5,8 @@ the first 3D frame after an install otherwise pays seconds of compilation. :func
 the two per-cycle paths a user meets first on a tiny simulated capture, in a temporary folder that
 is removed afterwards:
 
-* the decode path (``decode`` + triangulation) on the tiny preset's default capture;
+* the decode path (``decode`` + triangulation) on the tiny preset's default capture, and the
+  undistortion of a distorted camera's ray table;
 * the fused 3-step + geometric-constraint path (:class:`fringe3d.reconstruct.FastThreeStep`) on a
   3-step capture, with every default output (quality, sigma_z, texture), and the point store's
   float16 cast of sigma_z.
@@ -21,10 +22,13 @@ import warnings
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
+
 from fringe3d.decode import DecodeOptions
 from fringe3d.io._float16 import to_float16
 from fringe3d.io.capture import read_capture
 from fringe3d.optics import Rig
+from fringe3d.optics.distortion import undistort
 from fringe3d.patterns import sets
 from fringe3d.pipeline import reconstruct_capture
 from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
@@ -38,6 +42,8 @@ def _decode_path(folder: Path) -> None:
     cap = folder / "decode-path"
     simulate_capture(cap, preset="tiny", seed=0, progress=False)
     reconstruct_capture(cap, cap / "rig.json")
+    # the tiny camera has no lens distortion; a calibrated one has: its ray table's Newton kernel
+    undistort(np.zeros((1, 2)), (-0.08, 0.1, 0.0, 0.0, 0.0))
 
 
 def _fused_path(folder: Path) -> None:

@@ -43,7 +43,7 @@ class BufferPool(threading.local):
     :meth:`get` returns the buffer of that role, shape and dtype made last time, or makes it.
     Only the most recent shapes are kept (:attr:`KEEP` buffers), so memory stays bounded."""
 
-    KEEP = 32
+    KEEP = 64
 
     def __init__(self) -> None:
         self.buffers: dict[tuple, object] = {}
@@ -65,7 +65,7 @@ _POOL = BufferPool()
 
 
 def run_batched(cuda, frames, launch: Callable, outputs: Sequence[OutSpec], chunk: int = DEFAULT_CHUNK,
-                device_output: bool = False) -> list:
+                device_output: bool = False, scratch: Sequence[OutSpec] = ()) -> list:
     """Run ``launch(d_frames, d_outputs, stream)`` over every cycle of ``frames``.
 
     Parameters
@@ -73,11 +73,13 @@ def run_batched(cuda, frames, launch: Callable, outputs: Sequence[OutSpec], chun
     cuda : the ``numba.cuda`` module (from :func:`fringe3d.gpu.runtime.cuda_module`)
     frames : (C, F, P) host array, or a device array (processed in one launch)
     launch : callable
-        Launches the kernel for a ``(n, F, P)`` device chunk, writing the ``(n, ...)`` device
-        outputs, on ``stream``.
+        Launches the kernel(s) for a ``(n, F, P)`` device chunk, writing the ``(n, ...)`` device
+        outputs (followed by the ``(n, ...)`` scratch arrays, when any), on ``stream``.
     outputs : per-cycle ``(shape, dtype)`` of each output
     chunk : cycles per upload (host frames)
     device_output : keep the ``(C, ...)`` outputs on the device instead of copying them back
+    scratch : per-cycle ``(shape, dtype)`` of device arrays the launch works in (never copied;
+        one set per buffer, kept between calls like the chunk buffers)
 
     Returns
     -------
@@ -86,8 +88,9 @@ def run_batched(cuda, frames, launch: Callable, outputs: Sequence[OutSpec], chun
     n_cyc = frames.shape[0]
     if is_device_array(frames):
         d_res = [cuda.device_array((n_cyc,) + tuple(s), dt) for s, dt in outputs]
+        tmp = [cuda.device_array((n_cyc,) + tuple(s), dt) for s, dt in scratch]
         stream = cuda.stream()
-        launch(frames, d_res, stream)
+        launch(frames, d_res + tmp, stream)
         stream.synchronize()
         return d_res if device_output else [d.copy_to_host() for d in d_res]
     chunk = max(1, min(int(chunk), n_cyc))
@@ -103,6 +106,8 @@ def run_batched(cuda, frames, launch: Callable, outputs: Sequence[OutSpec], chun
                         for o, (s, dt) in enumerate(outputs)] for b in range(2)]
         pin_out: list = [[_POOL.get(cuda, f"pinned out {o}", b, (chunk,) + tuple(s), dt)
                           for o, (s, dt) in enumerate(outputs)] for b in range(2)]
+    d_tmp: list = [[_POOL.get(cuda, f"device scratch {o}", b, (chunk,) + tuple(s), dt)
+                    for o, (s, dt) in enumerate(scratch)] for b in range(2)]
     pending: list = [None, None]  # (c0, n) of the chunk whose results wait in pin_out[b]
 
     def flush(b: int) -> None:
@@ -122,7 +127,7 @@ def run_batched(cuda, frames, launch: Callable, outputs: Sequence[OutSpec], chun
         src = d_in[b][:n]
         src.copy_to_device(pin_in[b][:n], stream=streams[b])
         outs = [d[c0:c0 + n] for d in full] if device_output else [d[:n] for d in d_out[b]]
-        launch(src, outs, streams[b])
+        launch(src, outs + [d[:n] for d in d_tmp[b]], streams[b])
         if not device_output:
             for d, po in zip(outs, pin_out[b]):
                 d.copy_to_host(po[:n], stream=streams[b])

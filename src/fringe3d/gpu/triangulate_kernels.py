@@ -49,17 +49,25 @@ def central_points_kernel(w, mask, O, D, Q, P3, out):
 
 
 @cuda.jit(device=True)
-def three_step_s(frames, cyc, p, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3):
+def three_step_pixel(frames, cyc, p, idx, coef, phi_min, sign, scale, O, D, Q, P3):
     """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> ray parameter ``s``
-    of pixel ``p`` in cycle ``cyc`` (Eq. 2.37 along the ray); NaN where invalid."""
+    (Eq. 2.37 along the ray) of pixel ``p`` in cycle ``cyc``: ``(s, w, a, b^2 + c^2, ok)``, float64,
+    ``a`` the average, ``b^2 + c^2`` the squared modulation, ``ok`` the sign and ``s > 0`` tests
+    (the modulation test is the caller's)."""
     a, b, c, peak = group_sums64(frames, cyc, idx, coef, p)
     phi = math.atan2(-c, b)
     sg = np.float64(sign[p])
     x = (np.float64(phi_min[p]) - phi) / TWO_PI
     w = (phi + TWO_PI * (sg * ceil_f(sg * x))) * scale
     s = ray_parameter(w, p, O, D, Q, P3)
-    ok = ((b * b + c * c) >= min_mod2) and (sg != 0.0) and (s > 0.0)
-    return s if ok else math.nan
+    return s, w, a, b * b + c * c, (sg != 0.0) and (s > 0.0)
+
+
+@cuda.jit(device=True)
+def three_step_s(frames, cyc, p, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3):
+    """:func:`three_step_pixel`'s ray parameter ``s``; NaN where invalid."""
+    s, w, a, b2, ok = three_step_pixel(frames, cyc, p, idx, coef, phi_min, sign, scale, O, D, Q, P3)
+    return s if (b2 >= min_mod2) and ok else math.nan
 
 
 @cuda.jit

@@ -57,6 +57,18 @@ def local_roughness(points: np.ndarray) -> np.ndarray:
     P = np.asarray(points, np.float64)
     if P.ndim != 3 or P.shape[-1] != 3:
         raise ValueError(f"roughness needs an organized point map (H, W, 3), got {P.shape}")
+    finite = np.all(np.isfinite(P), axis=-1)
+    out = np.full(P.shape[:2], np.nan, np.float32)
+    rows, cols = np.flatnonzero(finite.any(axis=1)), np.flatnonzero(finite.any(axis=0))
+    if rows.size:  # every point outside the box around the valid ones is invalid, NaN: the box alone
+        box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+        out[box] = _roughness(P[box])
+    return out
+
+
+def _roughness(P: np.ndarray) -> np.ndarray:
+    """:func:`local_roughness` of a map ``P`` (H, W, 3) float64 with no valid point beyond its
+    border (an object's bounding box: its NaN padding is what the whole map holds there)."""
     H, W = P.shape[:2]
     pad = np.pad(P, ((1, 1), (1, 1), (0, 0)), constant_values=np.nan)
     nb = np.stack([pad[i:i + H, j:j + W] for i in range(3) for j in range(3)], axis=2)  # (H, W, 9, 3)

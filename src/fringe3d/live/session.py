@@ -4,9 +4,11 @@ Two threads. The **capture** thread takes complete pattern cycles from the activ
 (:class:`~fringe3d.live.cycles.CameraCycles`), applies the page's exposure and pattern-set
 changes between cycles, feeds a recording, and leaves each cycle in a one-place mailbox,
 replacing one not yet taken (a viewer shows the newest cycle; the replaced ones are counted as
-skipped). The **pipeline** (the calling thread) takes the newest cycle, reconstructs it with the
-choice's :class:`~fringe3d.reconstruct.frame.FrameReconstructor` (the engine every other
-command uses), draws its points (:func:`~fringe3d.live.display.display_points`) and, a few times
+skipped). The **pipeline** (the calling thread) waits while the viewer is busy (the page has
+not drawn the frames sent: :meth:`Viewer.busy`; the cycles that arrive meanwhile are skipped),
+then takes the newest cycle, reconstructs it with the choice's
+:class:`~fringe3d.reconstruct.frame.FrameReconstructor` (the engine every other command uses),
+draws its points (:func:`~fringe3d.live.display.display_points`) and, a few times
 a second, the mask overlay and the figures (:class:`~fringe3d.live.stats.LiveStats`), until the
 frame or time limit, :meth:`LiveSession.stop` or Ctrl-C.
 
@@ -67,8 +69,13 @@ class Controls:
 class Viewer(Protocol):
     """What the loop draws on (:class:`fringe3d.live.viewer.ViserViewer` in a browser)."""
 
-    def show_points(self, points: np.ndarray, colours: np.ndarray) -> None:
-        """Draw ``(N, 3)`` float32 points (mm) with ``(N, 3)`` uint8 colours, replacing the last."""
+    def show_points(self, points: np.ndarray, colours: np.ndarray, arrival: float) -> None:
+        """Draw ``(N, 3)`` float32 points (mm) with ``(N, 3)`` uint8 colours, replacing the last;
+        ``arrival`` is the host time (``time.monotonic()``, s) their cycle arrived."""
+        ...
+
+    def busy(self) -> bool:
+        """Whether the page is still drawing the last frame (the loop then waits before the next)."""
         ...
 
     def show_overlay(self, image: np.ndarray) -> None:
@@ -349,6 +356,9 @@ class LiveSession:
         t_refresh = 0.0
         warm = self._warm_up()
         while not self._finished(t_first):
+            if self.viewer.busy():  # the page has not drawn the last frame: the newest cycle waits in the mailbox
+                time.sleep(0.002)
+                continue
             arrival = self._next()
             if arrival is None:
                 continue
@@ -366,7 +376,7 @@ class LiveSession:
             else:
                 colouring = self.controls.colouring if cyc.texture is not None else "z"
                 pts, cols = display_points(cyc.points, cyc.texture, colouring, s.z_range, s.step)
-            self.viewer.show_points(pts, cols)
+            self.viewer.show_points(pts, cols, arrival.arrival)
             sent = time.monotonic()
             self.stats.shown(arrival.arrival, sent, len(pts))
             t_first = sent if t_first is None else t_first

@@ -67,9 +67,9 @@ class LiveStats:
         dict
             ``frames_shown``, ``fps``, ``latency_ms`` (``median``, ``p95``, ``max``),
             ``cycles_arrived``, ``cycles_skipped`` (arrived while an older one was being
-            reconstructed, or while paused), ``warm_up_cycles`` (the first, reconstructed while the
-            kernels load, and those that arrived meanwhile: not shown), ``empty_cycles`` and
-            ``points_median``.
+            reconstructed, while the page was still drawing, or while paused), ``warm_up_cycles``
+            (the first, reconstructed while the kernels load, and those that arrived meanwhile:
+            not shown), ``empty_cycles`` and ``points_median``.
         """
         lat = np.asarray(self.latencies, float) * 1e3
         r = DECIMALS

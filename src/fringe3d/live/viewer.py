@@ -11,7 +11,12 @@
   camera's exposure time), **pattern set** (when there is a choice), **colour** (by depth or
   texture), **pause**, and **record**: a folder, a number of cycles and a button that records
   the next cycles there as a capture folder; the **mask overlay** image (texture in grey,
-  masked pixels tinted by reason, :func:`fringe3d.live.display.mask_overlay`).
+  masked pixels tinted by reason, :func:`fringe3d.live.display.mask_overlay`);
+* under the view, the page's own figures: the frames it drew, their rate and the **display
+  latency** (frame arrival to the cloud drawn in the page), timed by the page itself
+  (:mod:`fringe3d.live.page_script`). The page also tells the viewer which frame it drew last:
+  :meth:`ViserViewer.busy` holds the loop while :data:`IN_FLIGHT` frames are not drawn yet, so
+  a slow page is not sent clouds it cannot draw.
 
 viser is an optional dependency (the ``live`` extra), imported when a viewer is made.
 """
@@ -20,19 +25,29 @@ from __future__ import annotations
 import contextlib
 import importlib
 import io
+import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from fringe3d.devices.base import MissingExtraError
+from fringe3d.utils.warning_types import DeviceWarning
 
 from .display import COLOURINGS
+from .page_script import ACK_LABEL, SCRIPT, frame_stamp
 from .session import Controls
 from .stats import shown_text
 
 #: The GUI labels of the figures, as the page shows them.
 LABELS = {"fps": "3D frames/s", "latency_median": "latency median (ms)", "latency_p95": "latency p95 (ms)",
           "frames_shown": "3D frames shown", "points": "points per frame (median)", "status": "record status"}
+
+
+#: Seconds the loop waits for the page to draw the last frame before it sends the next anyway.
+PATIENCE = 2.0
+#: Frames sent and not yet drawn at most: the next cloud is reconstructed while the page draws one.
+IN_FLIGHT = 2
 
 
 def require_viser():
@@ -151,6 +166,30 @@ class ViserViewer:
         button.on_click(lambda _: self._ask_record(str(folder.value), int(cycles.value)))
         self._status = gui.add_text(LABELS["status"], initial_value="", disabled=True)
         self._overlay = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="mask overlay", format="jpeg")
+        self._stamp = gui.add_html(frame_stamp(0, 0.0))
+        self.drawn = -1  # the last frame a page drew (0: a page runs the page script; -1: none yet)
+        ack = gui.add_text(ACK_LABEL, initial_value="")
+        ack.on_update(lambda _: self._acknowledged(ack.value))
+        self._frames = 0
+        self._sent_at = 0.0
+        self._cloud = None
+        self._run_page_script()
+
+    def _run_page_script(self) -> None:
+        """Run the page's display-latency script (:mod:`.page_script`) in every page, now and on connect."""
+        try:  # viser's own way to run JavaScript in its pages (it loads plotly.js so); kept for new pages
+            from viser import _messages
+            self.server._websock_server.queue_message(_messages.RunJavascriptMessage(source=SCRIPT))
+        except (ImportError, AttributeError, TypeError) as e:
+            warnings.warn(f"this viser ({getattr(require_viser(), '__version__', '?')}) cannot run the page's "
+                          f"display-latency script ({e}); the page shows the pipeline's figures only",
+                          DeviceWarning, stacklevel=3)
+
+    def _acknowledged(self, value: str) -> None:
+        try:
+            self.drawn = max(self.drawn, int(value))
+        except ValueError:  # typed into by hand
+            pass
 
     def _ask_record(self, folder: str, cycles: int) -> None:
         if not folder.strip():
@@ -159,8 +198,8 @@ class ViserViewer:
         self.controls.record = (folder.strip(), max(1, cycles))
 
     # -- the Viewer protocol ----------------------------------------------------------------
-    def show_points(self, points: np.ndarray, colours: np.ndarray) -> None:
-        """Draw the points, replacing the last frame's, and send them now.
+    def show_points(self, points: np.ndarray, colours: np.ndarray, arrival: float) -> None:
+        """Draw the points, replacing the last frame's, and send them now, with the frame's stamp.
 
         Parameters
         ----------
@@ -168,9 +207,34 @@ class ViserViewer:
             Points (mm).
         colours : (N, 3) uint8 ndarray
             Their colours.
+        arrival : float
+            Host time (``time.monotonic()``, s) the frame's cycle arrived; sent as epoch ms in
+            the same atomic update as the cloud, for the page's display latency.
         """
-        self.server.scene.add_point_cloud("/points", points, colours, **self._cloud_args)
+        self._frames += 1
+        self._sent_at = time.monotonic()
+        arrival_ms = (arrival + (time.time() - time.monotonic())) * 1e3
+        with self.server.atomic():  # the page applies the cloud and its stamp together
+            if self._cloud is None:
+                self._cloud = self.server.scene.add_point_cloud("/points", points, colours, **self._cloud_args)
+            else:  # new buffers in the same scene node: the page keeps the node and its material
+                self._cloud.points = points
+                self._cloud.colors = colours
+            self._stamp.content = frame_stamp(self._frames, arrival_ms)
         self.server.flush()
+
+    def busy(self) -> bool:
+        """Whether the page is still drawing the last frame sent (then the loop waits, not sends).
+
+        Returns
+        -------
+        bool
+            True when a page runs the page script (it said so when it started), has not drawn
+            the last :data:`IN_FLIGHT` frames sent, and the last was sent less than
+            :data:`PATIENCE` s ago (a page that stopped drawing, e.g. a hidden tab, is sent
+            frames again). Never for pages without the script.
+        """
+        return 0 <= self.drawn <= self._frames - IN_FLIGHT and time.monotonic() - self._sent_at < PATIENCE
 
     def show_overlay(self, image: np.ndarray) -> None:
         """Show the mask overlay.

@@ -18,8 +18,6 @@ harmonics of a squared binary pattern) but never moves the phase (Eq. 2.27-2.29)
 from __future__ import annotations
 
 import numpy as np
-from scipy import fft as sfft
-from scipy.special import j1
 
 MODELS = ("none", "gaussian", "hopkins")
 
@@ -69,6 +67,8 @@ def hopkins_otf(s, omega: float, wavelength: float = 1.0) -> np.ndarray:
     a = 4.0 * np.pi * omega * np.asarray(s, dtype=float) / wavelength
     out = np.ones_like(a)
     nz = np.abs(a) > 1e-12
+    from scipy.special import j1  # heavy: loaded with the first Hopkins OTF
+
     out[nz] = 2.0 * j1(a[nz]) / a[nz]
     return out
 
@@ -180,6 +180,8 @@ def blur_pattern(image: np.ndarray, model: str = "gaussian", size: float = 0.0,
         pad = int(np.ceil(6 * size)) + 2
     work = np.pad(img, pad, mode="symmetric") if pad > 0 else img
     H, W = work.shape
+    from scipy import fft as sfft  # heavy (0.3 s with scipy.special): loaded with the first blur
+
     fy = sfft.fftfreq(H)[:, None]
     fx = sfft.rfftfreq(W)[None, :]
     transfer = otf(np.sqrt(fx**2 + fy**2), model, size)

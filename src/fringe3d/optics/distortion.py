@@ -160,6 +160,12 @@ def undistort(xy_d: np.ndarray, dist, iterations: int = 30, tol: float = 1e-14) 
     if d.size > 5:
         return _undistort_full(xy_d, d, iterations, tol)
     k1, k2, p1, p2, k3 = d
+    if xy_d.ndim and xy_d.shape[-1] == 2:  # compiled, the same float operations (bit for bit)
+        from ._undistort_kernel import undistort5
+
+        flat = np.ascontiguousarray(xy_d).reshape(-1, 2)
+        out = undistort5(flat, k1, k2, p1, p2, k3, int(iterations), float(tol), np.empty_like(flat))
+        return out.reshape(xy_d.shape)
     xy = xy_d.copy()
     for _ in range(iterations):
         x, y = xy[..., 0], xy[..., 1]

@@ -18,7 +18,6 @@ import math
 import os
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from fringe3d.utils.jsonfile import read_json, write_json
 
@@ -66,6 +65,8 @@ def fit_gamma(levels, frames, full_scale: float | None = None, min_contrast: flo
 
     def cost(g):
         return float(np.sum((x[use] ** g - r[use]) ** 2))
+
+    from scipy.optimize import minimize_scalar  # heavy (0.5 s): loaded only when a gamma is fitted
 
     res = minimize_scalar(cost, bounds=(0.1, 10.0), method="bounded", options={"xatol": 1e-8})
     g = float(res.x)

@@ -29,7 +29,6 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from scipy import fft as sfft
 
 from fringe3d.patterns.conventions import fringe_coordinate
 
@@ -53,9 +52,17 @@ class FTPResult(NamedTuple):
     carrier: tuple[float, float]
 
 
+def _fft():
+    """``scipy.fft``, imported on first use (with ``scipy.special``, 0.4 s that a decoder without an
+    FTP plan does not pay)."""
+    from scipy import fft
+
+    return fft
+
+
 def _freqs(shape):
-    fv = sfft.fftfreq(shape[0])[:, None]
-    fu = sfft.fftfreq(shape[1])[None, :]
+    fv = _fft().fftfreq(shape[0])[:, None]
+    fu = _fft().fftfreq(shape[1])[None, :]
     return fv, fu
 
 
@@ -96,7 +103,7 @@ def detect_carrier(image: np.ndarray, angle: float | None = None, dc_radius: flo
     img = np.asarray(image, dtype=np.float64)
     if img.ndim != 2:
         raise ValueError(f"FTP needs one (H, W) image, got shape {img.shape}")
-    spec = np.abs(sfft.fft2(img - img.mean())) if spectrum is None else np.abs(spectrum)
+    spec = np.abs(_fft().fft2(img - img.mean())) if spectrum is None else np.abs(spectrum)
     fv, fu = _freqs(img.shape)
     r = 3.0 / min(img.shape) if dc_radius is None else dc_radius
     if angle is None:
@@ -185,11 +192,11 @@ def ftp_analysis(image: np.ndarray, window: str = "hanning", carrier=None, angle
     img = np.asarray(image, dtype=np.float64)
     if img.ndim != 2:
         raise ValueError(f"FTP needs one (H, W) image, got shape {img.shape}")
-    spec = sfft.fft2(img, workers=-1)
+    spec = _fft().fft2(img, workers=-1)
     if carrier is None:
         carrier = detect_carrier(img, angle=angle, spectrum=spec)  # DC is outside dc_radius
     win = bandpass_window(img.shape, carrier, window, radius)
-    analytic = sfft.ifft2(spec * win, workers=-1)
+    analytic = _fft().ifft2(spec * win, workers=-1)
     return FTPResult(np.angle(analytic), 2.0 * np.abs(analytic), img - 2.0 * analytic.real,
                      (float(carrier[0]), float(carrier[1])))
 

@@ -11,6 +11,7 @@ fast_quality`). Sequencing many cycles into files is :mod:`fringe3d.reconstruct.
 from __future__ import annotations
 
 import dataclasses
+import math
 import warnings
 from typing import Iterator, NamedTuple
 
@@ -18,7 +19,7 @@ import numpy as np
 
 from fringe3d.decode.context import phase_groups
 from fringe3d.decode.decoder import decode
-from fringe3d.decode.edges import INVALID, pixel_extent
+from fringe3d.decode.edges import INVALID, edge_margin, oblique_factor, pixel_extent
 from fringe3d.decode.method_plans import with_method as plans_with_method
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.decode.plan_checks import check_plans
@@ -31,7 +32,7 @@ from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.conventions import w_range, w_to_phase
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.patterns.method_registry import method_facts
-from fringe3d.phase.quality import default_min_modulation
+from fringe3d.phase.quality import default_min_modulation, full_scale
 from fringe3d.reconstruct.depth import EmptyMaskError, points_from_decoded
 from fringe3d.reconstruct.fast_quality import fast_quality
 from fringe3d.reconstruct.triangulate import FastThreeStep, ThreeStepFields, Triangulator
@@ -39,6 +40,10 @@ from fringe3d.reconstruct.uncertainty import point_sigma
 from fringe3d.reconstruct.windows import window_index
 from fringe3d.unwrap.geometric import cached_minimum_phase, check_wrap_around
 from fringe3d.utils.warning_types import ReconstructionWarning
+
+#: GRADIENT's floor on the jump of ``w`` (px) on the fused path: the default of
+#: :func:`fringe3d.decode._fused_quality.fused_quality_map`, which :func:`fast_quality` keeps.
+GRADIENT_FLOOR = 1.0
 
 
 # ----------------------------------------------------------------------------- plans
@@ -86,10 +91,11 @@ class FrameReconstructor:
     modulation, then the edge and mixed-pixel tests of :mod:`fringe3d.reconstruct.fast_quality`;
     saturation is not checked on that path).
 
-    ``backend="cuda"`` runs the per-pixel kernels on a CUDA device (:mod:`fringe3d.gpu`): the
-    fused kernel on the fused path, the fused three-frequency kernel on the decode path
-    (``DecodeOptions.backend``); the quality tests, texture and everything else stay on the CPU,
-    so the results equal the CPU backend's to float rounding.
+    ``backend="cuda"`` runs the per-pixel kernels on a CUDA device (:mod:`fringe3d.gpu`): on the
+    fused path the fused kernel with the quality tests, the texture and ``sigma_z``
+    (:meth:`device_cycles`; ``sigma_xyz`` stays on the CPU), on the decode path the fused
+    three-frequency kernel (``DecodeOptions.backend``; the rest of the decode stays on the CPU).
+    The results equal the CPU backend's: quality bits exactly, float maps to float rounding.
 
     The plans are checked first (:func:`fringe3d.decode.plan_checks.check_plans`): a geometric
     method without ``options.z_min`` raises ``MissingGeometryError``, a wrapped or relative
@@ -141,15 +147,68 @@ class FrameReconstructor:
         """Points ``(H, W, 3)`` float32 mm of one cycle (:meth:`reconstruct` without sigma)."""
         return self.reconstruct(frames, uncertainty=False).points
 
-    def depths(self, cycles: list[np.ndarray]) -> list | None:
-        """On the CUDA fused path, the ray parameters (:meth:`FastThreeStep.depth`) of several
-        cycles (each (n, H, W), manifest order) in one batched launch, for :meth:`reconstruct`'s
-        ``depth``; None elsewhere (each cycle is then computed on its own)."""
-        if self.fast is None or self.backend != "cuda" or len(cycles) < 2:
-            return None
-        assert self.fused is not None
+    def on_device(self, uncertainty: bool | str) -> bool:
+        """Whether :meth:`device_cycles` makes the outputs: the CUDA fused path, without ``sigma_xyz``
+        (``uncertainty`` False or ``"z"``)."""
+        return self.fast is not None and self.backend == "cuda" and uncertainty is not True
+
+    def device_cycles(self, cycles: list[np.ndarray], uncertainty: bool | str, points: bool = True,
+                      texture: bool = True) -> list[Cycle | None]:
+        """Several cycles (each (n, H, W), manifest order) on the CUDA fused path in one batched
+        launch, every output made on the device (:func:`fringe3d.gpu.fused_outputs.three_step_outputs`):
+        the ray parameters masked by the quality tests, the quality map, ``sigma_z`` (``uncertainty``
+        ``"z"``) and the texture (``texture``); the points (``points``) are ``ray_points`` of the
+        depth, as on the CPU. Each :class:`Cycle` equals :meth:`reconstruct`'s on the CPU backend
+        (quality bits exactly, float maps to float rounding); None for a cycle whose phase mask is
+        empty. Only where :meth:`on_device`."""
+        from fringe3d.gpu import fused_outputs as fo
+
+        assert self.fused is not None and self.on_device(uncertainty)
+        fused, fast = self.fused, self.fused.kernel
         self._set_min_modulation(cycles[0])
-        return list(self.fast.depth(np.stack(cycles), index=self.fused.index))
+        if not self._range_checked:  # once: the depth-range warning, from the points before the edge tests
+            self._check_range(fast.depth(cycles[0], index=fused.index))
+        out = fo.three_step_outputs(np.stack(cycles), fused.index, self._device_inputs(bool(uncertainty)),
+                                    fast.min_mod2, self._quality_settings(cycles[0]), texture)
+        res: list[Cycle | None] = []
+        for c in range(len(cycles)):
+            q = out.quality[c]
+            if not (q != INVALID).any():  # no valid pixel: the CPU path's EmptyMaskError
+                res.append(None)
+                continue
+            depth = out.depth[c]
+            tex = None if out.texture is None else out.texture[c]
+            res.append(Cycle(fast.ray_points(depth) if points else None, tex, q, None, depth,
+                             None if out.sigma_z is None else out.sigma_z[c]))
+        return res
+
+    def _device_inputs(self, sigma: bool):
+        """The fused path's device inputs (:class:`fringe3d.gpu.fused_outputs.DeviceInputs`), uploaded
+        once; with the ``sigma_z`` terms when ``sigma``."""
+        from fringe3d.gpu import fused_outputs as fo
+
+        assert self.fused is not None
+        fast = self.fused.kernel
+        if getattr(self, "_device", None) is None:
+            geometry, constants = fast.device_geometry()
+            qo, po, qd, pd = fast.tri._ray_rows()
+            rows = fo.SigmaRows(po * qd - qo * pd, qd, pd, float(np.float32(fast.mp.period / (2 * math.pi))),
+                                len(self.fused.index))  # the operations of RayGeometry.sigma_z_from_phase_noise
+            self._device = fo.device_inputs(geometry, rows)
+        return self._device if sigma else self._device._replace(sigma=None, sigma_maps=None)
+
+    def _quality_settings(self, frames: np.ndarray):
+        """The fused path's quality rules as numbers (:func:`fringe3d.reconstruct.fast_quality.fast_quality`'s
+        arguments to :func:`fringe3d.decode._fused_quality.fused_quality_map`)."""
+        from fringe3d.gpu.fused_outputs import QualitySettings
+
+        assert self.fused is not None
+        opt = self.options
+        lo, hi = self.fused.extent
+        margin = edge_margin(opt.edge_margin) * oblique_factor(self.fused.kernel.mp.angle)  # as decode.assess
+        return QualitySettings(bool(opt.edge_mask), lo + margin, hi - margin, float(opt.gradient_ratio),
+                               GRADIENT_FLOOR, float(opt.modulation_ratio), int(opt.rim),
+                               full_scale(frames, opt.bit_depth))
 
     def _set_min_modulation(self, frames: np.ndarray) -> None:
         """The fused path's modulation threshold for ``frames`` (default: from their bit depth)."""
@@ -166,7 +225,14 @@ class FrameReconstructor:
         ``sigma_z`` alone). Both paths mask edge and mixed pixels unless ``options.edge_mask``
         is False. ``points=False`` leaves ``points`` None on the fused path (its ``depth`` holds
         them), ``texture=False`` leaves ``texture`` None there. ``depth``: the fused kernel's ray
-        parameters for these frames, already computed (:meth:`depths`)."""
+        parameters for these frames, already computed. On the CUDA fused path without ``sigma_xyz``
+        or ``depth`` every output is made on the device (:meth:`device_cycles`)."""
+        if self.on_device(uncertainty) and depth is None:
+            cycle = self.device_cycles([frames], uncertainty, points, texture)[0]
+            if cycle is None:
+                raise EmptyMaskError("the decoded phase mask is empty: no pixel has enough fringe modulation (check "
+                                     "exposure, modulation threshold and that the scene is lit by the projector)")
+            return cycle
         if self.fast is not None:
             return self._reconstruct_fused(frames, uncertainty, points, texture, depth)
         dec = decode(frames, self.patterns, rig=self.rig, options=self.options, geometry=self.geometry)
@@ -187,7 +253,7 @@ class FrameReconstructor:
         fused = self.fused
         assert fused is not None
         fast = fused.kernel
-        if depth is not None:  # computed elsewhere (the CUDA batch): w, A, B are recomputed
+        if depth is not None:  # computed elsewhere: w, A, B are recomputed
             fields = ThreeStepFields(depth)
         else:
             self._set_min_modulation(frames)
@@ -238,11 +304,16 @@ def reconstruct_window(rec: FrameReconstructor, frames: np.ndarray, ply: bool, l
         return rec.reconstruct(frames, uncertainty="z" if quality else False, points=want_points, texture=ply,
                                depth=depth), False
     except EmptyMaskError:
-        pass
-    H, W = frames.shape[1:]
-    nan = np.full((H, W), np.nan, np.float32)
-    return Cycle(np.full((H, W, 3), np.nan, np.float32) if want_points else None, None,
-                 np.full((H, W), INVALID, np.uint8), None, nan if rec.fast is not None else None), True
+        return empty_cycle(rec, frames.shape[1:], want_points), True
+
+
+def empty_cycle(rec: FrameReconstructor, shape: tuple[int, int], points: bool) -> Cycle:
+    """The cycle of a window whose phase mask is empty: NaN points (when ``points``) and depth
+    (on the fused path), every pixel INVALID."""
+    H, W = shape
+    return Cycle(np.full((H, W, 3), np.nan, np.float32) if points else None, None,
+                 np.full((H, W), INVALID, np.uint8), None, np.full((H, W), np.nan, np.float32) if rec.fast is not None
+                 else None)
 
 
 def window_frames(frames, starts, ks: list[int], n: int) -> list[np.ndarray]:
@@ -254,12 +325,16 @@ def window_frames(frames, starts, ks: list[int], n: int) -> list[np.ndarray]:
 def reconstructed_cycles(rec: FrameReconstructor, ks: list[int], cycles: list[np.ndarray], ply: bool,
                          layout: str | None, quality: bool) -> Iterator[tuple[int, Cycle, bool]]:
     """``(k, cycle, empty)`` of each 3D frame ``k`` of ``ks`` from its frames already read
-    (``cycles``, :func:`window_frames`; :func:`reconstruct_window`); on the CUDA fused path the
-    ray parameters of all of them come from one batched launch (:meth:`FrameReconstructor.depths`)."""
-    depths = rec.depths(cycles)
-    for i, (k, cycle_frames) in enumerate(zip(ks, cycles)):
-        cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, layout, quality,
-                                            depth=None if depths is None else depths[i])
+    (``cycles``, :func:`window_frames`; :func:`reconstruct_window`); on the CUDA fused path all of
+    them come finished from one batched launch (:meth:`FrameReconstructor.device_cycles`)."""
+    uncertainty = "z" if quality else False
+    if cycles and rec.on_device(uncertainty):
+        want_points = ply or layout == "xyz"
+        for k, cyc in zip(ks, rec.device_cycles(cycles, uncertainty, want_points, ply)):
+            yield (k, cyc, False) if cyc is not None else (k, empty_cycle(rec, cycles[0].shape[1:], want_points), True)
+        return
+    for k, cycle_frames in zip(ks, cycles):
+        cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, layout, quality)
         yield k, cyc, was_empty
 
 

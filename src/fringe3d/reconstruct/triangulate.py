@@ -302,16 +302,25 @@ class FastThreeStep:
             return self._cuda(frames, index, out, device_output, depth=False)
         return self.ray_points(self.depth(frames, index), out)
 
-    def _cuda(self, frames, index, out, device_output: bool, depth: bool):
+    def device_geometry(self) -> tuple:
+        """``(geometry, constants)`` of the CUDA kernels: the per-rig host arrays
+        (:class:`fringe3d.gpu.ops.ThreeStepGeometry`) and their device copies, uploaded on the first call
+        (:func:`fringe3d.gpu.ops.three_step_constants`: the ray planes and ``phi_min`` go up once)."""
         from fringe3d.gpu import ops
 
         geometry = ops.ThreeStepGeometry(self.coef, self.phi_min, self.sign, self.scale, self.tri.O,
                                          self.tri.D_planes, self.tri.Q, self.tri.P3)
-        if getattr(self, "_cuda_constants", None) is None:  # the ray planes and phi_min go up once
+        if getattr(self, "_cuda_constants", None) is None:
             self._cuda_constants = ops.three_step_constants(geometry)
+        return geometry, self._cuda_constants
+
+    def _cuda(self, frames, index, out, device_output: bool, depth: bool):
+        from fringe3d.gpu import ops
+
+        geometry, constants = self.device_geometry()
         res = ops.three_step_points(frames if hasattr(frames, "copy_to_host") else np.asarray(frames),
                                     np.asarray(index, np.int64), geometry, self.min_mod2,
-                                    device_output=device_output, constants=self._cuda_constants, depth=depth)
+                                    device_output=device_output, constants=constants, depth=depth)
         if out is not None and not device_output:
             out[...] = res
             return out

@@ -34,6 +34,7 @@ from fringe3d.utils.console import progress_bar
 from fringe3d.utils.jsonfile import write_json
 
 from . import presets
+from .projector_sampling import images_held
 from .render import render
 from .scene import Scene
 from .square_board import board_target
@@ -247,7 +248,8 @@ def render_board_poses(rig: Rig, settings, board, board_poses, patterns, seed: i
     albedo (the board is 0.9); ``edge_pixels``: width of the anti-aliasing albedo ramp, in
     camera pixels at the board."""
     out = []
-    with progress_bar("rendering board poses", len(board_poses), enabled=progress) as advance:
+    with progress_bar("rendering board poses", len(board_poses), enabled=progress) as advance, \
+            images_held(len(patterns.frames)):  # the same images at every pose: rendered once
         for k, (R, t) in enumerate(board_poses):
             if rig.telecentric:
                 px_mm = 1.0 / float(np.mean(np.linalg.norm(rig.camera.M[:, :3], axis=1)))

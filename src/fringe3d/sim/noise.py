@@ -6,6 +6,9 @@ depend on how many frames were rendered before it.
 """
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
@@ -46,6 +49,8 @@ def sense(image: np.ndarray, settings: RenderSettings, index: int, margin: int =
     rng = frame_rng(settings.seed, index)
     if settings.noise_model == "emva":
         return sense_emva(img, settings, rng)
+    if settings.shot_noise and settings.bit_depth is not None:
+        return _shot_read_quantize(img, settings, rng)
     if settings.shot_noise:
         img = shot_noise(img, settings.full_well, rng)
     if settings.read_noise > 0:
@@ -92,6 +97,57 @@ def shot_noise(img: np.ndarray, full_well: float, rng: np.random.Generator) -> n
     if small.size:
         out.flat[small] = rng.poisson(lam.flat[small])
     return out / full_well
+
+
+@numba.njit(cache=True, nogil=True)
+def _electrons_kernel(img, full_well, normal, out):  # pragma: no cover - compiled
+    """:func:`shot_noise`'s electrons in one pass, the same float operations in the same order:
+    ``out = lam + sqrt(lam) * normal * big`` with ``lam = clip(img, 0) * full_well`` and
+    ``big = lam >= POISSON_NORMAL_LIMIT``. Returns how many pixels are left for a Poisson draw
+    (``0 < lam < POISSON_NORMAL_LIMIT``; branch-free, so the loop vectorises)."""
+    n = 0
+    for i in range(img.shape[0]):
+        x = img[i]
+        lam = (0.0 if x < 0.0 else x) * full_well
+        big = lam >= POISSON_NORMAL_LIMIT
+        out[i] = lam + math.sqrt(lam) * np.float64(normal[i]) * (1.0 if big else 0.0)
+        n += (not big) & (lam > 0.0)
+    return n
+
+
+@numba.njit(cache=True, nogil=True)
+def _read_quantize_kernel(electrons, full_well, read_noise, normal, top, out):  # pragma: no cover - compiled
+    """``quantize(electrons / full_well + read_noise * normal)`` in one pass, the float operations
+    of :func:`sense`'s NumPy steps: the read noise product in float32 (``read_noise`` and
+    ``normal`` are float32), the sum in float64, then ``clip(rint(x * top), 0, top)``."""
+    for i in range(electrons.shape[0]):
+        x = electrons[i] / full_well
+        if normal.shape[0]:
+            x = x + np.float64(read_noise * normal[i])
+        q = np.rint(x * top)
+        out[i] = min(max(q, 0.0), top)
+
+
+def _shot_read_quantize(img: np.ndarray, settings: RenderSettings, rng: np.random.Generator) -> np.ndarray:
+    """:func:`shot_noise`, the read noise and :func:`quantize` of :func:`sense` (``bit_depth``
+    set) in two compiled passes: the same draws from ``rng`` in the same order (shot noise
+    normals, the Poisson counts, read noise normals), the same float operations, so the same
+    frame as the NumPy steps, bit for bit."""
+    flat = np.ascontiguousarray(img, np.float64).ravel()
+    normal = rng.standard_normal(img.shape, dtype=np.float32).ravel()
+    electrons = np.empty(flat.size)
+    if _electrons_kernel(flat, float(settings.full_well), normal, electrons):
+        lam = np.clip(flat, 0, None) * settings.full_well
+        small = np.flatnonzero((lam < POISSON_NORMAL_LIMIT) & (lam > 0))
+        electrons[small] = rng.poisson(lam[small])
+    if settings.read_noise > 0:
+        read = rng.standard_normal(img.shape, dtype=np.float32).ravel()
+    else:
+        read = np.empty(0, np.float32)
+    top = 2 ** int(settings.bit_depth) - 1
+    out = np.empty(flat.size, np.uint8 if settings.bit_depth == 8 else np.uint16)
+    _read_quantize_kernel(electrons, float(settings.full_well), np.float32(settings.read_noise), read, float(top), out)
+    return out.reshape(img.shape)
 
 
 def quantize(img: np.ndarray, bit_depth: int | None) -> np.ndarray:

@@ -12,7 +12,10 @@ least-recently-used cache across render calls (:data:`IMAGE_CACHE`).
 """
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import numba
 import numpy as np
@@ -25,7 +28,7 @@ from .geometry import Geometry
 from .settings import RenderSettings
 
 
-@numba.njit(cache=True, parallel=False)
+@numba.njit(cache=True, parallel=False, nogil=True)
 def bilinear(image, u, v, out):
     """Bilinear sample of ``image`` (H, W) at float coordinates (u column, v row), edge-clamped.
 
@@ -66,6 +69,9 @@ def sample(image: np.ndarray, up: np.ndarray, vp: np.ndarray) -> np.ndarray:
 IMAGE_CACHE: OrderedDict[tuple, np.ndarray] = OrderedDict()
 #: Most projector images kept in :data:`IMAGE_CACHE` (about 8 MB each at 912 x 1140).
 IMAGE_CACHE_SIZE = 12
+#: Guards :data:`IMAGE_CACHE` (a render shades its frames on several threads).
+_CACHE_LOCK = threading.Lock()
+_held: list[int] = []
 
 
 def projector_image(spec: FrameSpec, width: int, height: int, defocus: str, size: float) -> np.ndarray:
@@ -73,20 +79,43 @@ def projector_image(spec: FrameSpec, width: int, height: int, defocus: str, size
     ``size`` (Eq. 2.22-2.26), (height, width) float64, read-only.
 
     Kept in a small least-recently-used cache across render calls (a pattern set rendered
-    again, e.g. a repeated capture or a benchmark, does not re-render and re-blur it)."""
+    again, e.g. a repeated capture or a benchmark, does not re-render and re-blur it); inside
+    :func:`images_held` it keeps at least the number of images asked for."""
     key = (spec, int(width), int(height), str(defocus), round(float(size), 6))
-    img = IMAGE_CACHE.get(key)
-    if img is not None:
-        IMAGE_CACHE.move_to_end(key)
-        return img
+    with _CACHE_LOCK:
+        img = IMAGE_CACHE.get(key)
+        if img is not None:
+            IMAGE_CACHE.move_to_end(key)
+            return img
     img = render_frame(spec, width, height).astype(np.float64)
     if defocus != "none" and size > 0:
         img = blur_pattern(img, defocus, size)
     img.setflags(write=False)
-    IMAGE_CACHE[key] = img
-    while len(IMAGE_CACHE) > IMAGE_CACHE_SIZE:
-        IMAGE_CACHE.popitem(last=False)
+    with _CACHE_LOCK:
+        IMAGE_CACHE[key] = img
+        _trim()
     return img
+
+
+def _trim() -> None:
+    while len(IMAGE_CACHE) > max([IMAGE_CACHE_SIZE, *_held]):
+        IMAGE_CACHE.popitem(last=False)
+
+
+@contextmanager
+def images_held(count: int) -> Iterator[None]:
+    """Inside the block :data:`IMAGE_CACHE` keeps at least ``count`` projector images, for renders
+    that cycle through more images than it usually holds (a calibration session projects the same
+    set at every board pose: each image is rendered and blurred once, not once per pose); back to
+    :data:`IMAGE_CACHE_SIZE` afterwards."""
+    with _CACHE_LOCK:
+        _held.append(int(count))
+    try:
+        yield
+    finally:
+        with _CACHE_LOCK:
+            _held.remove(int(count))
+            _trim()
 
 
 class PatternSampler:
@@ -103,12 +132,14 @@ class PatternSampler:
 
     def _image(self, spec: FrameSpec, size: float) -> np.ndarray:
         key = (spec, round(float(size), 6))
-        if key not in self._cache:
-            if len(self._cache) > 64:
-                self._cache.clear()
-            self._cache[key] = projector_image(spec, self.patterns.width, self.patterns.height,
-                                               self.settings.defocus, size)
-        return self._cache[key]
+        img = self._cache.get(key)
+        if img is None:
+            img = projector_image(spec, self.patterns.width, self.patterns.height, self.settings.defocus, size)
+            with _CACHE_LOCK:
+                if len(self._cache) > 64:
+                    self._cache.clear()
+                self._cache[key] = img
+        return img
 
     def values(self, spec: FrameSpec, geo: Geometry) -> np.ndarray:
         """Pattern value in [0, 1] (before gamma) at every lit pixel of ``geo``; 0 elsewhere."""

@@ -14,10 +14,17 @@ Per frame, at its own timestamp ``k / frame_rate`` (s):
    albedo / texture, exposure and gain (:mod:`fringe3d.sim.radiometry`);
 5. sense: camera blur, shot and read noise, quantisation (:mod:`fringe3d.sim.noise`).
 
-A static scene is cast once and reused for every frame; a moving scene is re-cast per frame
-(and per motion sub-sample when ``motion_samples > 1``).
+A static scene is cast once and reused for every frame, whose steps 3-5 run on
+:data:`SHADE_THREADS` threads (each frame draws its noise from its own generator, so the frames
+do not depend on the threads); a moving scene is re-cast per frame (and per motion sub-sample
+when ``motion_samples > 1``).
 """
 from __future__ import annotations
+
+import os
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -137,8 +144,15 @@ def render_stream(scene: Scene | SceneObject, rig: Rig, patterns: PatternSet,
     return RenderStream(scene, rig, PatternSampler(patterns, s), times)
 
 
+#: Threads shading a static scene's frames at once (at most; one for small images).
+SHADE_THREADS = min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+#: Fewest pixels per frame worth a second thread.
+SHADE_THREAD_PIXELS = 1 << 17
+
+
 def _static_frames(st: RenderStream):
-    """Frames of a static scene: one cast at ``times[0]``, shaded once per pattern frame."""
+    """Frames of a static scene: one cast at ``times[0]``, shaded once per pattern frame (on
+    :data:`SHADE_THREADS` threads, yielded in order)."""
     s, patterns, rig, scene = st.sampler.settings, st.sampler.patterns, st.rig, st.scene
     H, W = rig.camera.height, rig.camera.width
     m = blur_margin(s)  # render beyond the sensor what the camera blur brings onto its border
@@ -147,13 +161,41 @@ def _static_frames(st: RenderStream):
     geo = crop(pad, (H + 2 * m, W + 2 * m), m)
     check_visible(geo)
     ft = frame_truth(geo, (H, W), st.dirs_info)
-    for k in range(len(st.times)):
-        if k < st.skip:
-            yield k, None, ft, float(st.times[0])
-            continue
+    t0 = float(st.times[0])
+
+    def shade(k: int) -> np.ndarray:
         spec = patterns.frames[k % len(patterns.frames)]
         img = irradiance(pad, st.sampler.values(spec, pad), s, scene.ambient)
-        yield k, sense(img.reshape(H + 2 * m, W + 2 * m), s, k, m), ft, float(st.times[0])
+        return sense(img.reshape(H + 2 * m, W + 2 * m), s, k, m)
+
+    for k in range(min(st.skip, len(st.times))):
+        yield k, None, ft, t0
+    workers = SHADE_THREADS if (H + 2 * m) * (W + 2 * m) >= SHADE_THREAD_PIXELS else 1
+    for k, img in _in_order(shade, range(st.skip, len(st.times)), workers):
+        yield k, img, ft, t0
+
+
+def _in_order(fn: Callable[[int], np.ndarray], ks: Iterable[int], workers: int) -> Iterator[tuple[int, np.ndarray]]:
+    """``(k, fn(k))`` for every ``k`` of ``ks`` in order, computed on ``workers`` threads with at most
+    ``2 * workers`` results ahead of the one yielded (bounded memory)."""
+    if workers <= 1:
+        for k in ks:
+            yield k, fn(k)
+        return
+    with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="fringe3d-shade") as pool:
+        pending: deque = deque()
+        try:
+            for k in ks:
+                pending.append((k, pool.submit(fn, k)))
+                if len(pending) >= 2 * workers:
+                    k0, fut = pending.popleft()
+                    yield k0, fut.result()
+            while pending:
+                k0, fut = pending.popleft()
+                yield k0, fut.result()
+        finally:
+            for _, fut in pending:
+                fut.cancel()
 
 
 def _moving_frames(st: RenderStream):

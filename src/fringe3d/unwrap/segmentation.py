@@ -21,7 +21,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
-from scipy.optimize import linear_sum_assignment
 from skimage.filters import threshold_otsu
 from skimage.measure import label as _sk_label
 
@@ -219,6 +218,8 @@ def match_objects(labels_a: np.ndarray, labels_b: np.ndarray,
     pa = np.array([ca[k] for k in ka])
     pb = np.array([cb[k] for k in kb])
     dist = np.linalg.norm(pa[:, None, :] - pb[None, :, :], axis=-1)
+    from scipy.optimize import linear_sum_assignment  # heavy (0.5 s): loaded when segments are matched
+
     rows, cols = linear_sum_assignment(dist)
     out = []
     for r, c in zip(rows, cols):
