@@ -57,13 +57,15 @@ def batch_size(job: WindowJob) -> int:
 def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
     """Every 3D frame of ``todo`` in this thread, in order, the next batches' frames read ahead on a
     reader thread (:class:`~fringe3d.io.read_ahead.ReadAhead`: PNG or TIFF decoding is off the
-    compute's path; a few cycles in memory at most)."""
+    compute's path; a few cycles in memory at most). The fused path's sigma_z is left to each
+    cycle's ``sigma_later`` (:func:`~fringe3d.reconstruct.frame.with_sigma`), which the store
+    writer's thread calls: the noise estimate and sigma_z pass leave the compute's path."""
     size = batch_size(job)
     parts = [todo[b0:b0 + size] for b0 in range(0, len(todo), size)]
     n = len(job.rec.patterns)
     with ReadAhead(lambda ks: window_frames(job.frames, job.starts, ks, n), parts) as read:
         for ks, cycles in zip(parts, read):
-            yield from reconstructed_cycles(job.rec, ks, cycles, job.ply, job.layout, job.quality)
+            yield from reconstructed_cycles(job.rec, ks, cycles, job.ply, job.layout, job.quality, later=True)
 
 
 def threads(workers: int = 2, in_flight: int | None = None) -> Executor:
