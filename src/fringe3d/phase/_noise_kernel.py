@@ -12,7 +12,7 @@ import numba
 import numpy as np
 
 
-@numba.njit(parallel=True, cache=True, fastmath={"reassoc", "nsz"})
+@numba.njit(parallel=True, cache=True, nogil=True, fastmath={"reassoc", "nsz"})
 def _interior_laplacian(image, mask, sums, counts):  # pragma: no cover - compiled
     H, W = image.shape
     for i in numba.prange(1, H - 1):
