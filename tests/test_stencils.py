@@ -38,6 +38,19 @@ def _sorted_01(n):
     return (np.arange(n)[None, :] >= np.arange(n, -1, -1)[:, None]).astype(np.int8)
 
 
+def test_the_selection_network_sorts_and_selects_the_middle_value():
+    rng = np.random.default_rng(1)
+    x = rng.random((500, 32))
+    for a, b in _stencils.batcher_pairs(32):  # a full sorting network ...
+        x[:, a], x[:, b] = np.minimum(x[:, a], x[:, b]), np.maximum(x[:, a], x[:, b])
+    assert (np.diff(x, axis=1) >= 0).all()
+    y = rng.random((500, 25))
+    ref = np.sort(y, axis=1)[:, 12]
+    for a, b in _stencils.PAIRS:  # ... and its pruned 25-input cut gives the median
+        y[:, a], y[:, b] = np.minimum(y[:, a], y[:, b]), np.maximum(y[:, a], y[:, b])
+    np.testing.assert_array_equal(y[:, 12], ref)
+
+
 def test_sort5_sorts_every_0_1_column():
     x = ((np.arange(32)[:, None] >> np.arange(5)) & 1).astype(np.int8)
     assert (np.diff(_network(x, _stencils.SORT5), axis=1) >= 0).all()

@@ -7,8 +7,7 @@ passes (private; the fused 3-step path of long sequences, :mod:`fringe3d.reconst
 1. per row, the jump of ``w`` to its valid 4-neighbours (GRADIENT's input) into a copy padded
    by two replicated pixels, and the fringe contrast ``B / A`` (MOD_DROP's) with its largest
    value over five columns;
-2. per row, the 5 x 5 median of the jumps (:func:`fringe3d.decode._median_network.median_row`)
-   and GRADIENT's test of each jump against it;
+2. the 5 x 5 median of the jumps (:func:`fringe3d.decode._median_network._median_kernel`);
 3. per row, every bit: INVALID, EDGE, GRADIENT (the jump test OR-ed over the 3 x 3
    neighbourhood: the one-pixel growth), MOD_DROP (the largest contrast over five rows of the
    five-column maxima) and RIM.
@@ -23,7 +22,7 @@ import math
 import numba
 import numpy as np
 
-from fringe3d.decode._median_network import CHUNK, median_row
+from fringe3d.decode._median_network import _median_kernel
 from fringe3d.decode._stencils import erode_cross
 
 INVALID, EDGE, INCONSISTENT, GRADIENT, MOD_DROP, RIM, ORDER, SATURATED = 1, 2, 4, 8, 16, 32, 64, 128
@@ -70,24 +69,15 @@ def _jump_contrast_kernel(w, valid, modulation, average, gp, hmax):  # pragma: n
 
 
 @numba.njit(parallel=True, cache=True)
-def _jump_test_kernel(valid, gp, g_ratio, g_floor, t):  # pragma: no cover - compiled
+def _jump_test_kernel(valid, gp, ref, g_ratio, g_floor, t):  # pragma: no cover - compiled
     """GRADIENT's test per pixel, once: ``t[i, j + 1] = valid & jump > max(ratio * median, floor)``
-    with the 5 x 5 median of the jumps (``t`` (H, W + 2) uint8, its first and last columns 0)."""
+    (``t`` (H, W + 2) uint8, its first and last columns 0)."""
     H, W = valid.shape
     for i in numba.prange(H):
-        sb = np.empty(5 * (CHUNK + 8), gp.dtype)
-        mb = np.empty(10 * (CHUNK + 8), gp.dtype)
-        ref = np.empty(CHUNK, gp.dtype)
         t[i, 0] = 0
         t[i, W + 1] = 0
-        for j0 in range(0, W, CHUNK):
-            n = min(CHUNK, W - j0)
-            median_row(gp, i, j0, n, sb, mb, ref)
-            v = valid[i, j0:j0 + n]
-            g = gp[i + 2, j0 + 2:j0 + 2 + n]
-            tr = t[i, j0 + 1:j0 + 1 + n]
-            for j in range(n):
-                tr[j] = v[j] & (g[j] > max(g_ratio * ref[j], g_floor))
+        for j in range(W):
+            t[i, j + 1] = valid[i, j] & (gp[i + 2, j + 2] > max(g_ratio * ref[i, j], g_floor))
 
 
 @numba.njit(parallel=True, cache=True)
@@ -139,10 +129,12 @@ def fused_quality_map(mask: np.ndarray, w: np.ndarray, extent: tuple[float, floa
     gp = np.empty((H + 4, W + 4), np.float32)
     hmax = np.empty((2 * H, W), np.float32)  # the contrast's row-wise 5-max, then the contrast
     _jump_contrast_kernel(w, valid, modulation, average, gp, hmax)
+    ref = np.empty((H, W), np.float32)
+    _median_kernel(gp, ref)
     lo, hi = extent
     f32 = np.float32
     t = np.empty((H, W + 2), np.uint8)
-    _jump_test_kernel(valid, gp, f32(gradient_ratio), f32(gradient_floor), t)
+    _jump_test_kernel(valid, gp, ref, f32(gradient_ratio), f32(gradient_floor), t)
     q = np.empty((H, W), np.uint8)
     _bits_kernel(w, valid, t, hmax, f32(lo + margin), f32(hi - margin), f32(modulation_ratio), rim == 1, q)
     if rim > 1:  # wider rims: the iterated erosion of edges.rim_of_invalid

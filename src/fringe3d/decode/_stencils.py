@@ -26,6 +26,41 @@ from fringe3d.decode._median_network import _median_kernel
 SIZE = 5
 
 
+def batcher_pairs(n: int) -> list[tuple[int, int]]:
+    """Comparators ``(lo, hi)`` of Batcher's odd-even merge sort of ``n`` (a power of 2) inputs."""
+    pairs = []
+    p = 1
+    while p < n:
+        k = p
+        while k >= 1:
+            for j in range(k % p, n - k, 2 * k):
+                for i in range(min(k, n - j - k)):
+                    if (i + j) // (2 * p) == (i + j + k) // (2 * p):
+                        pairs.append((i + j, i + j + k))
+            k //= 2
+        p *= 2
+    return pairs
+
+
+def selection_pairs(n: int, rank: int) -> np.ndarray:
+    """(M, 2) int64 comparators that put the ``rank``-th smallest of ``n`` inputs at index ``rank``."""
+    size = 1 << (n - 1).bit_length()
+    net = [(a, b) for a, b in batcher_pairs(size) if b < n]  # b >= n compares with +inf: a no-op
+    needed, kept = {rank}, []
+    for a, b in reversed(net):
+        if a in needed or b in needed:
+            kept.append((a, b))
+            needed.update((a, b))
+    return np.array(kept[::-1], np.int64)
+
+
+#: The 25-input selection network of the median (Batcher's odd-even merge sort of 32 inputs cut
+#: to 25, the missing ones +inf, pruned to what the 13th output depends on): 113 comparators for
+#: a kernel that takes each pixel's window alone (the CUDA quality kernels'); the CPU kernel shares
+#: sorted columns between windows instead (:func:`median5`).
+PAIRS = selection_pairs(SIZE * SIZE, SIZE * SIZE // 2)
+
+
 #: An optimal 9-comparator sorting network of 5 values (Knuth, TAOCP 5.3.4): each column of the
 #: window sorted.
 SORT5 = ((0, 1), (3, 4), (2, 4), (2, 3), (0, 3), (0, 2), (1, 4), (1, 3), (1, 2))
