@@ -226,3 +226,50 @@ def test_ratio_median_falls_back_when_the_bracket_overflows_its_buffer(monkeypat
     monkeypatch.setattr(_ratio_median, "_numpy_median", lambda *a: calls.append(1) or numpy_median(*a))
     assert ratio_median(fine, coarse, mask) == float(np.median(fine / coarse)) == 2.0
     assert calls == [1]
+
+
+@pytest.mark.parametrize("shape", [(0, 5), (1, 1), (3, 13), (9, 64), (2, 8 * 255 + 21)])
+def test_bit_counts_equal_the_per_bit_numpy_counts(shape):
+    q = np.random.default_rng(14).integers(0, 256, shape).astype(np.uint8)
+    q[:, ::3] = 255  # every bit set in long runs (the byte lanes' sums reach their limit)
+    want = {name: int(np.count_nonzero(q & bit)) for bit, name in edges.BITS.items()}
+    assert edges.bit_counts(q) == want
+    assert edges.bit_counts(q.astype(np.int64)) == want  # another dtype: the numpy counts
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_nan_where_is_numpys_masked_isnan_any(dtype):
+    rng = np.random.default_rng(15)
+    x = rng.random((11, 17)).astype(dtype)
+    where = rng.random(x.shape) > 0.5
+    assert edges.nan_where(x, where) is False
+    x[~where] = np.nan
+    x[0, 0] = np.inf
+    assert edges.nan_where(x, where) is False  # NaN only where not asked, inf is no NaN
+    i, j = np.argwhere(where)[3]
+    x[i, j] = np.nan
+    assert edges.nan_where(x, where) is True
+    assert edges.nan_where(x[:, :1].ravel(), where[:, :1].ravel()) == bool(np.isnan(x[:, 0])[where[:, 0]].any())
+
+
+def test_clipping_maps_of_groups_without_a_clipped_pixel_are_not_read():
+    from types import SimpleNamespace
+
+    from fringe3d.decode.assess import clipping_broken_map
+    a, b = np.zeros((4, 5), bool), np.zeros((4, 5), bool)
+    b[1, 2] = True
+    cache = {("clipping_broken", "g1", False): a, ("saturation", "g1"): {"clipped": 0.0},
+             ("clipping_broken", "g2", True): b, ("saturation", "g2"): {"clipped": 0.05}}
+    broken, tested = clipping_broken_map(SimpleNamespace(cache=cache))
+    np.testing.assert_array_equal(broken, a | b)
+    assert tested
+    cache[("saturation", "g2")] = {"clipped": 0.0}
+    cache[("clipping_broken", "g2", True)] = np.zeros((4, 5), bool)
+    assert clipping_broken_map(SimpleNamespace(cache=cache)) == (None, True)
+    assert clipping_broken_map(SimpleNamespace(cache={})) == (None, False)
+
+
+@pytest.mark.parametrize("x", [[0.0, 1e-6, -1e-6], [0.0, 2e-6], [np.nan, 0.0], [np.inf], [-np.inf, 0.0], []])
+def test_equal_step_check_is_allclose_to_zero(x):
+    from fringe3d.decode.compensation import _near_zero
+    assert _near_zero(np.array(x, float)) == bool(np.allclose(np.array(x, float), 0.0, atol=1e-6))

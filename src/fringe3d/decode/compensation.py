@@ -65,7 +65,13 @@ SAMPLE_PIXELS = 16384
 def equal_steps(shifts) -> bool:
     """The shifts are ``shift_0 + 2 pi k / N`` in step order (what the harmonic model needs)."""
     d = np.asarray(shifts, float)
-    return d.size >= 4 and bool(np.allclose(wrap(d - d[0] - default_shifts(d.size)), 0.0, atol=1e-6))
+    return d.size >= 4 and _near_zero(wrap(d - d[0] - default_shifts(d.size)))
+
+
+def _near_zero(x: np.ndarray) -> bool:
+    """``np.allclose(x, 0.0, atol=1e-6)`` (``|x| <= 1e-6`` everywhere, NaN and inf never) without its
+    broadcasting and error-state machinery (the decoder asks once per group and cycle)."""
+    return bool(np.all(np.abs(x) <= 1e-6))
 
 
 def _sample(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -117,7 +123,7 @@ def compensate_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> 
 def steps_equal(shifts) -> bool:
     """The shifts are N >= 3 steps ``shift_0 + 2 pi k / N`` in step order (what the disagreement needs)."""
     d = np.asarray(shifts, float)
-    return d.size >= 3 and bool(np.allclose(wrap(d - d[0] - default_shifts(d.size)), 0.0, atol=1e-6))
+    return d.size >= 3 and _near_zero(wrap(d - d[0] - default_shifts(d.size)))
 
 
 def disagreement_group(ctx: DecodeContext, group: PhaseGroup, phase: np.ndarray, mask: np.ndarray,
