@@ -273,3 +273,27 @@ def test_clipping_maps_of_groups_without_a_clipped_pixel_are_not_read():
 def test_equal_step_check_is_allclose_to_zero(x):
     from fringe3d.decode.compensation import _near_zero
     assert _near_zero(np.array(x, float)) == bool(np.allclose(np.array(x, float), 0.0, atol=1e-6))
+
+
+@pytest.mark.parametrize("case", ["ties", "constant", "infinite"])
+def test_ratio_median_selects_the_rank_inside_its_histogram_bin(case):
+    rng = np.random.default_rng(16)
+    coarse = rng.uniform(1, 50, (120, 170)).astype(np.float32)
+    ratio = rng.uniform(0.5, 0.9, coarse.shape).astype(np.float32)
+    if case == "ties":  # a third of the ratios on 5 values around the median: ranks across few bins
+        ratio[rng.random(coarse.shape) < 0.33] = rng.choice(np.float32([0.69, 0.7, 0.7001, 0.71, 0.72]))
+    elif case == "constant":  # the bracket has no width
+        ratio[:] = np.float32(0.75)
+    else:  # nearly half the ratios overflow to inf: the bracket reaches it
+        big = rng.random(coarse.shape) < 0.49
+        coarse[big] = np.float32(1e-38)
+    fine = ratio * coarse
+    if case == "infinite":
+        fine[big] = np.float32(1e3)
+        with np.errstate(over="ignore"):
+            assert np.isinf(fine[big] / coarse[big]).all()
+    for mask in (np.ones(coarse.shape, bool), rng.random(coarse.shape) > 0.3):
+        m = mask & (coarse > 0)
+        with np.errstate(over="ignore"):  # the infinite ratios
+            want = float(np.median(fine[m] / coarse[m]))
+            assert ratio_median(fine, coarse, mask) == want
