@@ -297,3 +297,13 @@ def test_ratio_median_selects_the_rank_inside_its_histogram_bin(case):
         with np.errstate(over="ignore"):  # the infinite ratios
             want = float(np.median(fine[m] / coarse[m]))
             assert ratio_median(fine, coarse, mask) == want
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16, np.float32, np.float64])
+@pytest.mark.parametrize("step", [1, 2, 9, 40])
+def test_the_diagnostic_sample_is_numpys_strided_float32_copy(dtype, step):
+    from fringe3d.decode.compensation import _strided_sample
+    frames = (np.random.default_rng(17).random((5, 37, 53)) * 300.3).astype(dtype)
+    want = np.stack([np.asarray(frames[i][::step, ::step], np.float32) for i in (0, 3, 4)])
+    np.testing.assert_array_equal(_strided_sample(frames, [0, 3, 4], step), want)
+    np.testing.assert_array_equal(_strided_sample(list(frames), [0, 3, 4], step), want)  # not an array: numpy's

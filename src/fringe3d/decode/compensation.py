@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from typing import Any, Protocol, Sequence
 
+import numba
 import numpy as np
 
 from fringe3d.phase.psp import PhaseResult, default_shifts, wrapped_phase
@@ -80,10 +81,32 @@ def _sample(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None = None
     subsample's own modulation, so that no full-size phase is computed for a diagnostic)."""
     h, w = np.shape(ctx.frames[group.indices[0]])[-2:]
     step = max(1, int(np.ceil(np.sqrt(h * w / SAMPLE_PIXELS))))
-    frames = np.stack([np.asarray(ctx.frames[i][::step, ::step], np.float32) for i in group.indices])
+    frames = _strided_sample(ctx.frames, group.indices, step)
     modulation = (pr.modulation[::step, ::step] if pr is not None
                   else wrapped_phase(frames, shifts=np.asarray(group.shifts, float)).modulation)
     return frames, modulation >= max(ctx.min_modulation, 1e-12)
+
+
+def _strided_sample(frames: np.ndarray, indices, step: int) -> np.ndarray:
+    """(N, h, w) float32 ``frames[i][::step, ::step]`` of each index ``i`` (the strided copies and
+    their float32 casts in one compiled gather; numpy's for anything but an (F, H, W) array)."""
+    idx = np.asarray(list(indices), np.int64)
+    if not isinstance(frames, np.ndarray) or frames.ndim != 3 or frames.dtype.kind not in "uif":
+        return np.stack([np.asarray(frames[i][::step, ::step], np.float32) for i in idx])
+    h, w = frames.shape[1:]
+    out = np.empty((idx.size, -(-h // step), -(-w // step)), np.float32)
+    _gather(frames, idx, step, out)
+    return out
+
+
+@numba.njit(cache=True)
+def _gather(frames, idx, step, out):  # pragma: no cover - compiled
+    for k in range(idx.shape[0]):
+        for a in range(out.shape[1]):
+            row = frames[idx[k], a * step]
+            o = out[k, a]
+            for b in range(out.shape[2]):
+                o[b] = np.float32(row[b * step])
 
 
 def diagnose_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None = None) -> dict[str, Any] | None:
