@@ -307,3 +307,18 @@ def test_the_diagnostic_sample_is_numpys_strided_float32_copy(dtype, step):
     want = np.stack([np.asarray(frames[i][::step, ::step], np.float32) for i in (0, 3, 4)])
     np.testing.assert_array_equal(_strided_sample(frames, [0, 3, 4], step), want)
     np.testing.assert_array_equal(_strided_sample(list(frames), [0, 3, 4], step), want)  # not an array: numpy's
+
+
+def test_the_compiled_passes_leave_other_dtypes_to_numpy():
+    from fringe3d.decode.compensation import _strided_sample
+    rng = np.random.default_rng(18)
+    half = rng.random((2, 9, 11)).astype(np.float16)
+    np.testing.assert_array_equal(_strided_sample(half, [1], 2), half[1:, ::2, ::2].astype(np.float32))
+    swapped = (rng.random((2, 9, 11)) * 300).astype(">u2")
+    np.testing.assert_array_equal(_strided_sample(swapped, [0, 1], 3), swapped[:, ::3, ::3].astype(np.float32))
+    x = half[0].copy()
+    x[2, 3] = np.nan
+    where = np.zeros(x.shape, bool)
+    assert edges.nan_where(x, where) is False
+    where[2, 3] = True
+    assert edges.nan_where(x, where) is True

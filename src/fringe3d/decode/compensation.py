@@ -91,12 +91,17 @@ def _strided_sample(frames: np.ndarray, indices, step: int) -> np.ndarray:
     """(N, h, w) float32 ``frames[i][::step, ::step]`` of each index ``i`` (the strided copies and
     their float32 casts in one compiled gather; numpy's for anything but an (F, H, W) array)."""
     idx = np.asarray(list(indices), np.int64)
-    if not isinstance(frames, np.ndarray) or frames.ndim != 3 or frames.dtype.kind not in "uif":
+    if not isinstance(frames, np.ndarray) or frames.ndim != 3 or not _compiled_dtype(frames.dtype):
         return np.stack([np.asarray(frames[i][::step, ::step], np.float32) for i in idx])
     h, w = frames.shape[1:]
     out = np.empty((idx.size, -(-h // step), -(-w // step)), np.float32)
     _gather(frames, idx, step, out)
     return out
+
+
+def _compiled_dtype(dtype: np.dtype) -> bool:
+    """A dtype the compiled passes read: native integers, float32 or float64."""
+    return dtype.isnative and (dtype.kind in "ui" or dtype in (np.float32, np.float64))
 
 
 @numba.njit(cache=True)

@@ -385,7 +385,7 @@ def _bit_count_rows(q, counts):  # pragma: no cover - compiled
 def nan_where(x: np.ndarray, where: np.ndarray) -> bool:
     """``np.isnan(x)[where].any()`` of (H, W) ``x`` and bool ``where``, in one pass without temporaries."""
     x, where = np.asarray(x), np.asarray(where, bool)
-    if x.ndim != 2 or x.dtype.kind != "f" or x.shape != where.shape:
+    if x.ndim != 2 or x.dtype not in (np.float32, np.float64) or not x.dtype.isnative or x.shape != where.shape:
         return bool(np.isnan(x, where=where, out=np.zeros(np.shape(where), bool)).any())
     found = np.zeros(max(1, x.shape[0]), np.uint8)
     _nan_rows(np.ascontiguousarray(x), np.ascontiguousarray(where), found)
