@@ -55,12 +55,17 @@ def noise_model(ctx: DecodeContext, groups: list[PhaseGroup], average: np.ndarra
     return (s * s * n, 0.0), "Laplacian of the average image"
 
 
-def clipping_broken_map(ctx: DecodeContext) -> np.ndarray | None:
-    """(H, W) bool where clipping broke a pixel of this direction (the phase groups' and the
-    code's maps the method computed, cached in the context), or None when it computed none."""
-    maps = [v for k, v in ctx.cache.items()
+def clipping_broken_map(ctx: DecodeContext) -> tuple[np.ndarray | None, bool]:
+    """``(broken, tested)``: (H, W) bool where clipping broke a pixel of this direction (the phase
+    groups' and the code's maps the method computed, cached in the context), None where no map
+    can hold a pixel; ``tested`` whether the method computed any map. A phase group's map
+    (:func:`fringe3d.decode.context.clipping_broken`) is known empty, and not read, when its
+    saturation record counts no clipped pixel (a pixel breaks only where a sample clipped)."""
+    maps = [(k, v) for k, v in ctx.cache.items()
             if isinstance(k, tuple) and k and k[0] in ("clipping_broken", "code_clipped")]
-    return np.logical_or.reduce(maps) if maps else None
+    live = [v for k, v in maps if not (k[0] == "clipping_broken"
+                                       and ctx.cache.get(("saturation", k[1]), {}).get("clipped") == 0)]
+    return (np.logical_or.reduce(live) if live else None), bool(maps)
 
 
 def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: np.ndarray,
@@ -82,7 +87,7 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     if saturation:  # per phase group (and "code"): shares clipped and masked for it, and the rule
         info["saturation"] = saturation
     mask = np.asarray(mask, bool)
-    sigma_phi = np.full(mask.shape, np.nan, np.float32)
+    sigma_phi = None
     if groups:
         assert average is not None
         model, source = noise_model(ctx, groups, average, mask)
@@ -90,11 +95,13 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
                          "c1": model[1] if math.isfinite(model[1]) else None, "source": source}
         if math.isfinite(model[0]):
             sigma_phi = noise.model_phase_sigma(model[0], model[1], average, modulation, len(groups[0].indices))
-    broken = clipping_broken_map(ctx)
+    if sigma_phi is None:
+        sigma_phi = np.full(mask.shape, np.nan, np.float32)
+    broken, clipping_tested = clipping_broken_map(ctx)
     if not opts.edge_mask or not groups or ctx.plan.method == "none":
         # code-only stripes and wrapped ("none") phases have no continuous w to test
         q = edges.order_bits(mask, order, broken)
-        if order is not None or broken is not None:
+        if order is not None or clipping_tested:
             info["masked"] = edges.bit_counts(q)
         return Assessment(q, sigma_phi, info)
     valid = mask if order is None else mask & ~np.asarray(order, bool)
