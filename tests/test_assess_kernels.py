@@ -226,3 +226,99 @@ def test_ratio_median_falls_back_when_the_bracket_overflows_its_buffer(monkeypat
     monkeypatch.setattr(_ratio_median, "_numpy_median", lambda *a: calls.append(1) or numpy_median(*a))
     assert ratio_median(fine, coarse, mask) == float(np.median(fine / coarse)) == 2.0
     assert calls == [1]
+
+
+@pytest.mark.parametrize("shape", [(0, 5), (1, 1), (3, 13), (9, 64), (2, 8 * 255 + 21)])
+def test_bit_counts_equal_the_per_bit_numpy_counts(shape):
+    q = np.random.default_rng(14).integers(0, 256, shape).astype(np.uint8)
+    q[:, ::3] = 255  # every bit set in long runs (the byte lanes' sums reach their limit)
+    want = {name: int(np.count_nonzero(q & bit)) for bit, name in edges.BITS.items()}
+    assert edges.bit_counts(q) == want
+    assert edges.bit_counts(q.astype(np.int64)) == want  # another dtype: the numpy counts
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_nan_where_is_numpys_masked_isnan_any(dtype):
+    rng = np.random.default_rng(15)
+    x = rng.random((11, 17)).astype(dtype)
+    where = rng.random(x.shape) > 0.5
+    assert edges.nan_where(x, where) is False
+    x[~where] = np.nan
+    x[0, 0] = np.inf
+    assert edges.nan_where(x, where) is False  # NaN only where not asked, inf is no NaN
+    i, j = np.argwhere(where)[3]
+    x[i, j] = np.nan
+    assert edges.nan_where(x, where) is True
+    assert edges.nan_where(x[:, :1].ravel(), where[:, :1].ravel()) == bool(np.isnan(x[:, 0])[where[:, 0]].any())
+
+
+def test_clipping_maps_of_groups_without_a_clipped_pixel_are_not_read():
+    from types import SimpleNamespace
+
+    from fringe3d.decode.assess import clipping_broken_map
+    a, b = np.zeros((4, 5), bool), np.zeros((4, 5), bool)
+    b[1, 2] = True
+    cache = {("clipping_broken", "g1", False): a, ("saturation", "g1"): {"clipped": 0.0},
+             ("clipping_broken", "g2", True): b, ("saturation", "g2"): {"clipped": 0.05}}
+    broken, tested = clipping_broken_map(SimpleNamespace(cache=cache))
+    np.testing.assert_array_equal(broken, a | b)
+    assert tested
+    cache[("saturation", "g2")] = {"clipped": 0.0}
+    cache[("clipping_broken", "g2", True)] = np.zeros((4, 5), bool)
+    assert clipping_broken_map(SimpleNamespace(cache=cache)) == (None, True)
+    assert clipping_broken_map(SimpleNamespace(cache={})) == (None, False)
+
+
+@pytest.mark.parametrize("x", [[0.0, 1e-6, -1e-6], [0.0, 2e-6], [np.nan, 0.0], [np.inf], [-np.inf, 0.0], []])
+def test_equal_step_check_is_allclose_to_zero(x):
+    from fringe3d.decode.compensation import _near_zero
+    assert _near_zero(np.array(x, float)) == bool(np.allclose(np.array(x, float), 0.0, atol=1e-6))
+
+
+@pytest.mark.parametrize("case", ["ties", "constant", "infinite"])
+def test_ratio_median_selects_the_rank_inside_its_histogram_bin(case):
+    rng = np.random.default_rng(16)
+    coarse = rng.uniform(1, 50, (120, 170)).astype(np.float32)
+    ratio = rng.uniform(0.5, 0.9, coarse.shape).astype(np.float32)
+    if case == "ties":  # a third of the ratios on 5 values around the median: ranks across few bins
+        ratio[rng.random(coarse.shape) < 0.33] = rng.choice(np.float32([0.69, 0.7, 0.7001, 0.71, 0.72]))
+    elif case == "constant":  # the bracket has no width
+        ratio[:] = np.float32(0.75)
+    else:  # nearly half the ratios overflow to inf: the bracket reaches it
+        big = rng.random(coarse.shape) < 0.49
+        coarse[big] = np.float32(1e-38)
+    fine = ratio * coarse
+    if case == "infinite":
+        fine[big] = np.float32(1e3)
+        with np.errstate(over="ignore"):
+            assert np.isinf(fine[big] / coarse[big]).all()
+    for mask in (np.ones(coarse.shape, bool), rng.random(coarse.shape) > 0.3):
+        m = mask & (coarse > 0)
+        with np.errstate(over="ignore"):  # the infinite ratios
+            want = float(np.median(fine[m] / coarse[m]))
+            assert ratio_median(fine, coarse, mask) == want
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16, np.float32, np.float64])
+@pytest.mark.parametrize("step", [1, 2, 9, 40])
+def test_the_diagnostic_sample_is_numpys_strided_float32_copy(dtype, step):
+    from fringe3d.decode.compensation import _strided_sample
+    frames = (np.random.default_rng(17).random((5, 37, 53)) * 300.3).astype(dtype)
+    want = np.stack([np.asarray(frames[i][::step, ::step], np.float32) for i in (0, 3, 4)])
+    np.testing.assert_array_equal(_strided_sample(frames, [0, 3, 4], step), want)
+    np.testing.assert_array_equal(_strided_sample(list(frames), [0, 3, 4], step), want)  # not an array: numpy's
+
+
+def test_the_compiled_passes_leave_other_dtypes_to_numpy():
+    from fringe3d.decode.compensation import _strided_sample
+    rng = np.random.default_rng(18)
+    half = rng.random((2, 9, 11)).astype(np.float16)
+    np.testing.assert_array_equal(_strided_sample(half, [1], 2), half[1:, ::2, ::2].astype(np.float32))
+    swapped = (rng.random((2, 9, 11)) * 300).astype(">u2")
+    np.testing.assert_array_equal(_strided_sample(swapped, [0, 1], 3), swapped[:, ::3, ::3].astype(np.float32))
+    x = half[0].copy()
+    x[2, 3] = np.nan
+    where = np.zeros(x.shape, bool)
+    assert edges.nan_where(x, where) is False
+    where[2, 3] = True
+    assert edges.nan_where(x, where) is True

@@ -78,6 +78,9 @@ def test_a_worker_killed_mid_run_still_ends_with_a_complete_correct_store(captur
     try:
         pids = list(client.run(os.getpid).values())
         victim = pids[0]
+        # each worker's kernels share the cores: numba threads = cores // workers, not all cores each
+        want = str(max(1, (os.cpu_count() or 1) // 2))
+        assert set(client.run(lambda: os.environ.get("NUMBA_NUM_THREADS")).values()) == {want}
 
         def slow_then(job, ks):  # make the run last long enough to kill a worker inside it
             time.sleep(0.5)

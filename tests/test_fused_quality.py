@@ -54,3 +54,27 @@ def test_other_thresholds_match_too():
     tests = edges.QualityTests(margin=3.7, **kw)
     np.testing.assert_array_equal(fused_quality_map(valid, w, EXTENT, 3.7, mod, avg, **kw),
                                   edges.quality_map(valid, w, EXTENT, mod, avg, None, tests=tests))
+
+
+@pytest.mark.parametrize("ratio", [4.0, 2.5, 1.0, 0.0, -1.5])
+@pytest.mark.parametrize("floor", [1.0, 0.0])
+def test_gradient_count_equals_the_median_test_on_tied_jumps(ratio, floor):
+    """GRADIENT's count of the scaled jumps below the pixel's gives the test with the 5 x 5 median
+    itself (the median network), also where many jumps are equal to each other and to the pixel's
+    (jumps on a coarse grid: every tie of the strict comparison is met)."""
+    from fringe3d.decode._fused_quality import _jump_count_kernel, _jump_test_kernel
+    from fringe3d.decode._median_network import _median_kernel
+
+    rng = np.random.default_rng(11)
+    H, W = 23, 31
+    gp = (rng.integers(0, 9, (H + 4, W + 4)) * 0.25).astype(np.float32)  # 0, 0.25, ... 2: ties everywhere
+    gp[rng.random(gp.shape) < 0.1] = 7.0  # isolated large jumps
+    valid = rng.random((H, W)) > 0.15
+    ref = np.empty((H, W), np.float32)
+    _median_kernel(gp, ref)
+    want = np.empty((H, W + 2), np.uint8)
+    got = np.empty((H, W + 2), np.uint8)
+    _jump_test_kernel(valid, gp, ref, np.float32(ratio), np.float32(floor), want)
+    _jump_count_kernel(valid, gp, np.float32(ratio), np.float32(floor), got)
+    assert want[:, 1:-1].any() and not want[:, 1:-1].all()  # the test passes and fails somewhere
+    np.testing.assert_array_equal(got, want)

@@ -56,6 +56,27 @@ def test_fast_path_and_decode_path_mask_the_same_way(three_step):
     assert not (off.quality & ~np.uint8(edges.INVALID)).any()
 
 
+@pytest.mark.parametrize("edge_mask", [True, False])
+def test_sigma_z_left_for_later_is_the_same_map_bit_for_bit(three_step, edge_mask):
+    """``uncertainty="z later"`` (what a serial sequence asks for: the writer's thread computes
+    sigma_z) leaves the same map to ``with_sigma`` as ``"z"`` computes at once, with or without
+    the edge tests; the depth and the quality bits are those of ``"z"`` too."""
+    from fringe3d.reconstruct.frame import with_sigma
+
+    cap = read_capture(three_step)
+    ps = reconstruction_plans(cap.patterns, "geometric")
+    rec = FrameReconstructor(ps, Rig.load(three_step / "rig.json"),
+                             DecodeOptions(z_min=340.0, bit_depth=cap.meta.get("bit_depth"), edge_mask=edge_mask))
+    now = rec.reconstruct(cap.frames, uncertainty="z", points=False, texture=False)
+    later = rec.reconstruct(cap.frames, uncertainty="z later", points=False, texture=False)
+    assert later.sigma_z is None and later.sigma_later is not None and now.sigma_later is None
+    done = with_sigma(later)
+    assert done.sigma_later is None and with_sigma(now) is now
+    for a, b in ((done.sigma_z, now.sigma_z), (done.depth, now.depth), (done.quality, now.quality)):
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
+    assert np.isfinite(now.sigma_z).any()
+
+
 def test_reconstruction_exposes_quality_and_sigma_z(three_step):
     r = reconstruct_capture(three_step, three_step / "rig.json", method="geometric", z_min=340.0)
     assert r.quality is not None and r.quality.dtype == np.uint8 and r.sigma_z is not None

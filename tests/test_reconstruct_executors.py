@@ -77,3 +77,28 @@ def test_a_resumed_dask_run_computes_only_the_frames_the_store_lacks(capture, tm
                                   silence_logs=40) as cluster, distributed.Client(cluster) as client:
         res = run_with(capture, out, dask_executor(client))
     assert res["done_before"] == CYCLES - 1 and res["done_now"] == 1 and st.completed == CYCLES
+
+
+def test_thread_workers_share_the_kernel_threads():
+    """Each worker of ``threads(workers)`` runs its kernels on ``n // workers`` numba threads (at
+    least one), ``n`` the caller's, not on all of them; the caller's own setting is left alone."""
+    import threading
+    from types import SimpleNamespace
+
+    import numba
+
+    seen: dict[int, int] = {}
+
+    class Job:
+        rec = SimpleNamespace(backend="cpu")
+
+        def run(self, ks):
+            seen[threading.get_ident()] = numba.get_num_threads()
+            return [(k, None, False) for k in ks]
+
+    n = numba.get_num_threads()
+    for workers in (1, 2, n + 1):
+        seen.clear()
+        assert [k for k, _, _ in threads(workers)(Job(), list(range(6)))] == list(range(6))
+        assert set(seen.values()) == {max(1, n // workers)}
+        assert numba.get_num_threads() == n

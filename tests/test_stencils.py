@@ -25,6 +25,19 @@ def test_median5_equals_scipy_median_filter_with_replicated_border(shape):
     np.testing.assert_array_equal(median5(g), ndimage.median_filter(g, size=5, mode="nearest"))
 
 
+def _network(x, pairs):
+    """``x`` (M, n) after the comparators ``pairs`` (smaller value to the first wire)."""
+    x = x.copy()
+    for a, b in pairs:
+        x[:, a], x[:, b] = np.minimum(x[:, a], x[:, b]), np.maximum(x[:, a], x[:, b])
+    return x
+
+
+def _sorted_01(n):
+    """Every sorted 0/1 column of ``n`` values, (n + 1, n)."""
+    return (np.arange(n)[None, :] >= np.arange(n, -1, -1)[:, None]).astype(np.int8)
+
+
 def test_the_selection_network_sorts_and_selects_the_middle_value():
     rng = np.random.default_rng(1)
     x = rng.random((500, 32))
@@ -38,9 +51,44 @@ def test_the_selection_network_sorts_and_selects_the_middle_value():
     np.testing.assert_array_equal(y[:, 12], ref)
 
 
-def test_the_generated_median_kernel_is_the_selection_network():
+def test_sort5_sorts_every_0_1_column():
+    x = ((np.arange(32)[:, None] >> np.arange(5)) & 1).astype(np.int8)
+    assert (np.diff(_network(x, _stencils.SORT5), axis=1) >= 0).all()
+
+
+@pytest.mark.parametrize("m, n", [(1, 1), (2, 3), (5, 5), (4, 7), (10, 10)])
+def test_odd_even_merge_merges_sorted_lists_of_any_length(m, n):
+    pairs, order = _stencils.odd_even_merge(list(range(m)), list(range(m, m + n)))
+    a, b = _sorted_01(m), _sorted_01(n)
+    x = np.concatenate([np.repeat(a, len(b), 0), np.tile(b, (len(a), 1))], axis=1)
+    y = _network(x, pairs)[:, order]
+    assert (np.diff(y, axis=1) >= 0).all()
+    np.testing.assert_array_equal(y.sum(axis=1), x.sum(axis=1))
+
+
+def test_the_networks_select_the_median_of_every_column_sorted_0_1_window():
+    """By the 0-1 principle (min and max commute with any monotone threshold) the median network
+    is right for all inputs when it is for all 0/1 ones; after SORT5 a 0/1 window is five
+    sorted columns, 6 ** 5 of them."""
+    cols = _sorted_01(5)
+    idx = np.stack(np.meshgrid(*[np.arange(6)] * 5, indexing="ij"), -1).reshape(-1, 5)
+    win = np.concatenate([cols[idx[:, c]] for c in range(5)], axis=1)  # columns 0..4, each sorted
+    merged = [_network(win[:, 10 * p:10 * p + 10], _stencils.MERGE)[:, _stencils.MERGE_OUT] for p in (0, 1)]
+    core = _network(np.concatenate(merged, axis=1), _stencils.CORE)[:, _stencils.CORE_OUT]
+    k, x = core.T, win[:, 20:25].T
+    med = np.minimum.reduce([np.maximum(k[0], x[4]), np.maximum(k[1], x[3]), np.maximum(k[2], x[2]),
+                             np.maximum(k[3], x[1]), np.maximum(k[4], x[0]), k[5]])
+    np.testing.assert_array_equal(med, np.sort(win, axis=1)[:, 12])
+
+
+def test_the_median_module_is_the_generators_output():
     import inspect
-    assert inspect.getsource(_median_network._median_kernel) == _stencils._generate_median_network()
+    assert inspect.getsource(_median_network) == _stencils._generate_median_network()
+
+
+def test_median5_of_a_wide_map_crosses_the_column_chunks():
+    g = _maps((7, 3 * _median_network.CHUNK + 5), 6)
+    np.testing.assert_array_equal(median5(g), ndimage.median_filter(g, size=5, mode="nearest"))
 
 
 @pytest.mark.parametrize("shape", SHAPES)

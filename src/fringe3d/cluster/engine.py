@@ -34,7 +34,8 @@ GPU_RESOURCE = {"GPU": 1}
 def connect(scheduler: str | None = None, workers: int | None = None, timeout: float = 10.0, gpu: bool = False):
     """A ``distributed.Client``: to ``scheduler`` if given, else to a new ``LocalCluster`` of
     ``workers`` single-threaded worker processes (default: one per core; with ``gpu`` one worker
-    by default, each declaring :data:`GPU_RESOURCE`).
+    by default, each declaring :data:`GPU_RESOURCE`), each worker's numba kernels on its share
+    of the cores (:func:`kernel_threads`).
 
     Raises ``ValueError`` naming the address when the scheduler cannot be reached.
     """
@@ -48,8 +49,16 @@ def connect(scheduler: str | None = None, workers: int | None = None, timeout: f
                              "one with `dask scheduler` or check the address (tcp://HOST:8786)") from None
     n = workers or (1 if gpu else os.cpu_count() or 1)
     cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                                       silence_logs=40, resources=dict(GPU_RESOURCE) if gpu else None)
+                                       silence_logs=40, resources=dict(GPU_RESOURCE) if gpu else None,
+                                       env={"NUMBA_NUM_THREADS": str(kernel_threads(n))})
     return distributed.Client(cluster)
+
+
+def kernel_threads(workers: int) -> int:
+    """Numba threads of each of ``workers`` local worker processes: the cores shared among them
+    (at least one). Each worker left at numba's default, all cores, put ``workers`` threads on
+    every core, and a parallel kernel waits for its slowest thread."""
+    return max(1, (os.cpu_count() or 1) // max(1, int(workers)))
 
 
 def close(client, own_cluster: bool) -> None:

@@ -7,7 +7,12 @@ passes (private; the fused 3-step path of long sequences, :mod:`fringe3d.reconst
 1. per row, the jump of ``w`` to its valid 4-neighbours (GRADIENT's input) into a copy padded
    by two replicated pixels, and the fringe contrast ``B / A`` (MOD_DROP's) with its largest
    value over five columns;
-2. the 5 x 5 median of the jumps (:func:`fringe3d.decode._median_network._median_kernel`);
+2. GRADIENT's test per pixel, ``jump > max(ratio * median, floor)`` with the median of the
+   jumps over 5 x 5 pixels, without the median: the 25 values ``ratio * v`` are ordered as the
+   ``v`` (a monotone map, rounding included, keeps the 13th of 25 the middle one), so ``jump >
+   ratio * median`` exactly when at least 13 of them are below ``jump`` (a count of 25
+   comparisons, about 4x faster than the 113 compare-exchanges of the median network,
+   :func:`fringe3d.decode._median_network._median_kernel`, which a non-finite ratio still takes);
 3. per row, every bit: INVALID, EDGE, GRADIENT (the jump test OR-ed over the 3 x 3
    neighbourhood: the one-pixel growth), MOD_DROP (the largest contrast over five rows of the
    five-column maxima) and RIM.
@@ -28,7 +33,7 @@ from fringe3d.decode._stencils import erode_cross
 INVALID, EDGE, INCONSISTENT, GRADIENT, MOD_DROP, RIM, ORDER, SATURATED = 1, 2, 4, 8, 16, 32, 64, 128
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=True, nogil=True)
 def _jump_contrast_kernel(w, valid, modulation, average, gp, hmax):  # pragma: no cover - compiled
     H, W = w.shape
     zero = np.float32(0.0)
@@ -68,10 +73,10 @@ def _jump_contrast_kernel(w, valid, modulation, average, gp, hmax):  # pragma: n
         gp[H + 3, j] = gp[H + 1, j]
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=True, nogil=True)
 def _jump_test_kernel(valid, gp, ref, g_ratio, g_floor, t):  # pragma: no cover - compiled
     """GRADIENT's test per pixel, once: ``t[i, j + 1] = valid & jump > max(ratio * median, floor)``
-    (``t`` (H, W + 2) uint8, its first and last columns 0)."""
+    (``t`` (H, W + 2) uint8, its first and last columns 0; ``ref`` the 5 x 5 median)."""
     H, W = valid.shape
     for i in numba.prange(H):
         t[i, 0] = 0
@@ -80,7 +85,32 @@ def _jump_test_kernel(valid, gp, ref, g_ratio, g_floor, t):  # pragma: no cover 
             t[i, j + 1] = valid[i, j] & (gp[i + 2, j + 2] > max(g_ratio * ref[i, j], g_floor))
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=True, nogil=True)
+def _jump_count_kernel(valid, gp, g_ratio, g_floor, t):  # pragma: no cover - compiled
+    """:func:`_jump_test_kernel` without the median: ``jump > ratio * median`` of the 25 jumps
+    ``v`` around the pixel exactly when ``ratio * v < jump`` for at least 13 of them (``ratio``
+    finite). Per row: each of the five rows of ``v`` scaled once, then its five comparisons
+    counted for the whole row (branch-free, contiguous: the loops vectorise)."""
+    H, W = valid.shape
+    for i in numba.prange(H):
+        t[i, 0] = 0
+        t[i, W + 1] = 0
+        n = np.zeros(W, np.int32)  # 32-bit counts, the float32 lanes' width (uint8 counts were 1.5x slower)
+        s = np.empty(W + 4, np.float32)
+        c = gp[i + 2, 2:W + 2]
+        for a in range(5):
+            row = gp[i + a]
+            for j in range(W + 4):
+                s[j] = g_ratio * row[j]
+            for j in range(W):
+                cj = c[j]
+                n[j] += (np.int32(s[j] < cj) + np.int32(s[j + 1] < cj) + np.int32(s[j + 2] < cj)
+                         + np.int32(s[j + 3] < cj) + np.int32(s[j + 4] < cj))
+        for j in range(W):
+            t[i, j + 1] = valid[i, j] & (c[j] > g_floor) & (n[j] >= 13)
+
+
+@numba.njit(parallel=True, cache=True, nogil=True)
 def _bits_kernel(w, valid, t, hmax, lo, hi, m_ratio, rim1, q):  # pragma: no cover - compiled
     """Every bit of row ``i`` from row-clamped neighbours (a repeated row leaves an OR or a max
     alone); each condition is made a 0/1 integer times its bit, so the pixel loops
@@ -129,12 +159,15 @@ def fused_quality_map(mask: np.ndarray, w: np.ndarray, extent: tuple[float, floa
     gp = np.empty((H + 4, W + 4), np.float32)
     hmax = np.empty((2 * H, W), np.float32)  # the contrast's row-wise 5-max, then the contrast
     _jump_contrast_kernel(w, valid, modulation, average, gp, hmax)
-    ref = np.empty((H, W), np.float32)
-    _median_kernel(gp, ref)
     lo, hi = extent
     f32 = np.float32
     t = np.empty((H, W + 2), np.uint8)
-    _jump_test_kernel(valid, gp, ref, f32(gradient_ratio), f32(gradient_floor), t)
+    if math.isfinite(f32(gradient_ratio)):
+        _jump_count_kernel(valid, gp, f32(gradient_ratio), f32(gradient_floor), t)
+    else:  # inf * 0 is NaN: the median itself
+        ref = np.empty((H, W), np.float32)
+        _median_kernel(gp, ref)
+        _jump_test_kernel(valid, gp, ref, f32(gradient_ratio), f32(gradient_floor), t)
     q = np.empty((H, W), np.uint8)
     _bits_kernel(w, valid, t, hmax, f32(lo + margin), f32(hi - margin), f32(modulation_ratio), rim == 1, q)
     if rim > 1:  # wider rims: the iterated erosion of edges.rim_of_invalid

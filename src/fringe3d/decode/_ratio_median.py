@@ -5,8 +5,10 @@
 pixel, plus three full-size temporaries). Here (Floyd and Rivest's selection): the ratios of
 every 8th row and column bracket the median, ``[lo, hi]`` holding a few percent of the pixels
 with near certainty; one numba pass counts the ratios below ``lo`` and keeps those inside
-the bracket, and only those are partitioned. The order statistics are the same as numpy's
-(exact); a bracket that misses the median (or overflows its buffer) falls back to numpy.
+the bracket with their histogram over :data:`BINS` bins, and only the median's bin (a few
+dozen values) is partitioned, not the whole bracket (~8 % of the pixels, serial numpy). The
+order statistics are the same as numpy's (exact); a bracket that misses the median (or
+overflows its buffer) falls back to numpy.
 """
 from __future__ import annotations
 
@@ -16,19 +18,31 @@ import numba
 import numpy as np
 
 STRIDE = 8
+#: Histogram bins over the bracket: the median is selected inside its bin only.
+BINS = 4096
+
+
+@numba.njit(cache=True, inline="always")
+def _bin(r, lo, scale, nbins):  # pragma: no cover - compiled
+    """The histogram bin of a bracketed ratio ``r >= lo`` (float32 arithmetic, monotone in ``r``;
+    the last bin from ``nbins - 1`` up, and for an infinite ratio)."""
+    x = (r - lo) * scale
+    return np.int64(x) if x < nbins - 1 else nbins - 1
 
 
 @numba.njit(parallel=True, cache=True)
-def _bracket_pass(fine, coarse, mask, lo, hi, keep, counts):  # pragma: no cover - compiled
+def _bracket_pass(fine, coarse, mask, lo, hi, keep, counts, scale, hist):  # pragma: no cover - compiled
     """Per chunk of rows ``c``: ``counts[c] = (below lo, inside [lo, hi], all, NaN)`` of the
     ratios ``fine / coarse`` (float32) over ``mask & coarse > 0``; the inside ones into ``keep[c]``
-    while they fit (``counts[c, 1] >= cap`` when they did not).
+    while they fit (``counts[c, 1] >= cap`` when they did not), with their histogram over the
+    ``hist.shape[1]`` bins of :func:`_bin` in ``hist[c]``.
 
     Row by row: a branch-free loop (it vectorises) counts and parks the row's ratios in a row
     buffer (NaN outside the bracket); a second, branch-free loop over that buffer compacts the
     bracketed ones (every slot written, the write position advancing only on a kept one)."""
     H, W = fine.shape
     nch, cap = keep.shape
+    nbins = hist.shape[1]
     for c in numba.prange(nch):
         below = 0
         inside = 0
@@ -58,6 +72,21 @@ def _bracket_pass(fine, coarse, mask, lo, hi, keep, counts):  # pragma: no cover
         counts[c, 1] = inside
         counts[c, 2] = total
         counts[c, 3] = nan
+        if inside < cap:
+            for k in range(inside):
+                hist[c, _bin(keep[c, k], lo, scale, nbins)] += 1
+
+
+@numba.njit(cache=True)
+def _in_bin(keep, counts, lo, scale, nbins, b, out):  # pragma: no cover - compiled
+    """The kept ratios of bin ``b`` (:func:`_bin`) into ``out``, in one pass."""
+    n = 0
+    for c in range(keep.shape[0]):
+        for k in range(counts[c, 1]):
+            r = keep[c, k]
+            if _bin(r, lo, scale, nbins) == b:
+                out[n] = r
+                n += 1
 
 
 def _numpy_median(fine: np.ndarray, coarse: np.ndarray, mask: np.ndarray) -> float:
@@ -82,16 +111,25 @@ def ratio_median(fine: np.ndarray, coarse: np.ndarray, mask: np.ndarray) -> floa
     cap = int(2.5 * delta * fine.size / nch) + 1024
     keep = np.empty((nch, cap), np.float32)
     counts = np.zeros((nch, 4), np.int64)
-    _bracket_pass(fine, coarse, mask, np.float32(lo), np.float32(hi), keep, counts)
+    lo32, hi32 = np.float32(lo), np.float32(hi)
+    width = float(hi32) - float(lo32)
+    scale = np.float32(BINS / width if 0 < width < math.inf else 0.0)
+    hist = np.zeros((nch, BINS), np.int64)
+    _bracket_pass(fine, coarse, mask, lo32, hi32, keep, counts, scale, hist)
     below, inside, n, nans = (int(t) for t in counts.sum(axis=0))
     if nans:
         return float("nan")
     ranks = [n // 2] if n % 2 else [n // 2 - 1, n // 2]
     if n == 0 or (counts[:, 1] >= cap).any() or not below <= ranks[0] <= ranks[-1] < below + inside:
         return _numpy_median(fine, coarse, mask)
-    kept = np.concatenate([keep[c, :counts[c, 1]] for c in range(nch)])
-    part = np.partition(kept, [r - below for r in ranks])
-    values = [part[r - below] for r in ranks]
+    upto = np.cumsum(hist.sum(axis=0))  # the bracketed ratios in bins 0 .. b
+    values = []
+    for r in ranks:  # the bin holding rank r (the histogram is monotone in the ratio), then its rank there
+        b = int(np.searchsorted(upto, r - below, side="right"))
+        first = int(upto[b - 1]) if b else 0
+        members = np.empty(int(upto[b]) - first, np.float32)
+        _in_bin(keep, counts, lo32, scale, BINS, b, members)
+        values.append(np.partition(members, r - below - first)[r - below - first])
     if len(values) == 1:
         return float(values[0])
     return float((values[0] + values[1]) / np.float32(2))

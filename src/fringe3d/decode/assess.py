@@ -58,12 +58,17 @@ def noise_model(ctx: DecodeContext, groups: list[PhaseGroup], average: np.ndarra
     return (s * s * n, 0.0), "Laplacian of the average image"
 
 
-def clipping_broken_map(ctx: DecodeContext) -> np.ndarray | None:
-    """(H, W) bool where clipping broke a pixel of this direction (the phase groups' and the
-    code's maps the method computed, cached in the context), or None when it computed none."""
-    maps = [v for k, v in ctx.cache.items()
+def clipping_broken_map(ctx: DecodeContext) -> tuple[np.ndarray | None, bool]:
+    """``(broken, tested)``: (H, W) bool where clipping broke a pixel of this direction (the phase
+    groups' and the code's maps the method computed, cached in the context), None where no map
+    can hold a pixel; ``tested`` whether the method computed any map. A phase group's map
+    (:func:`fringe3d.decode.context.clipping_broken`) is known empty, and not read, when its
+    saturation record counts no clipped pixel (a pixel breaks only where a sample clipped)."""
+    maps = [(k, v) for k, v in ctx.cache.items()
             if isinstance(k, tuple) and k and k[0] in ("clipping_broken", "code_clipped")]
-    return np.logical_or.reduce(maps) if maps else None
+    live = [v for k, v in maps if not (k[0] == "clipping_broken"
+                                       and ctx.cache.get(("saturation", k[1]), {}).get("clipped") == 0)]
+    return (np.logical_or.reduce(live) if live else None), bool(maps)
 
 
 def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: np.ndarray,
@@ -102,11 +107,11 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
             sigma_phi = noise.model_phase_sigma(model[0], model[1], average, modulation, steps)
     if sigma_phi is None:  # no noise model: unknown
         sigma_phi = np.full(mask.shape, np.nan, np.float32)
-    broken = clipping_broken_map(ctx)
+    broken, clipping_tested = clipping_broken_map(ctx)
     if not opts.edge_mask or not groups or ctx.plan.method == "none":
         # code-only stripes and wrapped ("none") phases have no continuous w to test
         q = edges.order_bits(mask, order, broken)
-        if order is not None or broken is not None:
+        if order is not None or clipping_tested:
             info["masked"] = edges.bit_counts(q)
         return Assessment(q, sigma_phi, info, texture)
     valid = mask if order is None else mask & ~np.asarray(order, bool)

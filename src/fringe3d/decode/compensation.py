@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from typing import Any, Protocol, Sequence
 
+import numba
 import numpy as np
 
 from fringe3d.phase.psp import PhaseResult, default_shifts, wrapped_phase
@@ -65,7 +66,13 @@ SAMPLE_PIXELS = 16384
 def equal_steps(shifts) -> bool:
     """The shifts are ``shift_0 + 2 pi k / N`` in step order (what the harmonic model needs)."""
     d = np.asarray(shifts, float)
-    return d.size >= 4 and bool(np.allclose(wrap(d - d[0] - default_shifts(d.size)), 0.0, atol=1e-6))
+    return d.size >= 4 and _near_zero(wrap(d - d[0] - default_shifts(d.size)))
+
+
+def _near_zero(x: np.ndarray) -> bool:
+    """``np.allclose(x, 0.0, atol=1e-6)`` (``|x| <= 1e-6`` everywhere, NaN and inf never) without its
+    broadcasting and error-state machinery (the decoder asks once per group and cycle)."""
+    return bool(np.all(np.abs(x) <= 1e-6))
 
 
 def _sample(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -74,10 +81,37 @@ def _sample(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None = None
     subsample's own modulation, so that no full-size phase is computed for a diagnostic)."""
     h, w = np.shape(ctx.frames[group.indices[0]])[-2:]
     step = max(1, int(np.ceil(np.sqrt(h * w / SAMPLE_PIXELS))))
-    frames = np.stack([np.asarray(ctx.frames[i][::step, ::step], np.float32) for i in group.indices])
+    frames = _strided_sample(ctx.frames, group.indices, step)
     modulation = (pr.modulation[::step, ::step] if pr is not None
                   else wrapped_phase(frames, shifts=np.asarray(group.shifts, float)).modulation)
     return frames, modulation >= max(ctx.min_modulation, 1e-12)
+
+
+def _strided_sample(frames: np.ndarray, indices, step: int) -> np.ndarray:
+    """(N, h, w) float32 ``frames[i][::step, ::step]`` of each index ``i`` (the strided copies and
+    their float32 casts in one compiled gather; numpy's for anything but an (F, H, W) array)."""
+    idx = np.asarray(list(indices), np.int64)
+    if not isinstance(frames, np.ndarray) or frames.ndim != 3 or not _compiled_dtype(frames.dtype):
+        return np.stack([np.asarray(frames[i][::step, ::step], np.float32) for i in idx])
+    h, w = frames.shape[1:]
+    out = np.empty((idx.size, -(-h // step), -(-w // step)), np.float32)
+    _gather(frames, idx, step, out)
+    return out
+
+
+def _compiled_dtype(dtype: np.dtype) -> bool:
+    """A dtype the compiled passes read: native integers, float32 or float64."""
+    return dtype.isnative and (dtype.kind in "ui" or dtype in (np.float32, np.float64))
+
+
+@numba.njit(cache=True)
+def _gather(frames, idx, step, out):  # pragma: no cover - compiled
+    for k in range(idx.shape[0]):
+        for a in range(out.shape[1]):
+            row = frames[idx[k], a * step]
+            o = out[k, a]
+            for b in range(out.shape[2]):
+                o[b] = np.float32(row[b * step])
 
 
 def diagnose_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None = None) -> dict[str, Any] | None:
@@ -117,7 +151,7 @@ def compensate_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> 
 def steps_equal(shifts) -> bool:
     """The shifts are N >= 3 steps ``shift_0 + 2 pi k / N`` in step order (what the disagreement needs)."""
     d = np.asarray(shifts, float)
-    return d.size >= 3 and bool(np.allclose(wrap(d - d[0] - default_shifts(d.size)), 0.0, atol=1e-6))
+    return d.size >= 3 and _near_zero(wrap(d - d[0] - default_shifts(d.size)))
 
 
 def disagreement_group(ctx: DecodeContext, group: PhaseGroup, phase: np.ndarray, mask: np.ndarray,

@@ -58,6 +58,7 @@ import math
 from dataclasses import dataclass
 from typing import Sequence
 
+import numba
 import numpy as np
 
 from fringe3d.decode._disagreement_kernel import max_wrapped_residual
@@ -267,7 +268,7 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
         valid = np.asarray(mask, bool)
         if order is not None:
             valid = valid & ~np.asarray(order, bool)
-        if not np.isnan(w, where=valid, out=np.zeros(valid.shape, bool)).any():
+        if not nan_where(w, valid):
             return _quality_map_fused(mask, valid, w, extent, modulation, average, residual, order, saturated,
                                       tests)
     margin, max_disagreement, rim = tests.margin, tests.max_disagreement, tests.rim
@@ -334,4 +335,70 @@ def rim_of_invalid(valid: np.ndarray, width: int) -> np.ndarray:
 
 def bit_counts(q: np.ndarray) -> dict[str, int]:
     """Pixels per reason (a pixel may count under several)."""
-    return {name: int(np.count_nonzero(q & bit)) for bit, name in BITS.items()}
+    q = np.asarray(q)
+    if q.dtype != np.uint8 or q.ndim != 2:
+        return {name: int(np.count_nonzero(q & bit)) for bit, name in BITS.items()}
+    counts = np.zeros((max(1, q.shape[0]), 8), np.int64)
+    _bit_count_rows(np.ascontiguousarray(q), counts)
+    total = counts.sum(axis=0)
+    return {name: int(total[bit.bit_length() - 1]) for bit, name in BITS.items()}
+
+
+@numba.njit(cache=True)
+def _bit_count_rows(q, counts):  # pragma: no cover - compiled
+    """``counts[i, b]``: the pixels of row ``i`` of ``q`` (H, W) uint8 with bit ``b`` set, in one
+    pass: eight pixels a 64-bit word, bit ``b`` of each byte summed in the byte lanes of one
+    word for up to 255 words, then the lanes added (~0.1 ms a 1280 x 1024 map: one thread, no
+    parallel region to start, or to wait for on a busy machine)."""
+    H, W = q.shape
+    nw = W // 8
+    ones = np.uint64(0x0101010101010101)
+    low = np.uint64(0x00FF00FF00FF00FF)
+    add4 = np.uint64(0x0001000100010001)
+    for i in range(H):
+        words = q[i, :nw * 8].view(np.uint64)
+        c = np.zeros(8, np.int64)
+        for k0 in range(0, nw, 255):
+            part = words[k0:min(nw, k0 + 255)]
+            a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = np.uint64(0)
+            for k in range(part.shape[0]):
+                x = part[k]
+                a0 += x & ones
+                a1 += (x >> np.uint64(1)) & ones
+                a2 += (x >> np.uint64(2)) & ones
+                a3 += (x >> np.uint64(3)) & ones
+                a4 += (x >> np.uint64(4)) & ones
+                a5 += (x >> np.uint64(5)) & ones
+                a6 += (x >> np.uint64(6)) & ones
+                a7 += (x >> np.uint64(7)) & ones
+            for b, a in enumerate((a0, a1, a2, a3, a4, a5, a6, a7)):
+                pairs = (a & low) + ((a >> np.uint64(8)) & low)  # four 16-bit lanes of at most 510
+                c[b] += np.int64((pairs * add4) >> np.uint64(48))
+        for j in range(nw * 8, W):
+            x = q[i, j]
+            for b in range(8):
+                c[b] += (x >> b) & 1
+        for b in range(8):
+            counts[i, b] = c[b]
+
+
+def nan_where(x: np.ndarray, where: np.ndarray) -> bool:
+    """``np.isnan(x)[where].any()`` of (H, W) ``x`` and bool ``where``, in one pass without temporaries."""
+    x, where = np.asarray(x), np.asarray(where, bool)
+    if x.ndim != 2 or x.dtype not in (np.float32, np.float64) or not x.dtype.isnative or x.shape != where.shape:
+        return bool(np.isnan(x, where=where, out=np.zeros(np.shape(where), bool)).any())
+    found = np.zeros(max(1, x.shape[0]), np.uint8)
+    _nan_rows(np.ascontiguousarray(x), np.ascontiguousarray(where), found)
+    return bool(found.any())
+
+
+@numba.njit(cache=True)
+def _nan_rows(x, where, found):  # pragma: no cover - compiled
+    """``found[i]``: row ``i`` of ``x`` has a NaN where ``where`` (one thread, as :func:`_bit_count_rows`)."""
+    H, W = x.shape
+    for i in range(H):
+        f = np.uint8(0)
+        for j in range(W):
+            v = x[i, j]
+            f |= np.uint8(where[i, j]) & np.uint8(v != v)
+        found[i] = f

@@ -39,7 +39,7 @@ def _half_bits(x):  # pragma: no cover - compiled
     return np.uint16(((x >> u(16)) & u(0x8000)) | h)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _to_half_kernel(bits, out):  # pragma: no cover - compiled
     # one thread: the loop vectorises (2 ms a 1280 x 1024 map), and the store's writer runs beside the compute
     for t in range(bits.size):

@@ -96,7 +96,7 @@ def parallel_kernel(w, mask, O, D, Q, P3, out):  # pragma: no cover - compiled
                 out[i, j, 2] = nan
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=True, nogil=True)
 def sigma_z_kernel(w, modulation, mask, c_sigma, t_scale, num, qd, pd, Dz, out):  # pragma: no cover - compiled
     """Pinhole rays: ``out[i, j] = |Dz ds/dw| sigma_w`` with ``sigma_w = (c_sigma / B) t_scale``
     (float32, inf where ``B <= 0``) and ``ds/dw = num / (pd*w - qd)^2``, ``num = po*qd - qo*pd``;

@@ -17,7 +17,7 @@ import numpy as np
 _LAPLACIAN_ROWS = 16
 
 
-@numba.njit(parallel=True, cache=True, fastmath={"reassoc", "nsz"})
+@numba.njit(parallel=True, cache=True, nogil=True, fastmath={"reassoc", "nsz"})
 def _interior_laplacian(image, mask, sums, counts):  # pragma: no cover - compiled
     # L = [1, -2, 1]^T [1, -2, 1]: the response is the vertical second difference of the rows'
     # horizontal second differences d (float64, three rows in a ring): 2 sums a pixel, not 8.

@@ -13,7 +13,7 @@ See :mod:`fringe3d.radiometry.harmonics`.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -56,7 +56,8 @@ class NonlinearityReport:
     fix: str | None
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        # the fields are scalars and strings: a shallow dict is dataclasses.asdict without its deep copies
+        return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
 def diagnose(frames, mask=None, period: float | None = None, threshold_rad: float = 0.005,

@@ -91,7 +91,7 @@ def _three_step_pixel(frames, i, j, i0, i1, i2, coef, phi_min, sign, scale, qo, 
     return s, w, b * b + c * c, sg, a0, a1, a2
 
 
-@numba.njit(parallel=True, fastmath=_FAST, cache=True)
+@numba.njit(parallel=True, fastmath=_FAST, cache=True, nogil=True)
 def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out):  # pragma: no cover
     """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> ray parameter ``s``
     of ``X = O + s*D`` (Eq. 2.37 along the camera ray), written as (H, W) float32 (NaN invalid).
@@ -114,7 +114,7 @@ def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q
             out[i, j] = np.float32(s) if ok else nan
 
 
-@numba.njit(parallel=True, fastmath=_FAST, cache=True)
+@numba.njit(parallel=True, fastmath=_FAST, cache=True, nogil=True)
 def three_step_fields_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out, w_out,
                              avg_out, mod_out):  # pragma: no cover - compiled
     """:func:`three_step_kernel` that also writes what the quality tests read, in the same pass:
@@ -137,7 +137,7 @@ def three_step_fields_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, 
             mod_out[i, j] = np.float32(math.sqrt(b2))
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=True, nogil=True)
 def mask_flagged(depth, quality, keep):  # pragma: no cover - compiled
     """``depth[quality != 0] = NaN`` in place and ``keep = quality == 0``, one pass (no boolean
     temporaries)."""

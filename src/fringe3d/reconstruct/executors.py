@@ -14,6 +14,8 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
+import numba
+
 from fringe3d.io.capture_frames import CaptureFolder
 from fringe3d.io.read_ahead import ReadAhead
 from fringe3d.reconstruct.frame import (Cycle, FrameReconstructor, reconstructed_cycles, reconstructed_windows,
@@ -55,29 +57,39 @@ def batch_size(job: WindowJob) -> int:
 def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
     """Every 3D frame of ``todo`` in this thread, in order, the next batches' frames read ahead on a
     reader thread (:class:`~fringe3d.io.read_ahead.ReadAhead`: PNG or TIFF decoding is off the
-    compute's path; a few cycles in memory at most)."""
+    compute's path; a few cycles in memory at most). The fused path's sigma_z is left to each
+    cycle's ``sigma_later`` (:func:`~fringe3d.reconstruct.frame.with_sigma`), which the store
+    writer's thread calls: the noise estimate and sigma_z pass leave the compute's path."""
     size = batch_size(job)
     parts = [todo[b0:b0 + size] for b0 in range(0, len(todo), size)]
     n = len(job.rec.patterns)
     with ReadAhead(lambda ks: window_frames(job.frames, job.starts, ks, n), parts) as read:
         for ks, cycles in zip(parts, read):
-            yield from reconstructed_cycles(job.rec, ks, cycles, job.ply, job.layout, job.quality)
+            yield from reconstructed_cycles(job.rec, ks, cycles, job.ply, job.layout, job.quality, later=True)
 
 
 def threads(workers: int = 2, in_flight: int | None = None) -> Executor:
     """An executor computing ``workers`` batches at once on a thread pool (the numba kernels
     release the GIL), yielding in order; at most ``in_flight`` batches (default ``2 * workers``)
-    are computed ahead of the one being written (bounded memory)."""
+    are computed ahead of the one being written (bounded memory). Each worker's kernels run on
+    ``max(1, n // workers)`` numba threads, ``n`` the caller's (:func:`numba.get_num_threads`):
+    the workers share the cores instead of each spreading over all of them."""
 
     def run(job: WindowJob, todo: list[int]) -> Iterator[Done]:
         size = batch_size(job)
         parts = [todo[i:i + size] for i in range(0, len(todo), size)]
         most = in_flight or 2 * workers
+        per_worker = max(1, numba.get_num_threads() // workers)
+
+        def compute(ks: list[int]) -> list[Done]:
+            numba.set_num_threads(per_worker)  # this worker thread's own setting
+            return job.run(ks)
+
         with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="fringe3d-frames") as pool:
             pending: deque = deque()
             try:
                 for ks in parts:
-                    pending.append(pool.submit(job.run, ks))
+                    pending.append(pool.submit(compute, ks))
                     while len(pending) >= most:
                         yield from pending.popleft().result()
                 while pending:

@@ -13,8 +13,9 @@ estimate of the average image (:func:`fringe3d.phase.noise.laplacian_noise`); ``
 """
 from __future__ import annotations
 
+import functools
 import math
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -32,13 +33,15 @@ class FastQuality(NamedTuple):
     """Quality map (H, W) uint8; ``sigma_z`` (H, W) and ``sigma_xyz`` (H, W, 3) float32 mm (None
     unless asked); ``average`` and ``modulation`` (H, W) float32, the ``A`` and ``B`` the tests
     used (None where none were computed), whose ``A + B`` is the texture's intensity
-    (:mod:`fringe3d.decode.texture`)."""
+    (:mod:`fringe3d.decode.texture`); ``sigma_later`` (uncertainty ``"z later"``) computes
+    ``sigma_z`` when called (:func:`sigma_z_map`), else None."""
 
     quality: np.ndarray
     sigma_z: np.ndarray | None
     sigma_xyz: np.ndarray | None = None
     average: np.ndarray | None = None
     modulation: np.ndarray | None = None
+    sigma_later: Callable[[], np.ndarray] | None = None
 
 
 def invalid_bits(valid: np.ndarray) -> np.ndarray:
@@ -55,7 +58,9 @@ def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shi
     in place. ``fields``: the kernel's :class:`ThreeStepFields`, or one with only ``depth``
     (``w``, ``average``, ``modulation`` None: recomputed here). ``extent`` is the pattern's
     extent along ``w`` (projector px, pixel edges). ``uncertainty``: ``"z"`` for ``sigma_z``
-    alone, True for ``sigma_xyz`` as well. :class:`EmptyMaskError` when no pixel is valid."""
+    alone, True for ``sigma_xyz`` as well, ``"z later"`` for ``sigma_z`` left to a function
+    (``sigma_later``: the same map when called, on another thread if the caller likes).
+    :class:`EmptyMaskError` when no pixel is valid."""
     depth = fields.depth
     valid = np.isfinite(depth)
     if not valid.any():
@@ -79,13 +84,23 @@ def fast_quality(fast: FastThreeStep, frames: np.ndarray, index: np.ndarray, shi
         q = invalid_bits(valid)
         keep = valid  # q == 0 exactly where valid
     sigma_z = sigma_xyz = None
-    if uncertainty:
-        n = len(index)
+    n = len(index)
+    if uncertainty == "z later":
+        return FastQuality(q, None, None, avg, mod, functools.partial(sigma_z_map, fast, n, w, avg, mod, keep))
+    if uncertainty is True:  # every axis; z is the same bits sigma_z_from_phase_noise gives
         sigma_n = noise.laplacian_noise(avg, keep) * math.sqrt(n)  # the average of N frames carries sigma / sqrt(N)
-        if uncertainty is True:  # every axis; z is the same bits sigma_z_from_phase_noise gives
-            sigma_w = noise.phase_sigma(sigma_n, mod, n) * np.float32(fast.mp.period / (2 * math.pi))
-            sigma_xyz = fast_point_sigma(fast.tri, w, sigma_w, keep)
-            sigma_z = np.ascontiguousarray(sigma_xyz[..., 2])
-        else:
-            sigma_z = fast.tri.sigma_z_from_phase_noise(w, mod, sigma_n, n, fast.mp.period, keep)
+        sigma_w = noise.phase_sigma(sigma_n, mod, n) * np.float32(fast.mp.period / (2 * math.pi))
+        sigma_xyz = fast_point_sigma(fast.tri, w, sigma_w, keep)
+        sigma_z = np.ascontiguousarray(sigma_xyz[..., 2])
+    elif uncertainty:
+        sigma_z = sigma_z_map(fast, n, w, avg, mod, keep)
     return FastQuality(q, sigma_z, sigma_xyz, avg, mod)
+
+
+def sigma_z_map(fast: FastThreeStep, n: int, w: np.ndarray, average: np.ndarray, modulation: np.ndarray,
+                keep: np.ndarray) -> np.ndarray:
+    """(H, W) float32 ``sigma_z`` (mm; NaN off ``keep``) of the fused path's ``n``-step fringe
+    coordinate ``w`` (px), from the Laplacian noise of the ``average`` over ``keep`` and the
+    ``modulation`` (:meth:`~fringe3d.optics.rays.RayGeometry.sigma_z_from_phase_noise`)."""
+    sigma_n = noise.laplacian_noise(average, keep) * math.sqrt(n)  # the average of N frames carries sigma / sqrt(N)
+    return fast.tri.sigma_z_from_phase_noise(w, modulation, sigma_n, n, fast.mp.period, keep)

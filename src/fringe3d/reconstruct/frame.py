@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
-from typing import Iterator, NamedTuple
+from typing import Callable, Iterator, NamedTuple
 
 import numpy as np
 
@@ -68,8 +68,10 @@ class Cycle(NamedTuple):
     asked for), ``texture`` (H, W) float32 in [0, 1] (None when not asked for), ``quality`` (H, W) uint8 bits
     (:mod:`fringe3d.decode.edges`; 0 = kept), ``sigma_xyz`` (H, W, 3) float32 mm predicted
     standard deviations (or None), on the fused path ``depth`` (H, W) float32: the ray
-    parameter ``s`` of every point (``points = ray_points(O, D, depth)``; None elsewhere), and
-    ``sigma_z`` (H, W) float32 mm, ``sigma_xyz``'s z (or None)."""
+    parameter ``s`` of every point (``points = ray_points(O, D, depth)``; None elsewhere),
+    ``sigma_z`` (H, W) float32 mm, ``sigma_xyz``'s z (or None), and ``sigma_later``: where
+    ``sigma_z`` was left for later (uncertainty ``"z later"``), the function computing it
+    (:func:`with_sigma`), else None."""
 
     points: np.ndarray | None
     texture: np.ndarray | None
@@ -77,6 +79,14 @@ class Cycle(NamedTuple):
     sigma_xyz: np.ndarray | None
     depth: np.ndarray | None = None
     sigma_z: np.ndarray | None = None
+    sigma_later: Callable[[], np.ndarray] | None = None
+
+
+def with_sigma(cycle: Cycle) -> Cycle:
+    """``cycle`` with its ``sigma_z`` computed where it was left for later (``sigma_later``)."""
+    if cycle.sigma_later is None:
+        return cycle
+    return cycle._replace(sigma_z=cycle.sigma_later(), sigma_later=None)
 
 
 class FrameReconstructor:
@@ -222,13 +232,15 @@ class FrameReconstructor:
         """One cycle (manifest order) -> :class:`Cycle`: points, texture, quality map (OR of the
         directions' bits, :mod:`fringe3d.decode.edges`) and, with ``uncertainty``, ``sigma_xyz``
         and ``sigma_z`` (:mod:`fringe3d.reconstruct.uncertainty`; ``"z"``: on the fused path
-        ``sigma_z`` alone). Both paths mask edge and mixed pixels unless ``options.edge_mask``
-        is False. ``points=False`` leaves ``points`` None on the fused path (its ``depth`` holds
+        ``sigma_z`` alone; ``"z later"``: there its function, ``Cycle.sigma_later``, except on the
+        device, which makes ``sigma_z`` at once). Both paths mask edge and mixed pixels unless
+        ``options.edge_mask`` is False. ``points=False`` leaves ``points`` None on the fused path (its ``depth`` holds
         them), ``texture=False`` leaves ``texture`` None there. ``depth``: the fused kernel's ray
         parameters for these frames, already computed. On the CUDA fused path without ``sigma_xyz``
         or ``depth`` every output is made on the device (:meth:`device_cycles`)."""
         if self.on_device(uncertainty) and depth is None:
-            cycle = self.device_cycles([frames], uncertainty, points, texture)[0]
+            cycle = self.device_cycles([frames], "z" if uncertainty == "z later" else uncertainty, points,
+                                       texture)[0]
             if cycle is None:
                 raise EmptyMaskError("the decoded phase mask is empty: no pixel has enough fringe modulation (check "
                                      "exposure, modulation threshold and that the scene is lit by the projector)")
@@ -272,7 +284,7 @@ class FrameReconstructor:
                    if fq.average is not None and fq.modulation is not None else
                    fringe_texture(frames, fused.shifts, fused.index, self.options.bit_depth))
         pts = fast.ray_points(depth) if points else None
-        return Cycle(pts, tex, fq.quality, fq.sigma_xyz, depth, fq.sigma_z)
+        return Cycle(pts, tex, fq.quality, fq.sigma_xyz, depth, fq.sigma_z, fq.sigma_later)
 
     def _check_range(self, depth: np.ndarray) -> None:
         """The depth-range warning of the decode path (:func:`fringe3d.unwrap.geometric.
@@ -290,19 +302,20 @@ class FrameReconstructor:
 
 
 def reconstruct_window(rec: FrameReconstructor, frames: np.ndarray, ply: bool, layout: str | None,
-                       quality: bool, depth: np.ndarray | None = None) -> tuple[Cycle, bool]:
+                       quality: bool, depth: np.ndarray | None = None, later: bool = False) -> tuple[Cycle, bool]:
     """One window (manifest order) for a sequence's outputs: ``(cycle, empty)``.
 
     ``ply`` asks for points and texture, ``layout`` (the store's, or None) for the points
     (``"xyz"``) or only the ray parameters (``"ray_depth"``), ``quality`` for the quality map
-    and ``sigma_z``, ``depth`` for the fused kernel's ray parameters already computed
-    (:meth:`FrameReconstructor.depths`). A window whose phase mask is empty gives an all-NaN,
-    all-INVALID cycle and ``empty = True``.
+    and ``sigma_z``, ``depth`` for the fused kernel's ray parameters already computed,
+    ``later`` to leave the fused path's ``sigma_z`` to
+    ``Cycle.sigma_later`` (:func:`with_sigma`: the store writer's thread computes it). A window
+    whose phase mask is empty gives an all-NaN, all-INVALID cycle and ``empty = True``.
     """
     want_points = ply or layout == "xyz"
     try:
-        return rec.reconstruct(frames, uncertainty="z" if quality else False, points=want_points, texture=ply,
-                               depth=depth), False
+        return rec.reconstruct(frames, uncertainty=("z later" if later else "z") if quality else False,
+                               points=want_points, texture=ply, depth=depth), False
     except EmptyMaskError:
         return empty_cycle(rec, frames.shape[1:], want_points), True
 
@@ -323,10 +336,11 @@ def window_frames(frames, starts, ks: list[int], n: int) -> list[np.ndarray]:
 
 
 def reconstructed_cycles(rec: FrameReconstructor, ks: list[int], cycles: list[np.ndarray], ply: bool,
-                         layout: str | None, quality: bool) -> Iterator[tuple[int, Cycle, bool]]:
+                         layout: str | None, quality: bool, later: bool = False) -> Iterator[tuple[int, Cycle, bool]]:
     """``(k, cycle, empty)`` of each 3D frame ``k`` of ``ks`` from its frames already read
     (``cycles``, :func:`window_frames`; :func:`reconstruct_window`); on the CUDA fused path all of
-    them come finished from one batched launch (:meth:`FrameReconstructor.device_cycles`)."""
+    them come finished from one batched launch (:meth:`FrameReconstructor.device_cycles`);
+    elsewhere ``later`` leaves sigma_z to ``Cycle.sigma_later`` (:func:`reconstruct_window`)."""
     uncertainty = "z" if quality else False
     if cycles and rec.on_device(uncertainty):
         want_points = ply or layout == "xyz"
@@ -334,7 +348,7 @@ def reconstructed_cycles(rec: FrameReconstructor, ks: list[int], cycles: list[np
             yield (k, cyc, False) if cyc is not None else (k, empty_cycle(rec, cycles[0].shape[1:], want_points), True)
         return
     for k, cycle_frames in zip(ks, cycles):
-        cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, layout, quality)
+        cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, layout, quality, later=later)
         yield k, cyc, was_empty
 
 

@@ -31,7 +31,7 @@ from fringe3d.io.store import PointMapStore, StoreSettings
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.reconstruct.executors import Executor, WindowJob, serial
-from fringe3d.reconstruct.frame import Cycle, FrameReconstructor, store_layout, reconstruction_plans
+from fringe3d.reconstruct.frame import Cycle, FrameReconstructor, store_layout, reconstruction_plans, with_sigma
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.reconstruct.windows import window_index, window_starts
 from fringe3d.utils.camera_size import check_camera_size
@@ -161,8 +161,8 @@ def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig, out, decode: De
 def _write_all(results: Iterator, out: Path, store: tuple[PointMapStore | None, int], ply: bool, progress: bool,
                n: int) -> int:
     """Write every ``(k, cycle, empty)`` of ``results`` into ``store`` = (the store or None, frames
-    marked done at once) and, with ``ply``, ``out/ply``: on a writer thread (compression, file
-    writes) behind the next frame's compute, at most :data:`IN_FLIGHT` frames queued; a write's
+    marked done at once) and, with ``ply``, ``out/ply``: on a writer thread (sigma_z left for
+    later, compression, file writes) behind the next frame's compute, at most :data:`IN_FLIGHT` frames queued; a write's
     error is raised here. Returns the number of empty frames. Only written frames are marked
     done, also when the run stops early (the writes in flight are waited for)."""
     st, mark_every = store
@@ -170,7 +170,8 @@ def _write_all(results: Iterator, out: Path, store: tuple[PointMapStore | None, 
     writes: deque = deque()
     written: list[int] = []
     with progress_bar("reconstructing 3D frames", n, enabled=progress) as advance, \
-            ThreadPoolExecutor(max_workers=1, thread_name_prefix="fringe3d-store") as writer, \
+            ThreadPoolExecutor(max_workers=1, thread_name_prefix="fringe3d-store", initializer=numba.set_num_threads,
+                               initargs=(1,)) as writer, \
             _kernel_threads_beside(True):
         try:
             for k, cyc, was_empty in results:
@@ -197,7 +198,10 @@ IN_FLIGHT = 2
 
 
 def _write_frame(k: int, cycle: Cycle, st: PointMapStore | None, ply_dir: Path | None) -> None:
-    """3D frame ``k``'s store chunks (not marked done) and PLY file, where asked for (on the writer thread)."""
+    """3D frame ``k``'s store chunks (not marked done) and PLY file, where asked for (on the writer
+    thread, whose kernels run on one numba thread); first its sigma_z where the executor left it
+    for later (:func:`~fringe3d.reconstruct.frame.with_sigma`)."""
+    cycle = with_sigma(cycle)
     if st is not None:
         st.write_frame(k, **store_arrays(cycle, st))
     if ply_dir is not None:

@@ -231,9 +231,10 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
     nan = np.float32(np.nan)
     nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
     for blk in prange(nblk):
-        acc = np.empty((12, COL_CHUNK), np.float32)
+        acc = np.empty((16, COL_CHUNK), np.float32)
         a1, b1, c1, a2, b2, c2, b3, c3 = acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], acc[6], acc[7]
         pk1, pk2, pk3, ss = acc[8], acc[9], acc[10], acc[11]
+        f_b2, f_c2, f_b3, f_c3 = acc[12], acc[13], acc[14], acc[15]  # the float64 sums rounded to float32
         acc64 = np.empty((6, COL_CHUNK))
         e_a, e_b2, e_c2, e_b3, e_c3, e_pk = acc64[0], acc64[1], acc64[2], acc64[3], acc64[4], acc64[5]
         for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
@@ -284,14 +285,18 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
                     cl3[j] = pk3[j] >= clip_level
                 accumulate_chunk(frames, idx2, c64_2, i, j0, n, e_a, e_b2, e_c2, e_pk, True, True, False)
                 accumulate_chunk(frames, idx3, c64_3, i, j0, n, e_a, e_b3, e_c3, e_pk, True, True, False)
-                # again a few arrays per loop (see above): phi_2, then phi_3 and B_3, then the residual
+                # again a few arrays per loop (see above): the sums to float32 (a float64 -> float32
+                # conversion in the atan2 loops kept them scalar), phi_2, then phi_3 and B_3, then the residual
                 for j in range(n):
-                    bj = np.float32(e_b2[j])
-                    cj = np.float32(e_c2[j])
-                    ss[j] = fast_atan2_f32(-cj, bj)
+                    f_b2[j] = np.float32(e_b2[j])
+                    f_c2[j] = np.float32(e_c2[j])
+                    f_b3[j] = np.float32(e_b3[j])
+                    f_c3[j] = np.float32(e_c3[j])
                 for j in range(n):
-                    bj = np.float32(e_b3[j])
-                    cj = np.float32(e_c3[j])
+                    ss[j] = fast_atan2_f32(-f_c2[j], f_b2[j])
+                for j in range(n):
+                    bj = f_b3[j]
+                    cj = f_c3[j]
                     a2[j] = fast_atan2_f32(-cj, bj)
                     m3o[j] = math.sqrt(bj * bj + cj * cj)
                 for j in range(n):
