@@ -1,7 +1,7 @@
 """`fringe3d live` end to end with a headless Chromium page open on it: 3D frames/s and latency.
 
 Run: ``.venv/bin/python benchmarks/bench_live.py [--preset high-speed] [--seconds 20] [--step 1]
-[--viewport 1280x800] [--no-browser] [--json]`` (not a test; needs the ``live`` extra and Debian's chromium).
+[--show cloud|depth] [--viewport 1280x800] [--no-browser] [--json]`` (not a test; needs the ``live`` extra and Debian's chromium).
 
 It runs the body of ``fringe3d live --camera virtual:PRESET --loop-cycles N --seconds S`` (the
 virtual camera replaying a rendered moving take at ``--frame-rate`` Hz, 120 by default: at most
@@ -75,6 +75,7 @@ def main() -> None:
     ap.add_argument("--loop-cycles", type=int, default=8)
     ap.add_argument("--frame-rate", type=float, default=120.0)
     ap.add_argument("--step", type=int, default=1)
+    ap.add_argument("--show", default="cloud", choices=("cloud", "depth"), help="the view the page shows")
     ap.add_argument("--no-browser", action="store_true")
     ap.add_argument("--viewport", default="1280x800", help="the page's size, WIDTHxHEIGHT")
     ap.add_argument("--json", action="store_true")
@@ -94,7 +95,7 @@ def main() -> None:
             page = browser.new_page(viewport=viewport)
         o = LiveOptions(camera=f"virtual:{args.preset}", projector=None, patterns="3-step", calibration=None,
                         z_min=None, frame_rate=args.frame_rate, loop_cycles=args.loop_cycles, exposure=None,
-                        frames=None, seconds=args.seconds, host="127.0.0.1", port=0, step=args.step, colour="z",
+                        frames=None, seconds=args.seconds, host="127.0.0.1", port=0, step=args.step, colour="z", show=args.show,
                         output=Path(tmp) / "rec", record_cycles=1, wait_viewer=0.0 if args.no_browser else 120.0,
                         hold=0.0, overwrite=False, json_=True, quiet=True)
         t = threading.Thread(target=lambda: result.update(summary=run_live(o, on_serving=served.append)))
@@ -109,11 +110,11 @@ def main() -> None:
             result["page"] = page.evaluate("() => window.fringe3dDisplay && window.fringe3dDisplay.summary")
     s = result["summary"]
     s.update(browser=not args.no_browser, cores=os.cpu_count(), load_average=round(os.getloadavg()[0], 2),
-             step=args.step, frame_rate=args.frame_rate, viewport=args.viewport,
+             step=args.step, show=args.show, frame_rate=args.frame_rate, viewport=args.viewport,
              webgl_ceiling_fps=result.get("webgl_ceiling"))
     page = result.get("page")
     s["page"] = page
-    group = (f"fringe3d live, virtual:{args.preset}, {s['size'][0]}x{s['size'][1]}, "
+    group = (f"fringe3d live, virtual:{args.preset}, {s['size'][0]}x{s['size'][1]}, {args.show} view, "
              f"{'headless Chromium page open' if not args.no_browser else 'no page open'}")
     s["figures"] = [figure(group, "3D frames handed to the page", "ours", "3D frames/s", [s["fps"]])] + [
         figure(group, f"latency, frame arrival to points handed to the page, {k} over the frames", "ours", "ms",
@@ -130,7 +131,7 @@ def main() -> None:
         print(json.dumps(s, indent=1))
     else:
         lat = s["latency_ms"]
-        print(f"{s['size'][0]}x{s['size'][1]} {s['path']}, step {args.step}, browser {not args.no_browser}: "
+        print(f"{s['size'][0]}x{s['size'][1]} {s['path']}, {args.show} view, step {args.step}, browser {not args.no_browser}: "
               f"{s['fps']} 3D frames/s shown ({s['frames_shown']} frames), latency median {lat['median']} ms, "
               f"p95 {lat['p95']} ms, max {lat['max']} ms; {s['cycles_skipped']} of {s['cycles_arrived']} cycles "
               f"skipped; {s['points_median']} points per frame; load average {s['load_average']} on {s['cores']} "
