@@ -1,7 +1,7 @@
 """`fringe3d live` end to end with a headless Chromium page open on it: 3D frames/s and latency.
 
 Run: ``.venv/bin/python benchmarks/bench_live.py [--preset high-speed] [--seconds 20] [--step 1]
-[--show cloud|depth] [--viewport 1280x800] [--no-browser] [--json]`` (not a test; needs the ``live`` extra and Debian's chromium).
+[--show depth|cloud] [--viewport 1280x800] [--no-browser] [--json]`` (not a test; needs the ``live`` extra and Debian's chromium).
 
 It runs the body of ``fringe3d live --camera virtual:PRESET --loop-cycles N --seconds S`` (the
 virtual camera replaying a rendered moving take at ``--frame-rate`` Hz, 120 by default: at most
@@ -75,7 +75,7 @@ def main() -> None:
     ap.add_argument("--loop-cycles", type=int, default=8)
     ap.add_argument("--frame-rate", type=float, default=120.0)
     ap.add_argument("--step", type=int, default=1)
-    ap.add_argument("--show", default="cloud", choices=("cloud", "depth"), help="the view the page shows")
+    ap.add_argument("--show", default="depth", choices=("cloud", "depth"), help="the view the page shows")
     ap.add_argument("--no-browser", action="store_true")
     ap.add_argument("--viewport", default="1280x800", help="the page's size, WIDTHxHEIGHT")
     ap.add_argument("--json", action="store_true")

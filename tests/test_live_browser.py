@@ -144,7 +144,8 @@ def _watch(out: Path, show: str) -> dict:
         timed["depth_image"] = page.evaluate(f"""() => {{ const l = [...document.querySelectorAll('p, span, div')]
             .filter(e => e.childElementCount === 0 && e.textContent.trim() === {json.dumps(DEPTH_LABEL)}).pop();
             const img = l && l.parentElement.querySelector('img');
-            return img ? {{width: img.naturalWidth, complete: img.complete, position: img.style.position}} : null; }}""")
+            return img ? {{width: img.naturalWidth, complete: img.complete, position: img.style.position}}
+                       : null; }}""")
         page.screenshot(path=str(out / "live.png"))
         browser.close()
     live.join(timeout=60)

@@ -74,10 +74,10 @@ def register(app: typer.Typer) -> None:
         port: int = typer.Option(8080, help="Port of the page (0: any free port)."),
         step: int = typer.Option(1, help="Draw every STEP-th pixel in both directions."),
         colour: str = typer.Option("z", help="Colour the points by z (depth) or texture."),
-        show: str = typer.Option("cloud", help="What the page shows first (it can switch): the point cloud "
-                                               "(WebGL) or the depth map as an image coloured by depth, masked "
-                                               "pixels by reason (drawn without WebGL: the fast view in a "
-                                               "browser without a GPU)."),
+        show: str = typer.Option("depth", help="What the page shows first (it can switch): the depth map as "
+                                               "an image coloured by depth, masked pixels by reason (drawn "
+                                               "without WebGL: fast in any browser), or the point cloud (WebGL: "
+                                               "slow in a browser without a GPU)."),
         output: Path = typer.Option(Path("live-recording"), "-o", "--output",
                                     help="The capture folder the page's record button writes (the page can change "
                                          "it; a non-empty one only with --overwrite)."),
@@ -94,7 +94,8 @@ def register(app: typer.Typer) -> None:
         The page (http://HOST:PORT) shows the point cloud or the depth map (--show), the mask
         overlay, the frame rate and the end-to-end latency (frame arrival to the frame sent to the
         page), with exposure, pattern-set, colour, show, pause and record controls. The default
-        camera replays a rendered moving scene as a camera delivers it. Runs until Ctrl-C, --frames or --seconds; --json prints the figures.
+        camera replays a rendered moving scene as a camera delivers it. Runs until Ctrl-C, --frames
+        or --seconds; --json prints the figures.
 
         Example: fringe3d live
 

@@ -41,7 +41,8 @@ def gather_points(points, texture, use_texture, step, z0, scale, lut):  # pragma
 
 
 @njit(cache=True)
-def colour_depth(points, quality, step, z0, scale, lut, invalid, other, invalid_bits, out):  # pragma: no cover - compiled
+def colour_depth(points, quality, step, z0, scale, lut, invalid, other, invalid_bits,  # pragma: no cover - compiled
+                 out):
     """Fill ``out[:h]`` with the colours of ``points[::step, ::step]``'s depths: ``lut`` indexed as in
     :func:`gather_points` where finite, else ``other`` where ``quality`` (same stride) is non-zero
     without a bit of ``invalid_bits`` (``INVALID``), else ``invalid``. A ``(1, 1)`` ``quality``

@@ -19,10 +19,10 @@ the stamp. The script waits for the image element labelled :data:`DEPTH_LABEL` t
 ``src`` (the ``MutationObserver`` watches ``src`` attributes too), for the image to load and
 decode (``img.decode()``, or its ``load`` event: a decode promise has stayed pending in headless
 Chromium), then for the next animation frame and the task after it, and takes the time as above
-(a frame whose image is replaced before it is drawn is not counted). While
-the depth view is on, the script lays the image over the 3D view (fixed, centred on the
-canvas's box, at the image's own size: a scaled image costs a software rasteriser more per frame) and hides the 3D canvas (``display: none``: the browser neither draws nor composites it); the cloud view
-undoes both.
+(a frame whose image is replaced before it is drawn is not counted). While the depth view is on,
+the script lays the image over the 3D view (fixed, centred on the canvas's box, at the image's
+own size: a scaled image costs a software rasteriser more per frame) and hides the 3D canvas
+(``display: none``: the browser neither draws nor composites it); the cloud view undoes both.
 
 The page shows, under the view, the frames it drew, their rate (``(drawn - 1) / (last -
 first)``, on ``performance.now()``) and the display latency median, p95 and max (percentiles

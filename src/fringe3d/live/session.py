@@ -55,8 +55,9 @@ class Controls:
     """What the page's controls ask for; read by the loop between cycles.
 
     ``paused`` (show nothing new), ``choice`` (the pattern set), ``colouring`` (``"z"`` or
-    ``"texture"``), ``view`` (``"cloud"``: the points; ``"depth"``: the depth map as an image), ``exposure`` (a new exposure value not yet applied, or None), ``record`` (a
-    ``(folder, cycles)`` request not yet started, or None) and ``stop``.
+    ``"texture"``), ``view`` (``"cloud"``: the points; ``"depth"``: the depth map as an image),
+    ``exposure`` (a new exposure value not yet applied, or None), ``record`` (a ``(folder,
+    cycles)`` request not yet started, or None) and ``stop``.
     """
 
     choice: str

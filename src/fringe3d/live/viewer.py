@@ -13,7 +13,8 @@
   to points handed to the page, measured by the pipeline: :mod:`fringe3d.live.stats`),
   **3D frames shown**, **points**; the controls **exposure** (the virtual camera's gain or a
   camera's exposure time), **pattern set** (when there is a choice), **colour** (by depth or
-  texture), **show** (the point cloud or the depth map), **pause**, and **record**: a folder, a number of cycles and a button that records
+  texture), **show** (the point cloud or the depth map), **pause**, and **record**: a folder, a
+  number of cycles and a button that records
   the next cycles there as a capture folder; the **mask overlay** image (texture in grey,
   masked pixels tinted by reason, :func:`fringe3d.live.display.mask_overlay`);
 * under the view, the page's own figures: the frames it drew, their rate and the **display
