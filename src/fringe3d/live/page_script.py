@@ -138,13 +138,15 @@ SCRIPT = r"""
     if (!src || (img === depthShown && src === depthSeen)) return;  // its image has not arrived yet
     depthShown = img;
     depthSeen = src;
-    layOut(img);
     const p = depthPending, mine = ++token;  // a newer image before this one is drawn: this one is not counted
     depthPending = null;
-    // the next animation frame draws the decoded image; the task after it runs once it is drawn
-    ready(img).then(() => requestAnimationFrame(() => setTimeout(() => {
-      if (mine === token && img.getAttribute('src') === src) drawn(p, now());
-    }, 0)));
+    // placed once loaded (its size known); the next animation frame draws it; the task after it runs once drawn
+    ready(img).then(() => {
+      if (mine === token) layOut(img);
+      requestAnimationFrame(() => setTimeout(() => {
+        if (mine === token && img.getAttribute('src') === src) drawn(p, now());
+      }, 0));
+    });
   };
   const look = () => {
     lookDepth();
