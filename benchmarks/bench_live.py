@@ -11,9 +11,9 @@ command's own summary: 3D frames shown per second and the end-to-end latency (fr
 points handed to the page) median / p95 / max, measured by the pipeline; then the page's own
 figures (:mod:`fringe3d.live.page_script`, read from the page): 3D frames drawn per second and
 the display latency (frame arrival to the depth image or the cloud, ``--show``, drawn in the
-page) median / p95 / max. Chromium renders the cloud with software WebGL on the same cores, as a browser on the measuring machine
-would; before the run it times the same browser drawing a bare WebGL page (:data:`BARE_WEBGL`) at
-the same viewport: the ceiling of any page there.
+page) median / p95 / max. Chromium renders the cloud with software WebGL on the same cores, as a
+browser on the measuring machine would; before the run it times the same browser drawing a bare
+WebGL page (:data:`BARE_WEBGL`) at the same viewport: the ceiling of any page there.
 """
 from __future__ import annotations
 
