@@ -1,7 +1,8 @@
 """`fringe3d live` end to end with a headless Chromium page open on it: 3D frames/s and latency.
 
 Run: ``.venv/bin/python benchmarks/bench_live.py [--preset high-speed] [--seconds 20] [--step 1]
-[--viewport 1280x800] [--no-browser] [--json]`` (not a test; needs the ``live`` extra and Debian's chromium).
+[--show depth|cloud] [--viewport 1280x800] [--no-browser] [--json]`` (not a test; needs the
+``live`` extra and Debian's chromium).
 
 It runs the body of ``fringe3d live --camera virtual:PRESET --loop-cycles N --seconds S`` (the
 virtual camera replaying a rendered moving take at ``--frame-rate`` Hz, 120 by default: at most
@@ -9,10 +10,10 @@ virtual camera replaying a rendered moving take at ``--frame-rate`` Hz, 120 by d
 command's own summary: 3D frames shown per second and the end-to-end latency (frame arrival to
 points handed to the page) median / p95 / max, measured by the pipeline; then the page's own
 figures (:mod:`fringe3d.live.page_script`, read from the page): 3D frames drawn per second and
-the display latency (frame arrival to the cloud drawn in the page) median / p95 / max. Chromium
-renders the cloud with software WebGL on the same cores, as a browser on the measuring machine
-would; before the run it times the same browser drawing a bare WebGL page (:data:`BARE_WEBGL`) at
-the same viewport: the ceiling of any page there.
+the display latency (frame arrival to the depth image or the cloud, ``--show``, drawn in the
+page) median / p95 / max. Chromium renders the cloud with software WebGL on the same cores, as a
+browser on the measuring machine would; before the run it times the same browser drawing a bare
+WebGL page (:data:`BARE_WEBGL`) at the same viewport: the ceiling of any page there.
 """
 from __future__ import annotations
 
@@ -75,6 +76,7 @@ def main() -> None:
     ap.add_argument("--loop-cycles", type=int, default=8)
     ap.add_argument("--frame-rate", type=float, default=120.0)
     ap.add_argument("--step", type=int, default=1)
+    ap.add_argument("--show", default="depth", choices=("cloud", "depth"), help="the view the page shows")
     ap.add_argument("--no-browser", action="store_true")
     ap.add_argument("--viewport", default="1280x800", help="the page's size, WIDTHxHEIGHT")
     ap.add_argument("--json", action="store_true")
@@ -95,6 +97,7 @@ def main() -> None:
         o = LiveOptions(camera=f"virtual:{args.preset}", projector=None, patterns="3-step", calibration=None,
                         z_min=None, frame_rate=args.frame_rate, loop_cycles=args.loop_cycles, exposure=None,
                         frames=None, seconds=args.seconds, host="127.0.0.1", port=0, step=args.step, colour="z",
+                        show=args.show,
                         output=Path(tmp) / "rec", record_cycles=1, wait_viewer=0.0 if args.no_browser else 120.0,
                         hold=0.0, overwrite=False, json_=True, quiet=True)
         t = threading.Thread(target=lambda: result.update(summary=run_live(o, on_serving=served.append)))
@@ -109,11 +112,11 @@ def main() -> None:
             result["page"] = page.evaluate("() => window.fringe3dDisplay && window.fringe3dDisplay.summary")
     s = result["summary"]
     s.update(browser=not args.no_browser, cores=os.cpu_count(), load_average=round(os.getloadavg()[0], 2),
-             step=args.step, frame_rate=args.frame_rate, viewport=args.viewport,
+             step=args.step, show=args.show, frame_rate=args.frame_rate, viewport=args.viewport,
              webgl_ceiling_fps=result.get("webgl_ceiling"))
     page = result.get("page")
     s["page"] = page
-    group = (f"fringe3d live, virtual:{args.preset}, {s['size'][0]}x{s['size'][1]}, "
+    group = (f"fringe3d live, virtual:{args.preset}, {s['size'][0]}x{s['size'][1]}, {args.show} view, "
              f"{'headless Chromium page open' if not args.no_browser else 'no page open'}")
     s["figures"] = [figure(group, "3D frames handed to the page", "ours", "3D frames/s", [s["fps"]])] + [
         figure(group, f"latency, frame arrival to points handed to the page, {k} over the frames", "ours", "ms",
@@ -130,7 +133,8 @@ def main() -> None:
         print(json.dumps(s, indent=1))
     else:
         lat = s["latency_ms"]
-        print(f"{s['size'][0]}x{s['size'][1]} {s['path']}, step {args.step}, browser {not args.no_browser}: "
+        print(f"{s['size'][0]}x{s['size'][1]} {s['path']}, {args.show} view, step {args.step}, "
+              f"browser {not args.no_browser}: "
               f"{s['fps']} 3D frames/s shown ({s['frames_shown']} frames), latency median {lat['median']} ms, "
               f"p95 {lat['p95']} ms, max {lat['max']} ms; {s['cycles_skipped']} of {s['cycles_arrived']} cycles "
               f"skipped; {s['points_median']} points per frame; load average {s['load_average']} on {s['cores']} "

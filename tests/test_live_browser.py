@@ -9,7 +9,9 @@ drew, and the figures are read from the page's own GUI fields. Truths: the same 
 the test and reconstructed by :class:`fringe3d.reconstruct.frame.FrameReconstructor` (each cloud
 sent equals one of the loop's cycles exactly), the simulator's ground truth (those points lie on
 the scene within the tiny rig's accuracy), and the command's --json summary (the page shows the
-same figures).
+same figures). A second run shows the depth view (``--show depth``): the page receives JPEG depth
+images and no cloud, the images decode to the colour ramp's colours of the engine's depths, and
+the page times the images it drew against the stamps sent with them.
 """
 from __future__ import annotations
 
@@ -28,7 +30,7 @@ from headless_chromium import launch
 from fringe3d.commands.live import LiveOptions, run_live
 from fringe3d.decode import DecodeOptions
 from fringe3d.live.display import display_points
-from fringe3d.live.page_script import ARRIVAL_ATTRIBUTE, FIGURES_ID, FRAME_ATTRIBUTE
+from fringe3d.live.page_script import ARRIVAL_ATTRIBUTE, DEPTH_LABEL, FIGURES_ID, FRAME_ATTRIBUTE, VIEW_ATTRIBUTE
 from fringe3d.live.viewer import LABELS
 from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
 from fringe3d.sim.live_take import render_take
@@ -83,25 +85,35 @@ def _clouds(messages: list[dict]) -> list[np.ndarray]:
              if m.get("type") == "SceneNodeUpdateMessage" and "points" in m.get("updates", {})])
 
 
-def _options(record: Path) -> LiveOptions:
+def _options(record: Path, show: str = "cloud") -> LiveOptions:
     return LiveOptions(camera="virtual:tiny", projector=None, patterns="3-step", calibration=None, z_min=None,
                        frame_rate=FRAME_RATE, loop_cycles=LOOP_CYCLES, exposure=None, frames=FRAMES, seconds=None,
-                       host="127.0.0.1", port=0, step=1, colour="z", output=record, record_cycles=1,
+                       host="127.0.0.1", port=0, step=1, colour="z", show=show, output=record, record_cycles=1,
                        wait_viewer=60.0, hold=2.0, overwrite=False, json_=True, quiet=True)
 
 
 @pytest.fixture(scope="module")
 def live_run(tmp_path_factory):
     """Run `fringe3d live` for FRAMES 3D frames with a headless Chromium page open on it."""
+    return _watch(tmp_path_factory.mktemp("live"), "cloud")
+
+
+@pytest.fixture(scope="module")
+def depth_run(tmp_path_factory):
+    """As :func:`live_run`, in the depth view."""
+    return _watch(tmp_path_factory.mktemp("live-depth"), "depth")
+
+
+def _watch(out: Path, show: str) -> dict:
+    """Run `fringe3d live --show SHOW` for FRAMES 3D frames with a headless Chromium page open on it."""
     from playwright.sync_api import sync_playwright
 
-    out = tmp_path_factory.mktemp("live")
     served: list[str] = []
     result: dict = {}
 
     def run() -> None:
         try:
-            result["summary"] = run_live(_options(out / "rec"), on_serving=served.append)
+            result["summary"] = run_live(_options(out / "rec", show), on_serving=served.append)
         except BaseException as e:  # handed to the test
             result["error"] = e
 
@@ -129,6 +141,11 @@ def live_run(tmp_path_factory):
         timed = page.evaluate("() => { const d = window.fringe3dDisplay; return {frame: d.frame, arrival: d.arrival, "
                               "received: d.received, drawn: d.drawn, tick: d.tick, latency: d.latency}; }")
         timed["shown"] = page.evaluate(f"() => document.getElementById('{FIGURES_ID}').textContent")
+        timed["depth_image"] = page.evaluate(f"""() => {{ const l = [...document.querySelectorAll('p, span, div')]
+            .filter(e => e.childElementCount === 0 && e.textContent.trim() === {json.dumps(DEPTH_LABEL)}).pop();
+            const img = l && l.parentElement.querySelector('img');
+            return img ? {{width: img.naturalWidth, complete: img.complete, position: img.style.position}}
+                       : null; }}""")
         page.screenshot(path=str(out / "live.png"))
         browser.close()
     live.join(timeout=60)
@@ -152,13 +169,15 @@ def loop_points():
         pts, _ = display_points(cyc.points, None, "z", (300.0, 500.0))
         mid = k * n + n // 2  # the truth at the cycle's middle frame
         valid = np.isfinite(cyc.points[..., 2])
-        out.append((pts, cyc.points[valid], take.truth.xyz[mid][valid], take.truth.mask[mid][valid]))
+        out.append((pts, cyc.points[valid], take.truth.xyz[mid][valid], take.truth.mask[mid][valid],
+                    (cyc.points, cyc.quality)))
     return out
 
 
 @pytest.mark.browser
-def test_live_page_shows_the_figures_the_pipeline_measured(live_run):
-    s, shown = live_run["summary"], live_run["shown"]
+@pytest.mark.parametrize("run", ["live_run", "depth_run"])
+def test_live_page_shows_the_figures_the_pipeline_measured(run, request):
+    s, shown = request.getfixturevalue(run)["summary"], request.getfixturevalue(run)["shown"]
     assert s["frames_shown"] == FRAMES and shown["frames_shown"] == str(FRAMES)
     assert float(shown["fps"]) == pytest.approx(s["fps"], abs=0.051)
     assert float(shown["latency_median"]) == pytest.approx(s["latency_ms"]["median"], abs=0.051)
@@ -196,8 +215,11 @@ def _stamps(payloads: list[bytes]) -> list[tuple[int, float, bool]]:
 def test_live_frame_stamps_travel_with_their_point_clouds(live_run):
     stamps = _stamps(live_run["received"])
     clouds = sum(len(_clouds(_messages(p))) for p in live_run["received"])
-    assert stamps and all(with_cloud for _, _, with_cloud in stamps)
-    assert len(stamps) == clouds  # one stamp per cloud, in the same atomic update
+    unstamped = sum(len(_clouds(_messages(p))) for p in live_run["received"] if not _stamps([p]))
+    # one stamp per cloud, in the same atomic update; viser sends a prop only when it changes: a frame of the
+    # same cycle of the replayed loop as the one before (the loop came round) gets its stamp without a cloud
+    assert stamps and unstamped == 0 and 0 < clouds <= len(stamps)
+    assert sum(with_cloud for _, _, with_cloud in stamps) == clouds >= len(stamps) // 2
     frames = [f for f, _, _ in stamps]
     assert frames == sorted(set(frames)) and frames[-1] == FRAMES
     t0, t1 = live_run["wall"]  # arrival stamps are host wall-clock times (epoch ms) within the run
@@ -205,7 +227,9 @@ def test_live_frame_stamps_travel_with_their_point_clouds(live_run):
 
 
 @pytest.mark.browser
-def test_live_page_times_display_latency_of_the_frames_it_drew(live_run):
+@pytest.mark.parametrize("run", ["live_run", "depth_run"])
+def test_live_page_times_display_latency_of_the_frames_it_drew(run, request):
+    live_run = request.getfixturevalue(run)
     t = live_run["timed"]
     frame, arrival = np.array(t["frame"]), np.array(t["arrival"])
     received, drawn, latency = np.array(t["received"]), np.array(t["drawn"]), np.array(t["latency"])
@@ -230,8 +254,74 @@ def test_live_page_times_display_latency_of_the_frames_it_drew(live_run):
         assert figure == pytest.approx(round(float(value), 1), abs=0.051)
 
 
+def _depth_images(payloads: list[bytes]) -> list[tuple[np.ndarray, bool]]:
+    """(decoded RGB image, a depth-view stamp in the same websocket message) of each update of the GUI
+    image labelled DEPTH_LABEL the page received."""
+    import cv2
+
+    uuid, out = None, []
+    for payload in payloads:
+        messages = _messages(payload)
+        for m in messages:
+            if m.get("type") == "GuiImageMessage" and m["props"].get("label") == DEPTH_LABEL:
+                uuid = m["uuid"]
+        stamped = any(f'{VIEW_ATTRIBUTE}="depth"' in m.get("updates", {}).get("content", "") for m in messages
+                      if m.get("type") == "GuiUpdateMessage")
+        for m in messages:
+            data = m.get("updates", {}).get("_data") if m.get("type") == "GuiUpdateMessage" else None
+            if m.get("uuid") == uuid and data is not None and len(data) > 0:
+                bgr = cv2.imdecode(np.frombuffer(bytes(data), np.uint8), cv2.IMREAD_COLOR)
+                out.append((bgr[..., ::-1], stamped))
+    return out
+
+
+@pytest.mark.browser
+def test_live_depth_view_sends_a_depth_image_with_each_stamp_and_no_cloud(depth_run):
+    received = depth_run["received"]
+    images = [(image, stamped) for image, stamped in _depth_images(received) if image.shape != (8, 8, 3)]
+    stamps = _stamps(received)  # viser drops updates a newer one replaces before they are sent: not every frame
+    assert not any(_clouds(_messages(p)) for p in received), "the depth view sent a point cloud"
+    # every image travels with its stamp; viser sends a prop only when it changes: a frame of the same cycle
+    # of the replayed loop as the one before (the loop came round) gets its stamp without an image
+    assert stamps and 0 < len(images) <= len(stamps) and all(stamped for _, stamped in images)
+    assert len(images) >= len(stamps) // 2
+    frames = [f for f, _, _ in stamps]
+    assert frames == sorted(set(frames)) and frames[-1] == FRAMES
+    shown = depth_run["timed"]["depth_image"]  # the page shows it, laid over the 3D view
+    assert shown and shown["width"] == 160 and shown["complete"] and shown["position"] == "fixed"
+
+
+@pytest.mark.browser
+def test_live_depth_images_decode_to_the_ramp_colours_of_the_engines_depths(depth_run, loop_points):
+    from test_live_loop import ramp_colour
+
+    from fringe3d.live.display import BAR_ROWS, depth_image
+
+    H, W = 128, 160
+    maps = [m for *_, m in loop_points]
+    made = [depth_image(points, quality, (300.0, 500.0)).astype(float) for points, quality in maps]
+    for image, stamped in _depth_images(depth_run["received"]):
+        if not stamped:  # the placeholder before the first frame
+            continue
+        assert image.shape == (H + BAR_ROWS, W, 3)
+        error = [np.abs(image - m).mean() for m in made]
+        k = int(np.argmin(error))
+        assert error[k] < 3.0, "a depth image the page received is none of the loop's cycles"
+        z = maps[k][0][..., 2]
+        truth = ramp_colour(np.nan_to_num(z, nan=0.0), (300.0, 500.0))
+        # a few pixels, each inside an 8x8 block (a JPEG block) of valid depths of nearly one colour
+        picked = 0
+        for v in range(8, H - 8, 24):
+            for u in range(8, W - 8, 24):
+                block = (slice(v - 4, v + 4), slice(u - 4, u + 4))
+                if np.isfinite(z[block]).all() and np.ptp(truth[block], axis=(0, 1)).max() < 4:
+                    assert np.abs(image[v, u] - truth[v, u]).max() <= 10, (v, u, image[v, u], truth[v, u])
+                    picked += 1
+        assert picked >= 5
+
+
 def test_live_points_lie_on_the_rendered_scene_within_the_tiny_rigs_accuracy(loop_points):
-    for _, pts, truth, on_scene in loop_points:
+    for _, pts, truth, on_scene, _ in loop_points:
         err = np.linalg.norm(pts[on_scene] - truth[on_scene], axis=1)
         assert on_scene.mean() > 0.97
         assert np.median(err) < 0.3  # mm; the tiny rig (160x128) at 400 mm, a moving ball

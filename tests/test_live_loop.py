@@ -20,7 +20,7 @@ from fringe3d.live import (
     RecordSettings,
     ReplayCamera,
 )
-from fringe3d.live.display import display_points, mask_overlay
+from fringe3d.live.display import BAR_ROWS, depth_image, display_points, mask_overlay
 from fringe3d.live.replay import BUFFER_FRAMES
 from fringe3d.decode.edges import INVALID
 from fringe3d.optics import Rig
@@ -137,12 +137,46 @@ def test_mask_overlay_tints_invalid_pixels_red_and_other_masked_pixels_orange():
     assert img[0, 2, 0] > 150 and 0 < img[0, 2, 1] < img[0, 2, 0] and img[0, 2, 2] == 0  # orange
 
 
+#: The depth ramp's five stops (viridis at 0, 1/4, 1/2, 3/4, 1): the truth of the depth colours.
+VIRIDIS_STOPS = np.array([[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]], float)
+
+
+def ramp_colour(z, z_range):
+    """The colour of depth z: the stops interpolated linearly over z_range (clipped), rounded."""
+    t = np.clip((np.asarray(z, float) - z_range[0]) / (z_range[1] - z_range[0]), 0.0, 1.0) * 4
+    return np.stack([np.interp(t, np.arange(5), VIRIDIS_STOPS[:, c]) for c in range(3)], -1)
+
+
+def test_depth_image_colours_depths_on_the_ramp_and_masked_pixels_like_the_overlay():
+    H, W = 6, 256
+    pts = np.zeros((H, W, 3), np.float32)
+    pts[..., 2] = np.linspace(280.0, 520.0, W, dtype=np.float32)[None]  # beyond the range at both ends
+    pts[1, 10], pts[2, 20], pts[3, 30] = np.nan, np.nan, np.nan
+    q = np.zeros((H, W), np.uint8)
+    q[1, 10], q[2, 20] = INVALID | 2, 2  # no quality bit at (3, 30): a pixel without depth is invalid
+    img = depth_image(pts, q, (300.0, 500.0))
+    assert img.shape == (H + BAR_ROWS, W, 3) and img.dtype == np.uint8
+    kept = np.isfinite(pts[..., 2])
+    # one step of the 256-colour ramp at most from the linear interpolation of the stops
+    assert np.abs(img[:H][kept] - ramp_colour(pts[..., 2][kept], (300.0, 500.0))).max() <= 1.5
+    assert img[0, 0].tolist() == [68, 1, 84] and img[0, -1].tolist() == [253, 231, 37]  # clipped to the ends
+    grey = mask_overlay(None, np.array([[INVALID, 2]], np.uint8))  # the overlay's tints on mid grey
+    assert img[1, 10].tolist() == grey[0, 0].tolist() == img[3, 30].tolist()
+    assert img[2, 20].tolist() == grey[0, 1].tolist()
+    bar = img[H:H + BAR_ROWS // 2]  # the colour bar: the ramp over the range, left to right
+    assert np.abs(bar[0] - ramp_colour(np.linspace(300.0, 500.0, W), (300.0, 500.0))).max() <= 1.5
+    assert (img[H + BAR_ROWS // 2:] < 128).any()  # the range's labels, dark on white
+    half = depth_image(pts, q, (300.0, 500.0), step=2)
+    assert np.array_equal(half[:H // 2], img[:H:2, ::2])
+
+
 # ----------------------------------------------------------------------------- a session without a browser
 class RecordingViewer:
     """A viewer that keeps what it was given; its controls are driven by the test."""
 
     def __init__(self):
         self.clouds: list = []
+        self.depth: list = []
         self.arrivals: list = []
         self.stats: list = []
         self.status: list = []
@@ -153,6 +187,10 @@ class RecordingViewer:
         self.arrivals.append(arrival)
         if self.on_frame is not None:
             self.on_frame(len(self.clouds))
+
+    def show_depth(self, image, arrival):
+        self.depth.append(image)
+        self.arrivals.append(arrival)
 
     def show_overlay(self, image):
         pass
@@ -199,6 +237,24 @@ def test_session_shows_the_plane_the_engine_reconstructs(plane_take):
     z = np.concatenate([c[:, 2] for c in viewer.clouds])
     assert np.median(np.abs(z - np.median(truth.depth[truth.mask]))) < 0.2  # a plane at the truth's depth
     assert viewer.stats[-1] == summary
+
+
+def test_depth_view_shows_the_depth_image_of_the_cycle_and_no_cloud(plane_take):
+    viewer = RecordingViewer()
+    session, _ = _session(plane_take, viewer)
+    session.controls.view = "depth"
+    summary = session.run()
+    assert summary["frames_shown"] == 4 == len(viewer.depth) and not viewer.clouds
+    _, truth, _, _ = plane_take
+    img = viewer.depth[-1]
+    depth, mask = truth.depth.reshape(-1, *truth.depth.shape[-2:])[0], truth.mask.reshape(-1, *truth.mask.shape[-2:])[0]
+    H, W = depth.shape
+    assert img.shape == (H + BAR_ROWS, W, 3)
+    on = mask & (img[:H, :, 0] != 201)  # the plane, where the engine kept a depth
+    assert on.mean() > 0.9 * mask.mean()
+    expect = ramp_colour(depth[on], (300.0, 500.0))  # a still plane: the same depth in every cycle
+    assert np.median(np.abs(img[:H][on] - expect)) <= 1.5
+    assert summary["points_median"] == int(np.median([np.count_nonzero(d[:H, :, 0] != 201) for d in viewer.depth]))
 
 
 def test_pause_shows_nothing_new_and_exposure_reaches_the_camera(plane_take):

@@ -29,7 +29,7 @@ from fringe3d.live import (
     ViserViewer,
     require_viser,
 )
-from fringe3d.live.display import COLOURINGS
+from fringe3d.live.display import COLOURINGS, VIEWS
 from fringe3d.optics import Rig
 from fringe3d.patterns.render import render_set
 from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
@@ -74,6 +74,10 @@ def register(app: typer.Typer) -> None:
         port: int = typer.Option(8080, help="Port of the page (0: any free port)."),
         step: int = typer.Option(1, help="Draw every STEP-th pixel in both directions."),
         colour: str = typer.Option("z", help="Colour the points by z (depth) or texture."),
+        show: str = typer.Option("depth", help="What the page shows first (it can switch): the depth map as "
+                                               "an image coloured by depth, masked pixels by reason (drawn "
+                                               "without WebGL: fast in any browser), or the point cloud (WebGL: "
+                                               "slow in a browser without a GPU)."),
         output: Path = typer.Option(Path("live-recording"), "-o", "--output",
                                     help="The capture folder the page's record button writes (the page can change "
                                          "it; a non-empty one only with --overwrite)."),
@@ -87,10 +91,11 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Show camera frames as 3D in a browser, continuously: capture, decode, triangulate, draw.
 
-        The page (http://HOST:PORT) shows the point cloud, the mask overlay, the frame rate and the
-        end-to-end latency (frame arrival to points sent to the page), with exposure, pattern-set,
-        colour, pause and record controls. The default camera replays a rendered moving scene as a
-        camera delivers it. Runs until Ctrl-C, --frames or --seconds; --json prints the figures.
+        The page (http://HOST:PORT) shows the point cloud or the depth map (--show), the mask
+        overlay, the frame rate and the end-to-end latency (frame arrival to the frame sent to the
+        page), with exposure, pattern-set, colour, show, pause and record controls. The default
+        camera replays a rendered moving scene as a camera delivers it. Runs until Ctrl-C, --frames
+        or --seconds; --json prints the figures.
 
         Example: fringe3d live
 
@@ -125,6 +130,7 @@ class LiveOptions:
     port: int
     step: int
     colour: str
+    show: str
     output: Path
     record_cycles: int
     wait_viewer: float
@@ -262,12 +268,14 @@ def run_live(o: LiveOptions, on_serving=None) -> dict:
         raise ValueError(f"--record-cycles must be at least 1, got {o.record_cycles}")
     if o.colour not in COLOURINGS:
         raise ValueError(f"--colour must be one of {', '.join(COLOURINGS)}, got {o.colour!r}")
+    if o.show not in VIEWS:
+        raise ValueError(f"--show must be one of {', '.join(VIEWS)}, got {o.show!r}")
     require_viser()  # before rendering or opening anything: the page needs the live extra
     spec = DeviceSpec.parse(o.camera)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", Fringe3DWarning)  # a moving scene's per-cycle notices would flood the console
         rig = _virtual(o, spec) if spec.backend == "virtual" and o.projector is None else _devices(o, spec)
-    controls = Controls(choice=rig.choices[0].name, colouring=o.colour)
+    controls = Controls(choice=rig.choices[0].name, colouring=o.colour, view=o.show)
     first = rig.choices[0]
     H, W = first.source.camera.roi[3], first.source.camera.roi[2]
     setup = ViewerSetup(host=o.host, port=o.port, choices=tuple(c.name for c in rig.choices), exposure=rig.exposure,

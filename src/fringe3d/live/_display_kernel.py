@@ -38,3 +38,29 @@ def gather_points(points, texture, use_texture, step, z0, scale, lut):  # pragma
                 col[i, 0], col[i, 1], col[i, 2] = lut[k, 0], lut[k, 1], lut[k, 2]
             i += 1
     return out, col
+
+
+@njit(cache=True)
+def colour_depth(points, quality, step, z0, scale, lut, invalid, other, invalid_bits,  # pragma: no cover - compiled
+                 out):
+    """Fill ``out[:h]`` with the colours of ``points[::step, ::step]``'s depths: ``lut`` indexed as in
+    :func:`gather_points` where finite, else ``other`` where ``quality`` (same stride) is non-zero
+    without a bit of ``invalid_bits`` (``INVALID``), else ``invalid``. A ``(1, 1)`` ``quality``
+    means none."""
+    H, W = points.shape[0], points.shape[1]
+    has_quality = quality.shape[0] == H and quality.shape[1] == W
+    r = 0
+    for v in range(0, H, step):
+        c = 0
+        for u in range(0, W, step):
+            z = points[v, u, 2]
+            if np.isfinite(z):
+                t = min(max((z - z0) * scale + 0.5, 0.0), 255.0)
+                k = int(t)
+                out[r, c, 0], out[r, c, 1], out[r, c, 2] = lut[k, 0], lut[k, 1], lut[k, 2]
+            else:
+                q = quality[v, u] if has_quality else invalid_bits
+                rgb = other if q != 0 and (q & invalid_bits) == 0 else invalid
+                out[r, c, 0], out[r, c, 1], out[r, c, 2] = rgb[0], rgb[1], rgb[2]
+            c += 1
+        r += 1

@@ -7,17 +7,32 @@
 * :func:`mask_overlay`: the texture in grey with every masked pixel tinted by why it was
   masked (:mod:`fringe3d.decode.edges` bits): red where the modulation, saturation or code
   failed (``INVALID``), orange for the edge and mixed-pixel tests.
+* :func:`depth_image`: the depth map as an RGB image, by depth on the same colour ramp and range
+  as the points, masked pixels in the overlay's colours, with a colour bar labelled in mm
+  underneath: a view a browser shows as an ordinary image (no WebGL).
 """
 from __future__ import annotations
 
 import numpy as np
 
+import functools
+
+import cv2
+
 from fringe3d.decode.edges import INVALID
 
-from ._display_kernel import gather_points
+from ._display_kernel import colour_depth, gather_points
 
 #: Colourings of the points.
 COLOURINGS = ("z", "texture")
+#: What the live view shows: the point cloud, or the depth map as an image.
+VIEWS = ("cloud", "depth")
+#: Colours of masked pixels in :func:`depth_image`: the mask overlay's tints on mid grey
+#: (``INVALID`` or no depth: red; the edge and mixed-pixel tests: orange).
+MASKED_INVALID = (201, 0, 0)
+MASKED_OTHER = (201, 118, 0)
+#: Rows of the colour bar under :func:`depth_image` (the ramp, then its range in mm).
+BAR_ROWS = 24
 
 # a perceptual blue -> green -> yellow ramp (viridis at 5 stops), interpolated linearly into 256 colours
 _RAMP = np.array([[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]], np.float32)
@@ -103,6 +118,76 @@ def display_points(points: np.ndarray, texture: np.ndarray | None, colouring: st
     tex = texture if use_texture else np.zeros((1, 1), np.float32)
     z0, z1 = float(z_range[0]), float(z_range[1])
     return gather_points(points, tex, use_texture, int(step), z0, 255.0 / max(z1 - z0, 1e-6), _LUT)
+
+
+@functools.lru_cache(maxsize=8)
+def colour_bar(width: int, z_range: tuple[float, float]) -> np.ndarray:
+    """The colour bar under :func:`depth_image`: the ramp over ``z_range``, left to right, and the
+    range's ends in mm (black on white).
+
+    Parameters
+    ----------
+    width : int
+        Columns.
+    z_range : (float, float)
+        Depths (mm) at the ramp's ends.
+
+    Returns
+    -------
+    (BAR_ROWS, width, 3) uint8 ndarray
+        The bar (read-only: it is shared).
+    """
+    z0, z1 = float(z_range[0]), float(z_range[1])
+    bar = np.full((BAR_ROWS, int(width), 3), 255, np.uint8)
+    bar[:BAR_ROWS // 2] = depth_colours(np.linspace(z0, z1, int(width)), (z0, z1))[None]
+    font, scale = cv2.FONT_HERSHEY_SIMPLEX, 0.35
+    right = f"{z1:g} mm"
+    (tw, _), _ = cv2.getTextSize(right, font, scale, 1)
+    cv2.putText(bar, f"{z0:g} mm", (2, BAR_ROWS - 2), font, scale, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(bar, right, (max(0, int(width) - tw - 2), BAR_ROWS - 2), font, scale, (0, 0, 0), 1, cv2.LINE_AA)
+    bar.flags.writeable = False
+    return bar
+
+
+def depth_image(points: np.ndarray, quality: np.ndarray | None, z_range: tuple[float, float],
+                step: int = 1) -> np.ndarray:
+    """The depth map as an RGB image: by depth on the points' ramp, masked pixels by reason, and a
+    colour bar underneath.
+
+    Parameters
+    ----------
+    points : (H, W, 3) float32 ndarray
+        The point map (mm), NaN where invalid.
+    quality : (H, W) uint8 ndarray or None
+        The quality bits (0 = kept; :mod:`fringe3d.decode.edges`); None: every pixel without a
+        depth is ``INVALID``.
+    z_range : (float, float)
+        Depths (mm) at the ramp's ends (as :func:`depth_colours`; outside: clipped).
+    step : int
+        Every ``step``-th pixel in both directions.
+
+    Returns
+    -------
+    (h + BAR_ROWS, w, 3) uint8 ndarray
+        Rows ``:h``: the colour of :func:`depth_colours` where the depth is finite,
+        :data:`MASKED_OTHER` where the quality bits say edge or mixed pixel,
+        :data:`MASKED_INVALID` elsewhere; rows ``h:``: :func:`colour_bar`.
+    """
+    if points.ndim != 3 or points.shape[2] != 3:
+        raise ValueError(f"points must be an (H, W, 3) point map, got shape {points.shape}")
+    if int(step) < 1:
+        raise ValueError(f"step is a pixel stride of at least 1, got {step}")
+    H, W = points.shape[:2]
+    h, w = -(-H // int(step)), -(-W // int(step))
+    if quality is not None and quality.shape != (H, W):
+        raise ValueError(f"quality must be the point map's (H, W) = {(H, W)}, got shape {quality.shape}")
+    out = np.empty((h + BAR_ROWS, w, 3), np.uint8)
+    z0, z1 = float(z_range[0]), float(z_range[1])
+    q = quality if quality is not None else np.full((1, 1), INVALID, np.uint8)
+    colour_depth(points, q, int(step), z0, 255.0 / max(z1 - z0, 1e-6), _LUT, np.array(MASKED_INVALID, np.uint8),
+                 np.array(MASKED_OTHER, np.uint8), np.uint8(INVALID), out)
+    out[h:] = colour_bar(w, (z0, z1))
+    return out
 
 
 def mask_overlay(texture: np.ndarray | None, quality: np.ndarray, width: int | None = None) -> np.ndarray:

@@ -8,7 +8,8 @@ skipped). The **pipeline** (the calling thread) waits while the viewer is busy (
 not drawn the frames sent: :meth:`Viewer.busy`; the cycles that arrive meanwhile are skipped),
 then takes the newest cycle, reconstructs it with the choice's
 :class:`~fringe3d.reconstruct.frame.FrameReconstructor` (the engine every other command uses),
-draws its points (:func:`~fringe3d.live.display.display_points`) and, a few times
+draws its points (:func:`~fringe3d.live.display.display_points`), or its depth map as an image
+when the page shows the depth view (:func:`~fringe3d.live.display.depth_image`), and, a few times
 a second, the mask overlay and the figures (:class:`~fringe3d.live.stats.LiveStats`), until the
 frame or time limit, :meth:`LiveSession.stop` or Ctrl-C.
 
@@ -33,7 +34,7 @@ from fringe3d.reconstruct.frame import Cycle, FrameReconstructor
 from fringe3d.utils.warning_types import DeviceWarning
 
 from .cycles import Arrival, CycleSource
-from .display import display_points, mask_overlay
+from .display import depth_image, display_points, mask_overlay
 from .record import Recording, write_recording
 from .stats import LiveStats
 
@@ -54,13 +55,15 @@ class Controls:
     """What the page's controls ask for; read by the loop between cycles.
 
     ``paused`` (show nothing new), ``choice`` (the pattern set), ``colouring`` (``"z"`` or
-    ``"texture"``), ``exposure`` (a new exposure value not yet applied, or None), ``record`` (a
-    ``(folder, cycles)`` request not yet started, or None) and ``stop``.
+    ``"texture"``), ``view`` (``"cloud"``: the points; ``"depth"``: the depth map as an image),
+    ``exposure`` (a new exposure value not yet applied, or None), ``record`` (a ``(folder,
+    cycles)`` request not yet started, or None) and ``stop``.
     """
 
     choice: str
     paused: bool = False
     colouring: str = "z"
+    view: str = "cloud"
     exposure: float | None = None
     record: tuple | None = None
     stop: bool = False
@@ -72,6 +75,11 @@ class Viewer(Protocol):
     def show_points(self, points: np.ndarray, colours: np.ndarray, arrival: float) -> None:
         """Draw ``(N, 3)`` float32 points (mm) with ``(N, 3)`` uint8 colours, replacing the last;
         ``arrival`` is the host time (``time.monotonic()``, s) their cycle arrived."""
+        ...
+
+    def show_depth(self, image: np.ndarray, arrival: float) -> None:
+        """Show the ``(h, w, 3)`` uint8 depth image (:func:`~fringe3d.live.display.depth_image`)
+        instead of the points; ``arrival`` as for :meth:`show_points`."""
         ...
 
     def busy(self) -> bool:
@@ -369,16 +377,26 @@ class LiveSession:
                 self._paused += 1
                 continue
             refresh = time.monotonic() - t_refresh >= s.refresh
-            cyc = self.reconstruct(arrival, texture=refresh or self.controls.colouring == "texture")
+            depth = self.controls.view == "depth"
+            cyc = self.reconstruct(arrival, texture=refresh or (self.controls.colouring == "texture" and not depth))
             if cyc is None or cyc.points is None:
                 self.stats.empty += 1
-                pts, cols = np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8)
+            if depth:
+                points = (cyc.points if cyc is not None and cyc.points is not None
+                          else np.full((*arrival.frames.shape[1:], 3), np.nan, np.float32))
+                image = depth_image(points, cyc.quality if cyc is not None else None, s.z_range, s.step)
+                self.viewer.show_depth(image, arrival.arrival)
+                count = int(np.count_nonzero(np.isfinite(points[::s.step, ::s.step, 2])))
             else:
-                colouring = self.controls.colouring if cyc.texture is not None else "z"
-                pts, cols = display_points(cyc.points, cyc.texture, colouring, s.z_range, s.step)
-            self.viewer.show_points(pts, cols, arrival.arrival)
+                if cyc is None or cyc.points is None:
+                    pts, cols = np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8)
+                else:
+                    colouring = self.controls.colouring if cyc.texture is not None else "z"
+                    pts, cols = display_points(cyc.points, cyc.texture, colouring, s.z_range, s.step)
+                self.viewer.show_points(pts, cols, arrival.arrival)
+                count = len(pts)
             sent = time.monotonic()
-            self.stats.shown(arrival.arrival, sent, len(pts))
+            self.stats.shown(arrival.arrival, sent, count)
             t_first = sent if t_first is None else t_first
             if refresh:
                 t_refresh = sent

@@ -4,12 +4,17 @@
 
 * the point cloud of the newest 3D frame (mm, drawn in metres: ``scale = 0.001``; camera
   frame: x right, y down, z away from the camera; the view starts at the camera looking at
-  the working volume);
+  the working volume), or, in the **depth** view, the newest 3D frame's depth map as a JPEG
+  image (:func:`fringe3d.live.display.depth_image`: coloured by depth, masked pixels by reason,
+  a colour bar in mm) in the GUI image element labelled :data:`DEPTH_LABEL`, which the page
+  script lays over the 3D view (the browser draws an image without WebGL; while the depth view
+  is on no cloud is sent and the cloud is hidden, so the 3D canvas has nothing to redraw);
 * a GUI panel: **3D frames/s**, **latency median (ms)**, **latency p95 (ms)** (frame arrival
   to points handed to the page, measured by the pipeline: :mod:`fringe3d.live.stats`),
   **3D frames shown**, **points**; the controls **exposure** (the virtual camera's gain or a
   camera's exposure time), **pattern set** (when there is a choice), **colour** (by depth or
-  texture), **pause**, and **record**: a folder, a number of cycles and a button that records
+  texture), **show** (the point cloud or the depth map), **pause**, and **record**: a folder, a
+  number of cycles and a button that records
   the next cycles there as a capture folder; the **mask overlay** image (texture in grey,
   masked pixels tinted by reason, :func:`fringe3d.live.display.mask_overlay`);
 * under the view, the page's own figures: the frames it drew, their rate and the **display
@@ -34,8 +39,8 @@ import numpy as np
 from fringe3d.devices.base import MissingExtraError
 from fringe3d.utils.warning_types import DeviceWarning
 
-from .display import COLOURINGS
-from .page_script import ACK_LABEL, SCRIPT, frame_stamp
+from .display import COLOURINGS, VIEWS
+from .page_script import ACK_LABEL, DEPTH_LABEL, SCRIPT, frame_stamp
 from .session import Controls
 from .stats import shown_text
 
@@ -48,6 +53,8 @@ LABELS = {"fps": "3D frames/s", "latency_median": "latency median (ms)", "latenc
 PATIENCE = 2.0
 #: Frames sent and not yet drawn at most: the next cloud is reconstructed while the page draws one.
 IN_FLIGHT = 2
+#: JPEG quality of the depth image (OpenCV, through viser's image element).
+DEPTH_JPEG_QUALITY = 90
 
 
 def require_viser():
@@ -158,6 +165,8 @@ class ViserViewer:
             choice.on_update(lambda _: setattr(c, "choice", str(choice.value)))
         colour = gui.add_dropdown("colour", options=COLOURINGS, initial_value=c.colouring)
         colour.on_update(lambda _: setattr(c, "colouring", str(colour.value)))
+        view = gui.add_dropdown("show", options=VIEWS, initial_value=c.view)
+        view.on_update(lambda _: setattr(c, "view", str(view.value)))
         pause = gui.add_checkbox("pause", initial_value=c.paused)
         pause.on_update(lambda _: setattr(c, "paused", bool(pause.value)))
         folder = gui.add_text("record folder", initial_value=s.record_folder)
@@ -166,6 +175,8 @@ class ViserViewer:
         button.on_click(lambda _: self._ask_record(str(folder.value), int(cycles.value)))
         self._status = gui.add_text(LABELS["status"], initial_value="", disabled=True)
         self._overlay = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="mask overlay", format="jpeg")
+        self._depth = gui.add_image(np.zeros((8, 8, 3), np.uint8), label=DEPTH_LABEL, format="jpeg",
+                                    jpeg_quality=DEPTH_JPEG_QUALITY, visible=False)
         self._stamp = gui.add_html(frame_stamp(0, 0.0))
         self.drawn = -1  # the last frame a page drew (0: a page runs the page script; -1: none yet)
         ack = gui.add_text(ACK_LABEL, initial_value="")
@@ -211,16 +222,45 @@ class ViserViewer:
             Host time (``time.monotonic()``, s) the frame's cycle arrived; sent as epoch ms in
             the same atomic update as the cloud, for the page's display latency.
         """
-        self._frames += 1
-        self._sent_at = time.monotonic()
-        arrival_ms = (arrival + (time.time() - time.monotonic())) * 1e3
+        arrival_ms = self._next_frame(arrival)
         with self.server.atomic():  # the page applies the cloud and its stamp together
             if self._cloud is None:
                 self._cloud = self.server.scene.add_point_cloud("/points", points, colours, **self._cloud_args)
             else:  # new buffers in the same scene node: the page keeps the node and its material
                 self._cloud.points = points
                 self._cloud.colors = colours
+                if not self._cloud.visible:
+                    self._cloud.visible = True
+            if self._depth.visible:
+                self._depth.visible = False
             self._stamp.content = frame_stamp(self._frames, arrival_ms)
+        self.server.flush()
+
+    def _next_frame(self, arrival: float) -> float:
+        """Count a frame sent now; its arrival as epoch ms (the page's clock)."""
+        self._frames += 1
+        self._sent_at = time.monotonic()
+        return (arrival + (time.time() - time.monotonic())) * 1e3
+
+    def show_depth(self, image: np.ndarray, arrival: float) -> None:
+        """Show the depth image instead of the cloud (hidden, not updated), with the frame's stamp.
+
+        Parameters
+        ----------
+        image : (h, w, 3) uint8 ndarray
+            The depth image (:func:`fringe3d.live.display.depth_image`), sent as JPEG
+            (:data:`DEPTH_JPEG_QUALITY`).
+        arrival : float
+            As for :meth:`show_points`.
+        """
+        arrival_ms = self._next_frame(arrival)
+        with self.server.atomic():  # the page applies the image and its stamp together
+            self._depth.image = image
+            if not self._depth.visible:
+                self._depth.visible = True
+            if self._cloud is not None and self._cloud.visible:  # nothing left for the 3D canvas to redraw
+                self._cloud.visible = False
+            self._stamp.content = frame_stamp(self._frames, arrival_ms, "depth")
         self.server.flush()
 
     def busy(self) -> bool:
