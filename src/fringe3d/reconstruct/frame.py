@@ -19,7 +19,7 @@ import numpy as np
 
 from fringe3d.decode.context import phase_groups
 from fringe3d.decode.decoder import decode
-from fringe3d.decode.edges import INVALID, edge_margin, oblique_factor, pixel_extent
+from fringe3d.decode.edges import INVALID, QualityTests, edge_margin, oblique_factor, pixel_extent
 from fringe3d.decode.method_plans import with_method as plans_with_method
 from fringe3d.decode.options import DecodeOptions
 from fringe3d.decode.plan_checks import check_plans
@@ -41,9 +41,9 @@ from fringe3d.reconstruct.windows import window_index
 from fringe3d.unwrap.geometric import cached_minimum_phase, check_wrap_around
 from fringe3d.utils.warning_types import ReconstructionWarning
 
-#: GRADIENT's floor on the jump of ``w`` (px) on the fused path: the default of
-#: :func:`fringe3d.decode._fused_quality.fused_quality_map`, which :func:`fast_quality` keeps.
-GRADIENT_FLOOR = 1.0
+#: GRADIENT's floor on the jump of ``w`` (px) on the fused path: the quality map's default
+#: (:class:`~fringe3d.decode.edges.QualityTests`), which :func:`fast_quality` keeps.
+GRADIENT_FLOOR = QualityTests.gradient_floor
 
 
 # ----------------------------------------------------------------------------- plans
