@@ -142,7 +142,8 @@ def test_gray_code_half_period_code_exact_despite_edge_misalignment(misalign):
     pos = np.clip(np.floor(w + misalign).astype(int), 0, width - 1)   # code sampled at shifted edges
     code = images[:, pos].astype(np.float64) * 160 + 20 + rng.normal(0, 2.0, (7, H, W))
     inverse = (1 - images[:, pos]).astype(np.float64) * 160 + 20 + rng.normal(0, 2.0, (7, H, W))
-    frames = np.concatenate([phase_frames, code, inverse])
+    # float32 frames, as float captures come: no float64 specialisation of the code-order kernel
+    frames = np.concatenate([phase_frames, code, inverse]).astype(np.float32)
     wr = wrapped_phase(frames, index=range(4)).phase
     res = gray_code_order(frames, range(4, 11), wr, period, stripes, inverse_index=range(11, 18))
     assert res.valid.all()
@@ -162,7 +163,7 @@ def test_full_period_code_misaligned_edges_cause_order_errors():
     phase_frames = fringes(w, period, 4, 0.0, rng)
     pos = np.clip(np.floor(w + 2.0).astype(int), 0, width - 1)
     code = images[:, pos].astype(np.float64) * 200
-    frames = np.concatenate([phase_frames, code])
+    frames = np.concatenate([phase_frames, code]).astype(np.float32)
     wr = wrapped_phase(frames, index=range(4)).phase
     res = gray_code_order(frames, range(4, 10), wr, period, stripes, threshold=np.full((H, W), 100.0))
     assert (order_errors(res.phase, w, period) != 0).mean() > 0.05

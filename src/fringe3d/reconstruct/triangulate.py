@@ -93,8 +93,10 @@ def triangulate(rig, up=None, vp=None, mask=None, *, iterations: int = 8) -> np.
     cu, cv, Pc = _camera_coordinates(rig)
     proj = rig.projector
     nan_map = np.full(shape, np.nan)
-    up_m = nan_map if up is None else np.asarray(up, np.float64)
-    vp_m = nan_map if vp is None else np.asarray(vp, np.float64)
+    # C-contiguous, so that a column of an (H, W, 2) map or any other strided view compiles no
+    # second specialisation of the kernel (numba specialises on layout; the arithmetic is the same)
+    up_m = nan_map if up is None else np.ascontiguousarray(up, np.float64)
+    vp_m = nan_map if vp is None else np.ascontiguousarray(vp, np.float64)
     out = np.empty(shape + (3,), np.float32)
     flags = (up is not None, vp is not None, not rig.telecentric)
     lsq_kernel(cu, cv, valid, Pc, proj.P, up_m, vp_m, *flags, out)
