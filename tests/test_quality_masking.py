@@ -35,8 +35,8 @@ def test_blur_estimate_inverts_the_gaussian_modulation_transfer():
 
 
 def test_disagreement_is_the_wrapped_difference_to_the_scaled_absolute_phase():
-    phase = np.full((2, 2), 100.0)
-    coarse = np.angle(np.exp(1j * (phase * 18 / 144 + 0.3)))
+    phase = np.full((2, 2), 100.0, np.float32)  # float32 maps, as the decoder passes them
+    coarse = np.angle(np.exp(1j * (phase * 18 / 144 + 0.3))).astype(np.float32)
     assert np.allclose(edges.disagreement(phase, 18.0, [coarse], [144.0]), 0.3, atol=1e-5)
 
 
@@ -73,7 +73,8 @@ def test_noise_model_recovers_read_plus_shot_noise():
     avg = rng.uniform(20, 200, (128, 128))
     true_var = 1.5 + 0.05 * avg
     var = true_var * rng.chisquare(6, avg.shape) / 6      # a 9-step residual has 6 degrees of freedom
-    c0, c1 = noise.fit_noise_model(var, avg, np.ones(avg.shape, bool))
+    # float32 maps, as the decoder passes them
+    c0, c1 = noise.fit_noise_model(var.astype(np.float32), avg.astype(np.float32), np.ones(avg.shape, bool))
     assert abs(c0 - 1.5) < 0.3 and abs(c1 - 0.05) < 0.005
 
 
