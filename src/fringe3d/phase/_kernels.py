@@ -28,6 +28,8 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 import numpy as np
 from numba import njit, prange
 
+from fringe3d.phase._noise_kernel import laplacian_row, second_difference_row
+
 TWO_PI = 2.0 * math.pi
 
 # atan(x) ~= x * P(x^2) on [0, 1]: least-squares fit at 4001 Chebyshev nodes (weighted to
@@ -71,6 +73,10 @@ ROW_BLOCK = 8
 #: Columns per chunk in the fused kernels: a chunk's running sums (up to 9 x 256 x 4 bytes, or
 #: 4 x 256 x 8) stay in the L1 cache while the frames stream through.
 COL_CHUNK = 256
+#: Rows per parallel work item of :func:`psp_kernel` when it also sums the Laplacian noise
+#: (the item's first and last rows, whose neighbours another item writes, are summed after the
+#: parallel loop: 2 rows in 64).
+LAPLACIAN_BLOCK = 64
 #: Fast-math flags that allow vectorisation but keep NaN/inf semantics.
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
@@ -124,7 +130,7 @@ def accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, init, init_pe
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
 def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
-               masked):
+               masked, invalid, sums, counts):
     """Least-squares N-step phase (Eq. 2.4) for frames ``frames[index]``.
 
     frames (F, H, W) any real dtype; index (N,) int64; coef (3, N) float64 pseudo-inverse
@@ -133,12 +139,19 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
     average and modulation float32 in the frames' units, saturated bool (or-ed in). With
     ``valid`` (H, W) bool and ``masked`` (H, W) float32 (else pass (0, 0) arrays): also
     ``valid = (modulation >= min_modulation) & ~saturated & isfinite(phase)`` (float32
-    ``min_modulation``) and the phase with NaN outside it, from the same pass.
+    ``min_modulation``) and the phase with NaN outside it, from the same pass. With ``valid``
+    and ``invalid`` (H, W) uint8, ``sums`` (H,) float64 and ``counts`` (H,) int64, all zero
+    (else (0, 0) and (0,) arrays): also ``invalid = ~valid`` (0/1) and each row's Laplacian
+    noise sums of the average over ``valid`` (those of
+    :func:`fringe3d.phase._noise_kernel.interior_laplacian`, by the same row code, while the
+    rows are in the cache).
     """
     h = frames.shape[1]
     w = frames.shape[2]
-    nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
     with_valid = valid.shape == phase.shape and h > 0
+    with_noise = with_valid and invalid.shape == phase.shape and sums.shape[0] == h and counts.shape[0] == h
+    rows = LAPLACIAN_BLOCK if with_noise else ROW_BLOCK
+    nblk = (h + rows - 1) // rows
     inf = np.float32(np.inf)
     nan = np.float32(np.nan)
     for blk in prange(nblk):
@@ -146,7 +159,11 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
         a, b, c, peak = acc[0], acc[1], acc[2], acc[3]
         acc32 = np.empty((2, COL_CHUNK), np.float32)
         bf, cf = acc32[0], acc32[1]
-        for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
+        r0 = blk * rows
+        r1 = min(h, r0 + rows)
+        d = np.empty((3, w if with_noise else 0))  # second differences of three rows (a ring)
+        inside = np.empty(w if with_noise else 0, np.uint8)
+        for i in range(r0, r1):
             for j0 in range(0, w, COL_CHUNK):
                 n = min(COL_CHUNK, w - j0)
                 accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, True, True, True)
@@ -176,6 +193,27 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
                         m = (mo[j] >= min_modulation) & (not sa[j]) & (abs(p) < inf)
                         va[j] = m
                         ma[j] = p if m else nan
+                    if with_noise:
+                        iv = invalid[i, j0:j0 + n]
+                        for j in range(n):
+                            iv[j] = np.uint8(0) if va[j] else np.uint8(1)
+            if with_noise:  # row i - 1's Laplacian once row i has its second difference
+                second_difference_row(average[i], d[i % 3])
+                if i >= r0 + 2:
+                    sums[i - 1], counts[i - 1] = laplacian_row(
+                        d[(i - 2) % 3], d[(i - 1) % 3], d[i % 3], valid[i - 2].view(np.uint8),
+                        valid[i - 1].view(np.uint8), valid[i].view(np.uint8), inside)
+    if with_noise:  # each item's first and last row: their neighbours are written now
+        d = np.empty((3, w))
+        inside = np.empty(w, np.uint8)
+        for blk in range(nblk):
+            for i in (blk * rows, min(h, blk * rows + rows) - 1):
+                if 1 <= i <= h - 2:
+                    for r in range(i - 1, i + 2):
+                        second_difference_row(average[r], d[r % 3])
+                    sums[i], counts[i] = laplacian_row(
+                        d[(i - 1) % 3], d[i % 3], d[(i + 1) % 3], valid[i - 1].view(np.uint8),
+                        valid[i].view(np.uint8), valid[i + 1].view(np.uint8), inside)
 
 
 F2PI = np.float32(TWO_PI)
