@@ -38,7 +38,8 @@ def test_psp_kernel_equals_its_previous_single_loop_form_bit_for_bit(dtype, shif
     none = (np.empty((0, 0), bool), np.empty((0, 0), np.float32), np.empty((0, 0), np.uint8), np.zeros(0),
             np.zeros(0, np.int64))
     _kernels.psp_kernel(f, idx, coef, level, *got, np.float32(0), *none)
-    psp_kernel_previous(f, idx, coef, level, *want)
+    # the previous form on the frames as float64 (its float64 sums see the same values): compiled once
+    psp_kernel_previous(f.astype(np.float64), idx, coef, level, *want)
     for g, w in zip(got, want):
         np.testing.assert_array_equal(g, w)
 

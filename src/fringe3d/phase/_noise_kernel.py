@@ -47,6 +47,25 @@ def laplacian_row(du, dc, dd, mu, mc, md, inside):  # pragma: no cover - compile
     return acc, n
 
 
+@numba.njit(cache=True, nogil=True)
+def laplacian_rows_between(image, mask, rows, sums, counts):  # pragma: no cover - compiled
+    """``sums[i], counts[i]`` of :func:`laplacian_row` for the first and last row ``i`` of each
+    ``rows``-row item of the (H, W) ``image`` (float32) and ``mask`` (bool), the image's first and
+    last rows excepted: the rows a row-blocked pass could not sum before its neighbours were
+    written (one code for every frame dtype of :func:`fringe3d.phase._kernels.psp_kernel`)."""
+    h, w = image.shape
+    d = np.empty((3, w))
+    inside = np.empty(w, np.uint8)
+    for r0 in range(0, h, rows):
+        for i in (r0, min(h, r0 + rows) - 1):
+            if 1 <= i <= h - 2:
+                for r in range(i - 1, i + 2):
+                    second_difference_row(image[r], d[r % 3])
+                sums[i], counts[i] = laplacian_row(d[(i - 1) % 3], d[i % 3], d[(i + 1) % 3],
+                                                   mask[i - 1].view(np.uint8), mask[i].view(np.uint8),
+                                                   mask[i + 1].view(np.uint8), inside)
+
+
 @numba.njit(parallel=True, cache=True, nogil=True, fastmath={"reassoc", "nsz"})
 def _interior_laplacian(image, mask, sums, counts):  # pragma: no cover - compiled
     # L = [1, -2, 1]^T [1, -2, 1]: the response is the vertical second difference of the rows'
