@@ -156,6 +156,8 @@ def test_three_step_decode_equals_the_definitions_of_its_outputs(three_step):
     sums, counts = interior_laplacian_reference(pr.average, mask)
     s = math.sqrt(math.pi / 2) * sums.sum() / counts.sum() / 6
     assert d.info["quality"]["v"]["noise"]["c0"] == pytest.approx(3 * s * s, rel=1e-12)
+    # the PSP pass's sums (unclipped) or the standalone kernel's (clipped): the same number
+    assert d.info["quality"]["v"]["noise"]["c0"] == 3 * noise.laplacian_noise(pr.average, mask) ** 2
     sigma = noise.phase_sigma(noise.noise_sigma((3 * s * s, 0.0), pr.average), pr.modulation, 3)
     np.testing.assert_allclose(d.phase_sigma["v"], sigma, rtol=1e-6)
 

@@ -28,7 +28,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 import numpy as np
 from numba import njit, prange
 
-from fringe3d.phase._noise_kernel import laplacian_row, laplacian_rows_between, second_difference_row
+from fringe3d.phase._noise_kernel import laplacian_ring_step, laplacian_rows_between
 
 TWO_PI = 2.0 * math.pi
 
@@ -211,11 +211,7 @@ def psp_rows(frames, index, coef, sat_level, phase, average, modulation, saturat
                     for j in range(n):
                         iv[j] = np.uint8(0) if va[j] else np.uint8(1)
         if with_noise:  # row i - 1's Laplacian once row i has its second difference
-            second_difference_row(average[i], d[i % 3])
-            if i >= r0 + 2:
-                sums[i - 1], counts[i - 1] = laplacian_row(
-                    d[(i - 2) % 3], d[(i - 1) % 3], d[i % 3], valid[i - 2].view(np.uint8),
-                    valid[i - 1].view(np.uint8), valid[i].view(np.uint8), inside)
+            laplacian_ring_step(average, valid, d, inside, i, r0, sums, counts)
 
 
 F2PI = np.float32(TWO_PI)

@@ -48,6 +48,19 @@ def laplacian_row(du, dc, dd, mu, mc, md, inside):  # pragma: no cover - compile
 
 
 @numba.njit(cache=True, nogil=True)
+def laplacian_ring_step(image, mask, d, inside, r, first, sums, counts):  # pragma: no cover - compiled
+    """Row ``r`` of a pass going down rows ``first, first + 1, ...`` of ``image`` (H, W) and
+    ``mask`` (bool): its :func:`second_difference_row` into the ring ``d`` (3, W) float64 and,
+    once three rows are in the ring (``r >= first + 2``), ``sums[r - 1], counts[r - 1]`` of
+    :func:`laplacian_row` (``inside`` (W,) uint8 scratch)."""
+    second_difference_row(image[r], d[r % 3])
+    if r >= first + 2:
+        i = r - 1  # rows i - 1, i, i + 1 have their d
+        sums[i], counts[i] = laplacian_row(d[(i - 1) % 3], d[i % 3], d[r % 3], mask[i - 1].view(np.uint8),
+                                           mask[i].view(np.uint8), mask[r].view(np.uint8), inside)
+
+
+@numba.njit(cache=True, nogil=True)
 def laplacian_rows_between(image, mask, rows, sums, counts):  # pragma: no cover - compiled
     """``sums[i], counts[i]`` of :func:`laplacian_row` for the first and last row ``i`` of each
     ``rows``-row item of the (H, W) ``image`` (float32) and ``mask`` (bool), the image's first and
@@ -60,10 +73,7 @@ def laplacian_rows_between(image, mask, rows, sums, counts):  # pragma: no cover
         for i in (r0, min(h, r0 + rows) - 1):
             if 1 <= i <= h - 2:
                 for r in range(i - 1, i + 2):
-                    second_difference_row(image[r], d[r % 3])
-                sums[i], counts[i] = laplacian_row(d[(i - 1) % 3], d[i % 3], d[(i + 1) % 3],
-                                                   mask[i - 1].view(np.uint8), mask[i].view(np.uint8),
-                                                   mask[i + 1].view(np.uint8), inside)
+                    laplacian_ring_step(image, mask, d, inside, r, i - 1, sums, counts)
 
 
 @numba.njit(parallel=True, cache=True, nogil=True, fastmath={"reassoc", "nsz"})
@@ -80,12 +90,7 @@ def _interior_laplacian(image, mask, sums, counts):  # pragma: no cover - compil
         d = np.zeros((3, W), np.float64)
         inside = np.zeros(W, np.uint8)  # the eroded mask of one row
         for r in range(i0 - 1, i1 + 1):
-            second_difference_row(image[r], d[r % 3])
-            if r < i0 + 1:
-                continue
-            i = r - 1  # rows i - 1, i, i + 1 have their d
-            sums[i], counts[i] = laplacian_row(d[(i - 1) % 3], d[i % 3], d[r % 3], mask[i - 1].view(np.uint8),
-                                               mask[i].view(np.uint8), mask[i + 1].view(np.uint8), inside)
+            laplacian_ring_step(image, mask, d, inside, r, i0 - 1, sums, counts)
 
 
 def interior_laplacian(image: np.ndarray, mask: np.ndarray) -> tuple[float, int]:
