@@ -31,7 +31,9 @@ def laplacian_row(du, dc, dd, mu, mc, md, inside):  # pragma: no cover - compile
     the :func:`second_difference_row` of the rows above, at and below, ``mu``, ``mc``, ``md``
     their masks as uint8 (0/1), ``inside`` a (W,) uint8 scratch row. One code for
     :func:`_interior_laplacian` and the PSP pass that makes the same sums
-    (:func:`fringe3d.phase._kernels.psp_kernel`)."""
+    (:func:`fringe3d.phase._kernels.psp_kernel`, whose fast-math flags a callee may be compiled
+    under: the results do not depend on them, ``2 x`` being exact a contracted multiply-add
+    rounds as the subtraction does, and only the order of a row's float64 sum is free, as here)."""
     W = dc.shape[0]
     # three loops, each vectorised at its own width (bytes, then float64): the mask, the
     # count and the select in the float64 loop took a third longer
