@@ -73,6 +73,10 @@ ROW_BLOCK = 8
 #: Columns per chunk in the fused kernels: a chunk's running sums (up to 9 x 256 x 4 bytes, or
 #: 4 x 256 x 8) stay in the L1 cache while the frames stream through.
 COL_CHUNK = 256
+#: Rows per parallel work item of :func:`psp_kernel`: a call of :func:`psp_rows`, which allocates
+#: its scratch buffers per call (32 rows: a quarter of the calls of 8-row items, 32 items for
+#: 1024 rows).
+PSP_ROWS = 32
 #: Rows per parallel work item of :func:`psp_kernel` when it also sums the Laplacian noise
 #: (the item's first and last rows, whose neighbours another item writes, are summed after the
 #: parallel loop: 2 rows in 64).
@@ -151,7 +155,7 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
     """
     h = frames.shape[1]
     with_noise = valid.shape == phase.shape and h > 0 and invalid.shape == phase.shape and sums.shape[0] == h
-    rows = LAPLACIAN_BLOCK if with_noise else ROW_BLOCK
+    rows = LAPLACIAN_BLOCK if with_noise else PSP_ROWS
     nblk = (h + rows - 1) // rows
     for blk in prange(nblk):
         psp_rows(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
