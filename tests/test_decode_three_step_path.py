@@ -13,7 +13,7 @@ from fringe3d.decode.texture import as_fraction
 from fringe3d.patterns import sets
 from fringe3d.patterns.synthetic import frames_from_coordinates
 from fringe3d.phase import _kernels, noise, psp
-from fringe3d.phase._noise_kernel import interior_laplacian
+from fringe3d.phase._noise_kernel import _interior_laplacian, interior_laplacian
 from fringe3d.phase.psp import lsq_coefficients, wrapped_phase
 
 
@@ -35,9 +35,11 @@ def test_psp_kernel_equals_its_previous_single_loop_form_bit_for_bit(dtype, shif
     idx, coef, level = np.arange(d.size), lsq_coefficients(d), 200.0
     got = [np.empty(f.shape[1:], np.float32) for _ in range(3)] + [np.zeros(f.shape[1:], bool)]
     want = [np.empty(f.shape[1:], np.float32) for _ in range(3)] + [np.zeros(f.shape[1:], bool)]
-    none = (np.empty((0, 0), bool), np.empty((0, 0), np.float32))
+    none = (np.empty((0, 0), bool), np.empty((0, 0), np.float32), np.empty((0, 0), np.uint8), np.zeros(0),
+            np.zeros(0, np.int64))
     _kernels.psp_kernel(f, idx, coef, level, *got, np.float32(0), *none)
-    psp_kernel_previous(f, idx, coef, level, *want)
+    # the previous form on the frames as float64 (its float64 sums see the same values): compiled once
+    psp_kernel_previous(f.astype(np.float64), idx, coef, level, *want)
     for g, w in zip(got, want):
         np.testing.assert_array_equal(g, w)
 
@@ -154,6 +156,8 @@ def test_three_step_decode_equals_the_definitions_of_its_outputs(three_step):
     sums, counts = interior_laplacian_reference(pr.average, mask)
     s = math.sqrt(math.pi / 2) * sums.sum() / counts.sum() / 6
     assert d.info["quality"]["v"]["noise"]["c0"] == pytest.approx(3 * s * s, rel=1e-12)
+    # the PSP pass's sums (unclipped) or the standalone kernel's (clipped): the same number
+    assert d.info["quality"]["v"]["noise"]["c0"] == 3 * noise.laplacian_noise(pr.average, mask) ** 2
     sigma = noise.phase_sigma(noise.noise_sigma((3 * s * s, 0.0), pr.average), pr.modulation, 3)
     np.testing.assert_allclose(d.phase_sigma["v"], sigma, rtol=1e-6)
 
@@ -187,11 +191,56 @@ def test_wrapped_phase_and_mask_is_wrapped_phase_and_its_valid_phase():
     f = rng.normal(120, 60, (4, 23, 300)).astype(np.float32)
     f[2, 5, 7] = np.nan
     shifts, idx = (0.0, 1.6, 3.1, 4.7), (3, 1, 0, 2)
-    pr, sat, (mask, phase) = psp.wrapped_phase_and_mask(f, shifts, idx, 250.0, fk.float32_threshold(40.7))
+    pr, sat, valid = psp.wrapped_phase_and_mask(f, shifts, idx, 250.0, fk.float32_threshold(40.7))
     want, want_sat = wrapped_phase(f, shifts, idx, saturation_level=250.0, return_saturated=True)
     for g, w in zip((*pr, sat), (*want, want_sat)):
         np.testing.assert_array_equal(g, w)
     want_mask, want_phase = fk.valid_phase(want.phase, want.modulation, 40.7, want_sat)
-    np.testing.assert_array_equal(mask, want_mask)
-    np.testing.assert_array_equal(phase, want_phase)
-    assert 0 < mask.sum() < mask.size
+    np.testing.assert_array_equal(valid.mask, want_mask)
+    np.testing.assert_array_equal(valid.phase, want_phase)
+    np.testing.assert_array_equal(valid.invalid, (~want_mask).astype(np.uint8))
+    assert valid.laplacian == interior_laplacian(want.average, want_mask)
+    assert 0 < valid.mask.sum() < valid.mask.size
+
+
+def _laplacian_rows(image, mask):
+    """Per-row sums and counts of the standalone Laplacian kernel (the rows the decoder adds up)."""
+    sums, counts = np.zeros(image.shape[0]), np.zeros(image.shape[0], np.int64)
+    if image.shape[1] >= 3:
+        _interior_laplacian(image, mask, sums, counts)
+    return sums, counts
+
+
+@pytest.mark.parametrize("shape", [(1, 9), (2, 9), (3, 3), (7, 2), (64, 5), (65, 40), (130, 37), (191, 300)])
+def test_psp_pass_laplacian_rows_equal_the_standalone_kernel_and_the_3x3_stencil(shape):
+    # 64 rows a parallel item: 65, 130 and 191 rows put items' first and last rows (summed after
+    # the parallel loop) at every place; integer frames (each row's sum exact, any order)
+    rng = np.random.default_rng(15)
+    f = rng.integers(0, 256, (3, *shape)).astype(np.uint8)
+    pr, sat, valid = psp.wrapped_phase_and_mask(f, (0.0, 2.1, 4.2), (0, 1, 2), 255.0, fk.float32_threshold(30.0))
+    sums, counts = np.zeros(shape[0]), np.zeros(shape[0], np.int64)
+    h, w = shape
+    out = [np.empty(shape, np.float32) for _ in range(3)] + [np.zeros(shape, bool), np.float32(30.0),
+                                                             np.empty(shape, bool), np.empty(shape, np.float32),
+                                                             np.empty(shape, np.uint8), sums, counts]
+    _kernels.psp_kernel(f, np.arange(3), lsq_coefficients((0.0, 2.1, 4.2)), 255.0, *out)
+    want_sums, want_counts = _laplacian_rows(pr.average, valid.mask)
+    np.testing.assert_array_equal(sums, want_sums)
+    np.testing.assert_array_equal(counts, want_counts)
+    ref_sums, ref_counts = interior_laplacian_reference(pr.average, valid.mask)
+    np.testing.assert_array_equal(counts, ref_counts)
+    np.testing.assert_allclose(sums, ref_sums, rtol=1e-13)
+    assert valid.laplacian == (float(want_sums.sum()), int(want_counts.sum()))
+
+
+def test_psp_pass_laplacian_of_float_frames_with_nan_and_inf_equals_the_standalone_kernel():
+    rng = np.random.default_rng(16)
+    f = _frames(np.float32, 4, rng, shape=(150, 77))
+    f[2, 70:72, 10] = np.nan
+    f[1, 100, 30:33] = -np.inf
+    pr, sat, valid = psp.wrapped_phase_and_mask(f, (0.0, 1.6, 3.1, 4.7), (0, 1, 2, 3), np.inf,
+                                                fk.float32_threshold(20.0))
+    sums, counts = _laplacian_rows(pr.average, valid.mask)
+    assert 0 < counts.sum() < valid.mask.size
+    # NaN where a NaN average lies in an interior pixel's 3 x 3 window, in both
+    np.testing.assert_array_equal(np.array(valid.laplacian), [sums.sum(), counts.sum()])

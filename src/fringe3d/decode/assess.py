@@ -52,7 +52,9 @@ def noise_model(ctx: DecodeContext, groups: list[PhaseGroup], average: np.ndarra
         var = noise.average_difference_variance(ctx.group_phase(a).average, len(a.indices),
                                                 ctx.group_phase(b).average, len(b.indices))
         return noise.fit_noise_model(var, average, mask), f"average difference ({a.name}, {b.name})"
-    s = noise.laplacian_noise(average, mask)
+    mp = ctx.cache.get(("mask_pass",))  # the sums of the PSP pass that made this mask, when it did
+    s = (noise.laplacian_sigma(*mp.laplacian) if mp is not None and mp.mask is mask and mp.average is average
+         else noise.laplacian_noise(average, mask))
     # the average of N frames carries sigma / sqrt(N)
     n = len(groups[0].indices) if groups else 1
     return (s * s * n, 0.0), "Laplacian of the average image"
@@ -110,7 +112,9 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     broken, clipping_tested = clipping_broken_map(ctx)
     if not opts.edge_mask or not groups or ctx.plan.method == "none":
         # code-only stripes and wrapped ("none") phases have no continuous w to test
-        q = edges.order_bits(mask, order, broken)
+        mp = ctx.cache.get(("mask_pass",))
+        q = (mp.not_mask if edges.INVALID == 1 and order is None and broken is None and mp is not None
+             and mp.mask is mask else edges.order_bits(mask, order, broken))  # the first: ~mask of the PSP pass
         if order is not None or clipping_tested:
             info["masked"] = edges.bit_counts(q)
         return Assessment(q, sigma_phi, info, texture)

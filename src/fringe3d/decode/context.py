@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -25,6 +25,18 @@ from fringe3d.phase import clipping, ftp, noise, quality
 from fringe3d.phase.psp import PhaseResult, wrapped_phase, wrapped_phase_and_mask
 from fringe3d.utils.camera_size import check_camera_size
 from fringe3d.utils.warning_types import CalibrationWarning
+
+
+class MaskPass(NamedTuple):
+    """What the PSP pass that made a group's mask (:meth:`DecodeContext.valid_group_phase`) also
+    made, for the assessment of that mask: ``not_mask`` (H, W) uint8 ``~mask`` (0/1) and
+    ``laplacian``, the ``(sum, count)`` of :func:`fringe3d.phase.noise.interior_laplacian` of
+    ``(average, mask)``; valid only for these very ``mask`` and ``average`` objects."""
+
+    mask: np.ndarray
+    average: np.ndarray
+    not_mask: np.ndarray
+    laplacian: tuple[float, int]
 
 
 @dataclass(frozen=True)
@@ -148,7 +160,10 @@ class DecodeContext:
                                                     float32_threshold(self.min_modulation))
             self.cache[group.name] = (pr, sat)
             if not sat.any():
-                return valid
+                # for the assessment of this mask (identity-checked): its Laplacian noise sums over
+                # the group's average and ~mask, the INVALID bits (edges.order_bits, no order)
+                self.cache[("mask_pass",)] = MaskPass(valid.mask, pr.average, valid.invalid, valid.laplacian)
+                return valid.mask, valid.phase
         pr = self.group_phase(group)
         return valid_phase(pr.phase, pr.modulation, self.min_modulation, self.group_saturated(group))
 

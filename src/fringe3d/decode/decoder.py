@@ -206,7 +206,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         a = assess(ctx, phase, mask, np.asarray(modulation, np.float32), average, period,
                    order=result.order_inconsistent, texture_scale=full_scale(frames, bit_depth)
                    if first is None and not white and result.texture is None else None)
-        if opts.edge_mask or result.order_inconsistent is not None:  # one read; a pass if it masks any pixel
+        if (opts.edge_mask or result.order_inconsistent is not None) and not _quality_masks_nothing(plan, result, opts):
+            # one read; a pass if it masks any pixel
             mask, phase = quality_masked_phase(phase, mask, a.quality, 0xFF if opts.edge_mask else edges.ORDER)
         out.quality[d], out.phase_sigma[d] = a.quality, a.phase_sigma
         out.info.setdefault("quality", {})[d] = a.info
@@ -239,6 +240,15 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     if opts.edge_mask:
         mask_projector_border(out, ps, plans)
     return out
+
+
+def _quality_masks_nothing(plan: DirectionPlan, result: Unwrapped, opts: DecodeOptions) -> bool:
+    """The quality map cannot mask a pixel of the method's mask, known without reading it: plan
+    ``none`` without order estimates (its map, :func:`fringe3d.decode.edges.order_bits`, sets bits
+    outside the mask only) whose phase is the group's valid phase (finite on the mask:
+    :meth:`fringe3d.decode.context.DecodeContext.valid_group_phase`)."""
+    return (plan.method == "none" and result.order_inconsistent is None and result.phase_is_masked
+            and opts.compensate is None)
 
 
 #: Frame kinds that project only full-on and full-off pixels (decided by comparison; their

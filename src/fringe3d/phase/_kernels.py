@@ -28,6 +28,8 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 import numpy as np
 from numba import njit, prange
 
+from fringe3d.phase._noise_kernel import laplacian_ring_step, laplacian_rows_between
+
 TWO_PI = 2.0 * math.pi
 
 # atan(x) ~= x * P(x^2) on [0, 1]: least-squares fit at 4001 Chebyshev nodes (weighted to
@@ -71,6 +73,14 @@ ROW_BLOCK = 8
 #: Columns per chunk in the fused kernels: a chunk's running sums (up to 9 x 256 x 4 bytes, or
 #: 4 x 256 x 8) stay in the L1 cache while the frames stream through.
 COL_CHUNK = 256
+#: Rows per parallel work item of :func:`psp_kernel`: a call of :func:`psp_rows`, which allocates
+#: its scratch buffers per call (32 rows: a quarter of the calls of 8-row items, 32 items for
+#: 1024 rows).
+PSP_ROWS = 32
+#: Rows per parallel work item of :func:`psp_kernel` when it also sums the Laplacian noise
+#: (the item's first and last rows, whose neighbours another item writes, are summed after the
+#: parallel loop: 2 rows in 64).
+LAPLACIAN_BLOCK = 64
 #: Fast-math flags that allow vectorisation but keep NaN/inf semantics.
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
@@ -122,9 +132,9 @@ def accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, init, init_pe
         k += m
 
 
-@njit(cache=True, parallel=True, fastmath=FASTMATH)
+@njit(cache=True, parallel=True)
 def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
-               masked):
+               masked, invalid, sums, counts):
     """Least-squares N-step phase (Eq. 2.4) for frames ``frames[index]``.
 
     frames (F, H, W) any real dtype; index (N,) int64; coef (3, N) float64 pseudo-inverse
@@ -133,49 +143,79 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
     average and modulation float32 in the frames' units, saturated bool (or-ed in). With
     ``valid`` (H, W) bool and ``masked`` (H, W) float32 (else pass (0, 0) arrays): also
     ``valid = (modulation >= min_modulation) & ~saturated & isfinite(phase)`` (float32
-    ``min_modulation``) and the phase with NaN outside it, from the same pass.
+    ``min_modulation``) and the phase with NaN outside it, from the same pass. With ``valid``
+    and ``invalid`` (H, W) uint8, ``sums`` (H,) float64 and ``counts`` (H,) int64, all zero
+    (else (0, 0) and (0,) arrays): also ``invalid = ~valid`` (0/1) and each row's Laplacian
+    noise sums of the average over ``valid`` (those of
+    :func:`fringe3d.phase._noise_kernel.interior_laplacian`, by the same row code, while the
+    rows are in the cache).
+
+    The parallel loop only hands row ranges to :func:`psp_rows` (serial): numba's parallel
+    lowering then works on a call, not on the loops (a frame dtype's compilation ~20 % shorter).
     """
     h = frames.shape[1]
+    with_noise = valid.shape == phase.shape and h > 0 and invalid.shape == phase.shape and sums.shape[0] == h
+    rows = LAPLACIAN_BLOCK if with_noise else PSP_ROWS
+    nblk = (h + rows - 1) // rows
+    for blk in prange(nblk):
+        psp_rows(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
+                 masked, invalid, sums, counts, blk * rows, min(h, blk * rows + rows))
+    if with_noise:  # each item's first and last row: their neighbours are written now
+        laplacian_rows_between(average, valid, rows, sums, counts)
+
+
+@njit(cache=True, nogil=True, fastmath=FASTMATH)
+def psp_rows(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
+             masked, invalid, sums, counts, r0, r1):
+    """Rows ``r0 .. r1 - 1`` of :func:`psp_kernel` (its arguments, serial); the Laplacian sums of
+    rows ``r0 + 1 .. r1 - 2``, whose neighbours are in the range."""
     w = frames.shape[2]
-    nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
-    with_valid = valid.shape == phase.shape and h > 0
+    with_valid = valid.shape == phase.shape
+    with_noise = with_valid and invalid.shape == phase.shape and sums.shape[0] == phase.shape[0]
     inf = np.float32(np.inf)
     nan = np.float32(np.nan)
-    for blk in prange(nblk):
-        acc = np.empty((4, COL_CHUNK))
-        a, b, c, peak = acc[0], acc[1], acc[2], acc[3]
-        acc32 = np.empty((2, COL_CHUNK), np.float32)
-        bf, cf = acc32[0], acc32[1]
-        for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
-            for j0 in range(0, w, COL_CHUNK):
-                n = min(COL_CHUNK, w - j0)
-                accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, True, True, True)
-                ph = phase[i, j0:j0 + n]
-                av = average[i, j0:j0 + n]
-                mo = modulation[i, j0:j0 + n]
-                sa = saturated[i, j0:j0 + n]
-                # sums in float64 (exact for integer frames); atan2 and sqrt in float32 (error
-                # < 3e-7 rad after rounding b, c to float32: no float64 divide). Two loops: the
-                # float64 one runs 4 lanes wide, the float32 one (the divide, the polynomial, the
-                # square root) 8; one loop mixing both ran all of it 4 wide, at twice the time.
+    acc = np.empty((4, COL_CHUNK))
+    a, b, c, peak = acc[0], acc[1], acc[2], acc[3]
+    acc32 = np.empty((2, COL_CHUNK), np.float32)
+    bf, cf = acc32[0], acc32[1]
+    d = np.empty((3, w if with_noise else 0))  # second differences of three rows (a ring)
+    inside = np.empty(w if with_noise else 0, np.uint8)
+    for i in range(r0, r1):
+        for j0 in range(0, w, COL_CHUNK):
+            n = min(COL_CHUNK, w - j0)
+            accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, True, True, True)
+            ph = phase[i, j0:j0 + n]
+            av = average[i, j0:j0 + n]
+            mo = modulation[i, j0:j0 + n]
+            sa = saturated[i, j0:j0 + n]
+            # sums in float64 (exact for integer frames); atan2 and sqrt in float32 (error
+            # < 3e-7 rad after rounding b, c to float32: no float64 divide). Two loops: the
+            # float64 one runs 4 lanes wide, the float32 one (the divide, the polynomial, the
+            # square root) 8; one loop mixing both ran all of it 4 wide, at twice the time.
+            for j in range(n):
+                bf[j] = np.float32(b[j])
+                cf[j] = np.float32(c[j])
+                av[j] = a[j]
+                sa[j] = sa[j] | (peak[j] >= sat_level)
+            for j in range(n):
+                bj = bf[j]
+                cj = cf[j]
+                ph[j] = fast_atan2_f32(-cj, bj)
+                mo[j] = math.sqrt(bj * bj + cj * cj)
+            if with_valid:  # from the rows just written, still in the cache
+                va = valid[i, j0:j0 + n]
+                ma = masked[i, j0:j0 + n]
                 for j in range(n):
-                    bf[j] = np.float32(b[j])
-                    cf[j] = np.float32(c[j])
-                    av[j] = a[j]
-                    sa[j] = sa[j] | (peak[j] >= sat_level)
-                for j in range(n):
-                    bj = bf[j]
-                    cj = cf[j]
-                    ph[j] = fast_atan2_f32(-cj, bj)
-                    mo[j] = math.sqrt(bj * bj + cj * cj)
-                if with_valid:  # from the rows just written, still in the cache
-                    va = valid[i, j0:j0 + n]
-                    ma = masked[i, j0:j0 + n]
+                    p = ph[j]
+                    m = (mo[j] >= min_modulation) & (not sa[j]) & (abs(p) < inf)
+                    va[j] = m
+                    ma[j] = p if m else nan
+                if with_noise:
+                    iv = invalid[i, j0:j0 + n]
                     for j in range(n):
-                        p = ph[j]
-                        m = (mo[j] >= min_modulation) & (not sa[j]) & (abs(p) < inf)
-                        va[j] = m
-                        ma[j] = p if m else nan
+                        iv[j] = np.uint8(0) if va[j] else np.uint8(1)
+        if with_noise:  # row i - 1's Laplacian once row i has its second difference
+            laplacian_ring_step(average, valid, d, inside, i, r0, sums, counts)
 
 
 F2PI = np.float32(TWO_PI)

@@ -17,6 +17,67 @@ import numpy as np
 _LAPLACIAN_ROWS = 16
 
 
+@numba.njit(cache=True, nogil=True, fastmath={"reassoc", "nsz"})
+def second_difference_row(x, d):  # pragma: no cover - compiled
+    """``d[j] = (x[j - 1] + x[j + 1]) - 2 x[j]`` in float64 for ``j = 1 .. W - 2`` (the horizontal
+    factor of the separable Laplacian; ``d[0]`` and ``d[W - 1]`` are not written)."""
+    for j in range(1, x.shape[0] - 1):
+        d[j] = (np.float64(x[j - 1]) + np.float64(x[j + 1])) - 2.0 * np.float64(x[j])
+
+
+@numba.njit(cache=True, nogil=True, fastmath={"reassoc", "nsz"})
+def laplacian_row(du, dc, dd, mu, mc, md, inside):  # pragma: no cover - compiled
+    """``(sum |L|, count)`` of one row over its pixels in the eroded mask: ``du``, ``dc``, ``dd``
+    the :func:`second_difference_row` of the rows above, at and below, ``mu``, ``mc``, ``md``
+    their masks as uint8 (0/1), ``inside`` a (W,) uint8 scratch row. One code for
+    :func:`_interior_laplacian` and the PSP pass that makes the same sums
+    (:func:`fringe3d.phase._kernels.psp_kernel`, whose fast-math flags a callee may be compiled
+    under: the results do not depend on them, ``2 x`` being exact a contracted multiply-add
+    rounds as the subtraction does, and only the order of a row's float64 sum is free, as here)."""
+    W = dc.shape[0]
+    # three loops, each vectorised at its own width (bytes, then float64): the mask, the
+    # count and the select in the float64 loop took a third longer
+    for j in range(1, W - 1):
+        inside[j] = mc[j] & mu[j] & md[j] & mc[j - 1] & mc[j + 1]
+    n = 0
+    for j in range(1, W - 1):
+        n += np.int32(inside[j])
+    acc = 0.0
+    for j in range(1, W - 1):  # branch-free (a pixel outside the eroded mask adds 0)
+        v = abs((du[j] + dd[j]) - 2.0 * dc[j])
+        acc += v if inside[j] else 0.0
+    return acc, n
+
+
+@numba.njit(cache=True, nogil=True)
+def laplacian_ring_step(image, mask, d, inside, r, first, sums, counts):  # pragma: no cover - compiled
+    """Row ``r`` of a pass going down rows ``first, first + 1, ...`` of ``image`` (H, W) and
+    ``mask`` (bool): its :func:`second_difference_row` into the ring ``d`` (3, W) float64 and,
+    once three rows are in the ring (``r >= first + 2``), ``sums[r - 1], counts[r - 1]`` of
+    :func:`laplacian_row` (``inside`` (W,) uint8 scratch)."""
+    second_difference_row(image[r], d[r % 3])
+    if r >= first + 2:
+        i = r - 1  # rows i - 1, i, i + 1 have their d
+        sums[i], counts[i] = laplacian_row(d[(i - 1) % 3], d[i % 3], d[r % 3], mask[i - 1].view(np.uint8),
+                                           mask[i].view(np.uint8), mask[r].view(np.uint8), inside)
+
+
+@numba.njit(cache=True, nogil=True)
+def laplacian_rows_between(image, mask, rows, sums, counts):  # pragma: no cover - compiled
+    """``sums[i], counts[i]`` of :func:`laplacian_row` for the first and last row ``i`` of each
+    ``rows``-row item of the (H, W) ``image`` (float32) and ``mask`` (bool), the image's first and
+    last rows excepted: the rows a row-blocked pass could not sum before its neighbours were
+    written (one code for every frame dtype of :func:`fringe3d.phase._kernels.psp_kernel`)."""
+    h, w = image.shape
+    d = np.empty((3, w))
+    inside = np.empty(w, np.uint8)
+    for r0 in range(0, h, rows):
+        for i in (r0, min(h, r0 + rows) - 1):
+            if 1 <= i <= h - 2:
+                for r in range(i - 1, i + 2):
+                    laplacian_ring_step(image, mask, d, inside, r, i - 1, sums, counts)
+
+
 @numba.njit(parallel=True, cache=True, nogil=True, fastmath={"reassoc", "nsz"})
 def _interior_laplacian(image, mask, sums, counts):  # pragma: no cover - compiled
     # L = [1, -2, 1]^T [1, -2, 1]: the response is the vertical second difference of the rows'
@@ -31,31 +92,7 @@ def _interior_laplacian(image, mask, sums, counts):  # pragma: no cover - compil
         d = np.zeros((3, W), np.float64)
         inside = np.zeros(W, np.uint8)  # the eroded mask of one row
         for r in range(i0 - 1, i1 + 1):
-            x = image[r]
-            dr = d[r % 3]
-            for j in range(1, W - 1):
-                dr[j] = (np.float64(x[j - 1]) + np.float64(x[j + 1])) - 2.0 * np.float64(x[j])
-            if r < i0 + 1:
-                continue
-            i = r - 1  # rows i - 1, i, i + 1 have their d
-            du = d[(i - 1) % 3]
-            dc = d[i % 3]
-            mu = mask[i - 1].view(np.uint8)
-            mc = mask[i].view(np.uint8)
-            md = mask[i + 1].view(np.uint8)
-            # three loops, each vectorised at its own width (bytes, then float64): the mask, the
-            # count and the select in the float64 loop took a third longer
-            for j in range(1, W - 1):
-                inside[j] = mc[j] & mu[j] & md[j] & mc[j - 1] & mc[j + 1]
-            n = 0
-            for j in range(1, W - 1):
-                n += np.int32(inside[j])
-            acc = 0.0
-            for j in range(1, W - 1):  # branch-free (a pixel outside the eroded mask adds 0)
-                v = abs((du[j] + dr[j]) - 2.0 * dc[j])
-                acc += v if inside[j] else 0.0
-            sums[i] = acc
-            counts[i] = n
+            laplacian_ring_step(image, mask, d, inside, r, i0 - 1, sums, counts)
 
 
 def interior_laplacian(image: np.ndarray, mask: np.ndarray) -> tuple[float, int]:

@@ -59,11 +59,17 @@ def laplacian_noise(image: np.ndarray, mask: np.ndarray | None = None) -> float:
     over the pixels of ``mask`` (default all) away from the border.
     """
     if mask is not None:  # the mask eroded once: one numba pass
-        total, n = interior_laplacian(np.asarray(image), np.asarray(mask, bool))
-        return float(math.sqrt(math.pi / 2.0) * total / n / 6.0) if n else float("nan")
+        return laplacian_sigma(*interior_laplacian(np.asarray(image), np.asarray(mask, bool)))
     kern = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float64)
     resp = np.abs(ndimage.convolve(np.asarray(image, np.float64), kern, mode="nearest"))
     return float(math.sqrt(math.pi / 2.0) * resp.mean() / 6.0)
+
+
+def laplacian_sigma(total: float, count: int) -> float:
+    """Immerkaer's ``sigma = sqrt(pi/2) total / count / 6`` from the sums ``(total, count)`` of
+    :func:`interior_laplacian` (NaN for no pixel): :func:`laplacian_noise` over a mask, from sums
+    another pass made (:func:`fringe3d.phase.psp.wrapped_phase_and_mask`)."""
+    return float(math.sqrt(math.pi / 2.0) * total / count / 6.0) if count else float("nan")
 
 
 def fit_noise_model(variance: np.ndarray, average: np.ndarray, mask: np.ndarray) -> tuple[float, float]:

@@ -136,10 +136,22 @@ def wrapped_phase(frames, shifts=None, index=None, saturation_level: float | Non
     return (result, saturated) if return_saturated else result
 
 
+class ValidPhase(NamedTuple):
+    """A group's mask from its PSP pass (:func:`wrapped_phase_and_mask`): ``mask`` (H, W) bool,
+    ``phase`` float32 NaN outside it, ``invalid`` uint8 ``~mask`` (0/1) and ``laplacian``, the
+    ``(sum |I * L|, count)`` of the average image over the mask's interior
+    (:func:`fringe3d.phase.noise.interior_laplacian` of ``(average, mask)``)."""
+
+    mask: np.ndarray
+    phase: np.ndarray
+    invalid: np.ndarray
+    laplacian: tuple[float, int]
+
+
 def _wrapped_phase_cpu(frames: np.ndarray, shifts: np.ndarray, idx: np.ndarray, saturation_level: float | None,
                        min_modulation: np.float32 | None):
     """The numba pass of :func:`wrapped_phase`: ``(PhaseResult, saturated, valid)``; with
-    ``min_modulation`` (float32) ``valid`` is ``(mask, phase NaN outside it)`` of
+    ``min_modulation`` (float32) ``valid`` is the :class:`ValidPhase` of
     :func:`wrapped_phase_and_mask`, else None."""
     coef = lsq_coefficients(shifts)
     h, w = frames.shape[1:]
@@ -147,19 +159,24 @@ def _wrapped_phase_cpu(frames: np.ndarray, shifts: np.ndarray, idx: np.ndarray, 
     average = np.empty((h, w), np.float32)
     modulation = np.empty((h, w), np.float32)
     saturated = np.zeros((h, w), np.bool_)
-    shape = (h, w) if min_modulation is not None else (0, 0)
-    mask, masked = np.empty(shape, np.bool_), np.empty(shape, np.float32)
+    shape, rows = ((h, w), h) if min_modulation is not None else ((0, 0), 0)
+    mask, masked, invalid = np.empty(shape, np.bool_), np.empty(shape, np.float32), np.empty(shape, np.uint8)
+    sums, counts = np.zeros(rows, np.float64), np.zeros(rows, np.int64)
     sat = math.inf if saturation_level is None else float(saturation_level)
     _kernels.psp_kernel(frames, idx.astype(np.int64), coef, sat, phase, average, modulation, saturated,
-                        np.float32(0.0 if min_modulation is None else min_modulation), mask, masked)
-    return PhaseResult(phase, average, modulation), saturated, (mask, masked) if min_modulation is not None else None
+                        np.float32(0.0 if min_modulation is None else min_modulation), mask, masked, invalid,
+                        sums, counts)
+    valid = None if min_modulation is None else ValidPhase(mask, masked, invalid,
+                                                           (float(sums.sum()), int(counts.sum())))
+    return PhaseResult(phase, average, modulation), saturated, valid
 
 
 def wrapped_phase_and_mask(frames: np.ndarray, shifts, index, saturation_level: float | None,
                            min_modulation: np.float32):
-    """:func:`wrapped_phase` (CPU, ``return_saturated``) and, from the same pass, ``(mask,
-    phase)``: ``(modulation >= min_modulation) & ~saturated & isfinite(phase)`` (H, W) bool and
-    the phase with NaN outside it (float32, a new array).
+    """:func:`wrapped_phase` (CPU, ``return_saturated``) and, from the same pass, the
+    :class:`ValidPhase`: ``mask = (modulation >= min_modulation) & ~saturated & isfinite(phase)``
+    (H, W) bool, the phase with NaN outside it (float32), ``~mask`` as uint8 and the Laplacian
+    noise sums of the average over the mask (new arrays).
 
     Parameters
     ----------
@@ -177,7 +194,7 @@ def wrapped_phase_and_mask(frames: np.ndarray, shifts, index, saturation_level: 
     Returns
     -------
     tuple
-        ``(PhaseResult, saturated, (mask, phase))``.
+        ``(PhaseResult, saturated, ValidPhase)``.
     """
     frames = as_frame_stack(frames, layout="(N, H, W)")
     idx = np.asarray(index, dtype=np.int64)
