@@ -287,13 +287,15 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
                     cj = c3[j]
                     a2[j] = fast_atan2_f32(-cj, bj)
                     m3o[j] = math.sqrt(bj * bj + cj * cj)
+                mb = ma.view(np.uint8)  # the mask as bytes: a select on a bool load kept this loop scalar (4x)
                 for j in range(n):
                     big64 = np.float64(ph[j])
                     e2 = np.float64(ss[j]) - big64 * sc2
                     e3 = np.float64(a2[j]) - big64 * sc3
                     e2 = abs(e2 - TWO_PI * np.rint(e2 / TWO_PI))
                     e3 = abs(e3 - TWO_PI * np.rint(e3 / TWO_PI))
-                    re[j] = np.float32(max(e2, e3)) if ma[j] else np.float32(0.0)
+                    e = np.float32(max(e2, e3))
+                    re[j] = e if mb[j] != 0 else np.float32(0.0)
 
 
 @njit(cache=True, inline="always")
