@@ -1,9 +1,10 @@
 """The decoder's fused three-frequency pass with its assessment maps
 (:mod:`fringe3d.decode._fused_assess`) and its last per-pixel passes
 (:mod:`fringe3d.decode._finish_kernels`) equal the separate passes they replace (kept as the
-references): the decode outputs, clipping flags, disagreement and modulation bit for bit or to
-float32 rounding, the float32 fit-residual variance within 1e-4 (phase sigma within 1e-4 or
-1e-6 rad), and a whole ``decode()`` with the same masks, quality bits and texture as the path that
+references): the decode outputs and clipping flags bit for bit, the disagreement and the
+coarsest modulation (from the decode's float32 sums) to float32 rounding, the blur within
+1e-4 px, the float32 fit-residual variance within 1e-4 (phase sigma within 1e-4 or 1e-6 rad),
+and a whole ``decode()`` with the same masks, quality bits and texture as the path that
 re-reads the frames."""
 from __future__ import annotations
 
@@ -54,10 +55,13 @@ def test_fused_assessment_equals_the_separate_passes(capture):
     assert a.clipped.any() and not a.clipped.all()
     np.testing.assert_allclose(a.variance, noise.fit_residual_variance(frames, groups[0], shifts[0]),
                                rtol=1e-4, atol=1e-3)  # float32 sums against float64
+    # the coarser groups from the decode's float32 sums, against the float64 sums of the separate
+    # passes: B_3 within float32 rounding of the sums (a few ulp of the frames' grey levels), the
+    # disagreement within 2e-6 rad (the phases' rounding over B >= 5 grey levels)
     coarse = [wrapped_phase(frames, shifts[g], groups[g]) for g in (1, 2)]
-    np.testing.assert_allclose(a.modulation3, coarse[1].modulation, rtol=1e-6)
+    np.testing.assert_allclose(a.modulation3, coarse[1].modulation, rtol=1e-6, atol=2e-5)
     residual = edges.disagreement(ref.phase, periods[0], [c.phase for c in coarse], periods[1:])
-    np.testing.assert_allclose(a.residual, residual, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(a.residual, residual, rtol=0, atol=2e-6)
     assert (a.residual[~ref.mask] == 0).all()
 
 
@@ -94,7 +98,10 @@ def test_decode_with_the_fused_assessment_equals_the_path_that_rereads_the_frame
     qg, qw = got.info["quality"][d], want.info["quality"][d]
     assert qg["masked"] == qw["masked"] and qg["saturation"] == qw["saturation"]
     assert qg["masked"]["saturated"] > 0
-    np.testing.assert_allclose(qg["blur"], qw["blur"], rtol=1e-9)
+    # the blur from B_1 / B_3 with B_3 of float32 sums: the median ratio r within float32 rounding;
+    # sigma_b ~ sqrt(-ln r) magnifies that near r = 1 (no blur), hence an absolute bound in px
+    np.testing.assert_allclose(qg["blur"], qw["blur"], rtol=0, atol=1e-4)
+    assert abs(qg["edge_margin"] - qw["edge_margin"]) <= 2e-4
     np.testing.assert_allclose([qg["noise"]["c0"], qg["noise"]["c1"]], [qw["noise"]["c0"], qw["noise"]["c1"]],
                                rtol=1e-5)
 

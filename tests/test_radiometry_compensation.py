@@ -113,6 +113,18 @@ def test_diagnostic_names_gamma_2_2_and_stays_quiet_on_a_linear_projector():
     assert not good.nonlinear and good.fix is None
 
 
+@pytest.mark.parametrize("steps", [4, 9])
+def test_diagnostic_ripple_from_fewer_samples_is_within_its_bound_of_the_default_table(steps):
+    # the diagnostic simulates RIPPLE_SAMPLES true phases, not lut_from_response's default 8192
+    from fringe3d.radiometry.diagnostic import RIPPLE_SAMPLES
+    from fringe3d.radiometry.phase_error import lut_from_response
+    from fringe3d.radiometry.response import power_law
+    for gamma in (0.7, 1.0, 1.0001, 1.03, 1.1, 1.5, 2.2, 3.0):
+        want = lut_from_response(power_law(gamma), steps=steps).amplitude
+        got = lut_from_response(power_law(gamma), steps=steps, samples=RIPPLE_SAMPLES).amplitude
+        assert abs(got - want) <= 1e-3 * want + 1e-6, (gamma, got, want)
+
+
 def test_render_settings_reject_a_decreasing_response_table():
     with pytest.raises(ValueError, match="non-decreasing"):
         PRESET.settings.replace(response=(0.0, 0.6, 0.5, 1.0))

@@ -30,16 +30,18 @@ def _bin(r, lo, scale, nbins):  # pragma: no cover - compiled
     return np.int64(x) if x < nbins - 1 else nbins - 1
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=True, error_model="numpy")
 def _bracket_pass(fine, coarse, mask, lo, hi, keep, counts, scale, hist):  # pragma: no cover - compiled
     """Per chunk of rows ``c``: ``counts[c] = (below lo, inside [lo, hi], all, NaN)`` of the
     ratios ``fine / coarse`` (float32) over ``mask & coarse > 0``; the inside ones into ``keep[c]``
     while they fit (``counts[c, 1] >= cap`` when they did not), with their histogram over the
     ``hist.shape[1]`` bins of :func:`_bin` in ``hist[c]``.
 
-    Row by row: a branch-free loop (it vectorises) counts and parks the row's ratios in a row
-    buffer (NaN outside the bracket); a second, branch-free loop over that buffer compacts the
-    bracketed ones (every slot written, the write position advancing only on a kept one)."""
+    Row by row: a branch-free loop (it vectorises: 32-bit counts of 0/1 integers, the mask read
+    as bytes, and numpy's division semantics, no zero-divisor check; a ratio of ``coarse <= 0``
+    is never counted) counts and parks the row's ratios in a row buffer (NaN outside the
+    bracket); a second, branch-free loop over that buffer compacts the bracketed ones (every
+    slot written, the write position advancing only on a kept one)."""
     H, W = fine.shape
     nch, cap = keep.shape
     nbins = hist.shape[1]
@@ -50,17 +52,26 @@ def _bracket_pass(fine, coarse, mask, lo, hi, keep, counts, scale, hist):  # pra
         nan = 0
         row = np.empty(W, np.float32)
         for i in range(c * H // nch, (c + 1) * H // nch):
-            n_in = 0
+            n_in = np.int32(0)
+            n_below = np.int32(0)
+            n_all = np.int32(0)
+            n_nan = np.int32(0)
+            fr = fine[i]
+            cr = coarse[i]
+            mr = mask[i].view(np.uint8)
             for j in range(W):
-                d = coarse[i, j]
-                ok = mask[i, j] & (d > 0)
-                r = np.float32(fine[i, j] / d) if d > 0 else np.float32(0.0)
-                total += ok
-                below += ok & (r < lo)
-                nan += ok & (r != r)
-                isin = ok & (r >= lo) & (r <= hi)
+                d = cr[j]
+                r = fr[j] / d
+                ok = np.int32(mr[j]) & np.int32(d > 0)
+                n_all += ok
+                n_below += ok & np.int32(r < lo)
+                n_nan += ok & np.int32(r != r)
+                isin = ok & np.int32(r >= lo) & np.int32(r <= hi)
                 n_in += isin
                 row[j] = r if isin else np.float32(np.nan)
+            total += n_all
+            below += n_below
+            nan += n_nan
             if n_in > 0 and inside + n_in < cap:  # the last write lands at inside + n_in < cap
                 k = inside
                 for j in range(W):

@@ -205,7 +205,7 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         average = result.average if result.average is not None or g is None else ctx.group_phase(g).average
         a = assess(ctx, phase, mask, np.asarray(modulation, np.float32), average, period,
                    order=result.order_inconsistent, texture_scale=full_scale(frames, bit_depth)
-                   if first is None and not white and result.texture is None else None)
+                   if first is None and not white else None)
         if (opts.edge_mask or result.order_inconsistent is not None) and not _quality_masks_nothing(plan, result, opts):
             # one read; a pass if it masks any pixel
             mask, phase = quality_masked_phase(phase, mask, a.quality, 0xFF if opts.edge_mask else edges.ORDER)
@@ -231,7 +231,8 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     out.average = np.asarray(average, np.float32)
     if white:
         out.texture = as_fraction(frames[white[0]], frames, bit_depth)  # one meaning everywhere (decode.texture)
-    elif texture is not None:  # as_fraction of average + modulation, made with the phase sigma
+    elif texture is not None:  # as_fraction of average + modulation, made with the phase sigma (a method's
+        # texture, the fused kernel's, is that float32 sum too: the same fraction, no pass of its own)
         out.texture = texture
     else:  # as_fraction of the fused kernel's average + modulation, or of their float32 sum: one pass
         out.texture = texture_fraction(out.average if result.texture is None else result.texture,

@@ -185,7 +185,7 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
 
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
-def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params, design1, scales, coef64,
+def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params, design1, scales,
                                   phase, wrapped, modulation, average, mask, texture,
                                   clipped, variance, residual, modulation3):  # pragma: no cover - compiled
     """:func:`three_frequency_kernel` with what the decoder's assessment needs from the same pass.
@@ -194,8 +194,7 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
     same float32 arithmetic), ``params`` with a ninth entry, the saturation level of the
     per-group clipping flags. ``design1`` (N_1, 3) float32 ``[1, cos d_k, sin d_k]`` of group 1
     (N_1 >= 4 for a variance; else ``variance`` may be (1, 1) and is left alone); ``scales``
-    float64 ``(T_1 / T_2, T_1 / T_3, 1 / (N_1 - 3))``; ``coef64`` the float64 coefficients of
-    groups 2 and 3 side by side, (3, N_2 + N_3). Extra outputs:
+    float64 ``(T_1 / T_2, T_1 / T_3, 1 / (N_1 - 3))``. Extra outputs:
 
     * ``clipped`` (3, H, W) bool: a frame of group g at or above the saturation level;
     * ``variance`` (H, W) float32: group 1's least-squares fit residual
@@ -205,9 +204,11 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
       pixel is invalid;
     * ``modulation3`` (H, W) float32: the modulation of group 3.
 
-    ``phi_2``, ``phi_3`` and the modulation of group 3 are :func:`fringe3d.phase._kernels.psp_kernel`'s
-    (float64 sums of the rows still in the cache, float32 atan2 and sqrt), not the float32 ones
-    of the decode: the residual and the blur estimate equal the separate passes'.
+    ``phi_2``, ``phi_3`` and the modulation of group 3 are the decode's own (its float32 sums,
+    float32 atan2 and sqrt), not :func:`fringe3d.phase._kernels.psp_kernel`'s float64 sums: a
+    second, float64 pass over the coarser groups' rows cost a quarter of the kernel. They differ
+    from the separate passes' by float32 rounding of the sums (``tests/test_fused_assess.py``
+    bounds it; the decoder's quality bits are unchanged).
     """
     s12 = params[0]
     s123 = params[1]
@@ -223,20 +224,14 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
     vscale = np.float32(scales[2])
     n1 = idx1.shape[0]
     with_var = n1 >= 4
-    n2 = idx2.shape[0]
-    c64_2 = coef64[:, :n2]
-    c64_3 = coef64[:, n2:]
     h = frames.shape[1]
     w = frames.shape[2]
     nan = np.float32(np.nan)
     nblk = (h + ROW_BLOCK - 1) // ROW_BLOCK
     for blk in prange(nblk):
-        acc = np.empty((16, COL_CHUNK), np.float32)
+        acc = np.empty((12, COL_CHUNK), np.float32)
         a1, b1, c1, a2, b2, c2, b3, c3 = acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], acc[6], acc[7]
         pk1, pk2, pk3, ss = acc[8], acc[9], acc[10], acc[11]
-        f_b2, f_c2, f_b3, f_c3 = acc[12], acc[13], acc[14], acc[15]  # the float64 sums rounded to float32
-        acc64 = np.empty((6, COL_CHUNK))
-        e_a, e_b2, e_c2, e_b3, e_c3, e_pk = acc64[0], acc64[1], acc64[2], acc64[3], acc64[4], acc64[5]
         for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
             for j0 in range(0, w, COL_CHUNK):
                 n = min(COL_CHUNK, w - j0)
@@ -283,29 +278,24 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
                     cl1[j] = pk1[j] >= clip_level
                     cl2[j] = pk2[j] >= clip_level
                     cl3[j] = pk3[j] >= clip_level
-                accumulate_chunk(frames, idx2, c64_2, i, j0, n, e_a, e_b2, e_c2, e_pk, True, True, False)
-                accumulate_chunk(frames, idx3, c64_3, i, j0, n, e_a, e_b3, e_c3, e_pk, True, True, False)
-                # again a few arrays per loop (see above): the sums to float32 (a float64 -> float32
-                # conversion in the atan2 loops kept them scalar), phi_2, then phi_3 and B_3, then the residual
+                # again a few arrays per loop (see above): phi_2, then phi_3 and B_3 from the decode's
+                # float32 sums, then the residual
                 for j in range(n):
-                    f_b2[j] = np.float32(e_b2[j])
-                    f_c2[j] = np.float32(e_c2[j])
-                    f_b3[j] = np.float32(e_b3[j])
-                    f_c3[j] = np.float32(e_c3[j])
+                    ss[j] = fast_atan2_f32(-c2[j], b2[j])
                 for j in range(n):
-                    ss[j] = fast_atan2_f32(-f_c2[j], f_b2[j])
-                for j in range(n):
-                    bj = f_b3[j]
-                    cj = f_c3[j]
+                    bj = b3[j]
+                    cj = c3[j]
                     a2[j] = fast_atan2_f32(-cj, bj)
                     m3o[j] = math.sqrt(bj * bj + cj * cj)
+                mb = ma.view(np.uint8)  # the mask as bytes: a select on a bool load kept this loop scalar (4x)
                 for j in range(n):
                     big64 = np.float64(ph[j])
                     e2 = np.float64(ss[j]) - big64 * sc2
                     e3 = np.float64(a2[j]) - big64 * sc3
                     e2 = abs(e2 - TWO_PI * np.rint(e2 / TWO_PI))
                     e3 = abs(e3 - TWO_PI * np.rint(e3 / TWO_PI))
-                    re[j] = np.float32(max(e2, e3)) if ma[j] else np.float32(0.0)
+                    e = np.float32(max(e2, e3))
+                    re[j] = e if mb[j] != 0 else np.float32(0.0)
 
 
 @njit(cache=True, inline="always")
