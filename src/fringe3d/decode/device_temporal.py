@@ -46,7 +46,8 @@ def on_device(ctx: DecodeContext) -> bool:
     except ValueError:
         return False
     return (len(groups) == 3 and all(len(g.indices) >= 3 for g in groups) and len(groups[0].indices) >= 4
-            and all(g.period > groups[0].period * (1 + 1e-9) for g in groups[1:]) and isinstance(ctx.frames, np.ndarray))
+            and all(g.period > groups[0].period * (1 + 1e-9) for g in groups[1:])
+            and isinstance(ctx.frames, np.ndarray))
 
 
 def assess_arrays(groups: list[PhaseGroup], w_range: tuple[float, float] | None,

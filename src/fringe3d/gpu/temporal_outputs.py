@@ -162,7 +162,7 @@ class DeviceDecode:
         xs, ys, ms = cuda.device_array(hs * ws, np.float32), cuda.device_array(hs * ws, np.float32), \
             cuda.device_array(hs * ws, np.bool_)
         self.tk.strided_sample_kernel[_grid(hs * ws)](self.average, self.variance, self.mask, H, W, step, xs, ys, ms)
-        return tuple(a.copy_to_host().reshape(hs, ws) for a in (xs, ys, ms))  # type: ignore[return-value]
+        return tuple(a.copy_to_host().reshape(hs, ws) for a in (xs, ys, ms))
 
     def moments(self, model: tuple[float, float] | None, limit: float, ref: tuple[float, float]) -> np.ndarray:
         """(5,) float64 ``(n, sum dx, sum dy, sum dx^2, sum dx dy)`` of the variance against the
