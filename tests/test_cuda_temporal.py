@@ -3,7 +3,7 @@
 backend's: the mask and the quality bits exactly, the phase, phase sigma and texture to float
 rounding, the quality record (noise model, blur, margin, bit counts, saturation) likewise; run
 under numba's CUDA simulator in a separate process (``tests/cuda_sim_temporal_worker.py``,
-16 x 12 pixel frames, one capture and a brightened copy with clipped samples). No physical GPU
+16 x 12 pixel frames, one capture and a brightened copy with clipped samples; ~20 s of CPU time). No physical GPU
 is involved.
 """
 from __future__ import annotations
@@ -30,7 +30,7 @@ PHASE_TOL = 1e-5
 SIGMA_RTOL = 1e-4  # the noise model's float64 moments summed in another order, the modulation's last bit
 TEX_TOL = 1e-6  # texture, a fraction of full scale
 BLUR_RTOL = 1e-4  # the blur from the median modulation ratio (float32 ratios' last bit)
-CASES = ("default_0", "default_1", "strict_0", "strict_1", "no_edges_1")
+CASES = ("default_0", "default_1", "strict_1", "no_edges_1")
 
 
 def _env() -> dict:
@@ -104,3 +104,9 @@ def test_the_engine_on_the_device_gives_the_cpu_points_quality_and_sigma(simt):
         cpu, dev = simt[f"rec_cpu_{key}"], simt[f"rec_cuda_{key}"]
         assert np.array_equal(np.isnan(cpu), np.isnan(dev)) and np.isfinite(cpu).any()
         np.testing.assert_allclose(dev[np.isfinite(cpu)], cpu[np.isfinite(cpu)], atol=tol, rtol=1e-5)
+
+
+@pytest.mark.parametrize("n", (95, 96))
+def test_device_median_of_the_blur_ratio_is_numpys_order_statistic(simt, n):
+    assert int(simt[f"median_{n}_count"]) == n - 5  # 90 and 91: the mean of two middle values, and one
+    assert float(simt[f"median_{n}_device"]) == float(simt[f"median_{n}_numpy"])
