@@ -110,3 +110,28 @@ def test_the_engine_on_the_device_gives_the_cpu_points_quality_and_sigma(simt):
 def test_device_median_of_the_blur_ratio_is_numpys_order_statistic(simt, n):
     assert int(simt[f"median_{n}_count"]) == n - 5  # 90 and 91: the mean of two middle values, and one
     assert float(simt[f"median_{n}_device"]) == float(simt[f"median_{n}_numpy"])
+
+
+def _context(steps=(9, 3, 3), **options):
+    from fringe3d.decode import DecodeOptions
+    from fringe3d.decode.context import DecodeContext
+    from fringe3d.patterns import sets
+
+    ps = sets.three_frequency("v", steps=steps, width=256, height=200)
+    frames = np.zeros((len(ps), 4, 5), np.uint8)
+    return DecodeContext(frames=frames, patterns=ps, direction="v", plan=ps.plans[0],
+                         options=DecodeOptions(**{"backend": "cuda", **options}))
+
+
+@pytest.mark.parametrize("steps, options, expected", [
+    ((9, 3, 3), {}, True),  # the default 15-frame set
+    ((4, 3, 3), {}, True),
+    ((3, 3, 3), {}, False),  # no fit residual for the noise model: the fused kernel alone on the device
+    ((9, 3, 3), {"backend": "cpu"}, False),
+    ((9, 3, 3), {"fused": False}, False),
+    ((9, 3, 3), {"compensate": "disagreement"}, False),
+])
+def test_the_decoder_takes_the_device_path_only_for_the_fused_default_plan_on_cuda(steps, options, expected):
+    from fringe3d.decode.device_temporal import on_device
+
+    assert on_device(_context(steps, **options)) is expected
