@@ -14,6 +14,14 @@ Two workloads, uint8 frames in, per 3D frame:
 * ``three-frequency``: the 15-frame (9 + 3 + 3 step) heterodyne decode
   (:func:`fringe3d.unwrap.temporal.three_frequency_decode` ``backend="cuda"``); out absolute
   phase, wrapped phase, modulation, average, texture (float32) and the mask (bool).
+* ``three-frequency decode + assessment``: the decoder's default plan on the 15 frames of
+  :func:`fringe3d.patterns.sets.three_frequency` with every per-pixel output of the decode
+  (mask, quality bits, phase sigma, texture) made on the device
+  (:func:`fringe3d.decode.decode` ``DecodeOptions(backend="cuda")``,
+  :mod:`fringe3d.decode.device_temporal`), one cycle per call, host frames in and host maps out,
+  against the same call on the CPU backend; it reports whether the mask and the quality bits
+  equal the CPU's and the largest phase and phase-sigma differences. Only ``gpu_fps`` and
+  ``cpu_fps`` (the decode is per cycle: no resident or batched figure).
 
 Each is timed (fixed repeat counts after one warm-up launch, which also compiles):
 
@@ -202,6 +210,43 @@ def every_output(cuda, gpu3, cpu3, frames3, extent: tuple[float, float], repeats
     return res
 
 
+def temporal_assessment(rig, w, rng, repeats: tuple[int, int]) -> dict:
+    """The decoder's default three-frequency plan with its assessment on the device, one cycle a
+    call (:func:`fringe3d.decode.decode`, ``backend="cuda"`` against ``"cpu"``), on uint8 frames of
+    the manifest's periods and shifts over the fringe coordinate ``w``."""
+    import warnings
+
+    import numpy as np
+
+    from fringe3d.decode import DecodeOptions, decode
+    from fringe3d.patterns import sets
+
+    ps = sets.three_frequency("v", width=rig.projector.width, height=rig.projector.height)
+    frames = np.stack([np.clip(np.round(127.5 + 100.0 * np.cos(2 * math.pi * w / f.period + f.shift)
+                                        + rng.normal(0.0, 1.0, w.shape)), 0, 255).astype(np.uint8)
+                       for f in ps.frames])
+    d = ps.plans[0].direction
+    opts = {b: DecodeOptions(backend=b) for b in ("cpu", "cuda")}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        dec = {b: decode(frames, ps, options=o) for b, o in opts.items()}
+        m = dec["cpu"].mask[d]
+        s_cpu, s_gpu = dec["cpu"].phase_sigma[d], dec["cuda"].phase_sigma[d]
+        res = {"workload": "three-frequency decode + assessment (quality, phase sigma, texture)",
+               "frames": len(ps), "periods": list(ps.plans[0].periods),
+               "mask_equal_cpu": bool(np.array_equal(m, dec["cuda"].mask[d])),
+               "quality_bits_equal_cpu": bool(np.array_equal(dec["cpu"].quality[d], dec["cuda"].quality[d])),
+               "kept_share": float(m.mean()),
+               "max_abs_phase_diff_rad": float(np.max(np.abs(dec["cpu"].phase[d][m] - dec["cuda"].phase[d][m])))
+               if m.any() else float("nan"),
+               "max_rel_phase_sigma_diff": float(np.max(np.abs(s_gpu[m] / s_cpu[m] - 1.0))) if m.any()
+               else float("nan"),
+               "max_abs_texture_diff": float(np.max(np.abs(dec["cpu"].texture - dec["cuda"].texture)))}
+        res["gpu_fps"] = 1.0 / timed(lambda: decode(frames, ps, options=opts["cuda"]), repeats[0], lambda: None)
+        res["cpu_fps"] = 1.0 / timed(lambda: decode(frames, ps, options=opts["cpu"]), repeats[1], lambda: None)
+    return res
+
+
 def main(argv=None) -> int:
     args = parse(argv)
     if os.path.exists(args.out) and not args.overwrite:
@@ -273,6 +318,8 @@ def main(argv=None) -> int:
                    lambda fr: three_frequency_decode(fr, idx, shifts, PERIODS15, **kw),
                    15 * px, 21 * px, repeat, cpu_repeat)
     r15["max_abs_diff_vs_cpu_rad"] = err15
+    del frames15
+    rta = temporal_assessment(rig, w, rng, (repeat, cpu_repeat))
 
     dev = "numba CUDA simulator (not a GPU)" if args.smoke else str(cuda.get_current_device().name)
     report = {"device": dev, "smoke": bool(args.smoke), "size": [width, height], "seed": args.seed,
@@ -288,6 +335,11 @@ def main(argv=None) -> int:
                                 ("resident_fps", "kernel", "kernel, frames resident on the device"),
                                 ("with_transfers_fps", "ours", "with transfers (pinned, two streams)"),
                                 ("cpu_fps", "reference", "the CPU kernel, all cores"))]
+    report["temporal_assessment"] = rta
+    report["figures"] += [figure(f"CUDA {rta['workload']}, {width}x{height}, {dev}", name, role, "3D frames/s",
+                                 [rta[key]])
+                          for key, role, name in (("gpu_fps", "ours", "decode() on the device, one cycle a call"),
+                                                  ("cpu_fps", "reference", "decode() on the CPU, all cores"))]
     cols = ["resident_fps", "with_transfers_fps", "bound_device_fps", "bound_host_device_fps", "cpu_fps",
             "resident_vs_bound"]
     print(f"device: {dev}   {width}x{height}   (3D frames/s; resident_vs_bound = bound / resident)")
@@ -295,6 +347,10 @@ def main(argv=None) -> int:
     for r in report["results"]:
         print(f"{r['workload']:42s}" + "".join(f"{r[c]:22.1f}" for c in cols))
         print(f"{'':42s}  meets: {r['meets']}")
+    print(f"{rta['workload']}: {rta['gpu_fps']:.1f} 3D frames/s on the device, {rta['cpu_fps']:.1f} on the CPU; "
+          f"mask equal {rta['mask_equal_cpu']}, quality bits equal {rta['quality_bits_equal_cpu']}, "
+          f"max phase diff {rta['max_abs_phase_diff_rad']:.2g} rad, max phase sigma diff "
+          f"{rta['max_rel_phase_sigma_diff']:.2g} (relative)")
     with open(args.out, "w") as fh:
         json.dump(report, fh, indent=2)
     print(f"wrote {args.out}")

@@ -24,6 +24,7 @@ def signatures():
 
     from fringe3d.gpu import phase_kernels as pk
     from fringe3d.gpu import quality_kernels as qk
+    from fringe3d.gpu import temporal_kernels as tm
     from fringe3d.gpu import triangulate_kernels as tk
     from fringe3d.gpu import unwrap_kernels as uk
 
@@ -48,6 +49,9 @@ def signatures():
             (f"three_step_fields[{fr}]", qk.three_step_fields_kernel,
              (A(fr, 3), A(i64, 1), A(f64, 2), f64, A(f32, 1), A(i8, 1), f64, A(f64, 1), A(f32, 2), A(f64, 1),
               A(f64, 1), f32, A(f32, 2), A(f32, 2), A(f32, 2), A(f32, 2), b1, A(f32, 2))),
+            (f"tf_assess[{fr}]", tm.three_frequency_assess_kernel,
+             (A(fr, 2), A(i64, 1), A(f32, 2), A(i64, 1), A(f32, 2), A(i64, 1), A(f32, 2), A(f32, 1), A(f32, 2),
+              A(f64, 1), A(f64, 2)) + (A(f32, 1),) * 4 + (A(b1, 1), A(f32, 1), A(b1, 2)) + (A(f32, 1),) * 3),
         ]
     out += [("geometric", uk.geometric_kernel, (A(f32, 2), A(f32, 1), A(i8, 1), A(b1, 2), b1, A(f32, 2), A(b1, 2))),
             ("central_points", tk.central_points_kernel, (A(f64, 2), A(b1, 2), A(f64, 1), A(f32, 2), A(f64, 1),
@@ -60,7 +64,19 @@ def signatures():
                                                                   A(i32, 2))),
             ("noise", qk.noise_kernel, (A(f64, 2), A(i32, 2), f64, f32, A(f32, 2))),
             ("sigma_z", qk.sigma_z_kernel, (A(f32, 2), A(f32, 2), A(u8, 2), A(f32, 2), f32, A(f64, 1), A(f64, 1),
-                                            A(f64, 1), A(f32, 2), A(f32, 2)))]
+                                            A(f64, 1), A(f32, 2), A(f32, 2))),
+            ("tf_apply_broken", tm.apply_broken_kernel, (A(b1, 1), A(b1, 1), A(f32, 1))),
+            ("tf_count_rows", tm.count_rows_kernel, (A(b1, 2), A(i32, 2))),
+            ("tf_strided_sample", tm.strided_sample_kernel, (A(f32, 1), A(f32, 1), A(b1, 1), i64, i64, i64, A(f32, 1),
+                                                              A(f32, 1), A(b1, 1))),
+            ("tf_line_moments", tm.line_moments_kernel, (A(f32, 1), A(f32, 1), A(b1, 1)) + (f64,) * 5
+             + (A(f64, 2),)),
+            ("tf_ratio", tm.ratio_kernel, (A(f32, 1), A(f32, 1), A(b1, 1), A(f32, 1), A(i32, 2))),
+            ("tf_radix_histogram", tm.radix_histogram_kernel, (A(t.uint32, 1), t.uint32, t.uint32, i64, A(i32, 1))),
+            ("tf_w", tm.w_kernel, (A(f32, 1), f32, A(f32, 1))),
+            ("tf_finish", tm.finish_kernel, (A(u8, 1), A(b1, 1), A(f32, 1), A(b1, 1), b1, A(f32, 1), f32, b1, b1)),
+            ("tf_phase_sigma", tm.phase_sigma_kernel, (A(f32, 1),) * 3 + (f32,) * 4 + (b1, f32, A(f32, 1),
+                                                                                    A(f32, 1)))]
     return out
 
 

@@ -18,6 +18,7 @@ import numpy as np
 from fringe3d.decode import compensation, edges, self_calibration
 from fringe3d.decode._finish_kernels import masked_phase, quality_masked_phase, texture_fraction
 from fringe3d.decode.assess import assess
+from fringe3d.decode.device_temporal import device_direction, on_device
 from fringe3d.decode.context import DecodeContext, phase_groups
 from fringe3d.decode.method_plans import plans_to_decode as _plans
 from fringe3d.decode.method_plans import with_method  # noqa: F401  (re-exported: fringe3d.decode.with_method)
@@ -178,7 +179,9 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
             raise ValueError(f"direction {plan.direction!r} has an unwrapping plan ({plan.method}) but no phase frames "
                              "in the manifest; the decoder needs phase-shifted or FTP frames, or code frames with "
                              f"one of the code methods {list(code_only_methods())}")
-        result = method_for(plan.method)(ctx)
+        # the CUDA backend's default three-frequency decode: method and assessment on the device
+        device = device_direction(ctx) if opts.backend == "cuda" and on_device(ctx) else None
+        result = device[0] if device is not None else method_for(plan.method)(ctx)
         # narrowest group of the plan (= ctx.groups_for_plan()[0] without re-reading the manifest thrice)
         g = (None if not groups_of[plan.direction] else
              ctx.group_for_period(plan.periods[0]) if plan.periods else groups_of[plan.direction][0])
@@ -203,9 +206,9 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         d = plan.direction
         period = float(result.period if result.period is not None else g.period)  # type: ignore[union-attr]
         average = result.average if result.average is not None or g is None else ctx.group_phase(g).average
-        a = assess(ctx, phase, mask, np.asarray(modulation, np.float32), average, period,
-                   order=result.order_inconsistent, texture_scale=full_scale(frames, bit_depth)
-                   if first is None and not white else None)
+        a = device[1] if device is not None else assess(
+            ctx, phase, mask, np.asarray(modulation, np.float32), average, period, order=result.order_inconsistent,
+            texture_scale=full_scale(frames, bit_depth) if first is None and not white else None)
         if (opts.edge_mask or result.order_inconsistent is not None) and not _quality_masks_nothing(plan, result, opts):
             # one read; a pass if it masks any pixel
             mask, phase = quality_masked_phase(phase, mask, a.quality, 0xFF if opts.edge_mask else edges.ORDER)

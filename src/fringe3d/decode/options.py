@@ -101,8 +101,9 @@ class DecodeOptions:
     response : fringe3d.radiometry.ResponseLUT, optional
         The projector's measured response, for ``compensate="response"``.
     backend : {"cpu", "cuda"}
-        Where the fused three-frequency kernel runs (``"cuda"``: :mod:`fringe3d.gpu`; the rest
-        of the decode stays on the CPU).
+        Where the fused three-frequency decode runs (``"cuda"``: :mod:`fringe3d.gpu`; with a
+        narrowest group of 4 or more steps, as the default 15-frame set, its assessment too:
+        :mod:`fringe3d.decode.device_temporal`; the other methods stay on the CPU).
 
     Examples
     --------

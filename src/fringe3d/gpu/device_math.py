@@ -86,3 +86,40 @@ def floor_f32(x):
 def mod_2pi_f32(x):
     """``x mod 2 pi`` in float32, as :func:`fringe3d.phase._kernels.mod_2pi_f32`."""
     return x - F2PI * floor_f32(x * FINV2PI)
+
+
+# atan(x) ~= x * P(x^2) on [0, 1]: the coefficients of :func:`fringe3d.phase._kernels.fast_atan2_f32`
+# (this layer sits below ``phase``, so they are repeated here; tests/test_cuda_temporal.py checks
+# that they are the same numbers).
+ATAN_COEFFICIENTS = (0.99999944, -0.33330106, 0.19948505, -0.1391578, 0.09656195, -0.05606228, 0.02194596,
+                     -0.00407312)
+FB0, FB1, FB2, FB3, FB4, FB5, FB6, FB7 = (np.float32(c) for c in ATAN_COEFFICIENTS)
+FPI = np.float32(math.pi)
+FHALFPI = np.float32(0.5 * math.pi)
+#: 1.5 * 2**52: adding and subtracting it rounds a float64 of magnitude below 2**51 to the nearest
+#: integer, ties to even (``np.rint``), in the default rounding mode.
+RINT_MAGIC = 6755399441055744.0
+
+
+@cuda.jit(device=True)
+def fast_atan2_f32(y, x):
+    """float32 ``atan2(y, x)`` by the CPU kernels' polynomial (|error| < 3e-7 rad), the same
+    operations in the same order as :func:`fringe3d.phase._kernels.fast_atan2_f32`."""
+    ax = abs(x)
+    ay = abs(y)
+    mx = ax if ax > ay else ay
+    mn = ax if ax < ay else ay
+    a = mn / mx if mx > F0 else F0
+    s = a * a
+    r = a * (FB0 + s * (FB1 + s * (FB2 + s * (FB3 + s * (FB4 + s * (FB5 + s * (FB6 + s * FB7)))))))
+    r = (FHALFPI - r) if ay > ax else r
+    r = (FPI - r) if x < F0 else r
+    return -r if y < F0 else r
+
+
+@cuda.jit(device=True)
+def rint64(x):
+    """float64 ``np.rint(x)`` (nearest integer, ties to even) of a finite ``x``."""
+    if abs(x) >= 2251799813685248.0:  # 2**51: already an integer
+        return x
+    return (x + RINT_MAGIC) - RINT_MAGIC
