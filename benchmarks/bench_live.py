@@ -57,6 +57,56 @@ requestAnimationFrame(loop);
 </script></body>"""
 
 
+def _children() -> dict[int, list[int]]:
+    kids: dict[int, list[int]] = {}
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                ppid = int((d / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            kids.setdefault(ppid, []).append(int(d.name))
+    return kids
+
+
+def chromium_cpu() -> dict[tuple[int, str], float]:
+    """CPU seconds (user + system) of each Chromium process descended from this one, by (pid, its
+    ``--type``: renderer, gpu-process, ..., or browser) (Linux /proc)."""
+    kids, out, todo = _children(), {}, [os.getpid()]
+    while todo:
+        for pid in kids.get(todo.pop(), []):
+            todo.append(pid)
+            try:
+                stat = Path(f"/proc/{pid}/stat").read_text()
+            except OSError:
+                continue
+            name, fields = stat[stat.index("(") + 1:stat.rindex(")")], stat.rsplit(")", 1)[1].split()
+            if "chrom" in name.lower():
+                try:
+                    args = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").split()
+                except OSError:
+                    continue
+                kind = next((a[7:].decode() for a in args if a.startswith(b"--type=")), "browser")
+                out[(pid, kind)] = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return out
+
+
+def cpu_between(before: dict, after: dict) -> dict[str, float]:
+    """CPU seconds the processes used between two :func:`chromium_cpu` readings, by process type
+    (those that ended in between are not counted)."""
+    out: dict[str, float] = {}
+    for key, t in after.items():
+        out[key[1]] = out.get(key[1], 0.0) + t - before.get(key, 0.0)
+    return out
+
+
+def main_thread(cdp) -> dict[str, float]:
+    """Seconds the page's main thread has spent so far: in tasks, script, layout and style (CDP's
+    Performance.getMetrics)."""
+    m = {x["name"]: x["value"] for x in cdp.send("Performance.getMetrics")["metrics"]}
+    return {k: m[k] for k in ("TaskDuration", "ScriptDuration", "LayoutDuration", "RecalcStyleDuration")}
+
+
 def webgl_ceiling(browser, viewport: dict, seconds: float = 3.0) -> float:
     """Frames/s the browser draws a bare WebGL page at this viewport (:data:`BARE_WEBGL`)."""
     page = browser.new_page(viewport=viewport)
@@ -104,9 +154,19 @@ def main() -> None:
         t.start()
         while not served and t.is_alive():
             time.sleep(0.05)
+        cdp = metrics0 = None
         if page is not None:
             page.goto(served[0])
+            cdp = page.context.new_cdp_session(page)  # the page's main thread: what its time went to
+            cdp.send("Performance.enable")
+            metrics0 = main_thread(cdp)
+        cpu0, own0 = chromium_cpu(), os.times()
         t.join()
+        cpu1, own1 = chromium_cpu(), os.times()
+        if cdp is not None:
+            result["main_thread_s"] = {k: v - metrics0[k] for k, v in main_thread(cdp).items()}
+        result["chromium_cpu_s"] = cpu_between(cpu0, cpu1)
+        result["python_cpu_s"] = own1.user + own1.system - own0.user - own0.system
         if page is not None:
             time.sleep(0.5)  # the last frames are drawn and the page's figures refreshed
             result["page"] = page.evaluate("() => window.fringe3dDisplay && window.fringe3dDisplay.summary")
@@ -116,6 +176,16 @@ def main() -> None:
              webgl_ceiling_fps=result.get("webgl_ceiling"))
     page = result.get("page")
     s["page"] = page
+    # CPU per frame: the process running the pipeline and viser (per frame handed to the page), Chromium's
+    # processes (per frame drawn in the page); from the page's load to the run's end
+    s["python_cpu_ms_per_frame"] = round(1e3 * result["python_cpu_s"] / max(s["frames_shown"], 1), 1)
+    drawn = max(page["frames_drawn"], 1) if page else 1
+    s["chromium_cpu_ms_per_drawn_frame"] = (round(1e3 * sum(result["chromium_cpu_s"].values()) / drawn, 1)
+                                            if page else None)
+    s["chromium_cpu_ms_per_drawn_frame_by_process"] = {k: round(1e3 * v / drawn, 1)
+                                                       for k, v in result["chromium_cpu_s"].items()}
+    s["page_main_thread_ms_per_drawn_frame"] = {k: round(1e3 * v / drawn, 1)
+                                                for k, v in result.get("main_thread_s", {}).items()}
     group = (f"fringe3d live, virtual:{args.preset}, {s['size'][0]}x{s['size'][1]}, {args.show} view, "
              f"{'headless Chromium page open' if not args.no_browser else 'no page open'}")
     s["figures"] = [figure(group, "3D frames handed to the page", "ours", "3D frames/s", [s["fps"]])] + [
@@ -145,6 +215,11 @@ def main() -> None:
                   f"({page['frames_drawn']} frames), display latency median {pl['median']} ms, p95 {pl['p95']} ms, "
                   f"max {pl['max']} ms; this browser draws a bare WebGL page at {args.viewport} at "
                   f"{s['webgl_ceiling_fps']} frames/s")
+            print(f"  drawn / handed to the page: {page['fps'] / max(s['fps'], 1e-9):.2f}; CPU per frame: "
+                  f"Chromium {s['chromium_cpu_ms_per_drawn_frame']} ms per drawn frame "
+                  f"({s['chromium_cpu_ms_per_drawn_frame_by_process']}), this process "
+                  f"{s['python_cpu_ms_per_frame']} ms (per frame handed to the page); the page's main thread "
+                  f"per drawn frame (ms): {s['page_main_thread_ms_per_drawn_frame']}")
 
 
 if __name__ == "__main__":

@@ -9,9 +9,10 @@ drew, and the figures are read from the page's own GUI fields. Truths: the same 
 the test and reconstructed by :class:`fringe3d.reconstruct.frame.FrameReconstructor` (each cloud
 sent equals one of the loop's cycles exactly), the simulator's ground truth (those points lie on
 the scene within the tiny rig's accuracy), and the command's --json summary (the page shows the
-same figures). A second run shows the depth view (``--show depth``): the page receives JPEG depth
-images and no cloud, the images decode to the colour ramp's colours of the engine's depths, and
-the page times the images it drew against the stamps sent with them.
+same figures). A second run shows the depth view (``--show depth``): the page receives no cloud and
+one message per frame, the frame's stamp with its JPEG depth image inline; the images decode to the
+colour ramp's colours of the engine's depths, the page draws them in its own canvas over the hidden
+3D view, and it times the images it drew against the stamps they came with.
 """
 from __future__ import annotations
 
@@ -29,8 +30,8 @@ from headless_chromium import launch
 
 from fringe3d.commands.live import LiveOptions, run_live
 from fringe3d.decode import DecodeOptions
-from fringe3d.live.display import display_points
-from fringe3d.live.page_script import ARRIVAL_ATTRIBUTE, DEPTH_LABEL, FIGURES_ID, FRAME_ATTRIBUTE, VIEW_ATTRIBUTE
+from fringe3d.live.display import BAR_ROWS, display_points
+from fringe3d.live.page_script import ARRIVAL_ATTRIBUTE, DEPTH_CANVAS_ID, FIGURES_ID, FRAME_ATTRIBUTE
 from fringe3d.live.viewer import LABELS
 from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
 from fringe3d.sim.live_take import render_take
@@ -141,11 +142,11 @@ def _watch(out: Path, show: str) -> dict:
         timed = page.evaluate("() => { const d = window.fringe3dDisplay; return {frame: d.frame, arrival: d.arrival, "
                               "received: d.received, drawn: d.drawn, tick: d.tick, latency: d.latency}; }")
         timed["shown"] = page.evaluate(f"() => document.getElementById('{FIGURES_ID}').textContent")
-        timed["depth_image"] = page.evaluate(f"""() => {{ const l = [...document.querySelectorAll('p, span, div')]
-            .filter(e => e.childElementCount === 0 && e.textContent.trim() === {json.dumps(DEPTH_LABEL)}).pop();
-            const img = l && l.parentElement.querySelector('img');
-            return img ? {{width: img.naturalWidth, complete: img.complete, position: img.style.position}}
-                       : null; }}""")
+        timed["depth_canvas"] = page.evaluate(f"""() => {{ const c = document.getElementById('{DEPTH_CANVAS_ID}');
+            const gl = [...document.querySelectorAll('canvas')].find(x => x !== c);
+            return c ? {{width: c.width, height: c.height, position: getComputedStyle(c).position,
+                        shown: getComputedStyle(c).display !== 'none',
+                        view_hidden: !!gl && getComputedStyle(gl).display === 'none'}} : null; }}""")
         page.screenshot(path=str(out / "live.png"))
         browser.close()
     live.join(timeout=60)
@@ -254,55 +255,58 @@ def test_live_page_times_display_latency_of_the_frames_it_drew(run, request):
         assert figure == pytest.approx(round(float(value), 1), abs=0.051)
 
 
-def _depth_images(payloads: list[bytes]) -> list[tuple[np.ndarray, bool]]:
-    """(decoded RGB image, a depth-view stamp in the same websocket message) of each update of the GUI
-    image labelled DEPTH_LABEL the page received."""
+def _depth_frames(payloads: list[bytes]) -> list[tuple[int, np.ndarray | None, int]]:
+    """(frame, decoded RGB image or None, messages in its websocket payload) of each frame stamp the page
+    received: in the depth view the stamp is an ``<img>`` whose ``data:`` URL is the frame's JPEG."""
+    import base64
+
     import cv2
 
-    uuid, out = None, []
+    out = []
     for payload in payloads:
         messages = _messages(payload)
         for m in messages:
-            if m.get("type") == "GuiImageMessage" and m["props"].get("label") == DEPTH_LABEL:
-                uuid = m["uuid"]
-        stamped = any(f'{VIEW_ATTRIBUTE}="depth"' in m.get("updates", {}).get("content", "") for m in messages
-                      if m.get("type") == "GuiUpdateMessage")
-        for m in messages:
-            data = m.get("updates", {}).get("_data") if m.get("type") == "GuiUpdateMessage" else None
-            if m.get("uuid") == uuid and data is not None and len(data) > 0:
-                bgr = cv2.imdecode(np.frombuffer(bytes(data), np.uint8), cv2.IMREAD_COLOR)
-                out.append((bgr[..., ::-1], stamped))
+            content = m.get("updates", {}).get("content", "") if m.get("type") == "GuiUpdateMessage" else ""
+            if FRAME_ATTRIBUTE not in content:
+                continue
+            frame = int(re.search(f'{FRAME_ATTRIBUTE}="([0-9]+)"', content).group(1))
+            data = re.search(r'<img [^>]*src="data:image/jpeg;base64,([A-Za-z0-9+/=]+)"', content)
+            image = None
+            if data:
+                bgr = cv2.imdecode(np.frombuffer(base64.b64decode(data.group(1)), np.uint8), cv2.IMREAD_COLOR)
+                image = bgr[..., ::-1]
+            out.append((frame, image, len(messages)))
     return out
 
 
 @pytest.mark.browser
-def test_live_depth_view_sends_a_depth_image_with_each_stamp_and_no_cloud(depth_run):
+def test_live_depth_view_sends_each_frame_as_one_stamp_with_its_image_and_no_cloud(depth_run):
     received = depth_run["received"]
-    images = [(image, stamped) for image, stamped in _depth_images(received) if image.shape != (8, 8, 3)]
-    stamps = _stamps(received)  # viser drops updates a newer one replaces before they are sent: not every frame
+    frames = _depth_frames(received)
     assert not any(_clouds(_messages(p)) for p in received), "the depth view sent a point cloud"
-    # every image travels with its stamp; viser sends a prop only when it changes: a frame of the same cycle
-    # of the replayed loop as the one before (the loop came round) gets its stamp without an image
-    assert stamps and 0 < len(images) <= len(stamps) and all(stamped for _, stamped in images)
-    assert len(images) >= len(stamps) // 2
-    frames = [f for f, _, _ in stamps]
-    assert frames == sorted(set(frames)) and frames[-1] == FRAMES
-    shown = depth_run["timed"]["depth_image"]  # the page shows it, laid over the 3D view
-    assert shown and shown["width"] == 160 and shown["complete"] and shown["position"] == "fixed"
+    assert not any(m.get("type") == "GuiImageMessage" for p in received for m in _messages(p)
+                   if m.get("props", {}).get("label") != "mask overlay")
+    # every frame is its stamp with its image inline; viser drops updates a newer one replaces before they
+    # are sent: not every frame travels, and those that do carry increasing numbers up to the last
+    assert frames and all(image is not None for _, image, _ in frames)
+    numbers = [f for f, _, _ in frames]
+    assert numbers == sorted(set(numbers)) and numbers[-1] == FRAMES
+    assert sum(n == 1 for *_, n in frames) >= len(frames) // 2  # most frames alone in their websocket message
+    shown = depth_run["timed"]["depth_canvas"]  # the page draws them in its canvas, laid over the hidden 3D view
+    assert shown == {"width": 160, "height": 128 + BAR_ROWS, "position": "fixed", "shown": True,
+                     "view_hidden": True}
 
 
 @pytest.mark.browser
 def test_live_depth_images_decode_to_the_ramp_colours_of_the_engines_depths(depth_run, loop_points):
     from test_live_loop import ramp_colour
 
-    from fringe3d.live.display import BAR_ROWS, depth_image
+    from fringe3d.live.display import depth_image
 
     H, W = 128, 160
     maps = [m for *_, m in loop_points]
     made = [depth_image(points, quality, (300.0, 500.0)).astype(float) for points, quality in maps]
-    for image, stamped in _depth_images(depth_run["received"]):
-        if not stamped:  # the placeholder before the first frame
-            continue
+    for _, image, _ in _depth_frames(depth_run["received"]):
         assert image.shape == (H + BAR_ROWS, W, 3)
         error = [np.abs(image - m).mean() for m in made]
         k = int(np.argmin(error))

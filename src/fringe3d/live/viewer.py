@@ -34,13 +34,14 @@ import time
 import warnings
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from fringe3d.devices.base import MissingExtraError
 from fringe3d.utils.warning_types import DeviceWarning
 
 from .display import COLOURINGS, VIEWS
-from .page_script import ACK_LABEL, DEPTH_LABEL, SCRIPT, frame_stamp
+from .page_script import ACK_LABEL, SCRIPT, frame_stamp
 from .session import Controls
 from .stats import shown_text
 
@@ -53,7 +54,7 @@ LABELS = {"fps": "3D frames/s", "latency_median": "latency median (ms)", "latenc
 PATIENCE = 2.0
 #: Frames sent and not yet drawn at most: the next cloud is reconstructed while the page draws one.
 IN_FLIGHT = 2
-#: JPEG quality of the depth image (OpenCV, through viser's image element).
+#: JPEG quality of the depth image (OpenCV).
 DEPTH_JPEG_QUALITY = 90
 
 
@@ -175,8 +176,6 @@ class ViserViewer:
         button.on_click(lambda _: self._ask_record(str(folder.value), int(cycles.value)))
         self._status = gui.add_text(LABELS["status"], initial_value="", disabled=True)
         self._overlay = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="mask overlay", format="jpeg")
-        self._depth = gui.add_image(np.zeros((8, 8, 3), np.uint8), label=DEPTH_LABEL, format="jpeg",
-                                    jpeg_quality=DEPTH_JPEG_QUALITY, visible=False)
         self._stamp = gui.add_html(frame_stamp(0, 0.0))
         self.drawn = -1  # the last frame a page drew (0: a page runs the page script; -1: none yet)
         ack = gui.add_text(ACK_LABEL, initial_value="")
@@ -231,8 +230,6 @@ class ViserViewer:
                 self._cloud.colors = colours
                 if not self._cloud.visible:
                     self._cloud.visible = True
-            if self._depth.visible:
-                self._depth.visible = False
             self._stamp.content = frame_stamp(self._frames, arrival_ms)
         self.server.flush()
 
@@ -243,7 +240,8 @@ class ViserViewer:
         return (arrival + (time.time() - time.monotonic())) * 1e3
 
     def show_depth(self, image: np.ndarray, arrival: float) -> None:
-        """Show the depth image instead of the cloud (hidden, not updated), with the frame's stamp.
+        """Show the depth image instead of the cloud (hidden, not updated): one message, the frame's
+        stamp with the image inline (:func:`~fringe3d.live.page_script.frame_stamp`).
 
         Parameters
         ----------
@@ -253,14 +251,15 @@ class ViserViewer:
         arrival : float
             As for :meth:`show_points`.
         """
+        ok, jpeg = cv2.imencode(".jpg", np.ascontiguousarray(image[..., ::-1]),
+                                [cv2.IMWRITE_JPEG_QUALITY, DEPTH_JPEG_QUALITY])
+        if not ok:  # OpenCV encodes any (h, w, 3) uint8 image; kept as a guard
+            raise ValueError(f"the depth image of shape {image.shape} could not be encoded as JPEG")
         arrival_ms = self._next_frame(arrival)
-        with self.server.atomic():  # the page applies the image and its stamp together
-            self._depth.image = image
-            if not self._depth.visible:
-                self._depth.visible = True
+        with self.server.atomic():  # the page hides the cloud as it draws the image
             if self._cloud is not None and self._cloud.visible:  # nothing left for the 3D canvas to redraw
                 self._cloud.visible = False
-            self._stamp.content = frame_stamp(self._frames, arrival_ms, "depth")
+            self._stamp.content = frame_stamp(self._frames, arrival_ms, jpeg.tobytes())
         self.server.flush()
 
     def busy(self) -> bool:
