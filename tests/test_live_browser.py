@@ -355,3 +355,35 @@ def test_viewer_waits_for_a_page_that_acknowledges_frames_and_not_for_one_that_n
         assert not v.busy()
     finally:
         v.close()
+
+
+def test_viewer_sends_a_depth_frame_as_its_stamp_with_the_image_inline():
+    import base64
+
+    import cv2
+
+    from fringe3d.live.session import Controls
+    from fringe3d.live.viewer import ViewerSetup, ViserViewer
+
+    from fringe3d.live.display import depth_colours
+
+    ramp = depth_colours(np.linspace(300.0, 500.0, 30), (300.0, 500.0)).reshape(6, 5, 3)  # the depth image's colours
+    image = np.repeat(np.repeat(ramp, 16, axis=0), 16, axis=1)
+    v = ViserViewer(ViewerSetup(port=0), Controls(choice="3-step"))
+    try:
+        before = time.time()
+        v.show_depth(image, time.monotonic())
+        after = time.time()
+        content = v._stamp.content
+    finally:
+        v.close()
+    assert re.fullmatch(f'<img {FRAME_ATTRIBUTE}="1" {ARRIVAL_ATTRIBUTE}="[0-9.]+" loading="lazy" '
+                        r'src="data:image/jpeg;base64,[A-Za-z0-9+/=]+">', content)
+    arrival = float(re.search(f'{ARRIVAL_ATTRIBUTE}="([0-9.]+)"', content).group(1))
+    assert before * 1e3 - 1.0 <= arrival <= after * 1e3 + 1.0  # the arrival as epoch ms, the page's clock
+    data = base64.b64decode(re.search(r"base64,([A-Za-z0-9+/=]+)", content).group(1))
+    decoded = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)[..., ::-1]
+    assert decoded.shape == image.shape
+    # the mean colour of each uniform 16x16 block (a JPEG colour block) survives quality 90 within a few levels
+    block_means = decoded.reshape(6, 16, 5, 16, 3).mean(axis=(1, 3))
+    assert np.abs(block_means - image[::16, ::16]).max() < 4.0

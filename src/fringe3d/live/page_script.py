@@ -13,16 +13,17 @@ animation frame (the one that draws the cloud) and the task after it, and takes 
 performance.now()`` follows a monotonic clock that drifts from it, by tens of ms within a minute
 on the development machine). Display latency = that time - the arrival stamp.
 
-In the depth view (the stamp's :data:`VIEW_ATTRIBUTE` reads ``depth``) the frame is an image:
-viser sets the GUI image's ``src`` (a new blob URL) a React effect after the update that carries
-the stamp. The script waits for the image element labelled :data:`DEPTH_LABEL` to take a new
-``src`` (the ``MutationObserver`` watches ``src`` attributes too), for the image to load and
-decode (``img.decode()``, or its ``load`` event: a decode promise has stayed pending in headless
-Chromium), then for the next animation frame and the task after it, and takes the time as above
-(a frame whose image is replaced before it is drawn is not counted). While the depth view is on,
-the script lays the image over the 3D view (fixed, centred on the canvas's box, at the image's
-own size: a scaled image costs a software rasteriser more per frame) and hides the 3D canvas
-(``display: none``: the browser neither draws nor composites it); the cloud view undoes both.
+In the depth view the stamp is the frame: an ``<img>`` carrying the same two attributes and the
+depth image as a ``data:`` URL (JPEG; :func:`frame_stamp`), so a frame is one viser message (a
+GUI update, which does not wake viser's 3D render loop). The script hides that element (a page
+without the script shows it as a plain image), decodes its JPEG off the main thread
+(``createImageBitmap``) and draws it into the page's own canvas (id :data:`DEPTH_CANVAS_ID`),
+then waits for the next animation frame and the task after it and takes the time as above. A
+frame whose image was drawn in the canvas and replaced before an animation frame showed it, or
+that finished decoding after a newer one, is not counted. While the depth view is on, the canvas
+lies over the 3D view (fixed, centred on the 3D canvas's box, at the image's own size: a scaled
+image costs a software rasteriser more per frame) and the 3D canvas is hidden (``display:
+none``: the browser neither draws nor composites it); a cloud's stamp undoes both.
 
 The page shows, under the view, the frames it drew, their rate (``(drawn - 1) / (last -
 first)``, on ``performance.now()``) and the display latency median, p95 and max (percentiles
@@ -208,4 +209,5 @@ def frame_stamp(frame: int, arrival_ms: float, jpeg: bytes | None = None) -> str
     stamp = f'{FRAME_ATTRIBUTE}="{int(frame)}" {ARRIVAL_ATTRIBUTE}="{float(arrival_ms):.3f}"'
     if jpeg is None:
         return f"<span {stamp}></span>"
+    # lazy: a browser need not load an image it does not show (the page script hides it)
     return f'<img {stamp} loading="lazy" src="data:image/jpeg;base64,{base64.b64encode(bytes(jpeg)).decode("ascii")}">'

@@ -6,9 +6,10 @@
   frame: x right, y down, z away from the camera; the view starts at the camera looking at
   the working volume), or, in the **depth** view, the newest 3D frame's depth map as a JPEG
   image (:func:`fringe3d.live.display.depth_image`: coloured by depth, masked pixels by reason,
-  a colour bar in mm) in the GUI image element labelled :data:`DEPTH_LABEL`, which the page
-  script lays over the 3D view (the browser draws an image without WebGL; while the depth view
-  is on no cloud is sent and the cloud is hidden, so the 3D canvas has nothing to redraw);
+  a colour bar in mm) inside the frame's stamp (one message per frame), which the page script
+  draws into its own canvas over the 3D view (the browser draws an image without WebGL; while
+  the depth view is on no cloud is sent and the cloud is hidden, so the 3D canvas has nothing
+  to redraw);
 * a GUI panel: **3D frames/s**, **latency median (ms)**, **latency p95 (ms)** (frame arrival
   to points handed to the page, measured by the pipeline: :mod:`fringe3d.live.stats`),
   **3D frames shown**, **points**; the controls **exposure** (the virtual camera's gain or a
