@@ -11,7 +11,12 @@ command's own summary: 3D frames shown per second and the end-to-end latency (fr
 points handed to the page) median / p95 / max, measured by the pipeline; then the page's own
 figures (:mod:`fringe3d.live.page_script`, read from the page): 3D frames drawn per second and
 the display latency (frame arrival to the depth image or the cloud, ``--show``, drawn in the
-page) median / p95 / max. Chromium renders the cloud with software WebGL on the same cores, as a
+page) median / p95 / max; then the ratio of frames drawn to frames handed to the page, the CPU
+time Chromium's processes spent per frame drawn (from /proc, by process type: renderer,
+gpu-process, browser, ...; from the page's load to the run's end), this process's CPU time per
+frame handed to the page (the pipeline and viser), and the page's main-thread time per frame
+drawn (CDP Performance.getMetrics: tasks, script, layout, style; wall time, which load
+stretches). Chromium renders the cloud with software WebGL on the same cores, as a
 browser on the measuring machine would; before the run it times the same browser drawing a bare
 WebGL page (:data:`BARE_WEBGL`) at the same viewport: the ceiling of any page there.
 """
@@ -196,6 +201,8 @@ def main() -> None:
                                 [page["fps"]])] + [
             figure(group, f"display latency, frame arrival to drawn in the page (timed by the page), {k} over "
                    "the frames", "ours", "ms", [page["latency_ms"][k]]) for k in ("median", "p95", "max")]
+        s["figures"].append(figure(group, "Chromium's CPU time (all its processes) per 3D frame drawn in the page",
+                                   "ours", "ms", [s["chromium_cpu_ms_per_drawn_frame"]]))
     if s["webgl_ceiling_fps"] is not None:
         s["figures"].append(figure(group, f"bare WebGL page drawn by this browser at {args.viewport}", "reference",
                                    "frames/s", [s["webgl_ceiling_fps"]]))
