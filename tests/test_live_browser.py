@@ -387,3 +387,44 @@ def test_viewer_sends_a_depth_frame_as_its_stamp_with_the_image_inline():
     # the mean colour of each uniform 16x16 block (a JPEG colour block) survives quality 90 within a few levels
     block_means = decoded.reshape(6, 16, 5, 16, 3).mean(axis=(1, 3))
     assert np.abs(block_means - image[::16, ::16]).max() < 4.0
+
+
+@pytest.mark.browser
+def test_page_draws_depth_frames_in_its_canvas_and_gives_the_3d_view_back_for_clouds():
+    from playwright.sync_api import sync_playwright
+
+    from fringe3d.live.session import Controls
+    from fringe3d.live.viewer import ViewerSetup, ViserViewer
+
+    state = f"""() => {{ const c = document.getElementById('{DEPTH_CANVAS_ID}');
+      const gl = [...document.querySelectorAll('canvas')].find(x => x !== c);
+      const px = c ? [...c.getContext('2d').getImageData(c.width / 2, c.height / 2, 1, 1).data] : null;
+      return {{depth: c ? getComputedStyle(c).display : null, view: gl ? getComputedStyle(gl).display : null,
+              size: c ? [c.width, c.height] : null, centre: px, frames: window.fringe3dDisplay.frame.slice()}}; }}"""
+    image = np.zeros((64, 80, 3), np.uint8)
+    image[..., 0], image[..., 2] = 200, 40  # one colour: its JPEG decodes to it within a level or two
+    points = np.random.default_rng(0).normal(size=(100, 3)).astype(np.float32) + np.float32([0, 0, 400])
+    v = ViserViewer(ViewerSetup(port=0), Controls(choice="3-step"))
+    seen = []
+    try:
+        with sync_playwright() as p:
+            browser = launch(p)
+            page = browser.new_page(viewport={"width": 1000, "height": 700})
+            page.goto(v.url)
+            page.wait_for_function("() => window.fringe3dDisplay", timeout=30_000, polling=100)
+            for k, view in enumerate(("depth", "cloud", "depth"), start=1):
+                if view == "depth":
+                    v.show_depth(image, time.monotonic())
+                else:
+                    v.show_points(points, np.zeros((100, 3), np.uint8), time.monotonic())
+                page.wait_for_function(f"() => window.fringe3dDisplay.frame.includes({k})", timeout=30_000,
+                                       polling=50)
+                seen.append(page.evaluate(state))
+            browser.close()
+    finally:
+        v.close()
+    for s in (seen[0], seen[2]):  # the depth frames: in the page's canvas, at the image's size, the 3D view hidden
+        assert s["depth"] != "none" and s["view"] == "none" and s["size"] == [80, 64]
+        assert np.abs(np.array(s["centre"][:3]) - [200, 0, 40]).max() <= 4 and s["centre"][3] == 255
+    assert seen[1]["depth"] == "none" and seen[1]["view"] != "none"  # a cloud gives the 3D view back
+    assert seen[2]["frames"] == [1, 2, 3]  # each frame drawn, timed once
