@@ -428,3 +428,24 @@ def test_page_draws_depth_frames_in_its_canvas_and_gives_the_3d_view_back_for_cl
         assert np.abs(np.array(s["centre"][:3]) - [200, 0, 40]).max() <= 4 and s["centre"][3] == 255
     assert seen[1]["depth"] == "none" and seen[1]["view"] != "none"  # a cloud gives the 3D view back
     assert seen[2]["frames"] == [1, 2, 3]  # each frame drawn, timed once
+
+
+def test_viewer_keeps_one_more_depth_image_than_clouds_in_flight():
+    from fringe3d.live.session import Controls
+    from fringe3d.live.viewer import IN_FLIGHT, IN_FLIGHT_DEPTH, ViewerSetup, ViserViewer
+
+    assert IN_FLIGHT_DEPTH == IN_FLIGHT + 1
+    v = ViserViewer(ViewerSetup(port=0), Controls(choice="3-step"))
+    try:
+        image = np.zeros((16, 16, 3), np.uint8)
+        v._acknowledged("0")  # a page with the script, nothing drawn yet
+        for _ in range(IN_FLIGHT):
+            v.show_depth(image, 0.0)
+        assert not v.busy()  # IN_FLIGHT depth images not drawn: one more may go
+        v.show_depth(image, 0.0)
+        assert v.busy()
+        v.show_points(np.zeros((4, 3), np.float32), np.zeros((4, 3), np.uint8), 0.0)
+        v._acknowledged(str(IN_FLIGHT_DEPTH + 1 - IN_FLIGHT))  # IN_FLIGHT frames not drawn, the last a cloud
+        assert v.busy()
+    finally:
+        v.close()

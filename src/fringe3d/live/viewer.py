@@ -21,8 +21,8 @@
 * under the view, the page's own figures: the frames it drew, their rate and the **display
   latency** (frame arrival to the cloud drawn in the page), timed by the page itself
   (:mod:`fringe3d.live.page_script`). The page also tells the viewer which frame it drew last:
-  :meth:`ViserViewer.busy` holds the loop while :data:`IN_FLIGHT` frames are not drawn yet, so
-  a slow page is not sent clouds it cannot draw.
+  :meth:`ViserViewer.busy` holds the loop while :data:`IN_FLIGHT` clouds (:data:`IN_FLIGHT_DEPTH`
+  depth images) are not drawn yet, so a slow page is not sent frames it cannot draw.
 
 viser is an optional dependency (the ``live`` extra), imported when a viewer is made.
 """
@@ -55,6 +55,9 @@ LABELS = {"fps": "3D frames/s", "latency_median": "latency median (ms)", "latenc
 PATIENCE = 2.0
 #: Frames sent and not yet drawn at most: the next cloud is reconstructed while the page draws one.
 IN_FLIGHT = 2
+#: The same for depth images: the page decodes one off its main thread while it draws another, so
+#: a third in flight keeps the pipeline busy (more frames drawn in alternated runs, user guide).
+IN_FLIGHT_DEPTH = 3
 #: JPEG quality of the depth image (OpenCV).
 DEPTH_JPEG_QUALITY = 90
 
@@ -183,6 +186,7 @@ class ViserViewer:
         ack.on_update(lambda _: self._acknowledged(ack.value))
         self._frames = 0
         self._sent_at = 0.0
+        self._depth_sent = False
         self._cloud = None
         self._run_page_script()
 
@@ -234,9 +238,10 @@ class ViserViewer:
             self._stamp.content = frame_stamp(self._frames, arrival_ms)
         self.server.flush()
 
-    def _next_frame(self, arrival: float) -> float:
-        """Count a frame sent now; its arrival as epoch ms (the page's clock)."""
+    def _next_frame(self, arrival: float, depth: bool = False) -> float:
+        """Count a frame sent now (a depth image or a cloud); its arrival as epoch ms (the page's clock)."""
         self._frames += 1
+        self._depth_sent = depth
         self._sent_at = time.monotonic()
         return (arrival + (time.time() - time.monotonic())) * 1e3
 
@@ -256,7 +261,7 @@ class ViserViewer:
                                 [cv2.IMWRITE_JPEG_QUALITY, DEPTH_JPEG_QUALITY])
         if not ok:  # OpenCV encodes any (h, w, 3) uint8 image; kept as a guard
             raise ValueError(f"the depth image of shape {image.shape} could not be encoded as JPEG")
-        arrival_ms = self._next_frame(arrival)
+        arrival_ms = self._next_frame(arrival, depth=True)
         with self.server.atomic():  # the page hides the cloud as it draws the image
             if self._cloud is not None and self._cloud.visible:  # nothing left for the 3D canvas to redraw
                 self._cloud.visible = False
@@ -270,11 +275,13 @@ class ViserViewer:
         -------
         bool
             True when a page runs the page script (it said so when it started), has not drawn
-            the last :data:`IN_FLIGHT` frames sent, and the last was sent less than
+            the last :data:`IN_FLIGHT` frames sent (:data:`IN_FLIGHT_DEPTH` when the last was
+            a depth image), and the last was sent less than
             :data:`PATIENCE` s ago (a page that stopped drawing, e.g. a hidden tab, is sent
             frames again). Never for pages without the script.
         """
-        return 0 <= self.drawn <= self._frames - IN_FLIGHT and time.monotonic() - self._sent_at < PATIENCE
+        limit = IN_FLIGHT_DEPTH if self._depth_sent else IN_FLIGHT
+        return 0 <= self.drawn <= self._frames - limit and time.monotonic() - self._sent_at < PATIENCE
 
     def show_overlay(self, image: np.ndarray) -> None:
         """Show the mask overlay.
