@@ -11,7 +11,12 @@ command's own summary: 3D frames shown per second and the end-to-end latency (fr
 points handed to the page) median / p95 / max, measured by the pipeline; then the page's own
 figures (:mod:`fringe3d.live.page_script`, read from the page): 3D frames drawn per second and
 the display latency (frame arrival to the depth image or the cloud, ``--show``, drawn in the
-page) median / p95 / max. Chromium renders the cloud with software WebGL on the same cores, as a
+page) median / p95 / max; then the ratio of frames drawn to frames handed to the page, the CPU
+time Chromium's processes spent per frame drawn (from /proc, by process type: renderer,
+gpu-process, browser, ...; from the page's load to the run's end), this process's CPU time per
+frame handed to the page (the pipeline and viser), and the page's main-thread time per frame
+drawn (CDP Performance.getMetrics: tasks, script, layout, style; wall time, which load
+stretches). Chromium renders the cloud with software WebGL on the same cores, as a
 browser on the measuring machine would; before the run it times the same browser drawing a bare
 WebGL page (:data:`BARE_WEBGL`) at the same viewport: the ceiling of any page there.
 """
@@ -55,6 +60,56 @@ const loop = () => { gl.clearColor(1, 1, 1, 1); gl.clear(gl.COLOR_BUFFER_BIT); g
   gl.drawArrays(gl.POINTS, 0, 20000); window.drawn++; requestAnimationFrame(loop); };
 requestAnimationFrame(loop);
 </script></body>"""
+
+
+def _children() -> dict[int, list[int]]:
+    kids: dict[int, list[int]] = {}
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                ppid = int((d / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            kids.setdefault(ppid, []).append(int(d.name))
+    return kids
+
+
+def chromium_cpu() -> dict[tuple[int, str], float]:
+    """CPU seconds (user + system) of each Chromium process descended from this one, by (pid, its
+    ``--type``: renderer, gpu-process, ..., or browser) (Linux /proc)."""
+    kids, out, todo = _children(), {}, [os.getpid()]
+    while todo:
+        for pid in kids.get(todo.pop(), []):
+            todo.append(pid)
+            try:
+                stat = Path(f"/proc/{pid}/stat").read_text()
+            except OSError:
+                continue
+            name, fields = stat[stat.index("(") + 1:stat.rindex(")")], stat.rsplit(")", 1)[1].split()
+            if "chrom" in name.lower():
+                try:
+                    args = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").split()
+                except OSError:
+                    continue
+                kind = next((a[7:].decode() for a in args if a.startswith(b"--type=")), "browser")
+                out[(pid, kind)] = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return out
+
+
+def cpu_between(before: dict, after: dict) -> dict[str, float]:
+    """CPU seconds the processes used between two :func:`chromium_cpu` readings, by process type
+    (those that ended in between are not counted)."""
+    out: dict[str, float] = {}
+    for key, t in after.items():
+        out[key[1]] = out.get(key[1], 0.0) + t - before.get(key, 0.0)
+    return out
+
+
+def main_thread(cdp) -> dict[str, float]:
+    """Seconds the page's main thread has spent so far: in tasks, script, layout and style (CDP's
+    Performance.getMetrics)."""
+    m = {x["name"]: x["value"] for x in cdp.send("Performance.getMetrics")["metrics"]}
+    return {k: m[k] for k in ("TaskDuration", "ScriptDuration", "LayoutDuration", "RecalcStyleDuration")}
 
 
 def webgl_ceiling(browser, viewport: dict, seconds: float = 3.0) -> float:
@@ -104,9 +159,19 @@ def main() -> None:
         t.start()
         while not served and t.is_alive():
             time.sleep(0.05)
+        cdp = metrics0 = None
         if page is not None:
             page.goto(served[0])
+            cdp = page.context.new_cdp_session(page)  # the page's main thread: what its time went to
+            cdp.send("Performance.enable")
+            metrics0 = main_thread(cdp)
+        cpu0, own0 = chromium_cpu(), os.times()
         t.join()
+        cpu1, own1 = chromium_cpu(), os.times()
+        if cdp is not None:
+            result["main_thread_s"] = {k: v - metrics0[k] for k, v in main_thread(cdp).items()}
+        result["chromium_cpu_s"] = cpu_between(cpu0, cpu1)
+        result["python_cpu_s"] = own1.user + own1.system - own0.user - own0.system
         if page is not None:
             time.sleep(0.5)  # the last frames are drawn and the page's figures refreshed
             result["page"] = page.evaluate("() => window.fringe3dDisplay && window.fringe3dDisplay.summary")
@@ -116,6 +181,16 @@ def main() -> None:
              webgl_ceiling_fps=result.get("webgl_ceiling"))
     page = result.get("page")
     s["page"] = page
+    # CPU per frame: the process running the pipeline and viser (per frame handed to the page), Chromium's
+    # processes (per frame drawn in the page); from the page's load to the run's end
+    s["python_cpu_ms_per_frame"] = round(1e3 * result["python_cpu_s"] / max(s["frames_shown"], 1), 1)
+    drawn = max(page["frames_drawn"], 1) if page else 1
+    s["chromium_cpu_ms_per_drawn_frame"] = (round(1e3 * sum(result["chromium_cpu_s"].values()) / drawn, 1)
+                                            if page else None)
+    s["chromium_cpu_ms_per_drawn_frame_by_process"] = {k: round(1e3 * v / drawn, 1)
+                                                       for k, v in result["chromium_cpu_s"].items()}
+    s["page_main_thread_ms_per_drawn_frame"] = {k: round(1e3 * v / drawn, 1)
+                                                for k, v in result.get("main_thread_s", {}).items()}
     group = (f"fringe3d live, virtual:{args.preset}, {s['size'][0]}x{s['size'][1]}, {args.show} view, "
              f"{'headless Chromium page open' if not args.no_browser else 'no page open'}")
     s["figures"] = [figure(group, "3D frames handed to the page", "ours", "3D frames/s", [s["fps"]])] + [
@@ -126,6 +201,8 @@ def main() -> None:
                                 [page["fps"]])] + [
             figure(group, f"display latency, frame arrival to drawn in the page (timed by the page), {k} over "
                    "the frames", "ours", "ms", [page["latency_ms"][k]]) for k in ("median", "p95", "max")]
+        s["figures"].append(figure(group, "Chromium's CPU time (all its processes) per 3D frame drawn in the page",
+                                   "ours", "ms", [s["chromium_cpu_ms_per_drawn_frame"]]))
     if s["webgl_ceiling_fps"] is not None:
         s["figures"].append(figure(group, f"bare WebGL page drawn by this browser at {args.viewport}", "reference",
                                    "frames/s", [s["webgl_ceiling_fps"]]))
@@ -145,6 +222,11 @@ def main() -> None:
                   f"({page['frames_drawn']} frames), display latency median {pl['median']} ms, p95 {pl['p95']} ms, "
                   f"max {pl['max']} ms; this browser draws a bare WebGL page at {args.viewport} at "
                   f"{s['webgl_ceiling_fps']} frames/s")
+            print(f"  drawn / handed to the page: {page['fps'] / max(s['fps'], 1e-9):.2f}; CPU per frame: "
+                  f"Chromium {s['chromium_cpu_ms_per_drawn_frame']} ms per drawn frame "
+                  f"({s['chromium_cpu_ms_per_drawn_frame_by_process']}), this process "
+                  f"{s['python_cpu_ms_per_frame']} ms (per frame handed to the page); the page's main thread "
+                  f"per drawn frame (ms): {s['page_main_thread_ms_per_drawn_frame']}")
 
 
 if __name__ == "__main__":

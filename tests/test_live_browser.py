@@ -9,9 +9,10 @@ drew, and the figures are read from the page's own GUI fields. Truths: the same 
 the test and reconstructed by :class:`fringe3d.reconstruct.frame.FrameReconstructor` (each cloud
 sent equals one of the loop's cycles exactly), the simulator's ground truth (those points lie on
 the scene within the tiny rig's accuracy), and the command's --json summary (the page shows the
-same figures). A second run shows the depth view (``--show depth``): the page receives JPEG depth
-images and no cloud, the images decode to the colour ramp's colours of the engine's depths, and
-the page times the images it drew against the stamps sent with them.
+same figures). A second run shows the depth view (``--show depth``): the page receives no cloud and
+one message per frame, the frame's stamp with its JPEG depth image inline; the images decode to the
+colour ramp's colours of the engine's depths, the page draws them in its own canvas over the hidden
+3D view, and it times the images it drew against the stamps they came with.
 """
 from __future__ import annotations
 
@@ -29,8 +30,8 @@ from headless_chromium import launch
 
 from fringe3d.commands.live import LiveOptions, run_live
 from fringe3d.decode import DecodeOptions
-from fringe3d.live.display import display_points
-from fringe3d.live.page_script import ARRIVAL_ATTRIBUTE, DEPTH_LABEL, FIGURES_ID, FRAME_ATTRIBUTE, VIEW_ATTRIBUTE
+from fringe3d.live.display import BAR_ROWS, display_points
+from fringe3d.live.page_script import ARRIVAL_ATTRIBUTE, DEPTH_CANVAS_ID, FIGURES_ID, FRAME_ATTRIBUTE
 from fringe3d.live.viewer import LABELS
 from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
 from fringe3d.sim.live_take import render_take
@@ -141,11 +142,11 @@ def _watch(out: Path, show: str) -> dict:
         timed = page.evaluate("() => { const d = window.fringe3dDisplay; return {frame: d.frame, arrival: d.arrival, "
                               "received: d.received, drawn: d.drawn, tick: d.tick, latency: d.latency}; }")
         timed["shown"] = page.evaluate(f"() => document.getElementById('{FIGURES_ID}').textContent")
-        timed["depth_image"] = page.evaluate(f"""() => {{ const l = [...document.querySelectorAll('p, span, div')]
-            .filter(e => e.childElementCount === 0 && e.textContent.trim() === {json.dumps(DEPTH_LABEL)}).pop();
-            const img = l && l.parentElement.querySelector('img');
-            return img ? {{width: img.naturalWidth, complete: img.complete, position: img.style.position}}
-                       : null; }}""")
+        timed["depth_canvas"] = page.evaluate(f"""() => {{ const c = document.getElementById('{DEPTH_CANVAS_ID}');
+            const gl = [...document.querySelectorAll('canvas')].find(x => x !== c);
+            return c ? {{width: c.width, height: c.height, position: getComputedStyle(c).position,
+                        shown: getComputedStyle(c).display !== 'none',
+                        view_hidden: !!gl && getComputedStyle(gl).display === 'none'}} : null; }}""")
         page.screenshot(path=str(out / "live.png"))
         browser.close()
     live.join(timeout=60)
@@ -254,55 +255,58 @@ def test_live_page_times_display_latency_of_the_frames_it_drew(run, request):
         assert figure == pytest.approx(round(float(value), 1), abs=0.051)
 
 
-def _depth_images(payloads: list[bytes]) -> list[tuple[np.ndarray, bool]]:
-    """(decoded RGB image, a depth-view stamp in the same websocket message) of each update of the GUI
-    image labelled DEPTH_LABEL the page received."""
+def _depth_frames(payloads: list[bytes]) -> list[tuple[int, np.ndarray | None, int]]:
+    """(frame, decoded RGB image or None, messages in its websocket payload) of each frame stamp the page
+    received: in the depth view the stamp is an ``<img>`` whose ``data:`` URL is the frame's JPEG."""
+    import base64
+
     import cv2
 
-    uuid, out = None, []
+    out = []
     for payload in payloads:
         messages = _messages(payload)
         for m in messages:
-            if m.get("type") == "GuiImageMessage" and m["props"].get("label") == DEPTH_LABEL:
-                uuid = m["uuid"]
-        stamped = any(f'{VIEW_ATTRIBUTE}="depth"' in m.get("updates", {}).get("content", "") for m in messages
-                      if m.get("type") == "GuiUpdateMessage")
-        for m in messages:
-            data = m.get("updates", {}).get("_data") if m.get("type") == "GuiUpdateMessage" else None
-            if m.get("uuid") == uuid and data is not None and len(data) > 0:
-                bgr = cv2.imdecode(np.frombuffer(bytes(data), np.uint8), cv2.IMREAD_COLOR)
-                out.append((bgr[..., ::-1], stamped))
+            content = m.get("updates", {}).get("content", "") if m.get("type") == "GuiUpdateMessage" else ""
+            if FRAME_ATTRIBUTE not in content:
+                continue
+            frame = int(re.search(f'{FRAME_ATTRIBUTE}="([0-9]+)"', content).group(1))
+            data = re.search(r'<img [^>]*src="data:image/jpeg;base64,([A-Za-z0-9+/=]+)"', content)
+            image = None
+            if data:
+                bgr = cv2.imdecode(np.frombuffer(base64.b64decode(data.group(1)), np.uint8), cv2.IMREAD_COLOR)
+                image = bgr[..., ::-1]
+            out.append((frame, image, len(messages)))
     return out
 
 
 @pytest.mark.browser
-def test_live_depth_view_sends_a_depth_image_with_each_stamp_and_no_cloud(depth_run):
+def test_live_depth_view_sends_each_frame_as_one_stamp_with_its_image_and_no_cloud(depth_run):
     received = depth_run["received"]
-    images = [(image, stamped) for image, stamped in _depth_images(received) if image.shape != (8, 8, 3)]
-    stamps = _stamps(received)  # viser drops updates a newer one replaces before they are sent: not every frame
+    frames = _depth_frames(received)
     assert not any(_clouds(_messages(p)) for p in received), "the depth view sent a point cloud"
-    # every image travels with its stamp; viser sends a prop only when it changes: a frame of the same cycle
-    # of the replayed loop as the one before (the loop came round) gets its stamp without an image
-    assert stamps and 0 < len(images) <= len(stamps) and all(stamped for _, stamped in images)
-    assert len(images) >= len(stamps) // 2
-    frames = [f for f, _, _ in stamps]
-    assert frames == sorted(set(frames)) and frames[-1] == FRAMES
-    shown = depth_run["timed"]["depth_image"]  # the page shows it, laid over the 3D view
-    assert shown and shown["width"] == 160 and shown["complete"] and shown["position"] == "fixed"
+    assert not any(m.get("type") == "GuiImageMessage" for p in received for m in _messages(p)
+                   if m.get("props", {}).get("label") != "mask overlay")
+    # every frame is its stamp with its image inline; viser drops updates a newer one replaces before they
+    # are sent: not every frame travels, and those that do carry increasing numbers up to the last
+    assert frames and all(image is not None for _, image, _ in frames)
+    numbers = [f for f, _, _ in frames]
+    assert numbers == sorted(set(numbers)) and numbers[-1] == FRAMES
+    assert sum(n == 1 for *_, n in frames) >= len(frames) // 2  # most frames alone in their websocket message
+    shown = depth_run["timed"]["depth_canvas"]  # the page draws them in its canvas, laid over the hidden 3D view
+    assert shown == {"width": 160, "height": 128 + BAR_ROWS, "position": "fixed", "shown": True,
+                     "view_hidden": True}
 
 
 @pytest.mark.browser
 def test_live_depth_images_decode_to_the_ramp_colours_of_the_engines_depths(depth_run, loop_points):
     from test_live_loop import ramp_colour
 
-    from fringe3d.live.display import BAR_ROWS, depth_image
+    from fringe3d.live.display import depth_image
 
     H, W = 128, 160
     maps = [m for *_, m in loop_points]
     made = [depth_image(points, quality, (300.0, 500.0)).astype(float) for points, quality in maps]
-    for image, stamped in _depth_images(depth_run["received"]):
-        if not stamped:  # the placeholder before the first frame
-            continue
+    for _, image, _ in _depth_frames(depth_run["received"]):
         assert image.shape == (H + BAR_ROWS, W, 3)
         error = [np.abs(image - m).mean() for m in made]
         k = int(np.argmin(error))
@@ -349,5 +353,99 @@ def test_viewer_waits_for_a_page_that_acknowledges_frames_and_not_for_one_that_n
         assert v.busy()
         monkeypatch.setattr(viewer_module, "PATIENCE", 0.0)  # a page that stopped drawing is sent frames again
         assert not v.busy()
+    finally:
+        v.close()
+
+
+def test_viewer_sends_a_depth_frame_as_its_stamp_with_the_image_inline():
+    import base64
+
+    import cv2
+
+    from fringe3d.live.session import Controls
+    from fringe3d.live.viewer import ViewerSetup, ViserViewer
+
+    from fringe3d.live.display import depth_colours
+
+    ramp = depth_colours(np.linspace(300.0, 500.0, 30), (300.0, 500.0)).reshape(6, 5, 3)  # the depth image's colours
+    image = np.repeat(np.repeat(ramp, 16, axis=0), 16, axis=1)
+    v = ViserViewer(ViewerSetup(port=0), Controls(choice="3-step"))
+    try:
+        before = time.time()
+        v.show_depth(image, time.monotonic())
+        after = time.time()
+        content = v._stamp.content
+    finally:
+        v.close()
+    assert re.fullmatch(f'<img {FRAME_ATTRIBUTE}="1" {ARRIVAL_ATTRIBUTE}="[0-9.]+" loading="lazy" '
+                        r'src="data:image/jpeg;base64,[A-Za-z0-9+/=]+">', content)
+    arrival = float(re.search(f'{ARRIVAL_ATTRIBUTE}="([0-9.]+)"', content).group(1))
+    assert before * 1e3 - 1.0 <= arrival <= after * 1e3 + 1.0  # the arrival as epoch ms, the page's clock
+    data = base64.b64decode(re.search(r"base64,([A-Za-z0-9+/=]+)", content).group(1))
+    decoded = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)[..., ::-1]
+    assert decoded.shape == image.shape
+    # the mean colour of each uniform 16x16 block (a JPEG colour block) survives quality 90 within a few levels
+    block_means = decoded.reshape(6, 16, 5, 16, 3).mean(axis=(1, 3))
+    assert np.abs(block_means - image[::16, ::16]).max() < 4.0
+
+
+@pytest.mark.browser
+def test_page_draws_depth_frames_in_its_canvas_and_gives_the_3d_view_back_for_clouds():
+    from playwright.sync_api import sync_playwright
+
+    from fringe3d.live.session import Controls
+    from fringe3d.live.viewer import ViewerSetup, ViserViewer
+
+    state = f"""() => {{ const c = document.getElementById('{DEPTH_CANVAS_ID}');
+      const gl = [...document.querySelectorAll('canvas')].find(x => x !== c);
+      const px = c ? [...c.getContext('2d').getImageData(c.width / 2, c.height / 2, 1, 1).data] : null;
+      return {{depth: c ? getComputedStyle(c).display : null, view: gl ? getComputedStyle(gl).display : null,
+              size: c ? [c.width, c.height] : null, centre: px, frames: window.fringe3dDisplay.frame.slice()}}; }}"""
+    image = np.zeros((64, 80, 3), np.uint8)
+    image[..., 0], image[..., 2] = 200, 40  # one colour: its JPEG decodes to it within a level or two
+    points = np.random.default_rng(0).normal(size=(100, 3)).astype(np.float32) + np.float32([0, 0, 400])
+    v = ViserViewer(ViewerSetup(port=0), Controls(choice="3-step"))
+    seen = []
+    try:
+        with sync_playwright() as p:
+            browser = launch(p)
+            page = browser.new_page(viewport={"width": 1000, "height": 700})
+            page.goto(v.url)
+            page.wait_for_function("() => window.fringe3dDisplay", timeout=30_000, polling=100)
+            for k, view in enumerate(("depth", "cloud", "depth"), start=1):
+                if view == "depth":
+                    v.show_depth(image, time.monotonic())
+                else:
+                    v.show_points(points, np.zeros((100, 3), np.uint8), time.monotonic())
+                page.wait_for_function(f"() => window.fringe3dDisplay.frame.includes({k})", timeout=30_000,
+                                       polling=50)
+                seen.append(page.evaluate(state))
+            browser.close()
+    finally:
+        v.close()
+    for s in (seen[0], seen[2]):  # the depth frames: in the page's canvas, at the image's size, the 3D view hidden
+        assert s["depth"] != "none" and s["view"] == "none" and s["size"] == [80, 64]
+        assert np.abs(np.array(s["centre"][:3]) - [200, 0, 40]).max() <= 4 and s["centre"][3] == 255
+    assert seen[1]["depth"] == "none" and seen[1]["view"] != "none"  # a cloud gives the 3D view back
+    assert seen[2]["frames"] == [1, 2, 3]  # each frame drawn, timed once
+
+
+def test_viewer_keeps_one_more_depth_image_than_clouds_in_flight():
+    from fringe3d.live.session import Controls
+    from fringe3d.live.viewer import IN_FLIGHT, IN_FLIGHT_DEPTH, ViewerSetup, ViserViewer
+
+    assert IN_FLIGHT_DEPTH == IN_FLIGHT + 1
+    v = ViserViewer(ViewerSetup(port=0), Controls(choice="3-step"))
+    try:
+        image = np.zeros((16, 16, 3), np.uint8)
+        v._acknowledged("0")  # a page with the script, nothing drawn yet
+        for _ in range(IN_FLIGHT):
+            v.show_depth(image, 0.0)
+        assert not v.busy()  # IN_FLIGHT depth images not drawn: one more may go
+        v.show_depth(image, 0.0)
+        assert v.busy()
+        v.show_points(np.zeros((4, 3), np.float32), np.zeros((4, 3), np.uint8), 0.0)
+        v._acknowledged(str(IN_FLIGHT_DEPTH + 1 - IN_FLIGHT))  # IN_FLIGHT frames not drawn, the last a cloud
+        assert v.busy()
     finally:
         v.close()

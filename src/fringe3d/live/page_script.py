@@ -13,16 +13,17 @@ animation frame (the one that draws the cloud) and the task after it, and takes 
 performance.now()`` follows a monotonic clock that drifts from it, by tens of ms within a minute
 on the development machine). Display latency = that time - the arrival stamp.
 
-In the depth view (the stamp's :data:`VIEW_ATTRIBUTE` reads ``depth``) the frame is an image:
-viser sets the GUI image's ``src`` (a new blob URL) a React effect after the update that carries
-the stamp. The script waits for the image element labelled :data:`DEPTH_LABEL` to take a new
-``src`` (the ``MutationObserver`` watches ``src`` attributes too), for the image to load and
-decode (``img.decode()``, or its ``load`` event: a decode promise has stayed pending in headless
-Chromium), then for the next animation frame and the task after it, and takes the time as above
-(a frame whose image is replaced before it is drawn is not counted). While the depth view is on,
-the script lays the image over the 3D view (fixed, centred on the canvas's box, at the image's
-own size: a scaled image costs a software rasteriser more per frame) and hides the 3D canvas
-(``display: none``: the browser neither draws nor composites it); the cloud view undoes both.
+In the depth view the stamp is the frame: an ``<img>`` carrying the same two attributes and the
+depth image as a ``data:`` URL (JPEG; :func:`frame_stamp`), so a frame is one viser message (a
+GUI update, which does not wake viser's 3D render loop). The script hides that element (a page
+without the script shows it as a plain image), decodes its JPEG off the main thread
+(``createImageBitmap``) and draws it into the page's own canvas (id :data:`DEPTH_CANVAS_ID`),
+then waits for the next animation frame and the task after it and takes the time as above. A
+frame whose image was drawn in the canvas and replaced before an animation frame showed it, or
+that finished decoding after a newer one, is not counted. While the depth view is on, the canvas
+lies over the 3D view (fixed, centred on the 3D canvas's box, at the image's own size: a scaled
+image costs a software rasteriser more per frame) and the 3D canvas is hidden (``display:
+none``: the browser neither draws nor composites it); a cloud's stamp undoes both.
 
 The page shows, under the view, the frames it drew, their rate (``(drawn - 1) / (last -
 first)``, on ``performance.now()``) and the display latency median, p95 and max (percentiles
@@ -41,6 +42,8 @@ page draws them.
 """
 from __future__ import annotations
 
+import base64
+
 #: The stamp element's attributes: the frame's number and its arrival time (epoch ms).
 FRAME_ATTRIBUTE = "data-fringe3d-frame"
 ARRIVAL_ATTRIBUTE = "data-fringe3d-arrival"
@@ -48,10 +51,8 @@ ARRIVAL_ATTRIBUTE = "data-fringe3d-arrival"
 ACK_LABEL = "page drew frame"
 #: The id of the page element that shows the page's figures.
 FIGURES_ID = "fringe3d-display"
-#: The stamp's attribute naming the view of its frame (``cloud`` when absent, or ``depth``).
-VIEW_ATTRIBUTE = "data-fringe3d-view"
-#: The label of the GUI image element that shows the depth view.
-DEPTH_LABEL = "depth map"
+#: The id of the page's canvas that shows the depth view.
+DEPTH_CANVAS_ID = "fringe3d-depth"
 
 SCRIPT = r"""
 (() => {
@@ -64,6 +65,9 @@ SCRIPT = r"""
   box.style.cssText = 'position:fixed;left:8px;bottom:8px;z-index:1000;font:12px monospace;color:#222;' +
     'background:rgba(255,255,255,0.85);padding:3px 6px;border-radius:4px;pointer-events:none;white-space:pre';
   box.textContent = 'in this page: waiting for 3D frames';
+  const style = document.createElement('style');  // a depth frame's stamp is its image: drawn in a canvas instead
+  style.textContent = 'img[%(frame)s] { display: none !important; }';
+  document.head.appendChild(style);
   document.body.appendChild(box);
   const quantile = (sorted, q) => {
     const h = (sorted.length - 1) * q, i = Math.floor(h), j = Math.min(i + 1, sorted.length - 1);
@@ -105,64 +109,65 @@ SCRIPT = r"""
     d.latency.push(t - p.arrival);
     if (timer === null) timer = setTimeout(() => { timer = null; update(); }, 250);  // a few times a second
   };
-  let depthImg = null;
-  const depthImage = () => {  // the img of the GUI image element labelled '%(depth)s' (found once, as above)
-    if (depthImg && depthImg.isConnected) return depthImg;
-    const label = [...document.querySelectorAll('p, span, div')].filter(
-      e => e.childElementCount === 0 && e.textContent.trim() === '%(depth)s').pop();
-    depthImg = label ? label.parentElement.querySelector('img') : null;
-    return depthImg;
-  };
-  let view = 'cloud', depthPending = null, depthSeen = null;
-  const layOut = img => {  // the depth image over the 3D view, the canvas hidden (or back)
-    const canvas = document.querySelector('canvas');
-    if (view === 'depth' && img && canvas) {
-      const r = canvas.parentElement.getBoundingClientRect();  // the canvas's box (kept while it is hidden)
-      // at its own size (a scaled image costs the software rasteriser more per frame), centred
-      const w = img.naturalWidth || 0, h = img.naturalHeight || 0;
-      Object.assign(img.style, {position: 'fixed', left: Math.max(r.left, r.left + (r.width - w) / 2) + 'px',
-                                top: Math.max(r.top, r.top + (r.height - h) / 2) + 'px', maxWidth: 'none',
-                                zIndex: 900});
+  let view = 'cloud', token = 0, depthCanvas = null, onCanvas = 0, depthPending = null, depthScheduled = false;
+  const layOut = () => {  // the depth canvas over the 3D view, the 3D canvas hidden (or back)
+    const canvas = [...document.querySelectorAll('canvas')].find(c => c !== depthCanvas);
+    if (depthCanvas) {
+      const r = canvas ? canvas.parentElement.getBoundingClientRect()  // its box (kept while it is hidden)
+                       : {left: 0, top: 0, width: innerWidth, height: innerHeight};
+      // at the image's own size (a scaled image costs the software rasteriser more per frame), centred
+      const w = depthCanvas.width, h = depthCanvas.height;
+      Object.assign(depthCanvas.style, {left: Math.max(r.left, r.left + (r.width - w) / 2) + 'px',
+                                        top: Math.max(r.top, r.top + (r.height - h) / 2) + 'px',
+                                        display: view === 'depth' ? '' : 'none'});
     }
     if (canvas) canvas.style.display = view === 'depth' ? 'none' : '';
   };
-  let depthShown = null, token = 0;
-  const ready = img => new Promise(go => {  // loaded and decoded; decode() alone has stayed pending in headless
-    img.decode().then(go, go);              // Chromium, so its load event (or, already loaded, 50 ms) ends the wait
-    img.addEventListener('load', () => go(), {once: true});
-    if (img.complete && img.naturalWidth > 0) setTimeout(go, 50);
-  });
-  const lookDepth = () => {
-    if (!depthPending) return;
-    const img = depthImage(), src = img && img.getAttribute('src');
-    if (!src || (img === depthShown && src === depthSeen)) return;  // its image has not arrived yet
-    depthShown = img;
-    depthSeen = src;
-    const p = depthPending, mine = ++token;  // a newer image before this one is drawn: this one is not counted
-    depthPending = null;
-    // placed once loaded (its size known); the next animation frame draws it; the task after it runs once drawn
-    ready(img).then(() => {
-      if (mine === token) layOut(img);
+  // a depth frame (its stamp is the image, a hidden <img> with a data: URL): decoded off the main thread
+  // (createImageBitmap), drawn into the page's own canvas, then timed as a cloud is
+  const showDepth = (p, src) => {
+    if (view !== 'depth') { view = 'depth'; ++token; layOut(); }
+    const mine = token;
+    const text = atob(src.slice(src.indexOf(',') + 1)), bytes = new Uint8Array(text.length);
+    for (let i = 0; i < text.length; i++) bytes[i] = text.charCodeAt(i);
+    createImageBitmap(new Blob([bytes], {type: 'image/jpeg'})).then(image => {
+      // a view change since, or a newer frame drawn already (decoded first): this one is not shown
+      if (mine !== token || p.frame <= onCanvas) { image.close(); return; }
+      if (!depthCanvas) {
+        depthCanvas = document.createElement('canvas');
+        depthCanvas.id = '%(depth_canvas)s';
+        depthCanvas.style.cssText = 'position:fixed;z-index:900;pointer-events:none';
+        document.body.appendChild(depthCanvas);
+      }
+      if (depthCanvas.width !== image.width || depthCanvas.height !== image.height) {
+        depthCanvas.width = image.width;
+        depthCanvas.height = image.height;
+      }
+      layOut();
+      depthCanvas.getContext('2d').drawImage(image, 0, 0);
+      image.close();
+      onCanvas = p.frame;
+      depthPending = p;
+      if (depthScheduled) return;  // drawn again before the next animation frame: only the newer is shown
+      depthScheduled = true;
+      // the next animation frame shows the canvas; the task after it runs once it is shown
       requestAnimationFrame(() => setTimeout(() => {
-        if (mine === token && img.getAttribute('src') === src) drawn(p, now());
+        const q = depthPending;
+        depthPending = null;
+        depthScheduled = false;
+        if (q && mine === token) drawn(q, now());
       }, 0));
-    });
+    }, () => {});
   };
   const look = () => {
-    lookDepth();
     const el = document.querySelector('[%(frame)s]');
     if (!el) return;
     const frame = Number(el.getAttribute('%(frame)s'));
     if (frame === last || frame < 1) return;  // frame 0: the stamp before the first cloud
     last = frame;
     const stamp = {frame, arrival: Number(el.getAttribute('%(arrival)s')), received: now()};
-    const shown = el.getAttribute('%(view)s') || 'cloud';
-    if (shown !== view) { view = shown; layOut(depthImage()); }
-    if (view === 'depth') {
-      depthPending = stamp;  // drawn once its image is decoded (a newer stamp replaces it)
-      lookDepth();
-      return;
-    }
+    if (el.tagName === 'IMG') { showDepth(stamp, el.getAttribute('src') || ''); return; }
+    if (view !== 'cloud') { view = 'cloud'; ++token; layOut(); }  // depth frames still decoding are not shown
     pending = stamp;
     if (scheduled) return;  // a newer update before the next animation frame: only it is drawn
     scheduled = true;
@@ -174,17 +179,17 @@ SCRIPT = r"""
       setTimeout(() => drawn(p, now()), 0);
     });
   };
-  new MutationObserver(look).observe(document.body, {subtree: true, childList: true, attributes: true,
-                                                     attributeFilter: ['src']});
+  new MutationObserver(look).observe(document.body, {subtree: true, childList: true});
   hello();
   look();
 })();
 """ % {"ack": ACK_LABEL, "figures": FIGURES_ID, "frame": FRAME_ATTRIBUTE, "arrival": ARRIVAL_ATTRIBUTE,
-       "view": VIEW_ATTRIBUTE, "depth": DEPTH_LABEL}
+       "depth_canvas": DEPTH_CANVAS_ID}
 
 
-def frame_stamp(frame: int, arrival_ms: float, view: str = "cloud") -> str:
-    """The stamp element sent with a frame's cloud or depth image.
+def frame_stamp(frame: int, arrival_ms: float, jpeg: bytes | None = None) -> str:
+    """The stamp element sent with a frame: in the cloud view with its cloud, in the depth view it
+    is the frame (its image inline).
 
     Parameters
     ----------
@@ -192,13 +197,17 @@ def frame_stamp(frame: int, arrival_ms: float, view: str = "cloud") -> str:
         The frame's number (1 for the first shown).
     arrival_ms : float
         Host time its cycle's last camera frame arrived (ms since the epoch).
-    view : str
-        ``"cloud"`` or ``"depth"``: what the frame is drawn as.
+    jpeg : bytes, optional
+        The depth image, JPEG-encoded (the depth view).
 
     Returns
     -------
     str
-        An empty ``<span>`` carrying the three as attributes.
+        An empty ``<span>`` carrying the two as attributes, or, with ``jpeg``, an ``<img>`` with
+        them and the image as a ``data:`` URL (a page without :data:`SCRIPT` shows it as it is).
     """
-    return (f'<span {FRAME_ATTRIBUTE}="{int(frame)}" {ARRIVAL_ATTRIBUTE}="{arrival_ms:.3f}" '
-            f'{VIEW_ATTRIBUTE}="{view}"></span>')
+    stamp = f'{FRAME_ATTRIBUTE}="{int(frame)}" {ARRIVAL_ATTRIBUTE}="{float(arrival_ms):.3f}"'
+    if jpeg is None:
+        return f"<span {stamp}></span>"
+    # lazy: a browser need not load an image it does not show (the page script hides it)
+    return f'<img {stamp} loading="lazy" src="data:image/jpeg;base64,{base64.b64encode(bytes(jpeg)).decode("ascii")}">'

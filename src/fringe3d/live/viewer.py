@@ -6,9 +6,10 @@
   frame: x right, y down, z away from the camera; the view starts at the camera looking at
   the working volume), or, in the **depth** view, the newest 3D frame's depth map as a JPEG
   image (:func:`fringe3d.live.display.depth_image`: coloured by depth, masked pixels by reason,
-  a colour bar in mm) in the GUI image element labelled :data:`DEPTH_LABEL`, which the page
-  script lays over the 3D view (the browser draws an image without WebGL; while the depth view
-  is on no cloud is sent and the cloud is hidden, so the 3D canvas has nothing to redraw);
+  a colour bar in mm) inside the frame's stamp (one message per frame), which the page script
+  draws into its own canvas over the 3D view (the browser draws an image without WebGL; while
+  the depth view is on no cloud is sent and the cloud is hidden, so the 3D canvas has nothing
+  to redraw);
 * a GUI panel: **3D frames/s**, **latency median (ms)**, **latency p95 (ms)** (frame arrival
   to points handed to the page, measured by the pipeline: :mod:`fringe3d.live.stats`),
   **3D frames shown**, **points**; the controls **exposure** (the virtual camera's gain or a
@@ -20,8 +21,8 @@
 * under the view, the page's own figures: the frames it drew, their rate and the **display
   latency** (frame arrival to the cloud drawn in the page), timed by the page itself
   (:mod:`fringe3d.live.page_script`). The page also tells the viewer which frame it drew last:
-  :meth:`ViserViewer.busy` holds the loop while :data:`IN_FLIGHT` frames are not drawn yet, so
-  a slow page is not sent clouds it cannot draw.
+  :meth:`ViserViewer.busy` holds the loop while :data:`IN_FLIGHT` clouds (:data:`IN_FLIGHT_DEPTH`
+  depth images) are not drawn yet, so a slow page is not sent frames it cannot draw.
 
 viser is an optional dependency (the ``live`` extra), imported when a viewer is made.
 """
@@ -34,13 +35,14 @@ import time
 import warnings
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from fringe3d.devices.base import MissingExtraError
 from fringe3d.utils.warning_types import DeviceWarning
 
 from .display import COLOURINGS, VIEWS
-from .page_script import ACK_LABEL, DEPTH_LABEL, SCRIPT, frame_stamp
+from .page_script import ACK_LABEL, SCRIPT, frame_stamp
 from .session import Controls
 from .stats import shown_text
 
@@ -53,7 +55,10 @@ LABELS = {"fps": "3D frames/s", "latency_median": "latency median (ms)", "latenc
 PATIENCE = 2.0
 #: Frames sent and not yet drawn at most: the next cloud is reconstructed while the page draws one.
 IN_FLIGHT = 2
-#: JPEG quality of the depth image (OpenCV, through viser's image element).
+#: The same for depth images: the page decodes one off its main thread while it draws another, so
+#: a third in flight keeps the pipeline busy (more frames drawn in alternated runs, user guide).
+IN_FLIGHT_DEPTH = 3
+#: JPEG quality of the depth image (OpenCV).
 DEPTH_JPEG_QUALITY = 90
 
 
@@ -175,14 +180,13 @@ class ViserViewer:
         button.on_click(lambda _: self._ask_record(str(folder.value), int(cycles.value)))
         self._status = gui.add_text(LABELS["status"], initial_value="", disabled=True)
         self._overlay = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="mask overlay", format="jpeg")
-        self._depth = gui.add_image(np.zeros((8, 8, 3), np.uint8), label=DEPTH_LABEL, format="jpeg",
-                                    jpeg_quality=DEPTH_JPEG_QUALITY, visible=False)
         self._stamp = gui.add_html(frame_stamp(0, 0.0))
         self.drawn = -1  # the last frame a page drew (0: a page runs the page script; -1: none yet)
         ack = gui.add_text(ACK_LABEL, initial_value="")
         ack.on_update(lambda _: self._acknowledged(ack.value))
         self._frames = 0
         self._sent_at = 0.0
+        self._depth_sent = False
         self._cloud = None
         self._run_page_script()
 
@@ -231,19 +235,19 @@ class ViserViewer:
                 self._cloud.colors = colours
                 if not self._cloud.visible:
                     self._cloud.visible = True
-            if self._depth.visible:
-                self._depth.visible = False
             self._stamp.content = frame_stamp(self._frames, arrival_ms)
         self.server.flush()
 
-    def _next_frame(self, arrival: float) -> float:
-        """Count a frame sent now; its arrival as epoch ms (the page's clock)."""
+    def _next_frame(self, arrival: float, depth: bool = False) -> float:
+        """Count a frame sent now (a depth image or a cloud); its arrival as epoch ms (the page's clock)."""
         self._frames += 1
+        self._depth_sent = depth
         self._sent_at = time.monotonic()
         return (arrival + (time.time() - time.monotonic())) * 1e3
 
     def show_depth(self, image: np.ndarray, arrival: float) -> None:
-        """Show the depth image instead of the cloud (hidden, not updated), with the frame's stamp.
+        """Show the depth image instead of the cloud (hidden, not updated): one message, the frame's
+        stamp with the image inline (:func:`~fringe3d.live.page_script.frame_stamp`).
 
         Parameters
         ----------
@@ -253,14 +257,15 @@ class ViserViewer:
         arrival : float
             As for :meth:`show_points`.
         """
-        arrival_ms = self._next_frame(arrival)
-        with self.server.atomic():  # the page applies the image and its stamp together
-            self._depth.image = image
-            if not self._depth.visible:
-                self._depth.visible = True
+        ok, jpeg = cv2.imencode(".jpg", np.ascontiguousarray(image[..., ::-1]),
+                                [cv2.IMWRITE_JPEG_QUALITY, DEPTH_JPEG_QUALITY])
+        if not ok:  # OpenCV encodes any (h, w, 3) uint8 image; kept as a guard
+            raise ValueError(f"the depth image of shape {image.shape} could not be encoded as JPEG")
+        arrival_ms = self._next_frame(arrival, depth=True)
+        with self.server.atomic():  # the page hides the cloud as it draws the image
             if self._cloud is not None and self._cloud.visible:  # nothing left for the 3D canvas to redraw
                 self._cloud.visible = False
-            self._stamp.content = frame_stamp(self._frames, arrival_ms, "depth")
+            self._stamp.content = frame_stamp(self._frames, arrival_ms, jpeg.tobytes())
         self.server.flush()
 
     def busy(self) -> bool:
@@ -270,11 +275,13 @@ class ViserViewer:
         -------
         bool
             True when a page runs the page script (it said so when it started), has not drawn
-            the last :data:`IN_FLIGHT` frames sent, and the last was sent less than
+            the last :data:`IN_FLIGHT` frames sent (:data:`IN_FLIGHT_DEPTH` when the last was
+            a depth image), and the last was sent less than
             :data:`PATIENCE` s ago (a page that stopped drawing, e.g. a hidden tab, is sent
             frames again). Never for pages without the script.
         """
-        return 0 <= self.drawn <= self._frames - IN_FLIGHT and time.monotonic() - self._sent_at < PATIENCE
+        limit = IN_FLIGHT_DEPTH if self._depth_sent else IN_FLIGHT
+        return 0 <= self.drawn <= self._frames - limit and time.monotonic() - self._sent_at < PATIENCE
 
     def show_overlay(self, image: np.ndarray) -> None:
         """Show the mask overlay.
