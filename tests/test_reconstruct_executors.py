@@ -13,7 +13,8 @@ from fringe3d.io.store import PointMapStore
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns import sets
 from fringe3d.reconstruct.executors import serial, threads
-from fringe3d.reconstruct.frame import reconstruction_plans
+from fringe3d.reconstruct.frame import (FrameReconstructor, LaterCycle, reconstruct_window, reconstruction_plans,
+                                      with_sigma)
 from fringe3d.reconstruct.sequence import reconstruct_sequence
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.sim import simulate_capture
@@ -64,6 +65,32 @@ def test_serial_threads_and_dask_write_the_same_store_bit_for_bit(capture, tmp_p
             assert (tmp_path / name / "ply" / ply).read_bytes() == (tmp_path / "serial" / "ply" / ply).read_bytes()
         assert {k: summaries[name][k] for k in ("frames_3d", "done_now", "done_before", "empty_frames")} == \
             {k: summaries["serial"][k] for k in ("frames_3d", "done_now", "done_before", "empty_frames")}
+
+
+def test_the_serial_path_finishing_frames_on_the_writers_stores_what_the_threads_compute_at_once(capture,
+                                                                                                   tmp_path):
+    """Store only (no points): the serial path leaves all but the fused kernel's pass to the
+    store writers (a LaterCycle: quality map, masking, sigma_z on their threads), the thread pool
+    computes each frame at once; the same stores, bit for bit."""
+    ps = reconstruction_plans(read_capture(capture, max_cycles=1).patterns, "geometric")
+    rig = Rig.load(capture / "rig.json")
+    decode = DecodeSettings(DecodeOptions(z_min=340.0))
+    rec = FrameReconstructor(ps, rig, decode.options)
+    cycle = np.ascontiguousarray(read_capture(capture, max_cycles=1).frames)
+    later, empty = reconstruct_window(rec, cycle, False, "ray_depth", True, later=True)
+    assert isinstance(later, LaterCycle) and not empty  # the serial path's frames are finished later
+    at_once, _ = reconstruct_window(rec, cycle, False, "ray_depth", True)
+    finished = with_sigma(later)
+    for name in ("depth", "quality", "sigma_z"):
+        np.testing.assert_array_equal(getattr(finished, name), getattr(at_once, name))
+    runs = {name: reconstruct_sequence(CaptureFolder(str(capture)), ps, rig, tmp_path / name, decode,
+                                       run=RunSettings(progress=False), executor=executor)
+            for name, executor in (("serial", serial), ("threads", threads(2)))}
+    a, b = (PointMapStore.open_existing(tmp_path / name / "points.zarr") for name in runs)
+    assert a.completed == b.completed == CYCLES and a.layout == "ray_depth"
+    assert (a.group["quality"][:] == 0).mean() > 0.3
+    for name in ("depth", "quality", "sigma_z", "done"):
+        np.testing.assert_array_equal(a.group[name][:], b.group[name][:])
 
 
 def test_a_resumed_dask_run_computes_only_the_frames_the_store_lacks(capture, tmp_path):

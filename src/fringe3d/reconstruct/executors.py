@@ -18,13 +18,13 @@ import numba
 
 from fringe3d.io.capture_frames import CaptureFolder
 from fringe3d.io.read_ahead import ReadAhead
-from fringe3d.reconstruct.frame import (Cycle, FrameReconstructor, reconstructed_cycles, reconstructed_windows,
-                                      window_frames)
+from fringe3d.reconstruct.frame import (Cycle, FrameReconstructor, LaterCycle, reconstructed_cycles,
+                                      reconstructed_windows, window_frames)
 
 #: Cycles per batched launch on the CUDA backend (one cycle at a time on the CPU).
 CUDA_BATCH = 32
 
-Done = tuple[int, Cycle, bool]
+Done = tuple[int, Cycle | LaterCycle, bool]
 Executor = Callable[["WindowJob", list[int]], Iterator[Done]]
 
 
@@ -57,9 +57,11 @@ def batch_size(job: WindowJob) -> int:
 def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
     """Every 3D frame of ``todo`` in this thread, in order, the next batches' frames read ahead on a
     reader thread (:class:`~fringe3d.io.read_ahead.ReadAhead`: PNG or TIFF decoding is off the
-    compute's path; a few cycles in memory at most). The fused path's sigma_z is left to each
-    cycle's ``sigma_later`` (:func:`~fringe3d.reconstruct.frame.with_sigma`), which the store
-    writer's thread calls: the noise estimate and sigma_z pass leave the compute's path."""
+    compute's path; a few cycles in memory at most). On the CPU fused path without points all
+    but the kernel's pass is left for later (a :class:`~fringe3d.reconstruct.frame.LaterCycle`;
+    elsewhere sigma_z, ``Cycle.sigma_later``), which the store writers' threads finish
+    (:func:`~fringe3d.reconstruct.frame.with_sigma`): the quality map, the noise estimate and
+    the sigma_z pass leave the compute's path."""
     size = batch_size(job)
     parts = [todo[b0:b0 + size] for b0 in range(0, len(todo), size)]
     n = len(job.rec.patterns)
