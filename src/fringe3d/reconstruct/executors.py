@@ -16,8 +16,8 @@ from typing import Any
 
 import numba
 
-from fringe3d.io.capture_frames import CaptureFolder
-from fringe3d.io.read_ahead import ReadAhead
+from fringe3d.io.capture_frames import CaptureFolder, CaptureFrames, read_threads
+from fringe3d.io.read_ahead import DEPTH, ReadAhead
 from fringe3d.reconstruct.frame import (Cycle, FrameReconstructor, LaterCycle, reconstructed_cycles,
                                       reconstructed_windows, window_frames)
 
@@ -65,9 +65,21 @@ def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
     size = batch_size(job)
     parts = [todo[b0:b0 + size] for b0 in range(0, len(todo), size)]
     n = len(job.rec.patterns)
-    with ReadAhead(lambda ks: window_frames(job.frames, job.starts, ks, n), parts) as read:
+    workers = read_workers(job.frames, n)
+    with ReadAhead(lambda ks: window_frames(job.frames, job.starts, ks, n), parts, depth=DEPTH + workers - 1,
+                   workers=workers) as read:
         for ks, cycles in zip(parts, read):
             yield from reconstructed_cycles(job.rec, ks, cycles, job.ply, job.layout, job.quality, later=True)
+
+
+def read_workers(frames, n: int) -> int:
+    """Windows read at once by :func:`serial`: for frames decoded from files
+    (:class:`~fringe3d.io.capture_frames.CaptureFrames`), as many as fill the file-decoding
+    threads with ``n``-frame windows (at least 2: a 3-frame window on two decoding threads leaves
+    one idle for its last file), else 1 (a camera file or an array: reading is a copy)."""
+    if not isinstance(frames, CaptureFrames):
+        return 1
+    return max(2, -(-read_threads() // max(1, n)))
 
 
 def threads(workers: int = 2, in_flight: int | None = None) -> Executor:
