@@ -11,7 +11,6 @@ from numba import njit
 from fringe3d.phase._kernels import COL_CHUNK, FASTMATH, accumulate_chunk, fast_atan2_f32
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.phase.psp import PhaseResult, default_shifts
-from fringe3d.reconstruct._kernels import _FAST, _three_step_pixel
 
 
 def wrapped_phase_reference(frames, shifts=None) -> PhaseResult:
@@ -241,35 +240,3 @@ def undistort_reference(xy_d, dist, iterations: int = 30, tol: float = 1e-14):
         if np.nanmax(np.abs(dx) + np.abs(dy), initial=0.0) < tol:
             break
     return xy
-
-
-def three_step_fields_float64(fast, frames, index=(0, 1, 2)):
-    """The fused 3-step pass in float64 throughout, as :meth:`fringe3d.reconstruct.triangulate.
-    FastThreeStep.depth_fields` computed it before its float32 pass: ``(s, w, A, B)`` (H, W)
-    float32, each pixel :func:`fringe3d.reconstruct._kernels._three_step_pixel` (the float32
-    pass's own fallback for the pixels it recomputes)."""
-    frames = np.ascontiguousarray(frames)
-    H, W = frames.shape[1:]
-    out, w, avg, mod = (np.empty((H, W), np.float32) for _ in range(4))
-    _fields_float64(frames, np.asarray(index, np.int64), fast.coef, fast.min_mod2, fast.phi_min, fast.sign,
-                    fast.scale, fast.tri.O, fast.tri.D_planes, fast.tri.Q, fast.tri.P3, out, w, avg, mod)
-    return out, w, avg, mod
-
-
-@njit(cache=True, fastmath=_FAST)  # the flags the float64 pass was compiled with
-def _fields_float64(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out, w_out, avg_out,
-                    mod_out):  # pragma: no cover - compiled
-    H = frames.shape[1]
-    W = frames.shape[2]
-    qo = Q[0] * O[0] + Q[1] * O[1] + Q[2] * O[2] + Q[3]
-    po = P3[0] * O[0] + P3[1] * O[1] + P3[2] * O[2] + P3[3]
-    nan = np.float32(np.nan)
-    for i in range(H):
-        for j in range(W):
-            s, w, b2, sg, a0, a1, a2 = _three_step_pixel(frames, i, j, idx[0], idx[1], idx[2], coef, phi_min, sign,
-                                                         scale, qo, po, D, Q, P3)
-            ok = (b2 >= min_mod2) & (sg != 0.0) & (s > 0.0)
-            out[i, j] = np.float32(s) if ok else nan
-            w_out[i, j] = np.float32(w)
-            avg_out[i, j] = np.float32(coef[0, 0] * a0 + coef[0, 1] * a1 + coef[0, 2] * a2)
-            mod_out[i, j] = np.float32(math.sqrt(b2))

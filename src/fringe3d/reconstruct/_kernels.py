@@ -6,7 +6,7 @@ import math
 import numba
 import numpy as np
 
-from fringe3d.phase._kernels import fast_atan2, fast_atan2_f32
+from fringe3d.phase._kernels import fast_atan2
 
 
 @numba.njit(parallel=True, cache=True)
@@ -91,86 +91,14 @@ def _three_step_pixel(frames, i, j, i0, i1, i2, coef, phi_min, sign, scale, qo, 
     return s, w, b * b + c * c, sg, a0, a1, a2
 
 
-#: The float32 pass's margins (:func:`three_step_kernel`): a pixel is recomputed in float64 where
-#: its fringe order ``sg*x`` lies within ``ORDER_MARGIN`` cycles of an integer plus
-#: ``ORDER_PER_COUNT`` cycles per count of ``(I1 + I2 + I3) / B`` (the float32 rounding of the
-#: wrapped phase's sums, relative to the modulation) plus ``ORDER_RELATIVE`` times the order (the
-#: rounding of the absolute phase), or where ``b^2 + c^2`` lies within ``MOD_MARGIN`` (relative)
-#: of the modulation threshold. The float32 errors are about 1e-6 cycles, 2^-24 per count and
-#: 1e-7 relative: the margins are 100 times that or more. The sign of ``s`` (the camera-side test)
-#: could only differ where its numerator or denominator cancel to float32 rounding: a point at the
-#: camera centre or at infinity.
-ORDER_MARGIN = 1e-4
-ORDER_PER_COUNT = 100.0 * 2.0 ** -24
-ORDER_RELATIVE = 100.0 * 2.0 ** -24
-MOD_MARGIN = 1e-4
-
-
-@numba.njit(fastmath=_FAST, cache=True, inline="always")
-def _three_step_pixel32(frames, i, j, i0, i1, i2, c, phi_min, sign, k, D):  # pragma: no cover - compiled
-    """One pixel of the fused path in float32: ``(s, w, B, A)`` with ``s`` NaN where invalid
-    (modulation, phase direction, in front of the camera) and -1 (never a valid ``s``) where
-    float32 may decide the fringe order or the modulation test otherwise than float64
-    (:data:`ORDER_MARGIN`). ``c`` the 3 x 3 coefficients row by row, ``k`` the constants
-    of :func:`float32_constants`, both float32 tuples."""
-    f32 = np.float32
-    a0 = f32(frames[i0, i, j])
-    a1 = f32(frames[i1, i, j])
-    a2 = f32(frames[i2, i, j])
-    b = c[3] * a0 + c[4] * a1 + c[5] * a2
-    cc = c[6] * a0 + c[7] * a1 + c[8] * a2
-    A = c[0] * a0 + c[1] * a1 + c[2] * a2
-    phi = fast_atan2_f32(-cc, b)
-    sg = f32(sign[i, j])
-    t = sg * ((phi_min[i, j] - phi) * k[11])
-    order = np.ceil(t)
-    w = (phi + k[10] * (sg * order)) * k[1]
-    dx = D[0, i, j]
-    dy = D[1, i, j]
-    dz = D[2, i, j]
-    n1 = k[2]
-    n2 = w * k[3]
-    d1 = w * (k[4] * dx + k[5] * dy + k[6] * dz)
-    d2 = k[7] * dx + k[8] * dy + k[9] * dz
-    s = (n1 - n2) / (d1 - d2)
-    b2 = b * b + cc * cc
-    B = np.sqrt(b2)
-    ok = (b2 >= k[0]) & (sg != f32(0.0)) & (s > f32(0.0))
-    gap = min(order - t, t - (order - f32(1.0)))  # to the nearest integer, in cycles
-    redo = (((gap * B <= (f32(ORDER_MARGIN) + f32(ORDER_RELATIVE) * abs(t)) * B + k[12] * (a0 + a1 + a2))
-             & (sg != f32(0.0)))
-            | ((b2 >= k[13]) & (b2 < k[14])))
-    return (f32(-1.0) if redo else (s if ok else f32(np.nan))), w, B, A
-
-
-def float32_constants(coef, min_mod2, scale, O, Q, P3) -> tuple[tuple, tuple]:
-    """The float32 constants of :func:`_three_step_pixel32`: the coefficients row by row (9,)
-    and ``(min_mod2, scale, qo, po, P3[0..2], Q[0..2], 2 pi, 1 / 2 pi, the order margin per
-    count (:data:`ORDER_PER_COUNT` times the largest phase coefficient), min_mod2 less and more
-    :data:`MOD_MARGIN`)``."""
-    qo = Q[0] * O[0] + Q[1] * O[1] + Q[2] * O[2] + Q[3]
-    po = P3[0] * O[0] + P3[1] * O[1] + P3[2] * O[2] + P3[3]
-    cmax = float(np.abs(coef[1:]).max())
-    k = (min_mod2, scale, qo, po, P3[0], P3[1], P3[2], Q[0], Q[1], Q[2], 2 * math.pi, 1 / (2 * math.pi),
-         ORDER_PER_COUNT * cmax, min_mod2 * (1 - MOD_MARGIN), min_mod2 * (1 + MOD_MARGIN))
-    return tuple(np.float32(x) for x in np.ravel(coef)), tuple(np.float32(x) for x in k)
-
-
 @numba.njit(parallel=True, fastmath=_FAST, cache=True, nogil=True)
-def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, c32, k32,
-                      out):  # pragma: no cover - compiled
+def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out):  # pragma: no cover
     """3 frames -> wrapped phase (Eq. 2.4) -> k (Eq. 4.21) -> w (Eq. 4.13) -> ray parameter ``s``
     of ``X = O + s*D`` (Eq. 2.37 along the camera ray), written as (H, W) float32 (NaN invalid).
 
-    In float32 (8 lanes: about 1.5 times the float64 pass's speed), branch-free per pixel so the row loop
-    vectorises: ``k = sg*ceil(sg*x)`` is ceil for a rising and floor for a falling phase. The
-    pixels whose fringe order or modulation test float32 might decide otherwise than float64
-    (:data:`ORDER_MARGIN`; 0.5 % of a typical scene, mostly dark pixels) are recomputed in float64
-    (:func:`_three_step_pixel`, the pass this one replaced): the validity and the fringe order
-    are float64's, ``s`` within a few float32 roundings of it (``tests/test_triangulate_fused.py``
-    against that pass). ``c32``, ``k32``: :func:`float32_constants`. The points are
-    :func:`fringe3d.optics.rays.ray_points` of ``out`` (one code path, so a store of ``s`` gives
-    back the same points bit for bit).
+    Branch-free per pixel so the row loop vectorises: ``k = sg*ceil(sg*x)`` is ceil for a
+    rising and floor for a falling phase. The points are :func:`fringe3d.optics.rays.ray_points`
+    of ``out`` (one code path, so a store of ``s`` gives back the same points bit for bit).
     """
     H = frames.shape[1]
     W = frames.shape[2]
@@ -180,22 +108,18 @@ def three_step_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q
     nan = np.float32(np.nan)
     for i in numba.prange(H):
         for j in range(W):
-            out[i, j] = _three_step_pixel32(frames, i, j, i0, i1, i2, c32, phi_min, sign, k32, D)[0]
-        for j in range(W):  # the few pixels to recompute (-1)
-            if out[i, j] < 0.0:
-                s, w, b2, sg, a0, a1, a2 = _three_step_pixel(frames, i, j, i0, i1, i2, coef, phi_min, sign, scale,
-                                                             qo, po, D, Q, P3)
-                ok = (b2 >= min_mod2) & (sg != 0.0) & (s > 0.0)
-                out[i, j] = np.float32(s) if ok else nan
+            s, w, b2, sg, a0, a1, a2 = _three_step_pixel(frames, i, j, i0, i1, i2, coef, phi_min, sign, scale, qo,
+                                                         po, D, Q, P3)
+            ok = (b2 >= min_mod2) & (sg != 0.0) & (s > 0.0)
+            out[i, j] = np.float32(s) if ok else nan
 
 
 @numba.njit(parallel=True, fastmath=_FAST, cache=True, nogil=True)
-def three_step_fields_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, c32, k32, out, w_out,
+def three_step_fields_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, O, D, Q, P3, out, w_out,
                              avg_out, mod_out):  # pragma: no cover - compiled
-    """:func:`three_step_kernel` (the same ``s`` to a float32 rounding) that also writes what the quality
-    tests read, in the same pass: the fringe coordinate ``w`` (Eq. 4.13, px), the average ``A =
-    coef[0].I`` and the modulation ``B = sqrt(b^2 + c^2)`` (Eq. 2.4, frames' units), each (H, W)
-    float32 (also where ``s`` is NaN), float64's where the pixel is recomputed."""
+    """:func:`three_step_kernel` that also writes what the quality tests read, in the same pass:
+    the fringe coordinate ``w`` (Eq. 4.13, px), the average ``A = coef[0].I`` and the modulation
+    ``B = sqrt(b^2 + c^2)`` (Eq. 2.4, frames' units), each (H, W) float32 (also where ``s`` is NaN)."""
     H = frames.shape[1]
     W = frames.shape[2]
     qo = Q[0] * O[0] + Q[1] * O[1] + Q[2] * O[2] + Q[3]
@@ -204,20 +128,13 @@ def three_step_fields_kernel(frames, idx, coef, min_mod2, phi_min, sign, scale, 
     nan = np.float32(np.nan)
     for i in numba.prange(H):
         for j in range(W):
-            s, w, B, A = _three_step_pixel32(frames, i, j, i0, i1, i2, c32, phi_min, sign, k32, D)
-            out[i, j] = s
-            w_out[i, j] = w
-            avg_out[i, j] = A
-            mod_out[i, j] = B
-        for j in range(W):  # the few pixels to recompute (-1)
-            if out[i, j] < 0.0:
-                s, w, b2, sg, a0, a1, a2 = _three_step_pixel(frames, i, j, i0, i1, i2, coef, phi_min, sign, scale,
-                                                             qo, po, D, Q, P3)
-                ok = (b2 >= min_mod2) & (sg != 0.0) & (s > 0.0)
-                out[i, j] = np.float32(s) if ok else nan
-                w_out[i, j] = np.float32(w)
-                avg_out[i, j] = np.float32(coef[0, 0] * a0 + coef[0, 1] * a1 + coef[0, 2] * a2)
-                mod_out[i, j] = np.float32(math.sqrt(b2))
+            s, w, b2, sg, a0, a1, a2 = _three_step_pixel(frames, i, j, i0, i1, i2, coef, phi_min, sign, scale, qo,
+                                                         po, D, Q, P3)
+            ok = (b2 >= min_mod2) & (sg != 0.0) & (s > 0.0)
+            out[i, j] = np.float32(s) if ok else nan
+            w_out[i, j] = np.float32(w)
+            avg_out[i, j] = np.float32(coef[0, 0] * a0 + coef[0, 1] * a1 + coef[0, 2] * a2)
+            mod_out[i, j] = np.float32(math.sqrt(b2))
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)

@@ -31,7 +31,7 @@ from fringe3d.optics.rays import ANGLE_UP, ANGLE_VP, RayGeometry, camera_normali
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.psp import lsq_coefficients
-from fringe3d.reconstruct._kernels import float32_constants, lsq_kernel, three_step_fields_kernel, three_step_kernel
+from fringe3d.reconstruct._kernels import lsq_kernel, three_step_fields_kernel, three_step_kernel
 from fringe3d.unwrap.geometric import MinimumPhase
 from fringe3d.utils.camera_size import check_camera_size
 from fringe3d.utils.warning_types import ReconstructionWarning
@@ -242,7 +242,6 @@ class FastThreeStep:
         if self.coef.shape[1] != 3:
             raise ValueError(f"FastThreeStep needs exactly 3 phase shifts, got {self.coef.shape[1]}")
         self.min_mod2 = float(min_modulation) ** 2
-        self._f32: tuple | None = None  # (min_mod2, coefficients, constants) of the float32 pass
         self.phi_min = np.ascontiguousarray(minimum_phase.phi_min, np.float32)
         self.sign = np.ascontiguousarray(minimum_phase.sign, np.int8)
         self.scale = minimum_phase.period / (2 * math.pi)
@@ -250,14 +249,6 @@ class FastThreeStep:
     def set_min_modulation(self, min_modulation: float) -> None:
         """The modulation threshold (frames' units) below which a pixel is invalid, from now on."""
         self.min_mod2 = float(min_modulation) ** 2
-
-    def _float32(self) -> tuple[tuple, tuple]:
-        """The float32 pass's constants (:func:`~fringe3d.reconstruct._kernels.float32_constants`)
-        for the current modulation threshold, made once per threshold."""
-        key = self.min_mod2
-        if self._f32 is None or self._f32[0] != key:
-            self._f32 = (key,) + float32_constants(self.coef, key, self.scale, self.tri.O, self.tri.Q, self.tri.P3)
-        return self._f32[1], self._f32[2]
 
     def depth(self, frames, index=(0, 1, 2), out=None, device_output: bool = False) -> np.ndarray:
         """``(H, W)`` float32 ray parameters ``s`` of ``X = O + s*D`` (the camera-frame depth, mm;
@@ -272,7 +263,7 @@ class FastThreeStep:
         if out is None:
             out = np.empty((H, W), np.float32)
         three_step_kernel(frames, idx, self.coef, self.min_mod2, self.phi_min, self.sign, self.scale,
-                          self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, *self._float32(), out)
+                          self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, out)
         return out
 
     def depth_fields(self, frames, index=(0, 1, 2)) -> ThreeStepFields:
@@ -283,8 +274,7 @@ class FastThreeStep:
         H, W = self.tri.shape
         out, w, avg, mod = (np.empty((H, W), np.float32) for _ in range(4))
         three_step_fields_kernel(frames, idx, self.coef, self.min_mod2, self.phi_min, self.sign, self.scale,
-                                 self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, *self._float32(), out, w, avg,
-                                 mod)
+                                 self.tri.O, self.tri.D_planes, self.tri.Q, self.tri.P3, out, w, avg, mod)
         return ThreeStepFields(out, w, avg, mod)
 
     def _checked(self, frames, index) -> tuple[np.ndarray, np.ndarray]:
