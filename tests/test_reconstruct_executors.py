@@ -129,3 +129,19 @@ def test_thread_workers_share_the_kernel_threads():
         assert [k for k, _, _ in threads(workers)(Job(), list(range(6)))] == list(range(6))
         assert set(seen.values()) == {max(1, n // workers)}
         assert numba.get_num_threads() == n
+
+
+def test_the_kernels_keep_the_threads_the_store_writers_leave():
+    """At least two store writers (half the numba threads), each on one numba thread; the
+    compute's kernels run on the rest (at least one) while they write, all of them after."""
+    import numba
+
+    from fringe3d.reconstruct import sequence
+
+    n = numba.get_num_threads()
+    writers = sequence.writer_threads()
+    assert writers == max(2, n // 2)
+    with sequence._kernel_threads_beside(writers):
+        assert numba.get_num_threads() == max(1, n - writers)
+    assert numba.get_num_threads() == n
+    assert sequence.in_flight(writers) >= writers + 1  # every writer busy and the next frame queued
