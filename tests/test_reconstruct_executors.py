@@ -68,16 +68,22 @@ def test_serial_threads_and_dask_write_the_same_store_bit_for_bit(capture, tmp_p
 
 
 def test_the_serial_path_finishing_frames_on_the_writers_stores_what_the_threads_compute_at_once(capture,
-                                                                                                   tmp_path):
-    """Store only (no points): the serial path leaves all but the fused kernel's pass to the
-    store writers (a LaterCycle: quality map, masking, sigma_z on their threads), the thread pool
-    computes each frame at once; the same stores, bit for bit."""
+                                                                                                   tmp_path,
+                                                                                                   monkeypatch):
+    """Store only (no points), with enough cores: the serial path leaves all but the fused
+    kernel's pass to the store writers (a LaterCycle: quality map, masking, sigma_z on their
+    threads), the thread pool computes each frame at once; the same stores, bit for bit."""
+    from fringe3d.reconstruct import executors, sequence
+
+    monkeypatch.setattr(executors, "FINISH_ON_WRITERS_FROM", 1)  # as on a machine with cores to spare
+    monkeypatch.setattr(sequence, "FINISH_ON_WRITERS_FROM", 1)
+    assert executors.finish_on_writers() and sequence.writer_threads() >= 1
     ps = reconstruction_plans(read_capture(capture, max_cycles=1).patterns, "geometric")
     rig = Rig.load(capture / "rig.json")
     decode = DecodeSettings(DecodeOptions(z_min=340.0))
     rec = FrameReconstructor(ps, rig, decode.options)
     cycle = np.ascontiguousarray(read_capture(capture, max_cycles=1).frames)
-    later, empty = reconstruct_window(rec, cycle, False, "ray_depth", True, later=True)
+    later, empty = reconstruct_window(rec, cycle, False, "ray_depth", True, later="all")
     assert isinstance(later, LaterCycle) and not empty  # the serial path's frames are finished later
     at_once, _ = reconstruct_window(rec, cycle, False, "ray_depth", True)
     finished = with_sigma(later)
@@ -132,15 +138,16 @@ def test_thread_workers_share_the_kernel_threads():
 
 
 def test_the_kernels_keep_the_threads_the_store_writers_leave():
-    """At least two store writers (half the numba threads), each on one numba thread; the
-    compute's kernels run on the rest (at least one) while they write, all of them after."""
+    """One store writer below FINISH_ON_WRITERS_FROM numba threads, else half of them, each on
+    one numba thread; the compute's kernels run on the rest (at least one) while they write,
+    all of them after."""
     import numba
 
-    from fringe3d.reconstruct import sequence
+    from fringe3d.reconstruct import executors, sequence
 
     n = numba.get_num_threads()
     writers = sequence.writer_threads()
-    assert writers == max(2, n // 2)
+    assert writers == (n // 2 if executors.finish_on_writers() else 1) and writers >= 1
     with sequence._kernel_threads_beside(writers):
         assert numba.get_num_threads() == max(1, n - writers)
     assert numba.get_num_threads() == n

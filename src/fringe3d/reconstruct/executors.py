@@ -57,19 +57,37 @@ def batch_size(job: WindowJob) -> int:
 def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
     """Every 3D frame of ``todo`` in this thread, in order, the next batches' frames read ahead on a
     reader thread (:class:`~fringe3d.io.read_ahead.ReadAhead`: PNG or TIFF decoding is off the
-    compute's path; a few cycles in memory at most). On the CPU fused path without points all
-    but the kernel's pass is left for later (a :class:`~fringe3d.reconstruct.frame.LaterCycle`;
-    elsewhere sigma_z, ``Cycle.sigma_later``), which the store writers' threads finish
+    compute's path; a few cycles in memory at most). The fused path's sigma_z is left for later
+    (``Cycle.sigma_later``) and, on the CPU without points and with enough cores
+    (:func:`finish_on_writers`), all but the kernel's pass (a
+    :class:`~fringe3d.reconstruct.frame.LaterCycle`), which the store writers' threads finish
     (:func:`~fringe3d.reconstruct.frame.with_sigma`): the quality map, the noise estimate and
     the sigma_z pass leave the compute's path."""
     size = batch_size(job)
     parts = [todo[b0:b0 + size] for b0 in range(0, len(todo), size)]
     n = len(job.rec.patterns)
     workers = read_workers(job.frames, n)
+    later = "all" if finish_on_writers() else True
     with ReadAhead(lambda ks: window_frames(job.frames, job.starts, ks, n), parts, depth=DEPTH + workers - 1,
                    workers=workers) as read:
         for ks, cycles in zip(parts, read):
-            yield from reconstructed_cycles(job.rec, ks, cycles, job.ply, job.layout, job.quality, later=True)
+            yield from reconstructed_cycles(job.rec, ks, cycles, job.ply, job.layout, job.quality, later=later)
+
+
+#: numba threads from which :func:`serial` leaves all but the fused kernel's pass to the store
+#: writers (:func:`finish_on_writers`)
+FINISH_ON_WRITERS_FROM = 4
+
+
+def finish_on_writers() -> bool:
+    """Whether :func:`serial` leaves the quality map, the masking and sigma_z to the store
+    writers (:meth:`~fringe3d.reconstruct.frame.FrameReconstructor.fused_later`): from
+    :data:`FINISH_ON_WRITERS_FROM` numba threads. The main thread then runs the fused kernel
+    alone (5.6 instead of 15.8 ms of CPU a 1280 x 1024 frame), which bounds the rate no longer;
+    on 2 cores the process's CPU bounds it, and finishing elsewhere cost about 1.5 ms more a
+    frame (the fields leave the cache before the quality map reads them;
+    ``benchmarks/bench_sequence_cpu.py``-style runs, the revisions alternated)."""
+    return numba.get_num_threads() >= FINISH_ON_WRITERS_FROM
 
 
 def read_workers(frames, n: int) -> int:

@@ -347,21 +347,22 @@ class FrameReconstructor:
 
 def reconstruct_window(rec: FrameReconstructor, frames: np.ndarray, ply: bool, layout: str | None,
                        quality: bool, depth: np.ndarray | None = None,
-                       later: bool = False) -> tuple[Cycle | LaterCycle, bool]:
+                       later: bool | str = False) -> tuple[Cycle | LaterCycle, bool]:
     """One window (manifest order) for a sequence's outputs: ``(cycle, empty)``.
 
     ``ply`` asks for points and texture, ``layout`` (the store's, or None) for the points
     (``"xyz"``) or only the ray parameters (``"ray_depth"``), ``quality`` for the quality map
     and ``sigma_z``, ``depth`` for the fused kernel's ray parameters already computed,
-    ``later`` to leave the fused path's ``sigma_z`` to ``Cycle.sigma_later`` or, on the CPU
-    without points, everything after the fused kernel (quality map, masking, sigma_z) to a
-    :class:`LaterCycle` (:meth:`FrameReconstructor.fused_later`; :func:`with_sigma`: the store
-    writers' threads compute it, beside the next windows' kernels). A window
+    ``later`` True to leave the fused path's ``sigma_z`` to ``Cycle.sigma_later`` or ``"all"``
+    to leave, on the CPU without points, everything after the fused kernel (quality map,
+    masking, sigma_z) to a :class:`LaterCycle` (:meth:`FrameReconstructor.fused_later`;
+    :func:`with_sigma`: the store writers' threads compute it, beside the next windows'
+    kernels). A window
     whose phase mask is empty gives an all-NaN, all-INVALID cycle and ``empty = True``.
     """
     want_points = ply or layout == "xyz"
     try:
-        if later and depth is None and not want_points and rec.fast is not None and rec.backend == "cpu":
+        if later == "all" and depth is None and not want_points and rec.fast is not None and rec.backend == "cpu":
             return rec.fused_later(frames, "z" if quality else False), False
         return rec.reconstruct(frames, uncertainty=("z later" if later else "z") if quality else False,
                                points=want_points, texture=ply, depth=depth), False
@@ -386,7 +387,7 @@ def window_frames(frames, starts, ks: list[int], n: int) -> list[np.ndarray]:
 
 def reconstructed_cycles(rec: FrameReconstructor, ks: list[int], cycles: list[np.ndarray], ply: bool,
                          layout: str | None, quality: bool,
-                         later: bool = False) -> Iterator[tuple[int, Cycle | LaterCycle, bool]]:
+                         later: bool | str = False) -> Iterator[tuple[int, Cycle | LaterCycle, bool]]:
     """``(k, cycle, empty)`` of each 3D frame ``k`` of ``ks`` from its frames already read
     (``cycles``, :func:`window_frames`; :func:`reconstruct_window`); on the CUDA fused path all of
     them come finished from one batched launch (:meth:`FrameReconstructor.device_cycles`);

@@ -30,7 +30,7 @@ from fringe3d.io.ply_standard import write_measurement_ply
 from fringe3d.io.store import PointMapStore, StoreSettings
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import PatternSet
-from fringe3d.reconstruct.executors import Executor, WindowJob, serial
+from fringe3d.reconstruct.executors import FINISH_ON_WRITERS_FROM, Executor, WindowJob, serial
 from fringe3d.reconstruct.frame import Cycle, FrameReconstructor, store_layout, reconstruction_plans, with_sigma
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.reconstruct.windows import window_index, window_starts
@@ -200,12 +200,13 @@ IN_FLIGHT = 2
 
 
 def writer_threads() -> int:
-    """Store writer threads of a sequence: half the numba threads, at least 2. Each writer runs
-    its kernels on one numba thread, the compute keeps the rest (:func:`_kernel_threads_beside`).
-    Two on two cores: what is left after the fused kernel (quality map, sigma_z, compression,
-    writes) costs about three times the kernel, and a second writer lets both cores take it
-    while the next windows are computed (``benchmarks/bench_sequence_cpu.py``)."""
-    return max(2, numba.get_num_threads() // 2)
+    """Store writer threads of a sequence: one below :data:`~fringe3d.reconstruct.executors.
+    FINISH_ON_WRITERS_FROM` numba threads (the compute makes each frame but its sigma_z and
+    compression), else half the numba threads: what is left to them after the fused kernel
+    (quality map, sigma_z, compression, writes) costs about three times the kernel. Each writer
+    runs its kernels on one numba thread, the compute keeps the rest (:func:`_kernel_threads_beside`)."""
+    n = numba.get_num_threads()
+    return 1 if n < FINISH_ON_WRITERS_FROM else n // 2
 
 
 def in_flight(writers: int) -> int:
