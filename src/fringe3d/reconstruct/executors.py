@@ -84,7 +84,7 @@ def finish_on_writers() -> bool:
     writers (:meth:`~fringe3d.reconstruct.frame.FrameReconstructor.fused_later`): from
     :data:`FINISH_ON_WRITERS_FROM` numba threads. The main thread then runs the fused kernel
     alone (5.6 instead of 15.8 ms of CPU a 1280 x 1024 frame), which bounds the rate no longer;
-    on 2 cores the process's CPU bounds it, and finishing elsewhere cost about 1.5 ms more a
+    on 2 cores the process's CPU bounds it, and finishing elsewhere cost about 2 ms more a
     frame (the fields leave the cache before the quality map reads them;
     ``benchmarks/bench_sequence_cpu.py``-style runs, the revisions alternated)."""
     return numba.get_num_threads() >= FINISH_ON_WRITERS_FROM
