@@ -42,17 +42,41 @@ def test_cycles_read_ahead_equal_the_frames_written_in_order(png_frames):
         np.testing.assert_array_equal(cyc, truth[idx])
 
 
-def test_order_is_the_keys_order_whatever_each_read_takes():
+@pytest.mark.parametrize("workers", [1, 3])
+def test_order_is_the_keys_order_whatever_each_read_takes(workers):
     def slow_sometimes(k):
         time.sleep(random.Random(k).choice([0.0, 0.002]))
         return k
 
-    with ReadAhead(slow_sometimes, range(20), depth=4) as read:
+    with ReadAhead(slow_sometimes, range(20), depth=4, workers=workers) as read:
         assert list(read) == list(range(20))
 
 
-@pytest.mark.parametrize("depth", [1, 3])
-def test_at_most_depth_items_are_read_and_not_taken(depth):
+def test_several_workers_read_items_at_once():
+    """With 3 workers, 3 reads run together: each waits for the other two to have started."""
+    barrier = threading.Barrier(3, timeout=10)
+
+    def together(k):
+        barrier.wait()
+        return k
+
+    with ReadAhead(together, range(6), depth=3, workers=3) as read:
+        assert list(read) == list(range(6))
+    assert not reader_threads()
+
+
+def test_serial_sequences_read_png_windows_on_several_workers(png_frames):
+    """The serial executor reads a PNG capture's windows at least two at once (a camera file's
+    or an array's one at a time: a copy)."""
+    from fringe3d.reconstruct.executors import read_workers
+
+    folder, truth = png_frames
+    assert read_workers(CaptureFrames(folder), 3) >= 2
+    assert read_workers(truth, 3) == 1
+
+
+@pytest.mark.parametrize("depth, workers", [(1, 1), (3, 1), (3, 2)])
+def test_at_most_depth_items_are_read_and_not_taken(depth, workers):
     drawn = {"n": 0}
 
     def keys():
@@ -61,7 +85,7 @@ def test_at_most_depth_items_are_read_and_not_taken(depth):
             yield k
 
     ahead = []
-    with ReadAhead(lambda k: k, keys(), depth=depth) as read:
+    with ReadAhead(lambda k: k, keys(), depth=depth, workers=workers) as read:
         for taken, _ in enumerate(read, start=1):
             ahead.append(drawn["n"] - taken)
             if taken == 10:
@@ -111,6 +135,8 @@ def test_leaving_the_iteration_early_without_a_with_block_stops_the_reader():
     assert not reader_threads()
 
 
-def test_a_depth_below_one_is_refused():
+def test_a_depth_or_workers_below_one_is_refused():
     with pytest.raises(ValueError, match="at least 1"):
         ReadAhead(lambda k: k, range(3), depth=0)
+    with pytest.raises(ValueError, match="workers must be at least 1"):
+        ReadAhead(lambda k: k, range(3), workers=0)

@@ -13,7 +13,8 @@ from fringe3d.io.store import PointMapStore
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns import sets
 from fringe3d.reconstruct.executors import serial, threads
-from fringe3d.reconstruct.frame import reconstruction_plans
+from fringe3d.reconstruct.frame import (FrameReconstructor, LaterCycle, reconstruct_window, reconstruction_plans,
+                                      with_sigma)
 from fringe3d.reconstruct.sequence import reconstruct_sequence
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.sim import simulate_capture
@@ -66,6 +67,38 @@ def test_serial_threads_and_dask_write_the_same_store_bit_for_bit(capture, tmp_p
             {k: summaries["serial"][k] for k in ("frames_3d", "done_now", "done_before", "empty_frames")}
 
 
+def test_the_serial_path_finishing_frames_on_the_writers_stores_what_the_threads_compute_at_once(capture,
+                                                                                                   tmp_path,
+                                                                                                   monkeypatch):
+    """Store only (no points), with enough cores: the serial path leaves all but the fused
+    kernel's pass to the store writers (a LaterCycle: quality map, masking, sigma_z on their
+    threads), the thread pool computes each frame at once; the same stores, bit for bit."""
+    from fringe3d.reconstruct import executors, sequence
+
+    monkeypatch.setattr(executors, "FINISH_ON_WRITERS_FROM", 1)  # as on a machine with cores to spare
+    monkeypatch.setattr(sequence, "FINISH_ON_WRITERS_FROM", 1)
+    assert executors.finish_on_writers() and sequence.writer_threads() >= 1
+    ps = reconstruction_plans(read_capture(capture, max_cycles=1).patterns, "geometric")
+    rig = Rig.load(capture / "rig.json")
+    decode = DecodeSettings(DecodeOptions(z_min=340.0))
+    rec = FrameReconstructor(ps, rig, decode.options)
+    cycle = np.ascontiguousarray(read_capture(capture, max_cycles=1).frames)
+    later, empty = reconstruct_window(rec, cycle, False, "ray_depth", True, later="all")
+    assert isinstance(later, LaterCycle) and not empty  # the serial path's frames are finished later
+    at_once, _ = reconstruct_window(rec, cycle, False, "ray_depth", True)
+    finished = with_sigma(later)
+    for name in ("depth", "quality", "sigma_z"):
+        np.testing.assert_array_equal(getattr(finished, name), getattr(at_once, name))
+    runs = {name: reconstruct_sequence(CaptureFolder(str(capture)), ps, rig, tmp_path / name, decode,
+                                       run=RunSettings(progress=False), executor=executor)
+            for name, executor in (("serial", serial), ("threads", threads(2)))}
+    a, b = (PointMapStore.open_existing(tmp_path / name / "points.zarr") for name in runs)
+    assert a.completed == b.completed == CYCLES and a.layout == "ray_depth"
+    assert (a.group["quality"][:] == 0).mean() > 0.3
+    for name in ("depth", "quality", "sigma_z", "done"):
+        np.testing.assert_array_equal(a.group[name][:], b.group[name][:])
+
+
 def test_a_resumed_dask_run_computes_only_the_frames_the_store_lacks(capture, tmp_path):
     from fringe3d.cluster.engine import dask_executor
 
@@ -102,3 +135,20 @@ def test_thread_workers_share_the_kernel_threads():
         assert [k for k, _, _ in threads(workers)(Job(), list(range(6)))] == list(range(6))
         assert set(seen.values()) == {max(1, n // workers)}
         assert numba.get_num_threads() == n
+
+
+def test_the_kernels_keep_the_threads_the_store_writers_leave():
+    """One store writer below FINISH_ON_WRITERS_FROM numba threads, else half of them, each on
+    one numba thread; the compute's kernels run on the rest (at least one) while they write,
+    all of them after."""
+    import numba
+
+    from fringe3d.reconstruct import executors, sequence
+
+    n = numba.get_num_threads()
+    writers = sequence.writer_threads()
+    assert writers == (n // 2 if executors.finish_on_writers() else 1) and writers >= 1
+    with sequence._kernel_threads_beside(writers):
+        assert numba.get_num_threads() == max(1, n - writers)
+    assert numba.get_num_threads() == n
+    assert sequence.in_flight(writers) >= writers + 1  # every writer busy and the next frame queued

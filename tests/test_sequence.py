@@ -85,23 +85,23 @@ def test_sliding_windows_give_one_3d_frame_per_captured_frame(seq_capture, tmp_p
 def test_interrupted_run_resumes_where_it_stopped(seq_capture, tmp_path, monkeypatch):
     cap, rig, truth = seq_capture
     ps = reconstruction_plans(cap.patterns, "geometric")
-    real_call = sequence.FrameReconstructor.reconstruct
+    real_call = sequence.FrameReconstructor._fused_fields  # the kernel's pass, every path of a 3D frame
     calls = {"n": 0}
 
-    def flaky(self, frames, **kw):
+    def flaky(self, frames, *a, **kw):
         calls["n"] += 1
         if calls["n"] == 3:
             raise KeyboardInterrupt  # the user stops the run during the third 3D frame
-        return real_call(self, frames, **kw)
+        return real_call(self, frames, *a, **kw)
 
-    monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", flaky)
+    monkeypatch.setattr(sequence.FrameReconstructor, "_fused_fields", flaky)
     with pytest.raises(KeyboardInterrupt):
         reconstruct_sequence(cap.frames, ps, rig, tmp_path,
                              decode=DecodeSettings(options=Z340, mode="window", step=1),
                              run=RunSettings(progress=False))
     st = PointMapStore.open_existing(tmp_path / "points.zarr")
     assert st.pending() == [2, 3, 4, 5, 6]
-    monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", real_call)
+    monkeypatch.setattr(sequence.FrameReconstructor, "_fused_fields", real_call)
     res = reconstruct_sequence(cap.frames, ps, rig, tmp_path,
                                decode=DecodeSettings(options=Z340, mode="window", step=1),
                                run=RunSettings(progress=False))
@@ -171,22 +171,22 @@ def test_resumed_run_equals_an_uninterrupted_one_when_frames_are_marked_in_batch
     cap, rig, truth = seq_capture
     ps = reconstruction_plans(cap.patterns, "geometric")
     monkeypatch.setattr(sequence, "MARK_EVERY", 2)  # marks written frames done two at a time
-    real_call = sequence.FrameReconstructor.reconstruct
+    real_call = sequence.FrameReconstructor._fused_fields  # the kernel's pass, every path of a 3D frame
     calls = {"n": 0}
 
-    def flaky(self, frames, **kw):
+    def flaky(self, frames, *a, **kw):
         calls["n"] += 1
         if calls["n"] == 6:
             raise KeyboardInterrupt  # stopped during the sixth 3D frame
-        return real_call(self, frames, **kw)
+        return real_call(self, frames, *a, **kw)
 
-    monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", flaky)
+    monkeypatch.setattr(sequence.FrameReconstructor, "_fused_fields", flaky)
     with pytest.raises(KeyboardInterrupt):
         reconstruct_sequence(cap.frames, ps, rig, tmp_path / "resumed",
                              decode=DecodeSettings(options=Z340, mode="window"), run=RunSettings(progress=False))
     # every frame whose chunks were written is marked, the batch not yet full included
     assert PointMapStore.open_existing(tmp_path / "resumed" / "points.zarr").pending() == [5, 6]
-    monkeypatch.setattr(sequence.FrameReconstructor, "reconstruct", real_call)
+    monkeypatch.setattr(sequence.FrameReconstructor, "_fused_fields", real_call)
     res = reconstruct_sequence(cap.frames, ps, rig, tmp_path / "resumed",
                                decode=DecodeSettings(options=Z340, mode="window"), run=RunSettings(progress=False))
     assert res["done_now"] == 2

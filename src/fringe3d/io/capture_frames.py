@@ -12,10 +12,15 @@ from fringe3d.io.capture import list_frame_files, open_frames
 from fringe3d.io.images import read_image
 
 
+def read_threads() -> int:
+    """Threads decoding frame files in parallel (:class:`CaptureFrames`): the cores, at most 8."""
+    return min(8, os.cpu_count() or 1)
+
+
 @functools.lru_cache(maxsize=1)
 def _read_pool() -> ThreadPoolExecutor:
     """The threads that decode a cycle's frame files in parallel, created on first use."""
-    return ThreadPoolExecutor(max_workers=min(8, os.cpu_count() or 1), thread_name_prefix="fringe3d-read")
+    return ThreadPoolExecutor(max_workers=read_threads(), thread_name_prefix="fringe3d-read")
 
 
 @dataclass(frozen=True)

@@ -3,9 +3,10 @@
 A sequence of 3D frames reads one cycle of frames, computes, writes, and reads the next; a
 capture of PNG or TIFF files spends as long decoding a 1280 x 1024 cycle as the fused kernel
 spends on it (``benchmarks/bench_sequence.py``). :class:`ReadAhead` takes the reading off that
-path: one reader thread reads the next ``depth`` items in order (OpenCV's and tifffile's
+path: reader threads (one by default) read the next ``depth`` items (OpenCV's and tifffile's
 decoders release the GIL, and :class:`~fringe3d.io.capture_frames.CaptureFrames` decodes a
-cycle's files in parallel) while the caller processes the current one.
+cycle's files in parallel) while the caller processes the current one; the items are handed
+over in order.
 
 Bounded (at most ``depth`` items read and not yet taken), in order, an error raised by a read
 raised by the iteration at that item (the file named as the reader names it), and stopped on
@@ -37,6 +38,10 @@ class ReadAhead(Generic[K, T]):
         The keys, in the order their items are wanted (taken lazily, ``depth`` ahead).
     depth : int
         Items read and not yet taken, at most (at least 1).
+    workers : int
+        Reader threads: items read at once (default 1; more for reads that spend their time in
+        decoders releasing the GIL, e.g. a cycle of PNG files, whose next cycles then decode
+        beside it; still handed over in order).
 
     Examples
     --------
@@ -45,13 +50,15 @@ class ReadAhead(Generic[K, T]):
     [0, 1, 4, 9]
     """
 
-    def __init__(self, read: Callable[[K], T], keys: Iterable[K], depth: int = DEPTH):
+    def __init__(self, read: Callable[[K], T], keys: Iterable[K], depth: int = DEPTH, workers: int = 1):
         if depth < 1:
             raise ValueError(f"read-ahead depth must be at least 1, got {depth}")
+        if workers < 1:
+            raise ValueError(f"read-ahead workers must be at least 1, got {workers}")
         self._read = read
         self._keys = iter(keys)
         self._depth = int(depth)
-        self._pool: ThreadPoolExecutor | None = ThreadPoolExecutor(max_workers=1,
+        self._pool: ThreadPoolExecutor | None = ThreadPoolExecutor(max_workers=int(workers),
                                                                    thread_name_prefix="fringe3d-read-ahead")
         self._pending: deque[Future] = deque()
 
@@ -81,7 +88,7 @@ class ReadAhead(Generic[K, T]):
             self._pending.append(self._pool.submit(self._read, key))
 
     def close(self) -> None:
-        """Stop reading: cancel the reads not started, wait for the one running (idempotent)."""
+        """Stop reading: cancel the reads not started, wait for those running (idempotent)."""
         pool, self._pool = self._pool, None
         if pool is None:
             return

@@ -16,15 +16,15 @@ from typing import Any
 
 import numba
 
-from fringe3d.io.capture_frames import CaptureFolder
-from fringe3d.io.read_ahead import ReadAhead
-from fringe3d.reconstruct.frame import (Cycle, FrameReconstructor, reconstructed_cycles, reconstructed_windows,
-                                      window_frames)
+from fringe3d.io.capture_frames import CaptureFolder, CaptureFrames, read_threads
+from fringe3d.io.read_ahead import DEPTH, ReadAhead
+from fringe3d.reconstruct.frame import (Cycle, FrameReconstructor, LaterCycle, reconstructed_cycles,
+                                      reconstructed_windows, window_frames)
 
 #: Cycles per batched launch on the CUDA backend (one cycle at a time on the CPU).
 CUDA_BATCH = 32
 
-Done = tuple[int, Cycle, bool]
+Done = tuple[int, Cycle | LaterCycle, bool]
 Executor = Callable[["WindowJob", list[int]], Iterator[Done]]
 
 
@@ -57,15 +57,47 @@ def batch_size(job: WindowJob) -> int:
 def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
     """Every 3D frame of ``todo`` in this thread, in order, the next batches' frames read ahead on a
     reader thread (:class:`~fringe3d.io.read_ahead.ReadAhead`: PNG or TIFF decoding is off the
-    compute's path; a few cycles in memory at most). The fused path's sigma_z is left to each
-    cycle's ``sigma_later`` (:func:`~fringe3d.reconstruct.frame.with_sigma`), which the store
-    writer's thread calls: the noise estimate and sigma_z pass leave the compute's path."""
+    compute's path; a few cycles in memory at most). The fused path's sigma_z is left for later
+    (``Cycle.sigma_later``) and, on the CPU without points and with enough cores
+    (:func:`finish_on_writers`), all but the kernel's pass (a
+    :class:`~fringe3d.reconstruct.frame.LaterCycle`), which the store writers' threads finish
+    (:func:`~fringe3d.reconstruct.frame.with_sigma`): the quality map, the noise estimate and
+    the sigma_z pass leave the compute's path."""
     size = batch_size(job)
     parts = [todo[b0:b0 + size] for b0 in range(0, len(todo), size)]
     n = len(job.rec.patterns)
-    with ReadAhead(lambda ks: window_frames(job.frames, job.starts, ks, n), parts) as read:
+    workers = read_workers(job.frames, n)
+    later = "all" if finish_on_writers() else True
+    with ReadAhead(lambda ks: window_frames(job.frames, job.starts, ks, n), parts, depth=DEPTH + workers - 1,
+                   workers=workers) as read:
         for ks, cycles in zip(parts, read):
-            yield from reconstructed_cycles(job.rec, ks, cycles, job.ply, job.layout, job.quality, later=True)
+            yield from reconstructed_cycles(job.rec, ks, cycles, job.ply, job.layout, job.quality, later=later)
+
+
+#: numba threads from which :func:`serial` leaves all but the fused kernel's pass to the store
+#: writers (:func:`finish_on_writers`)
+FINISH_ON_WRITERS_FROM = 4
+
+
+def finish_on_writers() -> bool:
+    """Whether :func:`serial` leaves the quality map, the masking and sigma_z to the store
+    writers (:meth:`~fringe3d.reconstruct.frame.FrameReconstructor.fused_later`): from
+    :data:`FINISH_ON_WRITERS_FROM` numba threads. The main thread then runs the fused kernel
+    alone (5.6 instead of 15.8 ms of CPU a 1280 x 1024 frame), which bounds the rate no longer;
+    on 2 cores the process's CPU bounds it, and finishing elsewhere cost about 2 ms more a
+    frame (the fields leave the cache before the quality map reads them;
+    ``benchmarks/bench_sequence_cpu.py``-style runs, the revisions alternated)."""
+    return numba.get_num_threads() >= FINISH_ON_WRITERS_FROM
+
+
+def read_workers(frames, n: int) -> int:
+    """Windows read at once by :func:`serial`: for frames decoded from files
+    (:class:`~fringe3d.io.capture_frames.CaptureFrames`), as many as fill the file-decoding
+    threads with ``n``-frame windows (at least 2: a 3-frame window on two decoding threads leaves
+    one idle for its last file), else 1 (a camera file or an array: reading is a copy)."""
+    if not isinstance(frames, CaptureFrames):
+        return 1
+    return max(2, -(-read_threads() // max(1, n)))
 
 
 def threads(workers: int = 2, in_flight: int | None = None) -> Executor:

@@ -69,7 +69,7 @@ class Cycle(NamedTuple):
     (:mod:`fringe3d.decode.edges`; 0 = kept), ``sigma_xyz`` (H, W, 3) float32 mm predicted
     standard deviations (or None), on the fused path ``depth`` (H, W) float32: the ray
     parameter ``s`` of every point (``points = ray_points(O, D, depth)``; None elsewhere),
-    ``sigma_z`` (H, W) float32 mm, ``sigma_xyz``'s z (or None), and ``sigma_later``: where
+    ``sigma_z`` (H, W) float32 mm, ``sigma_xyz``'s z (or None), ``sigma_later``: where
     ``sigma_z`` was left for later (uncertainty ``"z later"``), the function computing it
     (:func:`with_sigma`), else None."""
 
@@ -82,8 +82,22 @@ class Cycle(NamedTuple):
     sigma_later: Callable[[], np.ndarray] | None = None
 
 
-def with_sigma(cycle: Cycle) -> Cycle:
-    """``cycle`` with its ``sigma_z`` computed where it was left for later (``sigma_later``)."""
+class LaterCycle(NamedTuple):
+    """A cycle of the fused path whose kernel pass is done and the rest left for later
+    (:meth:`FrameReconstructor.fused_later`): ``depth`` (H, W) float32, the kernel's ray
+    parameters (not yet masked by the quality tests), and ``later``, the function making the
+    finished :class:`Cycle` (:func:`with_sigma`)."""
+
+    depth: np.ndarray
+    later: Callable[[], Cycle]
+
+
+def with_sigma(cycle: Cycle | LaterCycle) -> Cycle:
+    """``cycle`` finished: its quality map, masked depth and ``sigma_z`` computed where they were
+    left for later (a :class:`LaterCycle`), or its ``sigma_z`` alone (``sigma_later``); the same
+    arrays as when computed at once."""
+    if isinstance(cycle, LaterCycle):
+        cycle = cycle.later()
     if cycle.sigma_later is None:
         return cycle
     return cycle._replace(sigma_z=cycle.sigma_later(), sigma_later=None)
@@ -258,10 +272,10 @@ class FrameReconstructor:
                  else None)
         return Cycle(pts, tex, quality, sigma, sigma_z=None if sigma is None else np.ascontiguousarray(sigma[..., 2]))
 
-    def _reconstruct_fused(self, frames: np.ndarray, uncertainty: bool | str, points: bool, texture: bool,
-                           depth: np.ndarray | None) -> Cycle:
-        """:meth:`reconstruct` on the fused path: one kernel pass gives the ray parameters and,
-        where the quality tests, sigma_z or the texture need them, ``w``, ``A`` and ``B``."""
+    def _fused_fields(self, frames: np.ndarray, uncertainty: bool | str, texture: bool,
+                      depth: np.ndarray | None) -> ThreeStepFields:
+        """The fused kernel's pass of :meth:`reconstruct` (``w``, ``A`` and ``B`` where the quality
+        tests, sigma_z or the texture need them), the depth-range warning checked once."""
         fused = self.fused
         assert fused is not None
         fast = fused.kernel
@@ -273,9 +287,39 @@ class FrameReconstructor:
                 fields = fast.depth_fields(frames, fused.index)
             else:
                 fields = ThreeStepFields(fast.depth(frames, index=fused.index))
-        depth = fields.depth
         if not self._range_checked:  # once: the depth-range warning the decode path gives
-            self._check_range(depth)
+            self._check_range(fields.depth)
+        return fields
+
+    def fused_later(self, frames: np.ndarray, uncertainty: bool | str) -> LaterCycle:
+        """The fused path's kernel pass on ``frames`` now and the rest of :meth:`reconstruct`
+        (``points=False, texture=False``) left to the returned :class:`LaterCycle`: the quality
+        map, the masking of the depth and ``sigma_z`` (:func:`with_sigma` makes the cycle
+        :meth:`reconstruct` gives, the same arrays), on whichever thread calls it.
+        :class:`~fringe3d.reconstruct.depth.EmptyMaskError` now when no pixel is valid."""
+        fused = self.fused
+        assert fused is not None and self.fast is not None
+        fields = self._fused_fields(frames, uncertainty, False, None)
+        if not np.isfinite(fields.depth).any():
+            raise EmptyMaskError("the decoded phase mask is empty: no pixel has enough fringe modulation (check "
+                                 "exposure, modulation threshold and that the scene is lit by the projector)")
+
+        def finish() -> Cycle:
+            fq = fast_quality(fused.kernel, frames, fused.index, fused.shifts, fields, fused.extent, self.options,
+                              uncertainty)
+            return Cycle(None, None, fq.quality, fq.sigma_xyz, fields.depth, fq.sigma_z, fq.sigma_later)
+
+        return LaterCycle(fields.depth, finish)
+
+    def _reconstruct_fused(self, frames: np.ndarray, uncertainty: bool | str, points: bool, texture: bool,
+                           depth: np.ndarray | None) -> Cycle:
+        """:meth:`reconstruct` on the fused path: one kernel pass gives the ray parameters and,
+        where the quality tests, sigma_z or the texture need them, ``w``, ``A`` and ``B``."""
+        fused = self.fused
+        assert fused is not None
+        fast = fused.kernel
+        fields = self._fused_fields(frames, uncertainty, texture, depth)
+        depth = fields.depth
         fq = fast_quality(fast, frames, fused.index, fused.shifts, fields, fused.extent,
                           self.options, uncertainty)
         tex = None
@@ -302,18 +346,24 @@ class FrameReconstructor:
 
 
 def reconstruct_window(rec: FrameReconstructor, frames: np.ndarray, ply: bool, layout: str | None,
-                       quality: bool, depth: np.ndarray | None = None, later: bool = False) -> tuple[Cycle, bool]:
+                       quality: bool, depth: np.ndarray | None = None,
+                       later: bool | str = False) -> tuple[Cycle | LaterCycle, bool]:
     """One window (manifest order) for a sequence's outputs: ``(cycle, empty)``.
 
     ``ply`` asks for points and texture, ``layout`` (the store's, or None) for the points
     (``"xyz"``) or only the ray parameters (``"ray_depth"``), ``quality`` for the quality map
     and ``sigma_z``, ``depth`` for the fused kernel's ray parameters already computed,
-    ``later`` to leave the fused path's ``sigma_z`` to
-    ``Cycle.sigma_later`` (:func:`with_sigma`: the store writer's thread computes it). A window
+    ``later`` True to leave the fused path's ``sigma_z`` to ``Cycle.sigma_later`` or ``"all"``
+    to leave, on the CPU without points, everything after the fused kernel (quality map,
+    masking, sigma_z) to a :class:`LaterCycle` (:meth:`FrameReconstructor.fused_later`;
+    :func:`with_sigma`: the store writers' threads compute it, beside the next windows'
+    kernels). A window
     whose phase mask is empty gives an all-NaN, all-INVALID cycle and ``empty = True``.
     """
     want_points = ply or layout == "xyz"
     try:
+        if later == "all" and depth is None and not want_points and rec.fast is not None and rec.backend == "cpu":
+            return rec.fused_later(frames, "z" if quality else False), False
         return rec.reconstruct(frames, uncertainty=("z later" if later else "z") if quality else False,
                                points=want_points, texture=ply, depth=depth), False
     except EmptyMaskError:
@@ -336,16 +386,18 @@ def window_frames(frames, starts, ks: list[int], n: int) -> list[np.ndarray]:
 
 
 def reconstructed_cycles(rec: FrameReconstructor, ks: list[int], cycles: list[np.ndarray], ply: bool,
-                         layout: str | None, quality: bool, later: bool = False) -> Iterator[tuple[int, Cycle, bool]]:
+                         layout: str | None, quality: bool,
+                         later: bool | str = False) -> Iterator[tuple[int, Cycle | LaterCycle, bool]]:
     """``(k, cycle, empty)`` of each 3D frame ``k`` of ``ks`` from its frames already read
     (``cycles``, :func:`window_frames`; :func:`reconstruct_window`); on the CUDA fused path all of
     them come finished from one batched launch (:meth:`FrameReconstructor.device_cycles`);
-    elsewhere ``later`` leaves sigma_z to ``Cycle.sigma_later`` (:func:`reconstruct_window`)."""
+    elsewhere ``later`` leaves sigma_z or all but the kernel's pass for later
+    (:func:`reconstruct_window`)."""
     uncertainty = "z" if quality else False
     if cycles and rec.on_device(uncertainty):
         want_points = ply or layout == "xyz"
-        for k, cyc in zip(ks, rec.device_cycles(cycles, uncertainty, want_points, ply)):
-            yield (k, cyc, False) if cyc is not None else (k, empty_cycle(rec, cycles[0].shape[1:], want_points), True)
+        for k, dev in zip(ks, rec.device_cycles(cycles, uncertainty, want_points, ply)):
+            yield (k, dev, False) if dev is not None else (k, empty_cycle(rec, cycles[0].shape[1:], want_points), True)
         return
     for k, cycle_frames in zip(ks, cycles):
         cyc, was_empty = reconstruct_window(rec, cycle_frames, ply, layout, quality, later=later)
@@ -353,7 +405,7 @@ def reconstructed_cycles(rec: FrameReconstructor, ks: list[int], cycles: list[np
 
 
 def reconstructed_windows(rec: FrameReconstructor, frames, starts, ks: list[int], ply: bool, layout: str | None,
-                          quality: bool) -> Iterator[tuple[int, Cycle, bool]]:
+                          quality: bool) -> Iterator[tuple[int, Cycle | LaterCycle, bool]]:
     """``(k, cycle, empty)`` of each 3D frame ``k`` of ``ks`` (:func:`reconstructed_cycles`), its
     window read from ``frames`` (F, H, W) at ``starts[k]`` (:func:`window_frames`). The
     per-frame loop of the threaded and the Dask paths (the serial one reads ahead)."""

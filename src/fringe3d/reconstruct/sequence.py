@@ -30,7 +30,7 @@ from fringe3d.io.ply_standard import write_measurement_ply
 from fringe3d.io.store import PointMapStore, StoreSettings
 from fringe3d.optics.rig import Rig
 from fringe3d.patterns.manifest import PatternSet
-from fringe3d.reconstruct.executors import Executor, WindowJob, serial
+from fringe3d.reconstruct.executors import FINISH_ON_WRITERS_FROM, Executor, WindowJob, serial
 from fringe3d.reconstruct.frame import Cycle, FrameReconstructor, store_layout, reconstruction_plans, with_sigma
 from fringe3d.reconstruct.settings import DecodeSettings, OutputSettings, RunSettings
 from fringe3d.reconstruct.windows import window_index, window_starts
@@ -58,7 +58,7 @@ def store_arrays(cycle: Cycle, st: PointMapStore) -> dict:
     if st.has_quality:
         out["quality"] = cycle.quality
     if st.has_sigma:
-        H, W = cycle.quality.shape
+        H, W = st.shape
         out["sigma_z"] = (cycle.sigma_z if cycle.sigma_z is not None
                           else np.full((H, W), np.nan, np.float32))
     return out
@@ -161,23 +161,25 @@ def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig, out, decode: De
 def _write_all(results: Iterator, out: Path, store: tuple[PointMapStore | None, int], ply: bool, progress: bool,
                n: int) -> int:
     """Write every ``(k, cycle, empty)`` of ``results`` into ``store`` = (the store or None, frames
-    marked done at once) and, with ``ply``, ``out/ply``: on a writer thread (sigma_z left for
-    later, compression, file writes) behind the next frame's compute, at most :data:`IN_FLIGHT` frames queued; a write's
-    error is raised here. Returns the number of empty frames. Only written frames are marked
-    done, also when the run stops early (the writes in flight are waited for)."""
+    marked done at once) and, with ``ply``, ``out/ply``: on :func:`writer_threads` writer threads
+    (what the executor left for later: quality map, sigma_z; compression, file writes), several
+    frames at once, behind the next frames' compute, at most :func:`in_flight` frames queued; a
+    write's error is raised here. Returns the number of empty frames. Only written frames are
+    marked done, in order, also when the run stops early (the writes in flight are waited for)."""
     st, mark_every = store
     empty = 0
     writes: deque = deque()
     written: list[int] = []
+    n_writers = writer_threads()
     with progress_bar("reconstructing 3D frames", n, enabled=progress) as advance, \
-            ThreadPoolExecutor(max_workers=1, thread_name_prefix="fringe3d-store", initializer=numba.set_num_threads,
-                               initargs=(1,)) as writer, \
-            _kernel_threads_beside(True):
+            ThreadPoolExecutor(max_workers=n_writers, thread_name_prefix="fringe3d-store",
+                               initializer=numba.set_num_threads, initargs=(1,)) as writer, \
+            _kernel_threads_beside(n_writers):
         try:
             for k, cyc, was_empty in results:
                 empty += was_empty
                 writes.append((k, writer.submit(_write_frame, k, cyc, st, out / PLY_DIR if ply else None)))
-                while len(writes) > IN_FLIGHT:  # bounded memory: the compute waits for the writer
+                while len(writes) > in_flight(n_writers):  # bounded memory: the compute waits for the writers
                     written.append(_finish(writes.popleft()))
                 if st is not None and len(written) >= mark_every:
                     st.mark_done(written)
@@ -193,8 +195,24 @@ def _write_all(results: Iterator, out: Path, store: tuple[PointMapStore | None, 
     return empty
 
 
-#: 3D frames computed and queued for the writer thread at most
+#: 3D frames computed and queued per writer thread at most (and one more)
 IN_FLIGHT = 2
+
+
+def writer_threads() -> int:
+    """Store writer threads of a sequence: one below :data:`~fringe3d.reconstruct.executors.
+    FINISH_ON_WRITERS_FROM` numba threads (the compute makes each frame but its sigma_z and
+    compression), else half the numba threads: what is left to them after the fused kernel
+    (quality map, sigma_z, compression, writes) costs about three times the kernel. Each writer
+    runs its kernels on one numba thread, the compute keeps the rest (:func:`_kernel_threads_beside`)."""
+    n = numba.get_num_threads()
+    return 1 if n < FINISH_ON_WRITERS_FROM else n // 2
+
+
+def in_flight(writers: int) -> int:
+    """3D frames computed and not yet written at most, with ``writers`` writer threads (bounded
+    memory: about 21 MB a 1280 x 1024 frame of the fused path before its quality map)."""
+    return IN_FLIGHT * writers
 
 
 def _write_frame(k: int, cycle: Cycle, st: PointMapStore | None, ply_dir: Path | None) -> None:
@@ -209,14 +227,14 @@ def _write_frame(k: int, cycle: Cycle, st: PointMapStore | None, ply_dir: Path |
 
 
 @contextlib.contextmanager
-def _kernel_threads_beside(writer: bool):
-    """While the writer thread runs beside the kernels, the numba kernels of this thread use
-    one thread fewer (at least one): every parallel kernel waits for its slowest thread, and a
-    thread sharing its core with the writer's compression made each kernel up to twice as slow
-    (``benchmarks/bench_sequence.py`` on 2 cores)."""
+def _kernel_threads_beside(writers: int):
+    """While ``writers`` writer threads run beside the kernels, the numba kernels of this thread
+    use that many threads fewer (at least one): every parallel kernel waits for its slowest
+    thread, and a thread sharing its core with the writer's compression made each kernel up to
+    twice as slow (``benchmarks/bench_sequence.py`` on 2 cores)."""
     n = numba.get_num_threads()
-    if writer and n > 1:
-        numba.set_num_threads(n - 1)
+    if writers and n > 1:
+        numba.set_num_threads(max(1, n - writers))
     try:
         yield
     finally:
