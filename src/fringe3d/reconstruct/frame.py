@@ -117,8 +117,10 @@ class FrameReconstructor:
 
     ``backend="cuda"`` runs the per-pixel kernels on a CUDA device (:mod:`fringe3d.gpu`): on the
     fused path the fused kernel with the quality tests, the texture and ``sigma_z``
-    (:meth:`device_cycles`; ``sigma_xyz`` stays on the CPU), on the decode path the fused
-    three-frequency kernel (``DecodeOptions.backend``; the rest of the decode stays on the CPU).
+    (:meth:`device_cycles`; ``sigma_xyz`` stays on the CPU), on the decode path the default
+    three-frequency decode with its assessment (quality bits, phase sigma, texture:
+    :mod:`fringe3d.decode.device_temporal`), other methods on the CPU (``DecodeOptions.backend``;
+    triangulation and ``sigma_xyz`` stay on the CPU).
     The results equal the CPU backend's: quality bits exactly, float maps to float rounding.
 
     The plans are checked first (:func:`fringe3d.decode.plan_checks.check_plans`): a geometric
