@@ -8,13 +8,11 @@ from __future__ import annotations
 
 import importlib.util
 import inspect
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cuda_sim_run import run_simulated
 
 from fringe3d.decode import edges
 from fringe3d.decode._fused_quality import fused_quality_map
@@ -29,19 +27,9 @@ TEX_TOL = 1e-6  # texture, a fraction of full scale
 SETS = ("default", "strict")
 
 
-def _env() -> dict:
-    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
-    env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
-    return env
-
-
 @pytest.fixture(scope="module")
 def simq(tmp_path_factory):
-    out = tmp_path_factory.mktemp("cudasimq") / "results.npz"
-    p = subprocess.run([sys.executable, str(HERE / "cuda_sim_quality_worker.py"), str(out)],
-                       env=_env(), capture_output=True, text=True, timeout=600, cwd=HERE)
-    assert p.returncode == 0, p.stderr[-3000:]
-    return dict(np.load(out))
+    return run_simulated("cuda_sim_quality_worker.py", tmp_path_factory.mktemp("cudasimq"), timeout=600)
 
 
 def same_nan_and_close(a, b, atol=0.0, rtol=0.0):

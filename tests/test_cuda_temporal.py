@@ -10,20 +10,15 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from cuda_sim_run import run_simulated
 
 from fringe3d.decode import edges
 from fringe3d.gpu import device_math
 from fringe3d.phase import _kernels as phase_kernels
 
-HERE = Path(__file__).parent
-ROOT = HERE.parent
 #: float32 phase (rad) of the fringe coordinate up to ~200 px: a last bit of the sums (the CPU
 #: kernel's fused multiply-adds) moves it by one unit of the last place, 3.8e-6 rad at 30 rad.
 PHASE_TOL = 1e-5
@@ -33,19 +28,9 @@ BLUR_RTOL = 1e-4  # the blur from the median modulation ratio (float32 ratios' l
 CASES = ("default_0", "default_1", "strict_1", "no_edges_1")
 
 
-def _env() -> dict:
-    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
-    env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
-    return env
-
-
 @pytest.fixture(scope="module")
 def simt(tmp_path_factory):
-    out = tmp_path_factory.mktemp("cudasimt") / "results.npz"
-    p = subprocess.run([sys.executable, str(HERE / "cuda_sim_temporal_worker.py"), str(out)],
-                       env=_env(), capture_output=True, text=True, timeout=900, cwd=HERE)
-    assert p.returncode == 0, p.stderr[-3000:]
-    return dict(np.load(out))
+    return run_simulated("cuda_sim_temporal_worker.py", tmp_path_factory.mktemp("cudasimt"), timeout=900)
 
 
 def test_the_device_copies_the_cpu_kernels_atan2_polynomial():
