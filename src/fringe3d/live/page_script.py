@@ -59,7 +59,7 @@ SCRIPT = r"""
   if (window.fringe3dDisplay) return;  // the script is replayed on a reconnect
   const now = () => Date.now();  // the wall clock, as the host's stamps (a monotonic clock drifts from it)
   const d = window.fringe3dDisplay = {frame: [], arrival: [], received: [], drawn: [], tick: [], latency: [],
-                                      summary: null};
+                                      summary: null, acknowledged: 'field'};
   const box = document.createElement('div');
   box.id = '%(figures)s';
   box.style.cssText = 'position:fixed;left:8px;bottom:8px;z-index:1000;font:12px monospace;color:#222;' +
@@ -77,7 +77,7 @@ SCRIPT = r"""
   const update = () => {
     const n = d.drawn.length, s = [...d.latency].sort((a, b) => a - b);
     const fps = n > 1 && d.tick[n - 1] > d.tick[0] ? (n - 1) / ((d.tick[n - 1] - d.tick[0]) / 1000) : 0;
-    d.summary = {frames_drawn: n, last_frame: d.frame[n - 1], fps: round(fps),
+    d.summary = {frames_drawn: n, last_frame: d.frame[n - 1], fps: round(fps), acknowledged: d.acknowledged,
                  latency_ms: {median: round(quantile(s, 0.5)), p95: round(quantile(s, 0.95)), max: round(s[n - 1])}};
     const l = d.summary.latency_ms;
     box.textContent = `in this page: ${n} 3D frames drawn, ${d.summary.fps.toFixed(1)} frames/s; ` +
@@ -86,8 +86,23 @@ SCRIPT = r"""
   };
   let last = null, pending = null, scheduled = false, timer = null;
   const setter = Object.getOwnPropertyDescriptor(HTMLInputElement.prototype, 'value').set;
-  let ackInput = null;
+  let ackInput = null, ackWorker = null, ackUuid = null, typing = false;
+  // the field's update as typed goes through viser's websocket worker: seen once, it is sent there directly
+  // (no React update of the hidden field, no 50 ms throttle of typed values)
+  const post = Worker.prototype.postMessage;
+  Worker.prototype.postMessage = function (data, ...rest) {
+    const m = data && data.type === 'send' ? data.message : null;
+    if (typing && m && m.type === 'GuiUpdateMessage' && m.updates && 'value' in m.updates) {
+      ackWorker = this; ackUuid = m.uuid; d.acknowledged = 'worker';
+    }
+    return post.call(this, data, ...rest);
+  };
   const acknowledge = frame => {  // tell the server (a GUI text field, as if typed): it paces the clouds
+    if (ackWorker !== null) {
+      post.call(ackWorker, {type: 'send', message: {type: 'GuiUpdateMessage', uuid: ackUuid,
+                                                     updates: {value: String(frame)}}});
+      return true;
+    }
     if (!ackInput || !ackInput.isConnected) {  // found once (a search of the page is slow), again if re-made
       const label = [...document.querySelectorAll('label, p, span, div')].filter(
         e => e.textContent.trim() === '%(ack)s').pop();
@@ -98,7 +113,8 @@ SCRIPT = r"""
       row.style.display = 'none';  // the page's own field, not a control
     }
     setter.call(ackInput, String(frame));
-    ackInput.dispatchEvent(new Event('input', {bubbles: true}));
+    typing = true;
+    try { ackInput.dispatchEvent(new Event('input', {bubbles: true})); } finally { typing = false; }
     return true;
   };
   const hello = () => { if (!acknowledge(0)) setTimeout(hello, 100); };  // "drew frame 0": paced from the first

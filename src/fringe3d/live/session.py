@@ -130,7 +130,7 @@ class LiveSettings:
     step: int = 1
     z_range: tuple[float, float] = (0.0, 1000.0)
     overlay_width: int = 320
-    refresh: float = 0.25
+    refresh: float = 0.5
     wait_viewer: float = 0.0
 
 
