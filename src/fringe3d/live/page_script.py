@@ -16,8 +16,10 @@ on the development machine). Display latency = that time - the arrival stamp.
 In the depth view the stamp is the frame: an ``<img>`` carrying the same two attributes and the
 depth image as a ``data:`` URL (JPEG; :func:`frame_stamp`), so a frame is one viser message (a
 GUI update, which does not wake viser's 3D render loop). The script hides that element (a page
-without the script shows it as a plain image), decodes its JPEG off the main thread
-(``createImageBitmap``) and draws it into the page's own canvas (id :data:`DEPTH_CANVAS_ID`),
+without the script shows it as a plain image), decodes its JPEG off the main thread (an
+``Image`` of the same ``data:`` URL and its ``decode()``: no bytes copied by script, no ``Blob``,
+which costs the main thread about 2 ms a frame) and draws it into the page's own canvas (id
+:data:`DEPTH_CANVAS_ID`),
 then waits for the next animation frame and the task after it and takes the time as above. A
 frame whose image was drawn in the canvas and replaced before an animation frame showed it, or
 that finished decoding after a newer one, is not counted. While the depth view is on, the canvas
@@ -29,16 +31,21 @@ The page shows, under the view, the frames it drew, their rate (``(drawn - 1) / 
 first)``, on ``performance.now()``) and the display latency median, p95 and max (percentiles
 interpolated linearly between order statistics, as NumPy's default), and keeps the raw lists in
 ``window.fringe3dDisplay`` (``frame``, ``arrival``, ``received``, ``drawn`` (epoch ms), ``tick``
-(``performance.now()`` when drawn), ``latency``, all per drawn frame, and ``summary``) for a
+(``performance.now()`` when drawn), ``latency``, all per drawn frame, ``summary``, and
+``acknowledged``: how the page acknowledges frames, ``"worker"`` or ``"field"``) for a
 benchmark or a test to read. Frames the page never drew (two updates applied in one animation
 frame: only the newer is drawn) are not counted.
 
-When it starts (frame 0) and after drawing a frame the script writes its number into the GUI
-field labelled
-:data:`ACK_LABEL` (as if typed: viser has no other way for page code to talk to the server; the
-script hides that field), so the viewer knows what the page has drawn
-(:meth:`fringe3d.live.viewer.ViserViewer.busy`) and the loop does not send clouds faster than the
-page draws them.
+When it starts (frame 0) and after drawing a frame the script tells the server the frame's
+number through the GUI field labelled :data:`ACK_LABEL` (viser has no API for page code to talk
+to the server; the script hides that field), so the viewer knows what the page has drawn
+(:meth:`fringe3d.live.viewer.ViserViewer.busy`) and the loop does not send frames faster than
+the page draws them. The first time (frame 0) it types the number into the field; viser's page
+hands the field's update (a ``GuiUpdateMessage``) to the web worker that holds its websocket,
+and the script, watching ``Worker.prototype.postMessage``, keeps that worker and the field's id.
+From then on it posts each number's update to that worker itself: the same message, without a
+React update of the hidden field and without viser's 50 ms throttle of typed values (a page
+where that is not seen keeps typing).
 """
 from __future__ import annotations
 
@@ -140,15 +147,16 @@ SCRIPT = r"""
     if (canvas) canvas.style.display = view === 'depth' ? 'none' : '';
   };
   // a depth frame (its stamp is the image, a hidden <img> with a data: URL): decoded off the main thread
-  // (createImageBitmap), drawn into the page's own canvas, then timed as a cloud is
+  // (an Image of the data: URL and its decode(): no Blob, no bytes copied by script), drawn into the page's
+  // own canvas, then timed as a cloud is
   const showDepth = (p, src) => {
     if (view !== 'depth') { view = 'depth'; ++token; layOut(); }
     const mine = token;
-    const text = atob(src.slice(src.indexOf(',') + 1)), bytes = new Uint8Array(text.length);
-    for (let i = 0; i < text.length; i++) bytes[i] = text.charCodeAt(i);
-    createImageBitmap(new Blob([bytes], {type: 'image/jpeg'})).then(image => {
+    const img = new Image();
+    img.src = src;
+    img.decode().then(() => img).then(image => {
       // a view change since, or a newer frame drawn already (decoded first): this one is not shown
-      if (mine !== token || p.frame <= onCanvas) { image.close(); return; }
+      if (mine !== token || p.frame <= onCanvas) return;
       if (!depthCanvas) {
         depthCanvas = document.createElement('canvas');
         depthCanvas.id = '%(depth_canvas)s';
@@ -161,7 +169,6 @@ SCRIPT = r"""
       }
       layOut();
       depthCanvas.getContext('2d').drawImage(image, 0, 0);
-      image.close();
       onCanvas = p.frame;
       depthPending = p;
       if (depthScheduled) return;  // drawn again before the next animation frame: only the newer is shown
