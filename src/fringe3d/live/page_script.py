@@ -162,12 +162,15 @@ SCRIPT = r"""
         depthCanvas.id = '%(depth_canvas)s';
         depthCanvas.style.cssText = 'position:fixed;z-index:900;pointer-events:none';
         document.body.appendChild(depthCanvas);
+        addEventListener('resize', layOut);  // laid out again when the page or the 3D view's box changes size
+        const canvas = [...document.querySelectorAll('canvas')].find(c => c !== depthCanvas);
+        if (canvas && canvas.parentElement) new ResizeObserver(layOut).observe(canvas.parentElement);
       }
       if (depthCanvas.width !== image.width || depthCanvas.height !== image.height) {
         depthCanvas.width = image.width;
         depthCanvas.height = image.height;
+        layOut();  // not per frame: reading the 3D view's box forces a layout of the page
       }
-      layOut();
       depthCanvas.getContext('2d').drawImage(image, 0, 0);
       onCanvas = p.frame;
       depthPending = p;
