@@ -449,3 +449,42 @@ def test_viewer_keeps_one_more_depth_image_than_clouds_in_flight():
         assert v.busy()
     finally:
         v.close()
+
+
+@pytest.mark.browser
+def test_page_acknowledges_each_drawn_frame_through_visers_websocket_worker_not_the_typed_field():
+    from playwright.sync_api import sync_playwright
+
+    from fringe3d.live.page_script import ACK_LABEL
+    from fringe3d.live.session import Controls
+    from fringe3d.live.viewer import ViewerSetup, ViserViewer
+
+    def wait_drawn(v, frame):  # the acknowledgement crosses the websocket after the page drew the frame
+        end = time.monotonic() + 30
+        while v.drawn < frame and time.monotonic() < end:
+            time.sleep(0.01)
+        return v.drawn
+
+    image = np.zeros((32, 40, 3), np.uint8)
+    v = ViserViewer(ViewerSetup(port=0), Controls(choice="3-step"))
+    try:
+        with sync_playwright() as p:
+            browser = launch(p)
+            page = browser.new_page(viewport={"width": 800, "height": 600})
+            page.goto(v.url)
+            page.wait_for_function("() => window.fringe3dDisplay", timeout=30_000, polling=100)
+            assert wait_drawn(v, 0) == 0  # "drew frame 0", typed into the field: the page runs the script
+            acked = []
+            for k in range(1, 5):
+                v.show_depth(image, time.monotonic())
+                page.wait_for_function(f"() => window.fringe3dDisplay.frame.includes({k})", timeout=30_000,
+                                       polling=50)
+                acked.append(wait_drawn(v, k))
+            drawn = page.evaluate("() => window.fringe3dDisplay.frame.slice()")
+            how = page.evaluate("() => window.fringe3dDisplay.acknowledged")
+            typed = page.evaluate(GUI_VALUE, ACK_LABEL)
+            browser.close()
+    finally:
+        v.close()
+    assert drawn == [1, 2, 3, 4] and acked == drawn  # the viewer learns each frame the page drew, in order
+    assert how == "worker" and typed == "0"  # after the first, sent to viser's worker: the field is never retyped

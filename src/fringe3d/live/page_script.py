@@ -16,8 +16,10 @@ on the development machine). Display latency = that time - the arrival stamp.
 In the depth view the stamp is the frame: an ``<img>`` carrying the same two attributes and the
 depth image as a ``data:`` URL (JPEG; :func:`frame_stamp`), so a frame is one viser message (a
 GUI update, which does not wake viser's 3D render loop). The script hides that element (a page
-without the script shows it as a plain image), decodes its JPEG off the main thread
-(``createImageBitmap``) and draws it into the page's own canvas (id :data:`DEPTH_CANVAS_ID`),
+without the script shows it as a plain image), decodes its JPEG off the main thread (an
+``Image`` of the same ``data:`` URL and its ``decode()``: no bytes copied by script, no ``Blob``,
+which costs the main thread about 2 ms a frame) and draws it into the page's own canvas (id
+:data:`DEPTH_CANVAS_ID`),
 then waits for the next animation frame and the task after it and takes the time as above. A
 frame whose image was drawn in the canvas and replaced before an animation frame showed it, or
 that finished decoding after a newer one, is not counted. While the depth view is on, the canvas
@@ -29,16 +31,21 @@ The page shows, under the view, the frames it drew, their rate (``(drawn - 1) / 
 first)``, on ``performance.now()``) and the display latency median, p95 and max (percentiles
 interpolated linearly between order statistics, as NumPy's default), and keeps the raw lists in
 ``window.fringe3dDisplay`` (``frame``, ``arrival``, ``received``, ``drawn`` (epoch ms), ``tick``
-(``performance.now()`` when drawn), ``latency``, all per drawn frame, and ``summary``) for a
+(``performance.now()`` when drawn), ``latency``, all per drawn frame, ``summary``, and
+``acknowledged``: how the page acknowledges frames, ``"worker"`` or ``"field"``) for a
 benchmark or a test to read. Frames the page never drew (two updates applied in one animation
 frame: only the newer is drawn) are not counted.
 
-When it starts (frame 0) and after drawing a frame the script writes its number into the GUI
-field labelled
-:data:`ACK_LABEL` (as if typed: viser has no other way for page code to talk to the server; the
-script hides that field), so the viewer knows what the page has drawn
-(:meth:`fringe3d.live.viewer.ViserViewer.busy`) and the loop does not send clouds faster than the
-page draws them.
+When it starts (frame 0) and after drawing a frame the script tells the server the frame's
+number through the GUI field labelled :data:`ACK_LABEL` (viser has no API for page code to talk
+to the server; the script hides that field), so the viewer knows what the page has drawn
+(:meth:`fringe3d.live.viewer.ViserViewer.busy`) and the loop does not send frames faster than
+the page draws them. The first time (frame 0) it types the number into the field; viser's page
+hands the field's update (a ``GuiUpdateMessage``) to the web worker that holds its websocket,
+and the script, watching ``Worker.prototype.postMessage``, keeps that worker and the field's id.
+From then on it posts each number's update to that worker itself: the same message, without a
+React update of the hidden field and without viser's 50 ms throttle of typed values (a page
+where that is not seen keeps typing).
 """
 from __future__ import annotations
 
@@ -59,7 +66,7 @@ SCRIPT = r"""
   if (window.fringe3dDisplay) return;  // the script is replayed on a reconnect
   const now = () => Date.now();  // the wall clock, as the host's stamps (a monotonic clock drifts from it)
   const d = window.fringe3dDisplay = {frame: [], arrival: [], received: [], drawn: [], tick: [], latency: [],
-                                      summary: null};
+                                      summary: null, acknowledged: 'field'};
   const box = document.createElement('div');
   box.id = '%(figures)s';
   box.style.cssText = 'position:fixed;left:8px;bottom:8px;z-index:1000;font:12px monospace;color:#222;' +
@@ -77,7 +84,7 @@ SCRIPT = r"""
   const update = () => {
     const n = d.drawn.length, s = [...d.latency].sort((a, b) => a - b);
     const fps = n > 1 && d.tick[n - 1] > d.tick[0] ? (n - 1) / ((d.tick[n - 1] - d.tick[0]) / 1000) : 0;
-    d.summary = {frames_drawn: n, last_frame: d.frame[n - 1], fps: round(fps),
+    d.summary = {frames_drawn: n, last_frame: d.frame[n - 1], fps: round(fps), acknowledged: d.acknowledged,
                  latency_ms: {median: round(quantile(s, 0.5)), p95: round(quantile(s, 0.95)), max: round(s[n - 1])}};
     const l = d.summary.latency_ms;
     box.textContent = `in this page: ${n} 3D frames drawn, ${d.summary.fps.toFixed(1)} frames/s; ` +
@@ -86,8 +93,23 @@ SCRIPT = r"""
   };
   let last = null, pending = null, scheduled = false, timer = null;
   const setter = Object.getOwnPropertyDescriptor(HTMLInputElement.prototype, 'value').set;
-  let ackInput = null;
+  let ackInput = null, ackWorker = null, ackUuid = null, typing = false;
+  // the field's update as typed goes through viser's websocket worker: seen once, it is sent there directly
+  // (no React update of the hidden field, no 50 ms throttle of typed values)
+  const post = Worker.prototype.postMessage;
+  Worker.prototype.postMessage = function (data, ...rest) {
+    const m = data && data.type === 'send' ? data.message : null;
+    if (typing && m && m.type === 'GuiUpdateMessage' && m.updates && 'value' in m.updates) {
+      ackWorker = this; ackUuid = m.uuid; d.acknowledged = 'worker';
+    }
+    return post.call(this, data, ...rest);
+  };
   const acknowledge = frame => {  // tell the server (a GUI text field, as if typed): it paces the clouds
+    if (ackWorker !== null) {
+      post.call(ackWorker, {type: 'send', message: {type: 'GuiUpdateMessage', uuid: ackUuid,
+                                                     updates: {value: String(frame)}}});
+      return true;
+    }
     if (!ackInput || !ackInput.isConnected) {  // found once (a search of the page is slow), again if re-made
       const label = [...document.querySelectorAll('label, p, span, div')].filter(
         e => e.textContent.trim() === '%(ack)s').pop();
@@ -98,7 +120,8 @@ SCRIPT = r"""
       row.style.display = 'none';  // the page's own field, not a control
     }
     setter.call(ackInput, String(frame));
-    ackInput.dispatchEvent(new Event('input', {bubbles: true}));
+    typing = true;
+    try { ackInput.dispatchEvent(new Event('input', {bubbles: true})); } finally { typing = false; }
     return true;
   };
   const hello = () => { if (!acknowledge(0)) setTimeout(hello, 100); };  // "drew frame 0": paced from the first
@@ -124,28 +147,31 @@ SCRIPT = r"""
     if (canvas) canvas.style.display = view === 'depth' ? 'none' : '';
   };
   // a depth frame (its stamp is the image, a hidden <img> with a data: URL): decoded off the main thread
-  // (createImageBitmap), drawn into the page's own canvas, then timed as a cloud is
+  // (an Image of the data: URL and its decode(): no Blob, no bytes copied by script), drawn into the page's
+  // own canvas, then timed as a cloud is
   const showDepth = (p, src) => {
     if (view !== 'depth') { view = 'depth'; ++token; layOut(); }
     const mine = token;
-    const text = atob(src.slice(src.indexOf(',') + 1)), bytes = new Uint8Array(text.length);
-    for (let i = 0; i < text.length; i++) bytes[i] = text.charCodeAt(i);
-    createImageBitmap(new Blob([bytes], {type: 'image/jpeg'})).then(image => {
+    const img = new Image();
+    img.src = src;
+    img.decode().then(() => img).then(image => {
       // a view change since, or a newer frame drawn already (decoded first): this one is not shown
-      if (mine !== token || p.frame <= onCanvas) { image.close(); return; }
+      if (mine !== token || p.frame <= onCanvas) return;
       if (!depthCanvas) {
         depthCanvas = document.createElement('canvas');
         depthCanvas.id = '%(depth_canvas)s';
         depthCanvas.style.cssText = 'position:fixed;z-index:900;pointer-events:none';
         document.body.appendChild(depthCanvas);
+        addEventListener('resize', layOut);  // laid out again when the page or the 3D view's box changes size
+        const canvas = [...document.querySelectorAll('canvas')].find(c => c !== depthCanvas);
+        if (canvas && canvas.parentElement) new ResizeObserver(layOut).observe(canvas.parentElement);
       }
       if (depthCanvas.width !== image.width || depthCanvas.height !== image.height) {
         depthCanvas.width = image.width;
         depthCanvas.height = image.height;
+        layOut();  // not per frame: reading the 3D view's box forces a layout of the page
       }
-      layOut();
       depthCanvas.getContext('2d').drawImage(image, 0, 0);
-      image.close();
       onCanvas = p.frame;
       depthPending = p;
       if (depthScheduled) return;  // drawn again before the next animation frame: only the newer is shown

@@ -9,8 +9,9 @@ not drawn the frames sent: :meth:`Viewer.busy`; the cycles that arrive meanwhile
 then takes the newest cycle, reconstructs it with the choice's
 :class:`~fringe3d.reconstruct.frame.FrameReconstructor` (the engine every other command uses),
 draws its points (:func:`~fringe3d.live.display.display_points`), or its depth map as an image
-when the page shows the depth view (:func:`~fringe3d.live.display.depth_image`), and, a few times
-a second, the mask overlay and the figures (:class:`~fringe3d.live.stats.LiveStats`), until the
+when the page shows the depth view (:func:`~fringe3d.live.display.depth_image`), and, twice a
+second (:attr:`LiveSettings.refresh`; each update re-renders GUI elements in the page), the mask
+overlay and the figures (:class:`~fringe3d.live.stats.LiveStats`), until the
 frame or time limit, :meth:`LiveSession.stop` or Ctrl-C.
 
 A viewer is anything with the methods of :class:`Viewer` (:class:`fringe3d.live.viewer.
@@ -130,7 +131,7 @@ class LiveSettings:
     step: int = 1
     z_range: tuple[float, float] = (0.0, 1000.0)
     overlay_width: int = 320
-    refresh: float = 0.25
+    refresh: float = 0.5
     wait_viewer: float = 0.0
 
 
