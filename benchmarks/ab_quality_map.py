@@ -19,12 +19,14 @@ import numba
 import numpy as np
 
 
-def maps(shape, seed=0, extent=(-0.5, 1279.5), margin=2.0):
-    """The tests' maps at ``shape``: a ramp with depth steps and noise, holes, unlit and mixed pixels."""
+def maps(shape, seed=0, extent=(-0.5, 1279.5), steps=0.05, slope=None):
+    """The tests' maps at ``shape``: a ramp (``extent`` over the width, or ``slope`` px per pixel)
+    with a fraction ``steps`` of isolated depth steps of 6 px, noise, holes, unlit and mixed pixels."""
     rng = np.random.default_rng(seed)
     H, W = shape
-    w = np.linspace(-3, extent[1] + 3, W, dtype=np.float32)[None, :].repeat(H, 0)
-    w += np.where(rng.random(shape) < 0.05, 6.0, 0.0).astype(np.float32)
+    stop = extent[1] + 3 if slope is None else -3 + slope * (W - 1)
+    w = np.linspace(-3, stop, W, dtype=np.float32)[None, :].repeat(H, 0)
+    w += np.where(rng.random(shape) < steps, 6.0, 0.0).astype(np.float32)
     w += rng.normal(0, 0.05, shape).astype(np.float32)
     valid = rng.random(shape) > 0.1
     w[~valid] = np.nan
@@ -41,13 +43,17 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=15)
     ap.add_argument("--height", type=int, default=1024)
     ap.add_argument("--width", type=int, default=1280)
+    ap.add_argument("--steps", type=float, default=0.05,
+                    help="fraction of pixels with a depth step (0.05: a quarter of the pixels jump > 1 px)")
+    ap.add_argument("--slope", type=float, default=None,
+                    help="fringe coordinate per camera pixel (default: the extent over the width, 1 px)")
     args = ap.parse_args()
     import reference_implementations as ref
 
     from fringe3d.decode import _fused_quality as fq
     numba.set_num_threads(1)
     extent = (-0.5, args.width - 0.5)
-    valid, w, mod, avg = maps((args.height, args.width), extent=extent)
+    valid, w, mod, avg = maps((args.height, args.width), extent=extent, steps=args.steps, slope=args.slope)
     rng = np.random.default_rng(1)
     mask = valid | (rng.random(valid.shape) < 0.02)
     order = rng.random(valid.shape) < 0.01
@@ -78,7 +84,8 @@ def main() -> None:
     for n in names:
         print(f"{n:14s} best {1e3 * np.median(best[n]):6.2f} ms  median {1e3 * np.median(med[n]):6.2f} ms per call")
     a, b = names
-    print(f"B / A: best {np.median(best[b]) / np.median(best[a]):.3f}  median {np.median(med[b]) / np.median(med[a]):.3f}")
+    ratio_best = np.median(best[b]) / np.median(best[a])
+    print(f"B / A: best {ratio_best:.3f}  median {np.median(med[b]) / np.median(med[a]):.3f}")
 
 
 if __name__ == "__main__":

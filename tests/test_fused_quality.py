@@ -113,8 +113,9 @@ def simulated(shape, seed):
     return mask, order, saturated, w32, pr.modulation, pr.average, residual
 
 
-# odd sizes; 65 and 97 rows end in a block of one row (fused_quality.BLOCK = 32), 31 is within one block
-SIM_SHAPES = [(1, 1), (1, 9), (7, 1), (3, 5), (31, 47), (65, 81), (97, 130)]
+# odd sizes; 65 and 97 rows end in a block of one row (BLOCK = 32), 31 is within one block; 517 columns:
+# rows counted in chunks (COUNT_CHUNK = 128), some skipped, the last chunk of 5 columns
+SIM_SHAPES = [(1, 1), (1, 9), (7, 1), (3, 5), (31, 47), (65, 81), (97, 130), (33, 517)]
 
 
 @pytest.mark.parametrize("shape", SIM_SHAPES)
@@ -154,3 +155,24 @@ def test_simulated_frames_exercise_every_bit():
     for bit in edges.BITS:
         assert (q & bit).any(), edges.BITS[bit]
     assert np.isnan(w[mask & ~order]).any() and (avg == 0).any()
+
+
+def test_sparse_jumps_give_the_previous_map():
+    """A smooth ramp (jumps below the floor) with a few depth steps: most column chunks of a row
+    skip GRADIENT's count, the few with a step count it, and the map equals the previous kernels'."""
+    import reference_implementations as ref
+
+    rng = np.random.default_rng(5)
+    H, W = 24, 700
+    w = (0.5 * np.arange(W, dtype=np.float32))[None, :].repeat(H, 0) + rng.normal(0, 0.02, (H, W)).astype(np.float32)
+    rows, cols = rng.integers(0, H, 8), rng.integers(0, W, 8)
+    w[rows, cols] += np.float32(5.0)  # isolated steps: each row holds at most a few
+    valid = rng.random((H, W)) > 0.02
+    w[~valid] = np.nan
+    avg = np.full((H, W), 100, np.float32)
+    mod = rng.uniform(40, 80, (H, W)).astype(np.float32)
+    kw = dict(gradient_ratio=4.0, gradient_floor=1.0, modulation_ratio=0.5, rim=1)
+    want = ref.fused_quality_map_previous(valid, w, (-0.5, 350.5), 2.0, mod, avg, **kw)
+    got = fused_quality_map(valid, w, (-0.5, 350.5), 2.0, mod, avg, **kw)
+    assert (want & edges.GRADIENT).any()
+    np.testing.assert_array_equal(got, want)

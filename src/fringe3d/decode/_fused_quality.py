@@ -100,26 +100,62 @@ def _jump_count_kernel(valid, gp, g_ratio, g_floor, t):  # pragma: no cover - co
         _count_row(s, (0, 1, 2, 3, 4), gp[i + 2], v8[i], g_floor, np.empty(W, np.int32), t[i])
 
 
+#: Columns per chunk of :func:`_count_row`: a chunk without a candidate pixel skips the count.
+COUNT_CHUNK = 128
+
+
+@numba.njit(cache=True, nogil=True)
+def _count_span(s0, s1, s2, s3, s4, c, v, g_floor, n, t):  # pragma: no cover - compiled
+    """:func:`_count_row` on a span of ``m = len(v)`` columns: ``s0 .. s4`` (m + 4) and ``c`` (m) from
+    its first column's, ``t`` (m) its tests."""
+    m = v.shape[0]
+    for j in range(m):
+        n[j] = 0
+    for sa in (s0, s1, s2, s3, s4):
+        for j in range(m):
+            cj = c[j]
+            n[j] += (np.int32(sa[j] < cj) + np.int32(sa[j + 1] < cj) + np.int32(sa[j + 2] < cj)
+                     + np.int32(sa[j + 3] < cj) + np.int32(sa[j + 4] < cj))
+    for j in range(m):
+        t[j] = v[j] & np.uint8(c[j] > g_floor) & np.uint8(n[j] >= 13)
+
+
+@numba.njit(cache=True, nogil=True)
+def _any_candidate(c, v, g_floor):  # pragma: no cover - compiled
+    """Whether a pixel of ``v`` (mask bytes) has ``c > g_floor`` (branch-free: it vectorises)."""
+    hit = np.uint8(0)
+    for j in range(v.shape[0]):
+        hit |= v[j] & np.uint8(c[j] > g_floor)
+    return hit != 0
+
+
 @numba.njit(cache=True, nogil=True)
 def _count_row(s, rows, c, v, g_floor, n, t):  # pragma: no cover - compiled
     """``t[j + 1] = v[j] & (c[j + 2] > floor) & (count of ratio * jumps below c[j + 2] >= 13)``
     for one row, ``s[rows[0]] .. s[rows[4]]`` the five rows of scaled jumps (padded, W + 4);
-    ``t[0] = t[W + 1] = 0``;
-    ``n`` (W) int32 scratch: the counts (32-bit, the float32 lanes' width), a row of ``s`` at a
-    time (branch-free, contiguous: the loops vectorise)."""
+    ``t[0] = t[W + 1] = 0``; ``n`` (W) int32 scratch: the counts (32-bit, the float32 lanes'
+    width), a row of ``s`` at a time (branch-free, contiguous: the loops vectorise). The count is
+    made only in chunks of :data:`COUNT_CHUNK` columns that hold a valid pixel with a jump above
+    the floor (on a smooth surface, few), elsewhere the test is 0 without it."""
     W = v.shape[0]
     t[0] = 0
     t[W + 1] = 0
-    for j in range(W):
-        n[j] = 0
-    for a in range(5):
-        sa = s[rows[a]]
-        for j in range(W):
-            cj = c[j + 2]
-            n[j] += (np.int32(sa[j] < cj) + np.int32(sa[j + 1] < cj) + np.int32(sa[j + 2] < cj)
-                     + np.int32(sa[j + 3] < cj) + np.int32(sa[j + 4] < cj))
-    for j in range(W):
-        t[j + 1] = v[j] & np.uint8(c[j + 2] > g_floor) & np.uint8(n[j] >= 13)
+    s0, s1, s2, s3, s4 = s[rows[0]], s[rows[1]], s[rows[2]], s[rows[3]], s[rows[4]]
+    nchunks = (W + COUNT_CHUNK - 1) // COUNT_CHUNK
+    hits = np.empty(nchunks, np.bool_)
+    for k in range(nchunks):
+        j0, j1 = k * COUNT_CHUNK, min((k + 1) * COUNT_CHUNK, W)
+        hits[k] = _any_candidate(c[j0 + 2:j1 + 2], v[j0:j1], g_floor)
+    if 2 * hits.sum() > nchunks:  # mostly candidates: the whole row at once (a span's slices cost too)
+        _count_span(s0, s1, s2, s3, s4, c[2:W + 2], v, g_floor, n, t[1:W + 1])
+        return
+    for k in range(nchunks):
+        j0, j1 = k * COUNT_CHUNK, min((k + 1) * COUNT_CHUNK, W)
+        if hits[k]:
+            _count_span(s0[j0:j1 + 4], s1[j0:j1 + 4], s2[j0:j1 + 4], s3[j0:j1 + 4], s4[j0:j1 + 4],
+                        c[j0 + 2:j1 + 2], v[j0:j1], g_floor, n, t[j0 + 1:j1 + 1])
+        else:
+            t[j0 + 1:j1 + 1] = 0
 
 
 @numba.njit(cache=True, nogil=True)
