@@ -1,8 +1,12 @@
-"""The one-direction quality map of :func:`fringe3d.decode.edges.quality_map` in three numba
-passes (private; the fused 3-step path of long sequences, :mod:`fringe3d.reconstruct.fast_quality`).
+"""The one-direction quality map of :func:`fringe3d.decode.edges.quality_map` in one numba
+pass over blocks of rows (private; the fused 3-step path of long sequences,
+:mod:`fringe3d.reconstruct.fast_quality`, and the decoder's :func:`~fringe3d.decode.edges.quality_map`).
 
 ``quality_map`` builds the map from a dozen whole-image passes (the neighbourhood filters of
-:mod:`fringe3d.decode._stencils` and numpy temporaries for every comparison and bit). Here:
+:mod:`fringe3d.decode._stencils` and numpy temporaries for every comparison and bit). Here
+:func:`_quality_rows_kernel` takes :data:`BLOCK` rows at a time and makes, in buffers of the
+block that stay in cache (no whole-image temporary), for the block and the few rows either side
+its stencils need:
 
 1. per row, the jump of ``w`` to its valid 4-neighbours (GRADIENT's input) into a copy padded
    by two replicated pixels, and the fringe contrast ``B / A`` (MOD_DROP's) with its largest
@@ -12,13 +16,18 @@ passes (private; the fused 3-step path of long sequences, :mod:`fringe3d.reconst
    ``v`` (a monotone map, rounding included, keeps the 13th of 25 the middle one), so ``jump >
    ratio * median`` exactly when at least 13 of them are below ``jump`` (a count of 25
    comparisons, about 4x faster than the 113 compare-exchanges of the median network,
-   :func:`fringe3d.decode._median_network._median_kernel`, which a non-finite ratio still takes);
+   :func:`fringe3d.decode._median_network._median_kernel`, which a non-finite ratio still takes
+   in whole-image passes), counted only in column chunks holding a candidate (a valid pixel
+   whose jump passes the floor);
 3. per row, every bit: INVALID, EDGE, GRADIENT (the jump test OR-ed over the 3 x 3
    neighbourhood: the one-pixel growth), MOD_DROP (the largest contrast over five rows of the
    five-column maxima) and RIM.
 
-Every comparison is made in the dtype numpy makes it in (float32 maps, the Python thresholds
-cast to float32), so the map equals ``quality_map``'s bit for bit (``tests/test_fused_quality.py``).
+The masks are read as uint8 bytes and every condition made a 0/1 byte (or a select on one), so
+the pixel loops are branch-free and vectorise. :func:`finish_quality_map` adds the remaining
+bits in one branch-free pass. Every comparison is made in the dtype numpy makes it in (float32
+maps, the Python thresholds cast to float32), so the map equals ``quality_map``'s bit for bit,
+and the previous kernels' (``tests/test_fused_quality.py``).
 """
 from __future__ import annotations
 
@@ -203,23 +212,24 @@ def _contrast_row(v, modulation, average, c, hmax, hc):  # pragma: no cover - co
 
 
 @numba.njit(cache=True, nogil=True)
-def _bits_row(wi, vu, vi, vd, tu, ti, td, h, hc, lo, hi, m_ratio, rim1, vo, b, q):  # pragma: no cover - compiled
+def _bits_row(wi, vu, vi, vd, tu, ti, td, h, hc, lo, hi, m_ratio, rim1, vo, b, top, q):  # pragma: no cover - compiled
     """Every bit of one row (:func:`_bits_kernel`'s) into ``q`` (W): ``wi`` its ``w``; ``vu, vi,
     vd`` the mask bytes of the rows above, itself, below; ``tu, ti, td`` their GRADIENT tests
     (W + 2, zero-padded); ``h`` the five rows' five-column contrast maxima; ``hc`` its contrast;
-    ``vo``, ``b`` (W + 2) uint8 scratch. Each condition is a 0/1 byte times its
+    ``vo``, ``b`` (W + 2) uint8 and ``top`` (W) float32 scratch. Each condition is a 0/1 byte times its
     bit: the loops are branch-free and vectorise."""
     W = wi.shape[0]
     h0, h1, h2, h3, h4 = h
+    for j in range(W):  # MOD_DROP's reference: the contrast's largest value over rows i-2..i+2 of the
+        top[j] = max(max(max(h0[j], h1[j]), max(h2[j], h3[j])), h4[j])  # five-column maxima (few
+        # arrays a loop: each pair that may overlap is a run-time test, and too many keep it scalar)
     for j in range(W + 2):  # GRADIENT: the jump test OR-ed over rows i-1..i+1 ...
         vo[j] = tu[j] | ti[j] | td[j]
-    for j in range(W):  # ... and columns j-1..j+1; EDGE;
-        # MOD_DROP: the contrast's largest value over rows i-2..i+2 of the five-column maxima
-        top = max(max(max(h0[j], h1[j]), max(h2[j], h3[j])), h4[j])
+    for j in range(W):  # ... and columns j-1..j+1; EDGE; MOD_DROP
         x = wi[j]
         b[j] = ((np.uint8((x < lo) | (x > hi)) * np.uint8(EDGE))
                 | ((vo[j] | vo[j + 1] | vo[j + 2]) * np.uint8(GRADIENT))
-                | (np.uint8(hc[j] < m_ratio * top) * np.uint8(MOD_DROP)))
+                | (np.uint8(hc[j] < m_ratio * top[j]) * np.uint8(MOD_DROP)))
     if rim1:  # RIM: a 4-neighbour invalid; the row padded by its own end pixels (the outside counts as valid)
         vp = vo  # done with the test: the mask row padded by its end pixels
         for j in range(W):
@@ -266,6 +276,7 @@ def _quality_rows_kernel(w, v8, modulation, average, g_ratio, g_floor, lo, hi, m
         c = np.empty(W + 4, np.float32)
         n = np.empty(W, np.int32)
         b = np.empty(W + 2, np.uint8)
+        top = np.empty(W, np.float32)
         for r in range(g0, g1):
             gk = g[r - g0]
             sk = s[r - g0]
@@ -282,7 +293,7 @@ def _quality_rows_kernel(w, v8, modulation, average, g_ratio, g_floor, lo, hi, m
             u2, d2 = max(i - 2, 0), min(i + 2, H - 1)
             h = (hm[u2 - c0], hm[u1 - c0], hm[i - c0], hm[d1 - c0], hm[d2 - c0])
             _bits_row(w[i], v8[u1], v8[i], v8[d1], t[u1 - t0], t[i - t0], t[d1 - t0], h, hc[i - c0],
-                      lo, hi, m_ratio, rim1, vr, b, q[i])
+                      lo, hi, m_ratio, rim1, vr, b, top, q[i])
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
