@@ -78,3 +78,101 @@ def test_gradient_count_equals_the_median_test_on_tied_jumps(ratio, floor):
     _jump_count_kernel(valid, gp, np.float32(ratio), np.float32(floor), got)
     assert want[:, 1:-1].any() and not want[:, 1:-1].all()  # the test passes and fails somewhere
     np.testing.assert_array_equal(got, want)
+
+
+def simulated(shape, seed):
+    """Maps decoded from three simulated 8-bit phase-shifted frames: a fringe coordinate ramp
+    (0.8 projector px per camera px) over a box with depth steps and a slanted face, a dark
+    region (no fringes: A = B = 0), a blown-out one (clipped at 255), stray light, NaN, noise."""
+    from fringe3d.phase.psp import wrapped_phase
+
+    rng = np.random.default_rng(seed)
+    H, W = shape
+    v, u = np.mgrid[0:H, 0:W].astype(np.float64)
+    w = 0.8 * u + 0.05 * v
+    box = (abs(u - W / 2) < W / 4) & (abs(v - H / 2) < H / 4)
+    w[box] += 7.0 + 0.9 * (u[box] - W / 2)  # a step, then a steeper face
+    w += rng.normal(0, 0.03, shape)
+    gain = np.full(shape, 160.0)
+    gain[(u > 5 * W / 6) & (v < H / 3)] = 400.0  # blown out: clipped frames
+    ambient = np.full(shape, 20.0)
+    unlit = (u < W / 6) & (v > H / 2)  # no light at all: A = 0 where the noise rounds to 0
+    gain[unlit], ambient[unlit] = 0.0, 0.0
+    mixed = rng.random(shape) < 0.03  # stray light: a contrast drop
+    ambient[mixed], gain[mixed] = 150.0, 100.0
+    phi = 2 * np.pi * w / 18.0
+    frames = np.stack([np.clip(np.round(ambient + gain * (0.5 + 0.5 * np.cos(phi + 2 * np.pi * k / 3))
+                                        + rng.normal(0, 1.0, shape)), 0, 255) for k in range(3)]).astype(np.uint8)
+    pr, saturated = wrapped_phase(frames, saturation_level=255, return_saturated=True)
+    mask = (pr.modulation >= 8.0) & ~saturated
+    w32 = np.where(mask, w, np.nan).astype(np.float32)
+    w32[rng.random(shape) < 0.01] = np.nan  # NaN where the mask says valid: unwrapping failures
+    order = mask & (rng.random(shape) < 0.01)
+    residual = rng.exponential(0.3, shape).astype(np.float32)
+    residual[rng.random(shape) < 0.02] = np.nan
+    return mask, order, saturated, w32, pr.modulation, pr.average, residual
+
+
+# odd sizes; 65 and 97 rows end in a block of one row (BLOCK = 32), 31 is within one block; 517 columns:
+# rows counted in chunks (COUNT_CHUNK = 128), some skipped, the last chunk of 5 columns
+SIM_SHAPES = [(1, 1), (1, 9), (7, 1), (3, 5), (31, 47), (65, 81), (97, 130), (33, 517)]
+
+
+@pytest.mark.parametrize("shape", SIM_SHAPES)
+def test_quality_map_equals_previous_kernels_on_simulated_frames(shape):
+    """The row-blocked quality map and the branch-free finish equal the previous kernels
+    (tests/reference_implementations.py) bit for bit, every option combination."""
+    import reference_implementations as ref
+
+    from fringe3d.decode._fused_quality import finish_quality_map
+
+    extent = (-0.5, 0.8 * shape[1] + 0.5)
+    for seed in range(2):
+        mask, order, sat, w, mod, avg, res = simulated(shape, seed)
+        valid = mask & ~order
+        for rim in (0, 1, 2):
+            for ratio, floor, mratio in ((4.0, 1.0, 0.5), (2.5, 0.3, 0.8), (0.0, 0.0, 0.5), (-1.0, 1.0, 1.0),
+                                         (np.inf, 1.0, 0.5)):
+                kw = dict(gradient_ratio=ratio, gradient_floor=floor, modulation_ratio=mratio, rim=rim)
+                want = ref.fused_quality_map_previous(valid, w, extent, 2.0, mod, avg, **kw)
+                got = fused_quality_map(valid, w, extent, 2.0, mod, avg, **kw)
+                np.testing.assert_array_equal(got, want, err_msg=f"{shape} {seed} {kw}")
+        for o, s, r, thr in ((order, sat, res, 0.5), (None, None, None, 0.5), (order, None, res, np.inf),
+                             (None, sat, res.astype(np.float64), 0.9), (order, sat, None, 0.5)):
+            want, got = want.copy(), want.copy()
+            ref.finish_quality_map_previous(want, mask, o, s, r, thr)
+            finish_quality_map(got, mask, o, s, r, thr)
+            np.testing.assert_array_equal(got, want)
+
+
+def test_simulated_frames_exercise_every_bit():
+    """The simulated maps of the test above set every bit somewhere (so equality means something)."""
+    from fringe3d.decode._fused_quality import finish_quality_map
+
+    mask, order, sat, w, mod, avg, res = simulated((97, 130), 0)
+    q = fused_quality_map(mask & ~order, w, (-0.5, 104.5), 2.0, mod, avg, rim=1)
+    finish_quality_map(q, mask, order, sat, res, 0.5)
+    for bit in edges.BITS:
+        assert (q & bit).any(), edges.BITS[bit]
+    assert np.isnan(w[mask & ~order]).any() and (avg == 0).any()
+
+
+def test_sparse_jumps_give_the_previous_map():
+    """A smooth ramp (jumps below the floor) with a few depth steps: most column chunks of a row
+    skip GRADIENT's count, the few with a step count it, and the map equals the previous kernels'."""
+    import reference_implementations as ref
+
+    rng = np.random.default_rng(5)
+    H, W = 24, 700
+    w = (0.5 * np.arange(W, dtype=np.float32))[None, :].repeat(H, 0) + rng.normal(0, 0.02, (H, W)).astype(np.float32)
+    rows, cols = rng.integers(0, H, 8), rng.integers(0, W, 8)
+    w[rows, cols] += np.float32(5.0)  # isolated steps: each row holds at most a few
+    valid = rng.random((H, W)) > 0.02
+    w[~valid] = np.nan
+    avg = np.full((H, W), 100, np.float32)
+    mod = rng.uniform(40, 80, (H, W)).astype(np.float32)
+    kw = dict(gradient_ratio=4.0, gradient_floor=1.0, modulation_ratio=0.5, rim=1)
+    want = ref.fused_quality_map_previous(valid, w, (-0.5, 350.5), 2.0, mod, avg, **kw)
+    got = fused_quality_map(valid, w, (-0.5, 350.5), 2.0, mod, avg, **kw)
+    assert (want & edges.GRADIENT).any()
+    np.testing.assert_array_equal(got, want)
