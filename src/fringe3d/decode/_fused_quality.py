@@ -98,7 +98,7 @@ def _jump_test_kernel(valid, gp, ref, g_ratio, g_floor, t):  # pragma: no cover 
 def _jump_count_kernel(valid, gp, g_ratio, g_floor, t):  # pragma: no cover - compiled
     """:func:`_jump_test_kernel` without the median: ``jump > ratio * median`` of the 25 jumps
     ``v`` around the pixel exactly when ``ratio * v < jump`` for at least 13 of them (``ratio``
-    finite); ``gp`` whole (the tests' entry: :func:`_jump_quality_kernel` makes it a block at a time)."""
+    finite); ``gp`` whole (the tests' entry: :func:`_quality_rows_kernel` makes it a block at a time)."""
     H, W = valid.shape
     v8 = valid.view(np.uint8)
     for i in numba.prange(H):
@@ -213,7 +213,7 @@ def _contrast_row(v, modulation, average, c, hmax, hc):  # pragma: no cover - co
 
 @numba.njit(cache=True, nogil=True)
 def _bits_row(wi, vu, vi, vd, tu, ti, td, h, hc, lo, hi, m_ratio, rim1, vo, b, top, q):  # pragma: no cover - compiled
-    """Every bit of one row (:func:`_bits_kernel`'s) into ``q`` (W): ``wi`` its ``w``; ``vu, vi,
+    """Every bit of one row into ``q`` (W): ``wi`` its ``w``; ``vu, vi,
     vd`` the mask bytes of the rows above, itself, below; ``tu, ti, td`` their GRADIENT tests
     (W + 2, zero-padded); ``h`` the five rows' five-column contrast maxima; ``hc`` its contrast;
     ``vo``, ``b`` (W + 2) uint8 and ``top`` (W) float32 scratch. Each condition is a 0/1 byte times its
@@ -298,36 +298,18 @@ def _quality_rows_kernel(w, v8, modulation, average, g_ratio, g_floor, lo, hi, m
 
 @numba.njit(parallel=True, cache=True, nogil=True)
 def _bits_kernel(w, valid, t, hmax, lo, hi, m_ratio, rim1, q):  # pragma: no cover - compiled
-    """Every bit of row ``i`` from row-clamped neighbours (a repeated row leaves an OR or a max
-    alone); each condition is made a 0/1 integer times its bit, so the pixel loops
-    are branch-free and vectorise."""
+    """Every bit of row ``i`` (:func:`_bits_row`) from whole-image maps, row-clamped neighbours
+    (a repeated row leaves an OR or a max alone): ``t`` (H, W + 2) GRADIENT tests, ``hmax``
+    (2H, W) the five-column contrast maxima then the contrast (the median path of
+    :func:`fused_quality_map`)."""
     H, W = w.shape
+    v8 = valid.view(np.uint8)
     for i in numba.prange(H):
         u1, d1 = max(i - 1, 0), min(i + 1, H - 1)
         u2, d2 = max(i - 2, 0), min(i + 2, H - 1)
-        vo = np.empty(W + 2, np.uint8)  # GRADIENT: the jump test OR-ed over rows i-1..i+1 ...
-        for j in range(W + 2):
-            vo[j] = t[u1, j] | t[i, j] | t[d1, j]
-        b = np.empty(W, np.uint8)
-        for j in range(W):  # ... and columns j-1..j+1; EDGE; MOD_DROP: the contrast's largest
-            # value over rows i-2..i+2 of the five-column maxima
-            top = max(max(max(hmax[u2, j], hmax[u1, j]), max(hmax[i, j], hmax[d1, j])), hmax[d2, j])
-            x = w[i, j]
-            b[j] = ((np.uint8((x < lo) | (x > hi)) * np.uint8(EDGE))
-                    | ((vo[j] | vo[j + 1] | vo[j + 2]) * np.uint8(GRADIENT))
-                    | (np.uint8(hmax[i + H, j] < m_ratio * top) * np.uint8(MOD_DROP)))
-        if rim1:  # RIM: a 4-neighbour invalid; the row padded by its own end pixels (the outside counts as valid)
-            vp = np.empty(W + 2, np.uint8)
-            for j in range(W):
-                vp[j + 1] = valid[i, j]
-            vp[0] = valid[i, 0]
-            vp[W + 1] = valid[i, W - 1]
-            for j in range(W):
-                inside = vp[j] & vp[j + 1] & vp[j + 2] & np.uint8(valid[u1, j]) & np.uint8(valid[d1, j])
-                b[j] |= (inside ^ np.uint8(1)) * np.uint8(RIM)
-        for j in range(W):  # the bits where valid (v = 1: a mask of ones), else INVALID alone
-            v = np.uint8(valid[i, j])
-            q[i, j] = (b[j] & (np.uint8(0) - v)) | ((v ^ np.uint8(1)) * np.uint8(INVALID))
+        _bits_row(w[i], v8[u1], v8[i], v8[d1], t[u1], t[i], t[d1], (hmax[u2], hmax[u1], hmax[i], hmax[d1], hmax[d2]),
+                  hmax[i + H], lo, hi, m_ratio, rim1, np.empty(W + 2, np.uint8), np.empty(W + 2, np.uint8),
+                  np.empty(W, np.float32), q[i])
 
 
 def fused_quality_map(mask: np.ndarray, w: np.ndarray, extent: tuple[float, float], margin: float,
