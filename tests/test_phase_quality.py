@@ -60,3 +60,34 @@ def test_check_frames_counts_integer_frames_at_the_exact_cuts():
     assert check_frames(words, bit_depth=12)["saturated_fraction"] == [0.0, 0.1]
     with pytest.warns(FrameQualityWarning):
         assert check_frames(frames, bit_depth=12)["saturated_fraction"] == [0.0] * 4
+
+
+def _subsample_share(frames, cut, step):
+    """The share of ``frames[f, ::step, ::step]`` at or above ``cut`` per frame, counted directly
+    on a copy of the subsample (integers against ``ceil(cut)``, floats in their own dtype)."""
+    sub = np.ascontiguousarray(frames[:, ::step, ::step]).reshape(frames.shape[0], -1)
+    c = sub.dtype.type(np.ceil(cut) if sub.dtype.kind in "ui" else cut)
+    return [np.count_nonzero(row >= c) / max(1, sub.shape[1]) for row in sub]
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16, np.float32, np.float64])
+def test_check_frames_shares_are_the_counts_of_the_strided_subsample(dtype):
+    """The compiled counting pass reports exactly the shares of the strided subsample, whatever
+    the dtype, the layout (a transposed view) and the height (over 255 sampled rows per frame)."""
+    rng = np.random.default_rng(3)
+    top = 1.0 if np.dtype(dtype).kind == "f" else np.iinfo(dtype).max
+    for shape in ((3, 600, 7), (3, 700, 800)):
+        frames = (rng.random(shape) * 1.1 * top).clip(0, top).astype(dtype)
+        frames[0] = (frames[0] * 0.01).astype(dtype)                     # mostly dark
+        frames[1, :, ::3] = dtype(top)                                   # a third saturated
+        frames[2, ::2] = dtype(0.02 * top) if np.dtype(dtype).kind == "f" else dtype(np.ceil(0.02 * top))
+        for f in (frames, np.swapaxes(frames, 1, 2)):
+            step = max(1, int(np.sqrt(f.shape[1] * f.shape[2] / 16384)))
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", FrameQualityWarning)
+                out = check_frames(f)
+            level = saturation_level(f) if np.dtype(dtype).kind != "f" else np.inf
+            want_sat = _subsample_share(f, level, step) if np.isfinite(level) else [0.0] * 3
+            assert out["saturated_fraction"] == want_sat
+            lit = _subsample_share(f, 0.02 * full_scale(f), step)
+            assert out["dark"] == [i for i in range(3) if lit[i] < 0.01]

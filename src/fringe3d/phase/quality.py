@@ -9,10 +9,12 @@ design (a black reference frame) and binary frames, whose full-scale pixels are 
 """
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from typing import Sequence
 
+import numba
 import numpy as np
 
 from fringe3d.utils.warning_types import DataQualityWarning
@@ -42,7 +44,7 @@ def full_scale(frames: np.ndarray, bit_depth: int | None = None) -> float:
             raise ValueError(f"bit_depth must be between 1 and 32, got {bit_depth}")
         return float(2 ** int(bit_depth) - 1)
     if frames.dtype.kind in "ui":
-        return float(np.iinfo(frames.dtype).max)
+        return float(_int_range(frames.dtype)[1])
     return 1.0
 
 
@@ -128,6 +130,78 @@ def _share_at_least(sub: np.ndarray, cut: float) -> np.ndarray:
     return np.array([np.count_nonzero(row) for row in at], np.float64) / max(1, sub.shape[1])
 
 
+def _subsample_shares(frames: np.ndarray, step: int, cuts: tuple[float, float]) -> tuple[list[float], list[float]]:
+    """The shares (Python floats, one per frame) of the pixels ``frames[:, ::step, ::step]`` at or
+    above each of the two ``cuts``: :func:`_share_at_least` of that subsample (the same counts,
+    the same float64 divisions), from one compiled pass over the sampled rows (no strided copy)
+    for an (F, H, W) array of a native integer, float32 or float64 dtype; numpy's otherwise. A
+    cut of ``inf`` counts nothing. Integer frames are compared with ``ceil(cut)`` in their dtype,
+    float frames with the cut in their dtype (numpy's comparison with a Python float)."""
+    dt = frames.dtype
+    nf = frames.shape[0]
+    if not (frames.ndim == 3 and dt.isnative and (dt.kind in "ui" or dt in (np.float32, np.float64))):
+        sub = np.ascontiguousarray(frames[:, ::step, ::step]).reshape(nf, -1)
+        return tuple((_share_at_least(sub, c) if math.isfinite(c) else np.zeros(nf)).tolist()  # type: ignore[return-value]
+                     for c in cuts)
+    fixed: list[float | None] = []  # a share every frame has whatever its values (0 or 1), else None
+    values = []
+    for c in cuts:
+        if math.isinf(c) and c > 0:
+            fixed.append(0.0)
+            values.append(dt.type(0))
+        elif dt.kind in "ui":
+            lo, hi = _int_range(dt)
+            k = math.ceil(c)
+            fixed.append(0.0 if k > hi else 1.0 if k <= lo else None)
+            values.append(dt.type(min(max(k, lo), hi)))
+        else:
+            fixed.append(None)
+            values.append(dt.type(c))
+    counts = np.zeros((2, nf), np.int64)
+    _count_at_least(frames, step, values[0], values[1], counts)
+    n = max(1, -(-frames.shape[1] // step) * -(-frames.shape[2] // step))
+    # int / int is the correctly rounded quotient, as float64 count / float64 n
+    return tuple([f] * nf if f is not None else [c / n for c in row]  # type: ignore[return-value]
+                 for f, row in zip(fixed, counts.tolist()))
+
+
+@functools.lru_cache(maxsize=None)
+def _int_range(dtype: np.dtype) -> tuple[int, int]:
+    """``(min, max)`` of an integer dtype (``np.iinfo``, looked up once per dtype)."""
+    info = np.iinfo(dtype)
+    return int(info.min), int(info.max)
+
+
+@numba.njit(cache=True, nogil=True)
+def _count_at_least(frames, step, cut_a, cut_b, counts):  # pragma: no cover - compiled
+    """``counts[:, f] = (#(x >= cut_a), #(x >= cut_b))`` over ``x`` of ``frames[f, ::step, ::step]``.
+    Each sampled row is compared whole (contiguous, vectorised) into per-column uint8 tallies,
+    which are summed at the sampled columns every 255 rows and at each frame's end."""
+    nf, h, w = frames.shape
+    tally_a = np.zeros(w, np.uint8)
+    tally_b = np.zeros(w, np.uint8)
+    for f in range(nf):
+        na = 0
+        nb = 0
+        rows = 0
+        for r in range(0, h, step):
+            row = frames[f, r]
+            for c in range(w):
+                x = row[c]
+                tally_a[c] += np.uint8(x >= cut_a)
+                tally_b[c] += np.uint8(x >= cut_b)
+            rows += 1
+            if rows == 255 or r + step >= h:
+                for c in range(0, w, step):
+                    na += tally_a[c]
+                    nb += tally_b[c]
+                tally_a[:] = 0
+                tally_b[:] = 0
+                rows = 0
+        counts[0, f] = na
+        counts[1, f] = nb
+
+
 def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = "frames",
                  dark_by_design: Sequence[int] = (), binary: Sequence[int] = ()) -> dict:
     """Warn (:class:`FrameQualityWarning`) about all-dark or heavily saturated frames.
@@ -163,27 +237,27 @@ def check_frames(frames: np.ndarray, bit_depth: int | None = None, where: str = 
     fs = full_scale(frames, bit_depth)
     level = saturation_level(frames, bit_depth)
     # per-frame statistics on a strided subsample of ~16k pixels (cheap on large frames)
-    step = max(1, int(np.sqrt(frames.shape[1] * frames.shape[2] / 16384)))
-    sub = np.ascontiguousarray(frames[:, ::step, ::step]).reshape(frames.shape[0], -1)
+    step = max(1, int(math.sqrt(frames.shape[1] * frames.shape[2] / 16384)))
     # the DARK_PERCENTILE-th percentile is below the cut exactly when fewer than (100 - DARK_PERCENTILE) %
-    # of the pixels reach it: one comparison pass, as cheap as the maximum it replaces
-    lit_share = _share_at_least(sub, DARK_FRACTION * fs)
+    # of the pixels reach it: one comparison pass, as cheap as the maximum it replaces; the
+    # saturation share from the same pass (level inf: float frames without a bit depth, none)
+    lit_share, sat_frac = _subsample_shares(frames, step, (DARK_FRACTION * fs, level))
     designed = {int(i) for i in dark_by_design}
-    dark = [int(i) for i in np.flatnonzero(lit_share < 1.0 - DARK_PERCENTILE / 100.0)]
+    lit_cut = 1.0 - DARK_PERCENTILE / 100.0
+    dark = [i for i, share in enumerate(lit_share) if share < lit_cut]
     if len(dark) < len(lit_share):  # all frames dark is reported whatever their design
         dark = [i for i in dark if i not in designed]
-    sat_frac = _share_at_least(sub, level) if np.isfinite(level) else np.zeros(sub.shape[0])
     exempt = {int(i) for i in binary}
-    sat = [int(i) for i in np.flatnonzero(sat_frac > SATURATED_WARN_FRACTION) if int(i) not in exempt]
+    sat = [i for i, share in enumerate(sat_frac) if share > SATURATED_WARN_FRACTION and i not in exempt]
     if dark:
         cut = f"{DARK_PERCENTILE:g}th percentile < {DARK_FRACTION:.0%} of full scale {fs:g}"
         msg = (f"all frames are dark (nearly black: {cut})" if len(dark) == len(lit_share)
                else f"{len(dark)} dark frame(s) (nearly black: {cut}): {dark}")
         warnings.warn(f"{where}: {msg}; affected pixels are masked", FrameQualityWarning, stacklevel=3)
     if sat:
-        worst = float(sat_frac[sat].max())
+        worst = max(sat_frac[i] for i in sat)
         warnings.warn(f"{where}: {len(sat)} frame(s) with more than {SATURATED_WARN_FRACTION:.0%} saturated "
                       f"pixels (worst {worst:.0%} at level {level:g}): {sat}; pixels are masked where clipping "
                       "biases the phase beyond its noise", FrameQualityWarning, stacklevel=3)
-    return {"dark": dark, "saturated": sat, "saturated_fraction": [float(x) for x in sat_frac],
+    return {"dark": dark, "saturated": sat, "saturated_fraction": sat_frac,
             "frames": int(frames.shape[0]), "full_scale": float(fs), "dark_by_design": sorted(designed)}
