@@ -9,6 +9,8 @@ fit; a last pass sums the squared residuals (the standard error without the canc
 """
 from __future__ import annotations
 
+import functools
+
 import numba
 import numpy as np
 
@@ -16,7 +18,8 @@ import numpy as np
 @numba.njit(cache=True)
 def _ratio_pass(frames, mask, threshold, cos1, sin1, cos2, sin2):  # pragma: no cover - compiled
     """(ratio, standard error, pixels) over the pixels of ``mask`` whose ``|S_1| > threshold``;
-    ``frames`` (N, P) float64, ``mask`` (P,) bool, the DFT weights already divided by N.
+    ``frames`` (N, P) of any real dtype (each value taken as float64, exactly), ``mask`` (P,)
+    bool, the DFT weights already divided by N.
 
     Per pixel ``y = S_2 e^{-2 i phi}`` against ``model = |S_1|``, or for N = 4 ``y = Re S_2``
     against ``model = c_1 cos 2 phi`` (see ``harmonics._ratio``)."""
@@ -28,7 +31,7 @@ def _ratio_pass(frames, mask, threshold, cos1, sin1, cos2, sin2):  # pragma: no 
     for k in range(n):  # the bins, frame by frame (contiguous, vectorised)
         a, b, c, d = cos1[k], sin1[k], cos2[k], sin2[k]
         for p in range(npx):
-            v = frames[k, p]
+            v = np.float64(frames[k, p])
             re1[p] += a * v
             im1[p] -= b * v
             re2[p] += c * v
@@ -76,9 +79,20 @@ def harmonic_ratio_pass(frames: np.ndarray, mask: np.ndarray, threshold: float) 
     """``c_2 / c_1``, its standard error and the pixels used, of an equally shifted (N, H, W)
     set over ``mask`` (H, W) bool where the first-bin magnitude exceeds ``threshold``."""
     n = frames.shape[0]
-    ang = 2.0 * np.pi * np.arange(n) / n
-    f = np.ascontiguousarray(frames, np.float64).reshape(n, -1)
+    f = np.asarray(frames)
+    if not (f.dtype.isnative and (f.dtype.kind in "ui" or f.dtype in (np.float32, np.float64))):
+        f = f.astype(np.float64)  # the pass reads native integers, float32 and float64 as they are
+    f = np.ascontiguousarray(f).reshape(n, -1)
     m = np.ascontiguousarray(np.broadcast_to(np.asarray(mask, bool), frames.shape[1:])).reshape(-1)
-    ratio, sigma, count = _ratio_pass(f, m, float(threshold), np.cos(ang) / n, np.sin(ang) / n, np.cos(2 * ang) / n,
-                                      np.sin(2 * ang) / n)
+    ratio, sigma, count = _ratio_pass(f, m, float(threshold), *_dft_weights(n))
     return float(ratio), float(sigma), int(count)
+
+
+@functools.lru_cache(maxsize=16)
+def _dft_weights(n: int) -> tuple[np.ndarray, ...]:
+    """``cos``, ``sin`` of bin 1 and of bin 2 of an N-step set, divided by N (cached per N, read-only)."""
+    ang = 2.0 * np.pi * np.arange(n) / n
+    out = (np.cos(ang) / n, np.sin(ang) / n, np.cos(2 * ang) / n, np.sin(2 * ang) / n)
+    for a in out:
+        a.flags.writeable = False
+    return out

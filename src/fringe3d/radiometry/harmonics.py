@@ -110,13 +110,10 @@ TABLE_SIZE = 64
 
 def _observed_ratios(gammas: np.ndarray, steps: int, samples: int = 512) -> np.ndarray:
     """:func:`observed_ratio` of each of ``gammas`` (G,) in one vectorised evaluation, (G,) float64."""
-    phi = 2.0 * np.pi * np.arange(samples) / samples
-    d = 2.0 * np.pi * np.arange(steps) / steps
-    x = 0.5 * (1.0 + np.cos(phi[None, :] + d[:, None]))                 # (N, S)
+    x, cos_ang, sin_ang = _ideal_capture(int(steps), int(samples))
     frames = x[None] ** np.asarray(gammas, float)[:, None, None]          # (G, N, S)
-    ang = 2.0 * np.pi * np.outer([1, 2], np.arange(steps)) / steps
-    s = (np.einsum("mk,gks->gms", np.cos(ang), frames)
-         - 1j * np.einsum("mk,gks->gms", np.sin(ang), frames)) / steps   # (G, 2, S) bins 1 and 2
+    s = (np.einsum("mk,gks->gms", cos_ang, frames)
+         - 1j * np.einsum("mk,gks->gms", sin_ang, frames)) / steps       # (G, 2, S) bins 1 and 2
     s1 = s[:, 0]
     amp = np.abs(s1)
     rot = (np.conj(s1) / amp) ** 2
@@ -125,6 +122,21 @@ def _observed_ratios(gammas: np.ndarray, steps: int, samples: int = 512) -> np.n
         model = 2.0 * amp * np.real(1.0 / rot)
         return np.sum(model * y, axis=1) / np.sum(model ** 2, axis=1)
     return np.sum(amp * np.real(s[:, 1] * rot), axis=1) / np.sum(amp ** 2, axis=1)
+
+
+@functools.lru_cache(maxsize=16)
+def _ideal_capture(steps: int, samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What :func:`_observed_ratios` evaluates for every gamma (cached per ``steps`` and
+    ``samples``, read-only): the (N, S) linear pattern values ``1/2 (1 + cos(phi + 2 pi k / N))``
+    on ``S`` phases and the (2, N) DFT weights ``cos``, ``sin`` of bins 1 and 2."""
+    phi = 2.0 * np.pi * np.arange(samples) / samples
+    d = 2.0 * np.pi * np.arange(steps) / steps
+    x = 0.5 * (1.0 + np.cos(phi[None, :] + d[:, None]))                 # (N, S)
+    ang = 2.0 * np.pi * np.outer([1, 2], np.arange(steps)) / steps
+    out = (x, np.cos(ang), np.sin(ang))
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 @functools.lru_cache(maxsize=8)

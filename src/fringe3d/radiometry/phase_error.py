@@ -20,6 +20,7 @@ shape measurement using a digital video projector", Appl. Opt. 46(1), 36-43 (200
 """
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import numpy as np
@@ -73,10 +74,30 @@ def bin_centres(bins: int) -> np.ndarray:
 def simulate_phase(response: ResponseLUT, phi, shifts) -> np.ndarray:
     """N-step least-squares phase (Eq. 2.4) of ``r(1/2 (1 + cos(phi + delta_k)))``; rad, like ``phi``."""
     d = np.asarray(shifts, float)
-    phi = np.asarray(phi, float)
-    samples = response.apply(0.5 * (1.0 + np.cos(phi[None] + d.reshape((-1,) + (1,) * phi.ndim))))
-    _, b, c = np.tensordot(lsq_coefficients(d), samples, axes=1)
+    return _lsq_phase(response, _patterns(np.asarray(phi, float), d), d)
+
+
+def _patterns(phi: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """(N, ...) projected pattern values ``1/2 (1 + cos(phi + delta_k))`` of :func:`simulate_phase`."""
+    return 0.5 * (1.0 + np.cos(phi[None] + d.reshape((-1,) + (1,) * phi.ndim)))
+
+
+def _lsq_phase(response: ResponseLUT, patterns: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """The N-step phase of :func:`simulate_phase` from its pattern values (:func:`_patterns`)."""
+    _, b, c = np.tensordot(lsq_coefficients(d), response.apply(patterns), axes=1)
     return np.arctan2(-c, b)
+
+
+@functools.lru_cache(maxsize=16)
+def _simulated_patterns(shifts: tuple[float, ...], samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """The true phases :func:`bin_centres` of ``samples`` and their pattern values (:func:`_patterns`)
+    for ``shifts``, which :func:`lut_from_response` simulates for every response (cached per
+    shifts and samples, read-only: the decoder's diagnostic asks per direction and cycle)."""
+    true = bin_centres(samples)
+    patterns = _patterns(true, np.array(shifts, float))
+    true.flags.writeable = False
+    patterns.flags.writeable = False
+    return true, patterns
 
 
 def lut_from_response(response: ResponseLUT, shifts=None, steps: int | None = None, bins: int = 256,
@@ -104,8 +125,9 @@ def lut_from_response(response: ResponseLUT, shifts=None, steps: int | None = No
         if steps is None:
             raise ValueError("give the phase shifts or the number of steps")
         shifts = default_shifts(steps)
-    true = bin_centres(samples)
-    return lut_from_reference(simulate_phase(response, true, shifts), true, bins=bins)
+    d = np.asarray(shifts, float)
+    true, patterns = _simulated_patterns(tuple(d.ravel().tolist()), int(samples))
+    return lut_from_reference(_lsq_phase(response, patterns, d), true, bins=bins)
 
 
 def lut_from_reference(measured, reference, mask=None, bins: int = 256) -> PhaseErrorLUT:

@@ -1,0 +1,70 @@
+"""Issue 29: the radiometry diagnostic's per-call work without its per-call constants gives the same
+numbers bit for bit: the simulated phase-error table against its definition (Zhang & Yau's
+N-step phase of the response's patterns), the observed harmonic ratio against the vectorised
+DFT it was written as, and the compiled ratio pass on integer and float32 frames against the
+same pass on their float64 values."""
+import numpy as np
+import pytest
+
+from fringe3d.phase.psp import default_shifts, lsq_coefficients
+from fringe3d.radiometry import lut_from_response, power_law
+from fringe3d.radiometry._harmonic_kernel import harmonic_ratio_pass
+from fringe3d.radiometry.harmonics import _observed_ratios
+from fringe3d.radiometry.phase_error import bin_centres, lut_from_reference
+
+
+def _table_by_definition(response, shifts, samples: int, bins: int):
+    true = bin_centres(samples)
+    d = np.asarray(shifts, float)
+    patterns = response.apply(0.5 * (1.0 + np.cos(true[None] + d[:, None])))
+    _, b, c = np.tensordot(lsq_coefficients(d), patterns, axes=1)
+    return lut_from_reference(np.arctan2(-c, b), true, bins=bins)
+
+
+def _ratios_by_definition(gammas, steps: int, samples: int = 512):
+    phi = 2.0 * np.pi * np.arange(samples) / samples
+    d = 2.0 * np.pi * np.arange(steps) / steps
+    x = 0.5 * (1.0 + np.cos(phi[None, :] + d[:, None]))
+    frames = x[None] ** np.asarray(gammas, float)[:, None, None]
+    ang = 2.0 * np.pi * np.outer([1, 2], np.arange(steps)) / steps
+    s = (np.einsum("mk,gks->gms", np.cos(ang), frames) - 1j * np.einsum("mk,gks->gms", np.sin(ang), frames)) / steps
+    s1 = s[:, 0]
+    amp = np.abs(s1)
+    rot = (np.conj(s1) / amp) ** 2
+    if steps == 4:
+        model = 2.0 * amp * np.real(1.0 / rot)
+        return np.sum(model * s[:, 1].real, axis=1) / np.sum(model ** 2, axis=1)
+    return np.sum(amp * np.real(s[:, 1] * rot), axis=1) / np.sum(amp ** 2, axis=1)
+
+
+@pytest.mark.parametrize("steps", [4, 9])
+def test_phase_error_table_is_the_simulated_n_step_phase_bit_for_bit(steps):
+    for gamma in (0.7, 1.0001, 2.2):
+        for samples, bins in ((2048, 256), (512, 64)):
+            for shifts in (default_shifts(steps), default_shifts(steps) + 0.3):
+                want = _table_by_definition(power_law(gamma), shifts, samples, bins)
+                for _ in range(2):  # the second call reads the cached patterns
+                    got = lut_from_response(power_law(gamma), shifts=shifts, samples=samples, bins=bins)
+                    assert got.phase.tobytes() == want.phase.tobytes()
+                    assert got.error.tobytes() == want.error.tobytes()
+    assert lut_from_response(power_law(2.2), steps=steps).error.tobytes() == \
+        _table_by_definition(power_law(2.2), default_shifts(steps), 8192, 256).error.tobytes()
+
+
+@pytest.mark.parametrize("steps", [4, 5, 9])
+def test_observed_ratios_are_the_ideal_capture_dft_bit_for_bit(steps):
+    gammas = np.array([0.5, 1.0, 1.0001, 2.2, 6.0])
+    for _ in range(2):
+        assert _observed_ratios(gammas, steps).tobytes() == _ratios_by_definition(gammas, steps).tobytes()
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+def test_ratio_pass_reads_frames_as_their_float64_values(dtype):
+    rng = np.random.default_rng(1)
+    steps, h, w = 5, 40, 56
+    phi = np.cumsum(rng.uniform(0.05, 0.3, (h, w)), axis=1)
+    frames = np.stack([20 + 200 * (0.5 * (1 + np.cos(phi + 2 * np.pi * k / steps))) ** 1.8 for k in range(steps)])
+    frames = (frames + rng.normal(0.0, 1.0, frames.shape)).astype(dtype)
+    mask = rng.uniform(size=(h, w)) > 0.2
+    for f, m in ((frames, mask), (frames[:, ::2, 1::3], mask[::2, 1::3])):  # contiguous, and a strided view
+        assert harmonic_ratio_pass(f, m, 10.0) == harmonic_ratio_pass(f.astype(np.float64), m, 10.0)
