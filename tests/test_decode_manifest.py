@@ -237,3 +237,28 @@ def test_max_residual_option_masks_exactly_the_pixels_with_large_unwrapping_resi
     assert wrong_loose.sum() > 20 and wrong_strict.sum() < 0.5 * wrong_loose.sum()
     kept = strict.mask["v"]
     assert np.array_equal(strict.phase["v"][kept], loose.phase["v"][kept])
+
+
+def test_phase_groups_are_read_once_per_set_and_still_checked_every_call():
+    """The decoder reads a set's phase groups once (kept with the set while it lives): the same
+    groups as the manifest's for each direction, a fresh list per call, a set made by
+    ``replace`` read anew, and a broken set rejected on every call."""
+    import gc
+
+    from fringe3d.decode.context import _GROUPS, _read_phase_groups, phase_groups
+    ps = sets.calibration(800, 600)
+    for d in ("v", "h"):
+        first = phase_groups(ps, d)
+        assert first == _read_phase_groups(ps, d) and [g.period for g in first] == [18.0, 21.0, 144.0]
+        first.clear()
+        assert phase_groups(ps, d) == _read_phase_groups(ps, d)
+    other = replace(ps, frames=tuple(replace(f, period=2 * f.period) if f.role == "phase" else f for f in ps.frames))
+    assert [g.period for g in phase_groups(other, "v")] == [36.0, 42.0, 288.0]
+    broken = replace(ps, frames=ps.frames[:5] + ps.frames[6:])
+    for _ in range(2):
+        with pytest.raises(ValueError, match=r"declares 9 steps.*missing \[4\]"):
+            phase_groups(broken, "v")
+    key = id(other)
+    del other
+    gc.collect()
+    assert key not in _GROUPS or _GROUPS[key][0]() is not None

@@ -82,8 +82,15 @@ def _sample(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None = None
     h, w = np.shape(ctx.frames[group.indices[0]])[-2:]
     step = max(1, int(np.ceil(np.sqrt(h * w / SAMPLE_PIXELS))))
     frames = _strided_sample(ctx.frames, group.indices, step)
-    modulation = (pr.modulation[::step, ::step] if pr is not None
-                  else wrapped_phase(frames, shifts=np.asarray(group.shifts, float)).modulation)
+    if pr is not None:
+        modulation = pr.modulation[::step, ::step]
+    else:  # ~SAMPLE_PIXELS pixels: one thread (a parallel region's fork and join cost more than they save)
+        n = numba.get_num_threads()
+        numba.set_num_threads(1)  # this thread's own setting
+        try:
+            modulation = wrapped_phase(frames, shifts=np.asarray(group.shifts, float)).modulation
+        finally:
+            numba.set_num_threads(n)
     return frames, modulation >= max(ctx.min_modulation, 1e-12)
 
 

@@ -8,6 +8,7 @@ Eq. 4.1-4.4, with the lobe chosen by :func:`ftp_lobe_angle`) and its validity ma
 from __future__ import annotations
 
 import warnings
+import weakref
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -176,12 +177,31 @@ class DecodeContext:
         return w_range(self.plan.angle, self.patterns.width, self.patterns.height)
 
 
+#: :func:`phase_groups` of the pattern sets alive, by ``id``: ``(weak reference, {direction:
+#: groups})`` (a frozen set's frames do not change; the entry goes with its set).
+_GROUPS: dict[int, tuple[weakref.ref, dict[str, tuple[PhaseGroup, ...]]]] = {}
+
+
 def phase_groups(ps: PatternSet, direction: str) -> list[PhaseGroup]:
-    """Phase groups of ``direction``, frames sorted by step, checked for completeness.
+    """Phase groups of ``direction``, frames sorted by step, checked for completeness (read
+    from the manifest once per set and direction: the decoder asks per cycle).
 
     Raises ``ValueError`` when a group mixes periods or angles, repeats a step, or has fewer
     frames than its ``steps`` declares.
     """
+    entry = _GROUPS.get(id(ps))
+    if entry is None or entry[0]() is not ps:
+        key = id(ps)
+        entry = (weakref.ref(ps, lambda _, key=key: _GROUPS.pop(key, None)), {})
+        _GROUPS[key] = entry
+    groups = entry[1].get(direction)
+    if groups is None:
+        groups = entry[1][direction] = tuple(_read_phase_groups(ps, direction))
+    return list(groups)
+
+
+def _read_phase_groups(ps: PatternSet, direction: str) -> list[PhaseGroup]:
+    """:func:`phase_groups` read from the manifest."""
     out = []
     for name in ps.groups(direction=direction, role="phase"):
         idx = [i for i in ps.indices(group=name) if ps.frames[i].role == "phase"]

@@ -169,7 +169,7 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     out = Decoded(info={"frame_checks": checks, "warnings": [str(w.message) for w in caught],
                         "min_modulation": min_mod})
     first: tuple[DecodeContext, Any, Unwrapped] | None = None
-    white = ps.indices(kind="white")
+    white = [i for i, f in enumerate(ps.frames) if f.kind == "white"]  # ps.indices(kind="white")
     texture = None  # the first direction's, from its phase sigma's pass
     for plan in plans:
         ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig,
@@ -284,6 +284,8 @@ def mask_projector_border(out: Decoded, ps: PatternSet, plans: list[DirectionPla
     the larger edge margin of any projector border, or where one direction's own band test set
     EDGE (the same projector pixel lights the pixel in every direction), in place; mask and phase
     follow. One oblique direction alone sees only part of that band (:mod:`fringe3d.decode.edges`)."""
+    if len(plans) < 2:  # no pair of directions
+        return
     usable = [p for p in plans if not is_relative(p.method) and _spans_projector(p, ps)
               and "edge_margin" in out.info.get("quality", {}).get(p.direction, {})]
     pair = next(((a, b) for i, a in enumerate(usable) for b in usable[i + 1:]
