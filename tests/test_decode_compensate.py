@@ -85,3 +85,22 @@ def test_a_response_file_that_is_not_a_gamma_file_exits_2_naming_it(tmp_path, ca
                  str(tmp_path / "r.json")]) == 2
     err = capsys.readouterr().err
     assert "r.json" in err and "not a projector gamma file" in err and not (tmp_path / "dec").exists()
+
+
+def test_diagnostic_reads_the_same_subsample_gathered_before_the_method():
+    """The decoder gathers the diagnostic's subsample before the direction's method (while the
+    frames are cached); the report is the one of a subsample gathered when it is made."""
+    from fringe3d.decode import compensation
+    from fringe3d.decode.context import DecodeContext, phase_groups
+    from fringe3d.decode.options import DecodeOptions
+    ps = sets.phase_shift(18, 4, "v", width=PROJ.width, height=PROJ.height)
+    frames, _ = render(_scene(), PRESET.rig, ps, _settings(2.2, 16), progress=False)
+    reports = []
+    for prefetch in (True, False):
+        ctx = DecodeContext(frames=frames, patterns=ps, direction="v", plan=ps.plans[0], options=DecodeOptions(),
+                            min_modulation=20.0, cache={("phase_groups",): phase_groups(ps, "v")})
+        if prefetch:
+            compensation.prefetch_sample(ctx, ps.plans[0])
+            assert ("radiometry_sample", "v/T18") in ctx.cache
+        reports.append(compensation.radiometry_info(ctx, phase_groups(ps, "v")[0]))
+    assert reports[0] == reports[1] and reports[0]["diagnostic"]["nonlinear"]

@@ -68,3 +68,42 @@ def test_ratio_pass_reads_frames_as_their_float64_values(dtype):
     mask = rng.uniform(size=(h, w)) > 0.2
     for f, m in ((frames, mask), (frames[:, ::2, 1::3], mask[::2, 1::3])):  # contiguous, and a strided view
         assert harmonic_ratio_pass(f, m, 10.0) == harmonic_ratio_pass(f.astype(np.float64), m, 10.0)
+
+
+def _wrap(x):
+    return np.mod(np.asarray(x, float) + np.pi, 2 * np.pi) - np.pi
+
+
+def _reference_table(measured, reference, mask=None, bins=256):
+    """The numpy form of :func:`lut_from_reference` (wrap, bin, unit-vector mean per bin)."""
+    m, r = np.asarray(measured, float), np.asarray(reference, float)
+    ok = np.isfinite(m) & np.isfinite(r)
+    if mask is not None:
+        ok &= np.asarray(mask, bool)
+    mw = _wrap(m[ok])
+    err = _wrap(mw - r[ok])
+    idx = np.minimum(((mw + np.pi) / (2 * np.pi) * bins).astype(int), bins - 1)
+    count = np.bincount(idx, minlength=bins)
+    s, c = np.bincount(idx, np.sin(err), bins), np.bincount(idx, np.cos(err), bins)
+    centres, full = bin_centres(bins), count > 0
+    return np.interp(centres, centres[full], np.arctan2(s[full], c[full]), period=2 * np.pi)
+
+
+def test_table_from_reference_is_the_numpy_wrap_and_bin_bit_for_bit():
+    rng = np.random.default_rng(2)
+    for k in range(40):
+        n = int(rng.integers(500, 4000))
+        m, r = rng.uniform(-20, 20, n), rng.uniform(-9, 9, n)
+        m[:6] = [np.pi, -np.pi, 0.0, -0.0, 3 * np.pi, -2 * np.pi]   # remainders at the edges
+        m[7::11] = np.nan
+        mask = rng.random(n) > 0.3 if k % 2 else None
+        bins = int(rng.choice([16, 64, 256]))
+        got = lut_from_reference(m.reshape(-1, 2)[:, ::-1] if n % 2 == 0 else m, r.reshape(-1, 2)[:, ::-1]
+                                 if n % 2 == 0 else r, None if mask is None else
+                                 (mask.reshape(-1, 2)[:, ::-1] if n % 2 == 0 else mask), bins=bins)
+        want = _reference_table(m.reshape(-1, 2)[:, ::-1] if n % 2 == 0 else m, r.reshape(-1, 2)[:, ::-1]
+                                if n % 2 == 0 else r, None if mask is None else
+                                (mask.reshape(-1, 2)[:, ::-1] if n % 2 == 0 else mask), bins=bins)
+        assert got.error.tobytes() == want.tobytes()
+    with pytest.raises(ValueError, match="covers only 1 of 256 phase bins"):
+        lut_from_reference(np.zeros(10), np.zeros(10))

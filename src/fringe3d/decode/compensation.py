@@ -79,9 +79,7 @@ def _sample(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None = None
     """(N, h, w) float32 frames of a regular subsample of at most ~``SAMPLE_PIXELS`` pixels, and
     their (h, w) bool mask modulation >= ``ctx.min_modulation`` (from ``pr`` when given, else the
     subsample's own modulation, so that no full-size phase is computed for a diagnostic)."""
-    h, w = np.shape(ctx.frames[group.indices[0]])[-2:]
-    step = max(1, int(np.ceil(np.sqrt(h * w / SAMPLE_PIXELS))))
-    frames = _strided_sample(ctx.frames, group.indices, step)
+    frames, step = ctx.cache.get(("radiometry_sample", group.name)) or _gathered_sample(ctx, group)
     if pr is not None:
         modulation = pr.modulation[::step, ::step]
     else:  # ~SAMPLE_PIXELS pixels: one thread (a parallel region's fork and join cost more than they save)
@@ -92,6 +90,30 @@ def _sample(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult | None = None
         finally:
             numba.set_num_threads(n)
     return frames, modulation >= max(ctx.min_modulation, 1e-12)
+
+
+def _gathered_sample(ctx: DecodeContext, group: PhaseGroup) -> tuple[np.ndarray, int]:
+    """The (N, h, w) float32 subsample of :func:`_sample` and its step."""
+    h, w = np.shape(ctx.frames[group.indices[0]])[-2:]
+    step = max(1, int(np.ceil(np.sqrt(h * w / SAMPLE_PIXELS))))
+    return _strided_sample(ctx.frames, group.indices, step), step
+
+
+def prefetch_sample(ctx: DecodeContext, plan: Any) -> None:
+    """Gather the subsample the diagnostic of ``plan``'s narrowest group (:func:`radiometry_info`)
+    will read, into ``ctx.cache``, when that group has N >= 4 equal steps: called before the
+    direction's method, while the frames are still in the processor's cache (after its passes
+    and its outputs, reading them again comes from memory). The same values :func:`_sample`
+    gathers otherwise; nothing is done (and nothing raised) for any other plan."""
+    groups = ctx.cache.get(("phase_groups",)) or []
+    if not groups:
+        return
+    try:
+        g = ctx.group_for_period(plan.periods[0]) if plan.periods else groups[0]
+    except ValueError:  # the method says so, in its own words
+        return
+    if len(g.indices) >= 4 and equal_steps(g.shifts):
+        ctx.cache[("radiometry_sample", g.name)] = _gathered_sample(ctx, g)
 
 
 def _strided_sample(frames: np.ndarray, indices, step: int) -> np.ndarray:

@@ -179,6 +179,7 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
             raise ValueError(f"direction {plan.direction!r} has an unwrapping plan ({plan.method}) but no phase frames "
                              "in the manifest; the decoder needs phase-shifted or FTP frames, or code frames with "
                              f"one of the code methods {list(code_only_methods())}")
+        compensation.prefetch_sample(ctx, plan)  # the radiometry subsample, while the frames are cached
         # the CUDA backend's default three-frequency decode: method and assessment on the device
         device = device_direction(ctx) if opts.backend == "cuda" and on_device(ctx) else None
         result = device[0] if device is not None else method_for(plan.method)(ctx)

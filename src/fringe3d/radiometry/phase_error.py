@@ -23,6 +23,7 @@ from __future__ import annotations
 import functools
 from typing import NamedTuple
 
+import numba
 import numpy as np
 
 from fringe3d.phase.psp import default_shifts, lsq_coefficients
@@ -163,9 +164,9 @@ def lut_from_reference(measured, reference, mask=None, bins: int = 256) -> Phase
     ok = np.isfinite(m) & np.isfinite(r)
     if mask is not None:
         ok &= np.asarray(mask, bool)
-    mw = wrap(m[ok])
-    err = wrap(mw - r[ok])
-    idx = np.minimum(((mw + np.pi) / TWO_PI * bins).astype(int), bins - 1)
+    # wrap(m), wrap(wrap(m) - r) and the bin of wrap(m) of the pixels of ok, in one compiled pass
+    err, idx = _wrapped_errors(np.ascontiguousarray(m).reshape(-1), np.ascontiguousarray(r).reshape(-1),
+                               np.ascontiguousarray(ok).reshape(-1), int(bins))
     count = np.bincount(idx, minlength=bins)
     if np.count_nonzero(count) < bins // 2:
         raise ValueError(f"the reference region covers only {np.count_nonzero(count)} of {bins} phase bins; "
@@ -177,3 +178,36 @@ def lut_from_reference(measured, reference, mask=None, bins: int = 256) -> Phase
     full = count > 0
     e = np.arctan2(s[full], c[full])
     return PhaseErrorLUT(centres, np.interp(centres, centres[full], e, period=TWO_PI))
+
+
+@numba.njit(cache=True, nogil=True)
+def _wrapped_errors(m, r, ok, bins):  # pragma: no cover - compiled
+    """``(err, idx)`` over the entries of ``ok`` in order: ``mw = wrap(m)``, ``err = wrap(mw - r)``
+    and ``idx = min(int((mw + pi) / (2 pi) * bins), bins - 1)``, the float64 operations of
+    :func:`wrap` (``np.mod``: C ``fmod``, then ``+ 2 pi`` for a negative remainder and +0.0 for
+    a zero one) and of the numpy expressions, one by one."""
+    n = 0
+    for i in range(ok.size):
+        n += ok[i]
+    err = np.empty(n)
+    idx = np.empty(n, np.int64)
+    k = 0
+    for i in range(ok.size):
+        if ok[i]:
+            mw = _wrap1(m[i])
+            err[k] = _wrap1(mw - r[i])
+            idx[k] = min(int((mw + np.pi) / TWO_PI * bins), bins - 1)
+            k += 1
+    return err, idx
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _wrap1(x):  # pragma: no cover - compiled
+    """:func:`wrap` of one float64: ``np.mod(x + pi, 2 pi) - pi``."""
+    mod = np.fmod(x + np.pi, TWO_PI)
+    if mod != 0.0:
+        if mod < 0.0:
+            mod += TWO_PI
+    else:
+        mod = 0.0
+    return mod - np.pi
