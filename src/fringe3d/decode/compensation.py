@@ -20,6 +20,7 @@ N >= 4 equal steps, for ``Decoded.info["radiometry"]`` whether or not a compensa
 """
 from __future__ import annotations
 
+import functools
 from typing import Any, Protocol, Sequence
 
 import numba
@@ -65,8 +66,20 @@ SAMPLE_PIXELS = 16384
 
 def equal_steps(shifts) -> bool:
     """The shifts are ``shift_0 + 2 pi k / N`` in step order (what the harmonic model needs)."""
+    return _equal_steps(_shift_key(shifts), 4)
+
+
+def _shift_key(shifts) -> tuple:
+    """``shifts`` as a tuple (a group's own tuple as it is), the key of :func:`_equal_steps`."""
+    return shifts if type(shifts) is tuple else tuple(np.asarray(shifts, float).ravel().tolist())
+
+
+@functools.lru_cache(maxsize=256)
+def _equal_steps(shifts: tuple, least: int) -> bool:
+    """:func:`equal_steps` (``least`` 4) and :func:`steps_equal` (3) of one tuple of shifts, once
+    per set of shifts (the decoder asks per group and cycle)."""
     d = np.asarray(shifts, float)
-    return d.size >= 4 and _near_zero(wrap(d - d[0] - default_shifts(d.size)))
+    return d.size >= least and _near_zero(wrap(d - d[0] - default_shifts(d.size)))
 
 
 def _near_zero(x: np.ndarray) -> bool:
@@ -179,8 +192,7 @@ def compensate_group(ctx: DecodeContext, group: PhaseGroup, pr: PhaseResult) -> 
 
 def steps_equal(shifts) -> bool:
     """The shifts are N >= 3 steps ``shift_0 + 2 pi k / N`` in step order (what the disagreement needs)."""
-    d = np.asarray(shifts, float)
-    return d.size >= 3 and _near_zero(wrap(d - d[0] - default_shifts(d.size)))
+    return _equal_steps(_shift_key(shifts), 3)
 
 
 def disagreement_group(ctx: DecodeContext, group: PhaseGroup, phase: np.ndarray, mask: np.ndarray,
