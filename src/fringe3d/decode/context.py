@@ -7,6 +7,7 @@ Eq. 4.1-4.4, with the lobe chosen by :func:`ftp_lobe_angle`) and its validity ma
 """
 from __future__ import annotations
 
+import functools
 import warnings
 import weakref
 from dataclasses import dataclass, field
@@ -189,15 +190,20 @@ def phase_groups(ps: PatternSet, direction: str) -> list[PhaseGroup]:
     Raises ``ValueError`` when a group mixes periods or angles, repeats a step, or has fewer
     frames than its ``steps`` declares.
     """
-    entry = _GROUPS.get(id(ps))
+    key = id(ps)
+    entry = _GROUPS.get(key)
     if entry is None or entry[0]() is not ps:
-        key = id(ps)
-        entry = (weakref.ref(ps, lambda _, key=key: _GROUPS.pop(key, None)), {})
+        entry = (weakref.ref(ps, functools.partial(_forget_groups, key)), {})
         _GROUPS[key] = entry
     groups = entry[1].get(direction)
     if groups is None:
         groups = entry[1][direction] = tuple(_read_phase_groups(ps, direction))
     return list(groups)
+
+
+def _forget_groups(key: int, _ref: weakref.ref) -> None:
+    """Drop the :func:`phase_groups` entry of a pattern set that is gone."""
+    _GROUPS.pop(key, None)
 
 
 def _read_phase_groups(ps: PatternSet, direction: str) -> list[PhaseGroup]:
