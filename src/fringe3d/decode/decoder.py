@@ -35,6 +35,7 @@ from fringe3d.phase import quality
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.phase.quality import full_scale
 from fringe3d.utils.console import progress_bar
+from fringe3d.utils.freed_memory import keep_freed_memory
 
 
 def _check_count(n_frames: int, ps: PatternSet, sequence: bool) -> int:
@@ -99,6 +100,7 @@ def decode(frames, patterns: PatternSet, rig: Rig | None = None, options: Decode
     >>> bool(np.abs(d.projector_coordinate("v") - u_p).max() < 0.05)  # u_p = Phi T / 2 pi
     True
     """
+    keep_freed_memory()
     frames = as_frame_stack(frames)
     _check_count(frames.shape[0], patterns, sequence=False)
     return _decode_cycle(frames, patterns, rig, options or DecodeOptions(), _geometry(rig, geometry))
@@ -128,6 +130,7 @@ def decode_sequence(frames, patterns: PatternSet, rig: Rig | None = None, option
     Decoded
         One per cycle, in order.
     """
+    keep_freed_memory()
     frames = as_frame_stack(frames) if not isinstance(frames, np.ndarray) else frames
     if frames.ndim != 3:
         raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")

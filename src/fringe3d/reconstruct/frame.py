@@ -39,6 +39,7 @@ from fringe3d.reconstruct.triangulate import FastThreeStep, ThreeStepFields, Tri
 from fringe3d.reconstruct.uncertainty import point_sigma
 from fringe3d.reconstruct.windows import window_index
 from fringe3d.unwrap.geometric import cached_minimum_phase, check_wrap_around
+from fringe3d.utils.freed_memory import keep_freed_memory
 from fringe3d.utils.warning_types import ReconstructionWarning
 
 #: GRADIENT's floor on the jump of ``w`` (px) on the fused path: the quality map's default
@@ -133,6 +134,7 @@ class FrameReconstructor:
     def __init__(self, patterns: PatternSet, rig: Rig, options: DecodeOptions | None = None,
                  triangulation: str = "auto", fast: bool = True, backend: str = "cpu",
                  allow_relative: bool = False, geometry: RigGeometry | None = None):
+        keep_freed_memory()
         self.patterns = patterns
         self.rig = rig
         self.geometry = RigGeometry.of(rig, geometry)
