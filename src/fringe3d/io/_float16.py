@@ -29,8 +29,11 @@ from numba.extending import intrinsic
 
 
 def _has_hardware_half() -> bool:
-    """Whether the processor converts float32 to float16 in one instruction (x86-64 F16C, 64-bit
-    ARM): then LLVM's ``fptrunc`` compiles to it; elsewhere it may be a library call."""
+    """Whether the code numba compiles converts float32 to float16 in one instruction: on 64-bit
+    ARM always; on x86-64 where the target numba compiles for has F16C (the host's features,
+    or ``NUMBA_CPU_FEATURES`` / none at all for another ``NUMBA_CPU_NAME``). Elsewhere LLVM's
+    ``fptrunc`` to half is a library call that numba's JIT does not link (with
+    ``NUMBA_CPU_NAME=generic`` the process crashed), so the portable pass runs."""
     machine = platform.machine().lower()
     if machine in ("aarch64", "arm64"):
         return True
@@ -38,8 +41,15 @@ def _has_hardware_half() -> bool:
         return False
     try:
         from llvmlite import binding
+        from numba.core import config
 
-        return "+f16c" in str(binding.get_host_cpu_features().flatten()).split(",")
+        if config.CPU_FEATURES is not None:
+            features = str(config.CPU_FEATURES)
+        elif config.CPU_NAME in (None, "host"):
+            features = str(binding.get_host_cpu_features().flatten())
+        else:
+            features = ""
+        return "+f16c" in features.split(",")
     except Exception:  # noqa: BLE001 - no feature list: the portable pass
         return False
 
