@@ -43,9 +43,10 @@ def _has_hardware_half() -> bool:
         from llvmlite import binding
         from numba.core import config
 
-        if config.CPU_FEATURES is not None:
-            features = str(config.CPU_FEATURES)
-        elif config.CPU_NAME in (None, "host"):
+        cpu_features, cpu_name = getattr(config, "CPU_FEATURES", None), getattr(config, "CPU_NAME", None)
+        if cpu_features is not None:
+            features = str(cpu_features)
+        elif cpu_name in (None, "host"):
             features = str(binding.get_host_cpu_features().flatten())
         else:
             features = ""
