@@ -19,6 +19,7 @@ from fringe3d.decode._fused_assess import three_frequency_assess
 from fringe3d.decode.methods import temporal as temporal_method
 from fringe3d.decode.texture import as_fraction
 from fringe3d.patterns import sets
+from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.patterns.synthetic import frames_from_coordinates
 from fringe3d.phase import noise
 from fringe3d.phase.psp import wrapped_phase
@@ -48,8 +49,14 @@ def test_fused_assessment_equals_the_separate_passes(capture):
     a = three_frequency_assess(frames, groups, shifts, periods, wr, (5.0, 0.5 * np.pi, LEVEL))
     ref = three_frequency_decode(frames, groups, shifts, periods, w_range=wr, min_modulation=5.0,
                                  max_residual=0.5 * np.pi)
-    for got, want in zip(a.decoded, ref):
+    for got, want in zip(a.decoded[:5], ref[:5]):
         np.testing.assert_array_equal(got, want)  # the same float32 arithmetic
+    # no texture plane: the decode's is average + modulation, which a caller adds
+    assert a.decoded.texture is None
+    np.testing.assert_array_equal(ref.texture, ref.average + ref.modulation)
+    # w of the phase as phase_to_w makes it (one float32 product), NaN off the mask, finite on it
+    np.testing.assert_array_equal(a.coordinate, phase_to_w(ref.phase, periods[0]))
+    assert a.finite and np.isfinite(a.coordinate[ref.mask]).all()
     for g, idx in enumerate(groups):
         np.testing.assert_array_equal(a.clipped[g], (frames[idx] >= LEVEL).any(axis=0))
     assert a.clipped.any() and not a.clipped.all()
@@ -71,6 +78,20 @@ def test_fused_assessment_of_a_three_step_first_group_has_no_variance(capture):
     s3 = [shifts[0][:3], shifts[1], shifts[2]]
     a = three_frequency_assess(frames, g3, s3, periods, wr, (5.0, 0.5 * np.pi, np.inf))
     assert a.variance is None and not a.clipped.any()
+
+
+def test_fused_assessment_flags_a_valid_pixel_whose_phase_is_not_finite(capture):
+    _, frames, groups, shifts, periods, wr = capture
+    f = frames.astype(np.float32)
+    f[groups[0][0], 10, 20] = np.inf  # the group's sums are inf or NaN there
+    f[groups[0][1], 10, 20] = -np.inf
+    f[groups[1][0], 30, 40] = np.nan
+    a = three_frequency_assess(f, groups, shifts, periods, wr, (5.0, 0.5 * np.pi, np.inf))
+    ref = three_frequency_decode(f, groups, shifts, periods, w_range=wr, min_modulation=5.0,
+                                 max_residual=0.5 * np.pi)
+    np.testing.assert_array_equal(a.decoded.mask, ref.mask)
+    np.testing.assert_array_equal(a.coordinate, phase_to_w(ref.phase, periods[0]))
+    assert a.finite == bool(np.isfinite(ref.phase[ref.mask]).all())
 
 
 def test_decode_with_the_fused_assessment_equals_the_path_that_rereads_the_frames(capture, monkeypatch):

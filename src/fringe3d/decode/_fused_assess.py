@@ -31,16 +31,22 @@ from fringe3d.unwrap.temporal import FusedResult, beat_chain, coarse_window
 
 
 class FusedAssessment(NamedTuple):
-    """:class:`~fringe3d.unwrap.temporal.FusedResult` of the decode and, each (H, W):
+    """:class:`~fringe3d.unwrap.temporal.FusedResult` of the decode (its ``texture`` None: it is
+    ``average + modulation`` in float32, which a caller adds when it needs it) and, each (H, W):
     ``clipped`` (3, H, W) bool per group (a frame at the saturation level), ``variance``
     float32 fit-residual variance of group 1 (None with fewer than 4 steps), ``residual``
-    float32 disagreement (rad, 0 where invalid), ``modulation3`` float32 modulation of group 3."""
+    float32 disagreement (rad, 0 where invalid), ``modulation3`` float32 modulation of group 3,
+    ``coordinate`` float32 fringe coordinate ``w`` of the absolute phase (px of the narrowest
+    period, NaN where invalid; :func:`fringe3d.patterns.conventions.phase_to_w`), and whether
+    ``coordinate`` is finite on the whole mask (False only for frames holding inf or NaN)."""
 
     decoded: FusedResult
     clipped: np.ndarray
     variance: np.ndarray | None
     residual: np.ndarray
     modulation3: np.ndarray
+    coordinate: np.ndarray
+    finite: bool
 
 
 def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]], shifts: Sequence[Sequence[float]],
@@ -64,16 +70,21 @@ def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]],
     d = np.asarray(shifts[0], np.float64)
     design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1).astype(np.float32)
     n1 = d.size
-    scales = np.array([periods[0] / periods[1], periods[0] / periods[2], 1.0 / (n1 - 3) if n1 > 3 else 0.0])
+    scales = np.array([periods[0] / periods[1], periods[0] / periods[2], 1.0 / (n1 - 3) if n1 > 3 else 0.0,
+                       periods[0] / (2.0 * math.pi)])  # the last as phase_to_w's scale
     h, w = frames.shape[1:]
     out = FusedResult(np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.float32),
-                      np.empty((h, w), np.float32), np.empty((h, w), np.bool_), np.empty((h, w), np.float32))
+                      np.empty((h, w), np.float32), np.empty((h, w), np.bool_), None)
+    coordinate = np.empty((h, w), np.float32)
+    nonfinite = np.zeros(h, np.uint8)
     clipped = np.empty((3, h, w), np.bool_)
     variance = np.empty((h, w) if n1 >= 4 else (1, 1), np.float32)
     residual = np.empty((h, w), np.float32)
     modulation3 = np.empty((h, w), np.float32)
     kernels.three_frequency_assess_kernel(frames, idx[0], coef[0], idx[1], coef[1], idx[2], coef[2], params,
-                                          design, scales, *out, clipped, variance, residual, modulation3)
+                                          design, scales, *out[:5], coordinate, clipped, variance, residual,
+                                          modulation3, nonfinite)
     if not math.isfinite(level):
         clipped[:] = False
-    return FusedAssessment(out, clipped, variance if n1 >= 4 else None, residual, modulation3)
+    return FusedAssessment(out, clipped, variance if n1 >= 4 else None, residual, modulation3, coordinate,
+                           not nonfinite.any())

@@ -118,9 +118,14 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
         if order is not None or clipping_tested:
             info["masked"] = edges.bit_counts(q)
         return Assessment(q, sigma_phi, info, texture)
-    valid = mask if order is None else mask & ~np.asarray(order, bool)
-    # the decoder's phase is NaN outside its mask already; w outside ``valid`` is never read
-    w = phase_to_w(phase if order is None else np.where(valid, phase, np.nan), period).astype(np.float32, copy=False)
+    # the fused pass's w (finite on its mask, which holds this one), else from the phase: the
+    # decoder's phase is NaN outside its mask already; w outside ``valid`` is never read
+    w = ctx.cache.get(("coordinate", float(period))) if order is None else None
+    finite_w = w is not None
+    if w is None:
+        valid = mask if order is None else mask & ~np.asarray(order, bool)
+        w = phase_to_w(phase if order is None else np.where(valid, phase, np.nan),
+                       period).astype(np.float32, copy=False)
     coarse = [g for g in groups if g.period > period * (1 + 1e-9)]
     blur = 0.0
     residual = None
@@ -141,6 +146,10 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     tests = edges.QualityTests(margin=margin * f, max_disagreement=float(opts.max_disagreement),
                                gradient_ratio=float(opts.gradient_ratio),
                                modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim))
-    q = edges.quality_map(mask, w, extent, modulation, average, residual, order=order, saturated=broken, tests=tests)
+    if finite_w:
+        q = edges.quality_map_finite(mask, w, extent, modulation, average, residual, saturated=broken, tests=tests)
+    else:
+        q = edges.quality_map(mask, w, extent, modulation, average, residual, order=order, saturated=broken,
+                              tests=tests)
     info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})
     return Assessment(q, sigma_phi, info, texture)

@@ -294,6 +294,41 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
     return q
 
 
+def quality_map_finite(mask: np.ndarray, w: np.ndarray, extent: tuple[float, float] | None,
+                       modulation: np.ndarray, average: np.ndarray, residual: np.ndarray | None = None,
+                       saturated: np.ndarray | None = None, tests: QualityTests = QualityTests()) -> np.ndarray:
+    """:func:`quality_map` (no ``order``) of a ``w`` the caller knows to be finite wherever
+    ``mask`` is set (the decoder's fused pass tells it): the map of :func:`quality_map`, without
+    its pass that looks for a NaN of ``w`` on the mask.
+
+    Parameters
+    ----------
+    mask : (H, W) bool
+        The method's validity mask; ``w`` is finite on it.
+    w : (H, W) float
+        Projector fringe coordinate (px).
+    extent : (lo, hi), optional
+        The pattern's extent along ``w`` (px); None skips EDGE.
+    modulation, average : (H, W) float
+        Modulation ``B`` and average ``A``.
+    residual : (H, W) float, optional
+        Unwrapping residual (rad); None skips INCONSISTENT.
+    saturated : (H, W) bool, optional
+        Where clipping broke the pixel.
+    tests : QualityTests
+        The tests' thresholds.
+
+    Returns
+    -------
+    (H, W) uint8
+        The bits of :func:`quality_map`.
+    """
+    if not all(np.asarray(x).dtype == np.float32 for x in (w, modulation, average)):
+        return quality_map(mask, w, extent, modulation, average, residual, saturated=saturated, tests=tests)
+    valid = np.asarray(mask, bool)
+    return _quality_map_fused(mask, valid, w, extent, modulation, average, residual, None, saturated, tests)
+
+
 def _quality_map_fused(mask: np.ndarray, valid: np.ndarray, w: np.ndarray, extent: tuple[float, float] | None,
                        modulation: np.ndarray, average: np.ndarray, residual: np.ndarray | None,
                        order: np.ndarray | None, saturated: np.ndarray | None, tests: QualityTests) -> np.ndarray:
