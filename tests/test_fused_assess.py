@@ -149,3 +149,35 @@ def test_masked_phase_and_texture_fraction_equal_their_numpy_expressions():
     np.testing.assert_array_equal(fk.texture_fraction(avg, mod, 65535.0),
                                   as_fraction(np.add(avg, mod, dtype=np.float32), frames, None))
     np.testing.assert_array_equal(fk.texture_fraction(avg, None, 65535.0), as_fraction(avg, frames, None))
+
+
+@pytest.mark.parametrize("clean", [True, False])
+def test_a_map_whose_counts_mask_nothing_skips_the_decoders_masking_read(capture, clean, monkeypatch):
+    """Where the fused pass's ``w`` is finite on the mask and the map's counts set no bit a mask
+    pixel can carry, the assessment says so (``keeps_mask``) and the decoder skips its read of
+    the map: the outputs equal those of the decoder that reads it."""
+    from fringe3d.decode import decoder
+
+    ps, frames, *_ = capture
+    if clean:  # a plain ramp well inside the projector: no bit on any pixel
+        v, u = np.mgrid[0:48, 0:64].astype(np.float64)
+        frames = frames_from_coordinates(ps, 300 + 1.1 * u, np.full_like(u, 300.0), 60, 120, noise=1.0,
+                                         rng=np.random.default_rng(4), dtype=np.uint8)
+    seen = []
+    real = decoder.assess
+
+    def spy(*args, **kwargs):
+        a = real(*args, **kwargs)
+        seen.append(a.keeps_mask)
+        return a
+    monkeypatch.setattr(decoder, "assess", spy)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the clipped crests of the capture
+        got = decode(frames, ps)
+        monkeypatch.setattr(decoder, "assess", lambda *a, **k: real(*a, **k)._replace(keeps_mask=False))
+        want = decode(frames, ps)
+    assert seen == [clean]
+    for name in ("phase", "mask", "quality", "phase_sigma"):
+        np.testing.assert_array_equal(getattr(got, name)["v"], getattr(want, name)["v"])
+    if clean:
+        assert got.mask["v"].all() and not got.quality["v"].any()

@@ -19,12 +19,18 @@ class Assessment(NamedTuple):
     """Quality map (H, W) uint8, phase sigma (H, W) float32 rad (NaN where unknown), a
     small JSON-friendly dict (blur, margin, noise model, bit counts) and, when asked for and
     the phase sigma had a noise model, the texture fraction of the average and modulation
-    from the same pass (else None)."""
+    from the same pass (else None); ``keeps_mask`` True where it is known that no pixel of the
+    mask has a non-finite phase or a quality bit set (the decoder then masks nothing more)."""
 
     quality: np.ndarray
     phase_sigma: np.ndarray
     info: dict[str, Any]
     texture: np.ndarray | None = None
+    keeps_mask: bool = False
+
+
+#: The bits a pixel of the method's mask can carry (INVALID and SATURATED are set outside it only).
+_INSIDE_BITS = ("edge", "inconsistent", "gradient", "mod_drop", "rim", "order")
 
 
 def _psp_groups(ctx: DecodeContext) -> list[PhaseGroup]:
@@ -152,4 +158,6 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
         q = edges.quality_map(mask, w, extent, modulation, average, residual, order=order, saturated=broken,
                               tests=tests)
     info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})
-    return Assessment(q, sigma_phi, info, texture)
+    # w (so the phase) finite on the mask, and no bit a pixel of the mask can carry set anywhere
+    keeps = finite_w and not any(info["masked"][name] for name in _INSIDE_BITS)
+    return Assessment(q, sigma_phi, info, texture, keeps)
