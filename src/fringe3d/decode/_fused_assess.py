@@ -6,7 +6,11 @@ assessment then read them again, several times: each group's clipping flags (a N
 frame, :func:`fringe3d.phase.clipping.clipping_mask`), the 9-step group's fit residual
 (:func:`fringe3d.phase.noise.fit_residual_variance`) and the coarser groups' wrapped phases and
 modulation (two more least-squares passes) for the disagreement and the blur estimate. Here the
-one pass of :func:`fringe3d.unwrap._kernels.three_frequency_assess_kernel` returns them all.
+one pass of :func:`fringe3d.unwrap._kernels.three_frequency_assess_kernel` returns them all,
+with the fringe coordinate ``w`` of the absolute phase the quality map reads (the float32 product
+of :func:`fringe3d.patterns.conventions.phase_to_w`, bit for bit) and whether it is finite on the
+mask (the map then needs no NaN test); it writes no texture plane (``average + modulation``,
+which the decoder makes with the phase sigma).
 
 Tolerances against those references (``tests/test_fused_assess.py``): the decode outputs equal
 :func:`three_frequency_decode`'s bit for bit and the clipping flags are exact; the variance is

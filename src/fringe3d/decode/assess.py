@@ -153,6 +153,7 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
                                gradient_ratio=float(opts.gradient_ratio),
                                modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim))
     if finite_w:
+        assert average is not None  # a phase group's (groups is not empty)
         q = edges.quality_map_finite(mask, w, extent, modulation, average, residual, saturated=broken, tests=tests)
     else:
         q = edges.quality_map(mask, w, extent, modulation, average, residual, order=order, saturated=broken,
