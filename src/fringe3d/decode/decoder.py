@@ -212,8 +212,9 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         a = device[1] if device is not None else assess(
             ctx, phase, mask, np.asarray(modulation, np.float32), average, period, order=result.order_inconsistent,
             texture_scale=full_scale(frames, bit_depth) if first is None and not white else None)
-        if (opts.edge_mask or result.order_inconsistent is not None) and not _quality_masks_nothing(plan, result, opts):
-            # one read; a pass if it masks any pixel
+        if (opts.edge_mask or result.order_inconsistent is not None) and not a.keeps_mask \
+                and not _quality_masks_nothing(plan, result, opts):
+            # one read; a pass if it masks any pixel (known without it where the map's counts say none)
             mask, phase = quality_masked_phase(phase, mask, a.quality, 0xFF if opts.edge_mask else edges.ORDER)
         out.quality[d], out.phase_sigma[d] = a.quality, a.phase_sigma
         out.info.setdefault("quality", {})[d] = a.info
