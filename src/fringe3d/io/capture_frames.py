@@ -64,18 +64,25 @@ class CaptureFrames:
     def __len__(self) -> int:
         return self.shape[0]
 
-    def _one(self, k: int) -> np.ndarray:
-        img = self._read(self.files[k])
+    def _one(self, k: int, out: np.ndarray | None = None) -> np.ndarray:
+        """Frame ``k``, decoded into ``out`` (a frame of the stack being read) when given."""
+        img = self._read(self.files[k], out=out)
         if img.shape != self.shape[1:] or img.dtype != self.dtype:
             raise ValueError(f"{self.files[k]} is {img.dtype} {img.shape} but {self.files[0].name} is "
                              f"{self.dtype} {self.shape[1:]}; all frames of a capture must match")
+        if out is not None and img is not out:
+            out[...] = img
         return img
 
     def __getitem__(self, idx):
         if np.ndim(idx) == 0:
             return self._one(int(idx))
         ks = [int(k) for k in np.asarray(idx).ravel()]
+        stack = np.empty((len(ks),) + self.shape[1:], self.dtype)
         if len(ks) < 2:
-            return np.stack([self._one(k) for k in ks])
-        # PNG/TIFF decoders release the GIL: a cycle's frames decode in parallel
-        return np.stack(list(_read_pool().map(self._one, ks)))
+            for k, out in zip(ks, stack):
+                self._one(k, out)
+        else:  # PNG/TIFF decoders release the GIL: a cycle's frames decode in parallel, each into its place
+            for _ in _read_pool().map(self._one, ks, stack):
+                pass
+        return stack
