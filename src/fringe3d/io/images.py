@@ -1,7 +1,7 @@
 """Single-image read/write: PNG (uint8/uint16, via OpenCV) and TIFF (any dtype, via tifffile).
 
 Greyscale 8- and 16-bit PNG files (a capture's frames) are decoded by
-:func:`fringe3d.io._png_grey.decode_grey_png` (zlib and a numba kernel, about a quarter less CPU
+:func:`fringe3d.io._png_grey.decode_grey_png` (zlib and a numba kernel, about 40 % less CPU
 than OpenCV, the same result), every other image by OpenCV or tifffile.
 
 Every write is atomic (:mod:`fringe3d.utils.atomic`); every read error names the file.
