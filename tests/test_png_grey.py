@@ -13,6 +13,7 @@ import cv2
 import numpy as np
 import pytest
 
+from fringe3d.io import images
 from fringe3d.io._png_grey import decode_grey_png, grey_png_header
 from fringe3d.io.capture_frames import CaptureFrames
 from fringe3d.io.images import read_image, write_image
@@ -126,7 +127,13 @@ def test_text_chunks_do_not_stop_the_decoder_and_the_header_gives_shape_and_dtyp
     np.testing.assert_array_equal(decode_grey_png(png), img)
 
 
-def test_read_image_gives_opencvs_result_for_a_file_left_to_it(tmp_path):
+@pytest.fixture
+def kernel_for_small_files(monkeypatch):
+    """read_image sends even these small test files to the numba decoder."""
+    monkeypatch.setattr(images, "PNG_KERNEL_FROM", 1)
+
+
+def test_read_image_gives_opencvs_result_for_a_file_left_to_it(tmp_path, kernel_for_small_files):
     img = _image(np.uint8)
     (tmp_path / "t.png").write_bytes(encode(img, [1], extra=(_chunk(b"tRNS", b"\x00\x05"),)))
     by_opencv = cv2.imread(str(tmp_path / "t.png"), cv2.IMREAD_UNCHANGED)
@@ -134,7 +141,7 @@ def test_read_image_gives_opencvs_result_for_a_file_left_to_it(tmp_path):
     np.testing.assert_array_equal(read_image(tmp_path / "t.png"), img)
 
 
-def test_a_corrupt_frame_file_is_named_by_read_image(tmp_path):
+def test_a_corrupt_frame_file_is_named_by_read_image(tmp_path, kernel_for_small_files):
     good = encode(_image(np.uint8), [0])
     (tmp_path / "bad.png").write_bytes(good[:60])
     with pytest.raises(ValueError, match="bad.png"):
@@ -142,14 +149,35 @@ def test_a_corrupt_frame_file_is_named_by_read_image(tmp_path):
 
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
-def test_capture_stacks_decoded_in_place_equal_the_frames_written(tmp_path, dtype):
+@pytest.mark.parametrize("small_files_to", ["kernel", "opencv"])
+def test_capture_stacks_decoded_in_place_equal_the_frames_written(tmp_path, dtype, small_files_to, monkeypatch):
+    if small_files_to == "kernel":
+        monkeypatch.setattr(images, "PNG_KERNEL_FROM", 1)
     frames = np.stack([_image(dtype, (9, 11), seed=s) for s in range(5)])
     (tmp_path / "frames").mkdir()
     for i, f in enumerate(frames):
         write_image(tmp_path / "frames" / f"{i:05d}.png", f)
     lazy = CaptureFrames(tmp_path)
-    for idx in ([2, 0, 1], [4], [3, 4]):
+    for idx in ([2, 0, 1], [4], [3, 4], []):
         got = lazy[np.array(idx)]
         assert got.dtype == dtype and got.flags.c_contiguous
         np.testing.assert_array_equal(got, frames[idx])
     np.testing.assert_array_equal(lazy[3], frames[3])
+
+
+def test_frame_files_from_the_size_limit_on_are_decoded_by_the_kernel_into_the_stack(tmp_path, monkeypatch):
+    frames = np.random.default_rng(5).integers(0, 256, (2, 300, 300), dtype=np.uint8)  # ~90 kB files
+    (tmp_path / "frames").mkdir()
+    for i, f in enumerate(frames):
+        write_image(tmp_path / "frames" / f"{i:05d}.png", f)
+    assert (tmp_path / "frames" / "00000.png").stat().st_size >= images.PNG_KERNEL_FROM
+    calls = []
+
+    def spy(data, out=None):
+        got = decode_grey_png(data, out)
+        calls.append(got is not None and (out is None or got is out))
+        return got
+    monkeypatch.setattr(images, "decode_grey_png", spy)
+    got = CaptureFrames(tmp_path)[np.array([1, 0])]
+    np.testing.assert_array_equal(got, frames[[1, 0]])
+    assert calls == [True, True, True]  # the opening's first frame, then each into its place

@@ -1,8 +1,8 @@
 """Single-image read/write: PNG (uint8/uint16, via OpenCV) and TIFF (any dtype, via tifffile).
 
-Greyscale 8- and 16-bit PNG files (a capture's frames) are decoded by
-:func:`fringe3d.io._png_grey.decode_grey_png` (zlib and a numba kernel, about 40 % less CPU
-than OpenCV, the same result), every other image by OpenCV or tifffile.
+Greyscale 8- and 16-bit PNG files (a capture's frames) of :data:`PNG_KERNEL_FROM` bytes or more
+are decoded by :func:`fringe3d.io._png_grey.decode_grey_png` (zlib and a numba kernel, about
+40 % less CPU than OpenCV, the same result), every other image by OpenCV or tifffile.
 
 Every write is atomic (:mod:`fringe3d.utils.atomic`); every read error names the file.
 """
@@ -22,6 +22,9 @@ from fringe3d.utils.provenance import tiff_description
 PNG_SUFFIXES = (".png",)
 TIFF_SUFFIXES = (".tif", ".tiff")
 IMAGE_SUFFIXES = PNG_SUFFIXES + TIFF_SUFFIXES + (".bmp", ".jpg", ".jpeg", ".pgm")
+#: PNG files from this size (bytes) on go to the numba decoder: a smaller one takes OpenCV
+#: microseconds, and a process reading only such files loads no kernel
+PNG_KERNEL_FROM = 1 << 16
 
 
 def read_image(path: str | os.PathLike, grey: bool = True, out: np.ndarray | None = None) -> np.ndarray:
@@ -49,7 +52,7 @@ def read_image(path: str | os.PathLike, grey: bool = True, out: np.ndarray | Non
             img = tifffile.imread(path)
         else:
             data = np.fromfile(path, dtype=np.uint8)
-            img = decode_grey_png(data, out) if data.size else None
+            img = decode_grey_png(data, out) if data.size >= PNG_KERNEL_FROM else None
             if img is not None:
                 return img
             img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
