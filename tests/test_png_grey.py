@@ -3,7 +3,8 @@ bit, whatever the row filters (each of the five forced on every row by an encode
 from the PNG specification, and libpng's own choices through OpenCV), equal to OpenCV's
 ``IMREAD_UNCHANGED``; every file it does not decode (colour, interlace, 1-bit, transparency, a
 bad CRC, truncated or extra image data, an unknown filter) left to OpenCV, whose result or error
-read_image gives as before; capture stacks decoded in place equal the frames written."""
+read_image gives as before; capture stacks decoded in place (CaptureFrames, read_capture) equal
+the frames written, a frame that does not fit still named."""
 from __future__ import annotations
 
 import struct
@@ -15,8 +16,10 @@ import pytest
 
 from fringe3d.io import images
 from fringe3d.io._png_grey import decode_grey_png, grey_png_header
+from fringe3d.io.capture import read_capture, write_capture
 from fringe3d.io.capture_frames import CaptureFrames
 from fringe3d.io.images import read_image, write_image
+from fringe3d.patterns import sets
 
 
 def _chunk(kind: bytes, data: bytes) -> bytes:
@@ -181,3 +184,17 @@ def test_frame_files_from_the_size_limit_on_are_decoded_by_the_kernel_into_the_s
     got = CaptureFrames(tmp_path)[np.array([1, 0])]
     np.testing.assert_array_equal(got, frames[[1, 0]])
     assert calls == [True, True, True]  # the opening's first frame, then each into its place
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_a_capture_read_whole_with_the_kernel_equals_the_frames_written_and_names_a_misfit(
+        tmp_path, dtype, kernel_for_small_files):
+    ps = sets.phase_shift(18, 3, "v", width=40, height=30)
+    frames = np.stack([_image(dtype, (12, 20), seed=s) for s in range(6)])
+    write_capture(tmp_path, frames, ps, meta={"bit_depth": 8 * np.dtype(dtype).itemsize})
+    got = read_capture(tmp_path).frames
+    assert got.dtype == dtype
+    np.testing.assert_array_equal(got, frames)
+    write_image(tmp_path / "frames" / "00004.png", _image(dtype, (11, 20)))
+    with pytest.raises(ValueError, match=r"00004\.png has shape \(11, 20\).*00000\.png has \(12, 20\)"):
+        read_capture(tmp_path)
