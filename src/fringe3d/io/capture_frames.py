@@ -53,7 +53,9 @@ class CaptureFolder:
 
     def open(self):
         """The frames, read on demand (:func:`capture_frames`), for a sequence: frame files'
-        first frames decoded at once (:func:`frames_read_first`)."""
+        first frames decoded at once (:func:`frames_read_first`; where the frames are then read
+        elsewhere, e.g. by Dask workers, they are decoded for nothing and kept until the frames
+        are dropped: at most :data:`READ_FIRST_BYTES`)."""
         return capture_frames(self.path, self.limit, read_first=True)
 
 
