@@ -5,9 +5,9 @@ The frames are ``bench_sequence.py``'s (``make_inputs``: the seeded 1280x1024 3-
 8-bit grey PNG written by ``write_capture``). Per frame, in CPU milliseconds of the decoding
 thread (``time.thread_time``, medians of ``--rounds`` passes over the files): reading the file's
 bytes; OpenCV's ``imdecode`` (with ``cv2.setNumThreads`` at 1 and at the cores: libpng decodes
-on one thread) and ``imread``; PIL; imageio; fringe3d's ``read_image`` (its greyscale PNG path,
-``fringe3d.io._png_grey``) into a new array and ``decode_grey_png`` into a reused one. Per
-3-frame cycle, in CPU milliseconds of the process (``time.process_time``): the capture reader
+on one thread) and ``imread``; PIL; imageio; fringe3d's ``read_image`` (OpenCV's ``imdecode``)
+into a new array and into a reused one (``out``). Per 3-frame cycle, in CPU milliseconds of
+the process (``time.process_time``): the capture reader
 (``CaptureFrames[cycle]``, the files decoded on its read threads into the cycle's stack). CPU
 time, unlike a rate, barely moves with a shared machine's load.
 """
@@ -28,7 +28,6 @@ import imageio.v3 as iio
 import numpy as np
 from PIL import Image
 
-from fringe3d.io._png_grey import decode_grey_png
 from fringe3d.io.capture import list_frame_files
 from fringe3d.io.capture_frames import CaptureFrames
 from fringe3d.io.images import read_image
@@ -78,8 +77,7 @@ def main() -> None:
                  "PIL Image.open + np.asarray": lambda f: np.asarray(Image.open(f)),
                  "imageio.v3.imread": iio.imread,
                  "fringe3d read_image (new array)": read_image,
-                 "fringe3d decode_grey_png (reused array)":
-                     lambda f: decode_grey_png(np.fromfile(f, np.uint8), reused)}
+                 "fringe3d read_image (reused array)": lambda f: read_image(f, out=reused)}
         res: dict = {"frame": list(first.shape), "dtype": str(first.dtype), "files": len(files),
                      "cores": os.cpu_count(), "load_average": os.getloadavg()[0], "cpu_ms_per_frame": {}}
         for name, fn in cases.items():

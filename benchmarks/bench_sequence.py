@@ -10,14 +10,12 @@ end-to-end runs in ``--rounds`` alternated rounds; min / median / max go to the 
 **Pipeline** (issue 29's must-show, ``--rounds`` alternated rounds): the fused kernel alone on a
 cycle in memory, ``reconstruct_sequence`` with the defaults from the camera file (a capture folder
 referencing the MRAW, as ``fringe3d reconstruct CAPTURE`` reads it), decoding the PNG capture's
-files and nothing else with the reader's decoder (``read_image``: the greyscale PNG path of
-``fringe3d.io._png_grey``) on the reader's threads (``read_threads()``, the cores up to 8), the
-same with OpenCV's ``imdecode`` (the decoder before; a reference), and ``reconstruct_sequence``
-with the defaults from those PNG files; printed with the ratios e2e camera file / fused kernel
-(target <= 2.5) and e2e PNG / decode PNGs (target <= 1.3; also against OpenCV's decoding),
-medians of the rounds. On N cores the e2e PNG run needs the decoding's CPU plus the
-reconstruction's, so that ratio is at least 1 + (reconstruction CPU) / (decoding CPU) unless
-the cores idle while only decoding. **Writer against the
+files and nothing else as the reader does (``read_image``, OpenCV's decoder, on
+``read_threads()`` threads), and ``reconstruct_sequence`` with the defaults from those PNG
+files; printed with the ratios e2e camera file / fused kernel (target <= 2.5) and e2e PNG /
+decode PNGs (target <= 1.3), medians of the rounds. On N cores the e2e PNG run needs the
+decoding's CPU plus the reconstruction's, so that ratio is at least 1 + (reconstruction CPU) /
+(decoding CPU) unless the cores idle while only decoding. **Writer against the
 disk**: the store's ``write_frame`` (float16 cast, compression, write + rename of each chunk; the
 default arrays) with lz4 and uncompressed, each beside writing the same bytes in the same files
 with plain ``open().write()`` + rename and ``dd``-style as one file.
@@ -63,7 +61,6 @@ import warnings
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pyMRAW
 
@@ -157,9 +154,9 @@ def pipeline_figures(mraw_cap: Path, png_cap: Path, ps, rig, opts: DecodeOptions
                      work: Path) -> tuple[list[dict], dict]:
     """Issue 29's must-show in ``rounds`` alternated rounds: the fused kernel (a cycle in memory),
     ``reconstruct_sequence`` with the defaults from the camera file, decoding every PNG file as
-    the reader does (``read_image`` on ``read_threads()`` threads) and with OpenCV,
-    ``reconstruct_sequence`` from the PNG files; the figures (two groups: camera file against
-    the kernel, PNG files against decoding them) and the ratios."""
+    the reader does (``read_image`` on ``read_threads()`` threads), ``reconstruct_sequence``
+    from the PNG files; the figures (two groups: camera file against the kernel, PNG files
+    against decoding them) and the ratios."""
     rec = FrameReconstructor(ps, rig, opts)
     n = len(ps)
     cycle = np.ascontiguousarray(open_frames(mraw_cap)[0:n])
@@ -174,35 +171,28 @@ def pipeline_figures(mraw_cap: Path, png_cap: Path, ps, rig, opts: DecodeOptions
                                  run=RunSettings(progress=False))
         return run
 
-    def decode_pngs(decode=read_image):
+    def decode_pngs():
         with ThreadPoolExecutor(max_workers=read_threads()) as pool:
-            for _ in pool.map(decode, files):
+            for _ in pool.map(read_image, files):
                 pass
-
-    def opencv(path):
-        return cv2.imdecode(np.fromfile(path, np.uint8), cv2.IMREAD_UNCHANGED)
 
     def fused():
         for _ in range(20):
             rec.fast.depth(cycle, rec.fused.index)
 
     t = alternated({"fused": fused, "e2e_camera": e2e(mraw_cap), "decode_png": decode_pngs,
-                    "decode_png_opencv": lambda: decode_pngs(opencv), "e2e_png": e2e(png_cap)}, rounds)
-    per = {"fused": 20, "e2e_camera": cycles, "decode_png": png_cycles, "decode_png_opencv": png_cycles,
-           "e2e_png": png_cycles}
+                    "e2e_png": e2e(png_cap)}, rounds)
+    per = {"fused": 20, "e2e_camera": cycles, "decode_png": png_cycles, "e2e_png": png_cycles}
     rates = {k: [per[k] / x for x in ts] for k, ts in t.items()}
     cam = "pipeline: reconstruct a sequence from the camera file (MRAW), defaults"
     pngs = f"pipeline: reconstruct a sequence from PNG files, defaults, {os.cpu_count()} cores"
     figs = [figure(cam, "fused kernel alone (depth)", "kernel", "3D frames/s", rates["fused"]),
             figure(cam, "end to end from the camera file", "ours", "3D frames/s", rates["e2e_camera"]),
             figure(pngs, "decode the PNG files alone as the reader does", "bound", "cycles/s", rates["decode_png"]),
-            figure(pngs, "decode the PNG files alone with OpenCV", "reference", "cycles/s",
-                   rates["decode_png_opencv"]),
             figure(pngs, "end to end from the PNG files", "ours", "3D frames/s", rates["e2e_png"])]
     med = {k: stats(v)["median"] for k, v in rates.items()}
     ratios = {"e2e camera file / fused kernel (target <= 2.5)": round(med["fused"] / med["e2e_camera"], 2),
               "e2e PNG / decode PNGs (target <= 1.3)": round(med["decode_png"] / med["e2e_png"], 2),
-              "e2e PNG / decode PNGs with OpenCV": round(med["decode_png_opencv"] / med["e2e_png"], 2),
               "e2e camera file 3D frames/s (median; target >= 150)": round(med["e2e_camera"], 1),
               "e2e PNG 3D frames/s (median)": round(med["e2e_png"], 1)}
     return figs, ratios

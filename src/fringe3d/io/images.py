@@ -1,9 +1,5 @@
 """Single-image read/write: PNG (uint8/uint16, via OpenCV) and TIFF (any dtype, via tifffile).
 
-Greyscale 8- and 16-bit PNG files (a capture's frames) of :data:`PNG_KERNEL_FROM` bytes or more
-are decoded by :func:`fringe3d.io._png_grey.decode_grey_png` (zlib and a numba kernel, about
-40 % less CPU than OpenCV, the same result), every other image by OpenCV or tifffile.
-
 Every write is atomic (:mod:`fringe3d.utils.atomic`); every read error names the file.
 """
 from __future__ import annotations
@@ -15,25 +11,21 @@ import cv2
 import numpy as np
 import tifffile
 
-from fringe3d.io._png_grey import decode_grey_png
 from fringe3d.utils.atomic import atomic_path, atomic_write_bytes
 from fringe3d.utils.provenance import tiff_description
 
 PNG_SUFFIXES = (".png",)
 TIFF_SUFFIXES = (".tif", ".tiff")
 IMAGE_SUFFIXES = PNG_SUFFIXES + TIFF_SUFFIXES + (".bmp", ".jpg", ".jpeg", ".pgm")
-#: PNG files from this size (bytes) on go to the numba decoder: a smaller one takes OpenCV
-#: microseconds, and a process reading only such files loads no kernel
-PNG_KERNEL_FROM = 1 << 16
 
 
 def read_image(path: str | os.PathLike, grey: bool = True, out: np.ndarray | None = None) -> np.ndarray:
     """Read one image as stored (uint8, uint16, or TIFF float) -> (H, W) array.
 
-    Colour images are converted to grey (OpenCV's BT.601 weights) when ``grey``. A greyscale
-    PNG of ``out``'s shape and dtype (``out`` C-contiguous) is decoded into ``out``, which is
-    returned; any other image into a new array (``out`` then unchanged or partly written: the
-    caller checks what came back).
+    Colour images are converted to grey (OpenCV's BT.601 weights) when ``grey``. An image of
+    ``out``'s shape and dtype is copied into ``out`` (a frame of a stack being read), which is
+    returned; any other image is returned as read, ``out`` unchanged (the caller checks what
+    came back).
 
     Raises
     ------
@@ -52,9 +44,6 @@ def read_image(path: str | os.PathLike, grey: bool = True, out: np.ndarray | Non
             img = tifffile.imread(path)
         else:
             data = np.fromfile(path, dtype=np.uint8)
-            img = decode_grey_png(data, out) if data.size >= PNG_KERNEL_FROM else None
-            if img is not None:
-                return img
             img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
     except Exception as e:  # tifffile raises many types for corrupt files
         raise ValueError(f"{path} is not a readable image ({type(e).__name__}: {e})") from None
@@ -73,6 +62,9 @@ def read_image(path: str | os.PathLike, grey: bool = True, out: np.ndarray | Non
             img = img[..., 0]
         else:
             raise ValueError(f"{path}: cannot read an image with {img.shape[2]} channels as grey")
+    if out is not None and img.shape == out.shape and img.dtype == out.dtype:
+        out[...] = img
+        return out
     return img
 
 
