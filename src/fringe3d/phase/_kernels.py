@@ -72,6 +72,9 @@ ROW_BLOCK = 8
 #: Columns per chunk in the fused kernels: a chunk's running sums (up to 9 x 256 x 4 bytes, or
 #: 4 x 256 x 8) stay in the L1 cache while the frames stream through.
 COL_CHUNK = 256
+#: Columns per chunk of :func:`psp_rows` (its loop's setup, the runtime tests that its 14 arrays
+#: do not overlap, runs once a chunk; four float32 buffers of it stay in the L1 cache).
+PSP_CHUNK = 1024
 #: Rows per parallel work item of :func:`psp_kernel`: a call of :func:`psp_rows`, which allocates
 #: its scratch buffers per call (32 rows: a quarter of the calls of 8-row items, 32 items for
 #: 1024 rows).
@@ -176,17 +179,17 @@ def psp_rows(frames, index, coef, sat_level, phase, average, modulation, saturat
     last = 3 * ((nf - 1) // 3)  # the first of the last 1 to 3 frames (last_pass); those before: add_frame
     with_valid = valid.shape == phase.shape
     with_noise = with_valid and invalid.shape == phase.shape and sums.shape[0] == phase.shape[0]
-    acc = np.empty((4, COL_CHUNK), np.float32)
+    acc = np.empty((4, PSP_CHUNK), np.float32)
     a, b, c, peak = acc[0], acc[1], acc[2], acc[3]
     acc[:3] = 0.0  # every pass adds to the sums (one loop for every pass; zeroed again per chunk when N > 3)
     peak[:] = -np.inf
     # the mask outputs of a plain pass (no valid) go to scratch chunks: one branch-free loop
-    scratch = np.empty((3, COL_CHUNK if not with_noise else 0), np.uint8)
-    no_masked = np.empty(COL_CHUNK if not with_valid else 0, np.float32)
+    scratch = np.empty((3, PSP_CHUNK if not with_noise else 0), np.uint8)
+    no_masked = np.empty(PSP_CHUNK if not with_valid else 0, np.float32)
     resp = np.empty(COL_CHUNK, np.float32)
     for i in range(r0, r1):
-        for j0 in range(0, w, COL_CHUNK):
-            n = min(COL_CHUNK, w - j0)
+        for j0 in range(0, w, PSP_CHUNK):
+            n = min(PSP_CHUNK, w - j0)
             if last > 0:  # every pass but the last into the buffers
                 acc[:3, :n] = 0.0
                 peak[:n] = -np.inf
@@ -220,8 +223,8 @@ def last_pass(frames, index, coef, k, sat_level, i, j0, n, a, b, c, peak, ph, av
     """The last 1 to 3 frames (``index[k:]``) of the least-squares sums over columns ``j0 .. j0 +
     n - 1`` of row ``i`` (frames read as float32, float32 sums; a missing frame's coefficients
     0), added to the buffers ``a, b, c, peak`` of the frames before (zero and -inf where ``k ==
-    0``), and from them, in the same loop (float32, 8 lanes), the outputs of :func:`psp_kernel`: ``ph, av, mo``, ``sa = peak >= sat_level``, ``va``,
-    ``ma`` and ``iv``."""
+    0``), and from them, in the same loop (float32, 8 lanes), the outputs of
+    :func:`psp_kernel`: ``ph, av, mo``, ``sa = peak >= sat_level``, ``va``, ``ma`` and ``iv``."""
     nf = index.shape[0]
     m = nf - k
     r0 = frames[index[k], i, j0:j0 + n]
