@@ -162,11 +162,20 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
         psp_rows(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
                  masked, invalid, sums, counts, blk * rows, min(h, blk * rows + rows))
     if with_noise:  # each item's first and last row: their neighbours are written now
-        resp = np.empty(COL_CHUNK, np.float32)
-        for r0 in range(0, h, rows):
-            for i in (r0, min(h, r0 + rows) - 1):
-                if 1 <= i <= h - 2:
-                    sums[i], counts[i] = laplacian_row32(average, valid, i, resp)
+        laplacian_item_edges(average, valid, rows, sums, counts)
+
+
+@njit(cache=True, nogil=True)
+def laplacian_item_edges(average, valid, rows, sums, counts):
+    """``sums[i], counts[i]`` of :func:`laplacian_row32` for the first and last row ``i`` of each
+    ``rows``-row item of :func:`psp_kernel` (the image's first and last rows excepted): the rows
+    an item could not sum before its neighbours were written (compiled once, not per frame dtype)."""
+    h = average.shape[0]
+    resp = np.empty(COL_CHUNK, np.float32)
+    for r0 in range(0, h, rows):
+        for i in (r0, min(h, r0 + rows) - 1):
+            if 1 <= i <= h - 2:
+                sums[i], counts[i] = laplacian_row32(average, valid, i, resp)
 
 
 @njit(cache=True, nogil=True, fastmath=FASTMATH)
