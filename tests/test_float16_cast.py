@@ -1,8 +1,20 @@
 """The store's float32 -> float16 cast (:func:`fringe3d.io._float16.to_float16`) equals numpy's
 ``astype(np.float16)`` bit for bit (round to nearest even, overflow, subnormals, NaN, signs)."""
 import numpy as np
+import pytest
 
+from fringe3d.io import _float16
 from fringe3d.io._float16 import to_float16
+
+
+@pytest.fixture(params=["portable", "hardware"], autouse=True)
+def cast_pass(request, monkeypatch):
+    """Every test on both passes: the bit arithmetic and, where the processor has it, its own
+    float32 -> float16 conversion (:data:`fringe3d.io._float16.HARDWARE`)."""
+    if request.param == "hardware" and not _float16._has_hardware_half():
+        pytest.skip("this processor has no float32 -> float16 conversion instruction")
+    monkeypatch.setattr(_float16, "HARDWARE", request.param == "hardware")
+    return request.param
 
 
 def _numpy_half_bits(bits: np.ndarray) -> np.ndarray:

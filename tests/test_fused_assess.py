@@ -19,6 +19,7 @@ from fringe3d.decode._fused_assess import three_frequency_assess
 from fringe3d.decode.methods import temporal as temporal_method
 from fringe3d.decode.texture import as_fraction
 from fringe3d.patterns import sets
+from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.patterns.synthetic import frames_from_coordinates
 from fringe3d.phase import noise
 from fringe3d.phase.psp import wrapped_phase
@@ -48,8 +49,14 @@ def test_fused_assessment_equals_the_separate_passes(capture):
     a = three_frequency_assess(frames, groups, shifts, periods, wr, (5.0, 0.5 * np.pi, LEVEL))
     ref = three_frequency_decode(frames, groups, shifts, periods, w_range=wr, min_modulation=5.0,
                                  max_residual=0.5 * np.pi)
-    for got, want in zip(a.decoded, ref):
+    for got, want in zip(a.decoded[:5], ref[:5]):
         np.testing.assert_array_equal(got, want)  # the same float32 arithmetic
+    # no texture plane: the decode's is average + modulation, which a caller adds
+    assert a.decoded.texture is None
+    np.testing.assert_array_equal(ref.texture, ref.average + ref.modulation)
+    # w of the phase as phase_to_w makes it (one float32 product), NaN off the mask, finite on it
+    np.testing.assert_array_equal(a.coordinate, phase_to_w(ref.phase, periods[0]))
+    assert a.finite and np.isfinite(a.coordinate[ref.mask]).all()
     for g, idx in enumerate(groups):
         np.testing.assert_array_equal(a.clipped[g], (frames[idx] >= LEVEL).any(axis=0))
     assert a.clipped.any() and not a.clipped.all()
@@ -71,6 +78,20 @@ def test_fused_assessment_of_a_three_step_first_group_has_no_variance(capture):
     s3 = [shifts[0][:3], shifts[1], shifts[2]]
     a = three_frequency_assess(frames, g3, s3, periods, wr, (5.0, 0.5 * np.pi, np.inf))
     assert a.variance is None and not a.clipped.any()
+
+
+def test_fused_assessment_flags_a_valid_pixel_whose_phase_is_not_finite(capture):
+    _, frames, groups, shifts, periods, wr = capture
+    f = frames.astype(np.float32)
+    f[groups[0][0], 10, 20] = np.inf  # the group's sums are inf or NaN there
+    f[groups[0][1], 10, 20] = -np.inf
+    f[groups[1][0], 30, 40] = np.nan
+    a = three_frequency_assess(f, groups, shifts, periods, wr, (5.0, 0.5 * np.pi, np.inf))
+    ref = three_frequency_decode(f, groups, shifts, periods, w_range=wr, min_modulation=5.0,
+                                 max_residual=0.5 * np.pi)
+    np.testing.assert_array_equal(a.decoded.mask, ref.mask)
+    np.testing.assert_array_equal(a.coordinate, phase_to_w(ref.phase, periods[0]))
+    assert a.finite == bool(np.isfinite(ref.phase[ref.mask]).all())
 
 
 def test_decode_with_the_fused_assessment_equals_the_path_that_rereads_the_frames(capture, monkeypatch):
@@ -128,3 +149,35 @@ def test_masked_phase_and_texture_fraction_equal_their_numpy_expressions():
     np.testing.assert_array_equal(fk.texture_fraction(avg, mod, 65535.0),
                                   as_fraction(np.add(avg, mod, dtype=np.float32), frames, None))
     np.testing.assert_array_equal(fk.texture_fraction(avg, None, 65535.0), as_fraction(avg, frames, None))
+
+
+@pytest.mark.parametrize("clean", [True, False])
+def test_a_map_whose_counts_mask_nothing_skips_the_decoders_masking_read(capture, clean, monkeypatch):
+    """Where the fused pass's ``w`` is finite on the mask and the map's counts set no bit a mask
+    pixel can carry, the assessment says so (``keeps_mask``) and the decoder skips its read of
+    the map: the outputs equal those of the decoder that reads it."""
+    from fringe3d.decode import decoder
+
+    ps, frames, *_ = capture
+    if clean:  # a plain ramp well inside the projector: no bit on any pixel
+        v, u = np.mgrid[0:48, 0:64].astype(np.float64)
+        frames = frames_from_coordinates(ps, 300 + 1.1 * u, np.full_like(u, 300.0), 60, 120, noise=1.0,
+                                         rng=np.random.default_rng(4), dtype=np.uint8)
+    seen = []
+    real = decoder.assess
+
+    def spy(*args, **kwargs):
+        a = real(*args, **kwargs)
+        seen.append(a.keeps_mask)
+        return a
+    monkeypatch.setattr(decoder, "assess", spy)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the clipped crests of the capture
+        got = decode(frames, ps)
+        monkeypatch.setattr(decoder, "assess", lambda *a, **k: real(*a, **k)._replace(keeps_mask=False))
+        want = decode(frames, ps)
+    assert seen == [clean]
+    for name in ("phase", "mask", "quality", "phase_sigma"):
+        np.testing.assert_array_equal(getattr(got, name)["v"], getattr(want, name)["v"])
+    if clean:
+        assert got.mask["v"].all() and not got.quality["v"].any()

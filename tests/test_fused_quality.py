@@ -176,3 +176,24 @@ def test_sparse_jumps_give_the_previous_map():
     got = fused_quality_map(valid, w, (-0.5, 350.5), 2.0, mod, avg, **kw)
     assert (want & edges.GRADIENT).any()
     np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_rows_finished_in_the_pass_equal_the_separate_finish(seed):
+    """The decoder's one-pass map (:func:`finished_quality_map`: no ORDER, each row finished as it
+    is made) equals the map then :func:`finish_quality_map` bit for bit, SATURATED and
+    INCONSISTENT (residual on both sides of the threshold) included; with, without either map."""
+    from fringe3d.decode._fused_quality import finish_quality_map, finished_quality_map
+
+    mask, _, sat, w, mod, avg, res = simulated((97, 130), seed)
+    w = np.where(mask, np.nan_to_num(w, nan=50.0), np.nan).astype(np.float32)  # finite on the mask
+    res = res.astype(np.float32)
+    res.flat[::5] = np.float32(0.5)  # on the threshold: not INCONSISTENT (res > thr)
+    res.flat[1::5] = np.nextafter(np.float32(0.5), np.float32(1))
+    for s, r, thr in ((sat, res, 0.5), (None, res, 0.5), (sat, None, 0.5), (None, None, 0.5), (sat, res, np.inf)):
+        want = fused_quality_map(mask, w, (-0.5, 104.5), 2.0, mod, avg, rim=1)
+        finish_quality_map(want, mask, None, s, r, thr)
+        got = finished_quality_map(mask, w, (-0.5 + 2.0, 104.5 - 2.0), mod, avg, s, r, (4.0, 1.0, 0.5, thr))
+        np.testing.assert_array_equal(got, want)
+        if s is not None and r is not None and thr == 0.5:
+            assert (got & edges.SATURATED).any() and (got & edges.INCONSISTENT).any()

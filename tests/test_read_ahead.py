@@ -11,7 +11,8 @@ import time
 import numpy as np
 import pytest
 
-from fringe3d.io.capture_frames import CaptureFrames
+from fringe3d.io import capture_frames as capture_frames_module
+from fringe3d.io.capture_frames import CaptureFolder, CaptureFrames
 from fringe3d.io.images import write_image
 from fringe3d.io.read_ahead import ReadAhead
 
@@ -140,3 +141,32 @@ def test_a_depth_or_workers_below_one_is_refused():
         ReadAhead(lambda k: k, range(3), depth=0)
     with pytest.raises(ValueError, match="workers must be at least 1"):
         ReadAhead(lambda k: k, range(3), workers=0)
+
+
+def test_a_capture_opened_for_a_sequence_hands_over_the_frames_it_read_first_in_any_order(png_frames):
+    folder, truth = png_frames
+    lazy = CaptureFolder(str(folder)).open()
+    assert set(lazy._first) == set(range(12))  # every frame of this small capture read at the opening
+    for idx in ([3, 4, 5], [0, 1, 2], [0, 1, 2], [11], [6, 7, 8, 9, 10]):
+        np.testing.assert_array_equal(lazy[np.array(idx)], truth[idx])
+    np.testing.assert_array_equal(lazy[4], truth[4])
+    assert not lazy._first  # each handed over once, none kept
+
+
+def test_a_read_far_past_the_frames_read_first_drops_them(png_frames, monkeypatch):
+    folder, truth = png_frames
+    monkeypatch.setattr(capture_frames_module, "READ_FIRST", 3)
+    lazy = CaptureFolder(str(folder)).open()
+    assert set(lazy._first) == {0, 1, 2}
+    np.testing.assert_array_equal(lazy[np.arange(9, 12)], truth[9:12])  # a resumed sequence
+    assert not lazy._first
+    np.testing.assert_array_equal(lazy[np.arange(0, 3)], truth[0:3])
+
+
+def test_a_corrupt_frame_read_first_is_named_when_it_is_asked_for(png_frames):
+    folder, truth = png_frames
+    (folder / "frames" / "00004.png").write_bytes(b"\x89PNG\r\n\x1a\nbroken")
+    lazy = CaptureFolder(str(folder)).open()
+    np.testing.assert_array_equal(lazy[np.arange(0, 3)], truth[0:3])
+    with pytest.raises(ValueError, match="00004.png"):
+        lazy[np.arange(3, 6)]

@@ -1,6 +1,8 @@
 """The fused 3-step + geometric-constraint + triangulation kernel equals analytic truth."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -95,3 +97,19 @@ def test_sigma_z_in_one_pass_equals_the_per_axis_sigma_bit_for_bit():
     got = fast.tri.sigma_z_from_phase_noise(f.w, mod, 0.8, 3, T, mask)
     np.testing.assert_array_equal(got, ref)
     assert np.isinf(got[0, :5]).all() and np.isnan(got[~mask]).all()
+
+
+def test_fringe_order_ceiling_is_the_integer_ceiling_kept_in_float64():
+    # the kernel's k = ceil(x) stays float64 (no int64 round trip, so the pixel loop vectorises):
+    # Python's integer ceiling wherever it fits int64, and for NaN, +-inf and values beyond int64
+    # the value the x86-64 float -> int64 conversion gives (-2**63), as the int64 round trip did
+    from fringe3d.reconstruct._kernels import ceil_as_int
+
+    rng = np.random.default_rng(3)
+    xs = np.concatenate([rng.uniform(-50, 50, 2000), np.arange(-5.0, 5.0, 0.25), [-0.0, 0.0, 1e-300, -1e-300],
+                         np.ldexp(1.0, np.arange(0, 63)) + 0.5, -np.ldexp(1.0, np.arange(0, 63)) - 0.5,
+                         [np.nextafter(2.0 ** 63, 0), -2.0 ** 63]])
+    for x in xs:
+        assert ceil_as_int(float(x)) == float(math.ceil(x))
+    for x in (np.nan, np.inf, -np.inf, 2.0 ** 63, 1e300, -1e300):
+        assert ceil_as_int(float(x)) == -(2.0 ** 63)

@@ -6,7 +6,11 @@ assessment then read them again, several times: each group's clipping flags (a N
 frame, :func:`fringe3d.phase.clipping.clipping_mask`), the 9-step group's fit residual
 (:func:`fringe3d.phase.noise.fit_residual_variance`) and the coarser groups' wrapped phases and
 modulation (two more least-squares passes) for the disagreement and the blur estimate. Here the
-one pass of :func:`fringe3d.unwrap._kernels.three_frequency_assess_kernel` returns them all.
+one pass of :func:`fringe3d.unwrap._kernels.three_frequency_assess_kernel` returns them all,
+with the fringe coordinate ``w`` of the absolute phase the quality map reads (the float32 product
+of :func:`fringe3d.patterns.conventions.phase_to_w`, bit for bit) and whether it is finite on the
+mask (the map then needs no NaN test); it writes no texture plane (``average + modulation``,
+which the decoder makes with the phase sigma).
 
 Tolerances against those references (``tests/test_fused_assess.py``): the decode outputs equal
 :func:`three_frequency_decode`'s bit for bit and the clipping flags are exact; the variance is
@@ -31,16 +35,22 @@ from fringe3d.unwrap.temporal import FusedResult, beat_chain, coarse_window
 
 
 class FusedAssessment(NamedTuple):
-    """:class:`~fringe3d.unwrap.temporal.FusedResult` of the decode and, each (H, W):
+    """:class:`~fringe3d.unwrap.temporal.FusedResult` of the decode (its ``texture`` None: it is
+    ``average + modulation`` in float32, which a caller adds when it needs it) and, each (H, W):
     ``clipped`` (3, H, W) bool per group (a frame at the saturation level), ``variance``
     float32 fit-residual variance of group 1 (None with fewer than 4 steps), ``residual``
-    float32 disagreement (rad, 0 where invalid), ``modulation3`` float32 modulation of group 3."""
+    float32 disagreement (rad, 0 where invalid), ``modulation3`` float32 modulation of group 3,
+    ``coordinate`` float32 fringe coordinate ``w`` of the absolute phase (px of the narrowest
+    period, NaN where invalid; :func:`fringe3d.patterns.conventions.phase_to_w`), and whether
+    ``coordinate`` is finite on the whole mask (False only for frames holding inf or NaN)."""
 
     decoded: FusedResult
     clipped: np.ndarray
     variance: np.ndarray | None
     residual: np.ndarray
     modulation3: np.ndarray
+    coordinate: np.ndarray
+    finite: bool
 
 
 def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]], shifts: Sequence[Sequence[float]],
@@ -64,16 +74,21 @@ def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]],
     d = np.asarray(shifts[0], np.float64)
     design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1).astype(np.float32)
     n1 = d.size
-    scales = np.array([periods[0] / periods[1], periods[0] / periods[2], 1.0 / (n1 - 3) if n1 > 3 else 0.0])
+    scales = np.array([periods[0] / periods[1], periods[0] / periods[2], 1.0 / (n1 - 3) if n1 > 3 else 0.0,
+                       periods[0] / (2.0 * math.pi)])  # the last as phase_to_w's scale
     h, w = frames.shape[1:]
     out = FusedResult(np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.float32),
-                      np.empty((h, w), np.float32), np.empty((h, w), np.bool_), np.empty((h, w), np.float32))
+                      np.empty((h, w), np.float32), np.empty((h, w), np.bool_), None)
+    coordinate = np.empty((h, w), np.float32)
+    nonfinite = np.zeros(h, np.uint8)
     clipped = np.empty((3, h, w), np.bool_)
     variance = np.empty((h, w) if n1 >= 4 else (1, 1), np.float32)
     residual = np.empty((h, w), np.float32)
     modulation3 = np.empty((h, w), np.float32)
     kernels.three_frequency_assess_kernel(frames, idx[0], coef[0], idx[1], coef[1], idx[2], coef[2], params,
-                                          design, scales, *out, clipped, variance, residual, modulation3)
+                                          design, scales, *out[:5], coordinate, clipped, variance, residual,
+                                          modulation3, nonfinite)
     if not math.isfinite(level):
         clipped[:] = False
-    return FusedAssessment(out, clipped, variance if n1 >= 4 else None, residual, modulation3)
+    return FusedAssessment(out, clipped, variance if n1 >= 4 else None, residual, modulation3, coordinate,
+                           not nonfinite.any())

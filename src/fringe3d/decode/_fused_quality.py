@@ -251,14 +251,19 @@ BLOCK = 32
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
-def _quality_rows_kernel(w, v8, modulation, average, g_ratio, g_floor, lo, hi, m_ratio, rim1, q):  # pragma: no cover
+def _quality_rows_kernel(w, v8, modulation, average, g_ratio, g_floor, lo, hi, m_ratio, rim1, q,
+                         sat8, residual, thr, has_sat, has_res):  # pragma: no cover - compiled
     """The map ``q`` (H, W) uint8 of :func:`fused_quality_map` (a finite ``ratio``) in one pass
     over blocks of :data:`BLOCK` rows: the jumps (:func:`_jump_row`) of rows ``i0 - 3 .. i1 + 2``,
     each scaled by ``ratio`` once; GRADIENT's count test (:func:`_count_row`) of rows
     ``i0 - 1 .. i1``; the contrast (:func:`_contrast_row`) of rows ``i0 - 2 .. i1 + 1``; then the
     bits of rows ``i0 .. i1 - 1`` (:func:`_bits_row`). Rows outside the image are not made: a
-    neighbour row is clamped to the image (the replicated border), then looked up in the block."""
+    neighbour row is clamped to the image (the replicated border), then looked up in the block.
+    With ``has_sat`` or ``has_res`` each row is then finished as :func:`_finish_kernel` finishes
+    it without ``order`` (``v8`` the mask, ``sat8`` the saturated bytes, ``residual`` (H, W) the
+    disagreement tested ``> thr``), while it is in the cache."""
     H, W = w.shape
+    fs = np.uint8(1) if has_sat else np.uint8(0)
     nblocks = (H + BLOCK - 1) // BLOCK
     for bk in numba.prange(nblocks):
         i0 = bk * BLOCK
@@ -277,6 +282,7 @@ def _quality_rows_kernel(w, v8, modulation, average, g_ratio, g_floor, lo, hi, m
         n = np.empty(W, np.int32)
         b = np.empty(W + 2, np.uint8)
         top = np.empty(W, np.float32)
+        inc = np.zeros(W, np.uint8)
         for r in range(g0, g1):
             gk = g[r - g0]
             sk = s[r - g0]
@@ -294,6 +300,12 @@ def _quality_rows_kernel(w, v8, modulation, average, g_ratio, g_floor, lo, hi, m
             h = (hm[u2 - c0], hm[u1 - c0], hm[i - c0], hm[d1 - c0], hm[d2 - c0])
             _bits_row(w[i], v8[u1], v8[i], v8[d1], t[u1 - t0], t[i - t0], t[d1 - t0], h, hc[i - c0],
                       lo, hi, m_ratio, rim1, vr, b, top, q[i])
+            if has_sat or has_res:
+                if has_res:
+                    ri = residual[i]
+                    for j in range(W):
+                        inc[j] = np.uint8(ri[j] > thr)
+                _finish_row(q[i], v8[i], v8[i], sat8[i], inc, np.uint8(0), fs)
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
@@ -328,8 +340,10 @@ def fused_quality_map(mask: np.ndarray, w: np.ndarray, extent: tuple[float, floa
     f32 = np.float32
     q = np.empty((H, W), np.uint8)
     if math.isfinite(f32(gradient_ratio)):
-        _quality_rows_kernel(w, valid.view(np.uint8), modulation, average, f32(gradient_ratio), f32(gradient_floor),
-                             f32(lo + margin), f32(hi - margin), f32(modulation_ratio), rim == 1, q)
+        v8 = valid.view(np.uint8)
+        _quality_rows_kernel(w, v8, modulation, average, f32(gradient_ratio), f32(gradient_floor),
+                             f32(lo + margin), f32(hi - margin), f32(modulation_ratio), rim == 1, q,
+                             v8, _NO_RESIDUAL, f32(0.0), False, False)
     else:  # inf * 0 is NaN: the median itself, in whole-image passes
         gp = np.empty((H + 4, W + 4), np.float32)
         hmax = np.empty((2 * H, W), np.float32)  # the contrast's row-wise 5-max, then the contrast
@@ -341,6 +355,37 @@ def fused_quality_map(mask: np.ndarray, w: np.ndarray, extent: tuple[float, floa
         _bits_kernel(w, valid, t, hmax, f32(lo + margin), f32(hi - margin), f32(modulation_ratio), rim == 1, q)
     if rim > 1:  # wider rims: the iterated erosion of edges.rim_of_invalid
         q |= (valid & ~erode_cross(valid, int(rim))).astype(np.uint8) * np.uint8(RIM)
+    return q
+
+
+#: The residual of a :func:`_quality_rows_kernel` call that tests none.
+_NO_RESIDUAL = np.zeros((1, 1), np.float32)
+
+
+def finished_quality_map(mask: np.ndarray, w: np.ndarray, band: tuple[float, float], modulation: np.ndarray,
+                         average: np.ndarray, saturated: np.ndarray | None, residual: np.ndarray | None,
+                         thresholds: tuple[float, float, float, float]) -> np.ndarray:
+    """``fused_quality_map(mask, w, ...)`` with ``rim=1`` then ``finish_quality_map(q, mask, None,
+    saturated, residual, max_disagreement)``, each row finished in the one pass that makes it
+    (equal bit for bit): ``band = (lo + margin, hi - margin)`` the EDGE band's inner bounds (px),
+    ``thresholds = (gradient_ratio, gradient_floor, modulation_ratio, max_disagreement)``, the
+    first finite; ``residual`` float32 or None."""
+    g_ratio, g_floor, m_ratio, max_disagreement = thresholds
+    f32 = np.float32
+    if not math.isfinite(f32(g_ratio)) or (residual is not None and np.asarray(residual).dtype != np.float32):
+        raise ValueError(f"finished_quality_map: expected a finite gradient ratio and a float32 residual, got "
+                         f"{g_ratio!r} and {None if residual is None else np.asarray(residual).dtype}")
+    valid = np.ascontiguousarray(mask, bool)
+    v8 = valid.view(np.uint8)
+    H, W = valid.shape
+    q = np.empty((H, W), np.uint8)
+    has_res = residual is not None and math.isfinite(max_disagreement)
+    res = np.ascontiguousarray(residual, np.float32) if has_res else _NO_RESIDUAL
+    sat8 = np.ascontiguousarray(saturated, bool).view(np.uint8) if saturated is not None else v8
+    _quality_rows_kernel(np.ascontiguousarray(w, np.float32), v8, np.ascontiguousarray(modulation, np.float32),
+                         np.ascontiguousarray(average, np.float32), f32(g_ratio), f32(g_floor), f32(band[0]),
+                         f32(band[1]), f32(m_ratio), True, q, sat8, res, f32(max_disagreement), saturated is not None,
+                         has_res)
     return q
 
 

@@ -19,12 +19,18 @@ class Assessment(NamedTuple):
     """Quality map (H, W) uint8, phase sigma (H, W) float32 rad (NaN where unknown), a
     small JSON-friendly dict (blur, margin, noise model, bit counts) and, when asked for and
     the phase sigma had a noise model, the texture fraction of the average and modulation
-    from the same pass (else None)."""
+    from the same pass (else None); ``keeps_mask`` True where it is known that no pixel of the
+    mask has a non-finite phase or a quality bit set (the decoder then masks nothing more)."""
 
     quality: np.ndarray
     phase_sigma: np.ndarray
     info: dict[str, Any]
     texture: np.ndarray | None = None
+    keeps_mask: bool = False
+
+
+#: The bits a pixel of the method's mask can carry (INVALID and SATURATED are set outside it only).
+_INSIDE_BITS = ("edge", "inconsistent", "gradient", "mod_drop", "rim", "order")
 
 
 def _psp_groups(ctx: DecodeContext) -> list[PhaseGroup]:
@@ -118,9 +124,14 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
         if order is not None or clipping_tested:
             info["masked"] = edges.bit_counts(q)
         return Assessment(q, sigma_phi, info, texture)
-    valid = mask if order is None else mask & ~np.asarray(order, bool)
-    # the decoder's phase is NaN outside its mask already; w outside ``valid`` is never read
-    w = phase_to_w(phase if order is None else np.where(valid, phase, np.nan), period).astype(np.float32, copy=False)
+    # the fused pass's w (finite on its mask, which holds this one), else from the phase: the
+    # decoder's phase is NaN outside its mask already; w outside ``valid`` is never read
+    w = ctx.cache.get(("coordinate", float(period))) if order is None else None
+    finite_w = w is not None
+    if w is None:
+        valid = mask if order is None else mask & ~np.asarray(order, bool)
+        w = phase_to_w(phase if order is None else np.where(valid, phase, np.nan),
+                       period).astype(np.float32, copy=False)
     coarse = [g for g in groups if g.period > period * (1 + 1e-9)]
     blur = 0.0
     residual = None
@@ -141,6 +152,13 @@ def assess(ctx: DecodeContext, phase: np.ndarray, mask: np.ndarray, modulation: 
     tests = edges.QualityTests(margin=margin * f, max_disagreement=float(opts.max_disagreement),
                                gradient_ratio=float(opts.gradient_ratio),
                                modulation_ratio=float(opts.modulation_ratio), rim=int(opts.rim))
-    q = edges.quality_map(mask, w, extent, modulation, average, residual, order=order, saturated=broken, tests=tests)
+    if finite_w:
+        assert average is not None  # a phase group's (groups is not empty)
+        q = edges.quality_map_finite(mask, w, extent, modulation, average, residual, saturated=broken, tests=tests)
+    else:
+        q = edges.quality_map(mask, w, extent, modulation, average, residual, order=order, saturated=broken,
+                              tests=tests)
     info.update({"blur": blur, "edge_margin": margin, "masked": edges.bit_counts(q)})
-    return Assessment(q, sigma_phi, info, texture)
+    # w (so the phase) finite on the mask, and no bit a pixel of the mask can carry set anywhere
+    keeps = finite_w and not any(info["masked"][name] for name in _INSIDE_BITS)
+    return Assessment(q, sigma_phi, info, texture, keeps)

@@ -35,6 +35,7 @@ from fringe3d.phase import quality
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.phase.quality import full_scale
 from fringe3d.utils.console import progress_bar
+from fringe3d.utils.freed_memory import keep_freed_memory
 
 
 def _check_count(n_frames: int, ps: PatternSet, sequence: bool) -> int:
@@ -99,6 +100,7 @@ def decode(frames, patterns: PatternSet, rig: Rig | None = None, options: Decode
     >>> bool(np.abs(d.projector_coordinate("v") - u_p).max() < 0.05)  # u_p = Phi T / 2 pi
     True
     """
+    keep_freed_memory()
     frames = as_frame_stack(frames)
     _check_count(frames.shape[0], patterns, sequence=False)
     return _decode_cycle(frames, patterns, rig, options or DecodeOptions(), _geometry(rig, geometry))
@@ -128,6 +130,7 @@ def decode_sequence(frames, patterns: PatternSet, rig: Rig | None = None, option
     Decoded
         One per cycle, in order.
     """
+    keep_freed_memory()
     frames = as_frame_stack(frames) if not isinstance(frames, np.ndarray) else frames
     if frames.ndim != 3:
         raise ValueError(f"frames must be an (F, H, W) stack, got shape {frames.shape}")
@@ -210,8 +213,9 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
         a = device[1] if device is not None else assess(
             ctx, phase, mask, np.asarray(modulation, np.float32), average, period, order=result.order_inconsistent,
             texture_scale=full_scale(frames, bit_depth) if first is None and not white else None)
-        if (opts.edge_mask or result.order_inconsistent is not None) and not _quality_masks_nothing(plan, result, opts):
-            # one read; a pass if it masks any pixel
+        if (opts.edge_mask or result.order_inconsistent is not None) and not a.keeps_mask \
+                and not _quality_masks_nothing(plan, result, opts):
+            # one read; a pass if it masks any pixel (known without it where the map's counts say none)
             mask, phase = quality_masked_phase(phase, mask, a.quality, 0xFF if opts.edge_mask else edges.ORDER)
         out.quality[d], out.phase_sigma[d] = a.quality, a.phase_sigma
         out.info.setdefault("quality", {})[d] = a.info

@@ -62,7 +62,7 @@ import numba
 import numpy as np
 
 from fringe3d.decode._disagreement_kernel import max_wrapped_residual
-from fringe3d.decode._fused_quality import finish_quality_map, fused_quality_map
+from fringe3d.decode._fused_quality import finish_quality_map, finished_quality_map, fused_quality_map
 from fringe3d.decode._ratio_median import ratio_median
 from fringe3d.decode._stencils import dilate3, erode_cross, max5, median5, neighbour_jump
 
@@ -292,6 +292,48 @@ def quality_map(mask: np.ndarray, w: np.ndarray | None = None, extent: tuple[flo
     if rim > 0:
         q |= _bits(rim_of_invalid(valid, rim), RIM)
     return q
+
+
+def quality_map_finite(mask: np.ndarray, w: np.ndarray, extent: tuple[float, float] | None,
+                       modulation: np.ndarray, average: np.ndarray, residual: np.ndarray | None = None,
+                       saturated: np.ndarray | None = None, tests: QualityTests = QualityTests()) -> np.ndarray:
+    """:func:`quality_map` (no ``order``) of a ``w`` the caller knows to be finite wherever
+    ``mask`` is set (the decoder's fused pass tells it): the map of :func:`quality_map`, without
+    its pass that looks for a NaN of ``w`` on the mask.
+
+    Parameters
+    ----------
+    mask : (H, W) bool
+        The method's validity mask; ``w`` is finite on it.
+    w : (H, W) float
+        Projector fringe coordinate (px).
+    extent : (lo, hi), optional
+        The pattern's extent along ``w`` (px); None skips EDGE.
+    modulation, average : (H, W) float
+        Modulation ``B`` and average ``A``.
+    residual : (H, W) float, optional
+        Unwrapping residual (rad); None skips INCONSISTENT.
+    saturated : (H, W) bool, optional
+        Where clipping broke the pixel.
+    tests : QualityTests
+        The tests' thresholds.
+
+    Returns
+    -------
+    (H, W) uint8
+        The bits of :func:`quality_map`.
+    """
+    if not all(np.asarray(x).dtype == np.float32 for x in (w, modulation, average)):
+        return quality_map(mask, w, extent, modulation, average, residual, saturated=saturated, tests=tests)
+    if tests.rim == 1 and math.isfinite(np.float32(tests.gradient_ratio)) and (
+            residual is None or np.asarray(residual).dtype == np.float32):  # every row finished as it is made
+        lo, hi = extent if extent is not None else (-math.inf, math.inf)
+        margin = tests.margin if extent is not None else 0.0
+        return finished_quality_map(mask, w, (lo + margin, hi - margin), modulation, average, saturated, residual,
+                                    (tests.gradient_ratio, tests.gradient_floor, tests.modulation_ratio,
+                                     tests.max_disagreement))
+    valid = np.asarray(mask, bool)
+    return _quality_map_fused(mask, valid, w, extent, modulation, average, residual, None, saturated, tests)
 
 
 def _quality_map_fused(mask: np.ndarray, valid: np.ndarray, w: np.ndarray, extent: tuple[float, float] | None,

@@ -157,12 +157,14 @@ def read_meta(folder: str | os.PathLike) -> dict:
     return meta
 
 
-def _read_or_error(path: Path):
-    """read_image, returning the exception instead of raising (so errors surface in file order)."""
+def _read_or_error(path: Path, out: np.ndarray):
+    """read_image into ``out`` (None when decoded there; else the image read, for the caller to
+    check and copy), returning the exception instead of raising (so errors surface in file order)."""
     try:
-        return read_image(path)
+        img = read_image(path, out=out)
     except (ValueError, FileNotFoundError) as e:
         return e
+    return None if img is out else img
 
 
 def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Capture:
@@ -221,11 +223,15 @@ def read_capture(folder: str | os.PathLike, max_cycles: int | None = None) -> Ca
     first = read_image(files[0])
     frames = np.empty((len(files),) + first.shape, dtype=first.dtype)
     frames[0] = first
-    # decoders (OpenCV, tifffile) release the GIL: read in a few threads, check in file order
+    # decoders (ours for grey PNG, OpenCV, tifffile) release the GIL: read in a few threads (a
+    # grey PNG straight into its place), check in file order
     with progress_bar(f"reading {len(files)} frames", len(files), enabled=len(files) > 60) as advance, \
             ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
         advance()
-        for i, (p, img) in enumerate(zip(files[1:], pool.map(_read_or_error, files[1:])), start=1):
+        for i, (p, img) in enumerate(zip(files[1:], pool.map(_read_or_error, files[1:], frames[1:])), start=1):
+            if img is None:
+                advance()
+                continue
             if isinstance(img, Exception):
                 raise img
             if img.shape != first.shape:

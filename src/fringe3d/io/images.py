@@ -19,10 +19,13 @@ TIFF_SUFFIXES = (".tif", ".tiff")
 IMAGE_SUFFIXES = PNG_SUFFIXES + TIFF_SUFFIXES + (".bmp", ".jpg", ".jpeg", ".pgm")
 
 
-def read_image(path: str | os.PathLike, grey: bool = True) -> np.ndarray:
+def read_image(path: str | os.PathLike, grey: bool = True, out: np.ndarray | None = None) -> np.ndarray:
     """Read one image as stored (uint8, uint16, or TIFF float) -> (H, W) array.
 
-    Colour images are converted to grey (OpenCV's BT.601 weights) when ``grey``.
+    Colour images are converted to grey (OpenCV's BT.601 weights) when ``grey``. An image of
+    ``out``'s shape and dtype is copied into ``out`` (a frame of a stack being read), which is
+    returned; any other image is returned as read, ``out`` unchanged (the caller checks what
+    came back).
 
     Raises
     ------
@@ -59,6 +62,9 @@ def read_image(path: str | os.PathLike, grey: bool = True) -> np.ndarray:
             img = img[..., 0]
         else:
             raise ValueError(f"{path}: cannot read an image with {img.shape[2]} channels as grey")
+    if out is not None and img.shape == out.shape and img.dtype == out.dtype:
+        out[...] = img
+        return out
     return img
 
 

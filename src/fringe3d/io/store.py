@@ -102,9 +102,8 @@ def _write_coordinates(g, frames: int, height: int, width: int, times):
         coords["time"] = (t, {"units": "s", "long_name": "capture time of the 3D frame's first frame"})
     for name, (values, attrs) in coords.items():
         a = g.create_array(name, shape=values.shape, dtype=values.dtype, dimension_names=("frame",)
-                           if name == "time" else (name,))
+                           if name == "time" else (name,), attributes=attrs)
         a[:] = values
-        a.attrs.update(attrs)
     ax = g.create_array("axis", shape=(3,), dtype=str, dimension_names=("axis",))
     ax[:] = np.array(["x", "y", "z"])
     with warnings.catch_warnings():  # "consolidated metadata is not part of the zarr 3 spec": xarray reads it
@@ -237,33 +236,31 @@ class PointMapStore:
 
         def per_frame(name, tail, dtype, fill, dims, attrs):
             """One chunk per frame, compressed, no fill-value check on write, flat chunk keys."""
-            a = g.create_array(name, shape=(frames,) + tail, chunks=(1,) + tail, dtype=dtype, fill_value=fill,
-                               dimension_names=dims, compressors=comp, config=FRAME_CONFIG,
-                               chunk_key_encoding=FRAME_KEYS)
-            a.attrs.update(attrs)
             if times is not None:
-                a.attrs["coordinates"] = "time"  # CF: xarray reads ``time`` as this array's coordinate
+                attrs = {**attrs, "coordinates": "time"}  # CF: xarray reads ``time`` as this array's coordinate
+            g.create_array(name, shape=(frames,) + tail, chunks=(1,) + tail, dtype=dtype, fill_value=fill,
+                           dimension_names=dims, compressors=comp, config=FRAME_CONFIG, chunk_key_encoding=FRAME_KEYS,
+                           attributes=attrs)
 
         if layout == "xyz":
             per_frame("points", (height, width, 3), "float32", np.nan, POINT_DIMS, POINT_ATTRS)
         else:
             per_frame("depth", (height, width), "float32", np.nan, MAP_DIMS, DEPTH_ATTRS)
-            o = g.create_array("ray_origin", shape=(3,), dtype="float64", dimension_names=POINT_DIMS[3:])
+            o = g.create_array("ray_origin", shape=(3,), dtype="float64", dimension_names=POINT_DIMS[3:],
+                               attributes=ORIGIN_ATTRS)
             o[:] = O
-            o.attrs.update(ORIGIN_ATTRS)
             d = g.create_array("ray_direction", shape=(3, height, width), chunks=(3, height, width),
-                               dtype="float32", dimension_names=("axis",) + MAP_DIMS[1:], compressors=comp)
+                               dtype="float32", dimension_names=("axis",) + MAP_DIMS[1:], compressors=comp,
+                               attributes=DIRECTION_ATTRS)
             d[:] = D
-            d.attrs.update(DIRECTION_ATTRS)
         if quality:
             per_frame("quality", (height, width), "uint8", 1, MAP_DIMS, QUALITY_ATTRS)
         if sigma:
             per_frame("sigma_z", (height, width), "float16", np.nan, MAP_DIMS, SIGMA_ATTRS)
-        done = g.create_array("done", shape=(frames,), chunks=(min(frames, 65536),), dtype="uint8", fill_value=0,
-                              dimension_names=POINT_DIMS[:1])
-        done.attrs.update(DONE_ATTRS)
-        g.attrs.update({"format": STORE_FORMAT, "version": STORE_VERSION, "layout": layout, "frames": frames,
-                        "height": height, "width": width, "completed": 0, "meta": meta or {}})
+        g.create_array("done", shape=(frames,), chunks=(min(frames, 65536),), dtype="uint8", fill_value=0,
+                       dimension_names=POINT_DIMS[:1], attributes=DONE_ATTRS)
+        g.update_attributes({"format": STORE_FORMAT, "version": STORE_VERSION, "layout": layout, "frames": frames,
+                               "height": height, "width": width, "completed": 0, "meta": meta or {}})
         return cls(_write_coordinates(g, frames, height, width, times), path)
 
     @classmethod

@@ -71,6 +71,20 @@ def solve3(a, b, c, d, e, f, g, h, k, r0, r1, r2):  # pragma: no cover - compile
 _FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # fastmath without the no-NaN/no-inf assumptions
 
 
+#: -2**63 as float64: what a float64 -> int64 conversion gives on x86-64 for NaN, +-inf and any
+#: value out of the int64 range (``cvttsd2si``'s "integer indefinite")
+_INT_INDEFINITE = -9.223372036854775808e18
+
+
+@numba.njit(fastmath=_FAST, cache=True, inline="always")
+def ceil_as_int(v):  # pragma: no cover - compiled
+    """``math.ceil(v)`` (an int64 in numba) as float64 again, without the conversion to int64 that
+    AVX2 has no packed instruction for (it kept the fused kernel's pixel loop scalar): the float
+    ceiling where it fits int64, else the x86-64 conversion's value for NaN, +-inf and values
+    out of range (-2**63), so the kernel's outputs are the bits they were."""
+    return np.ceil(v) if abs(v) < 9.223372036854775808e18 else _INT_INDEFINITE
+
+
 @numba.njit(fastmath=_FAST, cache=True, inline="always")
 def _three_step_pixel(frames, i, j, i0, i1, i2, coef, phi_min, sign, scale, qo, po, D, Q, P3):  # pragma: no cover
     """One pixel of the fused path: ``(s, w, b^2 + c^2, sg, a0, a1, a2)`` (see :func:`three_step_kernel`)."""
@@ -83,7 +97,7 @@ def _three_step_pixel(frames, i, j, i0, i1, i2, coef, phi_min, sign, scale, qo, 
     phi = fast_atan2(-c, b)
     sg = np.float64(sign[i, j])
     x = (np.float64(phi_min[i, j]) - phi) * (1.0 / two_pi)
-    w = (phi + two_pi * (sg * math.ceil(sg * x))) * scale
+    w = (phi + two_pi * (sg * ceil_as_int(sg * x))) * scale
     dx = np.float64(D[0, i, j])
     dy = np.float64(D[1, i, j])
     dz = np.float64(D[2, i, j])

@@ -101,7 +101,9 @@ def heterodyne_pixel(b1, c1, b2, c2, b3, c3, peak, s12, s123, r_top, r_mid, lowe
                      max_res):  # pragma: no cover - compiled
     """One pixel of the three-frequency heterodyne (float32; :func:`three_frequency_kernel`'s
     parameters): from the groups' ``b, c`` sums and the brightest frame ``peak``, the wrapped
-    phase ``p1`` of group 1, its modulation, whether the pixel is valid and its absolute phase.
+    phase ``p1`` of group 1, its modulation, whether the pixel is valid, its absolute phase, the
+    wrapped phases ``p2``, ``p3`` of groups 2 and 3 and the squared modulation ``m3`` of group 3
+    (the last three for the assessment; a caller that drops them does not compute them twice).
     Inlined into the kernels' column loops, which stay branch-free (vectorised)."""
     m1 = b1 * b1 + c1 * c1
     m2 = b2 * b2 + c2 * c2
@@ -121,7 +123,7 @@ def heterodyne_pixel(b1, c1, b2, c2, b3, c3, peak, s12, s123, r_top, r_mid, lowe
     # non-short-circuit '&' so the loop stays branch-free (vectorised)
     consistent = (abs(d1 - F2PI * k1) <= max_res) & (abs(d2 - F2PI * k2) <= max_res)
     ok = (min(m1, min(m2, m3)) >= min_mod2) & (peak < sat_level) & consistent
-    return p1, math.sqrt(m1), ok, absolute
+    return p1, math.sqrt(m1), ok, absolute, p2, p3, m3
 
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
@@ -173,9 +175,9 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
                 ma = mask[i, j0:j0 + n]
                 tx = texture[i, j0:j0 + n]
                 for j in range(n):
-                    p1, bm, ok, absolute = heterodyne_pixel(b1[j], c1[j], b2[j], c2[j], b3[j], c3[j], peak[j],
-                                                            s12, s123, r_top, r_mid, lower, min_mod2, sat_level,
-                                                            max_res)
+                    p1, bm, ok, absolute, _, _, _ = heterodyne_pixel(b1[j], c1[j], b2[j], c2[j], b3[j], c3[j],
+                                                                     peak[j], s12, s123, r_top, r_mid, lower,
+                                                                     min_mod2, sat_level, max_res)
                     wr[j] = p1
                     mo[j] = bm
                     av[j] = a1[j]
@@ -186,29 +188,36 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
 
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
 def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params, design1, scales,
-                                  phase, wrapped, modulation, average, mask, texture,
-                                  clipped, variance, residual, modulation3):  # pragma: no cover - compiled
+                                  phase, wrapped, modulation, average, mask, coordinate,
+                                  clipped, variance, residual, modulation3, nonfinite):  # pragma: no cover
     """:func:`three_frequency_kernel` with what the decoder's assessment needs from the same pass.
 
-    Inputs and the first six outputs as :func:`three_frequency_kernel` (equal bit for bit: the
-    same float32 arithmetic), ``params`` with a ninth entry, the saturation level of the
-    per-group clipping flags. ``design1`` (N_1, 3) float32 ``[1, cos d_k, sin d_k]`` of group 1
-    (N_1 >= 4 for a variance; else ``variance`` may be (1, 1) and is left alone); ``scales``
-    float64 ``(T_1 / T_2, T_1 / T_3, 1 / (N_1 - 3))``. Extra outputs:
+    Inputs and the first five outputs as :func:`three_frequency_kernel` (equal bit for bit: the
+    same float32 arithmetic; no texture, which is ``average + modulation``), ``params`` with a
+    ninth entry, the saturation level of the per-group clipping flags. ``design1`` (N_1, 3)
+    float32 ``[1, cos d_k, sin d_k]`` of group 1 (N_1 >= 4 for a variance; else ``variance``
+    may be (1, 1) and is left alone); ``scales`` float64 ``(T_1 / T_2, T_1 / T_3, 1 / (N_1 -
+    3), T_1 / 2 pi)``. Extra outputs:
 
+    * ``coordinate`` (H, W) float32: the fringe coordinate ``w = Phi (T_1 / 2 pi)`` of the
+      absolute phase (NaN where invalid), the float32 product of
+      :func:`fringe3d.patterns.conventions.phase_to_w`;
     * ``clipped`` (3, H, W) bool: a frame of group g at or above the saturation level;
     * ``variance`` (H, W) float32: group 1's least-squares fit residual
       ``sum_k (I_k - a - b cos d_k - c sin d_k)^2 / (N_1 - 3)`` (float32 sums);
     * ``residual`` (H, W) float32: the multi-frequency disagreement
       ``max_g |wrap(phi_g - Phi T_1 / T_g)|`` (rad, in float64) over groups 2 and 3, 0 where the
       pixel is invalid;
-    * ``modulation3`` (H, W) float32: the modulation of group 3.
+    * ``modulation3`` (H, W) float32: the modulation of group 3;
+    * ``nonfinite`` (H,) uint8: 1 where the row has a valid pixel whose absolute phase is not
+      finite (possible only for frames holding inf or NaN), else 0.
 
     ``phi_2``, ``phi_3`` and the modulation of group 3 are the decode's own (its float32 sums,
-    float32 atan2 and sqrt), not :func:`fringe3d.phase._kernels.psp_kernel`'s float64 sums: a
-    second, float64 pass over the coarser groups' rows cost a quarter of the kernel. They differ
-    from the separate passes' by float32 rounding of the sums (``tests/test_fused_assess.py``
-    bounds it; the decoder's quality bits are unchanged).
+    float32 atan2 and sqrt, kept from :func:`heterodyne_pixel`), not
+    :func:`fringe3d.phase._kernels.psp_kernel`'s float64 sums: a second, float64 pass over the
+    coarser groups' rows cost a quarter of the kernel. They differ from the separate passes' by
+    float32 rounding of the sums (``tests/test_fused_assess.py`` bounds it; the decoder's quality
+    bits are unchanged).
     """
     s12 = params[0]
     s123 = params[1]
@@ -222,6 +231,8 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
     sc2 = scales[0]
     sc3 = scales[1]
     vscale = np.float32(scales[2])
+    wscale = np.float32(scales[3])
+    inf = np.float32(np.inf)
     n1 = idx1.shape[0]
     with_var = n1 >= 4
     h = frames.shape[1]
@@ -233,6 +244,7 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
         a1, b1, c1, a2, b2, c2, b3, c3 = acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], acc[6], acc[7]
         pk1, pk2, pk3, ss = acc[8], acc[9], acc[10], acc[11]
         for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
+            bad = np.uint8(0)
             for j0 in range(0, w, COL_CHUNK):
                 n = min(COL_CHUNK, w - j0)
                 accumulate_chunk(frames, idx1, coef1, i, j0, n, a1, b1, c1, pk1, True, True, True)
@@ -255,47 +267,45 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
                 mo = modulation[i, j0:j0 + n]
                 av = average[i, j0:j0 + n]
                 ma = mask[i, j0:j0 + n]
-                tx = texture[i, j0:j0 + n]
+                co = coordinate[i, j0:j0 + n]
                 cl1 = clipped[0, i, j0:j0 + n]
                 cl2 = clipped[1, i, j0:j0 + n]
                 cl3 = clipped[2, i, j0:j0 + n]
                 re = residual[i, j0:j0 + n]
                 m3o = modulation3[i, j0:j0 + n]
                 # three loops, each with few arrays: one loop storing to all eleven outputs has too
-                # many possibly-aliasing pointers for LLVM's runtime checks and does not vectorise
+                # many possibly-aliasing pointers for LLVM's runtime checks and does not vectorise.
+                # phi_2, phi_3 go to the free rows b2, c2 (each read before it is written)
                 for j in range(n):
                     peak = max(pk1[j], max(pk2[j], pk3[j]))
-                    p1, bm, ok, absolute = heterodyne_pixel(b1[j], c1[j], b2[j], c2[j], b3[j], c3[j], peak,
-                                                            s12, s123, r_top, r_mid, lower, min_mod2, sat_level,
-                                                            max_res)
+                    p1, bm, ok, absolute, p2, p3, m3 = heterodyne_pixel(b1[j], c1[j], b2[j], c2[j], b3[j], c3[j],
+                                                                        peak, s12, s123, r_top, r_mid, lower,
+                                                                        min_mod2, sat_level, max_res)
                     wr[j] = p1
                     mo[j] = bm
                     av[j] = a1[j]
-                    tx[j] = a1[j] + bm
                     ma[j] = ok
                     ph[j] = absolute if ok else nan
+                    b2[j] = p2
+                    c2[j] = p3
+                    m3o[j] = math.sqrt(m3)
                 for j in range(n):
                     cl1[j] = pk1[j] >= clip_level
                     cl2[j] = pk2[j] >= clip_level
                     cl3[j] = pk3[j] >= clip_level
-                # again a few arrays per loop (see above): phi_2, then phi_3 and B_3 from the decode's
-                # float32 sums, then the residual
-                for j in range(n):
-                    ss[j] = fast_atan2_f32(-c2[j], b2[j])
-                for j in range(n):
-                    bj = b3[j]
-                    cj = c3[j]
-                    a2[j] = fast_atan2_f32(-cj, bj)
-                    m3o[j] = math.sqrt(bj * bj + cj * cj)
                 mb = ma.view(np.uint8)  # the mask as bytes: a select on a bool load kept this loop scalar (4x)
                 for j in range(n):
-                    big64 = np.float64(ph[j])
-                    e2 = np.float64(ss[j]) - big64 * sc2
-                    e3 = np.float64(a2[j]) - big64 * sc3
+                    f = ph[j]
+                    co[j] = f * wscale
+                    bad |= mb[j] & np.uint8(not abs(f) < inf)  # branch-free: NaN compares False
+                    big64 = np.float64(f)
+                    e2 = np.float64(b2[j]) - big64 * sc2
+                    e3 = np.float64(c2[j]) - big64 * sc3
                     e2 = abs(e2 - TWO_PI * np.rint(e2 / TWO_PI))
                     e3 = abs(e3 - TWO_PI * np.rint(e3 / TWO_PI))
                     e = np.float32(max(e2, e3))
                     re[j] = e if mb[j] != 0 else np.float32(0.0)
+            nonfinite[i] = bad
 
 
 @njit(cache=True, inline="always")

@@ -431,14 +431,15 @@ def gray_code_order(frames: np.ndarray, code_index: Sequence[int], wrapped: np.n
 class FusedResult(NamedTuple):
     """Output of :func:`three_frequency_decode`, each (H, W): absolute phase float32 (NaN
     where invalid), wrapped phase of the narrowest period float32, its modulation and average
-    float32, validity mask bool, texture float32 (average + modulation)."""
+    float32, validity mask bool, texture float32 (average + modulation; None from the
+    decoder's pass with its assessment, :func:`fringe3d.decode._fused_assess.three_frequency_assess`)."""
 
     phase: np.ndarray
     wrapped: np.ndarray
     modulation: np.ndarray
     average: np.ndarray
     mask: np.ndarray
-    texture: np.ndarray
+    texture: np.ndarray | None
 
 
 def three_frequency_decode(frames: np.ndarray, indices: Sequence[Sequence[int]], shifts: Sequence[Sequence[float]],

@@ -81,7 +81,8 @@ def _fused_with_assessment(ctx: DecodeContext, groups: list, level: float):
     of :func:`fringe3d.decode._fused_assess.three_frequency_assess`, its assessment maps left in
     ``ctx.cache`` for :func:`fringe3d.decode.context.clipping_broken` (``("clipped", group)``),
     :func:`fringe3d.decode.assess.assess` (``("fit_variance", group)``, ``("modulation",
-    group)``, ``("disagreement", coarser groups)``)."""
+    group)``, ``("disagreement", coarser groups)``, ``("coordinate", period)``: the fringe
+    coordinate of the absolute phase, NaN outside the pass's mask and finite on it)."""
     a = three_frequency_assess(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
                                [g.period for g in groups], ctx.w_range(),
                                (ctx.min_modulation, float(ctx.options.max_residual), level))
@@ -91,6 +92,8 @@ def _fused_with_assessment(ctx: DecodeContext, groups: list, level: float):
         ctx.cache[("fit_variance", groups[0].name)] = a.variance
     ctx.cache[("modulation", groups[2].name)] = a.modulation3
     ctx.cache[("disagreement", groups[1].name, groups[2].name)] = a.residual
+    if a.finite:  # finite on the mask: the quality map needs no NaN test of its own
+        ctx.cache[("coordinate", float(groups[0].period))] = a.coordinate
     return a.decoded
 
 
