@@ -60,6 +60,7 @@ def test_fused_assessment_equals_the_separate_passes(capture):
     for g, idx in enumerate(groups):
         np.testing.assert_array_equal(a.clipped[g], (frames[idx] >= LEVEL).any(axis=0))
     assert a.clipped.any() and not a.clipped.all()
+    assert a.clip_counts == tuple(int(np.count_nonzero(c)) for c in a.clipped)
     np.testing.assert_allclose(a.variance, noise.fit_residual_variance(frames, groups[0], shifts[0]),
                                rtol=1e-4, atol=1e-3)  # float32 sums against float64
     # the coarser groups from the decode's float32 sums, against the float64 sums of the separate
@@ -77,7 +78,21 @@ def test_fused_assessment_of_a_three_step_first_group_has_no_variance(capture):
     g3 = [groups[0][:3], groups[1], groups[2]]
     s3 = [shifts[0][:3], shifts[1], shifts[2]]
     a = three_frequency_assess(frames, g3, s3, periods, wr, (5.0, 0.5 * np.pi, np.inf))
-    assert a.variance is None and not a.clipped.any()
+    assert a.variance is None and not a.clipped.any() and a.clip_counts == (0, 0, 0)
+
+
+def test_fused_assessment_counts_each_groups_clipped_pixels(capture):
+    # one group clipped in a corner only, the others nowhere: the counts are those of the flags
+    # the frames give, and the groups that clip nowhere have empty maps
+    _, frames, groups, shifts, periods, wr = capture
+    f = np.minimum(frames, LEVEL - 1)
+    f[groups[1][2], 3:7, 50:61] = LEVEL
+    a = three_frequency_assess(f, groups, shifts, periods, wr, (5.0, 0.5 * np.pi, LEVEL))
+    assert a.clip_counts == (0, 4 * 11, 0)
+    for g, idx in enumerate(groups):
+        want = (f[idx] >= LEVEL).any(axis=0)
+        np.testing.assert_array_equal(a.clipped[g], want)
+        assert a.clip_counts[g] == np.count_nonzero(want)
 
 
 def test_fused_assessment_flags_a_valid_pixel_whose_phase_is_not_finite(capture):

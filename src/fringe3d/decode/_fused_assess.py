@@ -37,12 +37,14 @@ from fringe3d.unwrap.temporal import FusedResult, beat_chain, coarse_window
 class FusedAssessment(NamedTuple):
     """:class:`~fringe3d.unwrap.temporal.FusedResult` of the decode (its ``texture`` None: it is
     ``average + modulation`` in float32, which a caller adds when it needs it) and, each (H, W):
-    ``clipped`` (3, H, W) bool per group (a frame at the saturation level), ``variance``
+    ``clipped`` (3, H, W) bool per group (a frame at the saturation level; a group that clips
+    nowhere is a plane of untouched zero pages), ``variance``
     float32 fit-residual variance of group 1 (None with fewer than 4 steps), ``residual``
     float32 disagreement (rad, 0 where invalid), ``modulation3`` float32 modulation of group 3,
     ``coordinate`` float32 fringe coordinate ``w`` of the absolute phase (px of the narrowest
     period, NaN where invalid; :func:`fringe3d.patterns.conventions.phase_to_w`), and whether
-    ``coordinate`` is finite on the whole mask (False only for frames holding inf or NaN)."""
+    ``coordinate`` is finite on the whole mask (False only for frames holding inf or NaN);
+    ``clip_counts`` how many pixels of each group ``clipped`` holds."""
 
     decoded: FusedResult
     clipped: np.ndarray
@@ -51,6 +53,7 @@ class FusedAssessment(NamedTuple):
     modulation3: np.ndarray
     coordinate: np.ndarray
     finite: bool
+    clip_counts: tuple[int, int, int]
 
 
 def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]], shifts: Sequence[Sequence[float]],
@@ -81,14 +84,19 @@ def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]],
                       np.empty((h, w), np.float32), np.empty((h, w), np.bool_), None)
     coordinate = np.empty((h, w), np.float32)
     nonfinite = np.zeros(h, np.uint8)
-    clipped = np.empty((3, h, w), np.bool_)
+    packed = np.empty((h, w), np.uint8)  # bit g: group g clipped
+    clip_rows = np.empty((3, h), np.int32)
     variance = np.empty((h, w) if n1 >= 4 else (1, 1), np.float32)
     residual = np.empty((h, w), np.float32)
     modulation3 = np.empty((h, w), np.float32)
     kernels.three_frequency_assess_kernel(frames, idx[0], coef[0], idx[1], coef[1], idx[2], coef[2], params,
-                                          design, scales, *out[:5], coordinate, clipped, variance, residual,
-                                          modulation3, nonfinite)
-    if not math.isfinite(level):
-        clipped[:] = False
+                                          design, scales, *out[:5], coordinate, packed, variance, residual,
+                                          modulation3, nonfinite, clip_rows)
+    counts = (tuple(int(c) for c in clip_rows.sum(axis=1, dtype=np.int64)) if math.isfinite(level)
+              else (0, 0, 0))
+    clipped = np.zeros((3, h, w), np.bool_)  # calloc: a group without a clipped pixel is never written
+    for g, c in enumerate(counts):
+        if c:
+            np.not_equal(packed & np.uint8(1 << g), 0, out=clipped[g])
     return FusedAssessment(out, clipped, variance if n1 >= 4 else None, residual, modulation3, coordinate,
-                           not nonfinite.any())
+                           not nonfinite.any(), (counts[0], counts[1], counts[2]))

@@ -189,7 +189,7 @@ def three_frequency_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params
 @njit(cache=True, parallel=True, fastmath=FASTMATH)
 def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3, params, design1, scales,
                                   phase, wrapped, modulation, average, mask, coordinate,
-                                  clipped, variance, residual, modulation3, nonfinite):  # pragma: no cover
+                                  clipped, variance, residual, modulation3, nonfinite, clip_rows):  # pragma: no cover
     """:func:`three_frequency_kernel` with what the decoder's assessment needs from the same pass.
 
     Inputs and the first five outputs as :func:`three_frequency_kernel` (equal bit for bit: the
@@ -202,7 +202,9 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
     * ``coordinate`` (H, W) float32: the fringe coordinate ``w = Phi (T_1 / 2 pi)`` of the
       absolute phase (NaN where invalid), the float32 product of
       :func:`fringe3d.patterns.conventions.phase_to_w`;
-    * ``clipped`` (3, H, W) bool: a frame of group g at or above the saturation level;
+    * ``clipped`` (H, W) uint8: bit ``g`` (value ``1 << g``) set where a frame of group g is at or
+      above the saturation level; ``clip_rows`` (3, H) int32: how many pixels of each row have
+      that bit (a caller unpacks only the groups that clip; most captures clip nowhere);
     * ``variance`` (H, W) float32: group 1's least-squares fit residual
       ``sum_k (I_k - a - b cos d_k - c sin d_k)^2 / (N_1 - 3)`` (float32 sums);
     * ``residual`` (H, W) float32: the multi-frequency disagreement
@@ -245,6 +247,9 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
         pk1, pk2, pk3, ss = acc[8], acc[9], acc[10], acc[11]
         for i in range(blk * ROW_BLOCK, min(h, (blk + 1) * ROW_BLOCK)):
             bad = np.uint8(0)
+            nc1 = np.int32(0)
+            nc2 = np.int32(0)
+            nc3 = np.int32(0)
             for j0 in range(0, w, COL_CHUNK):
                 n = min(COL_CHUNK, w - j0)
                 accumulate_chunk(frames, idx1, coef1, i, j0, n, a1, b1, c1, pk1, True, True, True)
@@ -268,9 +273,7 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
                 av = average[i, j0:j0 + n]
                 ma = mask[i, j0:j0 + n]
                 co = coordinate[i, j0:j0 + n]
-                cl1 = clipped[0, i, j0:j0 + n]
-                cl2 = clipped[1, i, j0:j0 + n]
-                cl3 = clipped[2, i, j0:j0 + n]
+                cl = clipped[i, j0:j0 + n]
                 re = residual[i, j0:j0 + n]
                 m3o = modulation3[i, j0:j0 + n]
                 # three loops, each with few arrays: one loop storing to all eleven outputs has too
@@ -289,10 +292,14 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
                     b2[j] = p2
                     c2[j] = p3
                     m3o[j] = math.sqrt(m3)
-                for j in range(n):
-                    cl1[j] = pk1[j] >= clip_level
-                    cl2[j] = pk2[j] >= clip_level
-                    cl3[j] = pk3[j] >= clip_level
+                for j in range(n):  # one packed byte, not three bool planes; branch-free counts
+                    q1 = np.uint8(pk1[j] >= clip_level)
+                    q2 = np.uint8(pk2[j] >= clip_level)
+                    q3 = np.uint8(pk3[j] >= clip_level)
+                    cl[j] = q1 | (q2 << np.uint8(1)) | (q3 << np.uint8(2))
+                    nc1 += np.int32(q1)
+                    nc2 += np.int32(q2)
+                    nc3 += np.int32(q3)
                 mb = ma.view(np.uint8)  # the mask as bytes: a select on a bool load kept this loop scalar (4x)
                 for j in range(n):
                     f = ph[j]
@@ -306,6 +313,9 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
                     e = np.float32(max(e2, e3))
                     re[j] = e if mb[j] != 0 else np.float32(0.0)
             nonfinite[i] = bad
+            clip_rows[0, i] = nc1
+            clip_rows[1, i] = nc2
+            clip_rows[2, i] = nc3
 
 
 @njit(cache=True, inline="always")

@@ -64,8 +64,12 @@ def unwrap_heterodyne(ctx: DecodeContext) -> Unwrapped:
                                        max_residual=float(ctx.options.max_residual), backend=ctx.options.backend)
         mask, phase = r.mask, r.phase
         if np.isfinite(level):
-            broken = [b for i, g in enumerate(groups)  # the coarser groups only choose fringe orders
-                      if (b := clipping_broken(ctx, g, order_only=i > 0)).any()]
+            broken = []
+            for i, g in enumerate(groups):  # the coarser groups only choose fringe orders
+                b = clipping_broken(ctx, g, order_only=i > 0)
+                # a group whose saturation record counts no clipped pixel has an empty map: not read
+                if ctx.cache.get(("saturation", g.name), {}).get("clipped") != 0 and b.any():
+                    broken.append(b)
             if broken:  # else mask and phase stand as they are
                 mask = mask & ~np.logical_or.reduce(broken)
                 phase = np.where(mask, phase, np.float32(np.nan)).astype(np.float32, copy=False)
