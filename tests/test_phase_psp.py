@@ -62,10 +62,7 @@ def test_numba_kernel_equals_numpy_reference(dtype):
         fast = wrapped_phase(f)
         ref = wrapped_phase_reference(f)
         ok = ref.modulation > 1e-3 * hi
-        # float32 sums: b and c within (N + 1) 2^-24 hi of the float64 ones (a hundredth of the
-        # quantisation noise of one count), so the phase within that over B
-        err = np.abs(wrap(fast.phase.astype(np.float64) - ref.phase))
-        assert (err * ref.modulation)[ok].max() < (n + 1) * 2.0 ** -24 * hi + 1e-6 * ref.modulation[ok].max()
+        assert np.abs(wrap(fast.phase - ref.phase))[ok].max() < 1e-5
         assert np.allclose(fast.modulation, ref.modulation, rtol=1e-5, atol=1e-4 * hi)
         assert np.allclose(fast.average, ref.average, rtol=1e-6, atol=1e-4)
 
@@ -108,16 +105,3 @@ def test_bad_inputs_raise_clear_errors():
         wrapped_phase([np.zeros((3, 3)), np.zeros((3, 4)), np.zeros((3, 3))])
     with pytest.raises(ValueError, match=r"\(N, H, W\)"):
         wrapped_phase(np.zeros((3, 3)))
-
-
-@pytest.mark.parametrize("level", [255, 254.99999999999, 200.1, np.float32(200.1), 1e39, math.inf])
-def test_saturation_map_compares_float32_frames_as_numpy_compares_them_with_the_level(level):
-    # the kernel compares in float32 with the least float32 not below the level: the same pixels
-    base = np.float32(200.1)
-    values = np.array([np.nextafter(base, np.float32(0)), base, np.nextafter(base, np.float32(300)),
-                       np.nextafter(np.float32(255), np.float32(0)), 255.0, 3e38], np.float32)
-    f = np.full((3, 1, values.size), 100.0, np.float32)
-    f[1, 0] = values
-    _, sat = wrapped_phase(f, saturation_level=level, return_saturated=True)
-    with np.errstate(over="ignore"):
-        np.testing.assert_array_equal(sat[0], values.astype(np.float64) >= float(level))

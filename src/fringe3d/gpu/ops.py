@@ -55,19 +55,16 @@ def wrapped_phase(frames, coef: np.ndarray, index: np.ndarray, saturation_level:
                   chunk: int = DEFAULT_CHUNK, device_output: bool = False):
     """N-step least-squares wrapped phase (Eq. 2.4) on the device.
 
-    frames (F, H, W) or (C, F, H, W); coef (3, N) from
-    :func:`fringe3d.phase.psp.lsq_coefficients` (used as float32, as the CPU kernel: float32
-    sums); index (N,) frame indices; ``saturation_level`` compared with the frames' values in
-    float32 (:func:`fringe3d.phase.psp.wrapped_phase` passes the least float32 not below its
-    level). Returns
+    frames (F, H, W) or (C, F, H, W); coef (3, N) float64 from
+    :func:`fringe3d.phase.psp.lsq_coefficients`; index (N,) frame indices. Returns
     ``(phase, average, modulation, saturated)``, each (H, W) or (C, H, W): float32 rad in
     (-pi, pi], float32, float32, bool.
     """
     cuda = cuda_module()
     stack, hw, single = _cycles(frames)
     idx = cuda.to_device(_check_index(index, stack.shape[1]))
-    d_coef = cuda.to_device(np.ascontiguousarray(coef, np.float32))
-    sat = np.float32(saturation_level)
+    d_coef = cuda.to_device(np.ascontiguousarray(coef, np.float64))
+    sat = float(saturation_level)
     from fringe3d.gpu.phase_kernels import psp_kernel
 
     def launch(src, outs, stream):

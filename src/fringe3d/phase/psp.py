@@ -158,26 +158,17 @@ def _wrapped_phase_cpu(frames: np.ndarray, shifts: np.ndarray, idx: np.ndarray, 
     phase = np.empty((h, w), np.float32)
     average = np.empty((h, w), np.float32)
     modulation = np.empty((h, w), np.float32)
-    saturated = np.empty((h, w), np.bool_)
+    saturated = np.zeros((h, w), np.bool_)
     shape, rows = ((h, w), h) if min_modulation is not None else ((0, 0), 0)
     mask, masked, invalid = np.empty(shape, np.bool_), np.empty(shape, np.float32), np.empty(shape, np.uint8)
     sums, counts = np.zeros(rows, np.float64), np.zeros(rows, np.int64)
-    sat = _float32_at_least(math.inf if saturation_level is None else float(saturation_level))
-    _kernels.psp_kernel(frames, idx.astype(np.int64), coef.astype(np.float32), sat, phase, average, modulation,
-                        saturated,
+    sat = math.inf if saturation_level is None else float(saturation_level)
+    _kernels.psp_kernel(frames, idx.astype(np.int64), coef, sat, phase, average, modulation, saturated,
                         np.float32(0.0 if min_modulation is None else min_modulation), mask, masked, invalid,
                         sums, counts)
     valid = None if min_modulation is None else ValidPhase(mask, masked, invalid,
                                                            (float(sums.sum()), int(counts.sum())))
     return PhaseResult(phase, average, modulation), saturated, valid
-
-
-def _float32_at_least(level: float) -> np.float32:
-    """The least float32 ``T`` not below ``level``: ``x >= T`` exactly where ``x >= level`` for
-    every float32 ``x`` (the kernels compare the frames' values as float32)."""
-    with np.errstate(over="ignore"):
-        t = np.float32(level)
-    return np.nextafter(t, np.float32(np.inf)) if float(t) < level else t
 
 
 def wrapped_phase_and_mask(frames: np.ndarray, shifts, index, saturation_level: float | None,
@@ -227,7 +218,7 @@ def _wrapped_phase_cuda(frames, shifts, index, saturation_level, return_saturate
         raise ValueError(f"got {d.size} phase shifts for {idx.size} frames; expected one shift per frame")
     if not hasattr(frames, "copy_to_host"):
         frames = np.asarray(frames)
-    sat = _float32_at_least(math.inf if saturation_level is None else float(saturation_level))
+    sat = math.inf if saturation_level is None else float(saturation_level)
     phase, average, modulation, saturated = ops.wrapped_phase(frames, lsq_coefficients(d), idx, sat,
                                                               device_output=device_output)
     result = PhaseResult(phase, average, modulation)
