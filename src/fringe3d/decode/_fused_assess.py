@@ -17,7 +17,7 @@ Tolerances against those references (``tests/test_fused_assess.py``): the decode
 summed in float32 (relative 1e-4 of the float64 reference at 1 grey level of noise; the phase
 sigma of the noise model fitted to it within 1e-4, or 1e-6 rad where c0 + c1 A nearly cancels); the
 disagreement and the coarsest modulation come from the decode's own float32 sums of the coarser
-groups (:func:`fringe3d.phase.psp.wrapped_phase` sums in float32 in another order): the modulation within 1e-6
+groups (:func:`fringe3d.phase.psp.wrapped_phase` sums in float64): the modulation within 1e-6
 relative + 2e-5 grey levels, the disagreement within 2e-6 rad and the blur estimate made from
 that modulation within 1e-4 px, with the decoder's quality bits unchanged.
 """

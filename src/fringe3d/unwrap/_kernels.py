@@ -216,8 +216,8 @@ def three_frequency_assess_kernel(frames, idx1, coef1, idx2, coef2, idx3, coef3,
 
     ``phi_2``, ``phi_3`` and the modulation of group 3 are the decode's own (its float32 sums,
     float32 atan2 and sqrt, kept from :func:`heterodyne_pixel`), not
-    :func:`fringe3d.phase._kernels.psp_kernel`'s (float32 sums too, in another order): a second
-    pass over the coarser groups' rows cost a quarter of the kernel. They differ from the separate passes' by
+    :func:`fringe3d.phase._kernels.psp_kernel`'s float64 sums: a second, float64 pass over the
+    coarser groups' rows cost a quarter of the kernel. They differ from the separate passes' by
     float32 rounding of the sums (``tests/test_fused_assess.py`` bounds it; the decoder's quality
     bits are unchanged).
     """
