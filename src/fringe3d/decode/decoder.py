@@ -172,7 +172,7 @@ def _decode_cycle(frames: np.ndarray, ps: PatternSet, rig: Rig | None, opts: Dec
     out = Decoded(info={"frame_checks": checks, "warnings": [str(w.message) for w in caught],
                         "min_modulation": min_mod})
     first: tuple[DecodeContext, Any, Unwrapped] | None = None
-    white = [i for i, f in enumerate(ps.frames) if f.kind == "white"]  # ps.indices(kind="white")
+    white = ps.indices(kind="white")
     texture = None  # the first direction's, from its phase sigma's pass
     for plan in plans:
         ctx = DecodeContext(frames=frames, patterns=ps, direction=plan.direction, plan=plan, rig=rig,

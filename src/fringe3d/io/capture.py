@@ -158,8 +158,9 @@ def read_meta(folder: str | os.PathLike) -> dict:
 
 
 def _read_or_error(path: Path, out: np.ndarray):
-    """read_image into ``out`` (None when decoded there; else the image read, for the caller to
-    check and copy), returning the exception instead of raising (so errors surface in file order)."""
+    """read_image into ``out`` (None when copied there; else the image read, whose shape or dtype
+    does not fit, for the caller to name), returning the exception instead of raising (so errors
+    surface in file order)."""
     try:
         img = read_image(path, out=out)
     except (ValueError, FileNotFoundError) as e:

@@ -103,7 +103,7 @@ class CaptureFrames:
         return self.shape[0]
 
     def _one(self, k: int, out: np.ndarray | None = None) -> np.ndarray:
-        """Frame ``k``, decoded into ``out`` (a frame of the stack being read) when given."""
+        """Frame ``k``, copied into ``out`` (a frame of the stack being read) when given."""
         img = self._read(self.files[k], out=out)
         if img.shape != self.shape[1:] or img.dtype != self.dtype:
             raise ValueError(f"{self.files[k]} is {img.dtype} {img.shape} but {self.files[0].name} is "

@@ -17,6 +17,7 @@ that must give memory back after a burst of work).
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
 import sys
 
@@ -27,7 +28,6 @@ OPT_OUT_VARIABLE = "FRINGE3D_RETURN_FREED_MEMORY"
 
 _M_TRIM_THRESHOLD = -1  # glibc's <malloc.h>
 _M_MMAP_THRESHOLD = -3
-_applied: list[bool] = []
 
 
 def _glibc() -> ctypes.CDLL | None:
@@ -43,6 +43,7 @@ def _glibc() -> ctypes.CDLL | None:
     return libc if version() else None
 
 
+@functools.cache
 def keep_freed_memory() -> bool:
     """Make this process keep freed memory for reuse (glibc only; once per process).
 
@@ -52,9 +53,6 @@ def keep_freed_memory() -> bool:
         True when glibc accepted both thresholds (now or at an earlier call), False on
         another C library, when ``FRINGE3D_RETURN_FREED_MEMORY=1``, or when glibc refused.
     """
-    if not _applied:
-        libc = None if os.environ.get(OPT_OUT_VARIABLE) == "1" else _glibc()
-        done = bool(libc is not None and libc.mallopt(_M_MMAP_THRESHOLD, KEEP_BYTES)
-                    and libc.mallopt(_M_TRIM_THRESHOLD, KEEP_BYTES))
-        _applied.append(done)
-    return _applied[0]
+    libc = None if os.environ.get(OPT_OUT_VARIABLE) == "1" else _glibc()
+    return bool(libc is not None and libc.mallopt(_M_MMAP_THRESHOLD, KEEP_BYTES)
+                and libc.mallopt(_M_TRIM_THRESHOLD, KEEP_BYTES))
