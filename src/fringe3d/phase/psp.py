@@ -158,7 +158,7 @@ def _wrapped_phase_cpu(frames: np.ndarray, shifts: np.ndarray, idx: np.ndarray, 
     phase = np.empty((h, w), np.float32)
     average = np.empty((h, w), np.float32)
     modulation = np.empty((h, w), np.float32)
-    saturated = np.zeros((h, w), np.bool_)
+    saturated = np.empty((h, w), np.bool_)
     shape, rows = ((h, w), h) if min_modulation is not None else ((0, 0), 0)
     mask, masked, invalid = np.empty(shape, np.bool_), np.empty(shape, np.float32), np.empty(shape, np.uint8)
     sums, counts = np.zeros(rows, np.float64), np.zeros(rows, np.int64)
