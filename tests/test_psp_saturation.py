@@ -64,3 +64,27 @@ def test_saturation_test_threshold_decides_like_the_float64_comparison(level):
         got = xs >= t[0]
     np.testing.assert_array_equal(got, want)
     assert saturation_test(np.dtype(np.int64), level)[0] == SAT_FLOAT64  # float64 does not hold every int64
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.float32])
+def test_three_frame_pass_equals_the_previous_kernel_bit_for_bit(dtype):
+    # the one-loop float64 sums and the fused float32 loop give the outputs of the form with
+    # float64 buffers (accumulate_chunk) and numpy-free atan2 constants, NaN and inf included
+    from reference_implementations import psp_kernel_previous
+
+    from fringe3d.phase import _kernels
+    from fringe3d.phase.psp import lsq_coefficients
+    rng = np.random.default_rng(3)
+    f = _frames(dtype, rng)[:, :, :43]
+    if np.dtype(dtype).kind == "f":
+        f[1, 2, :5] = 0.0
+        f[0, 2, :5] = f[2, 2, :5] = 7.0  # I1 = I3: a zero numerator
+    coef, level = lsq_coefficients((-2.0 * np.pi / 3.0, 0.0, 2.0 * np.pi / 3.0)), 255.0
+    got = [np.empty(f.shape[1:], np.float32) for _ in range(3)] + [np.empty(f.shape[1:], bool)]
+    want = [np.empty(f.shape[1:], np.float32) for _ in range(3)] + [np.zeros(f.shape[1:], bool)]
+    none = (np.empty((0, 0), bool), np.empty((0, 0), np.float32), np.empty((0, 0), np.uint8), np.zeros(0),
+            np.zeros(0, np.int64))
+    _kernels.psp_kernel(f, np.arange(3), coef, level, *got, np.float32(0), *none)
+    psp_kernel_previous(f.astype(np.float64), np.arange(3), coef, level, *want)
+    for g, w in zip(got, want):
+        assert g.tobytes() == w.tobytes()

@@ -132,6 +132,7 @@ def accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, init, init_pe
         k += m
 
 
+@njit(cache=True)
 def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
                masked, invalid, sums, counts):
     """Least-squares N-step phase (Eq. 2.4) for frames ``frames[index]``.
@@ -150,12 +151,12 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
     rows are in the cache).
 
     Three frames (the 3-step set) take one float64 loop for the three sums (the expressions of
-    :func:`accumulate_chunk`'s first pass, so the same roundings) and test saturation in the
+    :func:`accumulate_chunk`'s first pass, so the same roundings). This form tests saturation in
+    float64; :func:`fringe3d.phase.psp.wrapped_phase` calls :func:`psp_pass` with the test in the
     frames' own dtype (:func:`saturation_test`: 32 uint8 values a vector, not 4 float64).
     """
-    mode, threshold = saturation_test(frames.dtype, float(sat_level))
-    _psp_pass(frames, index, coef, float(sat_level), mode, threshold, phase, average, modulation, saturated,
-              min_modulation, valid, masked, invalid, sums, counts, _ATAN_CONSTANTS)
+    psp_pass(frames, index, coef, sat_level, SAT_FLOAT64, np.zeros(1, frames.dtype), phase, average, modulation,
+             saturated, min_modulation, valid, masked, invalid, sums, counts, ATAN_CONSTANTS.copy())
 
 
 #: :func:`saturation_test` modes: no value is saturated, every value is, ``value >= threshold`` in
@@ -197,18 +198,18 @@ def saturation_test(dtype: np.dtype, sat_level: float) -> tuple[int, np.ndarray]
     return SAT_NATIVE, np.array([sat_level], dtype)
 
 
-# atan2's constants as an argument (float32): a constant in the loop is a 64-bit address load and
-# a broadcast each vector iteration (numba's code model), an argument is a register or a folded load
-_ATAN_CONSTANTS = np.array([_A0, _A1, _A2, _A3, _A4, _A5, _A6, _A7, 0.5 * math.pi, math.pi], np.float32)
+#: atan2's constants as an argument (float32): a constant in the loop is a 64-bit address load and
+#: a broadcast each vector iteration (numba's code model), an argument is a register or a folded load.
+ATAN_CONSTANTS = np.array([_A0, _A1, _A2, _A3, _A4, _A5, _A6, _A7, 0.5 * math.pi, math.pi], np.float32)
 
 
 @njit(cache=True, parallel=True)
-def _psp_pass(frames, index, coef, sat_level, sat_mode, threshold, phase, average, modulation, saturated,
-              min_modulation, valid, masked, invalid, sums, counts, kc):
-    """:func:`psp_kernel` (``sat_mode``, ``threshold``: its :func:`saturation_test`; ``kc``
-    :data:`_ATAN_CONSTANTS`). The parallel loop only hands row ranges to :func:`psp_rows`
-    (serial): numba's parallel lowering then works on a call, not on the loops (a frame dtype's
-    compilation ~20 % shorter)."""
+def psp_pass(frames, index, coef, sat_level, sat_mode, threshold, phase, average, modulation, saturated,
+             min_modulation, valid, masked, invalid, sums, counts, kc):
+    """:func:`psp_kernel` with the saturation test of :func:`saturation_test` (``sat_mode``,
+    ``threshold``) and ``kc`` :data:`ATAN_CONSTANTS`. The parallel loop only hands row ranges to
+    :func:`psp_rows` (serial): numba's parallel lowering then works on a call, not on the loops (a
+    frame dtype's compilation ~20 % shorter)."""
     h = frames.shape[1]
     with_noise = valid.shape == phase.shape and h > 0 and invalid.shape == phase.shape and sums.shape[0] == h
     rows = LAPLACIAN_BLOCK if with_noise else PSP_ROWS
@@ -264,7 +265,7 @@ def saturated3_chunk(frames, index, sat_level, sat_mode, threshold, i, j0, n, sa
 
 @njit(cache=True, inline="always", fastmath=FASTMATH)
 def atan2_f32(y, x, kc):
-    """:func:`fast_atan2_f32` with its constants from ``kc`` (:data:`_ATAN_CONSTANTS`): the same
+    """:func:`fast_atan2_f32` with its constants from ``kc`` (:data:`ATAN_CONSTANTS`): the same
     operations in the same order (the same results, bit for bit)."""
     zero = np.float32(0.0)
     ax = abs(x)
@@ -283,13 +284,12 @@ def atan2_f32(y, x, kc):
 @njit(cache=True, nogil=True, fastmath=FASTMATH)
 def psp_rows(frames, index, coef, sat_level, sat_mode, threshold, phase, average, modulation, saturated,
              min_modulation, valid, masked, invalid, sums, counts, kc, r0, r1):
-    """Rows ``r0 .. r1 - 1`` of :func:`_psp_pass` (its arguments, serial); the Laplacian sums of
+    """Rows ``r0 .. r1 - 1`` of :func:`psp_pass` (its arguments, serial); the Laplacian sums of
     rows ``r0 + 1 .. r1 - 2``, whose neighbours are in the range."""
     w = frames.shape[2]
     with_valid = valid.shape == phase.shape
     with_noise = with_valid and invalid.shape == phase.shape and sums.shape[0] == phase.shape[0]
     three = index.shape[0] == 3
-    inf = np.float32(np.inf)
     nan = np.float32(np.nan)
     acc = np.empty((4, 0 if three else COL_CHUNK))  # float64 sums of more than 3 frames
     a, b, c, peak = acc[0], acc[1], acc[2], acc[3]
@@ -324,7 +324,7 @@ def psp_rows(frames, index, coef, sat_level, sat_mode, threshold, phase, average
                     cj = cf[j]
                     ph[j] = atan2_f32(-cj, bj, k)
                     mo[j] = math.sqrt(bj * bj + cj * cj)
-            else:
+            elif not with_noise:
                 va = valid[i, j0:j0 + n]
                 ma = masked[i, j0:j0 + n]
                 for j in range(n):
@@ -334,13 +334,24 @@ def psp_rows(frames, index, coef, sat_level, sat_mode, threshold, phase, average
                     q = math.sqrt(bj * bj + cj * cj)
                     ph[j] = p
                     mo[j] = q
-                    m = (q >= min_modulation) & (not sa[j]) & (abs(p) < inf)
+                    m = (q >= min_modulation) & (not sa[j]) & (p == p)  # atan2's p: finite or NaN
                     va[j] = m
                     ma[j] = p if m else nan
-                if with_noise:
-                    iv = invalid[i, j0:j0 + n]
-                    for j in range(n):
-                        iv[j] = np.uint8(0) if va[j] else np.uint8(1)
+            else:
+                va = valid[i, j0:j0 + n]
+                ma = masked[i, j0:j0 + n]
+                iv = invalid[i, j0:j0 + n]
+                for j in range(n):
+                    bj = bf[j]
+                    cj = cf[j]
+                    p = atan2_f32(-cj, bj, k)
+                    q = math.sqrt(bj * bj + cj * cj)
+                    ph[j] = p
+                    mo[j] = q
+                    m = (q >= min_modulation) & (not sa[j]) & (p == p)
+                    va[j] = m
+                    ma[j] = p if m else nan
+                    iv[j] = np.uint8(0) if m else np.uint8(1)
         if with_noise:  # row i - 1's Laplacian once row i has its second difference
             laplacian_ring_step(average, valid, d, inside, i, r0, sums, counts)
 
