@@ -132,7 +132,7 @@ def accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, init, init_pe
         k += m
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
                masked, invalid, sums, counts):
     """Least-squares N-step phase (Eq. 2.4) for frames ``frames[index]``.
@@ -140,7 +140,7 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
     frames (F, H, W) any real dtype; index (N,) int64; coef (3, N) float64 pseudo-inverse
     (float64 sums, float32 atan2/sqrt); sat_level: a pixel is flagged saturated when any of its N values
     >= sat_level (pass ``inf`` to disable). Outputs (H, W): phase float32 rad in (-pi, pi],
-    average and modulation float32 in the frames' units, saturated bool (or-ed in). With
+    average and modulation float32 in the frames' units, saturated bool (written, not or-ed in). With
     ``valid`` (H, W) bool and ``masked`` (H, W) float32 (else pass (0, 0) arrays): also
     ``valid = (modulation >= min_modulation) & ~saturated & isfinite(phase)`` (float32
     ``min_modulation``) and the phase with NaN outside it, from the same pass. With ``valid``
@@ -150,70 +150,208 @@ def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, satur
     :func:`fringe3d.phase._noise_kernel.interior_laplacian`, by the same row code, while the
     rows are in the cache).
 
-    The parallel loop only hands row ranges to :func:`psp_rows` (serial): numba's parallel
-    lowering then works on a call, not on the loops (a frame dtype's compilation ~20 % shorter).
+    Three frames (the 3-step set) take one float64 loop for the three sums (the expressions of
+    :func:`accumulate_chunk`'s first pass, so the same roundings). This form tests saturation in
+    float64; :func:`fringe3d.phase.psp.wrapped_phase` calls :func:`psp_pass` with the test in the
+    frames' own dtype (:func:`saturation_test`: 32 uint8 values a vector, not 4 float64).
     """
+    psp_pass(frames, index, coef, sat_level, SAT_FLOAT64, np.zeros(1, frames.dtype), phase, average, modulation,
+             saturated, min_modulation, valid, masked, invalid, sums, counts, ATAN_CONSTANTS.copy())
+
+
+#: :func:`saturation_test` modes: no value is saturated, every value is, ``value >= threshold`` in
+#: the frames' dtype, ``float64(value) >= sat_level``.
+SAT_NEVER, SAT_ALWAYS, SAT_NATIVE, SAT_FLOAT64 = 0, 1, 2, 3
+#: Frame dtypes whose values float64 holds exactly (so a comparison in the dtype is the float64 one).
+_EXACT_KINDS = {np.dtype(t) for t in (np.uint8, np.uint16, np.uint32, np.int8, np.int16, np.int32, np.float32,
+                                      np.float64)}
+
+
+def saturation_test(dtype: np.dtype, sat_level: float) -> tuple[int, np.ndarray]:
+    """``(mode, threshold)``: the test ``float64(x) >= sat_level`` of a frame value ``x`` of
+    ``dtype`` as a comparison in that dtype, ``x >= threshold[0]`` (mode :data:`SAT_NATIVE`;
+    ``threshold`` a (1,) array of ``dtype``), or a constant answer (:data:`SAT_NEVER`,
+    :data:`SAT_ALWAYS`), or the float64 test itself (:data:`SAT_FLOAT64`, dtypes float64 does not
+    hold exactly). An integer ``x >= s`` is ``x >= ceil(s)``; a float32 ``x >= s`` is ``x >= c``
+    with ``c`` the least float32 not below ``s``; NaN compares False either way."""
+    dtype = np.dtype(dtype)
+    if dtype not in _EXACT_KINDS:
+        return SAT_FLOAT64, np.zeros(1, dtype)
+    if math.isnan(sat_level):
+        return SAT_NEVER, np.zeros(1, dtype)
+    if dtype.kind in "ui":
+        info = np.iinfo(dtype)
+        if sat_level > info.max:
+            return SAT_NEVER, np.zeros(1, dtype)
+        if sat_level <= info.min:
+            return SAT_ALWAYS, np.zeros(1, dtype)
+        return SAT_NATIVE, np.array([math.ceil(sat_level)], dtype)
+    if dtype == np.float32:
+        top = float(np.finfo(np.float32).max)
+        if sat_level > top or sat_level < -top:  # inf, or beyond every finite float32
+            c = np.float32(np.inf if sat_level > top else (-np.inf if sat_level == -np.inf else -top))
+        else:
+            c = np.float32(sat_level)  # the nearest float32, then up to >= sat_level
+            if float(c) < sat_level:
+                c = np.nextafter(c, np.float32(np.inf))
+        return SAT_NATIVE, np.array([c], dtype)
+    return SAT_NATIVE, np.array([sat_level], dtype)
+
+
+#: atan2's constants as an argument (float32): a constant in the loop is a 64-bit address load and
+#: a broadcast each vector iteration (numba's code model), an argument is a register or a folded load.
+ATAN_CONSTANTS = np.array([_A0, _A1, _A2, _A3, _A4, _A5, _A6, _A7, 0.5 * math.pi, math.pi], np.float32)
+
+
+@njit(cache=True, parallel=True)
+def psp_pass(frames, index, coef, sat_level, sat_mode, threshold, phase, average, modulation, saturated,
+             min_modulation, valid, masked, invalid, sums, counts, kc):
+    """:func:`psp_kernel` with the saturation test of :func:`saturation_test` (``sat_mode``,
+    ``threshold``) and ``kc`` :data:`ATAN_CONSTANTS`. The parallel loop only hands row ranges to
+    :func:`psp_rows` (serial): numba's parallel lowering then works on a call, not on the loops (a
+    frame dtype's compilation ~20 % shorter)."""
     h = frames.shape[1]
     with_noise = valid.shape == phase.shape and h > 0 and invalid.shape == phase.shape and sums.shape[0] == h
     rows = LAPLACIAN_BLOCK if with_noise else PSP_ROWS
     nblk = (h + rows - 1) // rows
     for blk in prange(nblk):
-        psp_rows(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
-                 masked, invalid, sums, counts, blk * rows, min(h, blk * rows + rows))
+        psp_rows(frames, index, coef, sat_level, sat_mode, threshold, phase, average, modulation, saturated,
+                 min_modulation, valid, masked, invalid, sums, counts, kc, blk * rows, min(h, blk * rows + rows))
     if with_noise:  # each item's first and last row: their neighbours are written now
         laplacian_rows_between(average, valid, rows, sums, counts)
 
 
+@njit(cache=True, inline="always", fastmath=FASTMATH)
+def sums3_chunk(frames, index, coef, i, j0, n, bf, cf, av):
+    """The three least-squares sums of 3 frames over columns ``j0 .. j0 + n - 1`` of row ``i``,
+    float64, written rounded to float32: ``bf``, ``cf`` (scratch) and ``av`` (the average's
+    row). The expressions of :func:`accumulate_chunk`'s first pass (same roundings, contracted
+    alike), in one loop with no float64 buffer."""
+    r0 = frames[index[0], i, j0:j0 + n]
+    r1 = frames[index[1], i, j0:j0 + n]
+    r2 = frames[index[2], i, j0:j0 + n]
+    a0, a1, a2 = coef[0, 0], coef[0, 1], coef[0, 2]
+    b0, b1, b2 = coef[1, 0], coef[1, 1], coef[1, 2]
+    c0, c1, c2 = coef[2, 0], coef[2, 1], coef[2, 2]
+    for j in range(n):
+        x0 = np.float64(r0[j])
+        x1 = np.float64(r1[j])
+        x2 = np.float64(r2[j])
+        bf[j] = np.float32(b0 * x0 + b1 * x1 + b2 * x2)
+        cf[j] = np.float32(c0 * x0 + c1 * x1 + c2 * x2)
+        av[j] = np.float32(a0 * x0 + a1 * x1 + a2 * x2)
+
+
+@njit(cache=True, inline="always")
+def saturated3_chunk(frames, index, sat_level, sat_mode, threshold, i, j0, n, sa):
+    """``sa[j] = max_k frames[index[k], i, j0 + j] >= sat_level`` for 3 frames, by
+    :func:`saturation_test`'s mode (the max as :func:`accumulate_chunk` takes it)."""
+    if sat_mode == SAT_NEVER or sat_mode == SAT_ALWAYS:
+        flag = sat_mode == SAT_ALWAYS
+        for j in range(n):
+            sa[j] = flag
+        return
+    r0 = frames[index[0], i, j0:j0 + n]
+    r1 = frames[index[1], i, j0:j0 + n]
+    r2 = frames[index[2], i, j0:j0 + n]
+    if sat_mode == SAT_NATIVE:
+        t = threshold[0]
+        for j in range(n):
+            sa[j] = max(r0[j], max(r1[j], r2[j])) >= t
+    else:
+        for j in range(n):
+            sa[j] = np.float64(max(r0[j], max(r1[j], r2[j]))) >= sat_level
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH)
+def atan2_f32(y, x, kc):
+    """:func:`fast_atan2_f32` with its constants from ``kc`` (:data:`ATAN_CONSTANTS`): the same
+    operations in the same order (the same results, bit for bit)."""
+    zero = np.float32(0.0)
+    ax = abs(x)
+    ay = abs(y)
+    mx = max(ax, ay)
+    mn = min(ax, ay)
+    a = mn / mx if mx > zero else zero
+    s = a * a
+    r = a * (kc[0] + s * (kc[1] + s * (kc[2] + s * (kc[3] + s * (kc[4] + s * (kc[5] + s * (kc[6]
+                                                                                      + s * kc[7])))))))
+    r = (kc[8] - r) if ay > ax else r
+    r = (kc[9] - r) if x < zero else r
+    return -r if y < zero else r
+
+
 @njit(cache=True, nogil=True, fastmath=FASTMATH)
-def psp_rows(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
-             masked, invalid, sums, counts, r0, r1):
-    """Rows ``r0 .. r1 - 1`` of :func:`psp_kernel` (its arguments, serial); the Laplacian sums of
+def psp_rows(frames, index, coef, sat_level, sat_mode, threshold, phase, average, modulation, saturated,
+             min_modulation, valid, masked, invalid, sums, counts, kc, r0, r1):
+    """Rows ``r0 .. r1 - 1`` of :func:`psp_pass` (its arguments, serial); the Laplacian sums of
     rows ``r0 + 1 .. r1 - 2``, whose neighbours are in the range."""
     w = frames.shape[2]
     with_valid = valid.shape == phase.shape
     with_noise = with_valid and invalid.shape == phase.shape and sums.shape[0] == phase.shape[0]
-    inf = np.float32(np.inf)
+    three = index.shape[0] == 3
     nan = np.float32(np.nan)
-    acc = np.empty((4, COL_CHUNK))
+    acc = np.empty((4, 0 if three else COL_CHUNK))  # float64 sums of more than 3 frames
     a, b, c, peak = acc[0], acc[1], acc[2], acc[3]
     acc32 = np.empty((2, COL_CHUNK), np.float32)
     bf, cf = acc32[0], acc32[1]
     d = np.empty((3, w if with_noise else 0))  # second differences of three rows (a ring)
     inside = np.empty(w if with_noise else 0, np.uint8)
+    k = (kc[0], kc[1], kc[2], kc[3], kc[4], kc[5], kc[6], kc[7], kc[8], kc[9])
     for i in range(r0, r1):
         for j0 in range(0, w, COL_CHUNK):
             n = min(COL_CHUNK, w - j0)
-            accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, True, True, True)
             ph = phase[i, j0:j0 + n]
             av = average[i, j0:j0 + n]
             mo = modulation[i, j0:j0 + n]
             sa = saturated[i, j0:j0 + n]
-            # sums in float64 (exact for integer frames); atan2 and sqrt in float32 (error
-            # < 3e-7 rad after rounding b, c to float32: no float64 divide). Two loops: the
-            # float64 one runs 4 lanes wide, the float32 one (the divide, the polynomial, the
-            # square root) 8; one loop mixing both ran all of it 4 wide, at twice the time.
-            for j in range(n):
-                bf[j] = np.float32(b[j])
-                cf[j] = np.float32(c[j])
-                av[j] = a[j]
-                sa[j] = sa[j] | (peak[j] >= sat_level)
-            for j in range(n):
-                bj = bf[j]
-                cj = cf[j]
-                ph[j] = fast_atan2_f32(-cj, bj)
-                mo[j] = math.sqrt(bj * bj + cj * cj)
-            if with_valid:  # from the rows just written, still in the cache
+            # sums in float64 (exact for integer frames), rounded to float32 in bf, cf (and av)
+            if three:
+                sums3_chunk(frames, index, coef, i, j0, n, bf, cf, av)
+                saturated3_chunk(frames, index, sat_level, sat_mode, threshold, i, j0, n, sa)
+            else:
+                accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, True, True, True)
+                for j in range(n):
+                    bf[j] = np.float32(b[j])
+                    cf[j] = np.float32(c[j])
+                    av[j] = a[j]
+                    sa[j] = peak[j] >= sat_level
+            # atan2 and sqrt in float32 (error < 3e-7 rad after rounding b, c to float32: no
+            # float64 divide), 8 lanes wide; the mask from the values in registers
+            if not with_valid:
+                for j in range(n):
+                    bj = bf[j]
+                    cj = cf[j]
+                    ph[j] = atan2_f32(-cj, bj, k)
+                    mo[j] = math.sqrt(bj * bj + cj * cj)
+            elif not with_noise:
                 va = valid[i, j0:j0 + n]
                 ma = masked[i, j0:j0 + n]
                 for j in range(n):
-                    p = ph[j]
-                    m = (mo[j] >= min_modulation) & (not sa[j]) & (abs(p) < inf)
+                    bj = bf[j]
+                    cj = cf[j]
+                    p = atan2_f32(-cj, bj, k)
+                    q = math.sqrt(bj * bj + cj * cj)
+                    ph[j] = p
+                    mo[j] = q
+                    m = (q >= min_modulation) & (not sa[j]) & (p == p)  # atan2's p: finite or NaN
                     va[j] = m
                     ma[j] = p if m else nan
-                if with_noise:
-                    iv = invalid[i, j0:j0 + n]
-                    for j in range(n):
-                        iv[j] = np.uint8(0) if va[j] else np.uint8(1)
+            else:
+                va = valid[i, j0:j0 + n]
+                ma = masked[i, j0:j0 + n]
+                iv = invalid[i, j0:j0 + n]
+                for j in range(n):
+                    bj = bf[j]
+                    cj = cf[j]
+                    p = atan2_f32(-cj, bj, k)
+                    q = math.sqrt(bj * bj + cj * cj)
+                    ph[j] = p
+                    mo[j] = q
+                    m = (q >= min_modulation) & (not sa[j]) & (p == p)
+                    va[j] = m
+                    ma[j] = p if m else nan
+                    iv[j] = np.uint8(0) if m else np.uint8(1)
         if with_noise:  # row i - 1's Laplacian once row i has its second difference
             laplacian_ring_step(average, valid, d, inside, i, r0, sums, counts)
 

@@ -158,14 +158,15 @@ def _wrapped_phase_cpu(frames: np.ndarray, shifts: np.ndarray, idx: np.ndarray, 
     phase = np.empty((h, w), np.float32)
     average = np.empty((h, w), np.float32)
     modulation = np.empty((h, w), np.float32)
-    saturated = np.zeros((h, w), np.bool_)
+    saturated = np.empty((h, w), np.bool_)
     shape, rows = ((h, w), h) if min_modulation is not None else ((0, 0), 0)
     mask, masked, invalid = np.empty(shape, np.bool_), np.empty(shape, np.float32), np.empty(shape, np.uint8)
     sums, counts = np.zeros(rows, np.float64), np.zeros(rows, np.int64)
     sat = math.inf if saturation_level is None else float(saturation_level)
-    _kernels.psp_kernel(frames, idx.astype(np.int64), coef, sat, phase, average, modulation, saturated,
-                        np.float32(0.0 if min_modulation is None else min_modulation), mask, masked, invalid,
-                        sums, counts)
+    mode, threshold = _kernels.saturation_test(frames.dtype, sat)
+    _kernels.psp_pass(frames, idx.astype(np.int64), coef, sat, mode, threshold, phase, average, modulation,
+                      saturated, np.float32(0.0 if min_modulation is None else min_modulation), mask, masked,
+                      invalid, sums, counts, _kernels.ATAN_CONSTANTS)
     valid = None if min_modulation is None else ValidPhase(mask, masked, invalid,
                                                            (float(sums.sum()), int(counts.sum())))
     return PhaseResult(phase, average, modulation), saturated, valid
