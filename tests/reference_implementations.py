@@ -12,6 +12,7 @@ from numba import njit
 from fringe3d.decode._fused_quality import EDGE, GRADIENT, INCONSISTENT, INVALID, MOD_DROP, ORDER, RIM, SATURATED
 from fringe3d.decode._median_network import _median_kernel
 from fringe3d.decode._stencils import erode_cross
+from fringe3d.phase import _kernels
 from fringe3d.phase._kernels import COL_CHUNK, FASTMATH, accumulate_chunk, fast_atan2_f32
 from fringe3d.phase.frames import as_frame_stack
 from fringe3d.phase.psp import PhaseResult, default_shifts
@@ -184,6 +185,14 @@ def psp_kernel_previous(frames, index, coef, sat_level, phase, average, modulati
                 average[i, j0 + j] = a[j]
                 modulation[i, j0 + j] = math.sqrt(bj * bj + cj * cj)
                 saturated[i, j0 + j] = saturated[i, j0 + j] | (peak[j] >= sat_level)
+
+
+def run_psp_kernel(frames, index, coef, sat_level, *outputs):
+    """:func:`fringe3d.phase._kernels.psp_kernel` called as :func:`fringe3d.phase.psp.wrapped_phase`
+    calls it (the saturation test of :func:`~fringe3d.phase._kernels.saturation_test`, the atan2
+    constants), with the outputs in the kernel's order after ``sat_level``."""
+    mode, threshold = _kernels.saturation_test(frames.dtype, sat_level)
+    _kernels.psp_kernel(frames, index, coef, sat_level, mode, threshold, *outputs, _kernels.ATAN_CONSTANTS)
 
 
 def interior_laplacian_reference(image, mask):

@@ -70,9 +70,8 @@ def test_saturation_test_threshold_decides_like_the_float64_comparison(level):
 def test_three_frame_pass_equals_the_previous_kernel_bit_for_bit(dtype):
     # the one-loop float64 sums and the fused float32 loop give the outputs of the form with
     # float64 buffers (accumulate_chunk) and numpy-free atan2 constants, NaN and inf included
-    from reference_implementations import psp_kernel_previous
+    from reference_implementations import psp_kernel_previous, run_psp_kernel
 
-    from fringe3d.phase import _kernels
     from fringe3d.phase.psp import lsq_coefficients
     rng = np.random.default_rng(3)
     f = _frames(dtype, rng)[:, :, :43]
@@ -84,7 +83,7 @@ def test_three_frame_pass_equals_the_previous_kernel_bit_for_bit(dtype):
     want = [np.empty(f.shape[1:], np.float32) for _ in range(3)] + [np.zeros(f.shape[1:], bool)]
     none = (np.empty((0, 0), bool), np.empty((0, 0), np.float32), np.empty((0, 0), np.uint8), np.zeros(0),
             np.zeros(0, np.int64))
-    _kernels.psp_kernel(f, np.arange(3), coef, level, *got, np.float32(0), *none)
+    run_psp_kernel(f, np.arange(3), coef, level, *got, np.float32(0), *none)
     psp_kernel_previous(f.astype(np.float64), np.arange(3), coef, level, *want)
     for g, w in zip(got, want):
         assert g.tobytes() == w.tobytes()

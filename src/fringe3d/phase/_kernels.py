@@ -132,33 +132,6 @@ def accumulate_chunk(frames, index, coef, i, j0, n, a, b, c, peak, init, init_pe
         k += m
 
 
-@njit(cache=True)
-def psp_kernel(frames, index, coef, sat_level, phase, average, modulation, saturated, min_modulation, valid,
-               masked, invalid, sums, counts):
-    """Least-squares N-step phase (Eq. 2.4) for frames ``frames[index]``.
-
-    frames (F, H, W) any real dtype; index (N,) int64; coef (3, N) float64 pseudo-inverse
-    (float64 sums, float32 atan2/sqrt); sat_level: a pixel is flagged saturated when any of its N values
-    >= sat_level (pass ``inf`` to disable). Outputs (H, W): phase float32 rad in (-pi, pi],
-    average and modulation float32 in the frames' units, saturated bool (written, not or-ed in). With
-    ``valid`` (H, W) bool and ``masked`` (H, W) float32 (else pass (0, 0) arrays): also
-    ``valid = (modulation >= min_modulation) & ~saturated & isfinite(phase)`` (float32
-    ``min_modulation``) and the phase with NaN outside it, from the same pass. With ``valid``
-    and ``invalid`` (H, W) uint8, ``sums`` (H,) float64 and ``counts`` (H,) int64, all zero
-    (else (0, 0) and (0,) arrays): also ``invalid = ~valid`` (0/1) and each row's Laplacian
-    noise sums of the average over ``valid`` (those of
-    :func:`fringe3d.phase._noise_kernel.interior_laplacian`, by the same row code, while the
-    rows are in the cache).
-
-    Three frames (the 3-step set) take one float64 loop for the three sums (the expressions of
-    :func:`accumulate_chunk`'s first pass, so the same roundings). This form tests saturation in
-    float64; :func:`fringe3d.phase.psp.wrapped_phase` calls :func:`psp_pass` with the test in the
-    frames' own dtype (:func:`saturation_test`: 32 uint8 values a vector, not 4 float64).
-    """
-    psp_pass(frames, index, coef, sat_level, SAT_FLOAT64, np.zeros(1, frames.dtype), phase, average, modulation,
-             saturated, min_modulation, valid, masked, invalid, sums, counts, ATAN_CONSTANTS.copy())
-
-
 #: :func:`saturation_test` modes: no value is saturated, every value is, ``value >= threshold`` in
 #: the frames' dtype, ``float64(value) >= sat_level``.
 SAT_NEVER, SAT_ALWAYS, SAT_NATIVE, SAT_FLOAT64 = 0, 1, 2, 3
@@ -204,12 +177,30 @@ ATAN_CONSTANTS = np.array([_A0, _A1, _A2, _A3, _A4, _A5, _A6, _A7, 0.5 * math.pi
 
 
 @njit(cache=True, parallel=True)
-def psp_pass(frames, index, coef, sat_level, sat_mode, threshold, phase, average, modulation, saturated,
+def psp_kernel(frames, index, coef, sat_level, sat_mode, threshold, phase, average, modulation, saturated,
              min_modulation, valid, masked, invalid, sums, counts, kc):
-    """:func:`psp_kernel` with the saturation test of :func:`saturation_test` (``sat_mode``,
-    ``threshold``) and ``kc`` :data:`ATAN_CONSTANTS`. The parallel loop only hands row ranges to
-    :func:`psp_rows` (serial): numba's parallel lowering then works on a call, not on the loops (a
-    frame dtype's compilation ~20 % shorter)."""
+    """Least-squares N-step phase (Eq. 2.4) for frames ``frames[index]``.
+
+    frames (F, H, W) any real dtype; index (N,) int64; coef (3, N) float64 pseudo-inverse
+    (float64 sums, float32 atan2/sqrt); sat_level: a pixel is flagged saturated when any of its N values
+    >= sat_level (pass ``inf`` to disable). Outputs (H, W): phase float32 rad in (-pi, pi],
+    average and modulation float32 in the frames' units, saturated bool (written, not or-ed in). With
+    ``valid`` (H, W) bool and ``masked`` (H, W) float32 (else pass (0, 0) arrays): also
+    ``valid = (modulation >= min_modulation) & ~saturated & isfinite(phase)`` (float32
+    ``min_modulation``) and the phase with NaN outside it, from the same pass. With ``valid``
+    and ``invalid`` (H, W) uint8, ``sums`` (H,) float64 and ``counts`` (H,) int64, all zero
+    (else (0, 0) and (0,) arrays): also ``invalid = ~valid`` (0/1) and each row's Laplacian
+    noise sums of the average over ``valid`` (those of
+    :func:`fringe3d.phase._noise_kernel.interior_laplacian`, by the same row code, while the
+    rows are in the cache).
+
+    ``sat_mode`` and ``threshold``: the test ``>= sat_level`` as :func:`saturation_test` gives it
+    (in the frames' own dtype where it can: 32 uint8 values a vector, not 4 float64); ``kc``:
+    :data:`ATAN_CONSTANTS`. Three frames (the 3-step set) take one float64 loop for the three sums
+    (the expressions of :func:`accumulate_chunk`'s first pass, so the same roundings). The
+    parallel loop only hands row ranges to :func:`psp_rows` (serial): numba's parallel lowering
+    then works on a call, not on the loops (a frame dtype's compilation ~20 % shorter).
+    """
     h = frames.shape[1]
     with_noise = valid.shape == phase.shape and h > 0 and invalid.shape == phase.shape and sums.shape[0] == h
     rows = LAPLACIAN_BLOCK if with_noise else PSP_ROWS
@@ -265,8 +256,10 @@ def saturated3_chunk(frames, index, sat_level, sat_mode, threshold, i, j0, n, sa
 
 @njit(cache=True, inline="always", fastmath=FASTMATH)
 def atan2_f32(y, x, kc):
-    """:func:`fast_atan2_f32` with its constants from ``kc`` (:data:`ATAN_CONSTANTS`): the same
-    operations in the same order (the same results, bit for bit)."""
+    """float32 ``atan2(y, x)`` (|error| < 3e-7 rad) by the polynomial ``a * P(a**2)`` of
+    ``a = min(|x|, |y|) / max(|x|, |y|)`` on [0, 1], with its constants from ``kc`` (a tuple or
+    :data:`ATAN_CONSTANTS`: an argument, not a constant in the loop, is a register or a folded
+    load, where numba reloads a constant from its 64-bit address every vector iteration)."""
     zero = np.float32(0.0)
     ax = abs(x)
     ay = abs(y)
@@ -284,7 +277,7 @@ def atan2_f32(y, x, kc):
 @njit(cache=True, nogil=True, fastmath=FASTMATH)
 def psp_rows(frames, index, coef, sat_level, sat_mode, threshold, phase, average, modulation, saturated,
              min_modulation, valid, masked, invalid, sums, counts, kc, r0, r1):
-    """Rows ``r0 .. r1 - 1`` of :func:`psp_pass` (its arguments, serial); the Laplacian sums of
+    """Rows ``r0 .. r1 - 1`` of :func:`psp_kernel` (its arguments, serial); the Laplacian sums of
     rows ``r0 + 1 .. r1 - 2``, whose neighbours are in the range."""
     w = frames.shape[2]
     with_valid = valid.shape == phase.shape
@@ -364,22 +357,14 @@ _FHALFPI = np.float32(0.5 * math.pi)
 _FZERO = np.float32(0.0)
 _FB = (np.float32(_A0), np.float32(_A1), np.float32(_A2), np.float32(_A3), np.float32(_A4), np.float32(_A5),
        np.float32(_A6), np.float32(_A7))
+_FK = _FB + (_FHALFPI, _FPI)  # atan2_f32's constants, as ATAN_CONSTANTS
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH)
 def fast_atan2_f32(y, x):
-    """float32 version of :func:`fast_atan2` (|error| < 3e-7 rad)."""
-    ax = abs(x)
-    ay = abs(y)
-    mx = max(ax, ay)
-    mn = min(ax, ay)
-    a = mn / mx if mx > _FZERO else _FZERO
-    s = a * a
-    r = a * (_FB[0] + s * (_FB[1] + s * (_FB[2] + s * (_FB[3] + s * (_FB[4] + s * (_FB[5] + s * (_FB[6]
-                                                                                          + s * _FB[7])))))))
-    r = (_FHALFPI - r) if ay > ax else r
-    r = (_FPI - r) if x < _FZERO else r
-    return -r if y < _FZERO else r
+    """float32 version of :func:`fast_atan2` (|error| < 3e-7 rad): :func:`atan2_f32` with the
+    module's constants (folded into the code where the caller's loop keeps them)."""
+    return atan2_f32(y, x, _FK)
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH)

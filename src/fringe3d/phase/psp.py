@@ -164,7 +164,7 @@ def _wrapped_phase_cpu(frames: np.ndarray, shifts: np.ndarray, idx: np.ndarray, 
     sums, counts = np.zeros(rows, np.float64), np.zeros(rows, np.int64)
     sat = math.inf if saturation_level is None else float(saturation_level)
     mode, threshold = _kernels.saturation_test(frames.dtype, sat)
-    _kernels.psp_pass(frames, idx.astype(np.int64), coef, sat, mode, threshold, phase, average, modulation,
+    _kernels.psp_kernel(frames, idx.astype(np.int64), coef, sat, mode, threshold, phase, average, modulation,
                       saturated, np.float32(0.0 if min_modulation is None else min_modulation), mask, masked,
                       invalid, sums, counts, _kernels.ATAN_CONSTANTS)
     valid = None if min_modulation is None else ValidPhase(mask, masked, invalid,
