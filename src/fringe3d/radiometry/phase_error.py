@@ -257,6 +257,8 @@ def lut_from_reference(measured, reference, mask=None, bins: int = 256) -> Phase
     c = np.bincount(idx, np.cos(err), bins)
     centres = bin_centres(bins)
     full = count > 0
+    if full.all():  # np.interp at its own sample points returns their values: the table itself
+        return PhaseErrorLUT(centres, np.arctan2(s, c))
     e = np.arctan2(s[full], c[full])
     return PhaseErrorLUT(centres, np.interp(centres, centres[full], e, period=TWO_PI))
 
