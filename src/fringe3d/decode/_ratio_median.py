@@ -159,7 +159,7 @@ def _select(keep, counts, hist, lo, scale, rank):  # pragma: no cover - compiled
 
 #: Pixels up to which the bracket pass runs on one thread (a parallel region's fork and join
 #: cost more than a second thread saves on these).
-SERIAL_PIXELS = 1 << 17
+SERIAL_PIXELS = 1 << 16
 
 
 def _numpy_median(fine: np.ndarray, coarse: np.ndarray, mask: np.ndarray) -> float:
