@@ -132,7 +132,7 @@ def lut_from_response(response: ResponseLUT, shifts=None, steps: int | None = No
     values = _planned_response(response, key, int(samples))
     if values is None:
         return lut_from_reference(_lsq_phase(response, patterns, d), true, bins=bins)
-    _, b, c = np.tensordot(lsq_coefficients(d), values, axes=1)  # as _lsq_phase, from the same values
+    _, b, c = np.dot(lsq_coefficients(d), values)  # _lsq_phase's tensordot (axes=1: this dot) of the same values
     return lut_from_reference(np.arctan2(-c, b), true, bins=bins)
 
 
@@ -179,7 +179,7 @@ def _interp_plan(key: tuple[float, ...], samples: int, inputs: bytes) -> _Interp
     j = np.searchsorted(xp, x, side="right") - 1
     j = np.minimum(j, xp.size - 1)
     exact = (j == xp.size - 1) | (xp[j] == x)  # below the last input otherwise: j + 1 exists
-    plan = _InterpPlan(xp, j.astype(np.int64), x - xp[j], exact)
+    plan = _InterpPlan(xp, j.astype(np.int32), x - xp[j], exact)
     for a in plan:
         a.flags.writeable = False
     out = np.empty(x.size)
