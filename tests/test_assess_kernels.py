@@ -322,3 +322,47 @@ def test_the_compiled_passes_leave_other_dtypes_to_numpy():
     assert edges.nan_where(x, where) is False
     where[2, 3] = True
     assert edges.nan_where(x, where) is True
+
+
+def test_ratio_median_bracket_is_numpys_inverted_cdf_quantiles_of_the_sample():
+    from fringe3d.decode._ratio_median import STRIDE, _sample_bracket
+    for seed, shape in enumerate([(90, 97), (200, 161), (403, 96)]):
+        fine, coarse, mask = _ratios(shape, 20 + seed)
+        sm = mask[::STRIDE, ::STRIDE] & (coarse[::STRIDE, ::STRIDE] > 0)
+        sample = fine[::STRIDE, ::STRIDE][sm] / coarse[::STRIDE, ::STRIDE][sm]
+        n, delta, lo, hi = _sample_bracket(fine, coarse, mask, STRIDE)
+        assert n == sample.size and delta == min(0.5, 0.01 + 4.0 / np.sqrt(sample.size))
+        want = np.quantile(sample, [max(0.0, 0.5 - delta), min(1.0, 0.5 + delta)], method="inverted_cdf")
+        assert (lo, hi) == tuple(want)
+    fine[0, 0] = np.nan
+    assert _sample_bracket(fine, coarse, np.ones(fine.shape, bool), STRIDE)[0] == -1
+
+
+@pytest.mark.parametrize("shape", [(200, 301), (260, 300)])  # one thread, and the chunked region beyond SERIAL_PIXELS
+def test_ratio_median_on_either_side_of_the_serial_size_is_numpys(shape, monkeypatch):
+    from fringe3d.decode import _ratio_median
+    assert (shape[0] * shape[1] > _ratio_median.SERIAL_PIXELS) == (shape == (260, 300))
+    fine, coarse, mask = _ratios(shape, 30)
+    m = mask & (coarse > 0)
+    monkeypatch.setattr(_ratio_median, "_numpy_median", lambda *a: pytest.fail("fell back to numpy"))
+    for odd in (False, True):  # an even and an odd count of ratios
+        if odd != bool(m.sum() % 2):
+            mask[np.argwhere(m)[0][0], np.argwhere(m)[0][1]] = False
+            m = mask & (coarse > 0)
+        assert ratio_median(fine, coarse, mask) == float(np.median(fine[m] / coarse[m]))
+
+
+def test_noise_reference_point_is_the_numpy_mean_of_its_finite_sample():
+    rng = np.random.default_rng(31)
+    for dx, dy in ((np.float32, np.float32), (np.float64, np.float32), (np.float32, np.float64)):
+        x = rng.uniform(0, 255, (83, 130)).astype(dx)
+        y = (rng.uniform(0, 30, x.shape) ** 2).astype(dy)
+        x[rng.random(x.shape) < 0.05] = np.nan
+        y[rng.random(x.shape) < 0.05] = np.inf
+        mask = rng.random(x.shape) > 0.4
+        for a, b, m in ((x, y, mask), (x.T, y.T, mask.T), (x[:, 1:], y[:, 1:], mask[:, 1:])):  # and views
+            xs, ys, ms = a[::8, ::8], b[::8, ::8], m[::8, ::8]
+            sel = ms & np.isfinite(xs) & np.isfinite(ys)
+            want = (float(np.mean(xs[sel], dtype=np.float64)), float(np.mean(ys[sel], dtype=np.float64)))
+            assert noise._reference_point(a, b, m) == want
+    assert noise._reference_point(x, y, np.zeros(x.shape, bool)) == (0.0, 0.0)

@@ -107,3 +107,49 @@ def test_table_from_reference_is_the_numpy_wrap_and_bin_bit_for_bit():
         assert got.error.tobytes() == want.tobytes()
     with pytest.raises(ValueError, match="covers only 1 of 256 phase bins"):
         lut_from_reference(np.zeros(10), np.zeros(10))
+
+
+@pytest.mark.parametrize("steps", [4, 9])
+def test_planned_response_values_are_numpys_interp_bit_for_bit(steps):
+    from fringe3d.radiometry.phase_error import ResponseLUT, _planned_response, _simulated_patterns
+    x = np.linspace(0.0, 1.0, 61)
+    tables = [power_law(g, size) for g in (0.45, 1.0, 2.2, 7.9) for size in (256, 97, 2)]
+    tables.append(ResponseLUT(x, np.clip(1.4 * x - 0.2, 0.0, 1.0)))  # flat toe and shoulder: zero slopes
+    tables.append(ResponseLUT(x, np.where(x < 0.5, 0.0, 1.0)))       # a step: one steep interval
+    for shifts in (default_shifts(steps), default_shifts(steps) + 0.3):
+        key = tuple(np.asarray(shifts, float).tolist())
+        patterns = _simulated_patterns(key, 512)[1]
+        for table in tables:
+            got = _planned_response(table, key, 512)
+            assert got is not None  # a plan for every increasing table over [0, 1]
+            assert got.tobytes() == table.apply(patterns).tobytes()
+
+
+def test_no_interp_plan_for_a_table_that_does_not_hold_the_pattern_values():
+    from fringe3d.radiometry.phase_error import ResponseLUT, _planned_response, lut_from_response
+    key = tuple(default_shifts(4).tolist())
+    short = ResponseLUT(np.linspace(0.1, 1.0, 50), np.linspace(0.0, 1.0, 50))  # values below 0.1 clip to r(0.1)
+    assert _planned_response(short, key, 256) is None
+    want = _table_by_definition(short, default_shifts(4), 256, 64)
+    assert lut_from_response(short, steps=4, samples=256, bins=64).error.tobytes() == want.error.tobytes()
+
+
+def test_wrap_below_at_and_beyond_the_divisor_is_numpys_mod():
+    two_pi = 2 * np.pi
+    edges = [two_pi - np.pi, -two_pi - np.pi, np.pi, -np.pi, 0.0, -0.0, 3 * np.pi, -3 * np.pi, 1e300, -1e-300]
+    m = np.array([np.nextafter(e, d) for e in edges for d in (-np.inf, np.inf)] + edges)
+    r = np.zeros_like(m)
+    got = lut_from_reference(np.tile(m, 40), np.tile(r, 40), bins=4)
+    assert got.error.tobytes() == _reference_table(np.tile(m, 40), np.tile(r, 40), bins=4).tobytes()
+    from fringe3d.radiometry.phase_error import _wrapped_errors
+    err, idx = _wrapped_errors(m, r, np.ones(m.size, bool), 4)
+    assert err.tobytes() == _wrap(_wrap(m) - r).tobytes()
+
+
+def test_power_law_inputs_are_the_callers_own_linspace():
+    a = power_law(2.2)
+    assert a.inputs.tobytes() == np.linspace(0.0, 1.0, 256).tobytes()
+    assert a.response.tobytes() == (np.linspace(0.0, 1.0, 256) ** 2.2).tobytes()
+    a.inputs[:] = 7.0  # the caller's array: the next table is untouched
+    assert power_law(2.2, 256).inputs.tobytes() == np.linspace(0.0, 1.0, 256).tobytes()
+    assert power_law(1.5, 3).inputs.tolist() == [0.0, 0.5, 1.0]

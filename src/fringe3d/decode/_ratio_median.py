@@ -4,11 +4,13 @@
 ``np.median(fine[m] / coarse[m])`` copies the masked pixels and partitions them all (~20 ns per
 pixel, plus three full-size temporaries). Here (Floyd and Rivest's selection): the ratios of
 every 8th row and column bracket the median, ``[lo, hi]`` holding a few percent of the pixels
-with near certainty; one numba pass counts the ratios below ``lo`` and keeps those inside
-the bracket with their histogram over :data:`BINS` bins, and only the median's bin (a few
-dozen values) is partitioned, not the whole bracket (~8 % of the pixels, serial numpy). The
-order statistics are the same as numpy's (exact); a bracket that misses the median (or
-overflows its buffer) falls back to numpy.
+with near certainty (the sample and its quantiles in one compiled call); one numba pass counts
+the ratios below ``lo`` and keeps those inside the bracket with their histogram over
+:data:`BINS` bins (on one thread up to :data:`SERIAL_PIXELS`), and only the median's bin (a
+few dozen values) is sorted, not the whole bracket, in one more compiled call. The order
+statistics are the same as numpy's (exact, whatever the bracket); a bracket that misses the
+median (or overflows its buffer) falls back to numpy. Four compiled calls and a few small
+allocations in all: the fixed cost of a small image is a few tens of microseconds.
 """
 from __future__ import annotations
 
@@ -88,16 +90,76 @@ def _bracket_pass(fine, coarse, mask, lo, hi, keep, counts, scale, hist):  # pra
                 hist[c, _bin(keep[c, k], lo, scale, nbins)] += 1
 
 
-@numba.njit(cache=True)
-def _in_bin(keep, counts, lo, scale, nbins, b, out):  # pragma: no cover - compiled
-    """The kept ratios of bin ``b`` (:func:`_bin`) into ``out``, in one pass."""
+@numba.njit(cache=True, error_model="numpy")
+def _sample_bracket(fine, coarse, mask, stride):  # pragma: no cover - compiled
+    """``(n, delta, lo, hi)``: the count ``n`` of the sampled ratios ``fine / coarse`` (float32)
+    of every ``stride``-th row and column over ``mask & coarse > 0``, the bracket's half width
+    ``delta = min(0.5, 0.01 + 4 / sqrt(n))`` (~8 standard errors of the sample median) and the
+    sample's ``0.5 -+ delta`` quantiles (numpy's ``method="inverted_cdf"``); ``n = -1`` for a
+    NaN ratio; ``delta = lo = hi = 0`` when ``n < 50``."""
+    h, w = fine.shape
+    buf = np.empty(((h + stride - 1) // stride) * ((w + stride - 1) // stride), np.float32)
     n = 0
-    for c in range(keep.shape[0]):
+    for i in range(0, h, stride):
+        fr = fine[i]
+        cr = coarse[i]
+        mr = mask[i]
+        for j in range(0, w, stride):
+            d = cr[j]
+            if mr[j] and d > 0:
+                r = fr[j] / d
+                if r != r:
+                    return -1, 0.0, np.float32(0), np.float32(0)
+                buf[n] = r
+                n += 1
+    if n < 50:
+        return n, 0.0, np.float32(0), np.float32(0)
+    delta = min(0.5, 0.01 + 4.0 / math.sqrt(n))
+    a = _inverted_cdf(n, max(0.0, 0.5 - delta))
+    b = _inverted_cdf(n, min(1.0, 0.5 + delta))
+    s = np.partition(buf[:n], b)  # quickselect: entries below b hold the b smallest
+    return n, delta, np.partition(s[:b + 1], a)[a], s[b]
+
+
+@numba.njit(cache=True, inline="always")
+def _inverted_cdf(n, q):  # pragma: no cover - compiled
+    """numpy's ``inverted_cdf`` index of quantile ``q`` of ``n`` sorted values (float64
+    ``n q - 1``, its floor when whole, else the next index; -1 raised to 0)."""
+    x = n * q - 1.0
+    k = math.floor(x)
+    i = np.int64(k) if x - k == 0 else np.int64(k) + 1
+    return i + 1 if i < 0 else i
+
+
+@numba.njit(cache=True)
+def _select(keep, counts, hist, lo, scale, rank):  # pragma: no cover - compiled
+    """The ``rank``-th smallest (from 0) of the kept ratios (``counts[c, 1]`` of ``keep[c]``,
+    histogram ``hist`` over the bins of :func:`_bin`): the bin holding it (the bins are
+    monotone in the ratio), then its rank among that bin's members, sorted."""
+    nch, nbins = hist.shape
+    upto = 0
+    b = 0
+    for b in range(nbins):
+        total = 0
+        for c in range(nch):
+            total += hist[c, b]
+        if upto + total > rank:
+            break
+        upto += total
+    members = np.empty(total, np.float32)
+    n = 0
+    for c in range(nch):
         for k in range(counts[c, 1]):
             r = keep[c, k]
             if _bin(r, lo, scale, nbins) == b:
-                out[n] = r
+                members[n] = r
                 n += 1
+    return np.sort(members)[rank - upto]
+
+
+#: Pixels up to which the bracket pass runs on one thread (a parallel region's fork and join
+#: cost more than a second thread saves on these).
+SERIAL_PIXELS = 1 << 16
 
 
 def _numpy_median(fine: np.ndarray, coarse: np.ndarray, mask: np.ndarray) -> float:
@@ -112,35 +174,35 @@ def ratio_median(fine: np.ndarray, coarse: np.ndarray, mask: np.ndarray) -> floa
     fine = np.ascontiguousarray(fine, np.float32)
     coarse = np.ascontiguousarray(coarse, np.float32)
     mask = np.ascontiguousarray(mask, bool)
-    sm, sc = mask[::STRIDE, ::STRIDE] & (coarse[::STRIDE, ::STRIDE] > 0), coarse[::STRIDE, ::STRIDE]
-    sample = fine[::STRIDE, ::STRIDE][sm] / sc[sm]
-    if sample.size < 50 or np.isnan(sample).any():
+    if fine.ndim != 2:
         return _numpy_median(fine, coarse, mask)
-    delta = min(0.5, 0.01 + 4.0 / math.sqrt(sample.size))  # ~8 standard errors of the sample median
-    lo, hi = np.quantile(sample, [max(0.0, 0.5 - delta), min(1.0, 0.5 + delta)], method="inverted_cdf")
-    nch = max(1, min(numba.get_num_threads(), fine.shape[0]))
+    n_sample, delta, lo32, hi32 = _sample_bracket(fine, coarse, mask, STRIDE)
+    if n_sample < 50:  # too few sampled ratios, or a NaN among them
+        return _numpy_median(fine, coarse, mask)
+    serial = fine.size <= SERIAL_PIXELS
+    nch = 1 if serial else max(1, min(numba.get_num_threads(), fine.shape[0]))
     cap = int(2.5 * delta * fine.size / nch) + 1024
     keep = np.empty((nch, cap), np.float32)
     counts = np.zeros((nch, 4), np.int64)
-    lo32, hi32 = np.float32(lo), np.float32(hi)
     width = float(hi32) - float(lo32)
     scale = np.float32(BINS / width if 0 < width < math.inf else 0.0)
     hist = np.zeros((nch, BINS), np.int64)
-    _bracket_pass(fine, coarse, mask, lo32, hi32, keep, counts, scale, hist)
+    if serial:  # one thread runs the region in the calling thread: no fork and join
+        threads = numba.get_num_threads()
+        numba.set_num_threads(1)
+        try:
+            _bracket_pass(fine, coarse, mask, lo32, hi32, keep, counts, scale, hist)
+        finally:
+            numba.set_num_threads(threads)
+    else:
+        _bracket_pass(fine, coarse, mask, lo32, hi32, keep, counts, scale, hist)
     below, inside, n, nans = (int(t) for t in counts.sum(axis=0))
     if nans:
         return float("nan")
     ranks = [n // 2] if n % 2 else [n // 2 - 1, n // 2]
     if n == 0 or (counts[:, 1] >= cap).any() or not below <= ranks[0] <= ranks[-1] < below + inside:
         return _numpy_median(fine, coarse, mask)
-    upto = np.cumsum(hist.sum(axis=0))  # the bracketed ratios in bins 0 .. b
-    values = []
-    for r in ranks:  # the bin holding rank r (the histogram is monotone in the ratio), then its rank there
-        b = int(np.searchsorted(upto, r - below, side="right"))
-        first = int(upto[b - 1]) if b else 0
-        members = np.empty(int(upto[b]) - first, np.float32)
-        _in_bin(keep, counts, lo32, scale, BINS, b, members)
-        values.append(np.partition(members, r - below - first)[r - below - first])
+    values = [_select(keep, counts, hist, lo32, scale, r - below) for r in ranks]
     if len(values) == 1:
         return float(values[0])
     return float((values[0] + values[1]) / np.float32(2))

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
+import numba
 import numpy as np
 from scipy import ndimage
 
@@ -92,11 +93,41 @@ def fit_noise_model(variance: np.ndarray, average: np.ndarray, mask: np.ndarray)
 def _reference_point(x: np.ndarray, y: np.ndarray, mask: np.ndarray) -> tuple[float, float]:
     """Means of ``x`` and ``y`` over the finite masked pixels of every 8th row and column, a
     centre for :func:`line_moments` (``(0, 0)`` where that sample is empty)."""
-    xs, ys, ms = x[::8, ::8], y[::8, ::8], mask[::8, ::8]
-    sel = ms & np.isfinite(xs) & np.isfinite(ys)
-    if not sel.any():
+    if _compiled_pair(x, y, mask):  # the two compacted samples in one compiled pass, numpy's means of them
+        xs, ys = _finite_sample(x, y, mask, 8)
+    else:
+        xs, ys, ms = x[::8, ::8], y[::8, ::8], mask[::8, ::8]
+        sel = ms & np.isfinite(xs) & np.isfinite(ys)
+        xs, ys = xs[sel], ys[sel]
+    if not xs.size:
         return 0.0, 0.0
-    return float(np.mean(xs[sel], dtype=np.float64)), float(np.mean(ys[sel], dtype=np.float64))
+    return float(np.mean(xs, dtype=np.float64)), float(np.mean(ys, dtype=np.float64))
+
+
+def _compiled_pair(x: np.ndarray, y: np.ndarray, mask: np.ndarray) -> bool:
+    """``x``, ``y`` (H, W) float32 or float64 and ``mask`` (H, W) bool: what :func:`_finite_sample` reads."""
+    return (x.ndim == 2 and x.shape == y.shape == mask.shape and mask.dtype == np.bool_
+            and x.dtype in (np.float32, np.float64) and y.dtype in (np.float32, np.float64))
+
+
+@numba.njit(cache=True, nogil=True)
+def _finite_sample(x, y, mask, step):  # pragma: no cover - compiled
+    """``(x[::step, ::step][sel], y[::step, ::step][sel])`` with ``sel`` the masked pixels of
+    that sample where both are finite, in row-major order and the arrays' own dtypes."""
+    h, w = x.shape
+    size = ((h + step - 1) // step) * ((w + step - 1) // step)
+    xs = np.empty(size, x.dtype)
+    ys = np.empty(size, y.dtype)
+    n = 0
+    for i in range(0, h, step):
+        for j in range(0, w, step):
+            a = x[i, j]
+            b = y[i, j]
+            if mask[i, j] and np.isfinite(a) and np.isfinite(b):
+                xs[n] = a
+                ys[n] = b
+                n += 1
+    return xs[:n], ys[:n]
 
 
 def _line_from_moments(moments: np.ndarray, ref: tuple[float, float]) -> tuple[float, float]:

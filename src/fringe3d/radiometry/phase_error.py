@@ -127,8 +127,89 @@ def lut_from_response(response: ResponseLUT, shifts=None, steps: int | None = No
             raise ValueError("give the phase shifts or the number of steps")
         shifts = default_shifts(steps)
     d = np.asarray(shifts, float)
-    true, patterns = _simulated_patterns(tuple(d.ravel().tolist()), int(samples))
-    return lut_from_reference(_lsq_phase(response, patterns, d), true, bins=bins)
+    key = tuple(d.ravel().tolist())
+    true, patterns = _simulated_patterns(key, int(samples))
+    values = _planned_response(response, key, int(samples))
+    if values is None:
+        return lut_from_reference(_lsq_phase(response, patterns, d), true, bins=bins)
+    _, b, c = np.dot(lsq_coefficients(d), values)  # _lsq_phase's tensordot (axes=1: this dot) of the same values
+    return lut_from_reference(np.arctan2(-c, b), true, bins=bins)
+
+
+class _InterpPlan(NamedTuple):
+    """What ``np.interp`` of the simulated pattern values (:func:`_simulated_patterns`, all in
+    ``[xp[0], xp[-1]]``) on a table of inputs ``xp`` finds whatever the table's values: each
+    value's interval ``j`` (``xp[j] <= x < xp[j + 1]``), its offset ``x - xp[j]`` and whether
+    numpy returns ``fp[j]`` itself (``x`` on a table input)."""
+
+    xp: np.ndarray
+    j: np.ndarray
+    dx: np.ndarray
+    exact: np.ndarray
+
+
+def _planned_response(response: ResponseLUT, key: tuple[float, ...], samples: int) -> np.ndarray | None:
+    """``response.apply`` of the simulated pattern values of ``key`` and ``samples`` (their
+    ``np.interp`` on the table, bit for bit) from the cached interval plan of the table's
+    inputs (:func:`_interp_plan`: the search is done once per shifts and table, each response
+    pays one pass); None where there is no plan (numpy's own interp then)."""
+    xp = np.asarray(response.inputs)
+    fp = np.asarray(response.response)
+    if xp.dtype != np.float64 or fp.dtype != np.float64 or xp.ndim != 1 or fp.shape != xp.shape or xp.size < 2:
+        return None
+    plan = _interp_plan(key, samples, xp.tobytes())
+    if plan is None:
+        return None
+    out = np.empty(plan.j.shape)
+    if not _interp_planned(plan.j, plan.dx, plan.exact, plan.xp, fp, out):
+        return None
+    return out.reshape(len(key), samples)
+
+
+@functools.lru_cache(maxsize=16)
+def _interp_plan(key: tuple[float, ...], samples: int, inputs: bytes) -> _InterpPlan | None:
+    """The :class:`_InterpPlan` of the simulated pattern values of ``key`` and ``samples`` on the
+    table inputs ``inputs`` (float64 bytes); None for inputs that are not increasing or do not
+    hold the values, or where the planned arithmetic does not reproduce ``np.interp`` bit for
+    bit on two test tables (a numpy that fuses its multiply-add, say)."""
+    xp = np.frombuffer(inputs, np.float64).copy()
+    x = _simulated_patterns(key, samples)[1].ravel()
+    if not (np.all(np.diff(xp) > 0) and x.min() >= xp[0] and x.max() <= xp[-1]):
+        return None
+    j = np.searchsorted(xp, x, side="right") - 1
+    j = np.minimum(j, xp.size - 1)
+    exact = (j == xp.size - 1) | (xp[j] == x)  # below the last input otherwise: j + 1 exists
+    plan = _InterpPlan(xp, j.astype(np.int32), x - xp[j], exact)
+    for a in plan:
+        a.flags.writeable = False
+    out = np.empty(x.size)
+    for fp in ((xp - xp[0]) / (xp[-1] - xp[0])) ** 2.2, np.sqrt(xp - xp[0]) * np.cos(3.0 * xp):
+        if not (_interp_planned(plan.j, plan.dx, plan.exact, plan.xp, fp, out)
+                and out.tobytes() == np.interp(x, xp, fp).tobytes()):
+            return None
+    return plan
+
+
+@numba.njit(cache=True, nogil=True)
+def _interp_planned(j, dx, exact, xp, fp, out):  # pragma: no cover - compiled
+    """``out = np.interp(x, xp, fp)`` from the plan of ``x`` (:class:`_InterpPlan`): numpy's
+    slopes ``(fp[i + 1] - fp[i]) / (xp[i + 1] - xp[i])``, then ``slope * (x - xp[j]) + fp[j]``
+    (a multiply, then an add), or ``fp[j]`` on a table input; False (``out`` unfinished) where
+    a value comes out NaN, which numpy would compute again from the other end."""
+    m = xp.size
+    slopes = np.empty(m - 1)
+    for i in range(m - 1):
+        slopes[i] = (fp[i + 1] - fp[i]) / (xp[i + 1] - xp[i])
+    for k in range(j.size):
+        jj = j[k]
+        if exact[k]:
+            out[k] = fp[jj]
+        else:
+            v = slopes[jj] * dx[k] + fp[jj]
+            if v != v:
+                return False
+            out[k] = v
+    return True
 
 
 def lut_from_reference(measured, reference, mask=None, bins: int = 256) -> PhaseErrorLUT:
@@ -176,6 +257,8 @@ def lut_from_reference(measured, reference, mask=None, bins: int = 256) -> Phase
     c = np.bincount(idx, np.cos(err), bins)
     centres = bin_centres(bins)
     full = count > 0
+    if full.all():  # np.interp at its own sample points returns their values: the table itself
+        return PhaseErrorLUT(centres, np.arctan2(s, c))
     e = np.arctan2(s[full], c[full])
     return PhaseErrorLUT(centres, np.interp(centres, centres[full], e, period=TWO_PI))
 
@@ -204,7 +287,8 @@ def _wrapped_errors(m, r, ok, bins):  # pragma: no cover - compiled
 @numba.njit(cache=True, nogil=True, inline="always")
 def _wrap1(x):  # pragma: no cover - compiled
     """:func:`wrap` of one float64: ``np.mod(x + pi, 2 pi) - pi``."""
-    mod = np.fmod(x + np.pi, TWO_PI)
+    y = x + np.pi
+    mod = y if -TWO_PI < y < TWO_PI else np.fmod(y, TWO_PI)  # fmod is exact: y itself below the divisor
     if mod != 0.0:
         if mod < 0.0:
             mod += TWO_PI

@@ -21,6 +21,7 @@ shape measurement using a digital video projector", Appl. Opt. 46(1), 36-43 (200
 """
 from __future__ import annotations
 
+import functools
 import os
 from typing import NamedTuple
 
@@ -95,8 +96,17 @@ def power_law(gamma: float, size: int = 256) -> ResponseLUT:
         The table."""
     if not gamma > 0:
         raise ValueError(f"gamma must be positive, got {gamma}")
-    x = np.linspace(0.0, 1.0, size)
+    x = _unit_grid(int(size)).copy()  # the caller's own inputs (a copy costs less than np.linspace)
     return ResponseLUT(x, x ** gamma)
+
+
+@functools.lru_cache(maxsize=8)
+def _unit_grid(size: int) -> np.ndarray:
+    """``np.linspace(0.0, 1.0, size)``, read-only and cached per size (the decoder's diagnostic
+    builds a power-law table per direction and cycle)."""
+    x = np.linspace(0.0, 1.0, size)
+    x.flags.writeable = False
+    return x
 
 
 def monotone(values) -> np.ndarray:
