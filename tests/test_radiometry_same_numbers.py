@@ -109,27 +109,9 @@ def test_table_from_reference_is_the_numpy_wrap_and_bin_bit_for_bit():
         lut_from_reference(np.zeros(10), np.zeros(10))
 
 
-@pytest.mark.parametrize("steps", [4, 9])
-def test_planned_response_values_are_numpys_interp_bit_for_bit(steps):
-    from fringe3d.radiometry.phase_error import ResponseLUT, _planned_response, _simulated_patterns
-    x = np.linspace(0.0, 1.0, 61)
-    tables = [power_law(g, size) for g in (0.45, 1.0, 2.2, 7.9) for size in (256, 97, 2)]
-    tables.append(ResponseLUT(x, np.clip(1.4 * x - 0.2, 0.0, 1.0)))  # flat toe and shoulder: zero slopes
-    tables.append(ResponseLUT(x, np.where(x < 0.5, 0.0, 1.0)))       # a step: one steep interval
-    for shifts in (default_shifts(steps), default_shifts(steps) + 0.3):
-        key = tuple(np.asarray(shifts, float).tolist())
-        patterns = _simulated_patterns(key, 512)[1]
-        for table in tables:
-            got = _planned_response(table, key, 512)
-            assert got is not None  # a plan for every increasing table over [0, 1]
-            assert got.tobytes() == table.apply(patterns).tobytes()
-
-
-def test_no_interp_plan_for_a_table_that_does_not_hold_the_pattern_values():
-    from fringe3d.radiometry.phase_error import ResponseLUT, _planned_response, lut_from_response
-    key = tuple(default_shifts(4).tolist())
+def test_table_that_clips_the_pattern_values_gives_the_definitions_table():
+    from fringe3d.radiometry.phase_error import ResponseLUT, lut_from_response
     short = ResponseLUT(np.linspace(0.1, 1.0, 50), np.linspace(0.0, 1.0, 50))  # values below 0.1 clip to r(0.1)
-    assert _planned_response(short, key, 256) is None
     want = _table_by_definition(short, default_shifts(4), 256, 64)
     assert lut_from_response(short, steps=4, samples=256, bins=64).error.tobytes() == want.error.tobytes()
 
