@@ -81,6 +81,24 @@ def test_fused_assessment_of_a_three_step_first_group_has_no_variance(capture):
     assert a.variance is None and not a.clipped.any() and a.clip_counts == (0, 0, 0)
 
 
+def test_fused_assessment_without_clipping_shares_one_read_only_false_plane(capture):
+    # no frame reaches the level: the three groups' flags are False everywhere, and read-only (the
+    # plane is kept between calls, so no caller may write into it); the next call's flags reflect
+    # its own frames, clipped or not
+    _, frames, groups, shifts, periods, wr = capture
+    f = np.minimum(frames, LEVEL - 1)
+    for _ in range(2):
+        a = three_frequency_assess(f, groups, shifts, periods, wr, (5.0, 0.5 * np.pi, LEVEL))
+        assert a.clipped.shape == (3,) + f.shape[1:] and a.clip_counts == (0, 0, 0)
+        assert not a.clipped.any() and not a.clipped.flags.writeable
+        with pytest.raises(ValueError):
+            a.clipped[0, 0, 0] = True
+    b = three_frequency_assess(frames, groups, shifts, periods, wr, (5.0, 0.5 * np.pi, LEVEL))
+    for g, idx in enumerate(groups):
+        np.testing.assert_array_equal(b.clipped[g], (frames[idx] >= LEVEL).any(axis=0))
+    assert not a.clipped.any()
+
+
 def test_fused_assessment_counts_each_groups_clipped_pixels(capture):
     # one group clipped in a corner only, the others nowhere: the counts are those of the flags
     # the frames give, and the groups that clip nowhere have empty maps

@@ -23,6 +23,7 @@ that modulation within 1e-4 px, with the decoder's quality bits unchanged.
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple, Sequence
 
@@ -37,8 +38,8 @@ from fringe3d.unwrap.temporal import FusedResult, beat_chain, coarse_window
 class FusedAssessment(NamedTuple):
     """:class:`~fringe3d.unwrap.temporal.FusedResult` of the decode (its ``texture`` None: it is
     ``average + modulation`` in float32, which a caller adds when it needs it) and, each (H, W):
-    ``clipped`` (3, H, W) bool per group (a frame at the saturation level; a group that clips
-    nowhere is a plane of untouched zero pages), ``variance``
+    ``clipped`` (3, H, W) bool per group (a frame at the saturation level; read-only, the same
+    zero plane for the three groups, where no group clips), ``variance``
     float32 fit-residual variance of group 1 (None with fewer than 4 steps), ``residual``
     float32 disagreement (rad, 0 where invalid), ``modulation3`` float32 modulation of group 3,
     ``coordinate`` float32 fringe coordinate ``w`` of the absolute phase (px of the narrowest
@@ -54,6 +55,14 @@ class FusedAssessment(NamedTuple):
     coordinate: np.ndarray
     finite: bool
     clip_counts: tuple[int, int, int]
+
+
+@functools.lru_cache(maxsize=1)
+def _zero_plane(h: int, w: int) -> np.ndarray:
+    """A read-only (h, w) bool plane of False, made once per image size (the last size kept)."""
+    z = np.zeros((h, w), np.bool_)
+    z.flags.writeable = False
+    return z
 
 
 def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]], shifts: Sequence[Sequence[float]],
@@ -94,9 +103,12 @@ def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]],
                                           modulation3, nonfinite, clip_rows)
     counts = (tuple(int(c) for c in clip_rows.sum(axis=1, dtype=np.int64)) if math.isfinite(level)
               else (0, 0, 0))
-    clipped = np.zeros((3, h, w), np.bool_)  # calloc: a group without a clipped pixel is never written
-    for g, c in enumerate(counts):
-        if c:
-            np.not_equal(packed & np.uint8(1 << g), 0, out=clipped[g])
+    if any(counts):
+        clipped = np.zeros((3, h, w), np.bool_)  # a group without a clipped pixel is never written
+        for g, c in enumerate(counts):
+            if c:
+                np.not_equal(packed & np.uint8(1 << g), 0, out=clipped[g])
+    else:  # most captures: one read-only zero plane for the three groups, kept between calls (no memset)
+        clipped = np.broadcast_to(_zero_plane(h, w), (3, h, w))
     return FusedAssessment(out, clipped, variance if n1 >= 4 else None, residual, modulation3, coordinate,
                            not nonfinite.any(), (counts[0], counts[1], counts[2]))
