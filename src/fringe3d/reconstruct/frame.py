@@ -386,8 +386,19 @@ def empty_cycle(rec: FrameReconstructor, shape: tuple[int, int], points: bool) -
 
 def window_frames(frames, starts, ks: list[int], n: int) -> list[np.ndarray]:
     """The contiguous ``(n, H, W)`` frames (manifest order, :func:`~fringe3d.reconstruct.windows.
-    window_index`) of each 3D frame ``k`` of ``ks``, read from ``frames`` (F, H, W) at ``starts[k]``."""
-    return [np.ascontiguousarray(frames[window_index(starts[k], n)]) for k in ks]
+    window_index`) of each 3D frame ``k`` of ``ks``, read from ``frames`` (F, H, W) at ``starts[k]``;
+    from a frame source with ``read(start, stop)`` (:class:`~fringe3d.io.frame_sources.FrameRange`:
+    a camera file), a window already in manifest order is read as its span, a fresh array (its
+    index would copy the span once more: 0.9 instead of 0.6 ms a 1280 x 1024 cycle)."""
+    read = getattr(frames, "read", None) if not isinstance(frames, np.ndarray) else None
+    out = []
+    for k in ks:
+        index = window_index(starts[k], n)
+        if read is not None and bool(np.all(np.diff(index) == 1)):
+            out.append(np.ascontiguousarray(read(int(index[0]), int(index[-1]) + 1)))
+        else:
+            out.append(np.ascontiguousarray(frames[index]))
+    return out
 
 
 def reconstructed_cycles(rec: FrameReconstructor, ks: list[int], cycles: list[np.ndarray], ply: bool,
