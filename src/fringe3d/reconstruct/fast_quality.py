@@ -18,6 +18,15 @@ contrast ``B / A`` and its 5-column maxima 1.4, GRADIENT's 25-jump count 1.7 (on
 of the valid pixels jump more than the 1 px floor, so nearly every chunk is counted), the bits
 2.0. Skipping the count where a lower bound of the median settles it (the middle of the five
 rows' 5-column minima leaves 0.7% of the pixels open) was tried: the bound cost what it saved.
+
+Also tried and left out, both byte-identical (one thread, 1280 x 1024, min of 30-40 alternated
+runs on a 2-core machine with 32 MB of L3, where the fields stay in the cache and every pass is
+bound by its arithmetic): the map made inside the kernel's own pass, the rows streamed through
+rings (14.0 against 13.8 ms for the two passes); one pass after the kernel making the map, the
+masking, ``keep`` and the noise sums (6.8 against 6.9 ms without the noise, 7.9 against 8.1 with
+it: not worth a second copy of the map's row kernels, to be kept equal to the decoder's, and 11 s
+more to compile). A float16 ``sigma_z`` made in one pass (no float32 map and cast) saved 0.3 ms of
+the writer's 2.6 but ~0.1 ms of a whole frame, for two more kernels to compile (branch wip-seq3).
 """
 from __future__ import annotations
 
