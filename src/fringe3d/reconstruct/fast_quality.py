@@ -26,7 +26,7 @@ rings (14.0 against 13.8 ms for the two passes); one pass after the kernel makin
 masking, ``keep`` and the noise sums (6.8 against 6.9 ms without the noise, 7.9 against 8.1 with
 it: not worth a second copy of the map's row kernels, to be kept equal to the decoder's, and 11 s
 more to compile). A float16 ``sigma_z`` made in one pass (no float32 map and cast) saved 0.3 ms of
-the writer's 2.6 but ~0.1 ms of a whole frame, for two more kernels to compile (branch wip-seq3).
+the writer's 2.6 but ~0.1 ms of a whole frame, for two more kernels to compile.
 """
 from __future__ import annotations
 
