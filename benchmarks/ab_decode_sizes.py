@@ -16,11 +16,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
-import sys
 import time
 
 import numpy as np
+from source_trees import child_json  # beside this script
 
 
 def child(h: int, w: int, repeat: int) -> dict:
@@ -66,10 +65,8 @@ def main() -> None:
     for k in range(args.rounds):
         for s in sizes:
             for t in (("A", "B") if k % 2 == 0 else ("B", "A")):
-                env = dict(os.environ, PYTHONPATH=trees[t])
-                proc = subprocess.run([sys.executable, __file__, "x", "x", "--child", str(s[0]), str(s[1]),
-                                       str(args.repeat)], env=env, capture_output=True, text=True, check=True)
-                runs[(t, s)].append(json.loads(proc.stdout.strip().splitlines()[-1]))
+                runs[(t, s)].append(child_json(trees[t], __file__, ["x", "x", "--child", str(s[0]), str(s[1]),
+                                                                    str(args.repeat)]))
     print(f"A = {trees['A']}\nB = {trees['B']}")
     for s in sizes:
         px = s[0] * s[1]

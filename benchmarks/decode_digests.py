@@ -19,8 +19,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import os
-import subprocess
 import sys
 import warnings
 from pathlib import Path
@@ -28,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from source_trees import child_json  # noqa: E402  (beside this script)
 
 FIELDS = ("phase", "mask", "quality", "phase_sigma", "wrapped", "modulation", "period", "angle", "method",
           "average", "texture", "info")
@@ -137,10 +136,7 @@ def main() -> None:
         return
     got = {}
     for tree in (args.a, args.b):
-        env = dict(os.environ, PYTHONPATH=os.path.abspath(tree))
-        cmd = [sys.executable, __file__, "x", "x", "--child"] + (["--large"] if args.large else [])
-        proc = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
-        got[tree] = json.loads(proc.stdout.strip().splitlines()[-1])
+        got[tree] = child_json(tree, __file__, ["x", "x", "--child"] + (["--large"] if args.large else []))
     a, b = got[args.a], got[args.b]
     for name in a:
         print(f"{'same' if a[name] == b.get(name) else 'DIFFERENT':9s} {name}")
