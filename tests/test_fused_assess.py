@@ -234,10 +234,13 @@ def test_groups_the_fused_pass_counts_unclipped_are_not_tested_again(capture, mo
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         got = decode(dim, ps, options=opts)
-        monkeypatch.setattr(temporal_method, "_fused_with_assessment", lambda ctx, groups, level: three_frequency_decode(
-            ctx.frames, [g.indices for g in groups], [g.shifts for g in groups], [g.period for g in groups],
-            w_range=ctx.w_range(), min_modulation=ctx.min_modulation, saturation_level=np.inf,
-            max_residual=float(ctx.options.max_residual)))
+
+        def plain(ctx, groups, level):  # the decode alone: the clipping test reads the frames
+            return three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
+                                          [g.period for g in groups], w_range=ctx.w_range(),
+                                          min_modulation=ctx.min_modulation, saturation_level=np.inf,
+                                          max_residual=float(ctx.options.max_residual))
+        monkeypatch.setattr(temporal_method, "_fused_with_assessment", plain)
         want = decode(dim, ps, options=opts)
     # the fused decode's three groups: counted 0, their read-only all-False flags as the map
     assert seen[:3] == [(0, False, False)] * 3

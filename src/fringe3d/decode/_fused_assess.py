@@ -93,9 +93,9 @@ def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]],
     :class:`FusedAssessment`."""
     frames = as_frame_stack(frames)
     min_modulation, max_residual, level = (float(t) for t in thresholds)
-    c = _plan_constants(tuple(tuple(int(k) for k in i) for i in indices),
-                        tuple(tuple(float(x) for x in np.ravel(s)) for s in shifts), tuple(float(p) for p in periods))
-    idx, coef, beats, signs, design, scales = c
+    idx, coef, beats, signs, design, scales = _plan_constants(
+        tuple(tuple(int(k) for k in i) for i in indices), tuple(tuple(float(x) for x in np.ravel(s)) for s in shifts),
+        tuple(float(p) for p in periods))
     for i in idx:
         if i.size and (i.min() < 0 or i.max() >= frames.shape[0]):
             raise ValueError(f"frame index {i.tolist()} out of range for {frames.shape[0]} frames")
