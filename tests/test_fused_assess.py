@@ -214,3 +214,40 @@ def test_a_map_whose_counts_mask_nothing_skips_the_decoders_masking_read(capture
         np.testing.assert_array_equal(getattr(got, name)["v"], getattr(want, name)["v"])
     if clean:
         assert got.mask["v"].all() and not got.quality["v"].any()
+
+
+def test_groups_the_fused_pass_counts_unclipped_are_not_tested_again(capture, monkeypatch):
+    """A group whose clipping flags the fused pass counted empty takes them as its clipping map:
+    the same saturation record, masks and quality bits as the path that tests the frames."""
+    from fringe3d.decode import context as decode_context
+    ps, frames, *_ = capture
+    dim = (frames // 2).astype(np.uint8)  # nothing reaches 255: every group unclipped
+    opts = DecodeOptions(min_modulation=5.0)
+    seen = []
+    real = decode_context.clipping_broken
+
+    def spy(ctx, group, order_only=False):
+        out = real(ctx, group, order_only)
+        seen.append((ctx.cache.get(("clipped_count", group.name)), out.flags.writeable, bool(out.any())))
+        return out
+    monkeypatch.setattr(temporal_method, "clipping_broken", spy)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        got = decode(dim, ps, options=opts)
+
+        def plain(ctx, groups, level):  # the decode alone: the clipping test reads the frames
+            return three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
+                                          [g.period for g in groups], w_range=ctx.w_range(),
+                                          min_modulation=ctx.min_modulation, saturation_level=np.inf,
+                                          max_residual=float(ctx.options.max_residual))
+        monkeypatch.setattr(temporal_method, "_fused_with_assessment", plain)
+        want = decode(dim, ps, options=opts)
+    # the fused decode's three groups: counted 0, their read-only all-False flags as the map
+    assert seen[:3] == [(0, False, False)] * 3
+    assert [c for c, *_ in seen[3:]] == [None] * 3  # the other path tests the frames
+    d = "v"
+    np.testing.assert_array_equal(got.mask[d], want.mask[d])
+    np.testing.assert_array_equal(got.quality[d], want.quality[d])
+    sat = got.info["quality"][d]["saturation"]
+    assert sat == want.info["quality"][d]["saturation"]
+    assert all(s["clipped"] == 0.0 and s["masked"] == 0.0 for s in sat.values())

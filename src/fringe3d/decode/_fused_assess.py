@@ -58,11 +58,30 @@ class FusedAssessment(NamedTuple):
 
 
 @functools.lru_cache(maxsize=1)
-def _zero_plane(h: int, w: int) -> np.ndarray:
-    """A read-only (h, w) bool plane of False, made once per image size (the last size kept)."""
+def _zero_planes(h: int, w: int) -> np.ndarray:
+    """A read-only (3, h, w) bool view of one (h, w) plane of False, made once per image size
+    (the last size kept)."""
     z = np.zeros((h, w), np.bool_)
     z.flags.writeable = False
-    return z
+    return np.broadcast_to(z, (3, h, w))
+
+
+@functools.lru_cache(maxsize=16)
+def _plan_constants(indices: tuple, shifts: tuple, periods: tuple) -> tuple:
+    """What :func:`three_frequency_assess` hands its kernel for one plan, whatever the frames
+    (cached per plan, never written: the decoder asks per direction and cycle): the (N_g,) int64
+    frame indices and (3, N_g) float32 least-squares coefficients of each group, the beat
+    periods and signs (:func:`fringe3d.unwrap.temporal.beat_chain`), group 1's (N_1, 3) float32
+    design ``[1, cos d_k, sin d_k]`` and the float64 scales of the kernel."""
+    idx = [np.asarray(i, dtype=np.int64) for i in indices]
+    coef = [lsq_coefficients(s).astype(np.float32) for s in shifts]
+    beats, signs = beat_chain(periods)
+    d = np.asarray(shifts[0], np.float64)
+    design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1).astype(np.float32)
+    n1 = d.size
+    scales = np.array([periods[0] / periods[1], periods[0] / periods[2], 1.0 / (n1 - 3) if n1 > 3 else 0.0,
+                       periods[0] / (2.0 * math.pi)])  # the last as phase_to_w's scale
+    return idx, coef, beats, signs, design, scales  # writeable (a read-only array is another kernel type)
 
 
 def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]], shifts: Sequence[Sequence[float]],
@@ -74,20 +93,16 @@ def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]],
     :class:`FusedAssessment`."""
     frames = as_frame_stack(frames)
     min_modulation, max_residual, level = (float(t) for t in thresholds)
-    idx = [np.asarray(i, dtype=np.int64) for i in indices]
+    idx, coef, beats, signs, design, scales = _plan_constants(
+        tuple(tuple(int(k) for k in i) for i in indices), tuple(tuple(float(x) for x in np.ravel(s)) for s in shifts),
+        tuple(float(p) for p in periods))
     for i in idx:
         if i.size and (i.min() < 0 or i.max() >= frames.shape[0]):
             raise ValueError(f"frame index {i.tolist()} out of range for {frames.shape[0]} frames")
-    coef = [lsq_coefficients(s).astype(np.float32) for s in shifts]
-    beats, signs = beat_chain(periods)
     params = np.array([signs[0], signs[1], beats[1] / beats[0], beats[0] / periods[0],
                        coarse_window(beats[-1], w_range), min_modulation, 3e38, max_residual,
                        min(level, 3e38)], dtype=np.float32)
-    d = np.asarray(shifts[0], np.float64)
-    design = np.stack([np.ones_like(d), np.cos(d), np.sin(d)], axis=1).astype(np.float32)
-    n1 = d.size
-    scales = np.array([periods[0] / periods[1], periods[0] / periods[2], 1.0 / (n1 - 3) if n1 > 3 else 0.0,
-                       periods[0] / (2.0 * math.pi)])  # the last as phase_to_w's scale
+    n1 = design.shape[0]
     h, w = frames.shape[1:]
     out = FusedResult(np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.float32),
                       np.empty((h, w), np.float32), np.empty((h, w), np.bool_), None)
@@ -109,6 +124,6 @@ def three_frequency_assess(frames: np.ndarray, indices: Sequence[Sequence[int]],
             if c:
                 np.not_equal(packed & np.uint8(1 << g), 0, out=clipped[g])
     else:  # most captures: one read-only zero plane for the three groups, kept between calls (no memset)
-        clipped = np.broadcast_to(_zero_plane(h, w), (3, h, w))
+        clipped = _zero_planes(h, w)
     return FusedAssessment(out, clipped, variance if n1 >= 4 else None, residual, modulation3, coordinate,
                            not nonfinite.any(), (counts[0], counts[1], counts[2]))

@@ -9,7 +9,7 @@ the ratios below ``lo`` and keeps those inside the bracket with their histogram 
 :data:`BINS` bins (on one thread up to :data:`SERIAL_PIXELS`), and only the median's bin (a
 few dozen values) is sorted, not the whole bracket, in one more compiled call. The order
 statistics are the same as numpy's (exact, whatever the bracket); a bracket that misses the
-median (or overflows its buffer) falls back to numpy. Four compiled calls and a few small
+median (or overflows its buffer) falls back to numpy. Three compiled calls and a few small
 allocations in all: the fixed cost of a small image is a few tens of microseconds.
 """
 from __future__ import annotations
@@ -132,29 +132,38 @@ def _inverted_cdf(n, q):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _select(keep, counts, hist, lo, scale, rank):  # pragma: no cover - compiled
-    """The ``rank``-th smallest (from 0) of the kept ratios (``counts[c, 1]`` of ``keep[c]``,
-    histogram ``hist`` over the bins of :func:`_bin`): the bin holding it (the bins are
-    monotone in the ratio), then its rank among that bin's members, sorted."""
+def _select(keep, counts, hist, lo, scale, first, last):  # pragma: no cover - compiled
+    """The ``first``-th and ``last``-th smallest (from 0, ``first <= last``) of the kept ratios
+    (``counts[c, 1]`` of ``keep[c]``, histogram ``hist`` over the bins of :func:`_bin`): the
+    bins holding them (the bins are monotone in the ratio), then their ranks among the members
+    of those bins and the bins between, sorted (one scan of the kept ratios for both ranks)."""
     nch, nbins = hist.shape
-    upto = 0
-    b = 0
+    upto = 0  # ratios in the bins up to the one scanned
+    below = 0  # ratios in the bins below the one holding ``first``
+    b_first = -1
+    b_last = 0
     for b in range(nbins):
         total = 0
         for c in range(nch):
             total += hist[c, b]
-        if upto + total > rank:
-            break
+        if b_first < 0 and upto + total > first:
+            b_first = b
+            below = upto
         upto += total
-    members = np.empty(total, np.float32)
+        if upto > last:
+            b_last = b
+            break
+    members = np.empty(upto - below, np.float32)
     n = 0
     for c in range(nch):
         for k in range(counts[c, 1]):
             r = keep[c, k]
-            if _bin(r, lo, scale, nbins) == b:
+            i = _bin(r, lo, scale, nbins)
+            if i >= b_first and i <= b_last:
                 members[n] = r
                 n += 1
-    return np.sort(members)[rank - upto]
+    members.sort()
+    return members[first - below], members[last - below]
 
 
 #: Pixels up to which the bracket pass runs on one thread (a parallel region's fork and join
@@ -202,7 +211,7 @@ def ratio_median(fine: np.ndarray, coarse: np.ndarray, mask: np.ndarray) -> floa
     ranks = [n // 2] if n % 2 else [n // 2 - 1, n // 2]
     if n == 0 or (counts[:, 1] >= cap).any() or not below <= ranks[0] <= ranks[-1] < below + inside:
         return _numpy_median(fine, coarse, mask)
-    values = [_select(keep, counts, hist, lo32, scale, r - below) for r in ranks]
-    if len(values) == 1:
-        return float(values[0])
-    return float((values[0] + values[1]) / np.float32(2))
+    a, b = _select(keep, counts, hist, lo32, scale, ranks[0] - below, ranks[-1] - below)
+    if len(ranks) == 1:
+        return float(a)
+    return float((a + b) / np.float32(2))

@@ -369,14 +369,22 @@ def clipping_broken(ctx: DecodeContext, group: PhaseGroup, order_only: bool = Fa
     the bound is then the decode option ``max_disagreement`` (rad), the residual the
     multi-frequency consistency test (INCONSISTENT, :mod:`fringe3d.decode.edges`) accepts.
     The shares of the group's pixels with a clipped sample and of those masked are recorded in
-    ``ctx.cache[("saturation", name)]`` (reported in ``info["quality"][direction]["saturation"]``)."""
+    ``ctx.cache[("saturation", name)]`` (reported in ``info["quality"][direction]["saturation"]``).
+    A group the decoder's fused pass found unclipped (``ctx.cache[("clipped_count", name)]`` 0)
+    is not read again: its all-False, read-only flags are also its map."""
     key = ("clipping_broken", group.name, order_only)
     if key not in ctx.cache:
-        level = quality.saturation_level(ctx.frames, ctx.bit_depth)
         bound = float(ctx.options.max_disagreement) if order_only else ctx.options.max_clip_bias
-        r = clipping.clipping_mask(ctx.frames, group.indices, group.shifts, level, lambda: intensity_noise(ctx), bound,
-                                   clipped=ctx.cache.get(("clipped", group.name)))
-        n_clipped = int(np.count_nonzero(r.clipped))  # count_nonzero: no float pass; the same shares
+        clipped = ctx.cache.get(("clipped", group.name))
+        if clipped is not None and ctx.cache.get(("clipped_count", group.name)) == 0:
+            # the fused pass counted no clipped pixel: nothing breaks, and its all-False flags are the map
+            r = clipping.ClippingMask(clipped, clipped, 0)
+            n_clipped = 0
+        else:
+            level = quality.saturation_level(ctx.frames, ctx.bit_depth)
+            r = clipping.clipping_mask(ctx.frames, group.indices, group.shifts, level, lambda: intensity_noise(ctx),
+                                       bound, clipped=clipped)
+            n_clipped = int(np.count_nonzero(r.clipped))  # count_nonzero: no float pass; the same shares
         ctx.cache[("saturation", group.name)] = {
             "clipped": n_clipped / r.clipped.size,
             "masked": np.count_nonzero(r.broken) / r.broken.size if n_clipped else 0.0,

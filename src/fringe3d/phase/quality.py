@@ -17,6 +17,7 @@ from typing import Sequence
 import numba
 import numpy as np
 
+from fringe3d.utils._prefetch import prefetch_lines
 from fringe3d.utils.warning_types import DataQualityWarning
 
 #: Default modulation threshold as a fraction of the full scale.
@@ -172,19 +173,29 @@ def _int_range(dtype: np.dtype) -> tuple[int, int]:
     return int(info.min), int(info.max)
 
 
+#: Sampled rows read ahead by the compiled sampled passes (:func:`fringe3d.utils._prefetch.prefetch_lines`).
+AHEAD = 4
+
+
 @numba.njit(cache=True, nogil=True)
 def _count_at_least(frames, step, cut_a, cut_b, counts):  # pragma: no cover - compiled
     """``counts[:, f] = (#(x >= cut_a), #(x >= cut_b))`` over ``x`` of ``frames[f, ::step, ::step]``.
     Each sampled row is compared whole (contiguous, vectorised) into per-column uint8 tallies,
-    which are summed at the sampled columns every 255 rows and at each frame's end."""
+    which are summed at the sampled columns every 255 rows and at each frame's end. The sampled
+    row :data:`AHEAD` rows on (into the next frame at a frame's end) is prefetched: the rows are
+    read from memory, not the caches, on the decoder's first look at its frames."""
     nf, h, w = frames.shape
     tally_a = np.zeros(w, np.uint8)
     tally_b = np.zeros(w, np.uint8)
+    nr = (h + step - 1) // step
     for f in range(nf):
         na = 0
         nb = 0
         rows = 0
         for r in range(0, h, step):
+            k = f * nr + r // step + AHEAD
+            if k < nf * nr:
+                prefetch_lines(frames[k // nr, (k % nr) * step])
             row = frames[f, r]
             for c in range(w):
                 x = row[c]

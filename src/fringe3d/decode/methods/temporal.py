@@ -83,15 +83,17 @@ def unwrap_heterodyne(ctx: DecodeContext) -> Unwrapped:
 def _fused_with_assessment(ctx: DecodeContext, groups: list, level: float):
     """:func:`three_frequency_decode` of the three groups (saturation ignored) by the one pass
     of :func:`fringe3d.decode._fused_assess.three_frequency_assess`, its assessment maps left in
-    ``ctx.cache`` for :func:`fringe3d.decode.context.clipping_broken` (``("clipped", group)``),
+    ``ctx.cache`` for :func:`fringe3d.decode.context.clipping_broken` (``("clipped", group)`` and
+    its pixel count ``("clipped_count", group)``),
     :func:`fringe3d.decode.assess.assess` (``("fit_variance", group)``, ``("modulation",
     group)``, ``("disagreement", coarser groups)``, ``("coordinate", period)``: the fringe
     coordinate of the absolute phase, NaN outside the pass's mask and finite on it)."""
     a = three_frequency_assess(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
                                [g.period for g in groups], ctx.w_range(),
                                (ctx.min_modulation, float(ctx.options.max_residual), level))
-    for g, clipped in zip(groups, a.clipped):
+    for g, clipped, count in zip(groups, a.clipped, a.clip_counts):
         ctx.cache[("clipped", g.name)] = clipped
+        ctx.cache[("clipped_count", g.name)] = count
     if a.variance is not None:
         ctx.cache[("fit_variance", groups[0].name)] = a.variance
     ctx.cache[("modulation", groups[2].name)] = a.modulation3
