@@ -341,4 +341,4 @@ def cached_minimum_phase(geometry: RigGeometry, z_min: float, period: float, ang
         As :func:`minimum_phase`; the same object for repeated calls with one geometry.
     """
     key = ("minimum_phase", float(z_min), float(period), float(angle))
-    return geometry.memo(key, lambda: minimum_phase(geometry.rig, z_min, period, angle, geometry))
+    return geometry.memo(key, lambda: minimum_phase(geometry.rig, z_min, period, angle, geometry=geometry))
