@@ -138,17 +138,37 @@ def test_thread_workers_share_the_kernel_threads():
 
 
 def test_the_kernels_keep_the_threads_the_store_writers_leave():
-    """One store writer below FINISH_ON_WRITERS_FROM numba threads, else half of them, each on
-    one numba thread; the compute's kernels run on the rest (at least one) while they write,
-    all of them after."""
+    """One store writer below FINISH_ON_WRITERS_FROM numba threads, else half of them and at least
+    two, each on one numba thread; the compute's kernels run on the rest (at least one) while they
+    write, all of them after."""
     import numba
 
     from fringe3d.reconstruct import executors, sequence
 
     n = numba.get_num_threads()
     writers = sequence.writer_threads()
-    assert writers == (n // 2 if executors.finish_on_writers() else 1) and writers >= 1
+    assert writers == (max(2, n // 2) if executors.finish_on_writers() else 1) and writers >= 1
     with sequence._kernel_threads_beside(writers):
         assert numba.get_num_threads() == max(1, n - writers)
     assert numba.get_num_threads() == n
     assert sequence.in_flight(writers) >= writers + 1  # every writer busy and the next frame queued
+
+
+def test_on_two_numba_threads_two_writers_finish_the_frames_beside_a_one_thread_kernel():
+    """2 cores: the main thread runs the fused kernel alone on one numba thread, two store writers
+    finish the frames (quality map, sigma_z, compression, writes): three busy threads, so no
+    core waits while one stage waits for the other."""
+    import numba
+
+    from fringe3d.reconstruct import executors, sequence
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba runs on one thread here")
+    n = numba.get_num_threads()
+    numba.set_num_threads(2)
+    try:
+        assert executors.finish_on_writers() and sequence.writer_threads() == 2
+        with sequence._kernel_threads_beside(2):
+            assert numba.get_num_threads() == 1
+    finally:
+        numba.set_num_threads(n)

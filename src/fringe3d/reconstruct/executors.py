@@ -76,17 +76,22 @@ def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
 
 #: numba threads from which :func:`serial` leaves all but the fused kernel's pass to the store
 #: writers (:func:`finish_on_writers`)
-FINISH_ON_WRITERS_FROM = 4
+FINISH_ON_WRITERS_FROM = 2
 
 
 def finish_on_writers() -> bool:
     """Whether :func:`serial` leaves the quality map, the masking and sigma_z to the store
     writers (:meth:`~fringe3d.reconstruct.frame.FrameReconstructor.fused_later`): from
     :data:`FINISH_ON_WRITERS_FROM` numba threads. The main thread then runs the fused kernel
-    alone (5.6 instead of 15.8 ms of CPU a 1280 x 1024 frame), which bounds the rate no longer;
-    on 2 cores the process's CPU bounds it, and finishing elsewhere cost about 2 ms more a
-    frame (the fields leave the cache before the quality map reads them;
-    ``benchmarks/bench_sequence_cpu.py``-style runs, the revisions alternated)."""
+    alone (5.6 instead of 15.8 ms of CPU a 1280 x 1024 frame), which bounds the rate no longer,
+    and at least two writers (:func:`~fringe3d.reconstruct.sequence.writer_threads`) finish the
+    frames beside it: on 2 cores three busy threads, so neither core idles while one stage waits
+    for the other (with one writer finishing only sigma_z, the main thread and the writer each
+    spent about 14 ms a frame and took turns waiting). On a 2-core machine shared with other
+    work, 60 cycles from the MRAW file (``/tmp``-style A/B of the two settings in one process,
+    alternated, 10-12 rounds, 4 sessions) ran 4-13 % faster in the median for the same CPU time
+    (about 36 ms a frame either way).
+    """
     return numba.get_num_threads() >= FINISH_ON_WRITERS_FROM
 
 

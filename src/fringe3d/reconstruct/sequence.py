@@ -207,11 +207,12 @@ IN_FLIGHT = 2
 def writer_threads() -> int:
     """Store writer threads of a sequence: one below :data:`~fringe3d.reconstruct.executors.
     FINISH_ON_WRITERS_FROM` numba threads (the compute makes each frame but its sigma_z and
-    compression), else half the numba threads: what is left to them after the fused kernel
-    (quality map, sigma_z, compression, writes) costs about three times the kernel. Each writer
-    runs its kernels on one numba thread, the compute keeps the rest (:func:`_kernel_threads_beside`)."""
+    compression), else half the numba threads and at least two: what is left to them after the
+    fused kernel (quality map, sigma_z, compression, writes) costs about three times the kernel.
+    Each writer runs its kernels on one numba thread, the compute keeps the rest, at least one
+    (:func:`_kernel_threads_beside`)."""
     n = numba.get_num_threads()
-    return 1 if n < FINISH_ON_WRITERS_FROM else n // 2
+    return 1 if n < FINISH_ON_WRITERS_FROM else max(2, n // 2)
 
 
 def in_flight(writers: int) -> int:
