@@ -88,9 +88,9 @@ def finish_on_writers() -> bool:
     frames beside it: on 2 cores three busy threads, so neither core idles while one stage waits
     for the other (with one writer finishing only sigma_z, the main thread and the writer each
     spent about 14 ms a frame and took turns waiting). On a 2-core machine shared with other
-    work, 60 cycles from the MRAW file (``/tmp``-style A/B of the two settings in one process,
-    alternated, 10-12 rounds, 4 sessions) ran 4-13 % faster in the median for the same CPU time
-    (about 36 ms a frame either way).
+    work, 60 cycles from the MRAW file (the two settings alternated in one process, 5-12 rounds,
+    four sessions; ``docs/long-sequences.md``) ran 4-13 % faster in the median for the same
+    process CPU (about 36 ms a frame either way).
     """
     return numba.get_num_threads() >= FINISH_ON_WRITERS_FROM
 
