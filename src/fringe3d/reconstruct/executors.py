@@ -62,12 +62,20 @@ def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
     (:func:`finish_on_writers`), all but the kernel's pass (a
     :class:`~fringe3d.reconstruct.frame.LaterCycle`), which the store writers' threads finish
     (:func:`~fringe3d.reconstruct.frame.with_sigma`): the quality map, the noise estimate and
-    the sigma_z pass leave the compute's path."""
+    the sigma_z pass leave the compute's path. Which of the two is decided here, on the caller's
+    numba threads, before the loop that writes the frames gives the kernels fewer of them beside
+    its writers (decided lazily there, on those fewer threads, it came out the other way on 2 and
+    3 threads, and on 4 to 6 under the former threshold of 4)."""
+    later = "all" if finish_on_writers() else True
+    return _serial(job, todo, later)
+
+
+def _serial(job: WindowJob, todo: list[int], later: bool | str) -> Iterator[Done]:
+    """:func:`serial`'s loop, ``later`` decided."""
     size = batch_size(job)
     parts = [todo[b0:b0 + size] for b0 in range(0, len(todo), size)]
     n = len(job.rec.patterns)
     workers = read_workers(job.frames, n)
-    later = "all" if finish_on_writers() else True
     with ReadAhead(lambda ks: window_frames(job.frames, job.starts, ks, n), parts, depth=DEPTH + workers - 1,
                    workers=workers) as read:
         for ks, cycles in zip(parts, read):
