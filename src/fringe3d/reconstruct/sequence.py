@@ -105,8 +105,9 @@ def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out
 MARK_EVERY = 16
 
 
-def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig | RigGeometry, out, decode: DecodeSettings | None = None,
-                         outputs: OutputSettings | None = None, run: RunSettings | None = None,
+def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig | RigGeometry, out,
+                         decode: DecodeSettings | None = None, outputs: OutputSettings | None = None,
+                         run: RunSettings | None = None,
                          executor: Executor = serial) -> dict:
     """Reconstruct every 3D frame of a sequence into ``out`` (resumable).
 
