@@ -138,17 +138,78 @@ def test_thread_workers_share_the_kernel_threads():
 
 
 def test_the_kernels_keep_the_threads_the_store_writers_leave():
-    """One store writer below FINISH_ON_WRITERS_FROM numba threads, else half of them, each on
-    one numba thread; the compute's kernels run on the rest (at least one) while they write,
-    all of them after."""
+    """One store writer below FINISH_ON_WRITERS_FROM numba threads, else half of them and at least
+    two, each on one numba thread; the compute's kernels run on the rest (at least one) while they
+    write, all of them after."""
     import numba
 
     from fringe3d.reconstruct import executors, sequence
 
     n = numba.get_num_threads()
     writers = sequence.writer_threads()
-    assert writers == (n // 2 if executors.finish_on_writers() else 1) and writers >= 1
+    assert writers == (max(2, n // 2) if executors.finish_on_writers() else 1) and writers >= 1
     with sequence._kernel_threads_beside(writers):
         assert numba.get_num_threads() == max(1, n - writers)
     assert numba.get_num_threads() == n
     assert sequence.in_flight(writers) >= writers + 1  # every writer busy and the next frame queued
+
+
+def test_on_two_numba_threads_two_writers_finish_the_frames_beside_a_one_thread_kernel():
+    """2 cores: the main thread runs the fused kernel alone on one numba thread, two store writers
+    finish the frames (quality map, sigma_z, compression, writes): three busy threads, so no
+    core waits while one stage waits for the other."""
+    import numba
+
+    from fringe3d.reconstruct import executors, sequence
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba runs on one thread here")
+    n = numba.get_num_threads()
+    numba.set_num_threads(2)
+    try:
+        assert executors.finish_on_writers() and sequence.writer_threads() == 2
+        with sequence._kernel_threads_beside(2):
+            assert numba.get_num_threads() == 1
+    finally:
+        numba.set_num_threads(n)
+
+
+def test_the_serial_path_leaves_the_frames_to_the_writers_although_its_loop_runs_on_fewer_kernel_threads(
+        capture, tmp_path, monkeypatch):
+    """The choice is made on the caller's numba threads, not inside the writing loop (where the
+    kernels run on one thread beside two writers, and the lazy choice left only sigma_z to them):
+    every frame of a store-only run reaches the writers as a LaterCycle, and the store is the one
+    the frames computed at once give."""
+    import numba
+
+    from fringe3d.reconstruct import sequence
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba runs on one thread here")
+    kinds = []
+    real = sequence._write_frame
+
+    def recording(k, cycle, *args):
+        kinds.append(isinstance(cycle, LaterCycle))
+        return real(k, cycle, *args)
+
+    def store_only(out, executor):
+        ps = reconstruction_plans(read_capture(capture, max_cycles=1).patterns, "geometric")
+        reconstruct_sequence(CaptureFolder(str(capture)), ps, Rig.load(capture / "rig.json"), out,
+                             DecodeSettings(DecodeOptions(z_min=340.0)), run=RunSettings(progress=False),
+                             executor=executor)
+    n = numba.get_num_threads()
+    numba.set_num_threads(2)
+    try:
+        monkeypatch.setattr(sequence, "_write_frame", recording)
+        store_only(tmp_path / "serial", serial)
+    finally:
+        numba.set_num_threads(n)
+    assert kinds == [True] * CYCLES
+    monkeypatch.setattr(sequence, "_write_frame", real)
+    store_only(tmp_path / "threads", threads(2))
+    a, b = (PointMapStore.open_existing(tmp_path / name / "points.zarr") for name in ("serial", "threads"))
+    for k in range(CYCLES):
+        np.testing.assert_array_equal(a.depth(k), b.depth(k))
+        np.testing.assert_array_equal(a.quality(k), b.quality(k))
+        np.testing.assert_array_equal(a.sigma_z(k), b.sigma_z(k))

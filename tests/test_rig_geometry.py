@@ -12,9 +12,12 @@ import pytest
 from fringe3d.decode import DecodeOptions, decode
 from fringe3d.io.capture import read_capture
 from fringe3d.optics import Rig
+from fringe3d.optics.rays import RayGeometry
 from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns import sets
+from fringe3d.reconstruct.depth import triangulator_for
 from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
+from fringe3d.reconstruct.triangulate import Triangulator
 from fringe3d.sim import simulate_capture
 from fringe3d.unwrap import geometric
 
@@ -76,7 +79,7 @@ def test_deleting_the_engine_frees_its_rig_and_geometry(capture):
         rec = FrameReconstructor(ps, rig, Z340, fast=False)  # decode + closed-form triangulation
         rec.reconstruct(frames)
     geo_ref = weakref.ref(rec.geometry)
-    assert rec.geometry.built == {"minimum_phase": 1, "triangulator": 1}
+    assert rec.geometry.built == {"camera_planes": 1, "minimum_phase": 1, "triangulator": 1}  # the rays shared
     del rec, rig
     gc.collect()
     assert rig_ref() is None and geo_ref() is None
@@ -87,3 +90,43 @@ def test_decode_refuses_the_geometry_of_another_rig(capture):
     rig, other = Rig.load(rig_file), Rig.load(rig_file)
     with pytest.raises(ValueError, match="geometry was built for another rig"):
         decode(frames, ps, rig=rig, options=Z340, geometry=RigGeometry(other))
+
+
+@pytest.fixture
+def counted_camera_rays(monkeypatch):
+    """Counts the builds of the camera rays (fringe3d.optics.rays.camera_rays; the rays unchanged)."""
+    from fringe3d.optics import rays
+
+    calls = []
+    real = rays.camera_rays
+
+    def counting(rig):
+        calls.append(rig)
+        return real(rig)
+    monkeypatch.setattr(rays, "camera_rays", counting)
+    return calls
+
+
+def test_the_fused_engine_builds_the_camera_rays_once_for_its_minimum_phase_map_and_its_triangulator(
+        capture, counted_camera_rays):
+    _, ps, rig_file = capture
+    rig = Rig.load(rig_file)
+    rec = FrameReconstructor(ps, rig, Z340)
+    assert rec.fast is not None and len(counted_camera_rays) == 1
+    # the shared rays are the ones each built alone: the map, the kernel's rays, hence every output, unchanged
+    mp = geometric.minimum_phase(rig, 340.0, rec.fast.mp.period, rec.fast.mp.angle)
+    np.testing.assert_array_equal(rec.fast.mp.phi_min, mp.phi_min)
+    np.testing.assert_array_equal(rec.fast.mp.sign, mp.sign)
+    alone = Triangulator(rig, rec.fast.tri.angle, warn_distortion=False)
+    assert len(counted_camera_rays) == 3  # the two built alone
+    np.testing.assert_array_equal(rec.rays[1], alone.D_planes)
+    np.testing.assert_array_equal(rec.rays[0], alone.O)
+
+
+def test_ray_geometries_of_one_rig_geometry_share_one_set_of_rays_whatever_their_angle(capture, counted_camera_rays):
+    rig = Rig.load(capture[2])
+    geo = RigGeometry(rig)
+    a, b = RayGeometry(rig, 0.0, geo), triangulator_for(geo, np.pi / 2)
+    assert len(counted_camera_rays) == 1 and a.D_planes is b.D_planes
+    with pytest.raises(ValueError, match="another rig"):
+        RayGeometry(Rig.load(capture[2]), 0.0, geo)

@@ -227,3 +227,24 @@ def test_a_broken_frame_file_stops_the_run_naming_it_and_the_cycles_before_are_s
     st = PointMapStore.open_existing(tmp_path / "out" / "points.zarr")
     assert st.pending() == [2]
     assert all(max_error(st.read(k), truth) < 1e-3 for k in range(2))
+
+
+def test_reconstruct_command_computes_the_minimum_phase_map_once_for_its_checks_and_its_sequence(
+        seq_capture, tmp_path, monkeypatch):
+    from fringe3d.cli import main
+    from fringe3d.optics import rays
+    from fringe3d.unwrap import geometric
+
+    cap, rig, truth = seq_capture
+    built = {"minimum_phase": 0, "camera_rays": 0}
+    for module, name in ((geometric, "minimum_phase"), (rays, "camera_rays")):
+        def counting(*args, _real=getattr(module, name), _name=name, **kw):
+            built[_name] += 1
+            return _real(*args, **kw)
+        monkeypatch.setattr(module, name, counting)
+    out = tmp_path / "out"
+    assert main(["reconstruct", str(cap.folder), "-c", str(cap.folder / "rig.json"), "-o", str(out), "--method",
+                 "geometric", "--z-min", "340", "-q"]) == 0
+    assert built == {"minimum_phase": 1, "camera_rays": 1}  # the plan checks' map and rays, reused by the engine
+    st = PointMapStore.open_existing(out / "points.zarr")
+    assert st.completed == 3 and max_error(st.points(2), truth) < 1e-3

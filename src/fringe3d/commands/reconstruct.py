@@ -25,6 +25,7 @@ from fringe3d.io.export import write_points
 from fringe3d.io.measurement_source import measurement_attributes
 from fringe3d.io.store import CODECS
 from fringe3d.optics import Rig
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.manifest import MANIFEST_NAME
 from fringe3d.patterns.method_registry import relative_methods
 from fringe3d.utils.output_folder import open_output
@@ -54,11 +55,12 @@ RECONSTRUCT_UNITS = {"depth_min": "mm", "depth_max": "mm", "z_min": "mm", "valid
 EXTRA_FORMATS = ("e57", "las", "laz", "mat")
 
 
-def _sequence(out: Path, capture: CaptureFolder, ps, rig, settings: tuple[DecodeSettings, OutputSettings, RunSettings],
-              client, chunk: int) -> dict:
-    """The sequence branch: in this process, or on Dask when a ``client`` is given."""
+def _sequence(out: Path, capture: CaptureFolder, ps, rig: RigGeometry,
+              settings: tuple[DecodeSettings, OutputSettings, RunSettings], client, chunk: int) -> dict:
+    """The sequence branch: in this process (reusing the maps of ``rig``, the rig's geometry that the
+    checks filled), or on Dask when a ``client`` is given (the rig alone travels)."""
     if client is not None:
-        return reconstruct_capture_on_dask(capture, ps, rig, out, dask_executor(client, chunk), *settings)
+        return reconstruct_capture_on_dask(capture, ps, rig.rig, out, dask_executor(client, chunk), *settings)
     return reconstruct_sequence(capture, ps, rig, out, *settings)
 
 
@@ -170,6 +172,7 @@ def register(app: typer.Typer) -> None:
             z_min = reference_z_min(z_min_from, z_margin)
             info(f"z_min = {z_min:.3f} mm from {z_min_from} (nearest depth - {z_margin:g} mm)")
         rig = Rig.load(calibration)
+        geometry = RigGeometry(rig)  # the checks' minimum phase map, reused by a sequence's engine
         compensate, response_lut = resolve_compensation(compensate, response, rig)
         cap = read_capture(capture, max_cycles=1)  # checks the folder; the rest is read on demand
         why = lambda: why_no_points(cap.frames, ps, rig, DecodeOptions(z_min=z_min, **opts))  # noqa: E731
@@ -187,7 +190,7 @@ def register(app: typer.Typer) -> None:
         ps = reconstruction_plans(cap.patterns, method)
         with in_flag_words(z_min_from=True):  # relative phase, geometric method without z_min: before writing
             relative = check_plans(ps, rig, z_min, original=cap.patterns, source=str(capture / MANIFEST_NAME),
-                                   allow_relative=allow_relative)
+                                   allow_relative=allow_relative, geometry=geometry)
         check_plans_for(ps, compensate)  # --compensate disagreement without two equal-step frequencies
         opts = {"bit_depth": cap.meta.get("bit_depth"), "min_modulation": min_modulation, "edge_mask": edge_mask,
                 "edge_margin": edge_margin, "compensate": compensate, "response": response_lut}
@@ -249,8 +252,8 @@ def register(app: typer.Typer) -> None:
                                 OutputSettings(ply, store, store_layout, store_quality, store_codec,
                                                frame_rate=read_meta(capture).get("frame_rate")),
                                 RunSettings(device, progress=not (quiet or json_)))
-                    seq = _sequence(o.path, CaptureFolder(str(capture), cycles * len(ps)), ps, rig, settings, client,
-                                    chunk)
+                    seq = _sequence(o.path, CaptureFolder(str(capture), cycles * len(ps)), ps, geometry, settings,
+                                    client, chunk)
                     summary.update(o.final_paths(seq))
                     if seq.get("empty_frames") == seq.get("frames_3d") and not allow_empty:
                         raise ValueError(f"{capture}: no valid 3D point in any frame of the sequence: "

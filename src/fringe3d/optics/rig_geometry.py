@@ -1,15 +1,18 @@
 """Per-rig precomputation, owned by whoever reconstructs with the rig.
 
 :class:`RigGeometry` holds the arrays that depend only on a rig (and a few scalars): the
-minimum phase maps of the geometric constraint keyed by ``(z_min, period, angle)``
-(Eq. 4.14-4.19, :func:`fringe3d.unwrap.geometric.cached_minimum_phase`), the closed-form
-triangulators keyed by fringe angle (Eq. 2.37, :func:`fringe3d.reconstruct.depth.triangulator_for`).
+camera rays, built once for every map and triangulator below
+(:func:`fringe3d.optics.rays.camera_planes`), the minimum phase maps of the geometric constraint
+keyed by ``(z_min, period, angle)`` (Eq. 4.14-4.19,
+:func:`fringe3d.unwrap.geometric.cached_minimum_phase`), the closed-form triangulators keyed by
+fringe angle (Eq. 2.37, :func:`fringe3d.reconstruct.depth.triangulator_for`).
 The engine (:class:`fringe3d.reconstruct.frame.FrameReconstructor`) builds one and passes it
 down to ``decode(..., geometry=...)``, the plan checks and triangulation; a caller without an
 engine gets a fresh one per call. No module-level cache holds a rig: the entries live exactly as
 long as the :class:`RigGeometry` that owns them.
 
-The layers above fill the entries (this module knows nothing of unwrapping or triangulation):
+The layers above (and :mod:`fringe3d.optics.rays`) fill the entries (this module knows nothing
+of rays, unwrapping or triangulation):
 each entry is built once by :meth:`RigGeometry.memo` from a key and a builder function.
 """
 from __future__ import annotations

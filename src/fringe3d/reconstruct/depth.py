@@ -103,8 +103,10 @@ def projector_coordinates(decoded: Decoded, directions=None) -> dict:
 def triangulator_for(geometry: RigGeometry, angle: float) -> Triangulator:
     """The closed-form :class:`Triangulator` of ``geometry.rig`` at fringe ``angle`` (rad), built
     once per :class:`RigGeometry` and angle: a sequence reuses the per-pixel ray coefficients
-    (Eq. 2.37) instead of recomputing them every 3D frame (~28 ms at 1280x1024)."""
-    return geometry.memo(("triangulator", float(angle)), lambda: Triangulator(geometry.rig, angle=angle))
+    (Eq. 2.37) instead of recomputing them every 3D frame (~28 ms at 1280x1024); its camera rays
+    are the geometry's, shared with its minimum phase maps."""
+    return geometry.memo(("triangulator", float(angle)),
+                         lambda: Triangulator(geometry.rig, angle=angle, geometry=geometry))
 
 
 def points_from_decoded(decoded: Decoded, rig: Rig, method: str = "auto", directions=None,

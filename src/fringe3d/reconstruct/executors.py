@@ -62,12 +62,20 @@ def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
     (:func:`finish_on_writers`), all but the kernel's pass (a
     :class:`~fringe3d.reconstruct.frame.LaterCycle`), which the store writers' threads finish
     (:func:`~fringe3d.reconstruct.frame.with_sigma`): the quality map, the noise estimate and
-    the sigma_z pass leave the compute's path."""
+    the sigma_z pass leave the compute's path. Which of the two is decided here, on the caller's
+    numba threads, before the loop that writes the frames gives the kernels fewer of them beside
+    its writers (decided lazily there, on those fewer threads, it came out the other way on 2 and
+    3 threads, and on 4 to 6 under the former threshold of 4)."""
+    later = "all" if finish_on_writers() else True
+    return _serial(job, todo, later)
+
+
+def _serial(job: WindowJob, todo: list[int], later: bool | str) -> Iterator[Done]:
+    """:func:`serial`'s loop, ``later`` decided."""
     size = batch_size(job)
     parts = [todo[b0:b0 + size] for b0 in range(0, len(todo), size)]
     n = len(job.rec.patterns)
     workers = read_workers(job.frames, n)
-    later = "all" if finish_on_writers() else True
     with ReadAhead(lambda ks: window_frames(job.frames, job.starts, ks, n), parts, depth=DEPTH + workers - 1,
                    workers=workers) as read:
         for ks, cycles in zip(parts, read):
@@ -76,17 +84,22 @@ def serial(job: WindowJob, todo: list[int]) -> Iterator[Done]:
 
 #: numba threads from which :func:`serial` leaves all but the fused kernel's pass to the store
 #: writers (:func:`finish_on_writers`)
-FINISH_ON_WRITERS_FROM = 4
+FINISH_ON_WRITERS_FROM = 2
 
 
 def finish_on_writers() -> bool:
     """Whether :func:`serial` leaves the quality map, the masking and sigma_z to the store
     writers (:meth:`~fringe3d.reconstruct.frame.FrameReconstructor.fused_later`): from
     :data:`FINISH_ON_WRITERS_FROM` numba threads. The main thread then runs the fused kernel
-    alone (5.6 instead of 15.8 ms of CPU a 1280 x 1024 frame), which bounds the rate no longer;
-    on 2 cores the process's CPU bounds it, and finishing elsewhere cost about 2 ms more a
-    frame (the fields leave the cache before the quality map reads them;
-    ``benchmarks/bench_sequence_cpu.py``-style runs, the revisions alternated)."""
+    alone (5.6 instead of 15.8 ms of CPU a 1280 x 1024 frame), which bounds the rate no longer,
+    and at least two writers (:func:`~fringe3d.reconstruct.sequence.writer_threads`) finish the
+    frames beside it: on 2 cores three busy threads, so neither core idles while one stage waits
+    for the other (with one writer finishing only sigma_z, the main thread and the writer each
+    spent about 14 ms a frame and took turns waiting). On a 2-core machine shared with other
+    work, 60 cycles from the MRAW file (the two settings alternated in one process, 5-12 rounds,
+    four sessions; ``docs/long-sequences.md``) ran 4-13 % faster in the median for the same
+    process CPU (about 36 ms a frame either way).
+    """
     return numba.get_num_threads() >= FINISH_ON_WRITERS_FROM
 
 

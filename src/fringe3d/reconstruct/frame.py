@@ -459,7 +459,7 @@ def fused_path(patterns: PatternSet, geometry: RigGeometry, options: DecodeOptio
     mp = cached_minimum_phase(geometry, options.z_min, g.period, g.angle)
     wr = plans[0].options.get("w_range")
     lo, hi = (float(wr[0]), float(wr[1])) if wr is not None else w_range(g.angle, patterns.width, patterns.height)
-    kernel = FastThreeStep(Triangulator(rig, g.angle, warn_distortion=False), mp, g.shifts,
+    kernel = FastThreeStep(Triangulator(rig, g.angle, warn_distortion=False, geometry=geometry), mp, g.shifts,
                            min_modulation=0.0, backend=backend)
     return FusedPath(kernel, np.asarray(g.indices, np.int64), g.shifts, pixel_extent(lo, hi, g.angle),
                      options.min_modulation)

@@ -29,6 +29,7 @@ from fringe3d.io.capture_frames import CaptureFolder, CaptureFrames
 from fringe3d.io.ply_standard import write_measurement_ply
 from fringe3d.io.store import PointMapStore, StoreSettings
 from fringe3d.optics.rig import Rig
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.manifest import PatternSet
 from fringe3d.reconstruct.executors import FINISH_ON_WRITERS_FROM, Executor, WindowJob, serial
 from fringe3d.reconstruct.frame import Cycle, FrameReconstructor, store_layout, reconstruction_plans, with_sigma
@@ -104,8 +105,9 @@ def prepare_sequence(shape: tuple[int, ...], patterns: PatternSet, rig: Rig, out
 MARK_EVERY = 16
 
 
-def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig, out, decode: DecodeSettings | None = None,
-                         outputs: OutputSettings | None = None, run: RunSettings | None = None,
+def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig | RigGeometry, out,
+                         decode: DecodeSettings | None = None, outputs: OutputSettings | None = None,
+                         run: RunSettings | None = None,
                          executor: Executor = serial) -> dict:
     """Reconstruct every 3D frame of a sequence into ``out`` (resumable).
 
@@ -115,7 +117,9 @@ def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig, out, decode: De
         :class:`~fringe3d.io.capture_frames.CaptureFolder`, which executors running elsewhere
         need), in projection order
     patterns : the manifest (its plans choose the unwrapping; see :func:`reconstruction_plans`)
-    rig : the calibrated rig
+    rig : the calibrated rig, or its :class:`~fringe3d.optics.rig_geometry.RigGeometry` (the maps
+        a caller's checks already computed, e.g. :func:`fringe3d.decode.plan_checks.check_plans`'
+        minimum phase map, are then reused, not computed again)
     out : output folder: ``points.zarr`` and/or ``ply/frame_00000.ply`` ...
     decode, outputs, run : :class:`~fringe3d.reconstruct.settings.DecodeSettings` (options,
         triangulation, windows), :class:`~fringe3d.reconstruct.settings.OutputSettings` (PLY,
@@ -135,8 +139,10 @@ def reconstruct_sequence(frames, patterns: PatternSet, rig: Rig, out, decode: De
         capture, frames = CaptureFolder(str(Path(frames.path).resolve()), frames.limit), frames.open()
     frames = frames if hasattr(frames, "shape") else np.asarray(frames)
     out = Path(out)
+    geometry = rig if isinstance(rig, RigGeometry) else None
+    rig = rig.rig if isinstance(rig, RigGeometry) else rig
     rec = FrameReconstructor(patterns, rig, decode.options, triangulation=decode.triangulation, fast=decode.fast,
-                             backend=run.backend, allow_relative=decode.allow_relative)
+                             backend=run.backend, allow_relative=decode.allow_relative, geometry=geometry)
     starts, st = prepare_sequence(frames.shape, patterns, rig, out, rec, decode, outputs)
 
     def done(k):
@@ -202,11 +208,12 @@ IN_FLIGHT = 2
 def writer_threads() -> int:
     """Store writer threads of a sequence: one below :data:`~fringe3d.reconstruct.executors.
     FINISH_ON_WRITERS_FROM` numba threads (the compute makes each frame but its sigma_z and
-    compression), else half the numba threads: what is left to them after the fused kernel
-    (quality map, sigma_z, compression, writes) costs about three times the kernel. Each writer
-    runs its kernels on one numba thread, the compute keeps the rest (:func:`_kernel_threads_beside`)."""
+    compression), else half the numba threads and at least two: what is left to them after the
+    fused kernel (quality map, sigma_z, compression, writes) costs about three times the kernel.
+    Each writer runs its kernels on one numba thread, the compute keeps the rest, at least one
+    (:func:`_kernel_threads_beside`)."""
     n = numba.get_num_threads()
-    return 1 if n < FINISH_ON_WRITERS_FROM else n // 2
+    return 1 if n < FINISH_ON_WRITERS_FROM else max(2, n // 2)
 
 
 def in_flight(writers: int) -> int:

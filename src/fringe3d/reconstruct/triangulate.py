@@ -29,6 +29,7 @@ import numpy as np
 from fringe3d.gpu.runtime import check_backend
 from fringe3d.optics.rays import ANGLE_UP, ANGLE_VP, RayGeometry, camera_normalized, camera_shape, check_map, ray_points
 from fringe3d.optics.rig import Rig
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.conventions import phase_to_w
 from fringe3d.phase.psp import lsq_coefficients
 from fringe3d.reconstruct._kernels import lsq_kernel, three_step_fields_kernel, three_step_kernel
@@ -144,9 +145,10 @@ class Triangulator(RayGeometry):
 
     Parameters
     ----------
-    rig, angle
+    rig, angle, geometry
         As for :class:`~fringe3d.optics.rays.RayGeometry` (``angle``: the fringe angle of the
-        direction that supplies ``w``, pi/2 by default).
+        direction that supplies ``w``, pi/2 by default; ``geometry``: the rig's
+        :class:`~fringe3d.optics.rig_geometry.RigGeometry`, whose camera rays are shared).
     warn_distortion : bool
         Warn (once, here; :class:`~fringe3d.utils.warning_types.ReconstructionWarning`) when the
         projector has lens distortion, which this path ignores.
@@ -173,8 +175,9 @@ class Triangulator(RayGeometry):
     True
     """
 
-    def __init__(self, rig: Rig, angle: float = ANGLE_UP, warn_distortion: bool = True):
-        super().__init__(rig, angle)
+    def __init__(self, rig: Rig, angle: float = ANGLE_UP, warn_distortion: bool = True,
+                 geometry: RigGeometry | None = None):
+        super().__init__(rig, angle, geometry)
         self.ignores_distortion: bool = bool(rig.projector.dist.any())
         if self.ignores_distortion and warn_distortion:
             warnings.warn("the projector has lens distortion, which the fast triangulation path ignores; "

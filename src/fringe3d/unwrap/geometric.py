@@ -65,7 +65,8 @@ class MinimumPhase:
         return self.phi_min.shape
 
 
-def minimum_phase(rig: Rig, z_min: float, period: float, angle: float = math.pi / 2) -> MinimumPhase:
+def minimum_phase(rig: Rig, z_min: float, period: float, angle: float = math.pi / 2,
+                  geometry: RigGeometry | None = None) -> MinimumPhase:
     """Minimum phase map ``Phi_min`` for every camera pixel, Eq. (4.14)-(4.19).
 
     Parameters
@@ -77,6 +78,9 @@ def minimum_phase(rig: Rig, z_min: float, period: float, angle: float = math.pi 
         Fringe period T in projector pixels of the phase to be unwrapped.
     angle : float
         Fringe angle (rad); pi/2 = vertical fringes encoding ``u_p``.
+    geometry : fringe3d.optics.RigGeometry, optional
+        The rig's precomputed geometry, whose camera rays are shared
+        (:func:`fringe3d.optics.rays.camera_planes`; the same map).
 
     Raises
     ------
@@ -94,7 +98,7 @@ def minimum_phase(rig: Rig, z_min: float, period: float, angle: float = math.pi 
     z_min = float(z_min)
     if not math.isfinite(z_min):
         raise ValueError(f"z_min must be a finite depth in mm, got {z_min}")
-    tri = RayGeometry(rig, angle)
+    tri = RayGeometry(rig, angle, geometry)
     X0 = tri.ray_points_at_z(z_min)
     if not np.isfinite(X0[..., 0]).any():
         raise ValueError(f"z_min = {z_min:g} mm lies behind (or at) the camera: no camera ray reaches the "
@@ -337,4 +341,4 @@ def cached_minimum_phase(geometry: RigGeometry, z_min: float, period: float, ang
         As :func:`minimum_phase`; the same object for repeated calls with one geometry.
     """
     key = ("minimum_phase", float(z_min), float(period), float(angle))
-    return geometry.memo(key, lambda: minimum_phase(geometry.rig, z_min, period, angle))
+    return geometry.memo(key, lambda: minimum_phase(geometry.rig, z_min, period, angle, geometry=geometry))
