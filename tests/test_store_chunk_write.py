@@ -60,34 +60,3 @@ def test_marking_several_frames_done_at_once(tmp_path):
     assert again.pending() == [1] and again.completed == 2 and again.group.attrs["completed"] == 2
     st.mark_done([])
     assert PointMapStore.open_existing(tmp_path / "s.zarr").pending() == [1]
-
-
-@pytest.mark.parametrize("codec", ["lz4", "none"])
-def test_the_ray_directions_written_whole_are_the_bytes_zarr_writes(tmp_path, monkeypatch, codec):
-    monkeypatch.setattr(store_module, "CODEC", codec)
-    rng = np.random.default_rng(3)
-    rays = (np.array([1.0, -2.0, 0.5]), rng.normal(size=(3, H, W)).astype(np.float32))
-    ours = PointMapStore.open(tmp_path / "ours.zarr", 3, H, W, settings=StoreSettings("ray_depth"), rays=rays)
-    import zarr
-    g = zarr.open_group(str(tmp_path / "zarr.zarr"), mode="w")  # the same array written through zarr's pipeline
-    d = g.create_array("ray_direction", shape=(3, H, W), chunks=(3, H, W), dtype="float32",
-                       compressors=store_module._compressor(codec))
-    d[:] = rays[1]
-    key = "ray_direction/c/0/0/0"
-    assert (tmp_path / "ours.zarr" / key).read_bytes() == (tmp_path / "zarr.zarr" / key).read_bytes()
-    np.testing.assert_array_equal(ours.rays[1], rays[1])
-    assert not list((tmp_path / "ours.zarr").rglob("*.partial"))
-
-
-def test_write_whole_leaves_to_zarr_what_it_cannot_write_the_same(tmp_path):
-    import zarr
-
-    from fringe3d.io._chunk_write import write_whole
-    g = zarr.open_group(str(tmp_path / "g.zarr"), mode="w")
-    two_chunks = g.create_array("a", shape=(4, H, W), chunks=(2, H, W), dtype="float32", compressors=None)
-    assert not write_whole(two_chunks, np.ones((4, H, W), np.float32))
-    one = g.create_array("b", shape=(2, H, W), chunks=(2, H, W), dtype="float32", fill_value=0.0, compressors=None)
-    assert not write_whole(one, np.zeros((2, H, W), np.float32))  # maybe all fill value: zarr writes no chunk
-    assert not list((tmp_path / "g.zarr").rglob("c*"))  # nothing written by either call
-    assert write_whole(one, np.ones((2, H, W), np.float32))
-    np.testing.assert_array_equal(one[:], 1.0)

@@ -12,8 +12,7 @@ on disk are zarr's own (``tests/test_store_chunk_write.py`` compares them), so e
 (``xarray.open_zarr`` included) sees the same store.
 
 :func:`chunk_writer` returns None for any array it cannot write this way (another store, codec,
-chunking or byte order); the caller then uses ``array[k] = frame``. :func:`write_whole` writes
-an array of one chunk the same way (the store's ray directions), or declines likewise.
+chunking or byte order); the caller then uses ``array[k] = frame``.
 """
 from __future__ import annotations
 
@@ -32,31 +31,6 @@ def chunk_writer(array) -> ChunkWriter | None:
     """A function writing frame ``k`` (the array's shape without its first axis) as chunk ``k``
     of the zarr v3 ``array`` (chunks ``(1,) + shape[1:]``, on a local store, codecs ``bytes``
     [+ ``blosc``]); None when the array is not of that kind."""
-    return _writer(array, whole=False)
-
-
-def write_whole(array, values: np.ndarray) -> bool:
-    """Write ``values`` (the array's shape) as the only chunk of the zarr v3 ``array`` (one chunk
-    the array's size, on a local store, codecs ``bytes`` [+ ``blosc``]) the way
-    :func:`chunk_writer` writes a frame: the bytes zarr's ``array[...] = values`` writes,
-    without its pipeline (the point store's 1280 x 1024 ray directions: about 11 instead of 21 ms
-    of CPU, zarr also comparing the chunk with its fill value). False, nothing written, when the
-    array is not of that kind or ``values`` may be all fill value (zarr then writes no chunk):
-    the caller writes it through zarr."""
-    write = _writer(array, whole=True)
-    v = np.asarray(values)
-    if write is None or v.size == 0:
-        return False
-    first, fill = v.flat[0], array.metadata.fill_value
-    if first == fill or (np.isnan(first) and np.isnan(fill)):  # perhaps an empty chunk: zarr's rule
-        return False
-    write(0, v)
-    return True
-
-
-def _writer(array, whole: bool) -> ChunkWriter | None:
-    """The direct writer of ``array``'s chunks: each a frame along the first axis, or with
-    ``whole`` the one chunk of the whole array (``k`` 0); None when it cannot write them."""
     try:
         from zarr.codecs import BloscCodec, BytesCodec
         from zarr.storage import LocalStore
@@ -67,8 +41,7 @@ def _writer(array, whole: bool) -> ChunkWriter | None:
     if md is None or getattr(md, "zarr_format", None) != 3 or not isinstance(store, LocalStore):
         return None
     shape = tuple(array.shape)
-    tail = shape if whole else shape[1:]  # a chunk's values
-    if not shape or tuple(md.chunk_grid.chunk_shape) != (tail if whole else (1,) + tail):
+    if tuple(md.chunk_grid.chunk_shape) != (1,) + shape[1:]:
         return None
     codecs = tuple(md.codecs)
     if not codecs or not isinstance(codecs[0], BytesCodec) or len(codecs) > 2:
@@ -93,13 +66,14 @@ def _writer(array, whole: bool) -> ChunkWriter | None:
             return raw.data  # the raw bytes, no copy
     root = Path(store.root) / array.store_path.path
     le = dtype.newbyteorder("<")
+    tail = shape[1:]
     made: set[Path] = set()
 
     def write(k: int, frame: np.ndarray) -> None:
         v = np.ascontiguousarray(frame, le)
         if v.shape != tail:
             raise ValueError(f"chunk {k} of shape {v.shape}, expected {tail}")
-        path = root / md.chunk_key_encoding.encode_chunk_key((int(k),) + (0,) * (len(shape) - 1))
+        path = root / md.chunk_key_encoding.encode_chunk_key((int(k),) + (0,) * len(tail))
         data = encode(v.reshape(-1).view(np.uint8))
         if path.parent not in made:  # one mkdir per folder, not per chunk
             path.parent.mkdir(parents=True, exist_ok=True)

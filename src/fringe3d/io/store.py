@@ -44,7 +44,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from fringe3d.io._chunk_write import chunk_writer, write_whole
+from fringe3d.io._chunk_write import chunk_writer
 from fringe3d.io._float16 import to_float16
 from fringe3d.optics.rays import ray_points
 from fringe3d.utils.write_guard import is_being_written
@@ -252,8 +252,7 @@ class PointMapStore:
             d = g.create_array("ray_direction", shape=(3, height, width), chunks=(3, height, width),
                                dtype="float32", dimension_names=("axis",) + MAP_DIMS[1:], compressors=comp,
                                attributes=DIRECTION_ATTRS)
-            if not write_whole(d, D):  # zarr's bytes without its pipeline, else through it
-                d[:] = D
+            d[:] = D
         if quality:
             per_frame("quality", (height, width), "uint8", 1, MAP_DIMS, QUALITY_ATTRS)
         if sigma:
