@@ -74,6 +74,23 @@ def test_help_and_version_import_no_command_module():
         assert probe.stdout.strip().endswith("False"), heavy
 
 
+
+#: Heavy modules each main-work command must not import with its module (issue 29): the temporal decode
+#: path needs no scipy.ndimage / skimage (0.25 s, numpy.f2py with them), no calibration fit and no open3d.
+NOT_IMPORTED = {"decode": ("scipy.ndimage", "skimage.filters", "numpy.f2py", "scipy.optimize", "open3d"),
+                "reconstruct": ("scipy.ndimage", "skimage.filters", "numpy.f2py", "scipy.optimize", "open3d"),
+                "live": ("scipy.ndimage", "skimage.filters", "open3d")}
+
+
+@pytest.mark.parametrize("command", sorted(NOT_IMPORTED))
+def test_main_work_commands_leave_heavy_modules_to_the_code_that_uses_them(command):
+    import subprocess
+    import sys
+    code = (f"import sys, fringe3d.commands.{command}; "
+            f"print([m for m in {NOT_IMPORTED[command]!r} if m in sys.modules])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip().splitlines()[-1] == "[]", out
+
 def test_completion_options_exist():
     opts = _options(typer.main.get_command(app))
     assert "--install-completion" in opts and "--show-completion" in opts

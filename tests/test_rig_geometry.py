@@ -130,3 +130,25 @@ def test_ray_geometries_of_one_rig_geometry_share_one_set_of_rays_whatever_their
     assert len(counted_camera_rays) == 1 and a.D_planes is b.D_planes
     with pytest.raises(ValueError, match="another rig"):
         RayGeometry(Rig.load(capture[2]), 0.0, geo)
+
+
+def test_one_cycle_given_the_checks_rig_geometry_computes_the_minimum_phase_map_once(capture, counted_minimum_phase):
+    """``fringe3d reconstruct`` of one cycle: the command's plan checks, then reconstruct_cycle's own
+    checks and engine, all on one RigGeometry: one minimum phase map, the points of a Rig passed alone."""
+    from fringe3d.decode.plan_checks import check_plans
+    from fringe3d.pipeline import CycleSettings, reconstruct_cycle
+
+    _, ps, rig_file = capture
+    cap = read_capture(rig_file.parent, max_cycles=1)
+    rig = Rig.load(rig_file)
+    geo = RigGeometry(rig)
+    settings = CycleSettings(Z340, "geometric")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        check_plans(ps, rig, Z340.z_min, geometry=geo)  # as the command does before writing
+        shared = reconstruct_cycle(cap, geo, settings)
+        assert len(counted_minimum_phase) == 1 and geo.built["minimum_phase"] == 1
+        alone = reconstruct_cycle(cap, Rig.load(rig_file), settings)
+    assert len(counted_minimum_phase) == 2  # the Rig passed alone: its own map, once
+    np.testing.assert_array_equal(shared.points, alone.points)
+    assert np.isfinite(shared.points).any()

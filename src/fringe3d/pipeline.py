@@ -28,6 +28,7 @@ from fringe3d.io.vtk_points import write_measurement_vtp
 from fringe3d.io.point_attributes import grid_normals
 from fringe3d.io.pointcloud import _colors
 from fringe3d.optics import Rig
+from fringe3d.optics.rig_geometry import RigGeometry
 from fringe3d.patterns.manifest import MANIFEST_NAME, PatternSet
 from fringe3d.reconstruct.depth import depth_map
 from fringe3d.reconstruct.frame import FrameReconstructor, reconstruction_plans
@@ -235,15 +236,17 @@ class CycleSettings:
     allow_relative: bool = False
 
 
-def reconstruct_cycle(cap: Capture, rig: Rig, settings: CycleSettings | None = None) -> Reconstruction:
+def reconstruct_cycle(cap: Capture, rig: Rig | RigGeometry, settings: CycleSettings | None = None) -> Reconstruction:
     """Reconstruct the first pattern cycle of a capture in memory.
 
     Parameters
     ----------
     cap : Capture
         From :func:`fringe3d.io.capture.read_capture` (frames in manifest order).
-    rig : Rig
-        Calibrated rig whose camera recorded ``cap``.
+    rig : Rig or RigGeometry
+        Calibrated rig whose camera recorded ``cap``, or its
+        :class:`~fringe3d.optics.rig_geometry.RigGeometry` (the maps that the caller's own plan
+        checks computed are then reused, not computed again).
     settings : CycleSettings, optional
         The decoder's options, unwrapping method, triangulation, backend and whether a relative
         phase may be triangulated (default ``CycleSettings()``: the manifest's plans, closed form
@@ -274,14 +277,16 @@ def reconstruct_cycle(cap: Capture, rig: Rig, settings: CycleSettings | None = N
     (3, True)
     """
     s = settings if settings is not None else CycleSettings()
+    geometry = rig if isinstance(rig, RigGeometry) else RigGeometry(rig)  # one for the checks and the engine
     ps = reconstruction_plans(cap.patterns, s.method)
     source = f"{cap.folder / MANIFEST_NAME}" if cap.folder is not None else "the manifest"
-    check_plans(ps, rig, s.options.z_min, original=cap.patterns, source=source, allow_relative=s.allow_relative)
+    check_plans(ps, geometry.rig, s.options.z_min, original=cap.patterns, source=source,
+                allow_relative=s.allow_relative, geometry=geometry)
     options = s.options
     if options.bit_depth is None:
         options = dataclasses.replace(options, bit_depth=cap.meta.get("bit_depth"))
-    rec = FrameReconstructor(ps, rig, options, triangulation=s.triangulation, backend=s.backend,
-                             allow_relative=s.allow_relative)
+    rec = FrameReconstructor(ps, geometry.rig, options, triangulation=s.triangulation, backend=s.backend,
+                             allow_relative=s.allow_relative, geometry=geometry)
     c = rec.reconstruct(np.ascontiguousarray(cap.frames))
     texture_rgb = None
     if cap.folder is not None and c.texture is not None:

@@ -26,7 +26,6 @@ from fringe3d.devices.acquire import (
     measure_latency,
 )
 from fringe3d.devices.base import DeviceError
-from fringe3d.devices.session import GrabTiming, PoseTrigger, SessionBoard, capture_session
 from fringe3d.io.pattern_folder import read_pattern_folder
 from fringe3d.patterns.gamma import fit_gamma, save_gamma
 from fringe3d.sim.virtual_devices import open_virtual_rig
@@ -336,6 +335,9 @@ def _run_with_devices(loaded: tuple, parsed: tuple, dev: DeviceOptions, mode: Mo
                 "options": {"projector": projector, "camera": camera, "sync": sync, "cycles": cycles,
                             "settle": settle, "timeout": timeout, "frame_rate": frame_rate}}
         if session is not None:
+            # heavy (the calibration package, scipy.optimize): only a board session needs it
+            from fringe3d.devices.session import GrabTiming, PoseTrigger, SessionBoard, capture_session
+
             summary = capture_session(proj, cam, ps, images, session, poses,
                                       board=SessionBoard(cols=cols, rows=rows, spacing=spacing),
                                       trigger=PoseTrigger(auto=auto, preview=preview, still_seconds=still,

@@ -16,8 +16,6 @@ from fringe3d.devices import DeviceSpec, option
 from fringe3d.devices.acquire import CaptureTiming
 from fringe3d.devices.stage_backends import STAGE_BACKENDS, open_stage
 from fringe3d.devices.views import capture_views, stage_positions
-from fringe3d.multiview.axis import read_axis, turntable_poses
-from fringe3d.multiview.poses import write_poses
 from fringe3d.sim.turntable import VirtualStage, open_virtual_stage, write_spheres
 from fringe3d.utils.console import progress_bar
 
@@ -39,6 +37,8 @@ def check_views_options(mode) -> None:
                          "(e.g. --stage virtual:30)")
     stage_step(spec, mode.views)
     if mode.stage_axis is not None:
+        from fringe3d.multiview.axis import read_axis  # heavy (scipy.spatial): only with --stage-axis
+
         read_axis(mode.stage_axis)
 
 
@@ -99,6 +99,8 @@ def capture_views_mode(proj, cam, loaded: tuple, meta: dict, dev, mode, run) -> 
             stage.rig.save(out / n / "rig.json")
         write_spheres(out, stage.home_scene)
     if mode.stage_axis is not None:
+        from fringe3d.multiview.axis import read_axis, turntable_poses  # heavy (scipy.spatial)
+
         axis, point = read_axis(mode.stage_axis)
         matrices = turntable_poses(axis, point, angles)
         source = f"turntable axis {mode.stage_axis}"
@@ -111,6 +113,8 @@ def capture_views_mode(proj, cam, loaded: tuple, meta: dict, dev, mode, run) -> 
         matrices = None
         source = "none: stage angles only (calibrate the axis with fringe3d calibrate-axis, then capture with " \
                  "--stage-axis)"
+    from fringe3d.multiview.poses import write_poses  # heavy (its package brings open3d, 1.5 s)
+
     poses = write_poses(out / "poses.json", names, matrices, extra=extra,
                         stage={**desc, "step_deg": float(positions[1] - positions[0]), "angles_deg": angles})
     return {"output": str(out), "views": [str(out / n) for n in names], "angles_deg": angles,

@@ -172,7 +172,7 @@ def register(app: typer.Typer) -> None:
             z_min = reference_z_min(z_min_from, z_margin)
             info(f"z_min = {z_min:.3f} mm from {z_min_from} (nearest depth - {z_margin:g} mm)")
         rig = Rig.load(calibration)
-        geometry = RigGeometry(rig)  # the checks' minimum phase map, reused by a sequence's engine
+        geometry = RigGeometry(rig)  # the checks' minimum phase map, reused by the cycle's or sequence's engine
         compensate, response_lut = resolve_compensation(compensate, response, rig)
         cap = read_capture(capture, max_cycles=1)  # checks the folder; the rest is read on demand
         why = lambda: why_no_points(cap.frames, ps, rig, DecodeOptions(z_min=z_min, **opts))  # noqa: E731
@@ -227,7 +227,7 @@ def register(app: typer.Typer) -> None:
                              options=fp_options, resumable=sequence) as o:
                 if not sequence:
                     try:
-                        r = reconstruct_cycle(cap, rig, CycleSettings(DecodeOptions(z_min=z_min, **opts), method,
+                        r = reconstruct_cycle(cap, geometry, CycleSettings(DecodeOptions(z_min=z_min, **opts), method,
                                                                       triangulation, device, allow_relative))
                     except EmptyMaskError:
                         raise ValueError(f"{capture}: no valid 3D point: "

@@ -22,7 +22,6 @@ from typing import Sequence
 
 import numba
 import numpy as np
-from scipy import ndimage
 
 from fringe3d.phase._noise_kernel import (interior_laplacian, line_moments, model_phase_sigma,  # noqa: F401 (API)
                                           model_phase_sigma_and_fraction, residual_sum_of_squares)
@@ -61,6 +60,8 @@ def laplacian_noise(image: np.ndarray, mask: np.ndarray | None = None) -> float:
     """
     if mask is not None:  # the mask eroded once: one numba pass
         return laplacian_sigma(*interior_laplacian(np.asarray(image), np.asarray(mask, bool)))
+    from scipy import ndimage  # heavy (0.25 s with scipy.special): loaded for an unmasked image only
+
     kern = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float64)
     resp = np.abs(ndimage.convolve(np.asarray(image, np.float64), kern, mode="nearest"))
     return float(math.sqrt(math.pi / 2.0) * resp.mean() / 6.0)

@@ -10,7 +10,6 @@ import math
 
 import numba
 import numpy as np
-from scipy.ndimage import gaussian_filter
 
 from .settings import RenderSettings
 
@@ -43,6 +42,8 @@ def sense(image: np.ndarray, settings: RenderSettings, index: int, margin: int =
     """
     img = np.asarray(image, dtype=np.float64)
     if settings.camera_blur > 0:
+        from scipy.ndimage import gaussian_filter  # heavy (0.25 s with scipy.special): a blurred camera only
+
         img = gaussian_filter(img, settings.camera_blur, mode="nearest")
     if margin:
         img = img[margin:img.shape[0] - margin, margin:img.shape[1] - margin]

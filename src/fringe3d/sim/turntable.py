@@ -24,7 +24,6 @@ import numpy as np
 
 from fringe3d.devices.stage import rotation_about
 from fringe3d.io.images import write_image
-from fringe3d.multiview.poses import stage_entry, write_poses
 from fringe3d.utils.atomic import atomic_write_text
 
 from .catalog import BAR_KINDS, preset_frame, sculpture_scene, sphere_bar_scene  # noqa: F401 (re-exported)
@@ -208,6 +207,8 @@ def write_turntable(folder, scan: TurntableScan) -> list[Path]:
         np.save(folder / name / "points.npy", P.astype(np.float32))
         write_image(folder / name / "sigma_z.tif", s.astype(np.float32), "depth uncertainty", "mm")
         out.append(folder / name)
+    from fringe3d.multiview.poses import write_poses  # heavy (its package brings open3d, 1.5 s)
+
     write_poses(folder / "poses.json", names, scan.true_poses)
     np.savez_compressed(folder / "truth.npz", points=scan.truth_points, normals=scan.truth_normals,
                         poses=scan.true_poses, angles_deg=scan.angles_deg)
@@ -373,6 +374,8 @@ def simulate_turntable(folder, preset="tiny", scene=None, patterns=None, *, view
     stage = stage_errors(np.stack(true), centres, stage_sigma[0], stage_sigma[1], seed)
     write_spheres(folder, sc)
     desc = {**table.describe(), "step_deg": float(step_deg), "angles_deg": angles.tolist()}
+    from fringe3d.multiview.poses import stage_entry, write_poses  # heavy (its package brings open3d)
+
     poses = write_poses(folder / "poses.json", names, stage,
                         extra=[{"true_matrix": t.tolist(), "angle_deg": float(a)} for t, a in zip(true, angles)],
                         stage=stage_entry(desc, *stage_sigma))

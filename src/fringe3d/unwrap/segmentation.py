@@ -20,9 +20,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
-from skimage.filters import threshold_otsu
-from skimage.measure import label as _sk_label
 
 
 def _check_mask(mask, name: str = "mask") -> np.ndarray:
@@ -59,6 +56,8 @@ def foreground_mask(average: np.ndarray, modulation: np.ndarray | None = None,
     if not finite.any() or np.ptp(average[finite]) <= 0:
         raise ValueError("the average intensity is constant (all-dark or saturated frames?); "
                          "cannot separate objects from the background")
+    from skimage.filters import threshold_otsu  # heavy (brings scipy.ndimage): loaded with the first Otsu mask
+
     mask = finite & (average > threshold_otsu(average[finite]))
     if modulation is not None:
         modulation = np.asarray(modulation, np.float64)
@@ -152,8 +151,12 @@ def segment_objects(mask: np.ndarray, min_size: int = 64, connectivity: int = 1,
     if min_size < 1:
         raise ValueError(f"min_size must be >= 1 pixel, got {min_size}")
     if erode > 0:
+        from scipy import ndimage  # heavy (0.25 s with scipy.special): loaded when a mask is eroded
+
         mask = ndimage.binary_erosion(mask, structure=np.ones((2 * erode + 1,) * 2, bool))
-    labels = _sk_label(mask, connectivity=connectivity).astype(np.int32)
+    from skimage.measure import label as sk_label  # heavy (brings scipy.ndimage): loaded with the first labels
+
+    labels = sk_label(mask, connectivity=connectivity).astype(np.int32)
     if labels.max() == 0:
         return labels
     sizes = np.bincount(labels.ravel())
@@ -170,6 +173,8 @@ def box_centres(labels: np.ndarray) -> dict[int, tuple[float, float]]:
     The centre of a box spanning columns ``u0..u1`` and rows ``v0..v1`` (inclusive pixel
     centres) is ``((u0 + u1)/2, (v0 + v1)/2)``.
     """
+    from scipy import ndimage  # heavy (0.25 s with scipy.special): loaded when boxes are measured
+
     labels = np.asarray(labels)
     out: dict[int, tuple[float, float]] = {}
     for i, sl in enumerate(ndimage.find_objects(labels), start=1):

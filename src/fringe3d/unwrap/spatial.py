@@ -9,8 +9,6 @@ decoder's ``"spatial"`` method is :func:`fringe3d.decode.methods.spatial.unwrap_
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
-from skimage.restoration import unwrap_phase
 
 from fringe3d.unwrap.segmentation import segment_objects
 
@@ -58,6 +56,9 @@ def unwrap_objects(wrapped: np.ndarray, mask: np.ndarray | None = None,
         if labels.shape != wrapped.shape:
             raise ValueError(f"labels shape {labels.shape} differs from phase shape {wrapped.shape}")
         labels = np.where(finite, labels, 0).astype(np.int32)
+    from scipy import ndimage  # heavy (0.25 s with scipy.special): loaded when objects are unwrapped
+    from skimage.restoration import unwrap_phase
+
     phi_r = np.full(wrapped.shape, np.nan, np.float32)
     for lab, sl in enumerate(ndimage.find_objects(labels), start=1):
         if sl is None:
