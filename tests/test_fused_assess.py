@@ -127,6 +127,15 @@ def test_fused_assessment_flags_a_valid_pixel_whose_phase_is_not_finite(capture)
     assert a.finite == bool(np.isfinite(ref.phase[ref.mask]).all())
 
 
+def _decode_alone(ctx, groups, level):
+    """The decode of the three groups without the fused assessment: the assessment (and the
+    clipping test) then compute their own inputs from the frames, the path the fused pass replaces."""
+    return three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
+                                  [g.period for g in groups], w_range=ctx.w_range(),
+                                  min_modulation=ctx.min_modulation, saturation_level=np.inf,
+                                  max_residual=float(ctx.options.max_residual))
+
+
 def test_decode_with_the_fused_assessment_equals_the_path_that_rereads_the_frames(capture, monkeypatch):
     ps, frames, *_ = capture
     opts = DecodeOptions(min_modulation=5.0)
@@ -134,12 +143,7 @@ def test_decode_with_the_fused_assessment_equals_the_path_that_rereads_the_frame
         warnings.simplefilter("ignore")
         got = decode(frames, ps, options=opts)
 
-        def plain(ctx, groups, level):  # the decode alone: the assessment computes its own inputs
-            return three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
-                                          [g.period for g in groups], w_range=ctx.w_range(),
-                                          min_modulation=ctx.min_modulation, saturation_level=np.inf,
-                                          max_residual=float(ctx.options.max_residual))
-        monkeypatch.setattr(temporal_method, "_fused_with_assessment", plain)
+        monkeypatch.setattr(temporal_method, "_fused_with_assessment", _decode_alone)
         want = decode(frames, ps, options=opts)
     d = "v"
     np.testing.assert_array_equal(got.mask[d], want.mask[d])
@@ -235,12 +239,7 @@ def test_groups_the_fused_pass_counts_unclipped_are_not_tested_again(capture, mo
         warnings.simplefilter("ignore")
         got = decode(dim, ps, options=opts)
 
-        def plain(ctx, groups, level):  # the decode alone: the clipping test reads the frames
-            return three_frequency_decode(ctx.frames, [g.indices for g in groups], [g.shifts for g in groups],
-                                          [g.period for g in groups], w_range=ctx.w_range(),
-                                          min_modulation=ctx.min_modulation, saturation_level=np.inf,
-                                          max_residual=float(ctx.options.max_residual))
-        monkeypatch.setattr(temporal_method, "_fused_with_assessment", plain)
+        monkeypatch.setattr(temporal_method, "_fused_with_assessment", _decode_alone)
         want = decode(dim, ps, options=opts)
     # the fused decode's three groups: counted 0, their read-only all-False flags as the map
     assert seen[:3] == [(0, False, False)] * 3
